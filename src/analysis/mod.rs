@@ -1,0 +1,46 @@
+//! Signal analysis of pendulum responses: the indicators of the paper (0–1 test `K`, phase
+//! synchronisation `R`, Fourier and wavelet spectra) and the per-instance statistics of the
+//! parameter maps, for simulated and measured records alike.
+//!
+//! Stages, in the order a response flows through them:
+//! 1. [`stroboscopic`], [`local_extrema`], [`resample_uniform`]: the series each indicator needs;
+//! 2. [`zero_one_test`]: chaos indicator `K` on a (coarsely) sampled series;
+//! 3. [`phase_sync`]: Hilbert phases, `R`, phase-difference histograms;
+//! 4. [`amplitude_spectrum`] / [`dominant_peak`] / [`ratio_to_forcing`]: Fourier view;
+//! 5. [`morlet_cwt`]: Torrence & Compo wavelet power with COI and AR(1) significance;
+//! 6. [`detect_period`], [`hops`], [`rms`], [`range`]: per-instance numbers.
+//!
+//! Every fallible function returns [`AnalysisError`] instead of panicking on empty, short or
+//! non-finite input.
+
+mod checks;
+mod error;
+mod periodicity;
+mod phase;
+mod sampling;
+mod spectrum;
+mod wavelet;
+mod zero_one;
+
+pub use error::AnalysisError;
+pub use periodicity::{detect_period, hops, range, rms};
+pub use phase::{
+    PHASE_MIN_SAMPLES, PhaseConvention, PhaseHistogram, PhaseSyncResult, analytic_signal,
+    instantaneous_phase, phase_histogram, phase_sync,
+};
+pub use sampling::{
+    check_uniform_time, local_extrema, resample_uniform, stroboscopic, stroboscopic_uniform,
+};
+pub use spectrum::{
+    RATIO_MAX_DENOMINATOR, RATIO_REL_TOL, RatioReport, SPECTRUM_MIN_SAMPLES, SpectralPeak,
+    Spectrum, amplitude_spectrum, dominant_peak, ratio_to_forcing, ratio_to_forcing_within,
+};
+pub use wavelet::{
+    DEFAULT_CONFIDENCE, MORLET_C_DELTA, MORLET_OMEGA0, WAVELET_MIN_SAMPLES, WaveletOptions,
+    WaveletResult, chi2_2dof_quantile, cone_of_influence, lag1_autocorrelation, morlet_cwt,
+    morlet_fourier_factor, power_averaged_inside_coi, reconstruct_signal, reconstruct_variance,
+    significance_ar1,
+};
+pub use zero_one::{
+    K01Method, ZERO_ONE_MIN_SAMPLES, ZeroOneOptions, ZeroOneResult, pq_path, zero_one_test,
+};

@@ -1,0 +1,100 @@
+//! Per-instance statistics of a response that the parameter-grid maps show: the period of the
+//! stroboscopic section, hops between the two potential wells, RMS and range.
+
+use serde::Serialize;
+
+use super::checks::{ensure_finite, ensure_min_len};
+use super::error::AnalysisError;
+
+/// Which side of the upright position the holder currently leans to, for hop counting.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+enum Well {
+    Positive,
+    Negative,
+}
+
+/// Smallest period `p ∈ 1…p_max` of the stroboscopic samples, or 0 when none fits (aperiodic,
+/// quasi-periodic, or too short a record).
+///
+/// Tolerance rule: over the last `m` samples every `|x[k] − x[k−p]| ≤ tol · max(1, scale)`,
+/// `scale = max |x|` over those `m` samples. The tolerance is thus absolute for signals of
+/// order one (angles in radians) and relative for large ones. A period `p` is checked only if
+/// the record holds `m + p` samples. Non-finite samples never match (giving 0), and `m = 0`
+/// or `p_max = 0` gives 0.
+pub fn detect_period(strobe: &[f64], p_max: usize, m: usize, tol: f64) -> usize {
+    let n = strobe.len();
+    if m == 0 || m > n || tol.is_nan() || tol < 0.0 {
+        return 0;
+    }
+    let window = &strobe[n - m..];
+    let scale = window.iter().fold(0.0f64, |acc, v| acc.max(v.abs()));
+    let bound = tol * scale.max(1.0);
+    (1..=p_max)
+        .take_while(|p| m + p <= n)
+        .find(|&p| repeats_with_period(strobe, p, m, bound))
+        .unwrap_or(0)
+}
+
+/// Whether the last `m` samples each lie within `bound` of the sample `p` earlier.
+fn repeats_with_period(x: &[f64], p: usize, m: usize, bound: f64) -> bool {
+    let n = x.len();
+    (n - m..n).all(|k| (x[k] - x[k - p]).abs() <= bound)
+}
+
+/// Number of hops between the wells: passages of `α` from above `+θc/2` to below `−θc/2` or
+/// back. Hysteresis: a sample inside `[−θc/2, θc/2]` keeps the current well, so wobbles around
+/// upright are not counted; the first well entered is not a hop. Non-finite samples are
+/// ignored; `theta_c ≤ 0` or non-finite gives 0.
+pub fn hops(alpha: &[f64], theta_c: f64) -> usize {
+    if !(theta_c.is_finite() && theta_c > 0.0) {
+        return 0;
+    }
+    let half = theta_c / 2.0;
+    let mut current: Option<Well> = None;
+    let mut count = 0;
+    for &a in alpha {
+        let well = if a > half {
+            Well::Positive
+        } else if a < -half {
+            Well::Negative
+        } else {
+            continue;
+        };
+        if current.is_some_and(|c| c != well) {
+            count += 1;
+        }
+        current = Some(well);
+    }
+    count
+}
+
+/// Root mean square `sqrt(mean x²)` about zero (upright), not about the mean, so a response
+/// resting in one well still shows its offset.
+pub fn rms(x: &[f64]) -> Result<f64, AnalysisError> {
+    ensure_min_len("rms", 1, x.len())?;
+    ensure_finite("rms input", x)?;
+    Ok((x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt())
+}
+
+/// Peak-to-peak range `max x − min x`.
+pub fn range(x: &[f64]) -> Result<f64, AnalysisError> {
+    ensure_min_len("range", 1, x.len())?;
+    ensure_finite("range input", x)?;
+    let (lo, hi) = x
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
+    Ok(hi - lo)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn period_three_is_found_not_six() {
+        let x: Vec<f64> = (0..30).map(|k| [0.1, -0.4, 0.7][k % 3]).collect();
+        assert_eq!(detect_period(&x, 8, 12, 1e-9), 3);
+    }
+}

@@ -1,0 +1,56 @@
+//! The command-line interface: argument parsing and one function per subcommand.
+//! Each command loads a validated scene, calls the library, and writes files.
+
+mod modes;
+mod simulate;
+
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+
+/// Chaos and bifurcation maps of an elastic inverted pendulum with clearance
+/// (Łygas et al., Meccanica 2019), with the analysis of the paper.
+#[derive(Debug, Parser)]
+#[command(name = "pendulum-atlas", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Scene selection shared by every command.
+#[derive(Debug, clap::Args)]
+pub struct SceneArgs {
+    /// Scene file (TOML). Omit it to use the embedded paper scene (configs/paper.toml).
+    pub scene: Option<PathBuf>,
+    /// Override a scene key, e.g. `--set beam.segments=3 --set pivot.mode=clamped`.
+    /// Values are TOML values; a bare word is taken as a string. Repeatable.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<String>,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Integrate one run and write trajectory.csv and run.json.
+    Simulate(simulate::SimulateArgs),
+    /// Natural frequencies, unstable growth rates and the automatic time step.
+    Modes(modes::ModesArgs),
+}
+
+/// Run the parsed command line.
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Simulate(a) => simulate::run(a),
+        Command::Modes(a) => modes::run(a),
+    }
+}
+
+impl SceneArgs {
+    /// Load and validate the scene with its overrides.
+    pub fn load(&self) -> anyhow::Result<pendulum_atlas::config::Scene> {
+        Ok(pendulum_atlas::config::load_scene(
+            self.scene.as_deref(),
+            &self.sets,
+        )?)
+    }
+}

@@ -1,0 +1,16 @@
+//! Scenes: TOML files plus `--set key=value` overrides, validated into a typed [`Scene`].
+//!
+//! Parsing happens in two phases (as in ripgrep): the raw TOML table is overridden, then read
+//! key by key into a [`Scene`] that can only hold valid values. Every key left unread is an
+//! error, so a typo never silently falls back to a default.
+
+mod error;
+mod reader;
+mod scene;
+
+pub use error::ConfigError;
+pub use reader::{Range, Reader, apply_override, parse_override_value, parse_toml};
+pub use scene::{
+    Beam, Excitation, ExcitationKind, Gravity, Initial, Integration, Limiter, MAX_SEGMENTS,
+    Output, PAPER_SCENE_TOML, Piezo, Pivot, PivotMode, Scene, Tip, TimeStep, load_scene,
+};

@@ -1,0 +1,444 @@
+//! The validated scene: every physical input with its unit, as MODEL.md's parameter table.
+
+use super::error::ConfigError;
+use super::reader::{Range, Reader, apply_override, parse_toml};
+use serde::Serialize;
+use toml::Table;
+
+/// The paper's scene (Table 1, f = 8 Hz, A = 9 mm), embedded so the tool runs with no files.
+pub const PAPER_SCENE_TOML: &str = include_str!("../../configs/paper.toml");
+
+/// The beam: a hollow steel tube split into rigid segments.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Beam {
+    /// Beam length L (m).
+    pub length_m: f64,
+    /// Beam mass (kg).
+    pub mass_kg: f64,
+    /// Outer diameter D (m).
+    pub outer_diameter_m: f64,
+    /// Inner diameter d (m); 0 for a solid rod.
+    pub inner_diameter_m: f64,
+    /// Young's modulus E (Pa).
+    pub youngs_modulus_pa: f64,
+    /// Number of rigid segments N (the fidelity knob).
+    pub segments: usize,
+    /// Damping ratio ζ1 of the first clamped bending mode (stiffness-proportional joint dampers).
+    pub damping_ratio: f64,
+}
+
+/// The tip mass.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Tip {
+    /// Point mass at the free end (kg).
+    pub mass_kg: f64,
+}
+
+/// The two amplitude limiters (bumpers) on the cart.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Limiter {
+    /// Whether the bumpers exist.
+    pub enabled: bool,
+    /// Holder angle at which a straight beam touches a bumper (deg).
+    pub clearance_deg: f64,
+    /// Arc length from the pivot at which the bumpers touch the beam (m).
+    pub contact_arc_m: f64,
+    /// Contact stiffness k_c (N/m).
+    pub stiffness_n_per_m: f64,
+    /// Contact damping c_c (N s/m).
+    pub damping_ns_per_m: f64,
+}
+
+/// Gravity.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Gravity {
+    /// Gravitational acceleration (m/s²).
+    pub g_m_s2: f64,
+}
+
+/// How the beam is held at its root.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum PivotMode {
+    /// The paper's clearance joint: a free hinge.
+    Hinged,
+    /// A clamped cantilever: root spring 2EI/ℓ.
+    Clamped,
+}
+
+/// The pivot (hinge) on the cart.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Pivot {
+    /// Hinged or clamped.
+    pub mode: PivotMode,
+    /// Bearing damper b0 on the holder rate (N m s/rad).
+    pub damping_nms: f64,
+    /// Extra holder inertia about the pivot (kg m²).
+    pub holder_inertia_kgm2: f64,
+}
+
+/// The cart's motion.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+#[serde(tag = "kind", rename_all = "lowercase")]
+pub enum ExcitationKind {
+    /// x0 = A sin(2π f t).
+    Harmonic {
+        /// Forcing frequency f (Hz).
+        frequency_hz: f64,
+    },
+    /// Linear chirp from `start_hz` to `end_hz` over `duration_s`, then held at `end_hz`.
+    Sweep {
+        /// Initial instantaneous frequency (Hz).
+        start_hz: f64,
+        /// Final instantaneous frequency (Hz).
+        end_hz: f64,
+        /// Sweep duration (s).
+        duration_s: f64,
+    },
+}
+
+/// The cart excitation.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Excitation {
+    /// Harmonic or sweep, with its frequencies.
+    pub kind: ExcitationKind,
+    /// Cart displacement amplitude A (m).
+    pub amplitude_m: f64,
+}
+
+impl Excitation {
+    /// The frequency that defines one forcing period (harmonic f, or the sweep's end frequency).
+    pub fn reference_frequency_hz(&self) -> f64 {
+        match self.kind {
+            ExcitationKind::Harmonic { frequency_hz } => frequency_hz,
+            ExcitationKind::Sweep { end_hz, .. } => end_hz,
+        }
+    }
+}
+
+/// The optional piezoelectric patch and its load.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Piezo {
+    /// Whether the circuit exists.
+    pub enabled: bool,
+    /// Number of joints p the patch spans: it covers segments 1 … p+1.
+    pub segments: usize,
+    /// Patch capacitance C_p (F).
+    pub capacitance_f: f64,
+    /// Load resistance R_L (Ω).
+    pub load_ohm: f64,
+    /// Electromechanical coupling Θ (N m/V).
+    pub coupling_nm_per_v: f64,
+}
+
+/// The time step: automatic from the linearisation, or given.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+#[serde(rename_all = "lowercase")]
+pub enum TimeStep {
+    /// `safety · 2.78 / max|λ|`, see MODEL.md.
+    Auto,
+    /// A fixed step (s).
+    Seconds(f64),
+}
+
+/// Integration settings.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Integration {
+    /// Simulated time (s).
+    pub duration_s: f64,
+    /// Time discarded before indicators are computed (s).
+    pub transient_s: f64,
+    /// Time step.
+    pub dt_s: TimeStep,
+    /// Safety factor on the RK4 stability limit used by the automatic step.
+    pub dt_safety: f64,
+}
+
+/// Output settings.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Output {
+    /// Rows per second of a trajectory (Hz).
+    pub sample_rate_hz: f64,
+}
+
+/// The initial state (straight beam).
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Initial {
+    /// Angle of every segment from the upward vertical (deg).
+    pub angle_deg: f64,
+    /// Angular rate of every segment (deg/s).
+    pub rate_deg_s: f64,
+    /// Initial piezo voltage (V).
+    pub voltage_v: f64,
+}
+
+/// A complete, validated scene. Construct it with [`Scene::from_toml`] or [`load_scene`].
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Scene {
+    /// The beam.
+    pub beam: Beam,
+    /// The tip mass.
+    pub tip: Tip,
+    /// The bumpers.
+    pub limiter: Limiter,
+    /// Gravity.
+    pub gravity: Gravity,
+    /// The pivot.
+    pub pivot: Pivot,
+    /// The cart motion.
+    pub excitation: Excitation,
+    /// The piezo harvester.
+    pub piezo: Piezo,
+    /// Integration settings.
+    pub integration: Integration,
+    /// Output settings.
+    pub output: Output,
+    /// Initial state.
+    pub initial: Initial,
+}
+
+/// Upper bound on segments: beyond this the step size and memory make no sense for this tool.
+pub const MAX_SEGMENTS: i64 = 4096;
+
+impl Scene {
+    /// The paper's default scene (embedded `configs/paper.toml`).
+    pub fn paper() -> Scene {
+        Scene::from_toml(PAPER_SCENE_TOML, "<embedded paper.toml>", &[])
+            .expect("embedded paper scene is valid")
+    }
+
+    /// Parse, apply overrides (`section.key=value`), and validate.
+    pub fn from_toml(text: &str, origin: &str, sets: &[String]) -> Result<Scene, ConfigError> {
+        let mut table = parse_toml(text, origin)?;
+        for s in sets {
+            apply_override(&mut table, s)?;
+        }
+        Scene::from_table(table)
+    }
+
+    /// Validate an already-parsed table. Every key is optional and defaults to Table 1.
+    pub fn from_table(table: Table) -> Result<Scene, ConfigError> {
+        let mut r = Reader::new(table);
+        let scene = read_scene(&mut r)?;
+        r.finish()?;
+        Ok(scene)
+    }
+
+    /// Total pendulum mass (beam + tip) (kg).
+    pub fn total_mass_kg(&self) -> f64 {
+        self.beam.mass_kg + self.tip.mass_kg
+    }
+}
+
+/// Read a scene file (or the embedded paper scene when `path` is `None`) with overrides.
+pub fn load_scene(path: Option<&std::path::Path>, sets: &[String]) -> Result<Scene, ConfigError> {
+    match path {
+        None => Scene::from_toml(PAPER_SCENE_TOML, "<embedded paper.toml>", sets),
+        Some(p) => {
+            let text = std::fs::read_to_string(p).map_err(|e| ConfigError::Io {
+                path: p.display().to_string(),
+                source: e,
+            })?;
+            Scene::from_toml(&text, &p.display().to_string(), sets)
+        }
+    }
+}
+
+fn read_scene(r: &mut Reader) -> Result<Scene, ConfigError> {
+    let beam = read_beam(r)?;
+    let tip = Tip {
+        mass_kg: r.number("tip.mass_kg", 0.01195, Range::NonNegative, "kg")?,
+    };
+    let limiter = read_limiter(r, beam.length_m)?;
+    let gravity = Gravity {
+        g_m_s2: r.number("gravity.g_m_s2", 9.81, Range::NonNegative, "m/s^2")?,
+    };
+    let pivot = Pivot {
+        mode: match r
+            .choice("pivot.mode", "hinged", &["hinged", "clamped"])?
+            .as_str()
+        {
+            "clamped" => PivotMode::Clamped,
+            _ => PivotMode::Hinged,
+        },
+        damping_nms: r.number("pivot.damping_nms", 0.0, Range::NonNegative, "N m s")?,
+        holder_inertia_kgm2: r.number(
+            "pivot.holder_inertia_kgm2",
+            0.0,
+            Range::NonNegative,
+            "kg m^2",
+        )?,
+    };
+    let integration = read_integration(r)?;
+    let excitation = read_excitation(r, integration.duration_s)?;
+    let piezo = read_piezo(r, beam.segments)?;
+    let output = Output {
+        sample_rate_hz: r.number("output.sample_rate_hz", 1000.0, Range::Positive, "Hz")?,
+    };
+    let initial = Initial {
+        angle_deg: r.number(
+            "initial.angle_deg",
+            if limiter.enabled {
+                limiter.clearance_deg
+            } else {
+                0.0
+            },
+            Range::Open(-90.0, 90.0),
+            "deg",
+        )?,
+        rate_deg_s: r.number("initial.rate_deg_s", 0.0, Range::Any, "deg/s")?,
+        voltage_v: r.number("initial.voltage_v", 0.0, Range::Any, "V")?,
+    };
+    Ok(Scene {
+        beam,
+        tip,
+        limiter,
+        gravity,
+        pivot,
+        excitation,
+        piezo,
+        integration,
+        output,
+        initial,
+    })
+}
+
+fn read_beam(r: &mut Reader) -> Result<Beam, ConfigError> {
+    let outer = r.number("beam.outer_diameter_m", 0.006, Range::Positive, "m")?;
+    let inner = r.number("beam.inner_diameter_m", 0.0035, Range::NonNegative, "m")?;
+    if inner >= outer {
+        return Err(ConfigError::OutOfRange {
+            key: "beam.inner_diameter_m".into(),
+            value: inner,
+            range: format!("[0, {outer}) m (below beam.outer_diameter_m)"),
+        });
+    }
+    Ok(Beam {
+        length_m: r.number("beam.length_m", 0.375, Range::Positive, "m")?,
+        mass_kg: r.number("beam.mass_kg", 0.05525, Range::Positive, "kg")?,
+        outer_diameter_m: outer,
+        inner_diameter_m: inner,
+        youngs_modulus_pa: r.number("beam.youngs_modulus_pa", 2e11, Range::Positive, "Pa")?,
+        segments: r.integer("beam.segments", 17, 1, MAX_SEGMENTS)? as usize,
+        damping_ratio: r.number("beam.damping_ratio", 0.0035, Range::ClosedOpen(0.0, 1.0), "")?,
+    })
+}
+
+fn read_limiter(r: &mut Reader, length_m: f64) -> Result<Limiter, ConfigError> {
+    Ok(Limiter {
+        enabled: r.boolean("limiter.enabled", true)?,
+        clearance_deg: r.number("limiter.clearance_deg", 20.0, Range::Open(0.0, 90.0), "deg")?,
+        contact_arc_m: r.number(
+            "limiter.contact_arc_m",
+            0.03,
+            Range::OpenClosed(0.0, length_m),
+            "m (along the beam, up to beam.length_m)",
+        )?,
+        stiffness_n_per_m: r.number(
+            "limiter.stiffness_n_per_m",
+            1e4,
+            Range::NonNegative,
+            "N/m",
+        )?,
+        damping_ns_per_m: r.number(
+            "limiter.damping_ns_per_m",
+            1e2,
+            Range::NonNegative,
+            "N s/m",
+        )?,
+    })
+}
+
+fn read_integration(r: &mut Reader) -> Result<Integration, ConfigError> {
+    let duration_s = r.number("integration.duration_s", 30.0, Range::Positive, "s")?;
+    let transient_s = r.number(
+        "integration.transient_s",
+        (duration_s / 3.0).min(10.0),
+        Range::NonNegative,
+        "s",
+    )?;
+    let dt_s = match r.raw("integration.dt_s")? {
+        None => TimeStep::Auto,
+        Some(toml::Value::String(s)) if s == "auto" => TimeStep::Auto,
+        Some(toml::Value::String(s)) => {
+            return Err(ConfigError::BadChoice {
+                key: "integration.dt_s".into(),
+                value: s.clone(),
+                choices: "\"auto\" or a positive number of seconds".into(),
+            });
+        }
+        Some(_) => TimeStep::Seconds(r.number("integration.dt_s", 0.0, Range::Positive, "s")?),
+    };
+    Ok(Integration {
+        duration_s,
+        transient_s,
+        dt_s,
+        dt_safety: r.number(
+            "integration.dt_safety",
+            0.8,
+            Range::OpenClosed(0.0, 0.8),
+            "",
+        )?,
+    })
+}
+
+fn read_excitation(r: &mut Reader, duration_s: f64) -> Result<Excitation, ConfigError> {
+    let kind = r.choice("excitation.kind", "harmonic", &["harmonic", "sweep"])?;
+    let frequency_hz = r.number("excitation.frequency_hz", 8.0, Range::Positive, "Hz")?;
+    let kind = if kind == "sweep" {
+        ExcitationKind::Sweep {
+            start_hz: r.number("excitation.sweep_start_hz", 4.0, Range::Positive, "Hz")?,
+            end_hz: r.number("excitation.sweep_end_hz", 8.0, Range::Positive, "Hz")?,
+            duration_s: r.number(
+                "excitation.sweep_duration_s",
+                duration_s,
+                Range::Positive,
+                "s",
+            )?,
+        }
+    } else {
+        for k in [
+            "excitation.sweep_start_hz",
+            "excitation.sweep_end_hz",
+            "excitation.sweep_duration_s",
+        ] {
+            if r.raw(k)?.is_some() {
+                return Err(ConfigError::Inconsistent {
+                    key: k.into(),
+                    reason: "only used with excitation.kind = \"sweep\"".into(),
+                });
+            }
+        }
+        ExcitationKind::Harmonic { frequency_hz }
+    };
+    Ok(Excitation {
+        kind,
+        amplitude_m: r.number("excitation.amplitude_m", 0.009, Range::NonNegative, "m")?,
+    })
+}
+
+fn read_piezo(r: &mut Reader, segments: usize) -> Result<Piezo, ConfigError> {
+    let enabled = r.boolean("piezo.enabled", false)?;
+    let p = r.integer("piezo.segments", 2, 1, MAX_SEGMENTS)? as usize;
+    if enabled && p + 1 > segments {
+        return Err(ConfigError::Inconsistent {
+            key: "piezo.segments".into(),
+            reason: format!(
+                "the patch spans segments 1..=p+1, so p must be in [1, {}] for beam.segments = {segments} (a piezo needs at least 2 segments)",
+                segments.saturating_sub(1)
+            ),
+        });
+    }
+    Ok(Piezo {
+        enabled,
+        segments: p,
+        capacitance_f: r.number("piezo.capacitance_f", 10e-9, Range::Positive, "F")?,
+        load_ohm: r.number("piezo.load_ohm", 1e6, Range::Positive, "ohm")?,
+        coupling_nm_per_v: r.number(
+            "piezo.coupling_nm_per_v",
+            1e-4,
+            Range::NonNegative,
+            "N m/V",
+        )?,
+    })
+}

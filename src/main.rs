@@ -1,0 +1,13 @@
+//! The `pendulum-atlas` binary: parse arguments, run the command, turn errors into exit codes.
+
+mod cli;
+
+use clap::Parser;
+
+fn main() {
+    let args = cli::Cli::parse();
+    if let Err(e) = cli::run(args) {
+        eprintln!("error: {e:#}");
+        std::process::exit(2);
+    }
+}

@@ -1,0 +1,429 @@
+//! The equations of motion M(θ)θ̈ = Q of MODEL.md, solved in O(N) per evaluation.
+//!
+//! The serial chain is solved articulated-body style (a Newton–Euler recursion): a backward
+//! sweep from the tip condenses the chain above node i−1 into a 2×2 articulated inertia `K_i`
+//! and a bias force `p_i` (force needed at node i−1 = K_i·a_{i−1} + p_i); a forward sweep from
+//! the cart's known acceleration then yields θ̈_i segment by segment. Springs, dampers, the
+//! bumper contact and the piezo enter as generalised forces Q_i (couples on segment i), which
+//! is exactly how they appear in the Lagrange equations. [`crate::model::dense`] builds the
+//! dense M and Q of MODEL.md for the cross-check in tests.
+
+use crate::model::params::ModelParams;
+use crate::model::real::Real;
+
+/// How the bumper force law is evaluated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ContactLaw {
+    /// The physical law: F = max(0, k_c δ + c_c δ̇) while δ > 0.
+    Exact,
+    /// Each bumper frozen engaged (F = k_c δ + c_c δ̇, any sign) or free (F = 0): the smooth
+    /// pieces between contact events, used by the event-locating reference integrator.
+    Frozen {
+        /// The +x bumper is engaged.
+        right: bool,
+        /// The −x bumper is engaged.
+        left: bool,
+    },
+}
+
+/// The chain's coefficients in the engine's float type, plus scratch space for one instance.
+#[derive(Debug, Clone)]
+pub struct Chain<T: Real> {
+    n: usize,
+    l: T,
+    m: T,
+    j: T,
+    tip: T,
+    jh: T,
+    g: T,
+    k: T,
+    k0: T,
+    b: T,
+    b0: T,
+    contact: Option<ChainContact<T>>,
+    piezo: Option<ChainPiezo<T>>,
+}
+
+#[derive(Debug, Clone)]
+struct ChainContact<T> {
+    levers: Vec<T>,
+    gap: T,
+    kc: T,
+    cc: T,
+}
+
+#[derive(Debug, Clone)]
+struct ChainPiezo<T> {
+    last: usize,
+    inv_c: T,
+    inv_r: T,
+    theta: T,
+}
+
+/// Per-instance scratch for the recursion (avoids allocation on the hot path).
+#[derive(Debug, Clone)]
+pub struct Workspace<T> {
+    sin: Vec<T>,
+    cos: Vec<T>,
+    q: Vec<T>,
+    h: Vec<[T; 2]>,
+    d: Vec<T>,
+    beta: Vec<T>,
+}
+
+/// Contact state at one instant, as the trajectory reports it.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ContactReport<T> {
+    /// Horizontal force of the bumpers on the beam (N): negative when the +x bumper pushes.
+    pub force_x_n: T,
+    /// The +x bumper is penetrated (δ > 0).
+    pub right_touch: bool,
+    /// The −x bumper is penetrated (δ > 0).
+    pub left_touch: bool,
+}
+
+/// Parts of the stored energy (J), inertial frame.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Energy {
+    /// Kinetic energy of segments, tip and holder.
+    pub kinetic_j: f64,
+    /// Gravitational potential (pivot height = 0).
+    pub gravity_j: f64,
+    /// Joint and root springs.
+    pub springs_j: f64,
+    /// Elastic energy ½k_cδ² of a penetrated bumper.
+    pub contact_j: f64,
+    /// ½C_p v² in the piezo capacitance.
+    pub electric_j: f64,
+}
+
+impl Energy {
+    /// Everything stored: mechanical plus electrical.
+    pub fn total_j(&self) -> f64 {
+        self.kinetic_j + self.gravity_j + self.springs_j + self.contact_j + self.electric_j
+    }
+}
+
+impl<T: Real> Chain<T> {
+    /// Convert the parameter struct to this float type.
+    pub fn new(p: &ModelParams) -> Self {
+        let t = T::of;
+        Chain {
+            n: p.segments,
+            l: t(p.seg_length_m),
+            m: t(p.seg_mass_kg),
+            j: t(p.seg_inertia_kgm2),
+            tip: t(p.tip_mass_kg),
+            jh: t(p.holder_inertia_kgm2),
+            g: t(p.g_m_s2),
+            k: t(p.joint_stiffness_nm),
+            k0: t(p.root_stiffness_nm),
+            b: t(p.joint_damping_nms),
+            b0: t(p.root_damping_nms),
+            contact: p.contact.as_ref().map(|c| ChainContact {
+                levers: c.levers_m.iter().map(|&x| t(x)).collect(),
+                gap: t(c.gap_m),
+                kc: t(c.stiffness_n_per_m),
+                cc: t(c.damping_ns_per_m),
+            }),
+            piezo: p.piezo.as_ref().map(|z| ChainPiezo {
+                last: z.last_segment,
+                inv_c: t(1.0 / z.capacitance_f),
+                inv_r: t(1.0 / z.load_ohm),
+                theta: t(z.coupling_nm_per_v),
+            }),
+        }
+    }
+
+    /// Number of segments.
+    pub fn segments(&self) -> usize {
+        self.n
+    }
+
+    /// Scratch space sized for this chain.
+    pub fn workspace(&self) -> Workspace<T> {
+        let z = T::zero();
+        Workspace {
+            sin: vec![z; self.n],
+            cos: vec![z; self.n],
+            q: vec![z; self.n],
+            h: vec![[z, z]; self.n],
+            d: vec![z; self.n],
+            beta: vec![z; self.n],
+        }
+    }
+
+    /// Bumper penetrations: (δ_right, δ̇_right); the left one is (−x − g_c, −ẋ).
+    #[inline]
+    fn contact_kinematics(&self, c: &ChainContact<T>, ws: &Workspace<T>, omega: &[T]) -> (T, T) {
+        let mut x = T::zero();
+        let mut xd = T::zero();
+        for (i, &lam) in c.levers.iter().enumerate() {
+            x += lam * ws.sin[i];
+            xd += lam * ws.cos[i] * omega[i];
+        }
+        (x, xd)
+    }
+
+    /// Generalised forces Q_i of springs, dampers, bumpers and the piezo, into `ws.q`.
+    /// `sin`/`cos` of the angles must already be in the workspace.
+    fn generalised_forces(
+        &self,
+        ws: &mut Workspace<T>,
+        theta: &[T],
+        omega: &[T],
+        volt: T,
+        law: ContactLaw,
+    ) -> ContactReport<T> {
+        let n = self.n;
+        ws.q.fill(T::zero());
+        // Root spring/damper (clamped k0, β k0, bearing b0) on the holder.
+        ws.q[0] = -self.k0 * theta[0] - self.b0 * omega[0];
+        // Joint springs and dampers between segments i−1 and i.
+        for i in 1..n {
+            let tau = -self.k * (theta[i] - theta[i - 1]) - self.b * (omega[i] - omega[i - 1]);
+            ws.q[i] += tau;
+            ws.q[i - 1] -= tau;
+        }
+        let mut report = ContactReport::default();
+        if let Some(c) = &self.contact {
+            let (x, xd) = self.contact_kinematics(c, ws, omega);
+            let dr = x - c.gap;
+            let dl = -x - c.gap;
+            report.right_touch = dr > T::zero();
+            report.left_touch = dl > T::zero();
+            let (fr, fl) = match law {
+                ContactLaw::Exact => (
+                    if report.right_touch {
+                        (c.kc * dr + c.cc * xd).max(T::zero())
+                    } else {
+                        T::zero()
+                    },
+                    if report.left_touch {
+                        (c.kc * dl - c.cc * xd).max(T::zero())
+                    } else {
+                        T::zero()
+                    },
+                ),
+                ContactLaw::Frozen { right, left } => (
+                    if right { c.kc * dr + c.cc * xd } else { T::zero() },
+                    if left { c.kc * dl - c.cc * xd } else { T::zero() },
+                ),
+            };
+            // The bumpers push towards the centre: horizontal force fl − fr on the beam.
+            let fx = fl - fr;
+            for (i, &lam) in c.levers.iter().enumerate() {
+                ws.q[i] += fx * lam * ws.cos[i];
+            }
+            report.force_x_n = fx;
+        }
+        if let Some(z) = &self.piezo {
+            ws.q[0] += z.theta * volt;
+            ws.q[z.last] -= z.theta * volt;
+        }
+        report
+    }
+
+    /// Time derivative of the state `y = [θ; θ̇; v]` given the cart acceleration (m/s²).
+    /// Returns the contact report at this state.
+    pub fn derivative(
+        &self,
+        ws: &mut Workspace<T>,
+        cart_acc: T,
+        y: &[T],
+        dy: &mut [T],
+        law: ContactLaw,
+    ) -> ContactReport<T> {
+        let n = self.n;
+        let (theta, rest) = y.split_at(n);
+        let (omega, volt) = rest.split_at(n);
+        let volt = volt[0];
+        for i in 0..n {
+            let (s, c) = theta[i].sin_cos();
+            ws.sin[i] = s;
+            ws.cos[i] = c;
+        }
+        let report = self.generalised_forces(ws, theta, omega, volt, law);
+        let (dtheta, drest) = dy.split_at_mut(n);
+        let (domega, dvolt) = drest.split_at_mut(n);
+        dtheta.copy_from_slice(omega);
+        self.solve_accelerations(ws, omega, cart_acc, domega);
+        dvolt[0] = match &self.piezo {
+            Some(z) => (z.theta * (omega[z.last] - omega[0]) - volt * z.inv_r) * z.inv_c,
+            None => T::zero(),
+        };
+        report
+    }
+
+    /// The O(N) articulated-body recursion: θ̈ from sin/cos, rates, Q (in `ws`) and ẍ0.
+    fn solve_accelerations(&self, ws: &mut Workspace<T>, omega: &[T], cart_acc: T, out: &mut [T]) {
+        let (l, m) = (self.l, self.m);
+        let half = T::of(0.5);
+        let two = T::of(2.0);
+        let hml = half * m * l; // mℓ/2
+        let base_d = self.j + m * l * l * T::of(0.25);
+        // Articulated inertia of the tip mass and its bias (−M g⃗ = (0, M g)).
+        let (mut kxx, mut kxy, mut kyy) = (self.tip, T::zero(), self.tip);
+        let (mut px, mut py) = (T::zero(), self.tip * self.g);
+        for i in (0..self.n).rev() {
+            let (s, c) = (ws.sin[i], ws.cos[i]);
+            // u = (s, c) along the segment, nvec = (c, −s) = ∂u/∂θ.
+            let (nx, ny) = (c, -s);
+            let w2 = omega[i] * omega[i];
+            let knx = kxx * nx + kxy * ny;
+            let kny = kxy * nx + kyy * ny;
+            let kux = kxx * s + kxy * c;
+            let kuy = kxy * s + kyy * c;
+            let hx = hml * nx + l * knx;
+            let hy = hml * ny + l * kny;
+            let mut d = base_d + l * l * (nx * knx + ny * kny);
+            if i == 0 {
+                d += self.jh;
+            }
+            // e: bias of the force at the lower node; bias2: of the sum of both node forces.
+            let ex = -(hml * s + l * kux) * w2 + px;
+            let ey = -(hml * c + l * kuy) * w2 + py + m * self.g;
+            let b2x = -(hml * s + two * l * kux) * w2 + two * px;
+            let b2y = -(hml * c + two * l * kuy) * w2 + two * py + m * self.g;
+            let beta = -half * l * (nx * b2x + ny * b2y) + ws.q[i];
+            let inv_d = T::one() / d;
+            kxx = m + kxx - hx * hx * inv_d;
+            kxy = kxy - hx * hy * inv_d;
+            kyy = m + kyy - hy * hy * inv_d;
+            px = ex + hx * beta * inv_d;
+            py = ey + hy * beta * inv_d;
+            ws.h[i] = [hx, hy];
+            ws.d[i] = d;
+            ws.beta[i] = beta;
+        }
+        let (mut ax, mut ay) = (cart_acc, T::zero());
+        for i in 0..self.n {
+            let [hx, hy] = ws.h[i];
+            let acc = (ws.beta[i] - hx * ax - hy * ay) / ws.d[i];
+            out[i] = acc;
+            let (s, c) = (ws.sin[i], ws.cos[i]);
+            let w2 = omega[i] * omega[i];
+            ax += l * (c * acc - s * w2);
+            ay += l * (-s * acc - c * w2);
+        }
+    }
+
+    /// The bumper report (force and touch flags) at a state, with the exact law.
+    pub fn contact_report(&self, ws: &mut Workspace<T>, y: &[T]) -> ContactReport<T> {
+        let n = self.n;
+        for i in 0..n {
+            let (s, c) = y[i].sin_cos();
+            ws.sin[i] = s;
+            ws.cos[i] = c;
+        }
+        self.generalised_forces(ws, &y[..n], &y[n..2 * n], y[2 * n], ContactLaw::Exact)
+    }
+
+    /// Which bumpers are penetrated (δ > 0): the contact flags used to count impacts.
+    pub fn touching(&self, ws: &mut Workspace<T>, y: &[T]) -> (bool, bool) {
+        let Some(c) = &self.contact else {
+            return (false, false);
+        };
+        let mut x = T::zero();
+        for (i, &lam) in c.levers.iter().enumerate() {
+            x += lam * y[i].sin();
+        }
+        let _ = ws;
+        (x - c.gap > T::zero(), -x - c.gap > T::zero())
+    }
+
+    /// Which bumpers the exact law engages at this state (δ > 0 and k_cδ + c_cδ̇ > 0).
+    pub fn engaged(&self, ws: &mut Workspace<T>, y: &[T]) -> (bool, bool) {
+        let Some(c) = &self.contact else {
+            return (false, false);
+        };
+        let n = self.n;
+        for i in 0..c.levers.len() {
+            let (s, co) = y[i].sin_cos();
+            ws.sin[i] = s;
+            ws.cos[i] = co;
+        }
+        let (x, xd) = self.contact_kinematics(c, ws, &y[n..2 * n]);
+        let dr = x - c.gap;
+        let dl = -x - c.gap;
+        let z = T::zero();
+        (
+            dr > z && c.kc * dr + c.cc * xd > z,
+            dl > z && c.kc * dl - c.cc * xd > z,
+        )
+    }
+
+    /// Stored energy in the inertial frame, given the cart position and velocity.
+    pub fn energy(&self, y: &[T], cart_x: f64, cart_v: f64) -> Energy {
+        let _ = cart_x; // the energy does not depend on the cart position
+        let n = self.n;
+        let w = |x: T| x.wide();
+        let (l, m, g) = (w(self.l), w(self.m), w(self.g));
+        let (mut vx, mut vy) = (cart_v, 0.0);
+        let mut height = 0.0;
+        let mut e = Energy::default();
+        for i in 0..n {
+            let th = w(y[i]);
+            let om = w(y[n + i]);
+            let (s, c) = th.sin_cos();
+            let (gvx, gvy) = (vx + 0.5 * l * c * om, vy - 0.5 * l * s * om);
+            e.kinetic_j += 0.5 * m * (gvx * gvx + gvy * gvy) + 0.5 * w(self.j) * om * om;
+            e.gravity_j += m * g * (height + 0.5 * l * c);
+            vx += l * c * om;
+            vy -= l * s * om;
+            height += l * c;
+            if i > 0 {
+                let rel = th - w(y[i - 1]);
+                e.springs_j += 0.5 * w(self.k) * rel * rel;
+            }
+        }
+        let th0 = w(y[0]);
+        let om0 = w(y[n]);
+        e.kinetic_j += 0.5 * w(self.tip) * (vx * vx + vy * vy) + 0.5 * w(self.jh) * om0 * om0;
+        e.gravity_j += w(self.tip) * g * height;
+        e.springs_j += 0.5 * w(self.k0) * th0 * th0;
+        if let Some(c) = &self.contact {
+            let x: f64 = c
+                .levers
+                .iter()
+                .enumerate()
+                .map(|(i, &lam)| w(lam) * w(y[i]).sin())
+                .sum();
+            let delta = x.abs() - w(c.gap);
+            if delta > 0.0 {
+                e.contact_j = 0.5 * w(c.kc) * delta * delta;
+            }
+        }
+        if let Some(z) = &self.piezo {
+            let v = w(y[2 * n]);
+            e.electric_j = 0.5 * v * v / w(z.inv_c);
+        }
+        e
+    }
+
+    /// Power dissipated by the joint, root and contact dampers and the load resistor (W).
+    pub fn dissipated_power_w(&self, y: &[T]) -> f64 {
+        let n = self.n;
+        let w = |x: T| x.wide();
+        let mut p = w(self.b0) * w(y[n]).powi(2);
+        for i in 1..n {
+            p += w(self.b) * (w(y[n + i]) - w(y[n + i - 1])).powi(2);
+        }
+        if let Some(z) = &self.piezo {
+            p += w(y[2 * n]).powi(2) * w(z.inv_r);
+        }
+        p
+    }
+
+    /// Tip position relative to the pivot (m) and chord reduction L − |r_N − r_0| (m).
+    pub fn tip_and_chord(&self, y: &[T]) -> ((f64, f64), f64) {
+        let l = self.l.wide();
+        let (mut x, mut z) = (0.0, 0.0);
+        for th in &y[..self.n] {
+            let (s, c) = th.wide().sin_cos();
+            x += l * s;
+            z += l * c;
+        }
+        ((x, z), l * self.n as f64 - (x * x + z * z).sqrt())
+    }
+}

@@ -1,0 +1,184 @@
+//! Linearisation about the straight upright beam: natural frequencies, unstable growth rates,
+//! and the automatic RK4 time step from the spectral radius of the first-order Jacobian.
+
+use crate::config::{PivotMode, Scene};
+use crate::model::dense::mass_matrix;
+use crate::model::params::ModelParams;
+use nalgebra::{Complex, DMatrix};
+use serde::Serialize;
+
+/// The stability boundary of classical RK4 on the negative real axis, |z| ≈ 2.785 (MODEL.md uses 2.78).
+pub const RK4_REAL_AXIS_LIMIT: f64 = 2.78;
+
+/// Modal summary of a scene.
+#[derive(Debug, Clone, Serialize)]
+pub struct Modes {
+    /// Undamped natural frequencies of the stable modes (Hz), ascending.
+    pub frequencies_hz: Vec<f64>,
+    /// Growth rates √(λ²) of the unstable (falling) modes (1/s), ascending.
+    pub unstable_rates_per_s: Vec<f64>,
+    /// The automatic RK4 step (s), before rounding to the output interval.
+    pub dt_auto_s: f64,
+    /// Spectral radius max|λ| of the damped first-order Jacobian with an active contact (1/s).
+    pub spectral_radius_per_s: f64,
+    /// Largest stable RK4 step for that Jacobian (s).
+    pub dt_stable_s: f64,
+}
+
+/// Linear stiffness about θ = 0: springs minus the gravity "negative stiffness" w_i ℓ g.
+pub fn stiffness_matrix(p: &ModelParams) -> DMatrix<f64> {
+    let n = p.segments;
+    let mut k = spring_pattern(n, p.joint_stiffness_nm, p.root_stiffness_nm);
+    for i in 0..n {
+        k[(i, i)] -= p.carried_mass_kg(i) * p.seg_length_m * p.g_m_s2;
+    }
+    k
+}
+
+/// The tridiagonal pattern of joint elements plus a root element at (1,1).
+fn spring_pattern(n: usize, joint: f64, root: f64) -> DMatrix<f64> {
+    let mut k = DMatrix::zeros(n, n);
+    k[(0, 0)] += root;
+    for i in 1..n {
+        k[(i, i)] += joint;
+        k[(i - 1, i - 1)] += joint;
+        k[(i, i - 1)] -= joint;
+        k[(i - 1, i)] -= joint;
+    }
+    k
+}
+
+/// Eigenvalues λ² of K x = λ² M x (ω² for stable modes, negative for unstable ones), ascending.
+pub fn generalized_eigenvalues(p: &ModelParams) -> Vec<f64> {
+    let n = p.segments;
+    let m = mass_matrix(p, &vec![0.0; n]);
+    let k = stiffness_matrix(p);
+    let chol = m.cholesky().expect("mass matrix is positive definite");
+    let l_inv = chol
+        .l()
+        .try_inverse()
+        .expect("Cholesky factor is invertible");
+    let a = &l_inv * k * l_inv.transpose();
+    let a = (&a + a.transpose()) * 0.5;
+    let mut ev: Vec<f64> = a.symmetric_eigen().eigenvalues.iter().copied().collect();
+    ev.sort_by(f64::total_cmp);
+    ev
+}
+
+/// ω1 (rad/s) of the clamped, g = 0 chain with the scene's beam: the reference for ζ1.
+pub fn clamped_first_omega(scene: &Scene) -> f64 {
+    let mut s = scene.clone();
+    s.pivot.mode = PivotMode::Clamped;
+    s.gravity.g_m_s2 = 0.0;
+    s.limiter.enabled = false;
+    s.piezo.enabled = false;
+    s.pivot.holder_inertia_kgm2 = scene.pivot.holder_inertia_kgm2;
+    let p = ModelParams::undamped(&s);
+    let ev = generalized_eigenvalues(&p);
+    ev.iter()
+        .copied()
+        .find(|&x| x > 0.0)
+        .expect("a clamped chain has a positive stiffness")
+        .sqrt()
+}
+
+/// The first-order Jacobian about θ = 0 with dampers, an engaged bumper, and the piezo.
+pub fn jacobian(p: &ModelParams) -> DMatrix<f64> {
+    let n = p.segments;
+    let mut k = stiffness_matrix(p);
+    let mut c = spring_pattern(n, p.joint_damping_nms, 0.0);
+    c[(0, 0)] += p.root_damping_nms;
+    if let Some(ct) = &p.contact {
+        for (i, &li) in ct.levers_m.iter().enumerate() {
+            for (j, &lj) in ct.levers_m.iter().enumerate() {
+                k[(i, j)] += ct.stiffness_n_per_m * li * lj;
+                c[(i, j)] += ct.damping_ns_per_m * li * lj;
+            }
+        }
+    }
+    let m_inv = mass_matrix(p, &vec![0.0; n])
+        .try_inverse()
+        .expect("mass matrix is invertible");
+    let dim = 2 * n + usize::from(p.piezo.is_some());
+    let mut jac = DMatrix::zeros(dim, dim);
+    for i in 0..n {
+        jac[(i, n + i)] = 1.0;
+    }
+    let mk = -&m_inv * k;
+    let mc = -&m_inv * c;
+    jac.view_mut((n, 0), (n, n)).copy_from(&mk);
+    jac.view_mut((n, n), (n, n)).copy_from(&mc);
+    if let Some(z) = &p.piezo {
+        let e = z.last_segment;
+        // Couple Θv on θ_1 and −Θv on θ_{p+1}; v̇ = (Θ ψ̇ − v/R)/C.
+        for i in 0..n {
+            jac[(n + i, 2 * n)] = z.coupling_nm_per_v * (m_inv[(i, 0)] - m_inv[(i, e)]);
+        }
+        jac[(2 * n, n + e)] = z.coupling_nm_per_v / z.capacitance_f;
+        jac[(2 * n, n)] = -z.coupling_nm_per_v / z.capacitance_f;
+        jac[(2 * n, 2 * n)] = -1.0 / (z.load_ohm * z.capacitance_f);
+    }
+    jac
+}
+
+/// Eigenvalues of the first-order Jacobian.
+pub fn jacobian_eigenvalues(p: &ModelParams) -> Vec<Complex<f64>> {
+    jacobian(p).complex_eigenvalues().iter().copied().collect()
+}
+
+/// |R(z)| for classical RK4, R(z) = 1 + z + z²/2 + z³/6 + z⁴/24.
+pub fn rk4_amplification(z: Complex<f64>) -> f64 {
+    let one = Complex::new(1.0, 0.0);
+    (one + z * (one + z * (0.5 + z * (1.0 / 6.0 + z / 24.0)))).norm()
+}
+
+/// Largest dt with |R(λ dt)| ≤ 1 for every eigenvalue with Re λ ≤ 0 (unstable physical modes
+/// grow whatever the step and are not a stability limit of the integrator).
+pub fn rk4_stable_dt(eigs: &[Complex<f64>]) -> f64 {
+    let mut dt_max = f64::INFINITY;
+    for &lam in eigs {
+        let r = lam.norm();
+        if lam.re > 1e-9 * r.max(1.0) || r == 0.0 {
+            continue;
+        }
+        // Scan |z| from 0 to 3 along the ray of λ; the stable set along the ray is an interval.
+        let steps = 3000;
+        let mut last_ok = 0.0;
+        for s in 1..=steps {
+            let mag = 3.0 * s as f64 / steps as f64;
+            if rk4_amplification(lam / r * mag) > 1.0 + 1e-12 {
+                break;
+            }
+            last_ok = mag;
+        }
+        dt_max = dt_max.min(last_ok / r);
+    }
+    dt_max
+}
+
+/// Natural frequencies, unstable rates and the automatic step for a scene.
+pub fn modes(scene: &Scene) -> Modes {
+    let p = ModelParams::from_scene(scene);
+    let ev = generalized_eigenvalues(&p);
+    let scale = ev.iter().fold(0.0f64, |a, &x| a.max(x.abs())).max(1e-300);
+    let frequencies_hz = ev
+        .iter()
+        .filter(|&&x| x > 1e-12 * scale)
+        .map(|&x| x.sqrt() / std::f64::consts::TAU)
+        .collect();
+    let mut unstable_rates_per_s: Vec<f64> = ev
+        .iter()
+        .filter(|&&x| x < -1e-12 * scale)
+        .map(|&x| (-x).sqrt())
+        .collect();
+    unstable_rates_per_s.sort_by(f64::total_cmp);
+    let eigs = jacobian_eigenvalues(&p);
+    let radius = eigs.iter().fold(0.0f64, |a, z| a.max(z.norm()));
+    Modes {
+        frequencies_hz,
+        unstable_rates_per_s,
+        dt_auto_s: scene.integration.dt_safety * RK4_REAL_AXIS_LIMIT / radius,
+        spectral_radius_per_s: radius,
+        dt_stable_s: rk4_stable_dt(&eigs),
+    }
+}

@@ -1,0 +1,11 @@
+//! Integration tests of the analysis stage, one module per area, each held against an
+//! independent reference (known dynamics, scipy, pycwt, hand-computed values).
+
+mod common;
+mod errors;
+mod periodicity;
+mod phase;
+mod sampling;
+mod spectrum;
+mod wavelet;
+mod zero_one;

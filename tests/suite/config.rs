@@ -1,0 +1,114 @@
+//! Scene validation: each class of bad input gets a message naming the key and the range.
+
+use super::{scene, scene_error};
+use pendulum_atlas::config::{PivotMode, Scene, TimeStep, parse_override_value};
+
+#[test]
+fn paper_scene_is_table_1() {
+    let s = Scene::paper();
+    assert_eq!(s.beam.segments, 17);
+    assert_eq!(s.beam.length_m, 0.375);
+    assert_eq!(s.tip.mass_kg, 0.01195);
+    assert_eq!(s.limiter.clearance_deg, 20.0);
+    assert_eq!(s.excitation.amplitude_m, 0.009);
+    assert_eq!(s.excitation.reference_frequency_hz(), 8.0);
+    assert_eq!(s.integration.dt_s, TimeStep::Auto);
+    assert_eq!(s.integration.transient_s, 10.0);
+    // The initial angle follows the clearance unless set.
+    assert_eq!(s.initial.angle_deg, 20.0);
+    assert_eq!(scene(&["limiter.clearance_deg=12"]).initial.angle_deg, 12.0);
+}
+
+#[test]
+fn overrides_take_toml_values_and_bare_words() {
+    let s = scene(&[
+        "beam.segments=3",
+        "excitation.frequency_hz=5",
+        "pivot.mode=clamped",
+        "integration.dt_s=1e-4",
+    ]);
+    assert_eq!(s.beam.segments, 3);
+    assert_eq!(s.excitation.reference_frequency_hz(), 5.0);
+    assert_eq!(s.pivot.mode, PivotMode::Clamped);
+    assert_eq!(s.integration.dt_s, TimeStep::Seconds(1e-4));
+    assert_eq!(parse_override_value("clamped").as_str(), Some("clamped"));
+    assert_eq!(parse_override_value("\"auto\"").as_str(), Some("auto"));
+    assert_eq!(parse_override_value("3").as_integer(), Some(3));
+}
+
+#[test]
+fn unknown_key_is_named_with_a_suggestion() {
+    let e = scene_error(&["beam.mas_kg=1"]);
+    assert!(e.contains("unknown key `beam.mas_kg`"), "{e}");
+    assert!(e.contains("did you mean `beam.mass_kg`"), "{e}");
+    let e = scene_error(&["nonsense.key=1"]);
+    assert!(e.contains("unknown key `nonsense.key`"), "{e}");
+}
+
+#[test]
+fn wrong_type_is_named() {
+    let e = scene_error(&["beam.segments=3.5"]);
+    assert!(e.contains("`beam.segments` must be an integer"), "{e}");
+    let e = scene_error(&["beam.mass_kg=heavy"]);
+    assert!(e.contains("`beam.mass_kg` must be a number (kg)"), "{e}");
+    let e = scene_error(&["limiter.enabled=1"]);
+    assert!(e.contains("`limiter.enabled` must be true or false"), "{e}");
+}
+
+#[test]
+fn nan_and_inf_are_refused() {
+    let e = scene_error(&["excitation.amplitude_m=nan"]);
+    assert!(e.contains("`excitation.amplitude_m` must be a finite number"), "{e}");
+    let e = scene_error(&["beam.length_m=inf"]);
+    assert!(e.contains("`beam.length_m` must be a finite number"), "{e}");
+}
+
+#[test]
+fn negative_mass_and_length_are_refused_with_the_range() {
+    let e = scene_error(&["beam.mass_kg=-0.1"]);
+    assert!(e.contains("`beam.mass_kg` = -0.1 is out of range: accepted > 0 kg"), "{e}");
+    let e = scene_error(&["tip.mass_kg=-1"]);
+    assert!(e.contains("`tip.mass_kg` = -1 is out of range: accepted >= 0 kg"), "{e}");
+    let e = scene_error(&["beam.length_m=-0.3"]);
+    assert!(e.contains("`beam.length_m`"), "{e}");
+}
+
+#[test]
+fn zero_segments_are_refused() {
+    let e = scene_error(&["beam.segments=0"]);
+    assert!(e.contains("`beam.segments` = 0 is out of range: accepted integers in [1, 4096]"), "{e}");
+}
+
+#[test]
+fn clearance_must_lie_in_the_open_quarter_circle() {
+    for bad in ["0", "90", "-5", "120"] {
+        let e = scene_error(&[&format!("limiter.clearance_deg={bad}")]);
+        assert!(e.contains("`limiter.clearance_deg`"), "{e}");
+        assert!(e.contains("accepted (0, 90) deg"), "{e}");
+    }
+    assert_eq!(scene(&["limiter.clearance_deg=0.5"]).limiter.clearance_deg, 0.5);
+}
+
+#[test]
+fn choices_and_combinations_are_checked() {
+    let e = scene_error(&["pivot.mode=glued"]);
+    assert!(e.contains("`pivot.mode` = \"glued\" is not one of \"hinged\", \"clamped\""), "{e}");
+    let e = scene_error(&["integration.dt_s=fast"]);
+    assert!(e.contains("`integration.dt_s`"), "{e}");
+    let e = scene_error(&["piezo.enabled=true", "beam.segments=2", "piezo.segments=2"]);
+    assert!(e.contains("`piezo.segments`"), "{e}");
+    let e = scene_error(&["beam.inner_diameter_m=0.007"]);
+    assert!(e.contains("`beam.inner_diameter_m`"), "{e}");
+    let e = scene_error(&["excitation.sweep_end_hz=9"]);
+    assert!(e.contains("only used with excitation.kind = \"sweep\""), "{e}");
+}
+
+#[test]
+fn malformed_overrides_and_toml_are_reported() {
+    let e = scene_error(&["beam.segments"]);
+    assert!(e.contains("bad override `beam.segments`"), "{e}");
+    let e = scene_error(&["beam.segments.x=3"]);
+    assert!(e.contains("is a value, not a section"), "{e}");
+    let e = Scene::from_toml("[beam\nlength_m = 1", "bad.toml", &[]).unwrap_err().to_string();
+    assert!(e.contains("bad.toml") && e.contains("not valid TOML"), "{e}");
+}

@@ -1,0 +1,24 @@
+//! The test suite, one binary split into modules by pipeline stage:
+//! config → model → integrate → analysis → command line.
+
+mod analysis;
+mod cli;
+mod config;
+mod integrate;
+mod model;
+
+use pendulum_atlas::config::{PAPER_SCENE_TOML, Scene};
+
+/// The paper scene with `section.key=value` overrides.
+pub fn scene(sets: &[&str]) -> Scene {
+    let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+    Scene::from_toml(PAPER_SCENE_TOML, "<paper>", &sets).expect("valid test scene")
+}
+
+/// Error message of a scene that must fail validation.
+pub fn scene_error(sets: &[&str]) -> String {
+    let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+    Scene::from_toml(PAPER_SCENE_TOML, "<paper>", &sets)
+        .expect_err("scene must be rejected")
+        .to_string()
+}
