@@ -17,6 +17,7 @@ mod checks;
 mod error;
 mod periodicity;
 mod phase;
+mod report;
 mod sampling;
 mod spectrum;
 mod wavelet;
@@ -27,6 +28,10 @@ pub use periodicity::{detect_period, hops, range, rms};
 pub use phase::{
     PHASE_MIN_SAMPLES, PhaseConvention, PhaseHistogram, PhaseSyncResult, analytic_signal,
     instantaneous_phase, phase_histogram, phase_sync,
+};
+pub use report::{
+    PhaseSummary, RecordAnalysis, RecordOptions, Sampling, SpectrumSummary, Statistics,
+    ZeroOneSummary, analyze_record,
 };
 pub use sampling::{
     check_uniform_time, local_extrema, resample_uniform, stroboscopic, stroboscopic_uniform,
