@@ -11,7 +11,7 @@
 //!    and the adaptive DOP853 reference integrator with contact events.
 //! 4. [`analysis`]: the indicators of the paper (0–1 test K, phase synchronisation R,
 //!    spectra, wavelets, periodicity) for simulated and measured signals alike.
-//! 5. [`output`]: trajectory CSV and run metadata.
+//! 5. [`output`] and [`render`]: CSV and `.npy` files, PNG pictures.
 //!
 //! The command-line interface (`src/main.rs`, `src/cli/`) is a thin layer on top.
 #![warn(missing_docs)]
@@ -21,3 +21,4 @@ pub mod config;
 pub mod integrate;
 pub mod model;
 pub mod output;
+pub mod render;

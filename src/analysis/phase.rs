@@ -19,6 +19,7 @@ pub const PHASE_MIN_SAMPLES: usize = 8;
 
 /// How the phase difference is reduced before averaging.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
 pub enum PhaseConvention {
     /// `Δφ` wrapped to `(−π, π]` (Mormann et al. 2000): independent phases give `R → 0`.
     Standard,

@@ -3,9 +3,9 @@
 
 use super::{
     AnalysisError, K01Method, PhaseConvention, PhaseHistogram, Spectrum, WaveletOptions,
-    WaveletResult, ZeroOneOptions, ZeroOneResult, amplitude_spectrum, detect_period,
-    dominant_peak, hops, lag1_autocorrelation, local_extrema, morlet_cwt, phase_histogram,
-    phase_sync, range, ratio_to_forcing, rms, significance_ar1, stroboscopic_uniform,
+    WaveletResult, ZeroOneOptions, ZeroOneResult, amplitude_spectrum, detect_period, dominant_peak,
+    hops, lag1_autocorrelation, local_extrema, morlet_cwt, phase_histogram, phase_sync, range,
+    ratio_to_forcing, rms, significance_ar1, stroboscopic_uniform,
 };
 use serde::Serialize;
 

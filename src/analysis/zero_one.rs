@@ -29,6 +29,7 @@ const CONSTANT_REL_RANGE: f64 = 1e-12;
 
 /// How each `K_c` is estimated from the mean-square displacement.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
 pub enum K01Method {
     /// Pearson correlation of `D_c(n)` with `n` (Gottwald & Melbourne 2009; robust, default).
     Correlation,

@@ -102,7 +102,8 @@ impl Table {
         }
         let mut columns = vec![Vec::new(); wanted.len()];
         for (row, rec) in rdr.records().enumerate() {
-            let rec = rec.with_context(|| format!("{}: malformed row {}", path.display(), row + 2))?;
+            let rec =
+                rec.with_context(|| format!("{}: malformed row {}", path.display(), row + 2))?;
             for (k, &i) in idx.iter().enumerate() {
                 let cell = rec.get(i).unwrap_or("");
                 let v: f64 = cell.parse().map_err(|_| {
@@ -135,7 +136,11 @@ impl Table {
 
     /// A column by name.
     pub fn col(&self, name: &str) -> &[f64] {
-        let i = self.names.iter().position(|n| n == name).expect("requested column");
+        let i = self
+            .names
+            .iter()
+            .position(|n| n == name)
+            .expect("requested column");
         &self.columns[i]
     }
 }
@@ -177,7 +182,9 @@ pub fn run(a: AnalyzeArgs) -> anyhow::Result<()> {
         }
         (None, Some(r)) if r.is_finite() && r > 0.0 => (r, 0.0),
         (None, Some(r)) => bail!("--sample-rate-hz must be a positive number, got {r}"),
-        (None, None) => bail!("give the time column (--time COL) or the sample rate (--sample-rate-hz F)"),
+        (None, None) => {
+            bail!("give the time column (--time COL) or the sample rate (--sample-rate-hz F)")
+        }
     };
     let sampling = match (a.sampling, a.forcing_hz) {
         (Some(s), _) => s,
@@ -225,7 +232,10 @@ pub fn run(a: AnalyzeArgs) -> anyhow::Result<()> {
         "sample_rate_hz": rate,
         "samples": signal.len(),
     });
-    std::fs::write(a.out.join("analysis.json"), serde_json::to_string_pretty(&json)?)?;
+    std::fs::write(
+        a.out.join("analysis.json"),
+        serde_json::to_string_pretty(&json)?,
+    )?;
     eprintln!(
         "K = {:.3} ({} samples){}; wrote {}",
         result.zero_one.k,

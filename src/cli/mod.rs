@@ -1,7 +1,9 @@
 //! The command-line interface: argument parsing and one function per subcommand.
 //! Each command loads a validated scene, calls the library, and writes files.
 
+mod analyze;
 mod modes;
+mod report;
 mod simulate;
 
 use clap::{Parser, Subcommand};
@@ -35,6 +37,8 @@ pub enum Command {
     Simulate(simulate::SimulateArgs),
     /// Natural frequencies, unstable growth rates and the automatic time step.
     Modes(modes::ModesArgs),
+    /// The paper's indicators (K, R, spectra, wavelets) for a measured CSV record.
+    Analyze(analyze::AnalyzeArgs),
 }
 
 /// Run the parsed command line.
@@ -42,6 +46,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Simulate(a) => simulate::run(a),
         Command::Modes(a) => modes::run(a),
+        Command::Analyze(a) => analyze::run(a),
     }
 }
 

@@ -74,7 +74,14 @@ pub fn write_analysis(
         .min_by(|a, b| (a.1 - zo.k).abs().total_cmp(&(b.1 - zo.k).abs()))
     {
         let (p, q) = pq_path(&r.zero_one_series, zo.c_values[i]);
-        render::zero_one_figure(&out.join("zero_one.png"), &p, &q, &zo.c_values, &zo.k_c, zo.k)?;
+        render::zero_one_figure(
+            &out.join("zero_one.png"),
+            &p,
+            &q,
+            &zo.c_values,
+            &zo.k_c,
+            zo.k,
+        )?;
     }
     if let (Some(h), Some(ps)) = (&r.phase_hist, &r.phase_sync) {
         render::histogram(

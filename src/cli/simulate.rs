@@ -3,12 +3,16 @@
 use super::SceneArgs;
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
+use pendulum_atlas::analysis::{RecordAnalysis, RecordOptions, Sampling, analyze_record};
+use pendulum_atlas::config::ExcitationKind;
 use pendulum_atlas::config::Scene;
 use pendulum_atlas::integrate::{
     Instance, Outcome, ReferenceOptions, StepPlan, integrate, integrate_reference,
 };
 use pendulum_atlas::model::{ModelParams, Modes, modes};
+use pendulum_atlas::output::Row;
 use pendulum_atlas::output::{TrajectoryRecorder, write_trajectory_csv};
+use pendulum_atlas::render::{self, Panel, Series};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -66,6 +70,7 @@ struct RunJson<'a> {
     impacts: u64,
     modes: &'a Modes,
     warnings: &'a [String],
+    analysis: Option<&'a RecordAnalysis>,
 }
 
 /// Run one simulation and write its files.
@@ -117,6 +122,17 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
             outcome.status.as_str()
         ));
     }
+    let analysis = if outcome.status.as_str() != "ok" {
+        None
+    } else {
+        match analyse_run(&scene, &rec.rows, &a.out) {
+            Ok(r) => Some(r),
+            Err(e) => {
+                warnings.push(format!("analysis of the run skipped: {e:#}"));
+                None
+            }
+        }
+    };
     let json = RunJson {
         scene: &scene,
         integrator: a.integrator,
@@ -133,6 +149,7 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
         impacts: outcome.impacts,
         modes: &m,
         warnings: &warnings,
+        analysis: analysis.as_ref(),
     };
     std::fs::write(a.out.join("run.json"), serde_json::to_string_pretty(&json)?)?;
     eprintln!(
@@ -161,4 +178,94 @@ fn progress_bar(plan: &StepPlan, segments: usize, integ: IntegratorChoice) -> Op
             .expect("valid template"),
     );
     Some(bar)
+}
+
+/// The paper's analysis of one run: holder angle against cart position, after the transient.
+fn analyse_run(
+    scene: &Scene,
+    rows: &[Row],
+    out: &std::path::Path,
+) -> anyhow::Result<RecordAnalysis> {
+    let rate = scene.output.sample_rate_hz;
+    let alpha: Vec<f64> = rows.iter().map(|r| r.alpha_rad).collect();
+    let cart: Vec<f64> = rows.iter().map(|r| r.x0_m).collect();
+    let forcing = match scene.excitation.kind {
+        ExcitationKind::Harmonic { frequency_hz } => Some(frequency_hz),
+        ExcitationKind::Sweep { .. } => None,
+    };
+    let opts = RecordOptions {
+        forcing_hz: forcing,
+        sampling: if forcing.is_some() {
+            Sampling::Stroboscopic
+        } else {
+            Sampling::Extrema
+        },
+        transient_s: scene.integration.transient_s,
+        clearance_rad: scene
+            .limiter
+            .enabled
+            .then(|| scene.limiter.clearance_deg.to_radians()),
+        ..Default::default()
+    };
+    let r = analyze_record(&alpha, Some(&cart), rate, 0.0, &opts)?;
+    super::report::write_analysis(out, &r, &alpha, Some(&cart), rate, 0.0)?;
+    time_series_figure(scene, rows, out)?;
+    Ok(r)
+}
+
+/// The paper's Figs. 3–5 for one run: cart, holder angle and chord reduction with the spectra.
+fn time_series_figure(scene: &Scene, rows: &[Row], out: &std::path::Path) -> anyhow::Result<()> {
+    let t: Vec<f64> = rows.iter().map(|r| r.t_s).collect();
+    let col = |f: fn(&Row) -> f64| -> Vec<f64> { rows.iter().map(f).collect() };
+    let x0 = col(|r| r.x0_m * 1e3);
+    let alpha = col(|r| r.alpha_rad);
+    let chord = col(|r| r.chord_m * 1e3);
+    let rate = scene.output.sample_rate_hz;
+    let skip = ((scene.integration.transient_s * rate).ceil() as usize).min(rows.len());
+    let spec_a = pendulum_atlas::analysis::amplitude_spectrum(&alpha[skip..], rate)?;
+    let spec_c = pendulum_atlas::analysis::amplitude_spectrum(&chord[skip..], rate)?;
+    // Show the band of the paper's spectra: up to six times the forcing frequency.
+    let f_max = 6.0 * scene.excitation.reference_frequency_hz();
+    let keep = spec_a
+        .frequency_hz
+        .iter()
+        .take_while(|&&f| f <= f_max)
+        .count();
+    let line = |name, x, y| Panel {
+        x_label: "time (s)",
+        y_label: name,
+        series: vec![Series { name, x, y }],
+        log_y: false,
+    };
+    render::stacked_panels(
+        &out.join("time_series.png"),
+        &format!(
+            "f = {} Hz, A = {} mm, N = {}",
+            scene.excitation.reference_frequency_hz(),
+            scene.excitation.amplitude_m * 1e3,
+            scene.beam.segments
+        ),
+        &[
+            line("cart x0 (mm)", &t, &x0),
+            line("holder angle α (rad)", &t, &alpha),
+            line("chord reduction (mm)", &t, &chord),
+            Panel {
+                x_label: "frequency (Hz)",
+                y_label: "amplitude",
+                series: vec![
+                    Series {
+                        name: "α (rad)",
+                        x: &spec_a.frequency_hz[..keep],
+                        y: &spec_a.amplitude[..keep],
+                    },
+                    Series {
+                        name: "chord (mm)",
+                        x: &spec_c.frequency_hz[..keep],
+                        y: &spec_c.amplitude[..keep],
+                    },
+                ],
+                log_y: true,
+            },
+        ],
+    )
 }

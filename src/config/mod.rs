@@ -11,6 +11,6 @@ mod scene;
 pub use error::ConfigError;
 pub use reader::{Range, Reader, apply_override, parse_override_value, parse_toml};
 pub use scene::{
-    Beam, Excitation, ExcitationKind, Gravity, Initial, Integration, Limiter, MAX_SEGMENTS,
-    Output, PAPER_SCENE_TOML, Piezo, Pivot, PivotMode, Scene, Tip, TimeStep, load_scene,
+    Beam, Excitation, ExcitationKind, Gravity, Initial, Integration, Limiter, MAX_SEGMENTS, Output,
+    PAPER_SCENE_TOML, Piezo, Pivot, PivotMode, Scene, TimeStep, Tip, load_scene,
 };

@@ -320,7 +320,12 @@ fn read_beam(r: &mut Reader) -> Result<Beam, ConfigError> {
         inner_diameter_m: inner,
         youngs_modulus_pa: r.number("beam.youngs_modulus_pa", 2e11, Range::Positive, "Pa")?,
         segments: r.integer("beam.segments", 17, 1, MAX_SEGMENTS)? as usize,
-        damping_ratio: r.number("beam.damping_ratio", 0.0035, Range::ClosedOpen(0.0, 1.0), "")?,
+        damping_ratio: r.number(
+            "beam.damping_ratio",
+            0.0035,
+            Range::ClosedOpen(0.0, 1.0),
+            "",
+        )?,
     })
 }
 
@@ -334,18 +339,8 @@ fn read_limiter(r: &mut Reader, length_m: f64) -> Result<Limiter, ConfigError> {
             Range::OpenClosed(0.0, length_m),
             "m (along the beam, up to beam.length_m)",
         )?,
-        stiffness_n_per_m: r.number(
-            "limiter.stiffness_n_per_m",
-            1e4,
-            Range::NonNegative,
-            "N/m",
-        )?,
-        damping_ns_per_m: r.number(
-            "limiter.damping_ns_per_m",
-            1e2,
-            Range::NonNegative,
-            "N s/m",
-        )?,
+        stiffness_n_per_m: r.number("limiter.stiffness_n_per_m", 1e4, Range::NonNegative, "N/m")?,
+        damping_ns_per_m: r.number("limiter.damping_ns_per_m", 1e2, Range::NonNegative, "N s/m")?,
     })
 }
 

@@ -118,7 +118,11 @@ fn run_piece(
         .integrate()
         .map_err(|e| format!("DOP853 failed at t = {t0:e} s: {e}"))?;
     let t = *solver.x_out().last().expect("at least the initial point");
-    let y = solver.y_out().last().expect("at least the initial point").clone();
+    let y = solver
+        .y_out()
+        .last()
+        .expect("at least the initial point")
+        .clone();
     Ok((t, y))
 }
 
@@ -144,7 +148,14 @@ pub fn integrate_reference<O: Observer<f64>>(
     };
     let mut impacts = 0u64;
     let mut touching = chain.touching(&mut ws, &y.as_slice()[..dim]);
-    obs.sample(0, 0.0, &inst.cart.at_time(0.0), &y.as_slice()[..dim], chain, &mut ws);
+    obs.sample(
+        0,
+        0.0,
+        &inst.cart.at_time(0.0),
+        &y.as_slice()[..dim],
+        chain,
+        &mut ws,
+    );
     let rows = plan.steps / plan.sample_every;
     let row_dt = plan.sample_every as f64 * plan.dt_s;
     let mut t = 0.0;

@@ -29,7 +29,16 @@ pub trait Observer<T: Real> {
 pub struct NoObserver;
 
 impl<T: Real> Observer<T> for NoObserver {
-    fn sample(&mut self, _: u64, _: f64, _: &CartState, _: &[T], _: &Chain<T>, _: &mut Workspace<T>) {}
+    fn sample(
+        &mut self,
+        _: u64,
+        _: f64,
+        _: &CartState,
+        _: &[T],
+        _: &Chain<T>,
+        _: &mut Workspace<T>,
+    ) {
+    }
 }
 
 /// How one instance's integration ended.
@@ -61,12 +70,21 @@ pub struct Instance<T: Real> {
 const CHECK_EVERY: u64 = 64;
 
 /// Integrate one instance with RK4 over the plan, calling the observer at every output row.
-pub fn integrate<T: Real, O: Observer<T>>(inst: &Instance<T>, plan: &StepPlan, obs: &mut O) -> Outcome {
+pub fn integrate<T: Real, O: Observer<T>>(
+    inst: &Instance<T>,
+    plan: &StepPlan,
+    obs: &mut O,
+) -> Outcome {
     let chain = &inst.chain;
     let dim = inst.y0.len();
     let mut ws = chain.workspace();
     let mut y: Vec<T> = inst.y0.iter().map(|&v| T::of(v)).collect();
-    let mut k = [vec![T::zero(); dim], vec![T::zero(); dim], vec![T::zero(); dim], vec![T::zero(); dim]];
+    let mut k = [
+        vec![T::zero(); dim],
+        vec![T::zero(); dim],
+        vec![T::zero(); dim],
+        vec![T::zero(); dim],
+    ];
     let mut tmp = vec![T::zero(); dim];
     let dt = T::of(plan.dt_s);
     let half = T::of(0.5);
@@ -126,7 +144,11 @@ pub fn integrate_batch<T: Real, O: Observer<T> + Send>(
     plan: &StepPlan,
     observers: &mut [O],
 ) -> Vec<Outcome> {
-    assert_eq!(instances.len(), observers.len(), "one observer per instance");
+    assert_eq!(
+        instances.len(),
+        observers.len(),
+        "one observer per instance"
+    );
     instances
         .par_iter()
         .zip(observers.par_iter_mut())

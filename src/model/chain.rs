@@ -206,8 +206,16 @@ impl<T: Real> Chain<T> {
                     },
                 ),
                 ContactLaw::Frozen { right, left } => (
-                    if right { c.kc * dr + c.cc * xd } else { T::zero() },
-                    if left { c.kc * dl - c.cc * xd } else { T::zero() },
+                    if right {
+                        c.kc * dr + c.cc * xd
+                    } else {
+                        T::zero()
+                    },
+                    if left {
+                        c.kc * dl - c.cc * xd
+                    } else {
+                        T::zero()
+                    },
                 ),
             };
             // The bumpers push towards the centre: horizontal force fl − fr on the beam.
@@ -238,10 +246,8 @@ impl<T: Real> Chain<T> {
         let (theta, rest) = y.split_at(n);
         let (omega, volt) = rest.split_at(n);
         let volt = volt[0];
-        for i in 0..n {
-            let (s, c) = theta[i].sin_cos();
-            ws.sin[i] = s;
-            ws.cos[i] = c;
+        for ((th, s), c) in theta.iter().zip(&mut ws.sin).zip(&mut ws.cos) {
+            (*s, *c) = th.sin_cos();
         }
         let report = self.generalised_forces(ws, theta, omega, volt, law);
         let (dtheta, drest) = dy.split_at_mut(n);
@@ -288,7 +294,7 @@ impl<T: Real> Chain<T> {
             let beta = -half * l * (nx * b2x + ny * b2y) + ws.q[i];
             let inv_d = T::one() / d;
             kxx = m + kxx - hx * hx * inv_d;
-            kxy = kxy - hx * hy * inv_d;
+            kxy -= hx * hy * inv_d;
             kyy = m + kyy - hy * hy * inv_d;
             px = ex + hx * beta * inv_d;
             py = ey + hy * beta * inv_d;
@@ -311,10 +317,8 @@ impl<T: Real> Chain<T> {
     /// The bumper report (force and touch flags) at a state, with the exact law.
     pub fn contact_report(&self, ws: &mut Workspace<T>, y: &[T]) -> ContactReport<T> {
         let n = self.n;
-        for i in 0..n {
-            let (s, c) = y[i].sin_cos();
-            ws.sin[i] = s;
-            ws.cos[i] = c;
+        for ((th, s), c) in y[..n].iter().zip(&mut ws.sin).zip(&mut ws.cos) {
+            (*s, *c) = th.sin_cos();
         }
         self.generalised_forces(ws, &y[..n], &y[n..2 * n], y[2 * n], ContactLaw::Exact)
     }
@@ -338,10 +342,9 @@ impl<T: Real> Chain<T> {
             return (false, false);
         };
         let n = self.n;
-        for i in 0..c.levers.len() {
-            let (s, co) = y[i].sin_cos();
-            ws.sin[i] = s;
-            ws.cos[i] = co;
+        let k = c.levers.len();
+        for ((th, s), co) in y[..k].iter().zip(&mut ws.sin).zip(&mut ws.cos) {
+            (*s, *co) = th.sin_cos();
         }
         let (x, xd) = self.contact_kinematics(c, ws, &y[n..2 * n]);
         let dr = x - c.gap;

@@ -20,7 +20,12 @@ pub fn mass_matrix(p: &ModelParams, theta: &[f64]) -> DMatrix<f64> {
 }
 
 /// Q without the applied couples: velocity terms, gravity and cart acceleration.
-pub fn inertial_forces(p: &ModelParams, theta: &[f64], omega: &[f64], cart_acc: f64) -> DVector<f64> {
+pub fn inertial_forces(
+    p: &ModelParams,
+    theta: &[f64],
+    omega: &[f64],
+    cart_acc: f64,
+) -> DVector<f64> {
     let n = p.segments;
     let l = p.seg_length_m;
     DVector::from_fn(n, |i, _| {

@@ -94,8 +94,9 @@ impl ModelParams {
         let n = b.segments;
         let l = b.length_m / n as f64;
         let m = b.mass_kg / n as f64;
-        let ei = b.youngs_modulus_pa * PI * (b.outer_diameter_m.powi(4) - b.inner_diameter_m.powi(4))
-            / 64.0;
+        let ei =
+            b.youngs_modulus_pa * PI * (b.outer_diameter_m.powi(4) - b.inner_diameter_m.powi(4))
+                / 64.0;
         let k = ei / l;
         let k0 = match scene.pivot.mode {
             PivotMode::Clamped => 2.0 * ei / l,
@@ -114,7 +115,7 @@ impl ModelParams {
                 damping_ns_per_m: scene.limiter.damping_ns_per_m,
             }
         });
-        let piezo = scene.piezo.enabled.then(|| PiezoParams {
+        let piezo = scene.piezo.enabled.then_some(PiezoParams {
             last_segment: scene.piezo.segments,
             capacitance_f: scene.piezo.capacitance_f,
             load_ohm: scene.piezo.load_ohm,

@@ -1,7 +1,6 @@
-//! What leaves the program: trajectories as CSV, run metadata as JSON.
+//! What leaves the program: trajectories as CSV, arrays as `.npy`.
 
+pub mod npy;
 mod trajectory;
 
-pub use trajectory::{
-    BASE_COLUMNS, PIEZO_COLUMNS, Row, TrajectoryRecorder, write_trajectory_csv,
-};
+pub use trajectory::{BASE_COLUMNS, PIEZO_COLUMNS, Row, TrajectoryRecorder, write_trajectory_csv};

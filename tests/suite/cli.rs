@@ -16,7 +16,14 @@ fn out_dir(name: &str) -> std::path::PathBuf {
 fn simulate_writes_trajectory_and_run_json() {
     let out = out_dir("simulate");
     let st = bin()
-        .args(["simulate", "configs/paper.toml", "--set", "beam.segments=3", "--set", "integration.duration_s=0.5"])
+        .args([
+            "simulate",
+            "configs/paper.toml",
+            "--set",
+            "beam.segments=3",
+            "--set",
+            "integration.duration_s=0.5",
+        ])
         .arg("--out")
         .arg(&out)
         .status()
@@ -31,7 +38,14 @@ fn simulate_writes_trajectory_and_run_json() {
     assert_eq!(lines.count(), 501);
     let run: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("run.json")).unwrap()).unwrap();
-    for key in ["scene", "dt_s", "steps", "wall_time_s", "integrator", "status"] {
+    for key in [
+        "scene",
+        "dt_s",
+        "steps",
+        "wall_time_s",
+        "integrator",
+        "status",
+    ] {
         assert!(run.get(key).is_some(), "run.json lacks {key}");
     }
     assert_eq!(run["status"], "ok");
@@ -43,20 +57,41 @@ fn simulate_with_piezo_adds_its_columns_and_reference_runs() {
     let out = out_dir("piezo");
     let st = bin()
         .args(["simulate", "--integrator", "reference"])
-        .args(["--set", "beam.segments=3", "--set", "piezo.enabled=true", "--set", "integration.duration_s=0.1"])
+        .args([
+            "--set",
+            "beam.segments=3",
+            "--set",
+            "piezo.enabled=true",
+            "--set",
+            "integration.duration_s=0.1",
+        ])
         .arg("--out")
         .arg(&out)
         .status()
         .unwrap();
     assert!(st.success());
     let csv = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
-    assert!(csv.lines().next().unwrap().ends_with(",energy_j,piezo_v,power_w"));
+    assert!(
+        csv.lines()
+            .next()
+            .unwrap()
+            .ends_with(",energy_j,piezo_v,power_w")
+    );
 }
 
 #[test]
 fn modes_json_has_the_documented_keys() {
     let o = bin()
-        .args(["modes", "--json", "--set", "pivot.mode=clamped", "--set", "gravity.g_m_s2=0", "--set", "beam.segments=3"])
+        .args([
+            "modes",
+            "--json",
+            "--set",
+            "pivot.mode=clamped",
+            "--set",
+            "gravity.g_m_s2=0",
+            "--set",
+            "beam.segments=3",
+        ])
         .output()
         .unwrap();
     assert!(o.status.success());
@@ -69,12 +104,185 @@ fn modes_json_has_the_documented_keys() {
 
 #[test]
 fn bad_input_gives_a_clear_error_and_no_panic() {
-    let o = bin().args(["modes", "--set", "beam.mass_kg=-1"]).output().unwrap();
+    let o = bin()
+        .args(["modes", "--set", "beam.mass_kg=-1"])
+        .output()
+        .unwrap();
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("`beam.mass_kg` = -1 is out of range"), "{err}");
     assert!(!err.contains("panicked"));
-    let o = bin().args(["modes", "no/such/scene.toml"]).output().unwrap();
+    let o = bin()
+        .args(["modes", "no/such/scene.toml"])
+        .output()
+        .unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("cannot read scene file"));
+}
+
+#[test]
+fn simulate_analyses_its_own_run() {
+    let out = out_dir("simulate-analysis");
+    let st = bin()
+        .args([
+            "simulate",
+            "--set",
+            "beam.segments=3",
+            "--set",
+            "integration.duration_s=8",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let run: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("run.json")).unwrap()).unwrap();
+    let k = run["analysis"]["zero_one"]["K"].as_f64().unwrap();
+    assert!(k.is_finite());
+    assert!(run["analysis"]["phase_sync"]["R"].as_f64().unwrap() <= 1.0);
+    for f in [
+        "time_series.png",
+        "spectrum.png",
+        "scalogram.png",
+        "zero_one.png",
+        "phase_hist.png",
+        "portrait.png",
+    ] {
+        let img = image::open(out.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
+        assert!(img.width() >= 600 && img.height() >= 400, "{f} too small");
+    }
+}
+
+/// A record with a 1/3 subharmonic response to 8 Hz forcing, written as CSV.
+fn write_record(path: &std::path::Path, nan_at: Option<usize>) {
+    let mut s = String::from("t_s,cart_m,angle_rad\n");
+    for i in 0..16000 {
+        let t = i as f64 / 200.0;
+        let cart = 0.009 * (std::f64::consts::TAU * 8.0 * t).sin();
+        let angle = 0.3 * (std::f64::consts::TAU * 8.0 / 3.0 * t).sin();
+        if nan_at == Some(i) {
+            s.push_str(&format!("{t},{cart},NaN\n"));
+        } else {
+            s.push_str(&format!("{t},{cart},{angle}\n"));
+        }
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+#[test]
+fn analyze_writes_the_documented_files_and_keys() {
+    let out = out_dir("analyze");
+    std::fs::create_dir_all(&out).unwrap();
+    let data = out.join("rig.csv");
+    write_record(&data, None);
+    let st = bin()
+        .arg("analyze")
+        .arg(&data)
+        .args([
+            "--signal",
+            "angle_rad",
+            "--reference",
+            "cart_m",
+            "--time",
+            "t_s",
+            "--forcing-hz",
+            "8",
+        ])
+        .args(["--phase-convention", "paper", "--out"])
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("analysis.json")).unwrap()).unwrap();
+    assert!(
+        j["zero_one"]["K"].as_f64().unwrap().abs() < 0.1,
+        "{}",
+        j["zero_one"]
+    );
+    assert_eq!(j["zero_one"]["method"], "correlation");
+    assert!(j["zero_one"]["n_samples"].as_u64().unwrap() > 50);
+    assert!(j["zero_one"]["warnings"].is_array());
+    assert_eq!(j["phase_sync"]["convention"], "paper");
+    let r = j["phase_sync"]["R"].as_f64().unwrap();
+    assert!((0.0..=1.0).contains(&r), "R = {r}");
+    assert!((j["spectrum"]["dominant_hz"].as_f64().unwrap() - 8.0 / 3.0).abs() < 0.02);
+    assert_eq!(j["spectrum"]["ratio_label"], "1/3");
+    assert!((j["spectrum"]["ratio_to_forcing"].as_f64().unwrap() - 1.0 / 3.0).abs() < 0.01);
+    assert!(j["options"]["forcing_hz"].as_f64().is_some());
+    for f in [
+        "spectrum.csv",
+        "wavelet_power.npy",
+        "wavelet_period_s.npy",
+        "wavelet_coi_s.npy",
+        "phase_diff_rad.npy",
+        "spectrum.png",
+        "scalogram.png",
+        "zero_one.png",
+        "phase_hist.png",
+        "portrait.png",
+    ] {
+        assert!(out.join(f).is_file(), "missing {f}");
+    }
+    let spec = std::fs::read_to_string(out.join("spectrum.csv")).unwrap();
+    assert!(spec.starts_with("frequency_hz,amplitude\n"));
+}
+
+#[test]
+fn analyze_rejects_bad_records_clearly() {
+    let out = out_dir("analyze-bad");
+    std::fs::create_dir_all(&out).unwrap();
+    let data = out.join("rig.csv");
+    write_record(&data, Some(100));
+    let run = |extra: &[&str]| {
+        let o = bin()
+            .arg("analyze")
+            .arg(&data)
+            .args(extra)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(2), "{extra:?}");
+        let e = String::from_utf8_lossy(&o.stderr).to_string();
+        assert!(!e.contains("panicked"), "{e}");
+        e
+    };
+    let e = run(&[
+        "--signal",
+        "angle_rad",
+        "--time",
+        "t_s",
+        "--forcing-hz",
+        "8",
+    ]);
+    assert!(e.contains("line 102") && e.contains("not finite"), "{e}");
+    let e = run(&["--signal", "encoder", "--time", "t_s", "--forcing-hz", "8"]);
+    assert!(
+        e.contains("no column `encoder`") && e.contains("cart_m"),
+        "{e}"
+    );
+    let e = run(&["--signal", "cart_m", "--time", "t_s"]);
+    assert!(e.contains("--forcing-hz"), "{e}");
+    std::fs::write(&data, "t_s,angle_rad\n").unwrap();
+    let e = run(&[
+        "--signal",
+        "angle_rad",
+        "--time",
+        "t_s",
+        "--forcing-hz",
+        "8",
+    ]);
+    assert!(e.contains("no data rows"), "{e}");
+    std::fs::write(&data, "t_s,angle_rad\n0,1\n0.1,2\n0.25,3\n0.3,4\n").unwrap();
+    let e = run(&[
+        "--signal",
+        "angle_rad",
+        "--time",
+        "t_s",
+        "--sampling",
+        "uniform",
+    ]);
+    assert!(e.contains("--resample"), "{e}");
 }

@@ -58,7 +58,10 @@ fn wrong_type_is_named() {
 #[test]
 fn nan_and_inf_are_refused() {
     let e = scene_error(&["excitation.amplitude_m=nan"]);
-    assert!(e.contains("`excitation.amplitude_m` must be a finite number"), "{e}");
+    assert!(
+        e.contains("`excitation.amplitude_m` must be a finite number"),
+        "{e}"
+    );
     let e = scene_error(&["beam.length_m=inf"]);
     assert!(e.contains("`beam.length_m` must be a finite number"), "{e}");
 }
@@ -66,9 +69,15 @@ fn nan_and_inf_are_refused() {
 #[test]
 fn negative_mass_and_length_are_refused_with_the_range() {
     let e = scene_error(&["beam.mass_kg=-0.1"]);
-    assert!(e.contains("`beam.mass_kg` = -0.1 is out of range: accepted > 0 kg"), "{e}");
+    assert!(
+        e.contains("`beam.mass_kg` = -0.1 is out of range: accepted > 0 kg"),
+        "{e}"
+    );
     let e = scene_error(&["tip.mass_kg=-1"]);
-    assert!(e.contains("`tip.mass_kg` = -1 is out of range: accepted >= 0 kg"), "{e}");
+    assert!(
+        e.contains("`tip.mass_kg` = -1 is out of range: accepted >= 0 kg"),
+        "{e}"
+    );
     let e = scene_error(&["beam.length_m=-0.3"]);
     assert!(e.contains("`beam.length_m`"), "{e}");
 }
@@ -76,7 +85,10 @@ fn negative_mass_and_length_are_refused_with_the_range() {
 #[test]
 fn zero_segments_are_refused() {
     let e = scene_error(&["beam.segments=0"]);
-    assert!(e.contains("`beam.segments` = 0 is out of range: accepted integers in [1, 4096]"), "{e}");
+    assert!(
+        e.contains("`beam.segments` = 0 is out of range: accepted integers in [1, 4096]"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -86,13 +98,19 @@ fn clearance_must_lie_in_the_open_quarter_circle() {
         assert!(e.contains("`limiter.clearance_deg`"), "{e}");
         assert!(e.contains("accepted (0, 90) deg"), "{e}");
     }
-    assert_eq!(scene(&["limiter.clearance_deg=0.5"]).limiter.clearance_deg, 0.5);
+    assert_eq!(
+        scene(&["limiter.clearance_deg=0.5"]).limiter.clearance_deg,
+        0.5
+    );
 }
 
 #[test]
 fn choices_and_combinations_are_checked() {
     let e = scene_error(&["pivot.mode=glued"]);
-    assert!(e.contains("`pivot.mode` = \"glued\" is not one of \"hinged\", \"clamped\""), "{e}");
+    assert!(
+        e.contains("`pivot.mode` = \"glued\" is not one of \"hinged\", \"clamped\""),
+        "{e}"
+    );
     let e = scene_error(&["integration.dt_s=fast"]);
     assert!(e.contains("`integration.dt_s`"), "{e}");
     let e = scene_error(&["piezo.enabled=true", "beam.segments=2", "piezo.segments=2"]);
@@ -100,7 +118,10 @@ fn choices_and_combinations_are_checked() {
     let e = scene_error(&["beam.inner_diameter_m=0.007"]);
     assert!(e.contains("`beam.inner_diameter_m`"), "{e}");
     let e = scene_error(&["excitation.sweep_end_hz=9"]);
-    assert!(e.contains("only used with excitation.kind = \"sweep\""), "{e}");
+    assert!(
+        e.contains("only used with excitation.kind = \"sweep\""),
+        "{e}"
+    );
 }
 
 #[test]
@@ -109,6 +130,11 @@ fn malformed_overrides_and_toml_are_reported() {
     assert!(e.contains("bad override `beam.segments`"), "{e}");
     let e = scene_error(&["beam.segments.x=3"]);
     assert!(e.contains("is a value, not a section"), "{e}");
-    let e = Scene::from_toml("[beam\nlength_m = 1", "bad.toml", &[]).unwrap_err().to_string();
-    assert!(e.contains("bad.toml") && e.contains("not valid TOML"), "{e}");
+    let e = Scene::from_toml("[beam\nlength_m = 1", "bad.toml", &[])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("bad.toml") && e.contains("not valid TOML"),
+        "{e}"
+    );
 }

@@ -13,7 +13,10 @@ fn run_rk4<T: Real>(s: &Scene) -> (Vec<Row>, Status) {
     let plan = StepPlan::for_scene(s, &modes(s));
     let p = ModelParams::from_scene(s);
     let inst = Instance::<T>::from_scene(s, &p);
-    let mut rec = TrajectoryRecorder { load_ohm: p.piezo.as_ref().map(|z| z.load_ohm), ..Default::default() };
+    let mut rec = TrajectoryRecorder {
+        load_ohm: p.piezo.as_ref().map(|z| z.load_ohm),
+        ..Default::default()
+    };
     let o = integrate(&inst, &plan, &mut rec);
     (rec.rows, o.status)
 }
@@ -22,7 +25,10 @@ fn run_reference(s: &Scene) -> Vec<Row> {
     let plan = StepPlan::for_scene(s, &modes(s));
     let p = ModelParams::from_scene(s);
     let inst = Instance::<f64>::from_scene(s, &p);
-    let mut rec = TrajectoryRecorder { load_ohm: p.piezo.as_ref().map(|z| z.load_ohm), ..Default::default() };
+    let mut rec = TrajectoryRecorder {
+        load_ohm: p.piezo.as_ref().map(|z| z.load_ohm),
+        ..Default::default()
+    };
     let o = integrate_reference(&inst, &plan, &ReferenceOptions::default(), &mut rec).unwrap();
     assert_eq!(o.status, Status::Ok);
     rec.rows
@@ -30,13 +36,19 @@ fn run_reference(s: &Scene) -> Vec<Row> {
 
 fn max_alpha_diff(a: &[Row], b: &[Row]) -> f64 {
     assert_eq!(a.len(), b.len());
-    a.iter().zip(b).map(|(x, y)| (x.alpha_rad - y.alpha_rad).abs()).fold(0.0, f64::max)
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x.alpha_rad - y.alpha_rad).abs())
+        .fold(0.0, f64::max)
 }
 
 fn relative_energy_drift(rows: &[Row]) -> f64 {
     let e0 = rows[0].energy_j;
     let scale = rows.iter().map(|r| r.energy_j.abs()).fold(0.0, f64::max);
-    rows.iter().map(|r| (r.energy_j - e0).abs()).fold(0.0, f64::max) / scale
+    rows.iter()
+        .map(|r| (r.energy_j - e0).abs())
+        .fold(0.0, f64::max)
+        / scale
 }
 
 const CONSERVATIVE: [&str; 6] = [
@@ -64,9 +76,15 @@ fn energy_is_conserved_without_forcing_damping_or_contact() {
             let s = scene(&sets);
             let rows = run_reference(&s);
             let reference = relative_energy_drift(&rows);
-            assert!(reference < 1e-9, "{n} {pivot}: reference drift {reference:e}");
+            assert!(
+                reference < 1e-9,
+                "{n} {pivot}: reference drift {reference:e}"
+            );
             // The pendulum really moves (hinged: it falls; clamped: it rings), so the test bites.
-            let swing = rows.iter().map(|r| (r.alpha_rad - rows[0].alpha_rad).abs()).fold(0.0, f64::max);
+            let swing = rows
+                .iter()
+                .map(|r| (r.alpha_rad - rows[0].alpha_rad).abs())
+                .fold(0.0, f64::max);
             assert!(swing > 1e-4, "{n} {pivot}: no motion");
         }
         // RK4 at the automatic step, on the paper's hinged pendulum. (A straight tilted beam on
@@ -85,7 +103,12 @@ fn energy_is_conserved_without_forcing_damping_or_contact() {
 #[test]
 fn rk4_converges_at_fourth_order_on_a_smooth_case() {
     // Forced, damped, no contact: smooth, so RK4 must show its order.
-    let base = ["beam.segments=3", "limiter.enabled=false", "integration.duration_s=0.25", "initial.angle_deg=3"];
+    let base = [
+        "beam.segments=3",
+        "limiter.enabled=false",
+        "integration.duration_s=0.25",
+        "initial.angle_deg=3",
+    ];
     let truth = run_reference(&scene(&base));
     let mut errors = Vec::new();
     for dt in ["2e-4", "1e-4", "5e-5"] {
@@ -97,7 +120,10 @@ fn rk4_converges_at_fourth_order_on_a_smooth_case() {
     }
     for w in errors.windows(2) {
         let ratio = w[0] / w[1];
-        assert!((12.0..20.0).contains(&ratio), "error ratio per halving {ratio} ({errors:?})");
+        assert!(
+            (12.0..20.0).contains(&ratio),
+            "error ratio per halving {ratio} ({errors:?})"
+        );
     }
 }
 
@@ -110,7 +136,10 @@ fn f32_f64_and_reference_agree_on_a_short_horizon_with_contacts() {
         let (r32, st32) = run_rk4::<f32>(&s);
         assert_eq!((st64, st32), (Status::Ok, Status::Ok));
         // The beam really hits the bumper in this window.
-        assert!(truth.iter().any(|r| r.contact_force_n.abs() > 1.0), "{n}: no contact");
+        assert!(
+            truth.iter().any(|r| r.contact_force_n.abs() > 1.0),
+            "{n}: no contact"
+        );
         let e64 = max_alpha_diff(&r64, &truth);
         let e32 = max_alpha_diff(&r32, &truth);
         assert!(e64 < 1e-4, "{n}: f64 RK4 vs reference {e64:e}");
@@ -146,10 +175,22 @@ fn piezo_energy_balance_holds() {
         worst = worst.max(balance.abs());
     }
     let e0 = rows[0].energy_j;
-    assert!(dissipated > 0.05 * e0, "too little dissipation to test: {dissipated:e} of {e0:e}");
-    let harvested: f64 = rows.windows(2).map(|w| 0.5 * (w[0].power_w + w[1].power_w) * (w[1].t_s - w[0].t_s)).sum();
-    assert!(harvested > 1e-3 * dissipated, "the load harvests nothing: {harvested:e}");
-    assert!(worst < 1e-4 * e0, "energy balance off by {worst:e} J of {e0:e} J");
+    assert!(
+        dissipated > 0.05 * e0,
+        "too little dissipation to test: {dissipated:e} of {e0:e}"
+    );
+    let harvested: f64 = rows
+        .windows(2)
+        .map(|w| 0.5 * (w[0].power_w + w[1].power_w) * (w[1].t_s - w[0].t_s))
+        .sum();
+    assert!(
+        harvested > 1e-3 * dissipated,
+        "the load harvests nothing: {harvested:e}"
+    );
+    assert!(
+        worst < 1e-4 * e0,
+        "energy balance off by {worst:e} J of {e0:e} J"
+    );
 }
 
 #[test]
@@ -159,21 +200,36 @@ fn a_step_three_times_the_limit_is_flagged_not_returned() {
     let dt = format!("integration.dt_s={}", 3.0 * m.dt_stable_s);
     let s = scene(&["beam.segments=5", "integration.duration_s=0.5", &dt]);
     let plan = StepPlan::for_scene(&s, &m);
-    assert!(plan.warnings.iter().any(|w| w.contains("stability limit")), "{:?}", plan.warnings);
+    assert!(
+        plan.warnings.iter().any(|w| w.contains("stability limit")),
+        "{:?}",
+        plan.warnings
+    );
     let (rows, status) = run_rk4::<f64>(&s);
     assert_ne!(status, Status::Ok);
-    assert!(rows.iter().all(|r| r.alpha_rad.is_finite() && r.energy_j.is_finite()));
+    assert!(
+        rows.iter()
+            .all(|r| r.alpha_rad.is_finite() && r.energy_j.is_finite())
+    );
 }
 
 #[test]
 fn batch_equals_single_runs_and_keeps_order() {
     let scenes: Vec<Scene> = [5.0, 8.0, 10.0]
         .iter()
-        .map(|f| scene(&["beam.segments=3", "integration.duration_s=0.5", &format!("excitation.frequency_hz={f}")]))
+        .map(|f| {
+            scene(&[
+                "beam.segments=3",
+                "integration.duration_s=0.5",
+                &format!("excitation.frequency_hz={f}"),
+            ])
+        })
         .collect();
     let plan = StepPlan::for_scene(&scenes[0], &modes(&scenes[0]));
-    let insts: Vec<Instance<f64>> =
-        scenes.iter().map(|s| Instance::from_scene(s, &ModelParams::from_scene(s))).collect();
+    let insts: Vec<Instance<f64>> = scenes
+        .iter()
+        .map(|s| Instance::from_scene(s, &ModelParams::from_scene(s)))
+        .collect();
     let mut recs: Vec<TrajectoryRecorder> = (0..3).map(|_| TrajectoryRecorder::default()).collect();
     integrate_batch(&insts, &plan, &mut recs);
     for (i, inst) in insts.iter().enumerate() {

@@ -6,6 +6,7 @@ mod cli;
 mod config;
 mod integrate;
 mod model;
+mod render;
 
 use pendulum_atlas::config::{PAPER_SCENE_TOML, Scene};
 

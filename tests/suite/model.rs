@@ -3,7 +3,11 @@
 use super::scene;
 use pendulum_atlas::model::{Chain, ContactLaw, ModelParams, dense, linear, modes};
 
-const CLAMPED_G0: [&str; 3] = ["pivot.mode=clamped", "gravity.g_m_s2=0", "limiter.enabled=false"];
+const CLAMPED_G0: [&str; 3] = [
+    "pivot.mode=clamped",
+    "gravity.g_m_s2=0",
+    "limiter.enabled=false",
+];
 
 fn clamped(n: usize) -> Vec<f64> {
     let seg = format!("beam.segments={n}");
@@ -32,7 +36,12 @@ fn clamped_first_frequency_matches_model_md() {
 #[test]
 fn hinged_upright_chain_has_one_falling_mode() {
     let m = modes(&scene(&[]));
-    assert_eq!(m.unstable_rates_per_s.len(), 1, "{:?}", m.unstable_rates_per_s);
+    assert_eq!(
+        m.unstable_rates_per_s.len(),
+        1,
+        "{:?}",
+        m.unstable_rates_per_s
+    );
     let lambda2 = m.unstable_rates_per_s[0].powi(2);
     assert!((lambda2 - 34.1).abs() < 0.1, "λ² = {lambda2}");
     assert_eq!(m.frequencies_hz.len(), 16);
@@ -46,7 +55,10 @@ fn spectral_radius_and_auto_step_match_model_md() {
     let n17_undamped = r(&["beam.damping_ratio=0"]);
     let n17 = r(&[]);
     assert!((n3 / 2.5e3 - 1.0).abs() < 0.05, "N=3: {n3}");
-    assert!((n17_undamped / 1.2e5 - 1.0).abs() < 0.05, "N=17 undamped: {n17_undamped}");
+    assert!(
+        (n17_undamped / 1.2e5 - 1.0).abs() < 0.05,
+        "N=17 undamped: {n17_undamped}"
+    );
     assert!((n17 / 6.3e5 - 1.0).abs() < 0.05, "N=17 damped: {n17}");
     let m = modes(&scene(&[]));
     assert!((m.dt_auto_s - 0.8 * 2.78 / n17).abs() < 1e-12);
@@ -72,7 +84,9 @@ fn damping_gives_the_requested_ratio_on_the_first_clamped_mode() {
 
 /// Pseudo-random numbers in [−1, 1) without a dependency (a fixed LCG is enough here).
 fn lcg(seed: &mut u64) -> f64 {
-    *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    *seed = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
     ((*seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
 }
 
@@ -82,16 +96,35 @@ fn applied_couples(p: &ModelParams, th: &[f64], om: &[f64], v: f64) -> Vec<f64> 
     let mut q = vec![0.0; n];
     q[0] -= p.root_stiffness_nm * th[0] + p.root_damping_nms * om[0];
     for i in 1..n {
-        let tau = p.joint_stiffness_nm * (th[i] - th[i - 1]) + p.joint_damping_nms * (om[i] - om[i - 1]);
+        let tau =
+            p.joint_stiffness_nm * (th[i] - th[i - 1]) + p.joint_damping_nms * (om[i] - om[i - 1]);
         q[i] -= tau;
         q[i - 1] += tau;
     }
     if let Some(c) = &p.contact {
-        let x: f64 = c.levers_m.iter().enumerate().map(|(i, l)| l * th[i].sin()).sum();
-        let xd: f64 = c.levers_m.iter().enumerate().map(|(i, l)| l * th[i].cos() * om[i]).sum();
+        let x: f64 = c
+            .levers_m
+            .iter()
+            .enumerate()
+            .map(|(i, l)| l * th[i].sin())
+            .sum();
+        let xd: f64 = c
+            .levers_m
+            .iter()
+            .enumerate()
+            .map(|(i, l)| l * th[i].cos() * om[i])
+            .sum();
         let (dr, dl) = (x - c.gap_m, -x - c.gap_m);
-        let fr = if dr > 0.0 { (c.stiffness_n_per_m * dr + c.damping_ns_per_m * xd).max(0.0) } else { 0.0 };
-        let fl = if dl > 0.0 { (c.stiffness_n_per_m * dl - c.damping_ns_per_m * xd).max(0.0) } else { 0.0 };
+        let fr = if dr > 0.0 {
+            (c.stiffness_n_per_m * dr + c.damping_ns_per_m * xd).max(0.0)
+        } else {
+            0.0
+        };
+        let fl = if dl > 0.0 {
+            (c.stiffness_n_per_m * dl - c.damping_ns_per_m * xd).max(0.0)
+        } else {
+            0.0
+        };
         for (i, l) in c.levers_m.iter().enumerate() {
             q[i] += (fl - fr) * l * th[i].cos();
         }
@@ -108,9 +141,22 @@ fn recursive_solve_equals_dense_solve() {
     let mut seed = 7u64;
     for (n, extra) in [
         (1, vec!["pivot.holder_inertia_kgm2=1e-4"]),
-        (2, vec!["pivot.mode=clamped", "piezo.enabled=true", "piezo.segments=1"]),
-        (5, vec!["limiter.contact_arc_m=0.2", "pivot.damping_nms=0.01"]),
-        (17, vec!["piezo.enabled=true", "pivot.holder_inertia_kgm2=2e-5"]),
+        (
+            2,
+            vec![
+                "pivot.mode=clamped",
+                "piezo.enabled=true",
+                "piezo.segments=1",
+            ],
+        ),
+        (
+            5,
+            vec!["limiter.contact_arc_m=0.2", "pivot.damping_nms=0.01"],
+        ),
+        (
+            17,
+            vec!["piezo.enabled=true", "pivot.holder_inertia_kgm2=2e-5"],
+        ),
         (33, vec!["tip.mass_kg=0"]),
     ] {
         let seg = format!("beam.segments={n}");
@@ -134,7 +180,12 @@ fn recursive_solve_equals_dense_solve() {
             let scale = dense.amax().max(1.0);
             for i in 0..n {
                 let diff = (dy[n + i] - dense[i]).abs();
-                assert!(diff < 1e-9 * scale, "N={n} i={i}: O(N) {} vs dense {}", dy[n + i], dense[i]);
+                assert!(
+                    diff < 1e-9 * scale,
+                    "N={n} i={i}: O(N) {} vs dense {}",
+                    dy[n + i],
+                    dense[i]
+                );
             }
         }
     }

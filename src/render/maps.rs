@@ -1,0 +1,355 @@
+//! Cell-based colour maps: wavelet scalogram and parameter heat map, each
+//! with a viridis colour bar.
+
+use std::path::Path;
+
+use anyhow::{Result, bail};
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+use super::colormap::{blend, viridis};
+use super::{
+    Area, Axis, AxisSpec, Chart, LABEL_PX, TICK_PX, build_chart, canvas, finite_min_max, font,
+    nice_ticks, titled,
+};
+
+/// Figure size of both maps.
+const SIZE: (u32, u32) = (1000, 700);
+/// Width of the colour-bar column (px).
+const BAR_COL: u32 = 170;
+/// Colour of invalid (diverged) heat-map cells; viridis never reaches it.
+pub const INVALID_COLOR: RGBColor = RGBColor(255, 0, 255);
+/// Colour of non-finite but valid cells ("no data").
+const NODATA_COLOR: RGBColor = RGBColor(190, 190, 190);
+/// Dynamic range (octaves) shown by the scalogram below its maximum.
+const SCALOGRAM_OCTAVES: f64 = 16.0;
+
+/// Fails unless `v` is non-empty, finite and strictly increasing.
+fn check_axis(name: &str, v: &[f64]) -> Result<()> {
+    if v.is_empty() || v.iter().any(|x| !x.is_finite()) || v.windows(2).any(|w| w[1] <= w[0]) {
+        bail!("{name}: values must be non-empty, finite and strictly increasing");
+    }
+    Ok(())
+}
+
+/// Cell boundaries: midpoints between centres, ends extended by half a step.
+fn cell_edges(c: &[f64]) -> Vec<f64> {
+    if c.len() == 1 {
+        let d = if c[0] == 0.0 { 0.5 } else { 0.1 * c[0].abs() };
+        return vec![c[0] - d, c[0] + d];
+    }
+    let n = c.len();
+    let mut e = Vec::with_capacity(n + 1);
+    e.push(c[0] - 0.5 * (c[1] - c[0]));
+    e.extend(c.windows(2).map(|w| 0.5 * (w[0] + w[1])));
+    e.push(c[n - 1] + 0.5 * (c[n - 1] - c[n - 2]));
+    e
+}
+
+/// Index of the cell of `v` given the edges (None outside).
+fn cell_of(edges: &[f64], v: f64) -> Option<usize> {
+    if !(v >= edges[0] && v <= edges[edges.len() - 1]) {
+        return None;
+    }
+    Some(edges.partition_point(|&e| e <= v).clamp(1, edges.len() - 1) - 1)
+}
+
+/// Paints every pixel of the chart's plotting area with `color(ix, iy, x, y)`,
+/// where (x, y) are the pixel's plotting coordinates and (ix, iy) its cell.
+fn paint_cells(
+    chart: &Chart,
+    xe: &[f64],
+    ye: &[f64],
+    color: impl Fn(usize, usize, f64, f64) -> RGBColor,
+) -> Result<()> {
+    let (xa, ya) = (
+        chart.as_coord_spec().get_x_range(),
+        chart.as_coord_spec().get_y_range(),
+    );
+    let p0 = chart.backend_coord(&(xa.start, ya.start));
+    let p1 = chart.backend_coord(&(xa.end, ya.end));
+    let screen = chart.plotting_area().use_screen_coord();
+    let (px, py) = chart.plotting_area().get_pixel_range();
+    let fx =
+        |p: i32| xa.start + (p - p0.0) as f64 / (p1.0 - p0.0).max(1) as f64 * (xa.end - xa.start);
+    let fy =
+        |p: i32| ya.start + (p - p0.1) as f64 / (p1.1 - p0.1).min(-1) as f64 * (ya.end - ya.start);
+    for j in py {
+        let y = fy(j);
+        let Some(iy) = cell_of(ye, y) else { continue };
+        for i in px.clone() {
+            let x = fx(i);
+            if let Some(ix) = cell_of(xe, x) {
+                screen.draw_pixel((i, j), &color(ix, iy, x, y))?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Vertical colour bar with ticks and a label in `area`, plus optional
+/// legend swatches (e.g. "diverged") underneath.
+fn colorbar(area: &Area, lo: f64, hi: f64, label: &str, legend: &[(&str, RGBColor)]) -> Result<()> {
+    let xa = AxisSpec::fixed(0.0, 1.0, false);
+    let mut ya = AxisSpec::fixed(lo, hi, false);
+    ya.ticks = nice_ticks(lo, hi, 8);
+    let mut chart = ChartBuilder::on(area)
+        .margin_top(15)
+        .margin_bottom(75)
+        .margin_left(20)
+        .right_y_label_area_size(110)
+        .build_cartesian_2d(xa.coord(), ya.coord())?;
+    let yf = |v: &f64| format!(" {}", ya.label(*v));
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .disable_y_mesh()
+        .disable_x_axis()
+        .y_label_formatter(&yf)
+        .label_style(font(TICK_PX))
+        .axis_desc_style(font(LABEL_PX))
+        .draw()?;
+    let n = 256;
+    chart.draw_series((0..n).map(|k| {
+        let (a, b) = (k as f64 / n as f64, (k + 1) as f64 / n as f64);
+        let (y0, y1) = (lo + a * (hi - lo), lo + b * (hi - lo));
+        Rectangle::new([(0.0, y0), (1.0, y1)], viridis(0.5 * (a + b)).filled())
+    }))?;
+    chart.draw_series(std::iter::once(Rectangle::new(
+        [(0.0, lo), (1.0, hi)],
+        BLACK,
+    )))?;
+    let (w, h) = area.dim_in_pixel();
+    // Label drawn by hand: plotters misplaces right-hand axis descriptions.
+    let style = font(LABEL_PX)
+        .transform(FontTransform::Rotate270)
+        .pos(Pos::new(HPos::Center, VPos::Top));
+    area.draw_text(label, &style, (w as i32 - 34, (15 + h as i32 - 75) / 2))?;
+    for (k, (name, c)) in legend.iter().enumerate() {
+        let y = h as i32 - 60 + 26 * k as i32;
+        area.draw(&Rectangle::new([(10, y), (28, y + 18)], c.filled()))?;
+        area.draw(&Rectangle::new([(10, y), (28, y + 18)], BLACK))?;
+        area.draw(&Text::new(name.to_string(), (34, y), font(TICK_PX)))?;
+    }
+    Ok(())
+}
+
+/// Wavelet power scalogram, 1000×700 px: colour = log2(`power`) (viridis,
+/// showing the top 16 octaves), y = period on a log2 axis ("Period (s)",
+/// ticks at powers of two), x = time. `power` is `[period][time]`; `times_s`
+/// and `periods_s` (> 0) are strictly increasing cell centres. The cone of
+/// influence (period > `coi_s[t]`, linearly interpolated; pass `&[]` for none)
+/// is washed out with white; where `significance_ratio` (power / 95 % level,
+/// same shape) crosses 1 a black contour is drawn.
+#[allow(clippy::too_many_arguments)]
+pub fn scalogram(
+    path: &Path,
+    title: &str,
+    times_s: &[f64],
+    periods_s: &[f64],
+    power: &[Vec<f64>],
+    coi_s: &[f64],
+    significance_ratio: Option<&[Vec<f64>]>,
+    time_label: &str,
+) -> Result<()> {
+    check_axis("scalogram times", times_s)?;
+    check_axis("scalogram periods", periods_s)?;
+    if periods_s[0] <= 0.0 {
+        bail!("scalogram: periods must be positive");
+    }
+    let (nt, np) = (times_s.len(), periods_s.len());
+    let shape_ok = |m: &[Vec<f64>]| m.len() == np && m.iter().all(|r| r.len() == nt);
+    if !shape_ok(power) || significance_ratio.is_some_and(|s| !shape_ok(s)) {
+        bail!("scalogram: power/significance must be [{np} periods][{nt} times]");
+    }
+    if !coi_s.is_empty() && coi_s.len() != nt {
+        bail!("scalogram: coi has {} values, expected {nt}", coi_s.len());
+    }
+    let lp: Vec<Vec<f64>> = power
+        .iter()
+        .map(|r| r.iter().map(|p| p.log2()).collect())
+        .collect();
+    let (lo, hi) = match finite_min_max(lp.iter().flatten().copied()) {
+        Some((a, b)) if b > a => (a.max(b - SCALOGRAM_OCTAVES), b),
+        Some((a, _)) => (a - 0.5, a + 0.5),
+        None => (0.0, 1.0),
+    };
+    let log_p: Vec<f64> = periods_s.iter().map(|p| p.log2()).collect();
+    let (xe, ye) = (cell_edges(times_s), cell_edges(&log_p));
+    let xa = AxisSpec::fixed(xe[0], xe[nt], false);
+    let ya = AxisSpec::log2(ye[0], ye[np]);
+
+    let root = canvas(path, SIZE)?;
+    let body = titled(&root, title)?;
+    let (main, bar) = body.split_horizontally(SIZE.0 - BAR_COL);
+    let mut chart = build_chart(&main, None, &xa, &ya, time_label, "Period (s)", false, 15)?;
+    let coi_at = |t: f64| -> f64 {
+        let k = times_s.partition_point(|&x| x <= t);
+        let c = if k == 0 {
+            coi_s[0]
+        } else if k >= nt {
+            coi_s[nt - 1]
+        } else {
+            let f = (t - times_s[k - 1]) / (times_s[k] - times_s[k - 1]);
+            coi_s[k - 1] + f * (coi_s[k] - coi_s[k - 1])
+        };
+        c.max(0.0).log2()
+    };
+    paint_cells(&chart, &xe, &ye, |ix, iy, x, y| {
+        let v = lp[iy][ix];
+        let c = if v.is_finite() {
+            viridis((v - lo) / (hi - lo))
+        } else {
+            NODATA_COLOR
+        };
+        if !coi_s.is_empty() && y > coi_at(x) {
+            blend(c, WHITE, 0.55)
+        } else {
+            c
+        }
+    })?;
+    if !coi_s.is_empty() {
+        let line = times_s.iter().map(|&t| (t, coi_at(t).clamp(ya.lo, ya.hi)));
+        chart.draw_series(DashedLineSeries::new(
+            line,
+            8,
+            5,
+            RGBColor(60, 60, 60).stroke_width(2),
+        ))?;
+    }
+    if let Some(sig) = significance_ratio {
+        let segs = contour(times_s, &log_p, |i, j| sig[i][j], 1.0);
+        chart.draw_series(
+            segs.into_iter()
+                .map(|s| PathElement::new(s.to_vec(), BLACK.stroke_width(2))),
+        )?;
+    }
+    colorbar(&bar, lo, hi, "log2 power (normalised)", &[])?;
+    root.present()?;
+    Ok(())
+}
+
+/// Marching-squares contour of `f(iy, ix)` at `level` on the node grid
+/// (`xs[ix]`, `ys[iy]`); returns line segments. Cells touching a
+/// non-finite value are skipped.
+fn contour(
+    xs: &[f64],
+    ys: &[f64],
+    f: impl Fn(usize, usize) -> f64,
+    level: f64,
+) -> Vec<[(f64, f64); 2]> {
+    let mut out = vec![];
+    for i in 0..ys.len().saturating_sub(1) {
+        for j in 0..xs.len().saturating_sub(1) {
+            // Corners counter-clockwise from bottom-left.
+            let c = [(i, j), (i, j + 1), (i + 1, j + 1), (i + 1, j)];
+            let v = c.map(|(a, b)| f(a, b) - level);
+            if v.iter().any(|x| !x.is_finite()) {
+                continue;
+            }
+            let mut pts = [(0.0, 0.0); 4];
+            let mut hit = [false; 4];
+            for e in 0..4 {
+                let (a, b) = (e, (e + 1) % 4);
+                if (v[a] >= 0.0) != (v[b] >= 0.0) {
+                    let t = v[a] / (v[a] - v[b]);
+                    let (pa, pb) = (c[a], c[b]);
+                    let x = xs[pa.1] + t * (xs[pb.1] - xs[pa.1]);
+                    let y = ys[pa.0] + t * (ys[pb.0] - ys[pa.0]);
+                    pts[e] = (x, y);
+                    hit[e] = true;
+                }
+            }
+            let h: Vec<usize> = (0..4).filter(|&e| hit[e]).collect();
+            match h.len() {
+                2 => out.push([pts[h[0]], pts[h[1]]]),
+                4 => {
+                    let centre = v.iter().sum::<f64>() / 4.0;
+                    if (centre >= 0.0) == (v[0] >= 0.0) {
+                        out.push([pts[0], pts[1]]);
+                        out.push([pts[2], pts[3]]);
+                    } else {
+                        out.push([pts[3], pts[0]]);
+                        out.push([pts[1], pts[2]]);
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+    out
+}
+
+/// Heat map of `values` (row-major `[iy][ix]`, cells between midpoints of
+/// the possibly non-uniform centres in `x`/`y`), 1000×700 px, viridis over
+/// `range` (default: finite min..max of valid cells; values are clamped)
+/// with a labelled colour bar. Cells with `invalid[k]` are drawn in magenta
+/// with a "diverged" legend entry (`invalid` may be empty = none invalid);
+/// non-finite valid cells are grey ("no data"). 1×N and N×1 grids work.
+#[allow(clippy::too_many_arguments)]
+pub fn heatmap(
+    path: &Path,
+    title: &str,
+    x: &Axis,
+    y: &Axis,
+    values: &[f64],
+    colorbar_label: &str,
+    invalid: &[bool],
+    range: Option<(f64, f64)>,
+) -> Result<()> {
+    check_axis("heatmap x", x.values)?;
+    check_axis("heatmap y", y.values)?;
+    let (nx, ny) = (x.values.len(), y.values.len());
+    if values.len() != nx * ny || !(invalid.is_empty() || invalid.len() == values.len()) {
+        bail!(
+            "heatmap: {} values / {} flags for a {ny}×{nx} grid",
+            values.len(),
+            invalid.len()
+        );
+    }
+    let bad = |k: usize| invalid.get(k).copied().unwrap_or(false);
+    let (lo, hi) = match range {
+        Some((a, b)) if a.is_finite() && b.is_finite() && a < b => (a, b),
+        Some(r) => bail!("heatmap: invalid colour range {r:?}"),
+        None => match finite_min_max((0..values.len()).filter(|&k| !bad(k)).map(|k| values[k])) {
+            Some((a, b)) if b > a => (a, b),
+            Some((a, _)) => (a - 0.5, a + 0.5),
+            None => (0.0, 1.0),
+        },
+    };
+    let (xe, ye) = (cell_edges(x.values), cell_edges(y.values));
+    let mut xa = AxisSpec::fixed(xe[0], xe[nx], false);
+    let mut ya = AxisSpec::fixed(ye[0], ye[ny], false);
+    // A single cell gets a single tick at its centre.
+    if nx == 1 {
+        xa.ticks = x.values.to_vec();
+    }
+    if ny == 1 {
+        ya.ticks = y.values.to_vec();
+    }
+
+    let root = canvas(path, SIZE)?;
+    let body = titled(&root, title)?;
+    let (main, bar) = body.split_horizontally(SIZE.0 - BAR_COL);
+    let chart = build_chart(&main, None, &xa, &ya, x.label, y.label, false, 15)?;
+    paint_cells(&chart, &xe, &ye, |ix, iy, _, _| {
+        let k = iy * nx + ix;
+        if bad(k) {
+            INVALID_COLOR
+        } else if values[k].is_finite() {
+            viridis((values[k] - lo) / (hi - lo))
+        } else {
+            NODATA_COLOR
+        }
+    })?;
+    let mut legend = vec![];
+    if (0..values.len()).any(bad) {
+        legend.push(("diverged", INVALID_COLOR));
+    }
+    if (0..values.len()).any(|k| !bad(k) && !values[k].is_finite()) {
+        legend.push(("no data", NODATA_COLOR));
+    }
+    colorbar(&bar, lo, hi, colorbar_label, &legend)?;
+    root.present()?;
+    Ok(())
+}
