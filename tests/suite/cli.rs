@@ -205,8 +205,10 @@ fn analyze_writes_the_documented_files_and_keys() {
     assert!(j["zero_one"]["n_samples"].as_u64().unwrap() > 50);
     assert!(j["zero_one"]["warnings"].is_array());
     assert_eq!(j["phase_sync"]["convention"], "paper");
+    // A 1/3 subharmonic is not 1:1 locked to its forcing: Δφ drifts uniformly, and the paper
+    // convention (Δφ mod π) then gives its "random" value 2/π.
     let r = j["phase_sync"]["R"].as_f64().unwrap();
-    assert!((0.0..=1.0).contains(&r), "R = {r}");
+    assert!((r - 2.0 / std::f64::consts::PI).abs() < 0.05, "R = {r}");
     assert!((j["spectrum"]["dominant_hz"].as_f64().unwrap() - 8.0 / 3.0).abs() < 0.02);
     assert_eq!(j["spectrum"]["ratio_label"], "1/3");
     assert!((j["spectrum"]["ratio_to_forcing"].as_f64().unwrap() - 1.0 / 3.0).abs() < 0.01);
