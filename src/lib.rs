@@ -19,6 +19,8 @@
 pub mod analysis;
 pub mod config;
 pub mod integrate;
+pub mod map;
 pub mod model;
 pub mod output;
+pub mod reduce;
 pub mod render;

@@ -139,8 +139,9 @@ pub fn pq_path(series: &[f64], c: f64) -> (Vec<f64>, Vec<f64>) {
     (p, q)
 }
 
-/// Draws `c = π/5 + U·3π/5`, `U ~ U[0, 1)`, from a ChaCha8 stream seeded by `seed`.
-fn draw_c_values(n_c: usize, seed: u64) -> Vec<f64> {
+/// Draws `c = π/5 + U·3π/5`, `U ~ U[0, 1)`, from a ChaCha8 stream seeded by `seed`: the
+/// `c` values [`zero_one_test`] uses (the GPU reduction is handed the same ones).
+pub fn draw_c_values(n_c: usize, seed: u64) -> Vec<f64> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     (0..n_c)
         .map(|_| PI / 5.0 + rng.random::<f64>() * 3.0 * PI / 5.0)

@@ -2,6 +2,7 @@
 //! Each command loads a validated scene, calls the library, and writes files.
 
 mod analyze;
+mod map;
 mod modes;
 mod report;
 mod simulate;
@@ -33,6 +34,8 @@ pub struct SceneArgs {
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// A chaos/bifurcation map over 1–3 scene keys (GPU if present, CPU otherwise).
+    Map(map::MapArgs),
     /// Integrate one run and write trajectory.csv and run.json.
     Simulate(simulate::SimulateArgs),
     /// Natural frequencies, unstable growth rates and the automatic time step.
@@ -44,6 +47,7 @@ pub enum Command {
 /// Run the parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Map(a) => map::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Modes(a) => modes::run(a),
         Command::Analyze(a) => analyze::run(a),

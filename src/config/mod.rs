@@ -5,10 +5,15 @@
 //! error, so a typo never silently falls back to a default.
 
 mod error;
+mod map;
 mod reader;
 mod scene;
 
 pub use error::ConfigError;
+pub use map::{
+    AxisScale, DEFAULT_MAP_TOML, MAX_INSTANCES, MapAxis, MapSpec, Metric, axis_label, load_map,
+    map_from_toml,
+};
 pub use reader::{Range, Reader, apply_override, parse_override_value, parse_toml};
 pub use scene::{
     Beam, Excitation, ExcitationKind, Gravity, Initial, Integration, Limiter, MAX_SEGMENTS, Output,

@@ -1,6 +1,8 @@
 //! Time integration: the step plan, the fixed-step RK4 engine (CPU, generic, batched) and the
 //! DOP853 reference integrator with contact events.
 
+pub mod ensemble;
+pub mod gpu;
 mod plan;
 mod reference;
 mod rk4;
@@ -8,7 +10,9 @@ mod status;
 
 pub use plan::StepPlan;
 pub use reference::{ReferenceOptions, integrate_reference};
-pub use rk4::{Instance, NoObserver, Observer, Outcome, health, integrate, integrate_batch};
+pub use rk4::{
+    Instance, NoObserver, Observer, Outcome, health, integrate, integrate_batch, rk4_step,
+};
 pub use status::{Guard, Status};
 
 use crate::config::Scene;

@@ -87,8 +87,6 @@ pub fn integrate<T: Real, O: Observer<T>>(
     ];
     let mut tmp = vec![T::zero(); dim];
     let dt = T::of(plan.dt_s);
-    let half = T::of(0.5);
-    let sixth = T::of(1.0 / 6.0);
     let mut impacts = 0u64;
     let mut touching = touch_flags(chain, &mut ws, &y);
     let cart0 = inst.cart.at_step(0, 0.0, plan.dt_s);
@@ -100,16 +98,15 @@ pub fn integrate<T: Real, O: Observer<T>>(
         let a_mid = inst.cart.at_step(n, 0.5, plan.dt_s).a_m_s2;
         cart_end = inst.cart.at_step(n + 1, 0.0, plan.dt_s);
         let a1 = cart_end.a_m_s2;
-        chain.derivative(&mut ws, T::of(a0), &y, &mut k[0], ContactLaw::Exact);
-        stage(&mut tmp, &y, &k[0], dt * half);
-        chain.derivative(&mut ws, T::of(a_mid), &tmp, &mut k[1], ContactLaw::Exact);
-        stage(&mut tmp, &y, &k[1], dt * half);
-        chain.derivative(&mut ws, T::of(a_mid), &tmp, &mut k[2], ContactLaw::Exact);
-        stage(&mut tmp, &y, &k[2], dt);
-        chain.derivative(&mut ws, T::of(a1), &tmp, &mut k[3], ContactLaw::Exact);
-        for i in 0..dim {
-            y[i] += dt * sixth * (k[0][i] + T::of(2.0) * (k[1][i] + k[2][i]) + k[3][i]);
-        }
+        rk4_step(
+            chain,
+            &mut ws,
+            &mut y,
+            &mut k,
+            &mut tmp,
+            dt,
+            [T::of(a0), T::of(a_mid), T::of(a1)],
+        );
         let now = touch_flags(chain, &mut ws, &y);
         impacts += u64::from(now.0 && !touching.0) + u64::from(now.1 && !touching.1);
         touching = now;
@@ -154,6 +151,33 @@ pub fn integrate_batch<T: Real, O: Observer<T> + Send>(
         .zip(observers.par_iter_mut())
         .map(|(inst, obs)| integrate(inst, plan, obs))
         .collect()
+}
+
+/// One classical RK4 step of `y` by `dt`, with the cart acceleration at the start, middle
+/// and end of the step. `k` and `tmp` are scratch of the state's length.
+#[inline]
+pub fn rk4_step<T: Real>(
+    chain: &Chain<T>,
+    ws: &mut Workspace<T>,
+    y: &mut [T],
+    k: &mut [Vec<T>; 4],
+    tmp: &mut [T],
+    dt: T,
+    cart_acc: [T; 3],
+) {
+    let half = T::of(0.5);
+    let sixth = T::of(1.0 / 6.0);
+    let [a0, a_mid, a1] = cart_acc;
+    chain.derivative(ws, a0, y, &mut k[0], ContactLaw::Exact);
+    stage(tmp, y, &k[0], dt * half);
+    chain.derivative(ws, a_mid, tmp, &mut k[1], ContactLaw::Exact);
+    stage(tmp, y, &k[1], dt * half);
+    chain.derivative(ws, a_mid, tmp, &mut k[2], ContactLaw::Exact);
+    stage(tmp, y, &k[2], dt);
+    chain.derivative(ws, a1, tmp, &mut k[3], ContactLaw::Exact);
+    for i in 0..y.len() {
+        y[i] += dt * sixth * (k[0][i] + T::of(2.0) * (k[1][i] + k[2][i]) + k[3][i]);
+    }
 }
 
 #[inline]

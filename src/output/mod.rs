@@ -1,5 +1,6 @@
 //! What leaves the program: trajectories as CSV, arrays as `.npy`.
 
+pub mod map;
 pub mod npy;
 mod trajectory;
 

@@ -4,7 +4,9 @@
 mod analysis;
 mod cli;
 mod config;
+mod gpu;
 mod integrate;
+mod map;
 mod model;
 mod render;
 

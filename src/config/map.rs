@@ -1,0 +1,649 @@
+//! Map scenes: a base scene plus a `[map]` section naming 1–3 swept keys, the metrics wanted
+//! and how each instance is sampled.
+//!
+//! ```toml
+//! [map]
+//! metrics = ["K", "R", "period", "hops", "impacts_per_s", "alpha_range"]
+//! [[map.axes]]
+//! key = "excitation.frequency_hz"
+//! start = 4.0
+//! end = 12.0
+//! count = 33
+//! ```
+//!
+//! Every instance is the base scene with the axis keys set to the grid values, validated like
+//! any scene, so a swept value out of range is reported with its key.
+
+use super::error::ConfigError;
+use super::reader::{Range, Reader, apply_override, parse_toml};
+use super::scene::{ExcitationKind, Scene};
+use serde::Serialize;
+use toml::{Table, Value};
+
+/// The embedded default map (`configs/maps/default.toml`): what `pendulum-atlas map` runs with no scene.
+pub const DEFAULT_MAP_TOML: &str = include_str!("../../configs/maps/default.toml");
+
+/// Largest grid accepted (instances). Beyond this the results alone need gigabytes.
+pub const MAX_INSTANCES: usize = 4_000_000;
+
+/// A per-instance quantity a map can show.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+pub enum Metric {
+    /// 0–1 test K on the stroboscopic samples.
+    #[serde(rename = "K")]
+    K,
+    /// Phase-synchronisation index R of holder angle vs cart position.
+    #[serde(rename = "R")]
+    R,
+    /// Period of the stroboscopic section (0 = none found).
+    #[serde(rename = "period")]
+    Period,
+    /// Hops between the wells after the transient.
+    #[serde(rename = "hops")]
+    Hops,
+    /// Bumper contact onsets per second after the transient.
+    #[serde(rename = "impacts_per_s")]
+    ImpactsPerS,
+    /// Smallest and largest holder angle after the transient.
+    #[serde(rename = "alpha_range")]
+    AlphaRange,
+    /// Mean harvested power v²/R_L after the transient (needs `piezo.enabled`).
+    #[serde(rename = "power")]
+    Power,
+}
+
+impl Metric {
+    /// Every metric, in output order.
+    pub const ALL: [Metric; 7] = [
+        Metric::K,
+        Metric::R,
+        Metric::Period,
+        Metric::Hops,
+        Metric::ImpactsPerS,
+        Metric::AlphaRange,
+        Metric::Power,
+    ];
+
+    /// The name used in scenes and file names.
+    pub fn name(self) -> &'static str {
+        match self {
+            Metric::K => "K",
+            Metric::R => "R",
+            Metric::Period => "period",
+            Metric::Hops => "hops",
+            Metric::ImpactsPerS => "impacts_per_s",
+            Metric::AlphaRange => "alpha_range",
+            Metric::Power => "power",
+        }
+    }
+
+    fn parse(s: &str) -> Option<Metric> {
+        Metric::ALL.into_iter().find(|m| m.name() == s)
+    }
+}
+
+/// Spacing of an axis's values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AxisScale {
+    /// Evenly spaced.
+    Linear,
+    /// Evenly spaced in log (start and end > 0).
+    Log,
+}
+
+/// One swept scene key.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MapAxis {
+    /// Dotted scene key, e.g. `excitation.frequency_hz`.
+    pub key: String,
+    /// Values of the key along the axis, in order.
+    pub values: Vec<f64>,
+    /// Spacing.
+    pub scale: AxisScale,
+}
+
+impl MapAxis {
+    /// A label with the unit in physical terms, for pictures.
+    pub fn label(&self) -> String {
+        axis_label(&self.key)
+    }
+}
+
+/// A readable label (with unit) for a scene key; unknown keys are shown as they are.
+pub fn axis_label(key: &str) -> String {
+    match key {
+        "excitation.frequency_hz" => "forcing frequency f (Hz)".into(),
+        "excitation.amplitude_m" => "cart amplitude A (m)".into(),
+        "limiter.clearance_deg" => "clearance θc (deg)".into(),
+        "limiter.contact_arc_m" => "bumper arc s_b (m)".into(),
+        "limiter.stiffness_n_per_m" => "contact stiffness k_c (N/m)".into(),
+        "tip.mass_kg" => "tip mass M (kg)".into(),
+        "piezo.load_ohm" => "load R_L (Ω)".into(),
+        "beam.damping_ratio" => "damping ratio ζ1".into(),
+        "initial.angle_deg" => "initial angle (deg)".into(),
+        other => {
+            let unit = other.rsplit('_').next().unwrap_or("");
+            let units = [
+                ("hz", "Hz"),
+                ("m", "m"),
+                ("deg", "deg"),
+                ("kg", "kg"),
+                ("ohm", "Ω"),
+                ("s", "s"),
+                ("pa", "Pa"),
+            ];
+            match units.iter().find(|(u, _)| *u == unit) {
+                Some((_, u)) => format!("{other} ({u})"),
+                None => other.to_string(),
+            }
+        }
+    }
+}
+
+/// A validated map scene.
+#[derive(Debug, Clone, Serialize)]
+pub struct MapSpec {
+    /// The base scene (what every instance starts from), validated.
+    pub scene: Scene,
+    /// The base scene table (after overrides, without `[map]`), from which instances are made.
+    #[serde(skip)]
+    pub base_table: Table,
+    /// The swept keys, 1 to 3; the grid is their Cartesian product, last axis fastest.
+    pub axes: Vec<MapAxis>,
+    /// The metrics to compute, in output order. Anything else is neither computed nor stored.
+    pub metrics: Vec<Metric>,
+    /// Draw a bifurcation diagram (1-D maps only): stroboscopic α against the axis.
+    pub bifurcation: bool,
+    /// Integration steps per forcing period are a multiple of this; it is also the sampling
+    /// rate (per period) of the series R is computed from.
+    pub samples_per_period: u32,
+    /// Phase of the stroboscopic samples within the forcing period, in [0, 1).
+    pub strobe_phase: f64,
+    /// Longest series R is computed from (a power of two).
+    pub r_max_samples: u32,
+    /// Phase-difference convention of R.
+    pub phase_convention: crate::analysis::PhaseConvention,
+    /// Number of c values of the 0–1 test.
+    pub k_n_c: usize,
+    /// Seed of the c values.
+    pub k_seed: u64,
+    /// Longest period searched (forcing periods).
+    pub period_max: u32,
+    /// Number of trailing stroboscopic samples that must repeat.
+    pub period_window: u32,
+    /// Tolerance of the period test (rad).
+    pub period_tol_rad: f64,
+    /// Number of stroboscopic samples per instance kept for the bifurcation diagram.
+    pub bifurcation_samples: u32,
+}
+
+impl MapSpec {
+    /// Shape of the grid (one entry per axis).
+    pub fn shape(&self) -> Vec<usize> {
+        self.axes.iter().map(|a| a.values.len()).collect()
+    }
+
+    /// Number of instances.
+    pub fn instances(&self) -> usize {
+        self.shape().iter().product()
+    }
+
+    /// Axis indices of instance `k` (C order: the last axis varies fastest).
+    pub fn index_of(&self, mut k: usize) -> Vec<usize> {
+        let shape = self.shape();
+        let mut idx = vec![0; shape.len()];
+        for (d, &n) in shape.iter().enumerate().rev() {
+            idx[d] = k % n;
+            k /= n;
+        }
+        idx
+    }
+
+    /// Axis values of instance `k`.
+    pub fn values_of(&self, k: usize) -> Vec<f64> {
+        self.index_of(k)
+            .iter()
+            .zip(&self.axes)
+            .map(|(&i, a)| a.values[i])
+            .collect()
+    }
+
+    /// Whether a metric was asked for.
+    pub fn wants(&self, m: Metric) -> bool {
+        self.metrics.contains(&m)
+    }
+
+    /// The validated scene of instance `k`: the base scene with the axis keys set.
+    pub fn instance_scene(&self, k: usize) -> Result<Scene, ConfigError> {
+        let mut table = self.base_table.clone();
+        for (axis, v) in self.axes.iter().zip(self.values_of(k)) {
+            set_number(&mut table, &axis.key, v)?;
+        }
+        Scene::from_table(table).map_err(|e| ConfigError::Inconsistent {
+            key: "map.axes".into(),
+            reason: format!(
+                "grid point {} gives an invalid scene: {e}",
+                self.axes
+                    .iter()
+                    .zip(self.values_of(k))
+                    .map(|(a, v)| format!("{} = {v}", a.key))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        })
+    }
+}
+
+/// Set a numeric key in a scene table, keeping integer keys integer.
+fn set_number(table: &mut Table, key: &str, v: f64) -> Result<(), ConfigError> {
+    let existing_int = lookup(table, key).is_some_and(|x| x.is_integer());
+    let text = if existing_int {
+        if v.fract() != 0.0 {
+            return Err(ConfigError::WrongType {
+                key: key.into(),
+                expected: "an integer (it is swept by a map axis)".into(),
+                found: format!("{v}"),
+            });
+        }
+        format!("{key}={}", v as i64)
+    } else {
+        format!("{key}={v:e}")
+    };
+    apply_override(table, &text)
+}
+
+fn lookup<'a>(table: &'a Table, key: &str) -> Option<&'a Value> {
+    let mut cursor = table;
+    let parts: Vec<&str> = key.split('.').collect();
+    for (i, p) in parts.iter().enumerate() {
+        let v = cursor.get(*p)?;
+        if i + 1 == parts.len() {
+            return Some(v);
+        }
+        cursor = v.as_table()?;
+    }
+    None
+}
+
+/// Read a map scene: `path` (or the embedded default map when `None`) with `--set` overrides.
+/// Overrides may target scene keys (`excitation.amplitude_m=0.012`) or map keys
+/// (`map.samples_per_period=32`).
+pub fn load_map(path: Option<&std::path::Path>, sets: &[String]) -> Result<MapSpec, ConfigError> {
+    let (text, origin) = match path {
+        None => (
+            DEFAULT_MAP_TOML.to_string(),
+            "<embedded configs/maps/default.toml>".to_string(),
+        ),
+        Some(p) => (
+            std::fs::read_to_string(p).map_err(|e| ConfigError::Io {
+                path: p.display().to_string(),
+                source: e,
+            })?,
+            p.display().to_string(),
+        ),
+    };
+    map_from_toml(&text, &origin, sets)
+}
+
+/// Parse a map scene from TOML text.
+pub fn map_from_toml(text: &str, origin: &str, sets: &[String]) -> Result<MapSpec, ConfigError> {
+    let mut table = parse_toml(text, origin)?;
+    for s in sets {
+        apply_override(&mut table, s)?;
+    }
+    let map = match table.remove("map") {
+        Some(Value::Table(t)) => t,
+        Some(_) => {
+            return Err(ConfigError::WrongType {
+                key: "map".into(),
+                expected: "a section".into(),
+                found: "a value".into(),
+            });
+        }
+        None => {
+            return Err(ConfigError::Inconsistent {
+                key: "map".into(),
+                reason: format!(
+                    "`{origin}` has no [map] section: a map scene names its axes in [[map.axes]] (see configs/maps/)"
+                ),
+            });
+        }
+    };
+    let scene = Scene::from_table(table.clone())?;
+    if !matches!(scene.excitation.kind, ExcitationKind::Harmonic { .. }) {
+        return Err(ConfigError::Inconsistent {
+            key: "excitation.kind".into(),
+            reason:
+                "maps need harmonic excitation (a stroboscopic section needs one forcing period)"
+                    .into(),
+        });
+    }
+    read_map(map, scene, table)
+}
+
+fn read_map(mut map: Table, scene: Scene, base_table: Table) -> Result<MapSpec, ConfigError> {
+    let axes_value = map.remove("axes");
+    let metrics_value = map.remove("metrics");
+    let mut wrapped = Table::new();
+    if !map.is_empty() {
+        wrapped.insert("map".into(), Value::Table(map));
+    }
+    let mut r = Reader::new(wrapped);
+
+    let axes = read_axes(axes_value, &base_table)?;
+    let metrics = read_metrics(metrics_value, &scene)?;
+    let bifurcation = r.boolean("map.bifurcation", false)?;
+    if bifurcation && axes.len() != 1 {
+        return Err(ConfigError::Inconsistent {
+            key: "map.bifurcation".into(),
+            reason: format!(
+                "a bifurcation diagram needs exactly one axis, this map has {}",
+                axes.len()
+            ),
+        });
+    }
+    let samples_per_period = r.integer("map.samples_per_period", 16, 4, 4096)? as u32;
+    let strobe_phase = r.number("map.strobe_phase", 0.0, Range::ClosedOpen(0.0, 1.0), "")?;
+    let r_max_samples = r.integer("map.r_max_samples", 1024, 32, 65536)? as u32;
+    if !r_max_samples.is_power_of_two() {
+        return Err(ConfigError::OutOfRange {
+            key: "map.r_max_samples".into(),
+            value: r_max_samples as f64,
+            range: "powers of two in [32, 65536]".into(),
+        });
+    }
+    let phase_convention = match r
+        .choice("map.phase_convention", "standard", &["standard", "paper"])?
+        .as_str()
+    {
+        "paper" => crate::analysis::PhaseConvention::Paper,
+        _ => crate::analysis::PhaseConvention::Standard,
+    };
+    let k_n_c = r.integer("map.k_n_c", 100, 1, 1000)? as usize;
+    let k_seed = r.integer("map.k_seed", 0, 0, i64::MAX)? as u64;
+    let period_max = r.integer("map.period_max", 8, 1, 64)? as u32;
+    let period_window = r.integer("map.period_window", 16, 1, 4096)? as u32;
+    let period_tol_rad = r.number("map.period_tol_rad", 1e-3, Range::Positive, "rad")?;
+    let bifurcation_samples = r.integer("map.bifurcation_samples", 64, 1, 4096)? as u32;
+    r.finish()?;
+
+    let spec = MapSpec {
+        scene,
+        base_table,
+        axes,
+        metrics,
+        bifurcation,
+        samples_per_period,
+        strobe_phase,
+        r_max_samples,
+        phase_convention,
+        k_n_c,
+        k_seed,
+        period_max,
+        period_window,
+        period_tol_rad,
+        bifurcation_samples,
+    };
+    // Every axis key must be a scene key that takes this kind of value: check the first point.
+    spec.instance_scene(0)?;
+    Ok(spec)
+}
+
+fn read_metrics(v: Option<Value>, scene: &Scene) -> Result<Vec<Metric>, ConfigError> {
+    let Some(v) = v else {
+        let mut all: Vec<Metric> = Metric::ALL.to_vec();
+        if !scene.piezo.enabled {
+            all.retain(|m| *m != Metric::Power);
+        }
+        return Ok(all);
+    };
+    let Value::Array(items) = v else {
+        return Err(ConfigError::WrongType {
+            key: "map.metrics".into(),
+            expected: "an array of metric names".into(),
+            found: "a single value".into(),
+        });
+    };
+    let names = Metric::ALL.map(|m| format!("\"{}\"", m.name())).join(", ");
+    let mut out = Vec::new();
+    for item in items {
+        let Value::String(s) = &item else {
+            return Err(ConfigError::WrongType {
+                key: "map.metrics".into(),
+                expected: format!("metric names out of {names}"),
+                found: format!("{item}"),
+            });
+        };
+        let m = Metric::parse(s).ok_or_else(|| ConfigError::BadChoice {
+            key: "map.metrics".into(),
+            value: s.clone(),
+            choices: names.clone(),
+        })?;
+        if m == Metric::Power && !scene.piezo.enabled {
+            return Err(ConfigError::Inconsistent {
+                key: "map.metrics".into(),
+                reason: "metric \"power\" needs piezo.enabled = true".into(),
+            });
+        }
+        if !out.contains(&m) {
+            out.push(m);
+        }
+    }
+    if out.is_empty() {
+        return Err(ConfigError::Inconsistent {
+            key: "map.metrics".into(),
+            reason: "the list is empty: name at least one metric".into(),
+        });
+    }
+    out.sort();
+    Ok(out)
+}
+
+fn read_axes(v: Option<Value>, base: &Table) -> Result<Vec<MapAxis>, ConfigError> {
+    let items = match v {
+        Some(Value::Array(items)) => items,
+        Some(_) => {
+            return Err(ConfigError::WrongType {
+                key: "map.axes".into(),
+                expected: "an array of tables ([[map.axes]])".into(),
+                found: "a single value".into(),
+            });
+        }
+        None => {
+            return Err(ConfigError::Inconsistent {
+                key: "map.axes".into(),
+                reason: "a map needs 1 to 3 axes ([[map.axes]] with key, start, end, count)".into(),
+            });
+        }
+    };
+    if items.is_empty() || items.len() > 3 {
+        return Err(ConfigError::Inconsistent {
+            key: "map.axes".into(),
+            reason: format!("a map needs 1 to 3 axes, found {}", items.len()),
+        });
+    }
+    let mut axes: Vec<MapAxis> = Vec::new();
+    let mut total: usize = 1;
+    for (i, item) in items.into_iter().enumerate() {
+        let prefix = format!("map.axes[{}]", i + 1);
+        let Value::Table(t) = item else {
+            return Err(ConfigError::WrongType {
+                key: prefix,
+                expected: "a table with key, start, end, count".into(),
+                found: "a value".into(),
+            });
+        };
+        let mut wrapped = Table::new();
+        let mut inner = Table::new();
+        inner.insert(format!("axes[{}]", i + 1), Value::Table(t));
+        wrapped.insert("map".into(), Value::Table(inner));
+        let mut r = Reader::new(wrapped);
+        let key = match r.raw(&format!("{prefix}.key"))? {
+            Some(Value::String(s)) => s.clone(),
+            Some(other) => {
+                return Err(ConfigError::WrongType {
+                    key: format!("{prefix}.key"),
+                    expected: "a dotted scene key such as \"excitation.frequency_hz\"".into(),
+                    found: format!("{other}"),
+                });
+            }
+            None => {
+                return Err(ConfigError::Inconsistent {
+                    key: format!("{prefix}.key"),
+                    reason: "missing: name the scene key this axis sweeps".into(),
+                });
+            }
+        };
+        if key == "beam.segments" {
+            return Err(ConfigError::Inconsistent {
+                key: format!("{prefix}.key"),
+                reason: "beam.segments cannot be swept: every instance of a map shares one segment count (run one map per N)".into(),
+            });
+        }
+        if key.starts_with("map.")
+            || key.starts_with("excitation.sweep")
+            || key == "excitation.kind"
+        {
+            return Err(ConfigError::Inconsistent {
+                key: format!("{prefix}.key"),
+                reason: format!("`{key}` cannot be a map axis"),
+            });
+        }
+        if axes.iter().any(|a| a.key == key) {
+            return Err(ConfigError::Inconsistent {
+                key: format!("{prefix}.key"),
+                reason: format!("`{key}` is swept twice"),
+            });
+        }
+        let scale = match r
+            .choice(&format!("{prefix}.scale"), "linear", &["linear", "log"])?
+            .as_str()
+        {
+            "log" => AxisScale::Log,
+            _ => AxisScale::Linear,
+        };
+        let values = match r.raw(&format!("{prefix}.values"))?.cloned() {
+            Some(Value::Array(vs)) => {
+                let mut out = Vec::new();
+                for v in vs {
+                    let x = match v {
+                        Value::Float(f) => f,
+                        Value::Integer(i) => i as f64,
+                        other => {
+                            return Err(ConfigError::WrongType {
+                                key: format!("{prefix}.values"),
+                                expected: "an array of numbers".into(),
+                                found: format!("{other}"),
+                            });
+                        }
+                    };
+                    if !x.is_finite() {
+                        return Err(ConfigError::NotFinite {
+                            key: format!("{prefix}.values"),
+                            value: x,
+                        });
+                    }
+                    out.push(x);
+                }
+                if out.is_empty() {
+                    return Err(ConfigError::Inconsistent {
+                        key: format!("{prefix}.values"),
+                        reason: "the list of values is empty".into(),
+                    });
+                }
+                if out.windows(2).any(|w| w[1] <= w[0]) {
+                    return Err(ConfigError::Inconsistent {
+                        key: format!("{prefix}.values"),
+                        reason: "values must be strictly increasing".into(),
+                    });
+                }
+                for k in ["start", "end", "count"] {
+                    if r.raw(&format!("{prefix}.{k}"))?.is_some() {
+                        return Err(ConfigError::Inconsistent {
+                            key: format!("{prefix}.{k}"),
+                            reason: "give either `values` or start/end/count, not both".into(),
+                        });
+                    }
+                }
+                out
+            }
+            Some(other) => {
+                return Err(ConfigError::WrongType {
+                    key: format!("{prefix}.values"),
+                    expected: "an array of numbers".into(),
+                    found: format!("{other}"),
+                });
+            }
+            None => {
+                let start = r
+                    .number(&format!("{prefix}.start"), f64::NAN, Range::Any, "")
+                    .map_err(|e| missing_to_named(e, &prefix, "start"))?;
+                let end = r
+                    .number(&format!("{prefix}.end"), f64::NAN, Range::Any, "")
+                    .map_err(|e| missing_to_named(e, &prefix, "end"))?;
+                let count = r.integer(&format!("{prefix}.count"), 0, 1, 1_000_000)?;
+                if count == 1 && start != end {
+                    return Err(ConfigError::Inconsistent {
+                        key: format!("{prefix}.count"),
+                        reason: "count = 1 needs start = end".into(),
+                    });
+                }
+                if count > 1 && end <= start {
+                    return Err(ConfigError::Inconsistent {
+                        key: format!("{prefix}.end"),
+                        reason: format!(
+                            "the axis is empty: end = {end} must exceed start = {start}"
+                        ),
+                    });
+                }
+                if scale == AxisScale::Log && start <= 0.0 {
+                    return Err(ConfigError::Inconsistent {
+                        key: format!("{prefix}.start"),
+                        reason: "a log axis needs start > 0".into(),
+                    });
+                }
+                let n = count as usize;
+                (0..n)
+                    .map(|j| {
+                        let u = if n == 1 {
+                            0.0
+                        } else {
+                            j as f64 / (n - 1) as f64
+                        };
+                        match scale {
+                            AxisScale::Linear => start + (end - start) * u,
+                            AxisScale::Log => (start.ln() + (end.ln() - start.ln()) * u).exp(),
+                        }
+                    })
+                    .collect()
+            }
+        };
+        r.finish()?;
+        total = total
+            .checked_mul(values.len())
+            .filter(|&t| t <= MAX_INSTANCES)
+            .ok_or_else(|| ConfigError::OutOfRange {
+                key: format!("{prefix}.count"),
+                value: values.len() as f64,
+                range: format!(
+                    "grids of at most {MAX_INSTANCES} instances in all (this one would need more)"
+                ),
+            })?;
+        // The key must exist in the scene schema: checked by validating the first grid point.
+        let _ = base;
+        axes.push(MapAxis { key, values, scale });
+    }
+    Ok(axes)
+}
+
+/// `Reader::number` with a NaN default reports "must be finite": say the key is missing instead.
+fn missing_to_named(e: ConfigError, prefix: &str, what: &str) -> ConfigError {
+    match e {
+        ConfigError::NotFinite { .. } => ConfigError::Inconsistent {
+            key: format!("{prefix}.{what}"),
+            reason: "missing: an axis needs start, end and count (or values)".into(),
+        },
+        other => other,
+    }
+}

@@ -1,0 +1,439 @@
+//! The ensemble of a map: one independent instance per grid point, each with its own step
+//! plan, integrated by the CPU engine here (rayon, `f32` or `f64`) or by the GPU engine
+//! ([`crate::integrate::gpu`]), which mirrors this file step for step.
+//!
+//! Every instance's step divides its forcing period exactly: `spp` steps per period, a
+//! multiple of `samples_per_period`. The forcing phase is `(step mod spp)/spp`, exact in
+//! integer arithmetic on both engines, and stroboscopic samples fall on steps.
+//!
+//! While integrating, each instance keeps running accumulators over the steps after the
+//! transient (α range, hops, impacts, harvested power) and records only the series its
+//! metrics need: the stroboscopic α (K, period, bifurcation) and a power-of-two uniform α
+//! series at `samples_per_period` per period (R). Trajectories are never stored.
+
+use crate::config::{MapSpec, Metric, Scene, TimeStep};
+use crate::integrate::status::{Guard, Status};
+use crate::model::{Chain, ModelParams, Real, modes};
+use anyhow::{Result, bail};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::HashMap;
+use std::f64::consts::TAU;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Steps between health checks (energy bound, folded chain, non-finite state).
+pub const CHECK_EVERY: u64 = 64;
+
+/// The step plan and sampling of one instance.
+#[derive(Debug, Clone, Serialize)]
+pub struct InstancePlan {
+    /// The instance's coefficients.
+    #[serde(skip)]
+    pub params: ModelParams,
+    /// Initial state `[θ; θ̇; v]`.
+    #[serde(skip)]
+    pub y0: Vec<f64>,
+    /// Divergence bounds.
+    #[serde(skip)]
+    pub guard: Guard,
+    /// Forcing frequency (Hz).
+    pub frequency_hz: f64,
+    /// Cart amplitude A (m).
+    pub amplitude_m: f64,
+    /// Steps per forcing period.
+    pub spp: u32,
+    /// The step (s) = 1/(f · spp).
+    pub dt_s: f64,
+    /// Forcing periods discarded as transient.
+    pub transient_periods: u32,
+    /// Forcing periods integrated in all.
+    pub total_periods: u32,
+    /// Step within the period at which stroboscopic samples are taken.
+    pub strobe_offset: u32,
+    /// Number of stroboscopic samples after the transient.
+    pub strobe_count: u32,
+    /// Steps between samples of the R series.
+    pub r_every: u32,
+    /// Length of the R series (a power of two).
+    pub r_count: u32,
+    /// Step of the first R sample.
+    pub r_start: u32,
+    /// Half the clearance (rad): the well thresholds of hop counting.
+    pub half_clearance_rad: f64,
+}
+
+impl InstancePlan {
+    /// Total steps.
+    pub fn total_steps(&self) -> u64 {
+        u64::from(self.total_periods) * u64::from(self.spp)
+    }
+
+    /// Steps of the transient.
+    pub fn transient_steps(&self) -> u64 {
+        u64::from(self.transient_periods) * u64::from(self.spp)
+    }
+
+    /// Time after the transient (s).
+    pub fn post_transient_s(&self) -> f64 {
+        f64::from(self.total_periods - self.transient_periods) / self.frequency_hz
+    }
+
+    /// Cart acceleration at phase `(step mod spp + frac)/spp`.
+    #[inline]
+    pub fn cart_acc(&self, phase_steps: u64, frac: f64) -> f64 {
+        let ph = (phase_steps as f64 + frac) / f64::from(self.spp);
+        -self.acc_amp() * (TAU * ph).sin()
+    }
+
+    /// Cart position at `step`.
+    pub fn cart_pos(&self, step: u64) -> f64 {
+        let ph = (step % u64::from(self.spp)) as f64 / f64::from(self.spp);
+        self.amplitude_m * (TAU * ph).sin()
+    }
+
+    /// Cart velocity at `step`.
+    pub fn cart_vel(&self, step: u64) -> f64 {
+        let ph = (step % u64::from(self.spp)) as f64 / f64::from(self.spp);
+        self.amplitude_m * TAU * self.frequency_hz * (TAU * ph).cos()
+    }
+
+    /// A ω² (m/s²).
+    pub fn acc_amp(&self) -> f64 {
+        self.amplitude_m * (TAU * self.frequency_hz).powi(2)
+    }
+}
+
+/// Every instance of a map with the settings shared by all.
+#[derive(Debug, Clone, Serialize)]
+pub struct EnsemblePlan {
+    /// The instances, in grid order (last axis fastest).
+    #[serde(skip)]
+    pub instances: Vec<InstancePlan>,
+    /// Segments N (shared).
+    pub segments: usize,
+    /// Bumpers present (shared).
+    pub has_contact: bool,
+    /// Piezo present (shared).
+    pub has_piezo: bool,
+    /// Metrics requested.
+    pub metrics: Vec<Metric>,
+    /// Stroboscopic samples are recorded (K, period or bifurcation).
+    pub want_strobe: bool,
+    /// The R series is recorded.
+    pub want_rseries: bool,
+    /// Largest stroboscopic count over the instances.
+    pub strobe_stride: u32,
+    /// Largest R series length over the instances.
+    pub r_stride: u32,
+    /// Smallest and largest step over the instances (s).
+    pub dt_range_s: (f64, f64),
+    /// Total instance-steps.
+    pub total_steps: u64,
+    /// Warnings from planning (explicit dt beyond the stability limit, ...).
+    pub warnings: Vec<String>,
+}
+
+/// Minimum stroboscopic samples the 0–1 test accepts.
+const MIN_STROBE: u32 = crate::analysis::ZERO_ONE_MIN_SAMPLES as u32;
+
+impl EnsemblePlan {
+    /// Plan every instance of a map: validate its scene, choose its step and sampling.
+    pub fn new(spec: &MapSpec) -> Result<EnsemblePlan> {
+        let n_inst = spec.instances();
+        let scenes: Vec<Scene> = (0..n_inst)
+            .into_par_iter()
+            .map(|k| spec.instance_scene(k))
+            .collect::<Result<_, _>>()?;
+        // The stability limit depends on the structure, not on the cart: solve it once per
+        // distinct structure.
+        let key = |s: &Scene| {
+            let mut s = s.clone();
+            s.excitation = spec.scene.excitation.clone();
+            serde_json::to_string(&s).unwrap_or_default()
+        };
+        let mut unique: HashMap<String, usize> = HashMap::new();
+        for (k, s) in scenes.iter().enumerate() {
+            unique.entry(key(s)).or_insert(k);
+        }
+        let reps: Vec<(String, usize)> = unique.into_iter().collect();
+        let limits: HashMap<String, (f64, f64)> = reps
+            .par_iter()
+            .map(|(kstr, k)| {
+                let m = modes(&scenes[*k]);
+                (kstr.clone(), (m.dt_auto_s, m.dt_stable_s))
+            })
+            .collect();
+        let mut warnings = Vec::new();
+        let first = &scenes[0];
+        let instances: Vec<InstancePlan> = scenes
+            .par_iter()
+            .map(|s| plan_instance(spec, s, limits[&key(s)]))
+            .collect::<Result<_>>()?;
+        for s in &scenes {
+            if s.limiter.enabled != first.limiter.enabled || s.piezo.enabled != first.piezo.enabled
+            {
+                bail!("every instance of a map must share limiter.enabled and piezo.enabled");
+            }
+        }
+        if let TimeStep::Seconds(dt) = first.integration.dt_s {
+            let unstable = scenes.iter().filter(|s| dt > limits[&key(s)].1).count();
+            if unstable > 0 {
+                warnings.push(format!(
+                    "integration.dt_s = {dt:e} s exceeds the RK4 stability limit of the linearised model for {unstable} of {n_inst} instances; those that blow up are flagged `diverged`"
+                ));
+            }
+        }
+        let want_strobe = spec.wants(Metric::K) || spec.wants(Metric::Period) || spec.bifurcation;
+        let want_rseries = spec.wants(Metric::R);
+        let strobe_stride = instances.iter().map(|p| p.strobe_count).max().unwrap_or(0);
+        let r_stride = instances.iter().map(|p| p.r_count).max().unwrap_or(0);
+        let dts = instances.iter().map(|p| p.dt_s);
+        let dt_range_s = (
+            dts.clone().fold(f64::INFINITY, f64::min),
+            dts.fold(0.0, f64::max),
+        );
+        let total_steps = instances.iter().map(InstancePlan::total_steps).sum();
+        Ok(EnsemblePlan {
+            segments: first.beam.segments,
+            has_contact: first.limiter.enabled,
+            has_piezo: first.piezo.enabled,
+            metrics: spec.metrics.clone(),
+            want_strobe,
+            want_rseries,
+            strobe_stride,
+            r_stride,
+            dt_range_s,
+            total_steps,
+            warnings,
+            instances,
+        })
+    }
+}
+
+fn plan_instance(spec: &MapSpec, scene: &Scene, limits: (f64, f64)) -> Result<InstancePlan> {
+    let params = ModelParams::from_scene(scene);
+    let f = scene.excitation.reference_frequency_hz();
+    let period = 1.0 / f;
+    let sp = u64::from(spec.samples_per_period);
+    let blocks = match scene.integration.dt_s {
+        TimeStep::Auto => (period / (sp as f64 * limits.0) - 1e-9).ceil().max(1.0),
+        TimeStep::Seconds(dt) => (period / (sp as f64 * dt)).round().max(1.0),
+    } as u64;
+    let spp = sp * blocks;
+    let total_periods = (scene.integration.duration_s * f).round().max(1.0) as u64;
+    let transient_periods = ((scene.integration.transient_s * f).round() as u64).max(1);
+    let at = format!(
+        "f = {f} Hz, duration {} s, transient {} s",
+        scene.integration.duration_s, scene.integration.transient_s
+    );
+    if transient_periods >= total_periods {
+        bail!("{at}: the transient leaves no forcing period to analyse");
+    }
+    let total_steps = total_periods * spp;
+    if total_steps > u64::from(u32::MAX) {
+        bail!(
+            "{at}: {total_steps} steps per instance exceed the engine's 32-bit step counter; shorten integration.duration_s or lengthen dt"
+        );
+    }
+    let strobe_offset = ((spec.strobe_phase * spp as f64).round() as u64) % spp;
+    let mut strobe_count = 0u64;
+    while (transient_periods + strobe_count) * spp + strobe_offset <= total_steps {
+        strobe_count += 1;
+    }
+    let needs_strobe = spec.wants(Metric::K) || spec.wants(Metric::Period);
+    if needs_strobe && strobe_count < u64::from(MIN_STROBE) {
+        bail!(
+            "{at}: only {strobe_count} stroboscopic samples after the transient; K and period need at least {MIN_STROBE}: lengthen integration.duration_s"
+        );
+    }
+    let r_every = blocks;
+    let avail = (total_steps - transient_periods * spp) / r_every + 1;
+    let mut r_count = 1u64 << (63 - avail.leading_zeros());
+    r_count = r_count.min(u64::from(spec.r_max_samples));
+    if spec.wants(Metric::R) && r_count < 32 {
+        bail!("{at}: too short after the transient for R (needs 32 samples)");
+    }
+    let r_start = total_steps - (r_count - 1) * r_every;
+    let y0 = params.initial_state(scene);
+    let guard = Guard::for_params(&params);
+    Ok(InstancePlan {
+        frequency_hz: f,
+        amplitude_m: scene.excitation.amplitude_m,
+        spp: spp as u32,
+        dt_s: period / spp as f64,
+        transient_periods: transient_periods as u32,
+        total_periods: total_periods as u32,
+        strobe_offset: strobe_offset as u32,
+        strobe_count: strobe_count as u32,
+        r_every: r_every as u32,
+        r_count: r_count as u32,
+        r_start: r_start as u32,
+        half_clearance_rad: 0.5 * scene.limiter.clearance_deg.to_radians(),
+        params,
+        y0,
+        guard,
+    })
+}
+
+/// What one instance's integration leaves behind: accumulators and the recorded series.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RawInstance {
+    /// Final status.
+    pub status: Status,
+    /// Steps taken.
+    pub steps_done: u64,
+    /// Smallest α after the transient (rad).
+    pub alpha_min: f64,
+    /// Largest α after the transient (rad).
+    pub alpha_max: f64,
+    /// Hops between wells after the transient.
+    pub hops: u32,
+    /// Bumper contact onsets after the transient.
+    pub impacts: u32,
+    /// Σ v²/R_L over the steps after the transient (W).
+    pub power_sum: f64,
+    /// Stroboscopic α after the transient (empty unless recorded).
+    pub strobe: Vec<f64>,
+    /// Uniform α series for R (empty unless recorded).
+    pub r_alpha: Vec<f64>,
+}
+
+/// Integrate one instance with RK4 in the float type `T`, as the GPU kernel does.
+pub fn run_instance<T: Real>(
+    plan: &InstancePlan,
+    want_strobe: bool,
+    want_rseries: bool,
+) -> RawInstance {
+    let chain: Chain<T> = Chain::new(&plan.params);
+    let n = chain.segments();
+    let dim = plan.y0.len();
+    let mut ws = chain.workspace();
+    let mut y: Vec<T> = plan.y0.iter().map(|&v| T::of(v)).collect();
+    let mut k = [
+        vec![T::zero(); dim],
+        vec![T::zero(); dim],
+        vec![T::zero(); dim],
+        vec![T::zero(); dim],
+    ];
+    let mut tmp = vec![T::zero(); dim];
+    let dt = T::of(plan.dt_s);
+    let total = plan.total_steps();
+    let transient = plan.transient_steps();
+    let spp = u64::from(plan.spp);
+    let inv_r = plan.params.piezo.as_ref().map_or(0.0, |z| 1.0 / z.load_ohm);
+    let mut raw = RawInstance {
+        status: Status::Ok,
+        steps_done: 0,
+        alpha_min: f64::INFINITY,
+        alpha_max: f64::NEG_INFINITY,
+        hops: 0,
+        impacts: 0,
+        power_sum: 0.0,
+        strobe: if want_strobe {
+            vec![f64::NAN; plan.strobe_count as usize]
+        } else {
+            Vec::new()
+        },
+        r_alpha: if want_rseries {
+            vec![f64::NAN; plan.r_count as usize]
+        } else {
+            Vec::new()
+        },
+    };
+    let mut touch = chain.touching(&mut ws, &y);
+    let mut well = 0i32;
+    let mut s = 0u64;
+    while s < total {
+        let ph = s % spp;
+        let a0 = T::of(plan.cart_acc(ph, 0.0));
+        let am = T::of(plan.cart_acc(ph, 0.5));
+        let a1 = T::of(plan.cart_acc(ph, 1.0));
+        crate::integrate::rk4::rk4_step(
+            &chain,
+            &mut ws,
+            &mut y,
+            &mut k,
+            &mut tmp,
+            dt,
+            [a0, am, a1],
+        );
+        s += 1;
+        let alpha = y[0].wide();
+        let now = chain.touching(&mut ws, &y);
+        if s > transient {
+            raw.impacts += u32::from(now.0 && !touch.0) + u32::from(now.1 && !touch.1);
+            raw.alpha_min = raw.alpha_min.min(alpha);
+            raw.alpha_max = raw.alpha_max.max(alpha);
+            let w = if alpha > plan.half_clearance_rad {
+                1
+            } else if alpha < -plan.half_clearance_rad {
+                -1
+            } else {
+                0
+            };
+            if w != 0 {
+                if well != 0 && well != w {
+                    raw.hops += 1;
+                }
+                well = w;
+            }
+            if plan.params.piezo.is_some() {
+                let v = y[2 * n].wide();
+                raw.power_sum += v * v * inv_r;
+            }
+        }
+        touch = now;
+        if want_strobe && s >= transient && s % spp == u64::from(plan.strobe_offset) {
+            let idx = (s - u64::from(plan.strobe_offset)) / spp - u64::from(plan.transient_periods);
+            if let Some(slot) = raw.strobe.get_mut(idx as usize) {
+                *slot = alpha;
+            }
+        }
+        let r_start = u64::from(plan.r_start);
+        if want_rseries && s >= r_start && (s - r_start) % u64::from(plan.r_every) == 0 {
+            let j = (s - r_start) / u64::from(plan.r_every);
+            if let Some(slot) = raw.r_alpha.get_mut(j as usize) {
+                *slot = alpha;
+            }
+        }
+        if s % CHECK_EVERY == 0 || s == total {
+            let status = health(&chain, &plan.guard, &y, plan.cart_vel(s));
+            if status != Status::Ok {
+                raw.status = status;
+                break;
+            }
+        }
+    }
+    raw.steps_done = s;
+    raw
+}
+
+/// The health check of [`crate::integrate::health`], with the cart velocity given.
+fn health<T: Real>(chain: &Chain<T>, guard: &Guard, y: &[T], cart_v: f64) -> Status {
+    if y.iter().any(|v| !v.is_finite()) {
+        return Status::NonFinite;
+    }
+    let n = chain.segments();
+    if (1..n).any(|i| (y[i] - y[i - 1]).abs().wide() > guard.max_joint_bend_rad) {
+        return Status::Diverged;
+    }
+    let e = chain.energy(y, 0.0, cart_v).total_j();
+    if !e.is_finite() || e.abs() > guard.max_energy_j {
+        return Status::Diverged;
+    }
+    Status::Ok
+}
+
+/// Integrate every instance on the CPU (rayon); `progress` is called with the number of
+/// instances finished so far.
+pub fn run_cpu<T: Real>(plan: &EnsemblePlan, progress: &(dyn Fn(u64) + Sync)) -> Vec<RawInstance> {
+    let done = AtomicU64::new(0);
+    plan.instances
+        .par_iter()
+        .map(|p| {
+            let r = run_instance::<T>(p, plan.want_strobe, plan.want_rseries);
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+            r
+        })
+        .collect()
+}

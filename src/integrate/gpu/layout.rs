@@ -1,0 +1,249 @@
+//! The structs the GPU kernels read and write, `#[repr(C)]` and [`bytemuck::Pod`], mirrored
+//! member for member in `shaders/ensemble.wgsl` (a test compares both layouts with naga).
+//!
+//! [`GpuInstanceParams`] is filled from the one parameter struct, [`ModelParams`], and the
+//! instance's step plan: no physical coefficient is derived anywhere else.
+
+use crate::integrate::ensemble::InstancePlan;
+use bytemuck::{Pod, Zeroable};
+
+/// Largest segment count the GPU kernel's per-invocation arrays hold.
+pub const GPU_MAX_SEGMENTS: usize = 64;
+
+/// Per-instance coefficients and step plan (WGSL `InstanceParams`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct GpuInstanceParams {
+    /// ℓ (m).
+    pub seg_len: f32,
+    /// m (kg).
+    pub seg_mass: f32,
+    /// J (kg m²).
+    pub seg_inertia: f32,
+    /// M (kg).
+    pub tip_mass: f32,
+    /// J_h (kg m²).
+    pub holder_inertia: f32,
+    /// g (m/s²).
+    pub g: f32,
+    /// k (N m/rad).
+    pub k: f32,
+    /// k0 (N m/rad).
+    pub k0: f32,
+    /// b (N m s/rad).
+    pub b: f32,
+    /// b0 (N m s/rad).
+    pub b0: f32,
+    /// g_c (m).
+    pub gap: f32,
+    /// k_c (N/m).
+    pub kc: f32,
+    /// c_c (N s/m).
+    pub cc: f32,
+    /// 1/C_p (1/F).
+    pub piezo_inv_c: f32,
+    /// 1/R_L (1/Ω).
+    pub piezo_inv_r: f32,
+    /// Θ (N m/V).
+    pub piezo_theta: f32,
+    /// A (m).
+    pub pos_amp: f32,
+    /// A ω (m/s).
+    pub vel_amp: f32,
+    /// A ω² (m/s²).
+    pub acc_amp: f32,
+    /// dt (s).
+    pub dt: f32,
+    /// Energy bound of the guard (J).
+    pub guard_energy: f32,
+    /// Joint bend bound of the guard (rad).
+    pub guard_bend: f32,
+    /// Initial angle (rad).
+    pub theta0: f32,
+    /// Initial rate (rad/s).
+    pub omega0: f32,
+    /// Initial voltage (V).
+    pub volt0: f32,
+    /// θc/2 (rad), the well threshold of hop counting.
+    pub half_clearance: f32,
+    /// Padding.
+    pub pad0: f32,
+    /// Padding.
+    pub pad1: f32,
+    /// Number of contact levers.
+    pub n_levers: u32,
+    /// Last segment of the piezo patch (0-based).
+    pub piezo_last: u32,
+    /// Steps per forcing period.
+    pub spp: u32,
+    /// Transient periods.
+    pub transient_periods: u32,
+    /// Total periods.
+    pub total_periods: u32,
+    /// Step within the period of the stroboscopic samples.
+    pub strobe_offset: u32,
+    /// Stroboscopic samples after the transient.
+    pub strobe_count: u32,
+    /// Steps between R samples.
+    pub r_every: u32,
+    /// R series length.
+    pub r_count: u32,
+    /// Step of the first R sample.
+    pub r_start: u32,
+    /// Padding.
+    pub pad2: u32,
+    /// Padding.
+    pub pad3: u32,
+    /// Contact levers λ_i (m).
+    pub levers: [f32; GPU_MAX_SEGMENTS],
+}
+
+impl GpuInstanceParams {
+    /// From an instance plan (its [`ModelParams`] and step plan).
+    pub fn from_plan(p: &InstancePlan) -> GpuInstanceParams {
+        let m = &p.params;
+        let mut levers = [0f32; GPU_MAX_SEGMENTS];
+        let (n_levers, gap, kc, cc) = match &m.contact {
+            Some(c) => {
+                for (dst, &src) in levers.iter_mut().zip(&c.levers_m) {
+                    *dst = src as f32;
+                }
+                (
+                    c.levers_m.len() as u32,
+                    c.gap_m,
+                    c.stiffness_n_per_m,
+                    c.damping_ns_per_m,
+                )
+            }
+            None => (0, 0.0, 0.0, 0.0),
+        };
+        let (inv_c, inv_r, theta, last) = match &m.piezo {
+            Some(z) => (
+                1.0 / z.capacitance_f,
+                1.0 / z.load_ohm,
+                z.coupling_nm_per_v,
+                z.last_segment as u32,
+            ),
+            None => (1.0, 0.0, 0.0, 0),
+        };
+        let n = m.segments;
+        let w = std::f64::consts::TAU * p.frequency_hz;
+        GpuInstanceParams {
+            seg_len: m.seg_length_m as f32,
+            seg_mass: m.seg_mass_kg as f32,
+            seg_inertia: m.seg_inertia_kgm2 as f32,
+            tip_mass: m.tip_mass_kg as f32,
+            holder_inertia: m.holder_inertia_kgm2 as f32,
+            g: m.g_m_s2 as f32,
+            k: m.joint_stiffness_nm as f32,
+            k0: m.root_stiffness_nm as f32,
+            b: m.joint_damping_nms as f32,
+            b0: m.root_damping_nms as f32,
+            gap: gap as f32,
+            kc: kc as f32,
+            cc: cc as f32,
+            piezo_inv_c: inv_c as f32,
+            piezo_inv_r: inv_r as f32,
+            piezo_theta: theta as f32,
+            pos_amp: p.amplitude_m as f32,
+            vel_amp: (p.amplitude_m * w) as f32,
+            acc_amp: (p.amplitude_m * w * w) as f32,
+            dt: p.dt_s as f32,
+            guard_energy: p.guard.max_energy_j as f32,
+            guard_bend: p.guard.max_joint_bend_rad as f32,
+            theta0: p.y0[0] as f32,
+            omega0: p.y0[n] as f32,
+            volt0: p.y0[2 * n] as f32,
+            half_clearance: p.half_clearance_rad as f32,
+            pad0: 0.0,
+            pad1: 0.0,
+            n_levers,
+            piezo_last: last,
+            spp: p.spp,
+            transient_periods: p.transient_periods,
+            total_periods: p.total_periods,
+            strobe_offset: p.strobe_offset,
+            strobe_count: p.strobe_count,
+            r_every: p.r_every,
+            r_count: p.r_count,
+            r_start: p.r_start,
+            pad2: 0,
+            pad3: 0,
+            levers,
+        }
+    }
+}
+
+/// Running accumulators and reductions of one instance (WGSL `Accum`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct GpuAccum {
+    /// Steps taken.
+    pub step: u32,
+    /// 0 ok, 1 diverged, 2 non-finite.
+    pub status: u32,
+    /// Bumper penetration flags after the last step.
+    pub touch: u32,
+    /// Current well (+1, −1, 0 = none yet).
+    pub well: i32,
+    /// Hops after the transient.
+    pub hops: u32,
+    /// Contact onsets after the transient.
+    pub impacts: u32,
+    /// Period of the stroboscopic section.
+    pub period: u32,
+    /// Padding.
+    pub pad0: u32,
+    /// Smallest α after the transient (rad).
+    pub alpha_min: f32,
+    /// Largest α after the transient (rad).
+    pub alpha_max: f32,
+    /// Σ v²/R_L (Kahan sum).
+    pub power_sum: f32,
+    /// Kahan compensation.
+    pub power_comp: f32,
+    /// K.
+    pub k: f32,
+    /// R.
+    pub r: f32,
+    /// Padding.
+    pub pad1: f32,
+    /// Padding.
+    pub pad2: f32,
+}
+
+impl GpuAccum {
+    /// The state before the first step.
+    pub fn initial(touch: u32) -> GpuAccum {
+        GpuAccum {
+            touch,
+            alpha_min: f32::MAX,
+            alpha_max: -f32::MAX,
+            k: f32::NAN,
+            r: f32::NAN,
+            ..GpuAccum::zeroed()
+        }
+    }
+}
+
+/// Settings shared by every instance of a dispatch (WGSL `Control`, a uniform).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct GpuControl {
+    /// Instances.
+    pub n_inst: u32,
+    /// Steps each instance advances per dispatch.
+    pub steps_per_dispatch: u32,
+    /// Stroboscopic samples per instance in the strobe buffer.
+    pub strobe_stride: u32,
+    /// Work-space entries (vec2) per instance.
+    pub rwork_stride: u32,
+    /// Longest period searched.
+    pub period_max: u32,
+    /// Trailing samples that must repeat.
+    pub period_window: u32,
+    /// Period tolerance (rad).
+    pub period_tol: f32,
+    /// The c value the `k_pass` kernel works on.
+    pub c_index: u32,
+}

@@ -1,0 +1,224 @@
+//! A map from start to finish: plan the instances of a [`MapSpec`], integrate them on the
+//! chosen engine, reduce each to its metrics. [`crate::output::map`] writes the files.
+
+use crate::config::MapSpec;
+use crate::integrate::ensemble::{EnsemblePlan, run_cpu};
+use crate::integrate::gpu::{AdapterChoice, GpuContext, GpuReadback, GpuTimings, run_gpu};
+use crate::reduce::{InstanceResult, ReduceOptions, from_cpu, from_gpu};
+use anyhow::{Result, bail};
+use serde::Serialize;
+use std::time::Instant;
+
+/// Which engine runs a map.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Backend {
+    /// A hardware GPU if present, otherwise the CPU engine (measured faster than the software
+    /// GPU adapter lavapipe on the machines we tried; see the README).
+    Auto,
+    /// The GPU engine (wgpu): a hardware adapter, or lavapipe when that is all there is.
+    Gpu,
+    /// The CPU engine (rayon).
+    Cpu,
+}
+
+/// Float type of the CPU engine.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Precision {
+    /// Single precision, as the GPU integrates.
+    F32,
+    /// Double precision: the reference.
+    F64,
+}
+
+/// Wall time of each stage (s).
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct MapTimings {
+    /// Validating every instance's scene and choosing its step.
+    pub plan_s: f64,
+    /// Opening the GPU device (GPU runs).
+    pub device_s: f64,
+    /// Integration (including on-GPU reductions for GPU runs; see `gpu` for the split).
+    pub integrate_s: f64,
+    /// Reductions on the host (CPU runs: K, R, period with the analysis library).
+    pub reduce_s: f64,
+    /// Everything.
+    pub total_s: f64,
+    /// The GPU's own stages.
+    pub gpu: Option<GpuTimings>,
+}
+
+/// A finished map.
+#[derive(Debug, Clone, Serialize)]
+pub struct MapRun {
+    /// Per-instance results in grid order (last axis fastest).
+    #[serde(skip)]
+    pub results: Vec<InstanceResult>,
+    /// The instances' plans.
+    #[serde(skip)]
+    pub plan: EnsemblePlan,
+    /// "gpu" or "cpu".
+    pub backend: &'static str,
+    /// Why this backend ran.
+    pub backend_reason: String,
+    /// The GPU adapter's name, or the CPU's thread count.
+    pub device: String,
+    /// Float type of the integration.
+    pub precision: Precision,
+    /// Wall time per stage.
+    pub timings: MapTimings,
+    /// Integration dispatches (GPU).
+    pub dispatches: u32,
+    /// Stroboscopic tail per instance for the bifurcation diagram (empty unless asked for).
+    #[serde(skip)]
+    pub strobe_tail: Vec<Vec<f64>>,
+}
+
+impl MapRun {
+    /// Instance-steps per second of the integration stage.
+    pub fn instance_steps_per_s(&self) -> f64 {
+        self.plan.total_steps as f64 / self.timings.integrate_s.max(1e-12)
+    }
+
+    /// Segment-steps per second (instance-steps × N).
+    pub fn segment_steps_per_s(&self) -> f64 {
+        self.instance_steps_per_s() * self.plan.segments as f64
+    }
+}
+
+/// Progress callbacks: `(done, total, unit)`.
+pub type Progress<'a> = &'a (dyn Fn(u64, u64, &str) + Sync);
+
+/// Plan, integrate and reduce a map on the requested backend.
+pub fn run_map(
+    spec: &MapSpec,
+    backend: Backend,
+    precision: Precision,
+    progress: Progress,
+) -> Result<MapRun> {
+    let t_all = Instant::now();
+    let t0 = Instant::now();
+    let plan = EnsemblePlan::new(spec)?;
+    let plan_s = t0.elapsed().as_secs_f64();
+    let opts = ReduceOptions::from_spec(spec);
+    let t0 = Instant::now();
+    let (ctx, reason) = match backend {
+        Backend::Cpu => (None, "requested with --backend cpu".to_string()),
+        Backend::Gpu => {
+            if precision == Precision::F64 {
+                bail!("the GPU engine integrates in f32: drop --precision f64 or use --backend cpu");
+            }
+            let ctx = GpuContext::new(AdapterChoice::Any)?;
+            let why = format!("requested with --backend gpu ({})", ctx.adapter_name);
+            (Some(ctx), why)
+        }
+        Backend::Auto => match GpuContext::new(AdapterChoice::HardwareOnly) {
+            Ok(ctx) if precision == Precision::F32 => {
+                let why = format!("auto: hardware GPU `{}` found", ctx.adapter_name);
+                (Some(ctx), why)
+            }
+            Ok(_) => (None, "auto: --precision f64 runs on the CPU engine".into()),
+            Err(_) => (
+                None,
+                "auto: no hardware GPU; the CPU engine is faster than the software adapter (lavapipe)"
+                    .into(),
+            ),
+        },
+    };
+    let device_s = t0.elapsed().as_secs_f64();
+    let tail_len = spec.bifurcation_samples as usize;
+    let tail = |s: &[f64]| s[s.len().saturating_sub(tail_len)..].to_vec();
+    let mut timings = MapTimings {
+        plan_s,
+        device_s,
+        ..Default::default()
+    };
+    let (results, strobe_tail, device, backend_name, dispatches, precision) = match ctx {
+        Some(ctx) => {
+            let t0 = Instant::now();
+            let total = plan
+                .instances
+                .iter()
+                .map(|p| p.total_steps())
+                .max()
+                .unwrap_or(0);
+            let run = run_gpu(
+                &ctx,
+                &plan,
+                &opts.for_gpu(),
+                GpuReadback {
+                    strobe: spec.bifurcation,
+                    r_series: false,
+                },
+                &|done, _| progress(done, total, "steps"),
+            )?;
+            timings.integrate_s = t0.elapsed().as_secs_f64();
+            let results = from_gpu(&plan, &run);
+            let stride = plan.strobe_stride as usize;
+            let strobe_tail = if spec.bifurcation {
+                plan.instances
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| {
+                        let s: Vec<f64> = run.strobe
+                            [i * stride..i * stride + p.strobe_count as usize]
+                            .iter()
+                            .map(|&v| f64::from(v))
+                            .collect();
+                        tail(&s)
+                    })
+                    .collect()
+            } else {
+                Vec::new()
+            };
+            timings.gpu = Some(run.timings.clone());
+            (
+                results,
+                strobe_tail,
+                ctx.adapter_name.clone(),
+                "gpu",
+                run.dispatches,
+                Precision::F32,
+            )
+        }
+        None => {
+            let t0 = Instant::now();
+            let n = plan.instances.len() as u64;
+            let cb = |done: u64| progress(done, n, "instances");
+            let raw = match precision {
+                Precision::F64 => run_cpu::<f64>(&plan, &cb),
+                Precision::F32 => run_cpu::<f32>(&plan, &cb),
+            };
+            timings.integrate_s = t0.elapsed().as_secs_f64();
+            let t0 = Instant::now();
+            let results = from_cpu(&plan, &raw, &opts);
+            timings.reduce_s = t0.elapsed().as_secs_f64();
+            let strobe_tail = if spec.bifurcation {
+                raw.iter().map(|r| tail(&r.strobe)).collect()
+            } else {
+                Vec::new()
+            };
+            (
+                results,
+                strobe_tail,
+                format!("CPU, {} rayon threads", rayon::current_num_threads()),
+                "cpu",
+                0,
+                precision,
+            )
+        }
+    };
+    timings.total_s = t_all.elapsed().as_secs_f64();
+    Ok(MapRun {
+        results,
+        plan,
+        backend: backend_name,
+        backend_reason: reason,
+        device,
+        precision,
+        timings,
+        dispatches,
+        strobe_tail,
+    })
+}

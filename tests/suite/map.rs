@@ -1,0 +1,208 @@
+//! `pendulum-atlas map` end to end on both backends, and its input errors.
+
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_pendulum-atlas"))
+}
+
+fn out_dir(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("pendulum-atlas-map-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+const TINY: [&str; 8] = [
+    "--set",
+    "integration.duration_s=6.0",
+    "--set",
+    "integration.transient_s=1.5",
+    "--set",
+    "map.axes=[{key=\"excitation.frequency_hz\",start=5.0,end=10.0,count=3},{key=\"limiter.clearance_deg\",start=10.0,end=30.0,count=2}]",
+    "--set",
+    "map.bifurcation=false",
+];
+
+fn png_size(path: &std::path::Path) -> (u32, u32) {
+    let img = image::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    (img.width(), img.height())
+}
+
+fn check_map_dir(out: &std::path::Path, backend: &str) {
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("map.json")).unwrap()).unwrap();
+    assert_eq!(json["backend"], backend);
+    assert_eq!(json["shape"], serde_json::json!([3, 2]));
+    for key in [
+        "adapter",
+        "dt_s",
+        "steps",
+        "timings_s",
+        "throughput",
+        "status_counts",
+        "axes",
+    ] {
+        assert!(json.get(key).is_some(), "map.json lacks `{key}`");
+    }
+    assert!(json["throughput"]["instance_steps_per_s"].as_f64().unwrap() > 0.0);
+    assert_eq!(json["status_counts"]["ok"], 6);
+    let csv = std::fs::read_to_string(out.join("grid.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "excitation.frequency_hz,limiter.clearance_deg,K,R,period,hops,impacts_per_s,alpha_min_rad,alpha_max_rad,power_w,status"
+    );
+    let rows: Vec<&str> = lines.collect();
+    assert_eq!(rows.len(), 6);
+    // C order: the clearance (last axis) varies fastest.
+    assert!(
+        rows[0].starts_with("5,10,") && rows[1].starts_with("5,30,"),
+        "{rows:?}"
+    );
+    for r in &rows {
+        let cells: Vec<&str> = r.split(',').collect();
+        let k: f64 = cells[2].parse().unwrap();
+        let rr: f64 = cells[3].parse().unwrap();
+        assert!(k.is_finite() && (-0.5..=1.5).contains(&k), "K = {k}");
+        assert!((0.0..=1.0).contains(&rr), "R = {rr}");
+        assert_eq!(cells[9], "nan", "power without a piezo is NaN");
+        assert_eq!(cells[10], "ok");
+    }
+    for f in ["K", "R", "period", "hops", "impacts_per_s", "alpha_range"] {
+        let (w, h) = png_size(&out.join(format!("{f}.png")));
+        assert!(w >= 600 && h >= 400, "{f}.png is {w}x{h}");
+    }
+    for f in ["K.npy", "R.npy", "status.npy", "axis0.npy", "axis1.npy"] {
+        let bytes = std::fs::read(out.join(f)).unwrap();
+        assert_eq!(&bytes[..6], b"\x93NUMPY", "{f}");
+    }
+    let header =
+        String::from_utf8_lossy(&std::fs::read(out.join("K.npy")).unwrap()[..128]).into_owned();
+    assert!(header.contains("'shape': (3, 2"), "K.npy header {header}");
+}
+
+#[test]
+fn map_runs_end_to_end_on_the_cpu() {
+    let out = out_dir("cpu");
+    let o = bin()
+        .args(["map", "--backend", "cpu", "--quiet"])
+        .args(TINY)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    check_map_dir(&out, "cpu");
+}
+
+#[test]
+fn map_runs_end_to_end_on_the_gpu() {
+    if crate::gpu::gpu().is_none() {
+        return;
+    }
+    let out = out_dir("gpu");
+    let o = bin()
+        .args(["map", "--backend", "gpu", "--quiet"])
+        .args(TINY)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    check_map_dir(&out, "gpu");
+}
+
+#[test]
+fn bifurcation_diagram_of_a_one_axis_map() {
+    let out = out_dir("bif");
+    let o = bin()
+        .args([
+            "map",
+            "configs/maps/bifurcation_f.toml",
+            "--backend",
+            "cpu",
+            "--quiet",
+        ])
+        .args([
+            "--set",
+            "integration.duration_s=6.0",
+            "--set",
+            "integration.transient_s=2.0",
+            "--set",
+            "map.axes=[{key=\"excitation.frequency_hz\",start=5.0,end=10.0,count=4}]",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (w, h) = png_size(&out.join("bifurcation.png"));
+    assert!(w >= 600 && h >= 400);
+    assert!(out.join("K.png").exists());
+}
+
+#[test]
+fn gpu_backend_without_an_adapter_fails_clearly() {
+    // No Vulkan driver is visible to this process: no adapter at all.
+    let out = out_dir("noadapter");
+    let o = bin()
+        .args(["map", "--backend", "gpu", "--quiet"])
+        .args(TINY)
+        .arg("--out")
+        .arg(&out)
+        .env("VK_ICD_FILENAMES", "/nonexistent/icd.json")
+        .env("VK_DRIVER_FILES", "/nonexistent/icd.json")
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("no GPU adapter found"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+fn map_error(sets: &[&str]) -> String {
+    let mut c = bin();
+    c.args(["map", "--backend", "cpu", "--quiet", "--out"])
+        .arg(out_dir("err"));
+    for s in sets {
+        c.args(["--set", s]);
+    }
+    let o = c.output().unwrap();
+    assert!(!o.status.success(), "map {sets:?} must fail");
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(!err.contains("panicked"), "{err}");
+    err
+}
+
+#[test]
+fn bad_map_scenes_are_refused_with_the_key_named() {
+    let e = map_error(&["map.axes=[{key=\"excitation.frequncy_hz\",start=1.0,end=2.0,count=2}]"]);
+    assert!(
+        e.contains("excitation.frequncy_hz") && e.contains("did you mean"),
+        "{e}"
+    );
+    let e = map_error(&["map.axes=[{key=\"excitation.frequency_hz\",start=5.0,end=5.0,count=3}]"]);
+    assert!(e.contains("map.axes[1].end") && e.contains("empty"), "{e}");
+    let e = map_error(&[
+        "map.axes=[{key=\"excitation.frequency_hz\",start=1.0,end=2.0,count=100000},{key=\"excitation.amplitude_m\",start=0.001,end=0.02,count=100000}]",
+    ]);
+    assert!(e.contains("at most") && e.contains("instances"), "{e}");
+    let e = map_error(&["map.axes=[{key=\"tip.mass_kg\",start=-0.01,end=0.02,count=3}]"]);
+    assert!(
+        e.contains("tip.mass_kg") && e.contains("out of range"),
+        "{e}"
+    );
+    let e = map_error(&["map.metrics=[\"K\", \"lyapunov\"]"]);
+    assert!(e.contains("lyapunov"), "{e}");
+    let e = map_error(&["map.metrics=[\"power\"]"]);
+    assert!(e.contains("piezo.enabled"), "{e}");
+    let e = map_error(&["map.axes=[{key=\"beam.segments\",start=3,end=5,count=3}]"]);
+    assert!(e.contains("beam.segments"), "{e}");
+    let e = map_error(&["map.samples_per_perod=8"]);
+    assert!(
+        e.contains("map.samples_per_perod") && e.contains("did you mean"),
+        "{e}"
+    );
+    let e = map_error(&["integration.duration_s=2.0", "integration.transient_s=1.0"]);
+    assert!(e.contains("stroboscopic samples"), "{e}");
+}
