@@ -15,8 +15,8 @@ pub struct MapArgs {
     /// Override a scene or map key, e.g. `--set beam.segments=5 --set map.samples_per_period=32`.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub sets: Vec<String>,
-    /// Engine: `auto` (a hardware GPU if present, else the CPU), `gpu` (any wgpu adapter,
-    /// lavapipe included) or `cpu`.
+    /// Engine: `auto` (a hardware GPU, else the software adapter lavapipe, else the CPU),
+    /// `gpu` (any wgpu adapter, lavapipe included) or `cpu`.
     #[arg(long, value_enum, default_value_t = Backend::Auto)]
     pub backend: Backend,
     /// Float type of the CPU engine (the GPU integrates in f32).

@@ -390,13 +390,13 @@ pub fn run_instance<T: Real>(
             }
         }
         let r_start = u64::from(plan.r_start);
-        if want_rseries && s >= r_start && (s - r_start) % u64::from(plan.r_every) == 0 {
+        if want_rseries && s >= r_start && (s - r_start).is_multiple_of(u64::from(plan.r_every)) {
             let j = (s - r_start) / u64::from(plan.r_every);
             if let Some(slot) = raw.r_alpha.get_mut(j as usize) {
                 *slot = alpha;
             }
         }
-        if s % CHECK_EVERY == 0 || s == total {
+        if s.is_multiple_of(CHECK_EVERY) || s == total {
             let status = health(&chain, &plan.guard, &y, plan.cart_vel(s));
             if status != Status::Ok {
                 raw.status = status;
