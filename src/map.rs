@@ -103,11 +103,37 @@ pub fn run_map(
     precision: Precision,
     progress: Progress,
 ) -> Result<MapRun> {
-    let t_all = Instant::now();
     let t0 = Instant::now();
     let plan = EnsemblePlan::new(spec)?;
     let plan_s = t0.elapsed().as_secs_f64();
-    let opts = ReduceOptions::from_spec(spec);
+    let tail = spec
+        .bifurcation
+        .then_some(spec.bifurcation_samples as usize);
+    let mut run = run_plan(
+        plan,
+        &ReduceOptions::from_spec(spec),
+        tail,
+        backend,
+        precision,
+        progress,
+    )?;
+    run.timings.plan_s = plan_s;
+    run.timings.total_s += plan_s;
+    Ok(run)
+}
+
+/// Integrate and reduce an already planned ensemble (see [`EnsemblePlan::from_scenes`]) on the
+/// requested backend. `strobe_tail` keeps that many trailing stroboscopic samples per instance.
+pub fn run_plan(
+    plan: EnsemblePlan,
+    opts: &ReduceOptions,
+    strobe_tail: Option<usize>,
+    backend: Backend,
+    precision: Precision,
+    progress: Progress,
+) -> Result<MapRun> {
+    let t_all = Instant::now();
+    let plan_s = 0.0;
     let t0 = Instant::now();
     let (ctx, reason) = match backend {
         Backend::Cpu => (None, "requested with --backend cpu".to_string()),
@@ -143,7 +169,8 @@ pub fn run_map(
         },
     };
     let device_s = t0.elapsed().as_secs_f64();
-    let tail_len = spec.bifurcation_samples as usize;
+    let keep_tail = strobe_tail.is_some() && plan.want_strobe;
+    let tail_len = strobe_tail.unwrap_or(0);
     let tail = |s: &[f64]| s[s.len().saturating_sub(tail_len)..].to_vec();
     let mut timings = MapTimings {
         plan_s,
@@ -164,7 +191,7 @@ pub fn run_map(
                 &plan,
                 &opts.for_gpu(),
                 GpuReadback {
-                    strobe: spec.bifurcation,
+                    strobe: keep_tail,
                     r_series: false,
                 },
                 &|done, _| progress(done, total, "steps"),
@@ -172,7 +199,7 @@ pub fn run_map(
             timings.integrate_s = t0.elapsed().as_secs_f64();
             let results = from_gpu(&plan, &run);
             let stride = plan.strobe_stride as usize;
-            let strobe_tail = if spec.bifurcation {
+            let strobe_tail = if keep_tail {
                 plan.instances
                     .iter()
                     .enumerate()
@@ -208,9 +235,9 @@ pub fn run_map(
             };
             timings.integrate_s = t0.elapsed().as_secs_f64();
             let t0 = Instant::now();
-            let results = from_cpu(&plan, &raw, &opts);
+            let results = from_cpu(&plan, &raw, opts);
             timings.reduce_s = t0.elapsed().as_secs_f64();
-            let strobe_tail = if spec.bifurcation {
+            let strobe_tail = if keep_tail {
                 raw.iter().map(|r| tail(&r.strobe)).collect()
             } else {
                 Vec::new()

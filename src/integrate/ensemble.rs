@@ -133,22 +133,76 @@ pub struct EnsemblePlan {
     pub warnings: Vec<String>,
 }
 
+/// How the instances of an ensemble are sampled, and what they record.
+#[derive(Debug, Clone, Serialize)]
+pub struct EnsembleOptions {
+    /// Metrics to compute.
+    pub metrics: Vec<Metric>,
+    /// Record the stroboscopic samples even if no metric needs them (bifurcation diagrams).
+    pub keep_strobe: bool,
+    /// Steps per period are a multiple of this; R's samples per period.
+    pub samples_per_period: u32,
+    /// Phase of the stroboscopic samples, in [0, 1).
+    pub strobe_phase: f64,
+    /// Longest R series (a power of two).
+    pub r_max_samples: u32,
+}
+
+impl EnsembleOptions {
+    /// The options of a map scene.
+    pub fn from_spec(spec: &MapSpec) -> EnsembleOptions {
+        EnsembleOptions {
+            metrics: spec.metrics.clone(),
+            keep_strobe: spec.bifurcation,
+            samples_per_period: spec.samples_per_period,
+            strobe_phase: spec.strobe_phase,
+            r_max_samples: spec.r_max_samples,
+        }
+    }
+
+    fn wants(&self, m: Metric) -> bool {
+        self.metrics.contains(&m)
+    }
+}
+
 /// Minimum stroboscopic samples the 0–1 test accepts.
 const MIN_STROBE: u32 = crate::analysis::ZERO_ONE_MIN_SAMPLES as u32;
 
 impl EnsemblePlan {
     /// Plan every instance of a map: validate its scene, choose its step and sampling.
     pub fn new(spec: &MapSpec) -> Result<EnsemblePlan> {
-        let n_inst = spec.instances();
-        let scenes: Vec<Scene> = (0..n_inst)
+        let scenes: Vec<Scene> = (0..spec.instances())
             .into_par_iter()
             .map(|k| spec.instance_scene(k))
             .collect::<Result<_, _>>()?;
+        EnsemblePlan::from_scenes(&scenes, &EnsembleOptions::from_spec(spec))
+    }
+
+    /// Plan an ensemble of arbitrary validated scenes (a grid, a list of designs × frequencies
+    /// × initial states, ...). They must share the segment count, bumpers and piezo, and use
+    /// harmonic excitation.
+    pub fn from_scenes(scenes: &[Scene], opts: &EnsembleOptions) -> Result<EnsemblePlan> {
+        let n_inst = scenes.len();
+        if n_inst == 0 {
+            bail!("an ensemble needs at least one instance");
+        }
+        if let Some(s) = scenes.iter().find(|s| {
+            !matches!(
+                s.excitation.kind,
+                crate::config::ExcitationKind::Harmonic { .. }
+            )
+        }) {
+            bail!(
+                "ensembles need harmonic excitation, found {:?}",
+                s.excitation.kind
+            );
+        }
         // The stability limit depends on the structure, not on the cart: solve it once per
         // distinct structure.
+        let reference_excitation = scenes[0].excitation.clone();
         let key = |s: &Scene| {
             let mut s = s.clone();
-            s.excitation = spec.scene.excitation.clone();
+            s.excitation = reference_excitation.clone();
             serde_json::to_string(&s).unwrap_or_default()
         };
         let mut unique: HashMap<String, usize> = HashMap::new();
@@ -167,12 +221,16 @@ impl EnsemblePlan {
         let first = &scenes[0];
         let instances: Vec<InstancePlan> = scenes
             .par_iter()
-            .map(|s| plan_instance(spec, s, limits[&key(s)]))
+            .map(|s| plan_instance(opts, s, limits[&key(s)]))
             .collect::<Result<_>>()?;
-        for s in &scenes {
-            if s.limiter.enabled != first.limiter.enabled || s.piezo.enabled != first.piezo.enabled
+        for s in scenes {
+            if s.limiter.enabled != first.limiter.enabled
+                || s.piezo.enabled != first.piezo.enabled
+                || s.beam.segments != first.beam.segments
             {
-                bail!("every instance of a map must share limiter.enabled and piezo.enabled");
+                bail!(
+                    "every instance of an ensemble must share beam.segments, limiter.enabled and piezo.enabled"
+                );
             }
         }
         if let TimeStep::Seconds(dt) = first.integration.dt_s {
@@ -183,8 +241,8 @@ impl EnsemblePlan {
                 ));
             }
         }
-        let want_strobe = spec.wants(Metric::K) || spec.wants(Metric::Period) || spec.bifurcation;
-        let want_rseries = spec.wants(Metric::R);
+        let want_strobe = opts.wants(Metric::K) || opts.wants(Metric::Period) || opts.keep_strobe;
+        let want_rseries = opts.wants(Metric::R);
         let strobe_stride = instances.iter().map(|p| p.strobe_count).max().unwrap_or(0);
         let r_stride = instances.iter().map(|p| p.r_count).max().unwrap_or(0);
         let dts = instances.iter().map(|p| p.dt_s);
@@ -197,7 +255,7 @@ impl EnsemblePlan {
             segments: first.beam.segments,
             has_contact: first.limiter.enabled,
             has_piezo: first.piezo.enabled,
-            metrics: spec.metrics.clone(),
+            metrics: opts.metrics.clone(),
             want_strobe,
             want_rseries,
             strobe_stride,
@@ -210,7 +268,11 @@ impl EnsemblePlan {
     }
 }
 
-fn plan_instance(spec: &MapSpec, scene: &Scene, limits: (f64, f64)) -> Result<InstancePlan> {
+fn plan_instance(
+    spec: &EnsembleOptions,
+    scene: &Scene,
+    limits: (f64, f64),
+) -> Result<InstancePlan> {
     let params = ModelParams::from_scene(scene);
     let f = scene.excitation.reference_frequency_hz();
     let period = 1.0 / f;
