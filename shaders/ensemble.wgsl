@@ -29,6 +29,7 @@ const PI: f32 = 3.1415926535897932;
 const STATUS_OK: u32 = 0u;
 const STATUS_DIVERGED: u32 = 1u;
 const STATUS_NONFINITE: u32 = 2u;
+const STATUS_ESCAPED: u32 = 3u;
 
 // ---- data ------------------------------------------------------------------------------
 // Mirrors `GpuInstanceParams` in src/integrate/gpu/layout.rs (a test compares the layouts).
@@ -59,7 +60,7 @@ struct InstanceParams {
     omega0: f32,
     volt0: f32,
     half_clearance: f32,
-    pad0: f32,
+    guard_holder: f32,
     pad1: f32,
     n_levers: u32,
     piezo_last: u32,
@@ -346,7 +347,8 @@ fn energy(cart_v: f32) -> f32 {
     return e;
 }
 
-// Health check of rk4::health: non-finite state, folded chain, or runaway energy.
+// Health check of rk4::health: non-finite state, holder escaped over a bumper, folded
+// chain, or runaway energy.
 fn health(ph: u32) -> u32 {
     for (var i = 0u; i < N_SEG; i++) {
         if not_finite(th[i]) || not_finite(om[i]) {
@@ -355,6 +357,9 @@ fn health(ph: u32) -> u32 {
     }
     if HAS_PIEZO && not_finite(volt) {
         return STATUS_NONFINITE;
+    }
+    if abs(th[0]) > P.guard_holder {
+        return STATUS_ESCAPED;
     }
     for (var i = 1u; i < N_SEG; i++) {
         if abs(th[i] - th[i - 1u]) > P.guard_bend {

@@ -476,6 +476,9 @@ fn health<T: Real>(chain: &Chain<T>, guard: &Guard, y: &[T], cart_v: f64) -> Sta
         return Status::NonFinite;
     }
     let n = chain.segments();
+    if y[0].abs().wide() > guard.max_holder_angle_rad {
+        return Status::Escaped;
+    }
     if (1..n).any(|i| (y[i] - y[i - 1]).abs().wide() > guard.max_joint_bend_rad) {
         return Status::Diverged;
     }

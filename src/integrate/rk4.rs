@@ -198,6 +198,9 @@ pub fn health<T: Real>(inst: &Instance<T>, y: &[T], cart: &CartState) -> Option<
         return Some(Status::NonFinite);
     }
     let n = inst.chain.segments();
+    if y[0].abs().wide() > inst.guard.max_holder_angle_rad {
+        return Some(Status::Escaped);
+    }
     let bent = (1..n).any(|i| (y[i] - y[i - 1]).abs().wide() > inst.guard.max_joint_bend_rad);
     let e = inst.chain.energy(y, cart.x_m, cart.v_m_s).total_j();
     if bent || !e.is_finite() || e.abs() > inst.guard.max_energy_j {

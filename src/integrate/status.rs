@@ -16,6 +16,11 @@ pub enum Status {
     /// A NaN or infinity appeared in the state.
     #[serde(rename = "non-finite")]
     NonFinite,
+    /// The holder passed the horizontal (|α| > 90°) over a bumper: MODEL.md's point bumper
+    /// pushes only horizontally and cannot hold a beam beyond it, so the run has left the
+    /// model's domain (a soft bumper at a wide clearance). Not a numerical failure.
+    #[serde(rename = "escaped")]
+    Escaped,
 }
 
 impl Status {
@@ -25,6 +30,7 @@ impl Status {
             Status::Ok => "ok",
             Status::Diverged => "diverged",
             Status::NonFinite => "non-finite",
+            Status::Escaped => "escaped",
         }
     }
 }
@@ -36,6 +42,9 @@ pub struct Guard {
     pub max_energy_j: f64,
     /// Relative joint angle above which the chain has folded (rad).
     pub max_joint_bend_rad: f64,
+    /// With bumpers: |α| beyond which the holder has escaped over a bumper (rad, π/2);
+    /// infinite without bumpers (a hinged beam may then swing down).
+    pub max_holder_angle_rad: f64,
 }
 
 impl Guard {
@@ -60,6 +69,11 @@ impl Guard {
         Guard {
             max_energy_j: 1e4 * (mass * p.g_m_s2 * l + cart + contact + spring + 1e-3),
             max_joint_bend_rad: 1.5,
+            max_holder_angle_rad: if p.contact.is_some() {
+                std::f64::consts::FRAC_PI_2
+            } else {
+                f64::INFINITY
+            },
         }
     }
 }

@@ -17,6 +17,7 @@ pub fn status_code(s: Status) -> u8 {
         Status::Ok => 0,
         Status::Diverged => 1,
         Status::NonFinite => 2,
+        Status::Escaped => 3,
     }
 }
 
@@ -164,6 +165,7 @@ pub fn write_map(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf
             "ok": counts(Status::Ok),
             "diverged": counts(Status::Diverged),
             "non-finite": counts(Status::NonFinite),
+            "escaped": counts(Status::Escaped),
         },
         "sampling": {
             "samples_per_period": spec.samples_per_period,

@@ -167,6 +167,7 @@ pub fn from_gpu(plan: &EnsemblePlan, run: &GpuRun) -> Vec<InstanceResult> {
             let status = match a.status {
                 0 => Status::Ok,
                 1 => Status::Diverged,
+                3 => Status::Escaped,
                 _ => Status::NonFinite,
             };
             let mut out = accumulators(

@@ -225,6 +225,7 @@ values = [1e3, 1e4, 1e6, 1e7]
         let g = match run.accum[i].status {
             0 => pendulum_atlas::integrate::Status::Ok,
             1 => pendulum_atlas::integrate::Status::Diverged,
+            3 => pendulum_atlas::integrate::Status::Escaped,
             _ => pendulum_atlas::integrate::Status::NonFinite,
         };
         assert_eq!(c.status, g, "instance {i}: statuses {statuses:?}");
@@ -279,8 +280,8 @@ fn parameter_structs_have_the_same_layout_in_rust_and_wgsl() {
         "InstanceParams",
         offsets!(GpuInstanceParams; seg_len, seg_mass, seg_inertia, tip_mass, holder_inertia, g,
             k, k0, b, b0, gap, kc, cc, piezo_inv_c, piezo_inv_r, piezo_theta, pos_amp, vel_amp,
-            acc_amp, dt, guard_energy, guard_bend, theta0, omega0, volt0, half_clearance, pad0,
-            pad1, n_levers, piezo_last, spp, transient_periods, total_periods, strobe_offset,
+            acc_amp, dt, guard_energy, guard_bend, theta0, omega0, volt0, half_clearance,
+            guard_holder, pad1, n_levers, piezo_last, spp, transient_periods, total_periods, strobe_offset,
             strobe_count, r_every, r_count, r_start, pad2, pad3, levers),
         std::mem::size_of::<GpuInstanceParams>(),
     );

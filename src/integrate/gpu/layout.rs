@@ -66,8 +66,8 @@ pub struct GpuInstanceParams {
     pub volt0: f32,
     /// θc/2 (rad), the well threshold of hop counting.
     pub half_clearance: f32,
-    /// Padding.
-    pub pad0: f32,
+    /// |α| beyond which the holder has escaped over a bumper (rad; huge without bumpers).
+    pub guard_holder: f32,
     /// Padding.
     pub pad1: f32,
     /// Number of contact levers.
@@ -155,7 +155,7 @@ impl GpuInstanceParams {
             omega0: p.y0[n] as f32,
             volt0: p.y0[2 * n] as f32,
             half_clearance: p.half_clearance_rad as f32,
-            pad0: 0.0,
+            guard_holder: p.guard.max_holder_angle_rad.min(f64::from(f32::MAX)) as f32,
             pad1: 0.0,
             n_levers,
             piezo_last: last,
@@ -180,7 +180,7 @@ impl GpuInstanceParams {
 pub struct GpuAccum {
     /// Steps taken.
     pub step: u32,
-    /// 0 ok, 1 diverged, 2 non-finite.
+    /// 0 ok, 1 diverged, 2 non-finite, 3 escaped.
     pub status: u32,
     /// Bumper penetration flags after the last step.
     pub touch: u32,
