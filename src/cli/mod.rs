@@ -2,6 +2,7 @@
 //! Each command loads a validated scene, calls the library, and writes files.
 
 mod analyze;
+mod bench;
 mod map;
 mod modes;
 mod report;
@@ -36,6 +37,8 @@ pub struct SceneArgs {
 pub enum Command {
     /// A chaos/bifurcation map over 1–3 scene keys (GPU if present, CPU otherwise).
     Map(map::MapArgs),
+    /// Work-precision study: run time against error for N, dt, precision and backend.
+    Bench(bench::BenchArgs),
     /// Integrate one run and write trajectory.csv and run.json.
     Simulate(simulate::SimulateArgs),
     /// Natural frequencies, unstable growth rates and the automatic time step.
@@ -48,6 +51,7 @@ pub enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Map(a) => map::run(a),
+        Command::Bench(a) => bench::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Modes(a) => modes::run(a),
         Command::Analyze(a) => analyze::run(a),

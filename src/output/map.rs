@@ -209,8 +209,8 @@ fn metric_style(m: Metric, spec: &MapSpec) -> (String, Option<(f64, f64)>) {
             Some((0.0, 1.0)),
         ),
         Metric::Period => (
-            format!("period (forcing periods; 0 = none ≤ {})", spec.period_max),
-            None,
+            format!("period (forcing periods; grey: none ≤ {})", spec.period_max),
+            Some((1.0, f64::from(spec.period_max.max(2)))),
         ),
         Metric::Hops => ("hops between wells".into(), None),
         Metric::ImpactsPerS => ("impacts per second (1/s)".into(), None),
@@ -223,7 +223,15 @@ fn metric_style(m: Metric, spec: &MapSpec) -> (String, Option<(f64, f64)>) {
 fn draw_metric(dir: &Path, spec: &MapSpec, run: &MapRun, m: Metric) -> Result<Vec<PathBuf>> {
     let (label, range) = metric_style(m, spec);
     let shape = spec.shape();
-    let value = |k: usize| run.results[k].metric(m);
+    // Period 0 means "no period found": drawn as no-data grey, not as a colour below 1.
+    let value = |k: usize| {
+        let v = run.results[k].metric(m);
+        if m == Metric::Period && v == 0.0 {
+            f64::NAN
+        } else {
+            v
+        }
+    };
     let bad = |k: usize| run.results[k].status != Status::Ok;
     let mut out = Vec::new();
     match shape.len() {
