@@ -22,3 +22,4 @@ pub mod integrate;
 pub mod model;
 pub mod output;
 pub mod render;
+pub mod reproduce;

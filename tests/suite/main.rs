@@ -7,6 +7,7 @@ mod config;
 mod integrate;
 mod model;
 mod render;
+mod reproduce;
 
 use pendulum_atlas::config::{PAPER_SCENE_TOML, Scene};
 
