@@ -197,6 +197,7 @@ pub fn reproduce(
         wall_s: started.elapsed().as_secs_f64(),
         integration_s,
         threads: rayon::current_num_threads(),
+        first_clamped_hz: first_clamped_hz(&cases[0], opts)?,
         simulations: jobs.len(),
         table2: table2
             .iter()
@@ -300,6 +301,21 @@ fn draw_case(
         _ => {}
     }
     Ok(v)
+}
+
+/// First natural frequency of the clamped beam (no gravity, no bumpers) at the run's N (Hz).
+fn first_clamped_hz(case: &PaperCase, opts: &ReproduceOptions) -> Result<f64, ReproduceError> {
+    let sets = [
+        "pivot.mode=clamped".to_string(),
+        "gravity.g_m_s2=0".to_string(),
+        "limiter.enabled=false".to_string(),
+    ];
+    let scene = case.scene(opts.quick, &sets)?;
+    Ok(crate::model::modes(&scene)
+        .frequencies_hz
+        .first()
+        .copied()
+        .unwrap_or(f64::NAN))
 }
 
 /// One paragraph on the fidelity of the run.
