@@ -6,7 +6,8 @@
 //! 1. [`paper_cases`]: the scenes of `configs/paper/` (embedded), validated before any work, with
 //!    the `--quick` overrides when asked;
 //! 2. [`simulate`]: every run — the ten cases and a twin of each Table 2 case started
-//!    [`TWIN_PERTURBATION_DEG`] lower — in parallel with rayon, longest first;
+//!    [`TWIN_PERTURBATION_DEG`] lower — in parallel with rayon, longest first, each distinct
+//!    scene once;
 //! 3. [`analyse_stationary`] and [`analyse_sweep`]: K three ways, R in two conventions, spectra,
 //!    hops, twin divergence, wavelet windows;
 //! 4. [`CaseRow`]: `table2.csv`, `table2.md`, `experiments.csv`, `summary.json`;
@@ -68,6 +69,8 @@ struct Job {
     case: usize,
     twin: bool,
     scene: Scene,
+    /// Index of an earlier job with the same scene, whose result this job reuses.
+    same_as: Option<usize>,
 }
 
 /// The indicators of one case.
@@ -101,33 +104,40 @@ pub fn reproduce(
     let jobs = plan_jobs(&cases, opts)?;
     std::fs::create_dir_all(out).map_err(|e| ReproduceError::io(out, e))?;
 
-    let results: Vec<Result<Simulation, ReproduceError>> = jobs
+    // A scene that equals an earlier one (the 8 Hz/9 mm and 10 Hz/12 mm experiments are
+    // Table 2 cases) is integrated once: the engine is deterministic, so the copy is exact.
+    let results: Vec<Option<Result<Simulation, ReproduceError>>> = jobs
         .par_iter()
         .with_max_len(1)
         .map(|j| {
+            if j.same_as.is_some() {
+                return None;
+            }
             let id = cases[j.case].id;
-            let sim = simulate(id, &j.scene)?;
-            progress(&format!(
-                "{id}{}: {} steps in {:.1} s",
-                if j.twin { " (twin)" } else { "" },
-                sim.stats.steps,
-                sim.stats.wall_s
-            ));
-            Ok(sim)
+            Some(simulate(id, &j.scene).inspect(|sim| {
+                progress(&format!(
+                    "{id}{}: {} steps in {:.1} s",
+                    if j.twin { " (twin)" } else { "" },
+                    sim.stats.steps,
+                    sim.stats.wall_s
+                ))
+            }))
         })
         .collect();
+    let mut unique: Vec<Option<Simulation>> = Vec::with_capacity(jobs.len());
+    for r in results {
+        unique.push(r.transpose()?);
+    }
+    let integration_s: f64 = unique.iter().flatten().map(|s| s.stats.wall_s).sum();
+    let simulations = unique.iter().flatten().count();
     let mut main: Vec<Option<Simulation>> = vec![None; cases.len()];
     let mut twins: Vec<Option<Simulation>> = vec![None; cases.len()];
-    for (j, r) in jobs.iter().zip(results) {
+    for (i, j) in jobs.iter().enumerate() {
+        let sim = unique[j.same_as.unwrap_or(i)].clone();
         let slot = if j.twin { &mut twins } else { &mut main };
-        slot[j.case] = Some(r?);
+        slot[j.case] = sim;
     }
     let main: Vec<Simulation> = main.into_iter().flatten().collect();
-    let integration_s: f64 = main
-        .iter()
-        .chain(twins.iter().flatten())
-        .map(|s| s.stats.wall_s)
-        .sum();
 
     let analysed: Vec<Analysed> = cases
         .par_iter()
@@ -198,7 +208,7 @@ pub fn reproduce(
         integration_s,
         threads: rayon::current_num_threads(),
         first_clamped_hz: first_clamped_hz(&cases[0], opts)?,
-        simulations: jobs.len(),
+        simulations,
         table2: table2
             .iter()
             .map(|(c, a, r)| CaseResult {
@@ -259,16 +269,22 @@ fn plan_jobs(cases: &[PaperCase], opts: &ReproduceOptions) -> Result<Vec<Job>, R
                 case: i,
                 twin: true,
                 scene: twin,
+                same_as: None,
             });
         }
         jobs.push(Job {
             case: i,
             twin: false,
             scene,
+            same_as: None,
         });
     }
     let cost = |j: &Job| j.scene.integration.duration_s * j.scene.beam.segments as f64;
     jobs.sort_by(|a, b| cost(b).total_cmp(&cost(a)));
+    for i in 0..jobs.len() {
+        jobs[i].same_as =
+            (0..i).find(|&k| jobs[k].same_as.is_none() && jobs[k].scene == jobs[i].scene);
+    }
     Ok(jobs)
 }
 

@@ -465,6 +465,25 @@ fn experiments(s: &mut String, inp: &ReportInput) {
             num(r.alpha_range_deg, 1)
         );
     }
+    let shared: Vec<String> = inp
+        .experiments
+        .iter()
+        .filter(|e| {
+            inp.table2.iter().any(|t| {
+                t.row.amplitude_mm == e.row.amplitude_mm && t.row.frequency_hz == e.row.frequency_hz
+            })
+        })
+        .map(|e| format!("{} ({})", e.row.figure, short(e)))
+        .collect();
+    if !shared.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n{} {} the setting of a Table 2 case: one simulation serves both, so the numbers repeat \
+             Table 2's.",
+            list(&shared),
+            if shared.len() == 1 { "has" } else { "have" }
+        );
+    }
     let agree = inp
         .experiments
         .iter()
