@@ -586,11 +586,11 @@ fn sweep(s: &mut String, inp: &ReportInput) {
         },
         if 2 * band_windows > n {
             let (lo, hi) = range_of(sw.windows.iter().filter_map(|w| w.angle_share_paper_band));
+            let (lo, hi) = (num(100.0 * lo, 0), num(100.0 * hi, 0));
             format!(
-                "the paper's shorter periodicities are there, though they hold only {}–{} % of the \
+                "the paper's shorter periodicities are there, though they hold only {} % of the \
                  angle's wavelet power",
-                num(100.0 * lo, 0),
-                num(100.0 * hi, 0)
+                if lo == hi { lo } else { format!("{lo}–{hi}") }
             )
         } else {
             let (lo, hi) = range_of(sw.windows.iter().filter_map(|w| w.angle_peak_period_s));
@@ -749,7 +749,7 @@ fn reasons(s: &mut String, inp: &ReportInput) {
         };
         let _ = writeln!(
             s,
-            "1. **The estimator explains {} of the K values.** For the cases both call chaotic, the paper's K \
+            "1. **The estimator explains {} of the K values.** For the {} cases the paper calls chaotic, its K \
              are {}–{}; on the same kind of series (local extrema over the whole run) the correlation method \
              gives {}–{} and the paper's eq. 10 (slope of ln M_c(n) against ln n up to n = N/10) gives \
              {}–{}. Over all six cases eq. 10 is {} the published values than the correlation method \
@@ -757,6 +757,7 @@ fn reasons(s: &mut String, inp: &ReportInput) {
              c from (0, π), where resonant c near 0 and π bias K_c; we use (π/5, 4π/5) as Gottwald & \
              Melbourne advise.\n",
             if closer { "part" } else { "little" },
+            chaotic_paper.len(),
             num(pk_lo, 2),
             num(pk_hi, 2),
             num(ce_lo, 2),
