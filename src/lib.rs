@@ -25,3 +25,4 @@ pub mod model;
 pub mod output;
 pub mod reduce;
 pub mod render;
+pub mod reproduce;

@@ -6,6 +6,7 @@ mod bench;
 mod map;
 mod modes;
 mod report;
+mod reproduce;
 mod simulate;
 
 use clap::{Parser, Subcommand};
@@ -45,6 +46,8 @@ pub enum Command {
     Modes(modes::ModesArgs),
     /// The paper's indicators (K, R, spectra, wavelets) for a measured CSV record.
     Analyze(analyze::AnalyzeArgs),
+    /// Reproduce the paper: Table 2, Figs. 3–12 and a report, from one command.
+    Reproduce(reproduce::ReproduceArgs),
 }
 
 /// Run the parsed command line.
@@ -55,6 +58,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Simulate(a) => simulate::run(a),
         Command::Modes(a) => modes::run(a),
         Command::Analyze(a) => analyze::run(a),
+        Command::Reproduce(a) => reproduce::run(a),
     }
 }
 

@@ -9,6 +9,7 @@ mod integrate;
 mod map;
 mod model;
 mod render;
+mod reproduce;
 mod stress;
 
 use pendulum_atlas::config::{PAPER_SCENE_TOML, Scene};
