@@ -71,6 +71,8 @@ pub struct MapRun {
     pub timings: MapTimings,
     /// Integration dispatches (GPU).
     pub dispatches: u32,
+    /// Instances stopped early on a confirmed periodic orbit.
+    pub stopped_early: usize,
     /// Stroboscopic tail per instance for the bifurcation diagram (empty unless asked for).
     #[serde(skip)]
     pub strobe_tail: Vec<Vec<f64>>,
@@ -84,7 +86,8 @@ impl MapRun {
             Some(g) => g.integrate_s,
             None => self.timings.integrate_s,
         };
-        self.plan.total_steps as f64 / t.max(1e-12)
+        let steps: u64 = self.results.iter().map(|r| r.steps).sum();
+        steps as f64 / t.max(1e-12)
     }
 
     /// Segment-steps per second (instance-steps × N).
@@ -177,6 +180,13 @@ pub fn run_plan(
         device_s,
         ..Default::default()
     };
+    let mut plan = plan;
+    let mut stopped_early = 0;
+    if ctx.is_some() && plan.early_stop.take().is_some() {
+        plan.warnings.push(
+            "map.early_stop is ignored on the GPU backend: a stopped invocation idles until its whole workgroup finishes, so the saving there is small; runs go to the end".into(),
+        );
+    }
     let (results, strobe_tail, device, backend_name, dispatches, precision) = match ctx {
         Some(ctx) => {
             let t0 = Instant::now();
@@ -236,6 +246,7 @@ pub fn run_plan(
             timings.integrate_s = t0.elapsed().as_secs_f64();
             let t0 = Instant::now();
             let results = from_cpu(&plan, &raw, opts);
+            stopped_early = raw.iter().filter(|r| r.stopped_early.is_some()).count();
             timings.reduce_s = t0.elapsed().as_secs_f64();
             let strobe_tail = if keep_tail {
                 raw.iter().map(|r| tail(&r.strobe)).collect()
@@ -262,6 +273,7 @@ pub fn run_plan(
         precision,
         timings,
         dispatches,
+        stopped_early,
         strobe_tail,
     })
 }

@@ -181,6 +181,7 @@ fn options(metrics: Vec<Metric>) -> EnsembleOptions {
         samples_per_period: SAMPLES_PER_PERIOD,
         strobe_phase: 0.0,
         r_max_samples: 1024,
+        early_stop: None,
     }
 }
 

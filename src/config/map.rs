@@ -176,6 +176,10 @@ pub struct MapSpec {
     pub period_tol_rad: f64,
     /// Number of stroboscopic samples per instance kept for the bifurcation diagram.
     pub bifurcation_samples: u32,
+    /// Stop instances whose periodic orbit is confirmed (when the metrics allow it).
+    pub early_stop: bool,
+    /// Relative tolerance of the early-stop confirmation.
+    pub early_stop_tol: f64,
 }
 
 impl MapSpec {
@@ -366,6 +370,8 @@ fn read_map(mut map: Table, scene: Scene, base_table: Table) -> Result<MapSpec, 
     let period_window = r.integer("map.period_window", 16, 1, 4096)? as u32;
     let period_tol_rad = r.number("map.period_tol_rad", 1e-3, Range::Positive, "rad")?;
     let bifurcation_samples = r.integer("map.bifurcation_samples", 64, 1, 4096)? as u32;
+    let early_stop = r.boolean("map.early_stop", false)?;
+    let early_stop_tol = r.number("map.early_stop_tol", 1e-5, Range::Open(0.0, 0.1), "")?;
     r.finish()?;
 
     let spec = MapSpec {
@@ -384,6 +390,8 @@ fn read_map(mut map: Table, scene: Scene, base_table: Table) -> Result<MapSpec, 
         period_window,
         period_tol_rad,
         bifurcation_samples,
+        early_stop,
+        early_stop_tol,
     };
     // Every axis key must be a scene key that takes this kind of value: check the first point.
     spec.instance_scene(0)?;

@@ -131,6 +131,8 @@ pub struct EnsemblePlan {
     pub total_steps: u64,
     /// Warnings from planning (explicit dt beyond the stability limit, ...).
     pub warnings: Vec<String>,
+    /// Early termination, when asked for and allowed by the metrics.
+    pub early_stop: Option<EarlyStop>,
 }
 
 /// How the instances of an ensemble are sampled, and what they record.
@@ -146,7 +148,31 @@ pub struct EnsembleOptions {
     pub strobe_phase: f64,
     /// Longest R series (a power of two).
     pub r_max_samples: u32,
+    /// Stop an instance once its periodic orbit is confirmed (only honoured when every
+    /// requested metric allows it: see [`EarlyStop`]).
+    pub early_stop: Option<EarlyStop>,
 }
+
+/// Early termination of instances whose periodic orbit is confirmed.
+///
+/// At each stroboscopic sample, an instance stops when, for some p ≤ `p_max` forcing periods,
+/// (a) its last `window` stroboscopic angles each equal the one p samples earlier and (b) its
+/// whole state (every angle, rate and the voltage) equals the state p samples earlier, both
+/// within `tol · max(1, |x|)`. The rest of the run would repeat that orbit, so the remaining
+/// stroboscopic samples are filled by periodic continuation. Only K, the period and the α
+/// range are exactly preserved by that; with any other metric the option is ignored.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct EarlyStop {
+    /// Longest orbit period tried (forcing periods).
+    pub p_max: u32,
+    /// Trailing stroboscopic samples that must repeat.
+    pub window: u32,
+    /// Relative tolerance of the repetition.
+    pub tol: f64,
+}
+
+/// The metrics whose values a periodic continuation preserves exactly.
+pub const EARLY_STOP_METRICS: [Metric; 3] = [Metric::K, Metric::Period, Metric::AlphaRange];
 
 impl EnsembleOptions {
     /// The options of a map scene.
@@ -157,6 +183,11 @@ impl EnsembleOptions {
             samples_per_period: spec.samples_per_period,
             strobe_phase: spec.strobe_phase,
             r_max_samples: spec.r_max_samples,
+            early_stop: spec.early_stop.then_some(EarlyStop {
+                p_max: spec.period_max,
+                window: spec.period_window,
+                tol: spec.early_stop_tol,
+            }),
         }
     }
 
@@ -241,7 +272,30 @@ impl EnsemblePlan {
                 ));
             }
         }
-        let want_strobe = opts.wants(Metric::K) || opts.wants(Metric::Period) || opts.keep_strobe;
+        let early_stop = match opts.early_stop {
+            Some(e) => {
+                let blocking: Vec<&str> = opts
+                    .metrics
+                    .iter()
+                    .filter(|m| !EARLY_STOP_METRICS.contains(m))
+                    .map(|m| m.name())
+                    .collect();
+                if blocking.is_empty() {
+                    Some(e)
+                } else {
+                    warnings.push(format!(
+                        "map.early_stop ignored: metric(s) {} need the whole run (only K, period and alpha_range survive a periodic continuation)",
+                        blocking.join(", ")
+                    ));
+                    None
+                }
+            }
+            None => None,
+        };
+        let want_strobe = opts.wants(Metric::K)
+            || opts.wants(Metric::Period)
+            || opts.keep_strobe
+            || early_stop.is_some();
         let want_rseries = opts.wants(Metric::R);
         let strobe_stride = instances.iter().map(|p| p.strobe_count).max().unwrap_or(0);
         let r_stride = instances.iter().map(|p| p.r_count).max().unwrap_or(0);
@@ -263,6 +317,7 @@ impl EnsemblePlan {
             dt_range_s,
             total_steps,
             warnings,
+            early_stop,
             instances,
         })
     }
@@ -358,13 +413,26 @@ pub struct RawInstance {
     pub strobe: Vec<f64>,
     /// Uniform α series for R (empty unless recorded).
     pub r_alpha: Vec<f64>,
+    /// Orbit period (forcing periods) at which the instance stopped early, if it did.
+    pub stopped_early: Option<u32>,
 }
 
-/// Integrate one instance with RK4 in the float type `T`, as the GPU kernel does.
+/// Integrate one instance with RK4 in the float type `T`, as the GPU kernel does, over the
+/// whole run.
 pub fn run_instance<T: Real>(
     plan: &InstancePlan,
     want_strobe: bool,
     want_rseries: bool,
+) -> RawInstance {
+    run_instance_with::<T>(plan, want_strobe, want_rseries, None)
+}
+
+/// [`run_instance`], stopping early once a periodic orbit is confirmed when `early` is given.
+pub fn run_instance_with<T: Real>(
+    plan: &InstancePlan,
+    want_strobe: bool,
+    want_rseries: bool,
+    early: Option<EarlyStop>,
 ) -> RawInstance {
     let chain: Chain<T> = Chain::new(&plan.params);
     let n = chain.segments();
@@ -401,7 +469,11 @@ pub fn run_instance<T: Real>(
         } else {
             Vec::new()
         },
+        stopped_early: None,
     };
+    // States at the last p_max + 1 stroboscopic samples (ring), for early termination.
+    let ring_len = early.map_or(0, |e| e.p_max as usize + 1);
+    let mut ring: Vec<Vec<T>> = vec![Vec::new(); ring_len];
     let mut touch = chain.touching(&mut ws, &y);
     let mut well = 0i32;
     let mut s = 0u64;
@@ -450,6 +522,17 @@ pub fn run_instance<T: Real>(
             if let Some(slot) = raw.strobe.get_mut(idx as usize) {
                 *slot = alpha;
             }
+            if let Some(e) = early {
+                let k = idx as usize;
+                ring[k % ring_len].clone_from(&y);
+                if let Some(p) = confirmed_period(&raw.strobe, &ring, k, &e) {
+                    for j in k + 1..raw.strobe.len() {
+                        raw.strobe[j] = raw.strobe[j - p];
+                    }
+                    raw.stopped_early = Some(p as u32);
+                    break;
+                }
+            }
         }
         let r_start = u64::from(plan.r_start);
         if want_rseries && s >= r_start && (s - r_start).is_multiple_of(u64::from(plan.r_every)) {
@@ -468,6 +551,24 @@ pub fn run_instance<T: Real>(
     }
     raw.steps_done = s;
     raw
+}
+
+/// The smallest p ≤ p_max for which the stroboscopic samples up to `k` and the full state at
+/// sample `k` repeat with period p (see [`EarlyStop`]).
+fn confirmed_period<T: Real>(
+    strobe: &[f64],
+    ring: &[Vec<T>],
+    k: usize,
+    e: &EarlyStop,
+) -> Option<usize> {
+    let w = e.window as usize;
+    let close = |a: f64, b: f64| (a - b).abs() <= e.tol * a.abs().max(1.0);
+    (1..=e.p_max as usize).find(|&p| {
+        k + 1 >= w + p && (k + 1 - w..=k).all(|j| close(strobe[j], strobe[j - p])) && {
+            let (now, then) = (&ring[k % ring.len()], &ring[(k - p) % ring.len()]);
+            then.len() == now.len() && now.iter().zip(then).all(|(a, b)| close(a.wide(), b.wide()))
+        }
+    })
 }
 
 /// The health check of [`crate::integrate::health`], with the cart velocity given.
@@ -496,7 +597,7 @@ pub fn run_cpu<T: Real>(plan: &EnsemblePlan, progress: &(dyn Fn(u64) + Sync)) ->
     plan.instances
         .par_iter()
         .map(|p| {
-            let r = run_instance::<T>(p, plan.want_strobe, plan.want_rseries);
+            let r = run_instance_with::<T>(p, plan.want_strobe, plan.want_rseries, plan.early_stop);
             progress(done.fetch_add(1, Ordering::Relaxed) + 1);
             r
         })

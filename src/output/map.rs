@@ -153,6 +153,8 @@ pub fn write_map(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf
         "dt_s": {"min": run.plan.dt_range_s.0, "max": run.plan.dt_range_s.1},
         "steps": {
             "total_instance_steps": run.plan.total_steps,
+            "integrated_instance_steps": run.results.iter().map(|r| r.steps).sum::<u64>(),
+            "stopped_early": run.stopped_early,
             "per_instance_max": run.plan.instances.iter().map(|p| p.total_steps()).max(),
             "dispatches": run.dispatches,
         },

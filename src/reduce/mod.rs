@@ -39,6 +39,9 @@ pub struct InstanceResult {
     pub power_w: f64,
     /// How the integration ended.
     pub status: Status,
+    /// Steps actually integrated (fewer than planned when the instance failed or stopped
+    /// early on a confirmed periodic orbit).
+    pub steps: u64,
 }
 
 impl InstanceResult {
@@ -131,6 +134,7 @@ pub fn from_cpu(
             let mut out = accumulators(
                 p,
                 plan,
+                r.steps_done,
                 r.status,
                 (r.alpha_min, r.alpha_max),
                 r.hops,
@@ -173,6 +177,7 @@ pub fn from_gpu(plan: &EnsemblePlan, run: &GpuRun) -> Vec<InstanceResult> {
             let mut out = accumulators(
                 p,
                 plan,
+                u64::from(a.step),
                 status,
                 (f64::from(a.alpha_min), f64::from(a.alpha_max)),
                 a.hops,
@@ -198,9 +203,11 @@ pub fn from_gpu(plan: &EnsemblePlan, run: &GpuRun) -> Vec<InstanceResult> {
 
 /// The accumulator-based metrics (everything but K, R and period), NaN when not requested
 /// or when the instance failed.
+#[allow(clippy::too_many_arguments)]
 fn accumulators(
     p: &InstancePlan,
     plan: &EnsemblePlan,
+    steps: u64,
     status: Status,
     alpha: (f64, f64),
     hops: u32,
@@ -218,6 +225,7 @@ fn accumulators(
         alpha_max_rad: nan,
         power_w: nan,
         status,
+        steps,
     };
     if status != Status::Ok {
         return out;

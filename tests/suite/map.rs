@@ -206,3 +206,51 @@ fn bad_map_scenes_are_refused_with_the_key_named() {
     let e = map_error(&["integration.duration_s=2.0", "integration.transient_s=1.0"]);
     assert!(e.contains("stroboscopic samples"), "{e}");
 }
+
+#[test]
+fn early_stop_ends_confirmed_periodic_orbits_and_keeps_their_metrics() {
+    use pendulum_atlas::config::map_from_toml;
+    use pendulum_atlas::map::{Backend, Precision, run_map};
+    let text = |early: bool| {
+        format!(
+            "[beam]\nsegments = 1\ndamping_ratio = 0.05\n[pivot]\nmode = \"clamped\"\n[limiter]\nenabled = false\n\
+             [excitation]\namplitude_m = 0.001\n[integration]\nduration_s = 60.0\ntransient_s = 20.0\n\
+             [map]\nmetrics = [\"K\", \"period\", \"alpha_range\"]\nearly_stop = {early}\n\
+             [[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [5.0, 10.0]\n"
+        )
+    };
+    let full = map_from_toml(&text(false), "<t>", &[]).unwrap();
+    let early = map_from_toml(&text(true), "<t>", &[]).unwrap();
+    let a = run_map(&full, Backend::Cpu, Precision::F64, &|_, _, _| {}).unwrap();
+    let b = run_map(&early, Backend::Cpu, Precision::F64, &|_, _, _| {}).unwrap();
+    assert_eq!(
+        b.stopped_early, 2,
+        "both forced linear responses settle on period 1"
+    );
+    for (x, y) in a.results.iter().zip(&b.results) {
+        assert!(
+            y.steps < x.steps / 2,
+            "stopped at {} of {} steps",
+            y.steps,
+            x.steps
+        );
+        assert_eq!(x.period, y.period);
+        assert!((x.k - y.k).abs() < 0.05, "K {} vs {}", x.k, y.k);
+        assert!((x.alpha_max_rad - y.alpha_max_rad).abs() < 1e-6);
+    }
+    // A metric that needs the whole run switches it off, with a warning.
+    let spec = map_from_toml(
+        &text(true).replace("\"alpha_range\"]", "\"alpha_range\", \"hops\"]"),
+        "<t>",
+        &[],
+    )
+    .unwrap();
+    let c = run_map(&spec, Backend::Cpu, Precision::F64, &|_, _, _| {}).unwrap();
+    assert_eq!(c.stopped_early, 0);
+    assert!(
+        c.plan
+            .warnings
+            .iter()
+            .any(|w| w.contains("early_stop ignored"))
+    );
+}
