@@ -1,0 +1,72 @@
+//! The work-precision report: files, table and pictures from a study's results.
+
+use pendulum_atlas::bench::report::write_bench;
+use pendulum_atlas::bench::{BenchConfig, BenchReport, ConfigResult, KOnly, Scaling};
+use pendulum_atlas::map::{Backend, Precision};
+
+fn config(n: usize, precision: Precision, err: f64, cost: f64) -> ConfigResult {
+    ConfigResult {
+        config: BenchConfig {
+            segments: n,
+            dt_factor: 1.0,
+            precision,
+            backend: Backend::Cpu,
+        },
+        dt_s: 1e-4,
+        alpha_err_rad: err,
+        map_wall_s: cost * 100.0,
+        cost_per_instance_s: cost,
+        instance_steps_per_s: 1e6,
+        segment_steps_per_s: 1e6 * n as f64,
+        mean_abs_dk: 0.1,
+        mean_abs_dr: 0.05,
+        k_class_changed: 0.125,
+        period_changed: 0.0,
+        failed: 0,
+    }
+}
+
+#[test]
+fn bench_report_writes_table_json_and_pictures() {
+    let report = BenchReport {
+        quick: true,
+        machine: "test".into(),
+        horizon_s: 0.5,
+        reference_map: "tiny".into(),
+        reference_wall_s: 1.0,
+        reference_map_wall_s: 2.0,
+        configs: vec![
+            config(3, Precision::F64, 1e-2, 1e-3),
+            config(9, Precision::F64, 2e-4, 1e-2),
+            config(3, Precision::F32, 1.1e-2, 8e-4),
+            config(9, Precision::F32, 3e-4, 9e-3),
+        ],
+        scaling: Scaling {
+            per_step_vs_segments: vec![(1, 200.0, 200.0), (4, 500.0, 125.0)],
+            wall_vs_instances: vec![(16, 0.1)],
+            wall_vs_duration: vec![(2.0, 0.1)],
+            threads: Some((2.0, 1.0, 2.0)),
+            gpu: None,
+        },
+        k_only: vec![KOnly {
+            backend: Backend::Cpu,
+            all_metrics_s: 1.0,
+            k_only_s: 0.5,
+            speedup: 2.0,
+        }],
+        total_s: 3.0,
+    };
+    let dir = std::env::temp_dir().join(format!("pendulum-atlas-bench-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    write_bench(&dir, &report).unwrap();
+    let md = std::fs::read_to_string(dir.join("BENCHMARKS.md")).unwrap();
+    assert!(md.contains("| 9 | cpu f32 dt=1x auto |"), "{md}");
+    assert!(md.contains("speed-up 2.00x"));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("bench.json")).unwrap()).unwrap();
+    assert_eq!(json["configs"].as_array().unwrap().len(), 4);
+    for png in ["work_precision.png", "map_error.png"] {
+        let img = image::open(dir.join(png)).unwrap();
+        assert!(img.width() >= 600 && img.height() >= 400);
+    }
+}
