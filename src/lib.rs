@@ -18,6 +18,7 @@
 
 pub mod analysis;
 pub mod config;
+pub mod harvest;
 pub mod integrate;
 pub mod map;
 pub mod model;

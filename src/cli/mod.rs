@@ -5,6 +5,7 @@ mod analyze;
 mod map;
 mod modes;
 mod report;
+mod search;
 mod simulate;
 
 use clap::{Parser, Subcommand};
@@ -42,6 +43,8 @@ pub enum Command {
     Modes(modes::ModesArgs),
     /// The paper's indicators (K, R, spectra, wavelets) for a measured CSV record.
     Analyze(analyze::AnalyzeArgs),
+    /// Broadband-harvesting design search against the linear clamped cantilever.
+    Search(search::SearchArgs),
 }
 
 /// Run the parsed command line.
@@ -51,6 +54,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Simulate(a) => simulate::run(a),
         Command::Modes(a) => modes::run(a),
         Command::Analyze(a) => analyze::run(a),
+        Command::Search(a) => search::run(a),
     }
 }
 

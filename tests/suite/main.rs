@@ -5,6 +5,7 @@ mod analysis;
 mod cli;
 mod config;
 mod gpu;
+mod harvest;
 mod integrate;
 mod map;
 mod model;
