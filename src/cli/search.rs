@@ -11,7 +11,7 @@ pub struct SearchArgs {
     /// Search scene (TOML with a [search] section; see configs/harvest/). Omit it to run the
     /// embedded default search (configs/harvest/default.toml).
     pub scene: Option<PathBuf>,
-    /// Override a scene or search key, e.g. `--set beam.segments=5 --set search.refine.rounds=0`.
+    /// Override a scene or search key, e.g. `--set search.band.base_acceleration_m_s2=5 --set search.refine.rounds=0`.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub sets: Vec<String>,
     /// Engine: `auto` (a hardware GPU, else the software adapter lavapipe, else the CPU),

@@ -10,18 +10,28 @@ use anyhow::Result;
 use plotters::prelude::*;
 use std::path::Path;
 
+/// A design variable's value in a few characters: the usual symbol and unit for the keys of
+/// issue 7, the last part of the key otherwise.
+fn short_value(key: &str, x: f64) -> String {
+    let n = crate::render::fmt_num;
+    match key {
+        "limiter.clearance_deg" => format!("θc={}°", n(x)),
+        "limiter.contact_arc_m" => format!("s_b={} m", n(x)),
+        "tip.mass_kg" => format!("M={} g", n(x * 1e3)),
+        "piezo.load_ohm" => format!("R_L={} kΩ", n(x / 1e3)),
+        other => format!("{}={}", other.rsplit('.').next().unwrap_or(other), n(x)),
+    }
+}
+
 /// Short label of a design for legends: `#id` and its values.
 pub fn design_label(spec: &SearchSpec, id: usize, values: &[f64]) -> String {
     let parts: Vec<String> = spec
         .variables
         .iter()
         .zip(values)
-        .map(|(v, x)| {
-            let short = v.key.rsplit('.').next().unwrap_or(&v.key);
-            format!("{short}={}", crate::render::fmt_num(*x))
-        })
+        .map(|(v, &x)| short_value(&v.key, x))
         .collect();
-    format!("#{id} {}", parts.join(" "))
+    format!("#{id} {}", parts.join(", "))
 }
 
 /// `pareto.png`: every design's robust bandwidth against its robust band-averaged power

@@ -38,6 +38,16 @@ pub fn watts(p: f64) -> String {
     format!("{:.3} {unit}", p * scale)
 }
 
+/// `key = value, ...` with values rounded for reading (best_design.toml has them exactly).
+fn short_design(spec: &SearchSpec, values: &[f64]) -> String {
+    spec.variables
+        .iter()
+        .zip(values)
+        .map(|(v, &x)| format!("`{}` = {}", v.key, crate::render::fmt_num(x)))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// A ratio `a/b` for reports ("—" when b is 0).
 fn ratio(a: f64, b: f64) -> String {
     if b > 0.0 && a.is_finite() {
@@ -67,8 +77,14 @@ pub fn write_search(
     written.push(p);
 
     let p = dir.join("best_design.toml");
-    std::fs::write(&p, best_design_toml(spec, run.best())?)?;
+    std::fs::write(&p, best_design_toml(spec, run.best(), verification)?)?;
     written.push(p);
+
+    if let Some(v) = verification {
+        let p = dir.join("verification.csv");
+        write_verification_csv(&p, v)?;
+        written.push(p);
+    }
 
     let p = dir.join("best.md");
     std::fs::write(&p, best_md(spec, run, verification, origin))?;
@@ -107,7 +123,7 @@ fn write_designs_csv(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<
             "bandwidth_mean_hz",
             "band_avg_power_mean_w",
             "hops_per_instance_mean",
-            "regular_fraction",
+            "periodic_fraction",
             "failed_instances",
             "pareto",
             "rank",
@@ -126,12 +142,42 @@ fn write_designs_csv(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<
             num(d.mean.bandwidth_hz),
             num(d.mean.band_average_w),
             num(mean_hops(d)),
-            num(regular_fraction(d)),
+            num(periodic_fraction(d)),
             d.failed.to_string(),
             d.pareto.to_string(),
             d.rank.to_string(),
         ]);
         writeln!(w, "{}", row.join(","))?;
+    }
+    w.flush()?;
+    Ok(())
+}
+
+/// `verification.csv`: the best design re-simulated at every point, next to the search.
+fn write_verification_csv(path: &Path, v: &Verification) -> Result<()> {
+    let mut w = std::io::BufWriter::new(
+        std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
+    );
+    writeln!(
+        w,
+        "design,initial_state,frequency_hz,search_power_w,simulate_power_w,rel_diff,period,hops,k_simulate,regular,status"
+    )?;
+    for p in &v.points {
+        writeln!(
+            w,
+            "{},{},{},{},{},{},{},{},{},{},{}",
+            v.design_id,
+            p.state,
+            p.frequency_hz,
+            num(p.search_w),
+            num(p.simulate_w),
+            num((p.simulate_w - p.search_w) / p.search_w),
+            num(p.period),
+            num(p.hops),
+            num(p.k_simulate),
+            p.regular(),
+            p.status
+        )?;
     }
     w.flush()?;
     Ok(())
@@ -154,7 +200,7 @@ pub fn mean_hops(d: &DesignResult) -> f64 {
 }
 
 /// Share of a design's instances whose stroboscopic section is periodic (period ≥ 1).
-pub fn regular_fraction(d: &DesignResult) -> f64 {
+pub fn periodic_fraction(d: &DesignResult) -> f64 {
     let all: Vec<f64> = d.period.iter().flatten().copied().collect();
     all.iter().filter(|&&p| p >= 1.0).count() as f64 / all.len().max(1) as f64
 }
@@ -203,17 +249,26 @@ fn write_instances_csv(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Resul
 }
 
 /// The frequency at which the best design is checked by `simulate`, from the first initial
-/// state: its robust peak if the response there is regular (a periodic stroboscopic
-/// section), otherwise the regular frequency of highest power, otherwise the robust peak.
-/// Irregular (chaotic) responses depend on the step, so only a regular one can be expected
-/// to match a re-simulation with another step closely.
-pub fn check_point(spec: &SearchSpec, d: &DesignResult) -> (f64, usize) {
+/// state: its robust peak if the response there is regular, otherwise the regular frequency
+/// of highest power, otherwise the robust peak. Regular: a periodic stroboscopic section in
+/// the search and, when the design was re-simulated, K < 0.5 there too. Irregular
+/// (chaotic) responses depend on the step, so only a regular one can be expected to match a
+/// re-simulation with another step closely.
+pub fn check_point(
+    spec: &SearchSpec,
+    d: &DesignResult,
+    verification: Option<&Verification>,
+) -> (f64, usize) {
     let freqs = &spec.band.frequencies_hz;
     let peak = freqs
         .iter()
         .position(|&x| x == d.robust.peak_frequency_hz)
         .unwrap_or(0);
-    let regular = |j: usize| d.period[0][j] >= 1.0;
+    let regular = |j: usize| match verification.filter(|v| v.design_id == d.id) {
+        // Points are stored states outermost: the first state's come first.
+        Some(v) => v.points[j].regular(),
+        None => d.period[0][j] >= 1.0,
+    };
     let j = if regular(peak) {
         peak
     } else {
@@ -227,9 +282,13 @@ pub fn check_point(spec: &SearchSpec, d: &DesignResult) -> (f64, usize) {
 
 /// `best_design.toml`: a plain scene (no `[search]`) of the best design at its check point,
 /// which `pendulum-atlas simulate` runs as it is.
-fn best_design_toml(spec: &SearchSpec, d: &DesignResult) -> Result<String> {
+fn best_design_toml(
+    spec: &SearchSpec,
+    d: &DesignResult,
+    verification: Option<&Verification>,
+) -> Result<String> {
     let (table, scene) = spec.design_table(&d.values)?;
-    let (f, j) = check_point(spec, d);
+    let (f, j) = check_point(spec, d, verification);
     let state = &spec.initial_states[0];
     let inst = spec.instance_scene(&table, scene.limiter.clearance_deg, state, f)?;
     let mut t = table.clone();
@@ -322,6 +381,33 @@ fn best_md(
         run.total_s
     );
 
+    let best = run.best();
+    let _ = writeln!(s, "## In short\n");
+    let _ = writeln!(
+        s,
+        "The best design, #{} ({}), harvests at least the threshold over **{:.2} Hz** of the band from \
+         every initial state, against **{:.2} Hz** for the linear clamped baseline ({}), with a robust \
+         band-averaged power of **{}** against the baseline's **{}** ({}). The baseline's resonance \
+         ({} at {:.2} Hz) dominates its average; the best design's robust power exceeds the \
+         baseline's at {} of the {} band frequencies.\n",
+        best.id,
+        short_design(spec, &best.values),
+        best.robust.bandwidth_hz,
+        bm.bandwidth_hz,
+        ratio(best.robust.bandwidth_hz, bm.bandwidth_hz),
+        watts(best.robust.band_average_w),
+        watts(bm.band_average_w),
+        ratio(best.robust.band_average_w, bm.band_average_w),
+        watts(bm.peak_w),
+        bm.peak_frequency_hz,
+        best.robust_w
+            .iter()
+            .zip(&b.band_power_w)
+            .filter(|(d, b)| d > b)
+            .count(),
+        band.frequencies_hz.len(),
+    );
+
     let _ = writeln!(s, "## Linear baseline\n");
     let _ = writeln!(
         s,
@@ -353,6 +439,24 @@ fn best_md(
         bb.bandwidth_hz,
         watts(bb.band_average_w)
     );
+    let edges = [
+        (band.start_hz(), b.band_power_w[0], "lower"),
+        (
+            band.end_hz(),
+            b.band_power_w[b.band_power_w.len() - 1],
+            "upper",
+        ),
+    ];
+    for (f, p, which) in edges {
+        if p >= run.threshold_w {
+            let _ = writeln!(
+                s,
+                "At the band's {which} edge ({f} Hz) the baseline still harvests {}, above the threshold: \
+                 its bandwidth is cut there by the band, not by its response.\n",
+                watts(p)
+            );
+        }
+    }
 
     let objective = match spec.objective {
         super::spec::Objective::Bandwidth => {
@@ -370,7 +474,7 @@ fn best_md(
         rule.push_str("---|");
     }
     head.push_str(
-        " robust bandwidth | vs baseline | robust band-avg P | vs baseline | mean bandwidth | mean band-avg P | robust peak P (at) | hops/instance | regular | Pareto |",
+        " robust bandwidth | vs baseline | robust band-avg P | vs baseline | mean bandwidth | mean band-avg P | robust peak P (at) | hops/instance | periodic section | Pareto |",
     );
     rule.push_str("---|---|---|---|---|---|---|---|---|---|");
     let _ = writeln!(s, "{head}\n{rule}");
@@ -391,7 +495,7 @@ fn best_md(
             watts(d.robust.peak_w),
             d.robust.peak_frequency_hz,
             mean_hops(d),
-            100.0 * regular_fraction(d),
+            100.0 * periodic_fraction(d),
             if d.pareto { "yes" } else { "" }
         );
         let _ = writeln!(s, "{row}");
@@ -413,14 +517,13 @@ fn best_md(
             s,
             "| {} | {} | {:.2} Hz | {} |",
             d.id,
-            super::spec::describe_design(&spec.variables, &d.values),
+            short_design(spec, &d.values),
             d.robust.bandwidth_hz,
             watts(d.robust.band_average_w)
         );
     }
 
-    let best = run.best();
-    let (f, j) = check_point(spec, best);
+    let (f, j) = check_point(spec, best, verification);
     let _ = writeln!(s, "\n## Checking the best design with `simulate`\n");
     let _ = write!(
         s,
@@ -441,6 +544,33 @@ fn best_md(
         watts(best.power_w[0][j]),
     );
     if let Some(v) = verification {
+        let peak = best.robust.peak_frequency_hz;
+        let rows: Vec<_> = v
+            .points
+            .iter()
+            .filter(|p| p.frequency_hz == f || p.frequency_hz == peak)
+            .collect();
+        let mut table = String::from(
+            "\n\n| f | initial state | search P | `simulate` P | difference | period (search) | K (`simulate`) |\n|---|---|---|---|---|---|---|\n",
+        );
+        for p in rows {
+            let _ = writeln!(
+                table,
+                "| {} Hz{} | `{}` | {} | {} | {:+.2} % | {} | {:.2} |",
+                p.frequency_hz,
+                if p.frequency_hz == peak {
+                    " (robust peak)"
+                } else {
+                    " (check)"
+                },
+                p.state,
+                watts(p.search_w),
+                watts(p.simulate_w),
+                100.0 * (p.simulate_w - p.search_w) / p.search_w,
+                p.period,
+                p.k_simulate
+            );
+        }
         let at = v
             .points
             .iter()
@@ -455,12 +585,13 @@ fn best_md(
                 100.0 * (p.simulate_w - p.search_w) / p.search_w
             );
         }
+        s.push_str(&table);
         let _ = writeln!(
             s,
             "\n\nOver the whole band ({} points: {} frequencies × {} initial states) the re-simulation gives a \
              robust band-averaged power of **{}** against the search's **{}** ({:+.2} %). On the {} points \
-             where the response is regular (a periodic stroboscopic section) the median difference is {:.2} % \
-             and the largest {:.2} %; over all points the median is {:.2} % and the largest {:.1} % (at {} Hz). \
+             where the response is regular (a periodic stroboscopic section in the search and K < 0.5 in \
+             the re-simulation) the median difference is {:.2} % and the largest {:.2} %; over all points the median is {:.2} % and the largest {:.1} % (at {} Hz). \
              The steps differ: the ensemble rounds its step to a whole number per forcing period ({}), \
              `simulate` takes its automatic step; chaotic responses (and hopping ones) follow other \
              trajectories at another step and only their averages compare.\n",
@@ -486,7 +617,8 @@ fn best_md(
     let _ = writeln!(
         s,
         "\nFiles: `designs.csv` (every design), `instances.csv` (every instance's power), \
-         `pareto.png`, `power_vs_frequency.png`, `search.json` (settings, timings, counts)."
+         `verification.csv` (the best design re-simulated point by point, with K), `pareto.png`, \
+         `power_vs_frequency.png`, `search.json` (settings, timings, counts)."
     );
     s
 }

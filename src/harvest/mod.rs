@@ -29,4 +29,4 @@ pub use spec::{
     BaseExcitation, DEFAULT_SEARCH_TOML, DesignVariable, InitialState, Objective, SearchSpec,
     Threshold, load_search, search_from_toml,
 };
-pub use verify::{Verification, simulate_power, verify_design};
+pub use verify::{Resimulated, Verification, VerifiedPoint, simulate_power, verify_design};

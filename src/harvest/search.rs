@@ -21,7 +21,7 @@ use crate::integrate::ensemble::{EnsembleOptions, EnsemblePlan};
 use crate::map::{Backend, Precision, run_plan};
 use crate::model::modes;
 use crate::reduce::{InstanceResult, ReduceOptions};
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::HashSet;
@@ -179,7 +179,8 @@ fn ensemble_options(spec: &SearchSpec) -> EnsembleOptions {
         keep_strobe: false,
         samples_per_period: spec.samples_per_period,
         strobe_phase: 0.0,
-        r_max_samples: 1024,
+        // R is not computed: the shortest series keeps the GPU's work buffer small.
+        r_max_samples: 32,
     }
 }
 
@@ -194,8 +195,29 @@ fn reduce_options() -> ReduceOptions {
     }
 }
 
+/// Bytes of GPU buffers an ensemble may use per buffer; adapters allow at least 128 MiB per
+/// storage buffer (lavapipe: exactly that), so batches are cut into chunks well below it.
+const CHUNK_BUFFER_BYTES: f64 = 64.0 * 1024.0 * 1024.0;
+
+/// Instances per chunk: at most `max`, and few enough for the largest per-instance buffer,
+/// the stroboscopic record (4 bytes per forcing period after the transient, for the period
+/// test).
+fn chunk_len(scenes: &[Scene], max: usize) -> usize {
+    let strobe = scenes
+        .iter()
+        .map(|s| {
+            let i = &s.integration;
+            ((i.duration_s - i.transient_s).max(0.0) * s.excitation.reference_frequency_hz()).ceil()
+                + 2.0
+        })
+        .fold(1.0, f64::max);
+    let per_instance = 4.0 * strobe + 1024.0;
+    ((CHUNK_BUFFER_BYTES / per_instance) as usize).clamp(1, max.max(1))
+}
+
 impl Engine<'_> {
-    /// Integrate a list of scenes as one ensemble.
+    /// Integrate a list of scenes: one ensemble, or several chunks of one when the batch
+    /// is too large for one set of GPU buffers. Results keep the order of `scenes`.
     fn run(
         &mut self,
         spec: &SearchSpec,
@@ -204,45 +226,68 @@ impl Engine<'_> {
         scenes: Vec<Scene>,
         started: Instant,
     ) -> Result<(Vec<InstanceResult>, StageReport)> {
-        let plan = EnsemblePlan::from_scenes(&scenes, &ensemble_options(spec))
-            .with_context(|| format!("planning the {stage} batch"))?;
-        drop(scenes);
-        let label = format!(
-            "{stage}: {designs} designs, {} instances",
-            plan.instances.len()
-        );
-        let progress = self.progress;
-        let cb = |done: u64, total: u64, _unit: &str| progress(&label, done, total);
-        let instances = plan.instances.len();
-        let run = run_plan(
-            plan,
-            &reduce_options(),
-            None,
-            self.backend,
-            self.precision,
-            &cb,
-        )
-        .with_context(|| format!("integrating the {stage} batch"))?;
-        if self.meta.is_none() {
-            self.meta = Some((
-                run.backend.to_string(),
-                run.backend_reason.clone(),
-                run.device.clone(),
-                run.precision,
-            ));
-        }
-        let report = StageReport {
+        let instances = scenes.len();
+        let chunk = chunk_len(&scenes, spec.max_batch_instances);
+        let n_chunks = instances.div_ceil(chunk);
+        let mut results = Vec::with_capacity(instances);
+        let mut report = StageReport {
             stage: stage.to_string(),
             designs,
             instances,
-            instance_steps: run.plan.total_steps,
-            wall_s: started.elapsed().as_secs_f64(),
-            engine_s: run.timings.total_s,
-            instance_steps_per_s: run.instance_steps_per_s(),
-            dt_range_s: run.plan.dt_range_s,
-            warnings: run.plan.warnings.clone(),
+            instance_steps: 0,
+            wall_s: 0.0,
+            engine_s: 0.0,
+            instance_steps_per_s: 0.0,
+            dt_range_s: (f64::INFINITY, 0.0),
+            warnings: Vec::new(),
         };
-        Ok((run.results, report))
+        let mut integrate_s = 0.0;
+        for (c, part) in scenes.chunks(chunk).enumerate() {
+            let plan = EnsemblePlan::from_scenes(part, &ensemble_options(spec))
+                .with_context(|| format!("planning the {stage} batch"))?;
+            let label = if n_chunks > 1 {
+                format!(
+                    "{stage}: {designs} designs, {instances} instances (chunk {}/{n_chunks})",
+                    c + 1
+                )
+            } else {
+                format!("{stage}: {designs} designs, {instances} instances")
+            };
+            let progress = self.progress;
+            let cb = |done: u64, total: u64, _unit: &str| progress(&label, done, total);
+            let run = run_plan(
+                plan,
+                &reduce_options(),
+                None,
+                self.backend,
+                self.precision,
+                &cb,
+            )
+            .with_context(|| format!("integrating the {stage} batch"))?;
+            if self.meta.is_none() {
+                self.meta = Some((
+                    run.backend.to_string(),
+                    run.backend_reason.clone(),
+                    run.device.clone(),
+                    run.precision,
+                ));
+            }
+            let steps = run.plan.total_steps;
+            report.instance_steps += steps;
+            report.engine_s += run.timings.total_s;
+            integrate_s += steps as f64 / run.instance_steps_per_s();
+            report.dt_range_s.0 = report.dt_range_s.0.min(run.plan.dt_range_s.0);
+            report.dt_range_s.1 = report.dt_range_s.1.max(run.plan.dt_range_s.1);
+            for w in &run.plan.warnings {
+                if !report.warnings.contains(w) {
+                    report.warnings.push(w.clone());
+                }
+            }
+            results.extend(run.results);
+        }
+        report.instance_steps_per_s = report.instance_steps as f64 / integrate_s.max(1e-12);
+        report.wall_s = started.elapsed().as_secs_f64();
+        Ok((results, report))
     }
 }
 
@@ -345,10 +390,7 @@ fn baseline_frequencies(spec: &SearchSpec, f1: f64) -> Vec<f64> {
 }
 
 /// Evaluate the clamped linear cantilever over the band (and the zoom around its resonance).
-fn evaluate_baseline(
-    spec: &SearchSpec,
-    engine: &mut Engine,
-) -> Result<(Baseline, Vec<InstanceResult>, StageReport)> {
+fn evaluate_baseline(spec: &SearchSpec, engine: &mut Engine) -> Result<(Baseline, StageReport)> {
     let started = Instant::now();
     let table = spec.baseline_table()?;
     let scene0 = Scene::from_table(table.clone())?;
@@ -402,7 +444,6 @@ fn evaluate_baseline(
             band_metrics: nan,
             failed,
         },
-        results,
         report,
     ))
 }
@@ -509,10 +550,22 @@ pub fn run_search(
     };
     let mut stages = Vec::new();
 
-    let (mut baseline, _, report) = evaluate_baseline(spec, &mut engine)?;
+    let (mut baseline, mut report) = evaluate_baseline(spec, &mut engine)?;
+    if baseline.failed > 0 {
+        report.warnings.push(format!(
+            "{} of {} baseline instances did not end `ok`: their power counts as zero",
+            baseline.failed,
+            baseline.frequencies_hz.len()
+        ));
+    }
     stages.push(report);
     let peak = band_metrics(&baseline.frequencies_hz, &baseline.power_w, 0.0).peak_w;
     let threshold_w = spec.threshold.power_w(peak);
+    if !(threshold_w.is_finite() && threshold_w >= 0.0) {
+        bail!(
+            "the bandwidth threshold is relative to the linear baseline's peak, but the baseline has no valid power (peak {peak} W): give search.threshold.power_w instead"
+        );
+    }
     baseline.metrics = band_metrics(&baseline.frequencies_hz, &baseline.power_w, threshold_w);
     baseline.band_metrics = band_metrics(
         &spec.band.frequencies_hz,

@@ -271,6 +271,9 @@ pub struct SearchSpec {
     pub baseline_zoom: BaselineZoom,
     /// Re-simulate the best design with the single-run engine of `simulate`.
     pub verify: bool,
+    /// Most instances in one ensemble: larger batches run as several chunks (also bounded by
+    /// the GPU's buffer size).
+    pub max_batch_instances: usize,
 }
 
 impl SearchSpec {
@@ -481,6 +484,8 @@ fn read_search(
         count: r.integer("search.baseline.zoom_count", 41, 0, 10_000)? as usize,
     };
     let verify = r.boolean("search.verify", true)?;
+    let max_batch_instances =
+        r.integer("search.max_batch_instances", 16_384, 1, 4_000_000)? as usize;
     r.finish()?;
     let spec = SearchSpec {
         scene,
@@ -495,6 +500,7 @@ fn read_search(
         samples_per_period,
         baseline_zoom,
         verify,
+        max_batch_instances,
     };
     check_variables(&spec)?;
     Ok(spec)

@@ -5,6 +5,7 @@
 
 use super::search::DesignResult;
 use super::spec::SearchSpec;
+use crate::analysis::{ZeroOneOptions, stroboscopic, zero_one_test};
 use crate::integrate::{Instance, Observer, StepPlan, integrate};
 use crate::model::{CartState, Chain, ModelParams, Real, Workspace, modes};
 use anyhow::Result;
@@ -13,12 +14,15 @@ use serde::Serialize;
 use std::time::Instant;
 
 /// Mean of v²/R_L over the output rows at or after the transient, as one would compute it
-/// from the `power_w` column of `trajectory.csv`.
+/// from the `power_w` column of `trajectory.csv`; also keeps the holder angle of every row
+/// for the 0–1 test.
 struct PowerMeter {
     transient_s: f64,
     inv_load: f64,
     sum_w: f64,
     rows: u64,
+    t_s: Vec<f64>,
+    alpha_rad: Vec<f64>,
 }
 
 impl<T: Real> Observer<T> for PowerMeter {
@@ -31,6 +35,8 @@ impl<T: Real> Observer<T> for PowerMeter {
         chain: &Chain<T>,
         _ws: &mut Workspace<T>,
     ) {
+        self.t_s.push(t_s);
+        self.alpha_rad.push(y[0].wide());
         if t_s >= self.transient_s - 1e-9 {
             let v = y[2 * chain.segments()].wide();
             self.sum_w += v * v * self.inv_load;
@@ -56,6 +62,18 @@ pub struct VerifiedPoint {
     pub hops: f64,
     /// Period of the search's stroboscopic section (0: not periodic up to 8 periods).
     pub period: f64,
+    /// 0–1 test K of the re-simulated run (stroboscopic α after the transient, as
+    /// `simulate` reports it): near 0 regular, near 1 chaotic.
+    pub k_simulate: f64,
+}
+
+impl VerifiedPoint {
+    /// Regular by both tests: a periodic stroboscopic section in the search and K < 0.5 in
+    /// the re-simulation. Only such responses can be expected to match point by point; a
+    /// chaotic one gives another 20-second average at another step.
+    pub fn regular(&self) -> bool {
+        self.period >= 1.0 && self.k_simulate < 0.5
+    }
 }
 
 /// The whole re-simulation of one design.
@@ -71,7 +89,7 @@ pub struct Verification {
     pub simulate_band_average_w: f64,
     /// Median over the points of |simulate − search| / search.
     pub median_rel_diff: f64,
-    /// Median of the same over the regular points (periodic stroboscopic section).
+    /// Median of the same over the regular points ([`VerifiedPoint::regular`]).
     pub median_rel_diff_regular: f64,
     /// Largest of the same over the regular points.
     pub max_rel_diff_regular: f64,
@@ -104,8 +122,19 @@ fn median(mut v: Vec<f64>) -> f64 {
     }
 }
 
-/// Mean power of one instance integrated as `simulate` would (W), and its status.
-pub fn simulate_power(scene: &crate::config::Scene) -> (f64, &'static str) {
+/// What one re-simulation gives.
+#[derive(Debug, Clone, Copy)]
+pub struct Resimulated {
+    /// Mean power over the output rows after the transient (W); NaN if the run failed.
+    pub power_w: f64,
+    /// 0–1 test K of the stroboscopic holder angle after the transient (NaN if too short).
+    pub k: f64,
+    /// `ok`, `diverged` or `non-finite`.
+    pub status: &'static str,
+}
+
+/// One instance integrated as `simulate` integrates it.
+pub fn simulate_power(scene: &crate::config::Scene) -> Resimulated {
     let m = modes(scene);
     let plan = StepPlan::for_scene(scene, &m);
     let params = ModelParams::from_scene(scene);
@@ -115,14 +144,35 @@ pub fn simulate_power(scene: &crate::config::Scene) -> (f64, &'static str) {
         inv_load: params.piezo.as_ref().map_or(0.0, |z| 1.0 / z.load_ohm),
         sum_w: 0.0,
         rows: 0,
+        t_s: Vec::with_capacity(plan.rows()),
+        alpha_rad: Vec::with_capacity(plan.rows()),
     };
     let outcome = integrate(&inst, &plan, &mut meter);
-    let p = if meter.rows == 0 || outcome.status.as_str() != "ok" {
+    let ok = outcome.status.as_str() == "ok";
+    let power_w = if meter.rows == 0 || !ok {
         f64::NAN
     } else {
         meter.sum_w / meter.rows as f64
     };
-    (p, outcome.status.as_str())
+    let k = if ok {
+        stroboscopic(
+            &meter.t_s,
+            &meter.alpha_rad,
+            scene.excitation.reference_frequency_hz(),
+            0.0,
+            scene.integration.transient_s,
+        )
+        .ok()
+        .and_then(|s| zero_one_test(&s, &ZeroOneOptions::default()).ok())
+        .map_or(f64::NAN, |r| r.k)
+    } else {
+        f64::NAN
+    };
+    Resimulated {
+        power_w,
+        k,
+        status: outcome.status.as_str(),
+    }
 }
 
 /// Re-simulate a design at every band frequency from every initial state.
@@ -139,13 +189,14 @@ pub fn verify_design(spec: &SearchSpec, design: &DesignResult) -> Result<Verific
             let state = &spec.initial_states[s];
             let f = spec.band.frequencies_hz[j];
             let scene = spec.instance_scene(&table, clearance, state, f)?;
-            let (p, status) = simulate_power(&scene);
+            let re = simulate_power(&scene);
             Ok(VerifiedPoint {
                 frequency_hz: f,
                 state: state.name.clone(),
                 search_w: design.power_w[s][j],
-                simulate_w: p,
-                status: status.to_string(),
+                simulate_w: re.power_w,
+                k_simulate: re.k,
+                status: re.status.to_string(),
                 hops: design.hops[s][j],
                 period: design.period[s][j],
             })
@@ -164,7 +215,7 @@ pub fn verify_design(spec: &SearchSpec, design: &DesignResult) -> Result<Verific
         .collect();
     let regular: Vec<f64> = points
         .iter()
-        .filter(|p| p.period >= 1.0)
+        .filter(|p| p.regular())
         .map(|p| rel(p.simulate_w, p.search_w))
         .collect();
     let (max_rel_diff, max_rel_diff_at_hz) = points
