@@ -98,6 +98,7 @@ pub fn mean_curve(per_state: &[Vec<f64>]) -> Vec<f64> {
     })
 }
 
+/// Apply `op` across the initial states at each frequency; NaN where any state failed.
 fn combine(per_state: &[Vec<f64>], op: impl Fn(&[f64]) -> f64) -> Vec<f64> {
     let n = per_state.first().map_or(0, Vec::len);
     (0..n)

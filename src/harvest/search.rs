@@ -472,24 +472,35 @@ fn rank(spec: &SearchSpec, designs: &[DesignResult]) -> Vec<usize> {
 }
 
 /// Mark the designs no other design beats in both robust bandwidth and robust band-averaged
-/// power (designs with failed instances take no part).
+/// power (designs with failed instances take no part). Sorted sweep: O(n log n).
 fn mark_pareto(designs: &mut [DesignResult]) {
-    let pts: Vec<(f64, f64, bool)> = designs
-        .iter()
-        .map(|d| {
-            (
-                d.robust.bandwidth_hz,
-                d.robust.band_average_w,
-                d.failed == 0,
-            )
-        })
+    let key = |d: &DesignResult| (d.robust.bandwidth_hz, d.robust.band_average_w);
+    let mut ok: Vec<usize> = (0..designs.len())
+        .filter(|&i| designs[i].failed == 0)
         .collect();
-    for (i, d) in designs.iter_mut().enumerate() {
-        let (bw, p, ok) = pts[i];
-        d.pareto = ok
-            && !pts
-                .iter()
-                .any(|&(b2, p2, ok2)| ok2 && b2 >= bw && p2 >= p && (b2 > bw || p2 > p));
+    ok.sort_by(|&a, &b| {
+        let (ka, kb) = (key(&designs[a]), key(&designs[b]));
+        kb.0.total_cmp(&ka.0).then(kb.1.total_cmp(&ka.1))
+    });
+    for d in designs.iter_mut() {
+        d.pareto = false;
+    }
+    // Best power among designs of strictly larger bandwidth.
+    let mut best_wider = f64::NEG_INFINITY;
+    let mut i = 0;
+    while i < ok.len() {
+        let bw = key(&designs[ok[i]]).0;
+        let mut j = i;
+        while j < ok.len() && key(&designs[ok[j]]).0 == bw {
+            j += 1;
+        }
+        // Sorted by power within the group: its first has the group's best power.
+        let top = key(&designs[ok[i]]).1;
+        for &k in &ok[i..j] {
+            designs[k].pareto = key(&designs[k]).1 == top && top > best_wider;
+        }
+        best_wider = best_wider.max(top);
+        i = j;
     }
 }
 

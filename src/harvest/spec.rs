@@ -444,6 +444,8 @@ pub fn search_from_toml(
     read_search(search, scene, table)
 }
 
+/// Read the `[search]` table (variables and initial states already taken out) and check
+/// the design variables against the scene schema.
 fn read_search(
     mut search: Table,
     scene: Scene,
@@ -506,6 +508,7 @@ fn read_search(
     Ok(spec)
 }
 
+/// `[search.band]`: the frequencies and the base excitation (acceleration or amplitude).
 fn read_band(r: &mut Reader) -> Result<Band, ConfigError> {
     let start = r
         .number_opt("search.band.start_hz", Range::Positive, "Hz")?
@@ -561,6 +564,7 @@ fn read_band(r: &mut Reader) -> Result<Band, ConfigError> {
     })
 }
 
+/// `[search.threshold]`: absolute (`power_w`) or relative to the baseline's peak.
 fn read_threshold(r: &mut Reader) -> Result<Threshold, ConfigError> {
     let rel = r.number_opt(
         "search.threshold.relative_to_baseline_peak",
@@ -582,6 +586,7 @@ fn read_threshold(r: &mut Reader) -> Result<Threshold, ConfigError> {
     }
 }
 
+/// A required key that is absent, with what to give.
 fn missing(key: &str, what: &str) -> ConfigError {
     ConfigError::Inconsistent {
         key: key.into(),
@@ -589,6 +594,7 @@ fn missing(key: &str, what: &str) -> ConfigError {
     }
 }
 
+/// `[[search.initial]]`: the initial states (both wells when absent).
 fn read_initial_states(v: Option<Value>) -> Result<Vec<InitialState>, ConfigError> {
     let items = match v {
         None => {
@@ -677,6 +683,7 @@ fn read_initial_states(v: Option<Value>) -> Result<Vec<InitialState>, ConfigErro
     Ok(out)
 }
 
+/// A straight beam at rest (or at `rate`) on the bumper of well `w` (±1).
 fn well_state(w: f64, rate: f64, volt: f64) -> InitialState {
     let mut name = if w > 0.0 { "+well" } else { "-well" }.to_string();
     if rate != 0.0 {
@@ -723,6 +730,7 @@ fn reserved(key: &str) -> Option<&'static str> {
     }
 }
 
+/// `[[search.variables]]`: each key with its grid values, checked for empty ranges.
 fn read_variables(v: Option<Value>, base: &Table) -> Result<Vec<DesignVariable>, ConfigError> {
     let items = match v {
         Some(Value::Array(items)) => items,
@@ -939,6 +947,7 @@ fn read_variables(v: Option<Value>, base: &Table) -> Result<Vec<DesignVariable>,
     Ok(vars)
 }
 
+/// The value at a dotted key of a table, if any.
 fn lookup<'a>(table: &'a Table, key: &str) -> Option<&'a Value> {
     let mut cursor = table;
     let parts: Vec<&str> = key.split('.').collect();

@@ -284,6 +284,22 @@ fn check_search_dir(out: &std::path::Path, backend: &str) {
         );
     }
     assert_eq!(rows.iter().filter(|r| r[14] == "1").count(), 1);
+    // The Pareto flags, recomputed by brute force from the two columns.
+    let pts: Vec<(f64, f64)> = rows
+        .iter()
+        .map(|r| (r[4].parse().unwrap(), r[5].parse().unwrap()))
+        .collect();
+    for (r, &(bw, p)) in rows.iter().zip(&pts) {
+        let dominated = pts
+            .iter()
+            .any(|&(b2, p2)| b2 >= bw && p2 >= p && (b2 > bw || p2 > p));
+        assert_eq!(
+            r[13] == "true",
+            !dominated,
+            "Pareto flag of design {}",
+            r[0]
+        );
+    }
 
     let md = std::fs::read_to_string(out.join("best.md")).unwrap();
     for needle in [
