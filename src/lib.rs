@@ -19,6 +19,7 @@
 pub mod analysis;
 pub mod bench;
 pub mod config;
+pub mod harvest;
 pub mod integrate;
 pub mod map;
 pub mod model;

@@ -7,6 +7,7 @@ mod map;
 mod modes;
 mod report;
 mod reproduce;
+mod search;
 mod simulate;
 
 use clap::{Parser, Subcommand};
@@ -48,6 +49,8 @@ pub enum Command {
     Analyze(analyze::AnalyzeArgs),
     /// Reproduce the paper: Table 2, Figs. 3–12 and a report, from one command.
     Reproduce(reproduce::ReproduceArgs),
+    /// Broadband-harvesting design search against the linear clamped cantilever.
+    Search(search::SearchArgs),
 }
 
 /// Run the parsed command line.
@@ -59,6 +62,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Modes(a) => modes::run(a),
         Command::Analyze(a) => analyze::run(a),
         Command::Reproduce(a) => reproduce::run(a),
+        Command::Search(a) => search::run(a),
     }
 }
 

@@ -6,6 +6,7 @@ mod bench;
 mod cli;
 mod config;
 mod gpu;
+mod harvest;
 mod integrate;
 mod map;
 mod model;

@@ -186,7 +186,7 @@ pub fn run_gpu(
     let n_c = reduce.c_values.len().max(1);
     let strobe_stride = plan.strobe_stride.max(1);
     let n_cut_max = (plan.strobe_stride + 5) / 10;
-    let rwork_stride = (2 * plan.r_stride).max(if want_k {
+    let rwork_stride = (if want_r { 2 * plan.r_stride } else { 0 }).max(if want_k {
         plan.strobe_stride + n_cut_max
     } else {
         0
@@ -254,7 +254,7 @@ pub fn run_gpu(
     } else {
         16
     };
-    let rwork_bytes = if want_r || run_k_kernel {
+    let rwork_bytes = if want_r || want_k {
         bytes(n_inst * rwork_stride as usize, 8)?
     } else {
         16

@@ -1,0 +1,114 @@
+//! `pendulum-atlas search`: the broadband-harvesting design search over a harvester scene.
+
+use indicatif::{ProgressBar, ProgressStyle};
+use pendulum_atlas::harvest::{load_search, run_search, verify_design, write_search};
+use pendulum_atlas::map::{Backend, Precision};
+use std::path::PathBuf;
+
+/// Arguments of `search`.
+#[derive(Debug, clap::Args)]
+pub struct SearchArgs {
+    /// Search scene (TOML with a [search] section; see configs/harvest/). Omit it to run the
+    /// embedded default search (configs/harvest/default.toml).
+    pub scene: Option<PathBuf>,
+    /// Override a scene or search key, e.g. `--set search.band.base_acceleration_m_s2=5 --set search.refine.rounds=0`.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<String>,
+    /// Engine: `auto` (a hardware GPU, else the software adapter lavapipe, else the CPU),
+    /// `gpu` (any wgpu adapter, lavapipe included) or `cpu`.
+    #[arg(long, value_enum, default_value_t = Backend::Auto)]
+    pub backend: Backend,
+    /// Float type of the CPU engine (the GPU integrates in f32).
+    #[arg(long, value_enum)]
+    pub precision: Option<Precision>,
+    /// Output folder.
+    #[arg(long, default_value = "runs/harvest")]
+    pub out: PathBuf,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Run `search`.
+pub fn run(a: SearchArgs) -> anyhow::Result<()> {
+    let spec = load_search(a.scene.as_deref(), &a.sets)?;
+    let origin = a.scene.as_ref().map_or_else(
+        || "configs/harvest/default.toml (embedded)".to_string(),
+        |p| p.display().to_string(),
+    );
+    let precision = a.precision.unwrap_or(match a.backend {
+        Backend::Cpu => Precision::F64,
+        _ => Precision::F32,
+    });
+    let bar = if a.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(1)
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} {msg} [{bar:40}] {pos}/{len} {elapsed_precise} (eta {eta})",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    let progress = |stage: &str, done: u64, total: u64| {
+        if bar.message() != stage {
+            bar.set_message(stage.to_string());
+            bar.reset();
+        }
+        bar.set_length(total);
+        bar.set_position(done);
+    };
+    let run = run_search(&spec, a.backend, precision, &progress)?;
+    let verification = if spec.verify {
+        bar.set_message("re-simulating the best design with the simulate engine");
+        bar.set_length(1);
+        bar.set_position(0);
+        Some(verify_design(&spec, run.best())?)
+    } else {
+        None
+    };
+    bar.finish_and_clear();
+    let files = write_search(&a.out, &spec, &run, verification.as_ref(), &origin)?;
+    for st in &run.stages {
+        for w in &st.warnings {
+            eprintln!("warning ({}): {w}", st.stage);
+        }
+        println!(
+            "{}: {} designs, {} instances, {:.2e} instance-steps in {:.1} s ({:.3e} instance-steps/s)",
+            st.stage,
+            st.designs,
+            st.instances,
+            st.instance_steps as f64,
+            st.wall_s,
+            st.instance_steps_per_s
+        );
+    }
+    let best = run.best();
+    let b = &run.baseline.metrics;
+    println!(
+        "search on {} [{}]: {} designs in {:.1} s; best #{}: robust bandwidth {:.2} Hz (baseline {:.2} Hz), robust band-averaged power {:.3e} W (baseline {:.3e} W)",
+        run.backend,
+        run.device,
+        run.designs.len(),
+        run.total_s,
+        best.id,
+        best.robust.bandwidth_hz,
+        b.bandwidth_hz,
+        best.robust.band_average_w,
+        b.band_average_w
+    );
+    if let Some(v) = &verification {
+        println!(
+            "re-simulated with the simulate engine: robust band-averaged power {:.3e} W vs {:.3e} W from the search (median point {:.2} %, largest {:.1} % at {} Hz)",
+            v.simulate_band_average_w,
+            v.search_band_average_w,
+            100.0 * v.median_rel_diff,
+            100.0 * v.max_rel_diff,
+            v.max_rel_diff_at_hz
+        );
+    }
+    println!("wrote {} files to {}", files.len(), a.out.display());
+    Ok(())
+}

@@ -1,0 +1,168 @@
+//! The search's two pictures: the Pareto plot (bandwidth against band-averaged power) and
+//! P(f) of the best designs against the linear baseline.
+
+use super::search::SearchRun;
+use super::spec::SearchSpec;
+use crate::render::{
+    AxisSpec, PALETTE, Series, TICK_PX, build_chart, canvas, font, line_chart, plot_value,
+};
+use anyhow::Result;
+use plotters::prelude::*;
+use std::path::Path;
+
+/// A design variable's value in a few characters: the usual symbol and unit for the keys of
+/// issue 7, the last part of the key otherwise.
+fn short_value(key: &str, x: f64) -> String {
+    let n = crate::render::fmt_num;
+    match key {
+        "limiter.clearance_deg" => format!("θc={}°", n(x)),
+        "limiter.contact_arc_m" => format!("s_b={} m", n(x)),
+        "tip.mass_kg" => format!("M={} g", n(x * 1e3)),
+        "piezo.load_ohm" => format!("R_L={} kΩ", n(x / 1e3)),
+        other => format!("{}={}", other.rsplit('.').next().unwrap_or(other), n(x)),
+    }
+}
+
+/// Short label of a design for legends: `#id` and its values.
+pub fn design_label(spec: &SearchSpec, id: usize, values: &[f64]) -> String {
+    let parts: Vec<String> = spec
+        .variables
+        .iter()
+        .zip(values)
+        .map(|(v, &x)| short_value(&v.key, x))
+        .collect();
+    format!("#{id} {}", parts.join(", "))
+}
+
+/// `pareto.png`: every design's robust bandwidth against its robust band-averaged power
+/// (log scale), the Pareto front joined, the best design and the baseline marked.
+pub fn pareto_figure(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<()> {
+    let pts: Vec<(f64, f64, bool)> = run
+        .designs
+        .iter()
+        .filter(|d| d.failed == 0)
+        .map(|d| (d.robust.bandwidth_hz, d.robust.band_average_w, d.pareto))
+        .collect();
+    let base = (
+        run.baseline.metrics.bandwidth_hz,
+        run.baseline.metrics.band_average_w,
+    );
+    let best = run.best();
+    let best_pt = (best.robust.bandwidth_hz, best.robust.band_average_w);
+    let xs = pts.iter().map(|p| p.0).chain([base.0, 0.0]);
+    let ys = pts.iter().map(|p| p.1).chain([base.1]);
+    let xa = AxisSpec::auto(xs, false, 0.05);
+    let ya = AxisSpec::auto(ys.filter_map(|y| plot_value(y, true)), true, 0.05);
+    let root = canvas(path, (1000, 700))?;
+    let title = format!(
+        "{} designs: robust bandwidth vs band-averaged power",
+        run.designs.len()
+    );
+    let mut chart = build_chart(
+        &root,
+        Some(&title),
+        &xa,
+        &ya,
+        &format!(
+            "robust bandwidth (Hz) where P ≥ {} W",
+            crate::render::fmt_num(run.threshold_w)
+        ),
+        &format!(
+            "robust band-averaged power (W), {}–{} Hz",
+            spec.band.start_hz(),
+            spec.band.end_hz()
+        ),
+        true,
+        25,
+    )?;
+    let map = |(x, y): (f64, f64)| Some((xa.map(x)?, ya.map(y)?));
+    let grey = RGBColor(150, 150, 150);
+    chart
+        .draw_series(
+            pts.iter()
+                .filter_map(|&(x, y, _)| map((x, y)))
+                .map(|p| Circle::new(p, 3, grey.mix(0.7).filled())),
+        )?
+        .label("design")
+        .legend(move |(x, y)| Circle::new((x + 12, y), 4, grey.filled()));
+    let mut front: Vec<(f64, f64)> = pts
+        .iter()
+        .filter(|p| p.2)
+        .filter_map(|&(x, y, _)| map((x, y)))
+        .collect();
+    front.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let red = PALETTE[3];
+    chart.draw_series(LineSeries::new(front.clone(), red.stroke_width(2)))?;
+    chart
+        .draw_series(front.iter().map(|&p| Circle::new(p, 5, red.filled())))?
+        .label("Pareto front")
+        .legend(move |(x, y)| Circle::new((x + 12, y), 5, red.filled()));
+    if let Some(p) = map(best_pt) {
+        let c = PALETTE[0];
+        chart
+            .draw_series(std::iter::once(Circle::new(p, 9, c.stroke_width(3))))?
+            .label(format!("best: #{}", best.id))
+            .legend(move |(x, y)| Circle::new((x + 12, y), 7, c.stroke_width(3)));
+    }
+    if let Some(p) = map(base) {
+        chart
+            .draw_series(std::iter::once(TriangleMarker::new(p, 10, BLACK.filled())))?
+            .label("linear clamped baseline")
+            .legend(|(x, y)| TriangleMarker::new((x + 12, y), 7, BLACK.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(font(TICK_PX))
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
+
+/// `power_vs_frequency.png`: robust P(f) of the top designs, the baseline's P(f) and the
+/// threshold, on a log power axis.
+pub fn power_figure(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<()> {
+    let top = run.top(spec.report_top);
+    let labels: Vec<String> = top
+        .iter()
+        .map(|d| format!("{} (robust)", design_label(spec, d.id, &d.values)))
+        .collect();
+    let f = &spec.band.frequencies_hz;
+    let mut series: Vec<Series> = top
+        .iter()
+        .zip(&labels)
+        .map(|(d, l)| Series {
+            name: l,
+            x: f,
+            y: &d.robust_w,
+        })
+        .collect();
+    series.push(Series {
+        name: "linear clamped baseline",
+        x: &run.baseline.frequencies_hz,
+        y: &run.baseline.power_w,
+    });
+    let tx = [spec.band.start_hz(), spec.band.end_hz()];
+    let ty = [run.threshold_w, run.threshold_w];
+    if run.threshold_w > 0.0 {
+        series.push(Series {
+            name: "bandwidth threshold",
+            x: &tx,
+            y: &ty,
+        });
+    }
+    line_chart(
+        path,
+        &format!(
+            "P(f): best designs vs linear baseline ({})",
+            spec.band.excitation.describe()
+        ),
+        "forcing frequency f (Hz)",
+        "mean harvested power P (W)",
+        &series,
+        false,
+        true,
+    )
+}

@@ -1,0 +1,1000 @@
+//! Search scenes: a harvester scene (piezo on) plus a `[search]` section naming the design
+//! variables, the frequency band, the base excitation, the initial states, the bandwidth
+//! threshold and the refinement.
+//!
+//! ```toml
+//! [[search.variables]]
+//! key = "limiter.clearance_deg"      # any numeric scene key
+//! start = 2.0
+//! end = 20.0
+//! count = 4                          # or: values = [2.0, 5.0, 10.0]; scale = "log"
+//! [search.band]
+//! start_hz = 4.0
+//! end_hz = 30.0
+//! count = 53
+//! base_acceleration_m_s2 = 1.0       # or base_amplitude_m = 0.001
+//! [search.threshold]
+//! relative_to_baseline_peak = 0.1    # or power_w = 1e-6
+//! ```
+//!
+//! Parsing follows the scene's two phases: the raw table (with `--set` overrides) is read
+//! key by key with [`Reader`], so a typo in `[search]` is an unknown key, and every design
+//! variable is checked against the scene schema before any integration starts.
+
+use crate::config::{
+    AxisScale, ConfigError, ExcitationKind, Range, Reader, Scene, apply_override, parse_toml,
+};
+use serde::Serialize;
+use toml::{Table, Value};
+
+/// The embedded default search (`configs/harvest/default.toml`): what `pendulum-atlas search`
+/// runs with no scene.
+pub const DEFAULT_SEARCH_TOML: &str = include_str!("../../configs/harvest/default.toml");
+
+/// Largest number of designs in the initial grid.
+pub const MAX_GRID_DESIGNS: usize = 100_000;
+
+/// Scene keys whose values are integers.
+const INTEGER_KEYS: [&str; 1] = ["piezo.segments"];
+
+/// One design variable: a numeric scene key and the values the grid takes.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DesignVariable {
+    /// Dotted scene key, e.g. `limiter.clearance_deg`.
+    pub key: String,
+    /// Grid values, strictly increasing.
+    pub values: Vec<f64>,
+    /// Spacing of the grid, also the space in which refinement steps are taken.
+    pub scale: AxisScale,
+    /// The key holds an integer (refined values are rounded).
+    pub integer: bool,
+}
+
+impl DesignVariable {
+    /// Smallest value: refinement never goes below it.
+    pub fn lo(&self) -> f64 {
+        self.values[0]
+    }
+
+    /// Largest value: refinement never goes above it.
+    pub fn hi(&self) -> f64 {
+        self.values[self.values.len() - 1]
+    }
+
+    /// A value in the space steps are taken in (ln for log variables).
+    pub fn to_step_space(&self, v: f64) -> f64 {
+        match self.scale {
+            AxisScale::Linear => v,
+            AxisScale::Log => v.ln(),
+        }
+    }
+
+    /// Back from step space.
+    pub fn from_step_space(&self, u: f64) -> f64 {
+        match self.scale {
+            AxisScale::Linear => u,
+            AxisScale::Log => u.exp(),
+        }
+    }
+
+    /// The mean grid spacing in step space (0 for a single value: the variable is fixed).
+    pub fn grid_step(&self) -> f64 {
+        let n = self.values.len();
+        if n < 2 {
+            return 0.0;
+        }
+        (self.to_step_space(self.hi()) - self.to_step_space(self.lo())) / (n - 1) as f64
+    }
+
+    /// Clamp to the grid's range and round integer keys.
+    pub fn admissible(&self, v: f64) -> f64 {
+        let v = v.clamp(self.lo(), self.hi());
+        if self.integer { v.round() } else { v }
+    }
+}
+
+/// How hard the cart shakes at each frequency of the band.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "lowercase")]
+pub enum BaseExcitation {
+    /// Constant acceleration amplitude a: the cart amplitude is `a/(2πf)²` (how ambient
+    /// vibration is usually specified).
+    Acceleration {
+        /// Acceleration amplitude (m/s²).
+        acceleration_m_s2: f64,
+    },
+    /// Constant cart amplitude A at every frequency (the acceleration grows as f²).
+    Amplitude {
+        /// Cart amplitude (m).
+        amplitude_m: f64,
+    },
+}
+
+impl BaseExcitation {
+    /// Cart amplitude at frequency `f_hz` (m).
+    pub fn amplitude_m(&self, f_hz: f64) -> f64 {
+        match *self {
+            BaseExcitation::Acceleration { acceleration_m_s2 } => {
+                acceleration_m_s2 / (std::f64::consts::TAU * f_hz).powi(2)
+            }
+            BaseExcitation::Amplitude { amplitude_m } => amplitude_m,
+        }
+    }
+
+    /// A one-line description for reports.
+    pub fn describe(&self) -> String {
+        match *self {
+            BaseExcitation::Acceleration { acceleration_m_s2 } => format!(
+                "constant base acceleration {acceleration_m_s2} m/s² ({:.3} g)",
+                acceleration_m_s2 / 9.81
+            ),
+            BaseExcitation::Amplitude { amplitude_m } => {
+                format!("constant cart amplitude {} mm", amplitude_m * 1e3)
+            }
+        }
+    }
+}
+
+/// The frequency band the designs are judged over.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Band {
+    /// Frequencies evaluated (Hz), evenly spaced from start to end.
+    pub frequencies_hz: Vec<f64>,
+    /// The excitation at every frequency.
+    pub excitation: BaseExcitation,
+}
+
+impl Band {
+    /// Lowest frequency (Hz).
+    pub fn start_hz(&self) -> f64 {
+        self.frequencies_hz[0]
+    }
+
+    /// Highest frequency (Hz).
+    pub fn end_hz(&self) -> f64 {
+        self.frequencies_hz[self.frequencies_hz.len() - 1]
+    }
+
+    /// Spacing of the frequencies (Hz).
+    pub fn step_hz(&self) -> f64 {
+        (self.end_hz() - self.start_hz()) / (self.frequencies_hz.len() - 1) as f64
+    }
+}
+
+/// The power a frequency must reach to count towards the bandwidth.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Threshold {
+    /// A fixed power (W).
+    Absolute {
+        /// Threshold (W).
+        power_w: f64,
+    },
+    /// A fraction of the linear baseline's peak power.
+    RelativeToBaselinePeak {
+        /// Fraction of the baseline's peak (> 0).
+        fraction: f64,
+    },
+}
+
+impl Threshold {
+    /// The threshold in watts given the baseline's peak power.
+    pub fn power_w(&self, baseline_peak_w: f64) -> f64 {
+        match *self {
+            Threshold::Absolute { power_w } => power_w,
+            Threshold::RelativeToBaselinePeak { fraction } => fraction * baseline_peak_w,
+        }
+    }
+}
+
+/// Where an instance starts: a straight beam at rest in one well, or any straight state.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct InitialState {
+    /// Name shown in reports ("+well", "-well", ...).
+    pub name: String,
+    /// `Some(±1)`: initial angle = ± the design's clearance (resting on that bumper).
+    pub well: Option<f64>,
+    /// Initial angle of every segment (deg), when `well` is not given.
+    pub angle_deg: Option<f64>,
+    /// Initial rate of every segment (deg/s).
+    pub rate_deg_s: f64,
+    /// Initial patch voltage (V).
+    pub voltage_v: f64,
+}
+
+impl InitialState {
+    /// The initial angle for a design with this clearance (deg).
+    pub fn angle_for(&self, clearance_deg: f64) -> f64 {
+        match (self.well, self.angle_deg) {
+            (Some(w), _) => w * clearance_deg,
+            (None, Some(a)) => a,
+            (None, None) => 0.0,
+        }
+    }
+}
+
+/// Local refinement around the best designs (a batched multi-start compass search).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Refinement {
+    /// Rounds of refinement (0: grid only).
+    pub rounds: u32,
+    /// Designs refined per round (the best so far).
+    pub top: usize,
+    /// Step of round r = grid step × shrink^r, per variable, in its step space.
+    pub shrink: f64,
+}
+
+/// What "best" means.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Objective {
+    /// Widest robust bandwidth; ties (e.g. all zero) broken by robust band-averaged power.
+    Bandwidth,
+    /// Largest robust band-averaged power; ties broken by robust bandwidth.
+    Power,
+}
+
+/// The zoomed frequency grid of the linear baseline around its first natural frequency.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BaselineZoom {
+    /// Half-width of the zoom around the clamped first natural frequency (Hz).
+    pub halfwidth_hz: f64,
+    /// Frequencies in the zoom (0: no zoom).
+    pub count: usize,
+}
+
+/// A validated search scene.
+#[derive(Debug, Clone, Serialize)]
+pub struct SearchSpec {
+    /// The base scene (piezo on), validated.
+    pub scene: Scene,
+    /// The base scene table (after overrides, without `[search]`).
+    #[serde(skip)]
+    pub base_table: Table,
+    /// The design variables; the initial grid is their Cartesian product (last fastest).
+    pub variables: Vec<DesignVariable>,
+    /// The band and its excitation.
+    pub band: Band,
+    /// The bandwidth threshold.
+    pub threshold: Threshold,
+    /// The initial states every (design, frequency) is integrated from.
+    pub initial_states: Vec<InitialState>,
+    /// Refinement settings.
+    pub refine: Refinement,
+    /// What the ranking maximises.
+    pub objective: Objective,
+    /// Designs listed in best.md and drawn in power_vs_frequency.png.
+    pub report_top: usize,
+    /// Steps per forcing period are a multiple of this (ensemble sampling).
+    pub samples_per_period: u32,
+    /// The baseline's zoom around its resonance.
+    pub baseline_zoom: BaselineZoom,
+    /// Re-simulate the best design with the single-run engine of `simulate`.
+    pub verify: bool,
+    /// Most instances in one ensemble: larger batches run as several chunks (also bounded by
+    /// the GPU's buffer size).
+    pub max_batch_instances: usize,
+}
+
+impl SearchSpec {
+    /// Number of designs in the initial grid.
+    pub fn grid_designs(&self) -> usize {
+        self.variables.iter().map(|v| v.values.len()).product()
+    }
+
+    /// Design `k` of the initial grid (C order: last variable fastest).
+    pub fn grid_design(&self, k: usize) -> Vec<f64> {
+        let mut rem = k;
+        let mut out = vec![0.0; self.variables.len()];
+        for (i, v) in self.variables.iter().enumerate().rev() {
+            out[i] = v.values[rem % v.values.len()];
+            rem /= v.values.len();
+        }
+        out
+    }
+
+    /// The base table with a design's values set, and the validated design scene.
+    pub fn design_table(&self, values: &[f64]) -> Result<(Table, Scene), ConfigError> {
+        let mut table = self.base_table.clone();
+        for (v, &x) in self.variables.iter().zip(values) {
+            set_number(&mut table, &v.key, x, v.integer)?;
+        }
+        let scene = Scene::from_table(table.clone()).map_err(|e| ConfigError::Inconsistent {
+            key: "search.variables".into(),
+            reason: format!(
+                "the design {} gives an invalid scene: {e}",
+                describe_design(&self.variables, values)
+            ),
+        })?;
+        Ok((table, scene))
+    }
+
+    /// The scene of one instance: a design table at frequency `f_hz` from `state`.
+    pub fn instance_scene(
+        &self,
+        design_table: &Table,
+        clearance_deg: f64,
+        state: &InitialState,
+        f_hz: f64,
+    ) -> Result<Scene, ConfigError> {
+        let mut t = design_table.clone();
+        set_number(&mut t, "excitation.frequency_hz", f_hz, false)?;
+        set_number(
+            &mut t,
+            "excitation.amplitude_m",
+            self.band.excitation.amplitude_m(f_hz),
+            false,
+        )?;
+        set_number(
+            &mut t,
+            "initial.angle_deg",
+            state.angle_for(clearance_deg),
+            false,
+        )?;
+        set_number(&mut t, "initial.rate_deg_s", state.rate_deg_s, false)?;
+        set_number(&mut t, "initial.voltage_v", state.voltage_v, false)?;
+        Scene::from_table(t)
+    }
+
+    /// The linear baseline's table: the base scene clamped, without bumpers, at rest.
+    pub fn baseline_table(&self) -> Result<Table, ConfigError> {
+        let mut t = self.base_table.clone();
+        for s in [
+            "pivot.mode=\"clamped\"",
+            "limiter.enabled=false",
+            "initial.angle_deg=0.0",
+            "initial.rate_deg_s=0.0",
+            "initial.voltage_v=0.0",
+        ] {
+            apply_override(&mut t, s)?;
+        }
+        Ok(t)
+    }
+}
+
+/// `key = value, key = value` for reports and errors.
+pub fn describe_design(vars: &[DesignVariable], values: &[f64]) -> String {
+    vars.iter()
+        .zip(values)
+        .map(|(v, x)| format!("{} = {x}", v.key))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Set a numeric key in a scene table (integers for integer keys).
+fn set_number(table: &mut Table, key: &str, v: f64, integer: bool) -> Result<(), ConfigError> {
+    let text = if integer {
+        if v.fract() != 0.0 {
+            return Err(ConfigError::WrongType {
+                key: key.into(),
+                expected: "an integer (it is a design variable)".into(),
+                found: format!("{v}"),
+            });
+        }
+        format!("{key}={}", v as i64)
+    } else {
+        format!("{key}={v:e}")
+    };
+    apply_override(table, &text)
+}
+
+/// Read a search scene: `path` (or the embedded default when `None`) with `--set` overrides,
+/// which may target scene keys or `search.` keys.
+pub fn load_search(
+    path: Option<&std::path::Path>,
+    sets: &[String],
+) -> Result<SearchSpec, ConfigError> {
+    let (text, origin) = match path {
+        None => (
+            DEFAULT_SEARCH_TOML.to_string(),
+            "<embedded configs/harvest/default.toml>".to_string(),
+        ),
+        Some(p) => (
+            std::fs::read_to_string(p).map_err(|e| ConfigError::Io {
+                path: p.display().to_string(),
+                source: e,
+            })?,
+            p.display().to_string(),
+        ),
+    };
+    search_from_toml(&text, &origin, sets)
+}
+
+/// Parse a search scene from TOML text.
+pub fn search_from_toml(
+    text: &str,
+    origin: &str,
+    sets: &[String],
+) -> Result<SearchSpec, ConfigError> {
+    let mut table = parse_toml(text, origin)?;
+    for s in sets {
+        apply_override(&mut table, s)?;
+    }
+    let search = match table.remove("search") {
+        Some(Value::Table(t)) => t,
+        Some(_) => {
+            return Err(ConfigError::WrongType {
+                key: "search".into(),
+                expected: "a section".into(),
+                found: "a value".into(),
+            });
+        }
+        None => {
+            return Err(ConfigError::Inconsistent {
+                key: "search".into(),
+                reason: format!(
+                    "`{origin}` has no [search] section: a search scene names its design variables and band (see configs/harvest/)"
+                ),
+            });
+        }
+    };
+    let scene = Scene::from_table(table.clone())?;
+    if !scene.piezo.enabled {
+        return Err(ConfigError::Inconsistent {
+            key: "piezo.enabled".into(),
+            reason: "a harvesting search needs the piezo patch: set piezo.enabled = true".into(),
+        });
+    }
+    if !matches!(scene.excitation.kind, ExcitationKind::Harmonic { .. }) {
+        return Err(ConfigError::Inconsistent {
+            key: "excitation.kind".into(),
+            reason: "a search shakes the cart harmonically at each frequency of the band".into(),
+        });
+    }
+    read_search(search, scene, table)
+}
+
+/// Read the `[search]` table (variables and initial states already taken out) and check
+/// the design variables against the scene schema.
+fn read_search(
+    mut search: Table,
+    scene: Scene,
+    base_table: Table,
+) -> Result<SearchSpec, ConfigError> {
+    let vars_value = search.remove("variables");
+    let initial_value = search.remove("initial");
+    let mut wrapped = Table::new();
+    if !search.is_empty() {
+        wrapped.insert("search".into(), Value::Table(search));
+    }
+    let mut r = Reader::new(wrapped);
+    let variables = read_variables(vars_value, &base_table)?;
+    let band = read_band(&mut r)?;
+    let threshold = read_threshold(&mut r)?;
+    let initial_states = read_initial_states(initial_value)?;
+    let refine = Refinement {
+        rounds: r.integer("search.refine.rounds", 2, 0, 20)? as u32,
+        top: r.integer("search.refine.top", 4, 1, 1000)? as usize,
+        shrink: r.number("search.refine.shrink", 0.5, Range::Open(0.0, 1.0), "")?,
+    };
+    let objective = match r
+        .choice("search.objective", "bandwidth", &["bandwidth", "power"])?
+        .as_str()
+    {
+        "power" => Objective::Power,
+        _ => Objective::Bandwidth,
+    };
+    let report_top = r.integer("search.report_top", 5, 1, 20)? as usize;
+    let samples_per_period = r.integer("search.samples_per_period", 16, 4, 4096)? as u32;
+    let baseline_zoom = BaselineZoom {
+        halfwidth_hz: r.number(
+            "search.baseline.zoom_halfwidth_hz",
+            band.step_hz(),
+            Range::Positive,
+            "Hz",
+        )?,
+        count: r.integer("search.baseline.zoom_count", 41, 0, 10_000)? as usize,
+    };
+    let verify = r.boolean("search.verify", true)?;
+    let max_batch_instances =
+        r.integer("search.max_batch_instances", 16_384, 1, 4_000_000)? as usize;
+    r.finish()?;
+    let spec = SearchSpec {
+        scene,
+        base_table,
+        variables,
+        band,
+        threshold,
+        initial_states,
+        refine,
+        objective,
+        report_top,
+        samples_per_period,
+        baseline_zoom,
+        verify,
+        max_batch_instances,
+    };
+    check_variables(&spec)?;
+    Ok(spec)
+}
+
+/// `[search.band]`: the frequencies and the base excitation (acceleration or amplitude).
+fn read_band(r: &mut Reader) -> Result<Band, ConfigError> {
+    let start = r
+        .number_opt("search.band.start_hz", Range::Positive, "Hz")?
+        .ok_or_else(|| missing("search.band.start_hz", "the band's lowest frequency"))?;
+    let end = r
+        .number_opt("search.band.end_hz", Range::Positive, "Hz")?
+        .ok_or_else(|| missing("search.band.end_hz", "the band's highest frequency"))?;
+    let count = r.integer("search.band.count", 0, 0, 100_000)? as usize;
+    if count < 2 {
+        return Err(ConfigError::Inconsistent {
+            key: "search.band.count".into(),
+            reason: format!(
+                "the band is empty or a single point (count = {count}): give at least 2 frequencies"
+            ),
+        });
+    }
+    if end <= start {
+        return Err(ConfigError::Inconsistent {
+            key: "search.band.end_hz".into(),
+            reason: format!("the band is empty: end_hz = {end} must exceed start_hz = {start}"),
+        });
+    }
+    let acc = r.number_opt(
+        "search.band.base_acceleration_m_s2",
+        Range::Positive,
+        "m/s^2",
+    )?;
+    let amp = r.number_opt("search.band.base_amplitude_m", Range::Positive, "m")?;
+    let excitation = match (acc, amp) {
+        (Some(a), None) => BaseExcitation::Acceleration {
+            acceleration_m_s2: a,
+        },
+        (None, Some(a)) => BaseExcitation::Amplitude { amplitude_m: a },
+        (Some(_), Some(_)) => {
+            return Err(ConfigError::Inconsistent {
+                key: "search.band.base_amplitude_m".into(),
+                reason: "give either base_acceleration_m_s2 or base_amplitude_m, not both".into(),
+            });
+        }
+        (None, None) => {
+            return Err(missing(
+                "search.band.base_acceleration_m_s2",
+                "the excitation: base_acceleration_m_s2 (constant acceleration) or base_amplitude_m (constant cart amplitude)",
+            ));
+        }
+    };
+    let frequencies_hz = (0..count)
+        .map(|j| start + (end - start) * j as f64 / (count - 1) as f64)
+        .collect();
+    Ok(Band {
+        frequencies_hz,
+        excitation,
+    })
+}
+
+/// `[search.threshold]`: absolute (`power_w`) or relative to the baseline's peak.
+fn read_threshold(r: &mut Reader) -> Result<Threshold, ConfigError> {
+    let rel = r.number_opt(
+        "search.threshold.relative_to_baseline_peak",
+        Range::Positive,
+        "",
+    )?;
+    let abs = r.number_opt("search.threshold.power_w", Range::NonNegative, "W")?;
+    match (rel, abs) {
+        (Some(f), None) => Ok(Threshold::RelativeToBaselinePeak { fraction: f }),
+        (None, Some(p)) => Ok(Threshold::Absolute { power_w: p }),
+        (Some(_), Some(_)) => Err(ConfigError::Inconsistent {
+            key: "search.threshold.power_w".into(),
+            reason: "give either power_w or relative_to_baseline_peak, not both".into(),
+        }),
+        (None, None) => Err(missing(
+            "search.threshold.relative_to_baseline_peak",
+            "the bandwidth threshold: relative_to_baseline_peak (fraction of the linear baseline's peak) or power_w",
+        )),
+    }
+}
+
+/// A required key that is absent, with what to give.
+fn missing(key: &str, what: &str) -> ConfigError {
+    ConfigError::Inconsistent {
+        key: key.into(),
+        reason: format!("missing: give {what}"),
+    }
+}
+
+/// `[[search.initial]]`: the initial states (both wells when absent).
+fn read_initial_states(v: Option<Value>) -> Result<Vec<InitialState>, ConfigError> {
+    let items = match v {
+        None => {
+            return Ok(vec![well_state(1.0, 0.0, 0.0), well_state(-1.0, 0.0, 0.0)]);
+        }
+        Some(Value::Array(items)) => items,
+        Some(_) => {
+            return Err(ConfigError::WrongType {
+                key: "search.initial".into(),
+                expected: "an array of tables ([[search.initial]])".into(),
+                found: "a single value".into(),
+            });
+        }
+    };
+    if items.is_empty() {
+        return Err(ConfigError::Inconsistent {
+            key: "search.initial".into(),
+            reason: "the list of initial states is empty".into(),
+        });
+    }
+    let mut out = Vec::new();
+    for (i, item) in items.into_iter().enumerate() {
+        let prefix = format!("search.initial[{}]", i + 1);
+        let Value::Table(t) = item else {
+            return Err(ConfigError::WrongType {
+                key: prefix,
+                expected: "a table with well or angle_deg".into(),
+                found: "a value".into(),
+            });
+        };
+        let mut r = Reader::new(wrap(&prefix, t));
+        let well = r.number_opt(&format!("{prefix}.well"), Range::Closed(-1.0, 1.0), "")?;
+        let angle = r.number_opt(
+            &format!("{prefix}.angle_deg"),
+            Range::Open(-90.0, 90.0),
+            "deg",
+        )?;
+        let rate = r.number(&format!("{prefix}.rate_deg_s"), 0.0, Range::Any, "deg/s")?;
+        let volt = r.number(&format!("{prefix}.voltage_v"), 0.0, Range::Any, "V")?;
+        let name = match r.raw(&format!("{prefix}.name"))? {
+            Some(Value::String(s)) => Some(s.clone()),
+            Some(other) => {
+                return Err(ConfigError::WrongType {
+                    key: format!("{prefix}.name"),
+                    expected: "a string".into(),
+                    found: format!("{other}"),
+                });
+            }
+            None => None,
+        };
+        r.finish()?;
+        let mut s = match (well, angle) {
+            (Some(w), None) if w == 1.0 || w == -1.0 => well_state(w, rate, volt),
+            (Some(w), None) => {
+                return Err(ConfigError::OutOfRange {
+                    key: format!("{prefix}.well"),
+                    value: w,
+                    range: "1 (positive bumper) or -1 (negative bumper)".into(),
+                });
+            }
+            (None, Some(a)) => InitialState {
+                name: format!("{a} deg, {rate} deg/s"),
+                well: None,
+                angle_deg: Some(a),
+                rate_deg_s: rate,
+                voltage_v: volt,
+            },
+            (Some(_), Some(_)) => {
+                return Err(ConfigError::Inconsistent {
+                    key: format!("{prefix}.angle_deg"),
+                    reason: "give either well (±1: on a bumper) or angle_deg, not both".into(),
+                });
+            }
+            (None, None) => {
+                return Err(missing(
+                    &format!("{prefix}.well"),
+                    "well = 1 or -1 (straight beam on that bumper) or angle_deg",
+                ));
+            }
+        };
+        if let Some(n) = name {
+            s.name = n;
+        }
+        out.push(s);
+    }
+    Ok(out)
+}
+
+/// A straight beam at rest (or at `rate`) on the bumper of well `w` (±1).
+fn well_state(w: f64, rate: f64, volt: f64) -> InitialState {
+    let mut name = if w > 0.0 { "+well" } else { "-well" }.to_string();
+    if rate != 0.0 {
+        name.push_str(&format!(", {rate} deg/s"));
+    }
+    InitialState {
+        name,
+        well: Some(w),
+        angle_deg: None,
+        rate_deg_s: rate,
+        voltage_v: volt,
+    }
+}
+
+/// Nest `t` under a dotted prefix such as `search.variables[2]` so that [`Reader`] reports
+/// the full key.
+fn wrap(prefix: &str, t: Table) -> Table {
+    let (head, tail) = prefix.split_once('.').expect("dotted prefix");
+    let mut inner = Table::new();
+    inner.insert(tail.to_string(), Value::Table(t));
+    let mut outer = Table::new();
+    outer.insert(head.to_string(), Value::Table(inner));
+    outer
+}
+
+/// Keys the search itself sets, with the reason they cannot be design variables.
+fn reserved(key: &str) -> Option<&'static str> {
+    match key {
+        "excitation.frequency_hz" | "excitation.amplitude_m" => {
+            Some("the band ([search.band]) sets the frequency and the cart amplitude")
+        }
+        k if k.starts_with("excitation.") => Some("a search uses harmonic excitation"),
+        k if k.starts_with("initial.") => {
+            Some("the initial states are listed in [[search.initial]]")
+        }
+        "beam.segments" => {
+            Some("every instance of an ensemble shares one segment count: run one search per N")
+        }
+        "limiter.enabled" | "piezo.enabled" => {
+            Some("every instance of an ensemble shares the bumpers and the piezo")
+        }
+        k if k.starts_with("search.") => Some("it is a search setting, not a scene key"),
+        _ => None,
+    }
+}
+
+/// `[[search.variables]]`: each key with its grid values, checked for empty ranges.
+fn read_variables(v: Option<Value>, base: &Table) -> Result<Vec<DesignVariable>, ConfigError> {
+    let items = match v {
+        Some(Value::Array(items)) => items,
+        Some(_) => {
+            return Err(ConfigError::WrongType {
+                key: "search.variables".into(),
+                expected: "an array of tables ([[search.variables]])".into(),
+                found: "a single value".into(),
+            });
+        }
+        None => {
+            return Err(ConfigError::Inconsistent {
+                key: "search.variables".into(),
+                reason: "a search needs at least one design variable ([[search.variables]] with key, start, end, count)".into(),
+            });
+        }
+    };
+    if items.is_empty() {
+        return Err(ConfigError::Inconsistent {
+            key: "search.variables".into(),
+            reason: "the list of design variables is empty".into(),
+        });
+    }
+    let mut vars: Vec<DesignVariable> = Vec::new();
+    let mut total: usize = 1;
+    for (i, item) in items.into_iter().enumerate() {
+        let prefix = format!("search.variables[{}]", i + 1);
+        let Value::Table(t) = item else {
+            return Err(ConfigError::WrongType {
+                key: prefix,
+                expected: "a table with key, start, end, count (or values)".into(),
+                found: "a value".into(),
+            });
+        };
+        let mut r = Reader::new(wrap(&prefix, t));
+        let key = match r.raw(&format!("{prefix}.key"))? {
+            Some(Value::String(s)) => s.clone(),
+            Some(other) => {
+                return Err(ConfigError::WrongType {
+                    key: format!("{prefix}.key"),
+                    expected: "a dotted scene key such as \"limiter.clearance_deg\"".into(),
+                    found: format!("{other}"),
+                });
+            }
+            None => {
+                return Err(missing(
+                    &format!("{prefix}.key"),
+                    "the scene key this variable sets",
+                ));
+            }
+        };
+        if let Some(why) = reserved(&key) {
+            return Err(ConfigError::Inconsistent {
+                key: format!("{prefix}.key"),
+                reason: format!("`{key}` cannot be a design variable: {why}"),
+            });
+        }
+        if vars.iter().any(|v| v.key == key) {
+            return Err(ConfigError::Inconsistent {
+                key: format!("{prefix}.key"),
+                reason: format!("`{key}` is a design variable twice"),
+            });
+        }
+        let scale = match r
+            .choice(&format!("{prefix}.scale"), "linear", &["linear", "log"])?
+            .as_str()
+        {
+            "log" => AxisScale::Log,
+            _ => AxisScale::Linear,
+        };
+        let named = |what: &str, reason: String| ConfigError::Inconsistent {
+            key: format!("{prefix}.{what}"),
+            reason: format!("{key}: {reason}"),
+        };
+        let values = match r.raw(&format!("{prefix}.values"))?.cloned() {
+            Some(Value::Array(vs)) => {
+                let mut out = Vec::new();
+                for v in vs {
+                    let x = match v {
+                        Value::Float(f) => f,
+                        Value::Integer(i) => i as f64,
+                        other => {
+                            return Err(ConfigError::WrongType {
+                                key: format!("{prefix}.values"),
+                                expected: "an array of numbers".into(),
+                                found: format!("{other}"),
+                            });
+                        }
+                    };
+                    if !x.is_finite() {
+                        return Err(ConfigError::NotFinite {
+                            key: format!("{prefix}.values"),
+                            value: x,
+                        });
+                    }
+                    out.push(x);
+                }
+                if out.is_empty() {
+                    return Err(named("values", "the range is empty (values = [])".into()));
+                }
+                if out.windows(2).any(|w| w[1] <= w[0]) {
+                    return Err(named("values", "values must be strictly increasing".into()));
+                }
+                for k in ["start", "end", "count"] {
+                    if r.raw(&format!("{prefix}.{k}"))?.is_some() {
+                        return Err(named(
+                            k,
+                            "give either `values` or start/end/count, not both".into(),
+                        ));
+                    }
+                }
+                out
+            }
+            Some(other) => {
+                return Err(ConfigError::WrongType {
+                    key: format!("{prefix}.values"),
+                    expected: "an array of numbers".into(),
+                    found: format!("{other}"),
+                });
+            }
+            None => {
+                let start = r
+                    .number_opt(&format!("{prefix}.start"), Range::Any, "")?
+                    .ok_or_else(|| {
+                        named(
+                            "start",
+                            "missing: give start, end and count (or values)".into(),
+                        )
+                    })?;
+                let end = r
+                    .number_opt(&format!("{prefix}.end"), Range::Any, "")?
+                    .ok_or_else(|| {
+                        named(
+                            "end",
+                            "missing: give start, end and count (or values)".into(),
+                        )
+                    })?;
+                let count = match r.raw(&format!("{prefix}.count"))? {
+                    None => {
+                        return Err(named(
+                            "count",
+                            "missing: give start, end and count (or values)".into(),
+                        ));
+                    }
+                    Some(_) => r.integer(&format!("{prefix}.count"), 0, i64::MIN, i64::MAX)?,
+                };
+                if count < 1 {
+                    return Err(named(
+                        "count",
+                        format!("the range is empty (count = {count})"),
+                    ));
+                }
+                if end < start {
+                    return Err(named(
+                        "end",
+                        format!("the range is empty: end = {end} is below start = {start}"),
+                    ));
+                }
+                if count == 1 && start != end {
+                    return Err(named("count", "count = 1 needs start = end".into()));
+                }
+                if count > 1 && end == start {
+                    return Err(named(
+                        "end",
+                        format!("the range is empty: start = end = {start} with count = {count}"),
+                    ));
+                }
+                if scale == AxisScale::Log && start <= 0.0 {
+                    return Err(named("start", "a log range needs start > 0".into()));
+                }
+                let n = count as usize;
+                if n > MAX_GRID_DESIGNS {
+                    return Err(named("count", format!("at most {MAX_GRID_DESIGNS} values")));
+                }
+                (0..n)
+                    .map(|j| {
+                        let u = if n == 1 {
+                            0.0
+                        } else {
+                            j as f64 / (n - 1) as f64
+                        };
+                        match scale {
+                            AxisScale::Linear => start + (end - start) * u,
+                            AxisScale::Log => (start.ln() + (end.ln() - start.ln()) * u).exp(),
+                        }
+                    })
+                    .collect()
+            }
+        };
+        r.finish()?;
+        total = total
+            .checked_mul(values.len())
+            .filter(|&t| t <= MAX_GRID_DESIGNS)
+            .ok_or_else(|| ConfigError::OutOfRange {
+                key: format!("{prefix}.count"),
+                value: values.len() as f64,
+                range: format!("grids of at most {MAX_GRID_DESIGNS} designs in all"),
+            })?;
+        let integer = INTEGER_KEYS.contains(&key.as_str())
+            || lookup(base, &key).is_some_and(Value::is_integer);
+        if integer && values.iter().any(|v| v.fract() != 0.0) {
+            return Err(named(
+                "values",
+                "this key takes integers: every value must be whole".into(),
+            ));
+        }
+        vars.push(DesignVariable {
+            key,
+            values,
+            scale,
+            integer,
+        });
+    }
+    Ok(vars)
+}
+
+/// The value at a dotted key of a table, if any.
+fn lookup<'a>(table: &'a Table, key: &str) -> Option<&'a Value> {
+    let mut cursor = table;
+    let parts: Vec<&str> = key.split('.').collect();
+    for (i, p) in parts.iter().enumerate() {
+        let v = cursor.get(*p)?;
+        if i + 1 == parts.len() {
+            return Some(v);
+        }
+        cursor = v.as_table()?;
+    }
+    None
+}
+
+/// Every variable must be a numeric scene key, and each of its values must give a valid
+/// scene (the other variables at their first value): checked before any work starts.
+fn check_variables(spec: &SearchSpec) -> Result<(), ConfigError> {
+    let first: Vec<f64> = spec.variables.iter().map(|v| v.values[0]).collect();
+    for (i, var) in spec.variables.iter().enumerate() {
+        let prefix = format!("search.variables[{}]", i + 1);
+        for &x in &var.values {
+            let mut values = first.clone();
+            values[i] = x;
+            let mut table = spec.base_table.clone();
+            for (v, &y) in spec.variables.iter().zip(&values) {
+                set_number(&mut table, &v.key, y, v.integer)?;
+            }
+            if let Err(e) = Scene::from_table(table) {
+                let reason = match &e {
+                    ConfigError::UnknownKey { key, suggestion } if *key == var.key => format!(
+                        "`{}` is not a scene key{}",
+                        var.key,
+                        suggestion
+                            .as_ref()
+                            .map(|s| format!(" (did you mean `{s}`?)"))
+                            .unwrap_or_default()
+                    ),
+                    ConfigError::WrongType { key, .. } if *key == var.key => {
+                        format!("`{}` cannot be a design variable: {e}", var.key)
+                    }
+                    _ => format!("{} = {x} gives an invalid scene: {e}", var.key),
+                };
+                return Err(ConfigError::Inconsistent {
+                    key: format!("{prefix}.key"),
+                    reason,
+                });
+            }
+        }
+    }
+    Ok(())
+}
