@@ -138,3 +138,26 @@ fn malformed_overrides_and_toml_are_reported() {
         "{e}"
     );
 }
+
+#[test]
+fn every_shipped_scene_is_valid() {
+    use pendulum_atlas::config::{load_map, load_scene};
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
+    let mut checked = 0;
+    for dir in ["", "paper", "maps", "stress"] {
+        for entry in std::fs::read_dir(root.join(dir)).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_none_or(|e| e != "toml") {
+                continue;
+            }
+            let text = std::fs::read_to_string(&path).unwrap();
+            if text.contains("[map]") {
+                load_map(Some(&path), &[]).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            } else {
+                load_scene(Some(&path), &[]).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked >= 15, "only {checked} scenes found");
+}
