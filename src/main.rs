@@ -5,9 +5,33 @@ mod cli;
 use clap::Parser;
 
 fn main() {
+    quiet_headless_vulkan();
     let args = cli::Cli::parse();
     if let Err(e) = cli::run(args) {
         eprintln!("error: {e:#}");
         std::process::exit(2);
     }
+}
+
+/// On a headless machine (no XDG_RUNTIME_DIR), Mesa's Vulkan drivers print
+/// "error: XDG_RUNTIME_DIR is invalid or not set" when wgpu opens them, although compute works
+/// fine. Point the variable at a private temporary directory so that researchers do not see a
+/// false error on every GPU run. Done first thing in `main`, before any thread exists.
+fn quiet_headless_vulkan() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_some() {
+        return;
+    }
+    let user = std::env::var("USER").unwrap_or_else(|_| "user".into());
+    let dir = std::env::temp_dir().join(format!("pendulum-atlas-runtime-{user}"));
+    if std::fs::create_dir_all(&dir).is_err() {
+        return;
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let _ = std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700));
+    }
+    // SAFETY: called at the start of `main`, before any other thread is spawned, so no other
+    // thread can be reading the environment concurrently.
+    unsafe { std::env::set_var("XDG_RUNTIME_DIR", &dir) };
 }
