@@ -241,7 +241,7 @@ impl MapSpec {
 
 /// Set a numeric key in a scene table, keeping integer keys integer.
 fn set_number(table: &mut Table, key: &str, v: f64) -> Result<(), ConfigError> {
-    let existing_int = lookup(table, key).is_some_and(|x| x.is_integer());
+    let existing_int = lookup_key(table, key).is_some_and(|x| x.is_integer());
     let text = if existing_int {
         if v.fract() != 0.0 {
             return Err(ConfigError::WrongType {
@@ -255,19 +255,6 @@ fn set_number(table: &mut Table, key: &str, v: f64) -> Result<(), ConfigError> {
         format!("{key}={v:e}")
     };
     apply_override(table, &text)
-}
-
-fn lookup<'a>(table: &'a Table, key: &str) -> Option<&'a Value> {
-    let mut cursor = table;
-    let parts: Vec<&str> = key.split('.').collect();
-    for (i, p) in parts.iter().enumerate() {
-        let v = cursor.get(*p)?;
-        if i + 1 == parts.len() {
-            return Some(v);
-        }
-        cursor = v.as_table()?;
-    }
-    None
 }
 
 /// Read a map scene: `path` (or the embedded default map when `None`) with `--set` overrides.
@@ -524,109 +511,7 @@ fn read_axes(v: Option<Value>, base: &Table) -> Result<Vec<MapAxis>, ConfigError
                 reason: format!("`{key}` is swept twice"),
             });
         }
-        let scale = match r
-            .choice(&format!("{prefix}.scale"), "linear", &["linear", "log"])?
-            .as_str()
-        {
-            "log" => AxisScale::Log,
-            _ => AxisScale::Linear,
-        };
-        let values = match r.raw(&format!("{prefix}.values"))?.cloned() {
-            Some(Value::Array(vs)) => {
-                let mut out = Vec::new();
-                for v in vs {
-                    let x = match v {
-                        Value::Float(f) => f,
-                        Value::Integer(i) => i as f64,
-                        other => {
-                            return Err(ConfigError::WrongType {
-                                key: format!("{prefix}.values"),
-                                expected: "an array of numbers".into(),
-                                found: format!("{other}"),
-                            });
-                        }
-                    };
-                    if !x.is_finite() {
-                        return Err(ConfigError::NotFinite {
-                            key: format!("{prefix}.values"),
-                            value: x,
-                        });
-                    }
-                    out.push(x);
-                }
-                if out.is_empty() {
-                    return Err(ConfigError::Inconsistent {
-                        key: format!("{prefix}.values"),
-                        reason: "the list of values is empty".into(),
-                    });
-                }
-                if out.windows(2).any(|w| w[1] <= w[0]) {
-                    return Err(ConfigError::Inconsistent {
-                        key: format!("{prefix}.values"),
-                        reason: "values must be strictly increasing".into(),
-                    });
-                }
-                for k in ["start", "end", "count"] {
-                    if r.raw(&format!("{prefix}.{k}"))?.is_some() {
-                        return Err(ConfigError::Inconsistent {
-                            key: format!("{prefix}.{k}"),
-                            reason: "give either `values` or start/end/count, not both".into(),
-                        });
-                    }
-                }
-                out
-            }
-            Some(other) => {
-                return Err(ConfigError::WrongType {
-                    key: format!("{prefix}.values"),
-                    expected: "an array of numbers".into(),
-                    found: format!("{other}"),
-                });
-            }
-            None => {
-                let start = r
-                    .number(&format!("{prefix}.start"), f64::NAN, Range::Any, "")
-                    .map_err(|e| missing_to_named(e, &prefix, "start"))?;
-                let end = r
-                    .number(&format!("{prefix}.end"), f64::NAN, Range::Any, "")
-                    .map_err(|e| missing_to_named(e, &prefix, "end"))?;
-                let count = r.integer(&format!("{prefix}.count"), 0, 1, 1_000_000)?;
-                if count == 1 && start != end {
-                    return Err(ConfigError::Inconsistent {
-                        key: format!("{prefix}.count"),
-                        reason: "count = 1 needs start = end".into(),
-                    });
-                }
-                if count > 1 && end <= start {
-                    return Err(ConfigError::Inconsistent {
-                        key: format!("{prefix}.end"),
-                        reason: format!(
-                            "the axis is empty: end = {end} must exceed start = {start}"
-                        ),
-                    });
-                }
-                if scale == AxisScale::Log && start <= 0.0 {
-                    return Err(ConfigError::Inconsistent {
-                        key: format!("{prefix}.start"),
-                        reason: "a log axis needs start > 0".into(),
-                    });
-                }
-                let n = count as usize;
-                (0..n)
-                    .map(|j| {
-                        let u = if n == 1 {
-                            0.0
-                        } else {
-                            j as f64 / (n - 1) as f64
-                        };
-                        match scale {
-                            AxisScale::Linear => start + (end - start) * u,
-                            AxisScale::Log => (start.ln() + (end.ln() - start.ln()) * u).exp(),
-                        }
-                    })
-                    .collect()
-            }
-        };
+        let (values, scale) = read_sweep(&mut r, &prefix, &key, MAX_INSTANCES)?;
         r.finish()?;
         total = total
             .checked_mul(values.len())
@@ -645,13 +530,152 @@ fn read_axes(v: Option<Value>, base: &Table) -> Result<Vec<MapAxis>, ConfigError
     Ok(axes)
 }
 
-/// `Reader::number` with a NaN default reports "must be finite": say the key is missing instead.
-fn missing_to_named(e: ConfigError, prefix: &str, what: &str) -> ConfigError {
-    match e {
-        ConfigError::NotFinite { .. } => ConfigError::Inconsistent {
-            key: format!("{prefix}.{what}"),
-            reason: "missing: an axis needs start, end and count (or values)".into(),
-        },
-        other => other,
+/// The values of a swept scene key (a map axis, a design variable) read from the table at
+/// `prefix`: either `values = [...]` (finite, strictly increasing) or `start`, `end`, `count`
+/// with an optional `scale = "linear" | "log"`. At most `max` values. Errors name the key.
+pub fn read_sweep(
+    r: &mut Reader,
+    prefix: &str,
+    key: &str,
+    max: usize,
+) -> Result<(Vec<f64>, AxisScale), ConfigError> {
+    let scale = match r
+        .choice(&format!("{prefix}.scale"), "linear", &["linear", "log"])?
+        .as_str()
+    {
+        "log" => AxisScale::Log,
+        _ => AxisScale::Linear,
+    };
+    let named = |what: &str, reason: String| ConfigError::Inconsistent {
+        key: format!("{prefix}.{what}"),
+        reason: format!("{key}: {reason}"),
+    };
+    let values = match r.raw(&format!("{prefix}.values"))?.cloned() {
+        Some(Value::Array(vs)) => {
+            let mut out = Vec::new();
+            for v in vs {
+                let x = match v {
+                    Value::Float(f) => f,
+                    Value::Integer(i) => i as f64,
+                    other => {
+                        return Err(ConfigError::WrongType {
+                            key: format!("{prefix}.values"),
+                            expected: "an array of numbers".into(),
+                            found: format!("{other}"),
+                        });
+                    }
+                };
+                if !x.is_finite() {
+                    return Err(ConfigError::NotFinite {
+                        key: format!("{prefix}.values"),
+                        value: x,
+                    });
+                }
+                out.push(x);
+            }
+            if out.is_empty() {
+                return Err(named("values", "the range is empty (values = [])".into()));
+            }
+            if out.len() > max {
+                return Err(named("values", format!("at most {max} values")));
+            }
+            if out.windows(2).any(|w| w[1] <= w[0]) {
+                return Err(named("values", "values must be strictly increasing".into()));
+            }
+            for k in ["start", "end", "count"] {
+                if r.raw(&format!("{prefix}.{k}"))?.is_some() {
+                    return Err(named(
+                        k,
+                        "give either `values` or start/end/count, not both".into(),
+                    ));
+                }
+            }
+            out
+        }
+        Some(other) => {
+            return Err(ConfigError::WrongType {
+                key: format!("{prefix}.values"),
+                expected: "an array of numbers".into(),
+                found: format!("{other}"),
+            });
+        }
+        None => {
+            let missing = |what: &str| {
+                named(
+                    what,
+                    "missing: give start, end and count (or values)".into(),
+                )
+            };
+            let start = r
+                .number_opt(&format!("{prefix}.start"), Range::Any, "")?
+                .ok_or_else(|| missing("start"))?;
+            let end = r
+                .number_opt(&format!("{prefix}.end"), Range::Any, "")?
+                .ok_or_else(|| missing("end"))?;
+            let count = match r.raw(&format!("{prefix}.count"))? {
+                None => return Err(missing("count")),
+                Some(_) => r.integer(&format!("{prefix}.count"), 0, i64::MIN, i64::MAX)?,
+            };
+            if count < 1 {
+                return Err(named(
+                    "count",
+                    format!("the range is empty (count = {count})"),
+                ));
+            }
+            if end < start {
+                return Err(named(
+                    "end",
+                    format!("the range is empty: end = {end} is below start = {start}"),
+                ));
+            }
+            if count == 1 && start != end {
+                return Err(named("count", "count = 1 needs start = end".into()));
+            }
+            if count > 1 && end == start {
+                return Err(named(
+                    "end",
+                    format!("the range is empty: start = end = {start} with count = {count}"),
+                ));
+            }
+            if scale == AxisScale::Log && start <= 0.0 {
+                return Err(named("start", "a log range needs start > 0".into()));
+            }
+            if count as u64 > max as u64 {
+                return Err(ConfigError::OutOfRange {
+                    key: format!("{prefix}.count"),
+                    value: count as f64,
+                    range: format!("at most {max} values"),
+                });
+            }
+            let n = count as usize;
+            (0..n)
+                .map(|j| {
+                    let u = if n == 1 {
+                        0.0
+                    } else {
+                        j as f64 / (n - 1) as f64
+                    };
+                    match scale {
+                        AxisScale::Linear => start + (end - start) * u,
+                        AxisScale::Log => (start.ln() + (end.ln() - start.ln()) * u).exp(),
+                    }
+                })
+                .collect()
+        }
+    };
+    Ok((values, scale))
+}
+
+/// The value at a dotted key of a scene table, if any.
+pub fn lookup_key<'a>(table: &'a Table, key: &str) -> Option<&'a Value> {
+    let mut cursor = table;
+    let parts: Vec<&str> = key.split('.').collect();
+    for (i, p) in parts.iter().enumerate() {
+        let v = cursor.get(*p)?;
+        if i + 1 == parts.len() {
+            return Some(v);
+        }
+        cursor = v.as_table()?;
     }
+    None
 }

@@ -22,7 +22,8 @@
 //! variable is checked against the scene schema before any integration starts.
 
 use crate::config::{
-    AxisScale, ConfigError, ExcitationKind, Range, Reader, Scene, apply_override, parse_toml,
+    AxisScale, ConfigError, ExcitationKind, Range, Reader, Scene, apply_override, lookup_key,
+    parse_toml, read_sweep,
 };
 use serde::Serialize;
 use toml::{Table, Value};
@@ -794,132 +795,11 @@ fn read_variables(v: Option<Value>, base: &Table) -> Result<Vec<DesignVariable>,
                 reason: format!("`{key}` is a design variable twice"),
             });
         }
-        let scale = match r
-            .choice(&format!("{prefix}.scale"), "linear", &["linear", "log"])?
-            .as_str()
-        {
-            "log" => AxisScale::Log,
-            _ => AxisScale::Linear,
-        };
         let named = |what: &str, reason: String| ConfigError::Inconsistent {
             key: format!("{prefix}.{what}"),
             reason: format!("{key}: {reason}"),
         };
-        let values = match r.raw(&format!("{prefix}.values"))?.cloned() {
-            Some(Value::Array(vs)) => {
-                let mut out = Vec::new();
-                for v in vs {
-                    let x = match v {
-                        Value::Float(f) => f,
-                        Value::Integer(i) => i as f64,
-                        other => {
-                            return Err(ConfigError::WrongType {
-                                key: format!("{prefix}.values"),
-                                expected: "an array of numbers".into(),
-                                found: format!("{other}"),
-                            });
-                        }
-                    };
-                    if !x.is_finite() {
-                        return Err(ConfigError::NotFinite {
-                            key: format!("{prefix}.values"),
-                            value: x,
-                        });
-                    }
-                    out.push(x);
-                }
-                if out.is_empty() {
-                    return Err(named("values", "the range is empty (values = [])".into()));
-                }
-                if out.windows(2).any(|w| w[1] <= w[0]) {
-                    return Err(named("values", "values must be strictly increasing".into()));
-                }
-                for k in ["start", "end", "count"] {
-                    if r.raw(&format!("{prefix}.{k}"))?.is_some() {
-                        return Err(named(
-                            k,
-                            "give either `values` or start/end/count, not both".into(),
-                        ));
-                    }
-                }
-                out
-            }
-            Some(other) => {
-                return Err(ConfigError::WrongType {
-                    key: format!("{prefix}.values"),
-                    expected: "an array of numbers".into(),
-                    found: format!("{other}"),
-                });
-            }
-            None => {
-                let start = r
-                    .number_opt(&format!("{prefix}.start"), Range::Any, "")?
-                    .ok_or_else(|| {
-                        named(
-                            "start",
-                            "missing: give start, end and count (or values)".into(),
-                        )
-                    })?;
-                let end = r
-                    .number_opt(&format!("{prefix}.end"), Range::Any, "")?
-                    .ok_or_else(|| {
-                        named(
-                            "end",
-                            "missing: give start, end and count (or values)".into(),
-                        )
-                    })?;
-                let count = match r.raw(&format!("{prefix}.count"))? {
-                    None => {
-                        return Err(named(
-                            "count",
-                            "missing: give start, end and count (or values)".into(),
-                        ));
-                    }
-                    Some(_) => r.integer(&format!("{prefix}.count"), 0, i64::MIN, i64::MAX)?,
-                };
-                if count < 1 {
-                    return Err(named(
-                        "count",
-                        format!("the range is empty (count = {count})"),
-                    ));
-                }
-                if end < start {
-                    return Err(named(
-                        "end",
-                        format!("the range is empty: end = {end} is below start = {start}"),
-                    ));
-                }
-                if count == 1 && start != end {
-                    return Err(named("count", "count = 1 needs start = end".into()));
-                }
-                if count > 1 && end == start {
-                    return Err(named(
-                        "end",
-                        format!("the range is empty: start = end = {start} with count = {count}"),
-                    ));
-                }
-                if scale == AxisScale::Log && start <= 0.0 {
-                    return Err(named("start", "a log range needs start > 0".into()));
-                }
-                let n = count as usize;
-                if n > MAX_GRID_DESIGNS {
-                    return Err(named("count", format!("at most {MAX_GRID_DESIGNS} values")));
-                }
-                (0..n)
-                    .map(|j| {
-                        let u = if n == 1 {
-                            0.0
-                        } else {
-                            j as f64 / (n - 1) as f64
-                        };
-                        match scale {
-                            AxisScale::Linear => start + (end - start) * u,
-                            AxisScale::Log => (start.ln() + (end.ln() - start.ln()) * u).exp(),
-                        }
-                    })
-                    .collect()
-            }
-        };
+        let (values, scale) = read_sweep(&mut r, &prefix, &key, MAX_GRID_DESIGNS)?;
         r.finish()?;
         total = total
             .checked_mul(values.len())
@@ -930,7 +810,7 @@ fn read_variables(v: Option<Value>, base: &Table) -> Result<Vec<DesignVariable>,
                 range: format!("grids of at most {MAX_GRID_DESIGNS} designs in all"),
             })?;
         let integer = INTEGER_KEYS.contains(&key.as_str())
-            || lookup(base, &key).is_some_and(Value::is_integer);
+            || lookup_key(base, &key).is_some_and(Value::is_integer);
         if integer && values.iter().any(|v| v.fract() != 0.0) {
             return Err(named(
                 "values",
@@ -945,20 +825,6 @@ fn read_variables(v: Option<Value>, base: &Table) -> Result<Vec<DesignVariable>,
         });
     }
     Ok(vars)
-}
-
-/// The value at a dotted key of a table, if any.
-fn lookup<'a>(table: &'a Table, key: &str) -> Option<&'a Value> {
-    let mut cursor = table;
-    let parts: Vec<&str> = key.split('.').collect();
-    for (i, p) in parts.iter().enumerate() {
-        let v = cursor.get(*p)?;
-        if i + 1 == parts.len() {
-            return Some(v);
-        }
-        cursor = v.as_table()?;
-    }
-    None
 }
 
 /// Every variable must be a numeric scene key, and each of its values must give a valid
