@@ -7,6 +7,15 @@ use pendulum_atlas::config::{MapSpec, Metric, map_from_toml};
 use pendulum_atlas::integrate::Status;
 use pendulum_atlas::map::{Backend, MapRun, Precision, run_map};
 
+/// A scene of configs/stress/ (the same cases a user can run with `pendulum-atlas map`).
+fn stress_scene(name: &str, sets: &[&str]) -> MapSpec {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("configs/stress")
+        .join(name);
+    let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+    pendulum_atlas::config::load_map(Some(&path), &sets).expect("valid stress scene")
+}
+
 fn spec(scene: &str, map: &str) -> MapSpec {
     map_from_toml(&format!("{scene}\n[map]\n{map}"), "<stress>", &[]).expect("valid stress scene")
 }
@@ -69,10 +78,8 @@ fn step_beyond_the_stability_limit_is_flagged_not_returned() {
     let m = pendulum_atlas::model::modes(&scene);
     for (factor, must_fail) in [(0.5, false), (1.0, false), (3.0, true)] {
         let dt = factor * m.dt_auto_s / scene.integration.dt_safety;
-        let s = spec(
-            &format!("{N3}\ndt_s = {dt:e}"),
-            "metrics = [\"R\", \"hops\", \"alpha_range\", \"impacts_per_s\"]\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [5.0, 8.0, 10.0]",
-        );
+        let set = format!("integration.dt_s={dt:e}");
+        let s = stress_scene("dt_beyond_limit.toml", &[&set]);
         for (name, run) in run_everywhere(&s) {
             assert_consistent(&name, &s, &run);
             let st = statuses(&run);
@@ -97,10 +104,7 @@ fn step_beyond_the_stability_limit_is_flagged_not_returned() {
 
 #[test]
 fn violent_forcing_up_to_a_tenth_of_a_metre_and_fifty_hertz() {
-    let s = spec(
-        "[beam]\nsegments = 3\n[integration]\nduration_s = 1.0\ntransient_s = 0.4",
-        "metrics = [\"R\", \"hops\", \"alpha_range\", \"impacts_per_s\"]\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [5.0, 20.0, 50.0]\n[[map.axes]]\nkey = \"excitation.amplitude_m\"\nvalues = [0.001, 0.02, 0.1]",
-    );
+    let s = stress_scene("violent_forcing.toml", &[]);
     for (name, run) in run_everywhere(&s) {
         assert_consistent(&name, &s, &run);
     }
@@ -108,10 +112,7 @@ fn violent_forcing_up_to_a_tenth_of_a_metre_and_fifty_hertz() {
 
 #[test]
 fn clearances_from_half_a_degree_to_sixty_and_stiff_bumpers() {
-    let s = spec(
-        N3,
-        "metrics = [\"R\", \"hops\", \"alpha_range\", \"impacts_per_s\"]\n[[map.axes]]\nkey = \"limiter.clearance_deg\"\nvalues = [0.5, 5.0, 30.0, 60.0]\n[[map.axes]]\nkey = \"limiter.stiffness_n_per_m\"\nvalues = [1e3, 1e5, 1e7]",
-    );
+    let s = stress_scene("clearance_and_stiffness.toml", &[]);
     for (name, run) in run_everywhere(&s) {
         assert_consistent(&name, &s, &run);
         // The automatic step follows each instance's contact stiffness: nothing diverges
@@ -137,12 +138,8 @@ fn clearances_from_half_a_degree_to_sixty_and_stiff_bumpers() {
 
 #[test]
 fn sixty_four_segments_integrate_on_both_engines() {
-    // Undamped: with the stiffness-proportional dampers the automatic step at N = 64 is
-    // 16 ns (max|λ| = 1.4e8 1/s), 80x shorter than undamped, which only makes the test slow.
-    let s = spec(
-        "[beam]\nsegments = 64\ndamping_ratio = 0.0\n[integration]\nduration_s = 0.03\ntransient_s = 0.01",
-        "metrics = [\"alpha_range\", \"impacts_per_s\"]\nsamples_per_period = 4\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [100.0]",
-    );
+    // Undamped (see the scene): with the dampers the automatic step at N = 64 is 16 ns.
+    let s = stress_scene("sixty_four_segments.toml", &[]);
     for (name, run) in run_everywhere(&s) {
         assert_consistent(&name, &s, &run);
         assert!(statuses(&run).iter().all(|s| *s == Status::Ok), "{name}");
@@ -153,10 +150,7 @@ fn sixty_four_segments_integrate_on_both_engines() {
 fn ten_thousand_forcing_periods_in_f32_keep_the_phase_and_the_energy() {
     // A damped clamped cantilever (no bumpers) forced below resonance settles on a period-1
     // orbit. If the forcing phase drifted in f32, the stroboscopic samples would drift too.
-    let s = spec(
-        "[beam]\nsegments = 1\n[pivot]\nmode = \"clamped\"\n[limiter]\nenabled = false\n[excitation]\nfrequency_hz = 10.0\namplitude_m = 0.001\n[integration]\nduration_s = 1000.0\ntransient_s = 900.0",
-        "metrics = [\"period\", \"alpha_range\"]\nsamples_per_period = 8\nperiod_tol_rad = 1e-5\n[[map.axes]]\nkey = \"beam.damping_ratio\"\nvalues = [0.02]",
-    );
+    let s = stress_scene("ten_thousand_periods_f32.toml", &[]);
     for (name, run) in run_everywhere(&s) {
         assert_consistent(&name, &s, &run);
         let r = &run.results[0];
