@@ -257,50 +257,73 @@ fn set_number(table: &mut Table, key: &str, v: f64) -> Result<(), ConfigError> {
     apply_override(table, &text)
 }
 
-/// Read a map scene: `path` (or the embedded default map when `None`) with `--set` overrides.
-/// Overrides may target scene keys (`excitation.amplitude_m=0.012`) or map keys
-/// (`map.samples_per_period=32`).
-pub fn load_map(path: Option<&std::path::Path>, sets: &[String]) -> Result<MapSpec, ConfigError> {
-    let (text, origin) = match path {
-        None => (
-            DEFAULT_MAP_TOML.to_string(),
-            "<embedded configs/maps/default.toml>".to_string(),
-        ),
-        Some(p) => (
+/// The text of a scene file, or of the embedded default (`default_name` names it in errors),
+/// with the origin to quote in messages.
+pub fn scene_text(
+    path: Option<&std::path::Path>,
+    default_text: &str,
+    default_name: &str,
+) -> Result<(String, String), ConfigError> {
+    match path {
+        None => Ok((
+            default_text.to_string(),
+            format!("<embedded {default_name}>"),
+        )),
+        Some(p) => Ok((
             std::fs::read_to_string(p).map_err(|e| ConfigError::Io {
                 path: p.display().to_string(),
                 source: e,
             })?,
             p.display().to_string(),
-        ),
-    };
+        )),
+    }
+}
+
+/// Parse scene text, apply the `--set` overrides, and split off the tool's own `[section]`:
+/// returns the scene table (without it) and the section. A missing section is an error
+/// whose message ends with `hint`.
+pub fn split_section(
+    text: &str,
+    origin: &str,
+    sets: &[String],
+    section: &str,
+    hint: &str,
+) -> Result<(Table, Table), ConfigError> {
+    let mut table = parse_toml(text, origin)?;
+    for s in sets {
+        apply_override(&mut table, s)?;
+    }
+    match table.remove(section) {
+        Some(Value::Table(t)) => Ok((table, t)),
+        Some(_) => Err(ConfigError::WrongType {
+            key: section.into(),
+            expected: "a section".into(),
+            found: "a value".into(),
+        }),
+        None => Err(ConfigError::Inconsistent {
+            key: section.into(),
+            reason: format!("`{origin}` has no [{section}] section: {hint}"),
+        }),
+    }
+}
+
+/// Read a map scene: `path` (or the embedded default map when `None`) with `--set` overrides.
+/// Overrides may target scene keys (`excitation.amplitude_m=0.012`) or map keys
+/// (`map.samples_per_period=32`).
+pub fn load_map(path: Option<&std::path::Path>, sets: &[String]) -> Result<MapSpec, ConfigError> {
+    let (text, origin) = scene_text(path, DEFAULT_MAP_TOML, "configs/maps/default.toml")?;
     map_from_toml(&text, &origin, sets)
 }
 
 /// Parse a map scene from TOML text.
 pub fn map_from_toml(text: &str, origin: &str, sets: &[String]) -> Result<MapSpec, ConfigError> {
-    let mut table = parse_toml(text, origin)?;
-    for s in sets {
-        apply_override(&mut table, s)?;
-    }
-    let map = match table.remove("map") {
-        Some(Value::Table(t)) => t,
-        Some(_) => {
-            return Err(ConfigError::WrongType {
-                key: "map".into(),
-                expected: "a section".into(),
-                found: "a value".into(),
-            });
-        }
-        None => {
-            return Err(ConfigError::Inconsistent {
-                key: "map".into(),
-                reason: format!(
-                    "`{origin}` has no [map] section: a map scene names its axes in [[map.axes]] (see configs/maps/)"
-                ),
-            });
-        }
-    };
+    let (table, map) = split_section(
+        text,
+        origin,
+        sets,
+        "map",
+        "a map scene names its axes in [[map.axes]] (see configs/maps/)",
+    )?;
     let scene = Scene::from_table(table.clone())?;
     if !matches!(scene.excitation.kind, ExcitationKind::Harmonic { .. }) {
         return Err(ConfigError::Inconsistent {

@@ -23,7 +23,7 @@
 
 use crate::config::{
     AxisScale, ConfigError, ExcitationKind, Range, Reader, Scene, apply_override, lookup_key,
-    parse_toml, read_sweep,
+    read_sweep, scene_text, split_section,
 };
 use serde::Serialize;
 use toml::{Table, Value};
@@ -385,19 +385,7 @@ pub fn load_search(
     path: Option<&std::path::Path>,
     sets: &[String],
 ) -> Result<SearchSpec, ConfigError> {
-    let (text, origin) = match path {
-        None => (
-            DEFAULT_SEARCH_TOML.to_string(),
-            "<embedded configs/harvest/default.toml>".to_string(),
-        ),
-        Some(p) => (
-            std::fs::read_to_string(p).map_err(|e| ConfigError::Io {
-                path: p.display().to_string(),
-                source: e,
-            })?,
-            p.display().to_string(),
-        ),
-    };
+    let (text, origin) = scene_text(path, DEFAULT_SEARCH_TOML, "configs/harvest/default.toml")?;
     search_from_toml(&text, &origin, sets)
 }
 
@@ -407,28 +395,13 @@ pub fn search_from_toml(
     origin: &str,
     sets: &[String],
 ) -> Result<SearchSpec, ConfigError> {
-    let mut table = parse_toml(text, origin)?;
-    for s in sets {
-        apply_override(&mut table, s)?;
-    }
-    let search = match table.remove("search") {
-        Some(Value::Table(t)) => t,
-        Some(_) => {
-            return Err(ConfigError::WrongType {
-                key: "search".into(),
-                expected: "a section".into(),
-                found: "a value".into(),
-            });
-        }
-        None => {
-            return Err(ConfigError::Inconsistent {
-                key: "search".into(),
-                reason: format!(
-                    "`{origin}` has no [search] section: a search scene names its design variables and band (see configs/harvest/)"
-                ),
-            });
-        }
-    };
+    let (table, search) = split_section(
+        text,
+        origin,
+        sets,
+        "search",
+        "a search scene names its design variables and band (see configs/harvest/)",
+    )?;
     let scene = Scene::from_table(table.clone())?;
     if !scene.piezo.enabled {
         return Err(ConfigError::Inconsistent {
