@@ -7,8 +7,8 @@ use pendulum_atlas::analysis::{
     PhaseConvention, WaveletOptions, ZeroOneOptions, morlet_cwt, phase_sync, zero_one_test,
 };
 use pendulum_atlas::config::{PAPER_SCENE_TOML, Scene};
-use pendulum_atlas::integrate::rk4_step;
-use pendulum_atlas::model::{Chain, ContactLaw, ModelParams};
+use pendulum_atlas::engine::rk4::{Rk4Scratch, rk4_step};
+use pendulum_atlas::model::{Chain, ContactLaw};
 use std::hint::black_box;
 
 fn scene(n: usize) -> Scene {
@@ -18,10 +18,10 @@ fn scene(n: usize) -> Scene {
 fn rhs_and_step(c: &mut Criterion) {
     for n in [3usize, 17, 64] {
         let s = scene(n);
-        let p = ModelParams::from_scene(&s);
+        let p = s.model_params();
         let chain: Chain<f64> = Chain::new(&p);
         let mut ws = chain.workspace();
-        let y = p.initial_state(&s);
+        let y = s.initial_state(&p);
         let mut dy = vec![0.0; y.len()];
         c.bench_function(&format!("rhs f64 N={n}"), |b| {
             b.iter(|| {
@@ -37,21 +37,14 @@ fn rhs_and_step(c: &mut Criterion) {
         let chain32: Chain<f32> = Chain::new(&p);
         let mut ws32 = chain32.workspace();
         let mut y32: Vec<f32> = y.iter().map(|&v| v as f32).collect();
-        let mut k = [
-            vec![0f32; y.len()],
-            vec![0f32; y.len()],
-            vec![0f32; y.len()],
-            vec![0f32; y.len()],
-        ];
-        let mut tmp = vec![0f32; y.len()];
+        let mut scratch = Rk4Scratch::new(y.len());
         c.bench_function(&format!("rk4 step f32 N={n}"), |b| {
             b.iter(|| {
                 rk4_step(
                     &chain32,
                     &mut ws32,
                     &mut y32,
-                    &mut k,
-                    &mut tmp,
+                    &mut scratch,
                     1e-7,
                     [1.0, 1.0, 1.0],
                 )

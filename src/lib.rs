@@ -19,8 +19,8 @@
 pub mod analysis;
 pub mod bench;
 pub mod config;
+pub mod engine;
 pub mod harvest;
-pub mod integrate;
 pub mod map;
 pub mod model;
 pub mod output;

@@ -1,43 +1,21 @@
-//! A map from start to finish: plan the instances of a [`MapSpec`], integrate them on the
-//! chosen engine, reduce each to its metrics. [`crate::output::map`] writes the files.
+//! A map from start to finish: plan the instances of a [`MapSpec`], run them on an opened
+//! [`Engine`], keep what the pictures need. [`crate::output::map`] writes the files.
 
 use crate::config::MapSpec;
-use crate::integrate::ensemble::{EnsemblePlan, run_cpu};
-use crate::integrate::gpu::{AdapterChoice, GpuContext, GpuReadback, GpuTimings, run_gpu};
-use crate::reduce::{InstanceResult, ReduceOptions, from_cpu, from_gpu};
-use anyhow::{Result, bail};
+use crate::engine::gpu::GpuTimings;
+use crate::engine::{
+    Engine, EngineError, EngineInfo, EngineKind, EnsemblePlan, Progress, Readback,
+};
+use crate::reduce::{InstanceResult, ReduceOptions};
 use serde::Serialize;
 use std::time::Instant;
-
-/// Which engine runs a map.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Backend {
-    /// A hardware GPU if present, else the software adapter lavapipe (measured about 3x faster
-    /// than the CPU engine on the same cores; see the README), else the CPU engine.
-    Auto,
-    /// The GPU engine (wgpu): a hardware adapter, or lavapipe when that is all there is.
-    Gpu,
-    /// The CPU engine (rayon).
-    Cpu,
-}
-
-/// Float type of the CPU engine.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Precision {
-    /// Single precision, as the GPU integrates.
-    F32,
-    /// Double precision: the reference.
-    F64,
-}
 
 /// Wall time of each stage (s).
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct MapTimings {
     /// Validating every instance's scene and choosing its step.
     pub plan_s: f64,
-    /// Opening the GPU device (GPU runs).
+    /// Opening the engine (the GPU device) before the map.
     pub device_s: f64,
     /// Integration (on the GPU backend: everything on the device, reductions included; see
     /// `gpu` for the split).
@@ -59,14 +37,8 @@ pub struct MapRun {
     /// The instances' plans.
     #[serde(skip)]
     pub plan: EnsemblePlan,
-    /// "gpu" or "cpu".
-    pub backend: &'static str,
-    /// Why this backend ran.
-    pub backend_reason: String,
-    /// The GPU adapter's name, or the CPU's thread count.
-    pub device: String,
-    /// Float type of the integration.
-    pub precision: Precision,
+    /// The engine that ran it.
+    pub engine: EngineInfo,
     /// Wall time per stage.
     pub timings: MapTimings,
     /// Integration dispatches (GPU).
@@ -94,18 +66,18 @@ impl MapRun {
     pub fn segment_steps_per_s(&self) -> f64 {
         self.instance_steps_per_s() * self.plan.segments as f64
     }
+
+    /// Wall time of integration and reductions (s).
+    pub fn engine_s(&self) -> f64 {
+        match &self.timings.gpu {
+            Some(g) => g.integrate_s + g.reduce_s,
+            None => self.timings.integrate_s + self.timings.reduce_s,
+        }
+    }
 }
 
-/// Progress callbacks: `(done, total, unit)`.
-pub type Progress<'a> = &'a (dyn Fn(u64, u64, &str) + Sync);
-
-/// Plan, integrate and reduce a map on the requested backend.
-pub fn run_map(
-    spec: &MapSpec,
-    backend: Backend,
-    precision: Precision,
-    progress: Progress,
-) -> Result<MapRun> {
+/// Plan, integrate and reduce a map on an opened engine.
+pub fn run_map(spec: &MapSpec, engine: &Engine, progress: Progress) -> Result<MapRun, EngineError> {
     let t0 = Instant::now();
     let plan = EnsemblePlan::new(spec)?;
     let plan_s = t0.elapsed().as_secs_f64();
@@ -116,8 +88,7 @@ pub fn run_map(
         plan,
         &ReduceOptions::from_spec(spec),
         tail,
-        backend,
-        precision,
+        engine,
         progress,
     )?;
     run.timings.plan_s = plan_s;
@@ -125,155 +96,47 @@ pub fn run_map(
     Ok(run)
 }
 
-/// Integrate and reduce an already planned ensemble (see [`EnsemblePlan::from_scenes`]) on the
-/// requested backend. `strobe_tail` keeps that many trailing stroboscopic samples per instance.
+/// Integrate and reduce an already planned ensemble (see [`EnsemblePlan::from_scenes`]) on an
+/// opened engine. `strobe_tail` keeps that many trailing stroboscopic samples per instance.
 pub fn run_plan(
-    plan: EnsemblePlan,
+    mut plan: EnsemblePlan,
     opts: &ReduceOptions,
     strobe_tail: Option<usize>,
-    backend: Backend,
-    precision: Precision,
+    engine: &Engine,
     progress: Progress,
-) -> Result<MapRun> {
+) -> Result<MapRun, EngineError> {
     let t_all = Instant::now();
-    let plan_s = 0.0;
-    let t0 = Instant::now();
-    let (ctx, reason) = match backend {
-        Backend::Cpu => (None, "requested with --backend cpu".to_string()),
-        Backend::Gpu => {
-            if precision == Precision::F64 {
-                bail!(
-                    "the GPU engine integrates in f32: drop --precision f64 or use --backend cpu"
-                );
-            }
-            let ctx = GpuContext::new(AdapterChoice::Any)?;
-            let why = format!("requested with --backend gpu ({})", ctx.adapter_name);
-            (Some(ctx), why)
-        }
-        Backend::Auto if precision == Precision::F64 => {
-            (None, "auto: --precision f64 runs on the CPU engine".into())
-        }
-        Backend::Auto => match GpuContext::new(AdapterChoice::Any) {
-            Ok(ctx) => {
-                let why = if ctx.is_software {
-                    format!(
-                        "auto: no hardware GPU; the software adapter `{}` runs maps about 3x faster than the CPU engine on the same cores (README, Backends)",
-                        ctx.adapter_name
-                    )
-                } else {
-                    format!("auto: hardware GPU `{}`", ctx.adapter_name)
-                };
-                (Some(ctx), why)
-            }
-            Err(_) => (
-                None,
-                "auto: no GPU adapter at all (not even lavapipe): CPU engine".into(),
-            ),
-        },
-    };
-    let device_s = t0.elapsed().as_secs_f64();
-    let keep_tail = strobe_tail.is_some() && plan.want_strobe;
-    let tail_len = strobe_tail.unwrap_or(0);
-    let tail = |s: &[f64]| s[s.len().saturating_sub(tail_len)..].to_vec();
-    let mut timings = MapTimings {
-        plan_s,
-        device_s,
-        ..Default::default()
-    };
-    let mut plan = plan;
-    let mut stopped_early = 0;
-    if ctx.is_some() && plan.early_stop.take().is_some() {
+    if engine.info().kind == EngineKind::Gpu && plan.early_stop.take().is_some() {
         plan.warnings.push(
             "map.early_stop is ignored on the GPU backend: a stopped invocation idles until its whole workgroup finishes, so the saving there is small; runs go to the end".into(),
         );
     }
-    let (results, strobe_tail, device, backend_name, dispatches, precision) = match ctx {
-        Some(ctx) => {
-            let t0 = Instant::now();
-            let total = plan
-                .instances
-                .iter()
-                .map(|p| p.total_steps())
-                .max()
-                .unwrap_or(0);
-            let run = run_gpu(
-                &ctx,
-                &plan,
-                &opts.for_gpu(),
-                GpuReadback {
-                    strobe: keep_tail,
-                    r_series: false,
-                },
-                &|done, _| progress(done, total, "steps"),
-            )?;
-            timings.integrate_s = t0.elapsed().as_secs_f64();
-            let results = from_gpu(&plan, &run);
-            let stride = plan.strobe_stride as usize;
-            let strobe_tail = if keep_tail {
-                plan.instances
-                    .iter()
-                    .enumerate()
-                    .map(|(i, p)| {
-                        let s: Vec<f64> = run.strobe
-                            [i * stride..i * stride + p.strobe_count as usize]
-                            .iter()
-                            .map(|&v| f64::from(v))
-                            .collect();
-                        tail(&s)
-                    })
-                    .collect()
-            } else {
-                Vec::new()
-            };
-            timings.gpu = Some(run.timings.clone());
-            (
-                results,
-                strobe_tail,
-                ctx.adapter_name.clone(),
-                "gpu",
-                run.dispatches,
-                Precision::F32,
-            )
-        }
-        None => {
-            let t0 = Instant::now();
-            let n = plan.instances.len() as u64;
-            let cb = |done: u64| progress(done, n, "instances");
-            let raw = match precision {
-                Precision::F64 => run_cpu::<f64>(&plan, &cb),
-                Precision::F32 => run_cpu::<f32>(&plan, &cb),
-            };
-            timings.integrate_s = t0.elapsed().as_secs_f64();
-            let t0 = Instant::now();
-            let results = from_cpu(&plan, &raw, opts);
-            stopped_early = raw.iter().filter(|r| r.stopped_early.is_some()).count();
-            timings.reduce_s = t0.elapsed().as_secs_f64();
-            let strobe_tail = if keep_tail {
-                raw.iter().map(|r| tail(&r.strobe)).collect()
-            } else {
-                Vec::new()
-            };
-            (
-                results,
-                strobe_tail,
-                format!("CPU, {} rayon threads", rayon::current_num_threads()),
-                "cpu",
-                0,
-                precision,
-            )
-        }
+    let readback = Readback {
+        strobe: strobe_tail.is_some(),
+        r_series: false,
     };
-    timings.total_s = t_all.elapsed().as_secs_f64();
+    let run = engine.run(&plan, opts, readback, progress)?;
+    let keep = strobe_tail.unwrap_or(0);
+    let strobe_tail = run
+        .strobe
+        .iter()
+        .map(|s| s[s.len().saturating_sub(keep)..].to_vec())
+        .collect();
+    let timings = MapTimings {
+        plan_s: 0.0,
+        device_s: engine.info().open_s,
+        integrate_s: run.timings.integrate_s,
+        reduce_s: run.timings.reduce_s,
+        total_s: t_all.elapsed().as_secs_f64(),
+        gpu: run.timings.gpu,
+    };
     Ok(MapRun {
-        results,
+        results: run.results,
         plan,
-        backend: backend_name,
-        backend_reason: reason,
-        device,
-        precision,
+        engine: engine.info().clone(),
         timings,
-        dispatches,
-        stopped_early,
+        dispatches: run.dispatches,
+        stopped_early: run.stopped_early,
         strobe_tail,
     })
 }

@@ -1,26 +1,40 @@
 //! The work-precision study behind `pendulum-atlas bench`: what accuracy a user gets for what
 //! time, for each segment count N, time step (a multiple of the automatic step), float type
-//! and backend; plus scaling measurements and the cost of the metrics a scene asks for.
+//! and engine; plus scaling measurements and the cost of the metrics a scene asks for.
 //!
 //! Errors are measured against the f64 model at N = 17 (the paper's discretisation):
 //! (a) the holder angle over a short horizon, against the DOP853 reference integrator with
 //! contact events, before chaos separates trajectories; (b) K, R and the regular/chaotic and
 //! period classes on a small reference map, against the f64 RK4 engine at N = 17 and the
 //! automatic step (part (a) shows that its integration error is negligible there).
+//!
+//! Stages of [`run_bench`]: the reference trajectory, the reference map, one
+//! [`ConfigResult`] per configuration ([`measure_config`]), [`scaling`], [`k_only`].
 
 pub mod report;
 
-use crate::analysis::PhaseConvention;
-use crate::config::{Metric, Scene};
-use crate::integrate::ensemble::{EnsembleOptions, EnsemblePlan, run_instance};
-use crate::integrate::gpu::{AdapterChoice, GpuContext, GpuReadback, run_gpu};
-use crate::integrate::{Instance, Observer, ReferenceOptions, StepPlan, integrate_reference};
-use crate::map::{Backend, MapRun, Precision, run_plan};
-use crate::model::{CartState, Chain, ModelParams, Workspace, modes};
-use crate::reduce::ReduceOptions;
-use anyhow::{Result, bail};
+use crate::config::{Metric, Scene, TimeStep};
+use crate::engine::{
+    Engine, EngineError, EngineKind, EnsembleOptions, EnsemblePlan, Instance, Observer, Precision,
+    Readback, ReferenceOptions, StepPlan, integrate_reference, no_progress,
+};
+use crate::map::{MapRun, run_plan};
+use crate::model::{CartState, Chain, Status, Workspace};
+use crate::reduce::{InstanceResult, ReduceOptions};
 use serde::Serialize;
 use std::time::Instant;
+use thiserror::Error;
+
+/// What can stop a study.
+#[derive(Debug, Error)]
+pub enum BenchError {
+    /// An engine failed.
+    #[error(transparent)]
+    Engine(#[from] EngineError),
+    /// A rayon thread pool could not be built.
+    #[error("cannot build a thread pool: {0}")]
+    Threads(#[from] rayon::ThreadPoolBuildError),
+}
 
 /// One configuration of the study.
 #[derive(Debug, Clone, Copy, Serialize)]
@@ -31,8 +45,8 @@ pub struct BenchConfig {
     pub dt_factor: f64,
     /// Float type.
     pub precision: Precision,
-    /// Engine ("cpu" or "gpu").
-    pub backend: Backend,
+    /// Engine.
+    pub backend: EngineKind,
 }
 
 impl BenchConfig {
@@ -40,14 +54,8 @@ impl BenchConfig {
     pub fn family(&self) -> String {
         format!(
             "{} {} dt={}x auto",
-            match self.backend {
-                Backend::Gpu => "gpu",
-                _ => "cpu",
-            },
-            match self.precision {
-                Precision::F32 => "f32",
-                Precision::F64 => "f64",
-            },
+            self.backend.name(),
+            self.precision.name(),
             self.dt_factor
         )
     }
@@ -101,7 +109,7 @@ pub struct Scaling {
 #[derive(Debug, Clone, Serialize)]
 pub struct KOnly {
     /// Engine.
-    pub backend: Backend,
+    pub backend: EngineKind,
     /// All metrics but power (s).
     pub all_metrics_s: f64,
     /// K only (s).
@@ -129,30 +137,39 @@ pub struct BenchReport {
     pub configs: Vec<ConfigResult>,
     /// Scaling.
     pub scaling: Scaling,
-    /// A K-only scene against an all-metrics scene, per backend.
+    /// A K-only scene against an all-metrics scene, per engine.
     pub k_only: Vec<KOnly>,
     /// Total wall time of the study (s).
     pub total_s: f64,
 }
 
 /// Settings of a study.
-#[derive(Debug, Clone)]
-pub struct BenchOptions {
+pub struct BenchOptions<'a> {
     /// Fewer configurations, shorter runs.
     pub quick: bool,
-    /// Engines to measure.
-    pub backends: Vec<Backend>,
+    /// The GPU engine, opened by the caller, when the GPU is measured too.
+    pub gpu: Option<&'a Engine>,
 }
 
-/// The scene of the study at N segments (Table 1, 8 Hz, 9 mm, limiter at 20°).
-fn scene_with(n: usize, extra: &[String]) -> Result<Scene> {
-    let mut sets = vec![format!("beam.segments={n}")];
-    sets.extend_from_slice(extra);
-    Ok(Scene::from_toml(
-        crate::config::PAPER_SCENE_TOML,
-        "<bench>",
-        &sets,
-    )?)
+/// Long enough for several impacts, short enough that N = 17 variants have not separated (s).
+const HORIZON_S: f64 = 0.5;
+
+const SAMPLES_PER_PERIOD: u32 = 16;
+
+const MAP_METRICS: [Metric; 3] = [Metric::K, Metric::R, Metric::Period];
+
+/// The scene of the study at N segments (Table 1, 8 Hz, 9 mm, limiter at 20°), edited.
+fn bench_scene(n: usize, edit: impl FnOnce(&mut Scene)) -> Scene {
+    let mut s = Scene::paper();
+    s.beam.segments = n;
+    edit(&mut s);
+    s
+}
+
+/// Set a run's duration and transient (s).
+fn timing(s: &mut Scene, duration_s: f64, transient_s: f64) {
+    s.integration.duration_s = duration_s;
+    s.integration.transient_s = transient_s;
 }
 
 /// Observer keeping α at every output row.
@@ -172,8 +189,6 @@ impl Observer<f64> for AlphaRows {
     }
 }
 
-const SAMPLES_PER_PERIOD: u32 = 16;
-
 fn options(metrics: Vec<Metric>) -> EnsembleOptions {
     EnsembleOptions {
         metrics,
@@ -185,340 +200,285 @@ fn options(metrics: Vec<Metric>) -> EnsembleOptions {
     }
 }
 
-fn reduce_options() -> ReduceOptions {
-    ReduceOptions {
-        zero_one: crate::analysis::ZeroOneOptions::default(),
-        convention: PhaseConvention::Standard,
-        period_max: 8,
-        period_window: 16,
-        period_tol_rad: 1e-3,
-    }
+/// The explicit step `factor` times the automatic step of N (s).
+fn explicit_step(n: usize, factor: f64) -> f64 {
+    factor * bench_scene(n, |_| {}).modes().dt_auto_s
 }
 
-/// Explicit step for a configuration: `factor` times the automatic step of N.
-fn step_sets(n: usize, factor: f64) -> Result<(Vec<String>, f64)> {
-    let m = modes(&scene_with(n, &[])?);
-    let dt = factor * m.dt_auto_s;
-    Ok((vec![format!("integration.dt_s={dt:e}")], dt))
+/// The reference trajectory: DOP853 at N = 17 over the horizon, rows at 16 per period.
+fn reference_trajectory() -> Result<Vec<f64>, EngineError> {
+    let scene = bench_scene(17, |s| {
+        s.integration.duration_s = HORIZON_S;
+        s.integration.transient_s = (HORIZON_S / 3.0).min(10.0);
+        s.output.sample_rate_hz = 8.0 * f64::from(SAMPLES_PER_PERIOD);
+    });
+    let inst: Instance<f64> = Instance::from_scene(&scene);
+    let plan = StepPlan::for_scene(&scene, &scene.modes());
+    let mut rows = AlphaRows(Vec::new());
+    integrate_reference(&inst, &plan, &ReferenceOptions::default(), &mut rows)?;
+    Ok(rows.0)
 }
 
-/// Max |α − α_ref| over the horizon for one configuration.
+/// Max |α − α_ref| over the horizon for one configuration, and its step.
 fn horizon_error(
     cfg: &BenchConfig,
-    horizon: f64,
+    engine: &Engine,
     reference: &[f64],
-    gpu: Option<&GpuContext>,
-) -> Result<(f64, f64)> {
-    let (mut sets, _) = step_sets(cfg.segments, cfg.dt_factor)?;
-    sets.push(format!("integration.duration_s={horizon}"));
-    sets.push("integration.transient_s=0.125".into());
-    let scene = scene_with(cfg.segments, &sets)?;
+) -> Result<(f64, f64), EngineError> {
+    let dt = explicit_step(cfg.segments, cfg.dt_factor);
+    let scene = bench_scene(cfg.segments, |s| {
+        s.integration.dt_s = TimeStep::Seconds(dt);
+        timing(s, HORIZON_S, 0.125);
+    });
     let plan = EnsemblePlan::from_scenes(&[scene], &options(vec![Metric::R]))?;
-    let p = &plan.instances[0];
-    let alpha: Vec<f64> = match (cfg.backend, cfg.precision) {
-        (Backend::Gpu, _) => {
-            let Some(ctx) = gpu else {
-                bail!("no GPU adapter for a GPU configuration")
-            };
-            let run = run_gpu(
-                ctx,
-                &plan,
-                &reduce_options().for_gpu(),
-                GpuReadback {
-                    strobe: false,
-                    r_series: true,
-                },
-                &|_, _| {},
-            )?;
-            run.r_series[..p.r_count as usize]
-                .iter()
-                .map(|&v| f64::from(v))
-                .collect()
-        }
-        (_, Precision::F32) => run_instance::<f32>(p, false, true).r_alpha,
-        (_, Precision::F64) => run_instance::<f64>(p, false, true).r_alpha,
+    let readback = Readback {
+        strobe: false,
+        r_series: true,
     };
+    let run = engine.run(&plan, &ReduceOptions::default(), readback, &no_progress)?;
+    let p = &plan.instances[0];
     // R sample j is at t = (r_start/r_every + j)/(f · samples_per_period): reference row k.
     let first = (p.r_start / p.r_every) as usize;
-    let err = alpha
+    let err = run.r_series[0]
         .iter()
         .enumerate()
-        .map(|(j, a)| match reference.get(first + j) {
-            Some(r) => (a - r).abs(),
-            None => f64::NAN,
-        })
+        .map(|(j, a)| reference.get(first + j).map_or(f64::NAN, |r| (a - r).abs()))
         .fold(0.0, f64::max);
     Ok((err, p.dt_s))
 }
 
-/// The reference map's scenes for N segments and step factor.
-fn map_scenes(n: usize, factor: Option<f64>, quick: bool) -> Result<Vec<Scene>> {
-    let (fs, amps, duration, transient): (Vec<f64>, Vec<f64>, f64, f64) = if quick {
-        (
-            vec![5.0, 7.5, 10.0, 12.0],
-            vec![0.006, 0.012, 0.02],
-            6.0,
-            2.0,
-        )
+/// The reference map's scenes for N segments and, when given, a step factor.
+fn map_scenes(n: usize, factor: Option<f64>, quick: bool) -> Vec<Scene> {
+    let (fs, amps, duration, transient): (&[f64], &[f64], f64, f64) = if quick {
+        (&[5.0, 7.5, 10.0, 12.0], &[0.006, 0.012, 0.02], 6.0, 2.0)
     } else {
         (
-            vec![5.0, 7.0, 9.5, 12.0],
-            vec![0.006, 0.01, 0.015, 0.02],
+            &[5.0, 7.0, 9.5, 12.0],
+            &[0.006, 0.01, 0.015, 0.02],
             12.0,
             4.0,
         )
     };
-    let mut base = vec![
-        format!("integration.duration_s={duration}"),
-        format!("integration.transient_s={transient}"),
-    ];
-    if let Some(f) = factor {
-        base.extend(step_sets(n, f)?.0);
-    }
+    let dt = factor.map(|f| explicit_step(n, f));
     let mut out = Vec::new();
-    for &f in &fs {
-        for &a in &amps {
-            let mut s = base.clone();
-            s.push(format!("excitation.frequency_hz={f}"));
-            s.push(format!("excitation.amplitude_m={a}"));
-            out.push(scene_with(n, &s)?);
+    for &f in fs {
+        for &a in amps {
+            out.push(bench_scene(n, |s| {
+                timing(s, duration, transient);
+                if let Some(dt) = dt {
+                    s.integration.dt_s = TimeStep::Seconds(dt);
+                }
+                s.excitation.kind = crate::model::ExcitationKind::Harmonic { frequency_hz: f };
+                s.excitation.amplitude_m = a;
+            }));
         }
     }
-    Ok(out)
+    out
 }
 
 fn run_map_scenes(
     scenes: &[Scene],
     metrics: Vec<Metric>,
-    backend: Backend,
-    precision: Precision,
-) -> Result<MapRun> {
+    engine: &Engine,
+) -> Result<MapRun, EngineError> {
     let plan = EnsemblePlan::from_scenes(scenes, &options(metrics))?;
-    run_plan(
-        plan,
-        &reduce_options(),
-        None,
-        backend,
-        precision,
-        &|_, _, _| {},
-    )
+    run_plan(plan, &ReduceOptions::default(), None, engine, &no_progress)
 }
 
-const MAP_METRICS: [Metric; 3] = [Metric::K, Metric::R, Metric::Period];
+/// The configurations measured at N: steps and float types per engine.
+fn configs_for(n: usize, quick: bool, gpu: bool) -> Vec<BenchConfig> {
+    let mut list = vec![
+        (EngineKind::Cpu, Precision::F64, 1.0),
+        (EngineKind::Cpu, Precision::F64, 0.5),
+        (EngineKind::Cpu, Precision::F32, 1.0),
+    ];
+    // N = 17 at smaller steps costs minutes per map and (part a shows) changes nothing.
+    if !quick && n < 17 {
+        list.push((EngineKind::Cpu, Precision::F64, 0.25));
+        list.push((EngineKind::Cpu, Precision::F32, 0.5));
+    }
+    if n == 17 {
+        list.retain(|c| c.2 == 1.0);
+    }
+    if gpu {
+        list.push((EngineKind::Gpu, Precision::F32, 1.0));
+        if !quick && n < 17 {
+            list.push((EngineKind::Gpu, Precision::F32, 0.5));
+        }
+    }
+    list.into_iter()
+        .map(|(backend, precision, dt_factor)| BenchConfig {
+            segments: n,
+            dt_factor,
+            precision,
+            backend,
+        })
+        .collect()
+}
+
+/// How a map compares with the reference map, cell by cell.
+fn compare_maps(
+    cfg: BenchConfig,
+    dt_s: f64,
+    alpha_err_rad: f64,
+    map: &MapRun,
+    reference: &MapRun,
+) -> ConfigResult {
+    let cells = map.results.len() as f64;
+    let pairs = || map.results.iter().zip(&reference.results);
+    let mean = |g: fn(&InstanceResult) -> f64| {
+        pairs()
+            .map(|(a, b)| (g(a) - g(b)).abs())
+            .filter(|v| v.is_finite())
+            .sum::<f64>()
+            / cells
+    };
+    let share = |differ: fn(&InstanceResult, &InstanceResult) -> bool| {
+        pairs().filter(|(a, b)| differ(a, b)).count() as f64 / cells
+    };
+    let wall = map.engine_s();
+    let sim_s: f64 = map
+        .plan
+        .instances
+        .iter()
+        .map(|p| p.total_periods as f64 / p.frequency_hz)
+        .sum();
+    ConfigResult {
+        config: cfg,
+        dt_s,
+        alpha_err_rad,
+        map_wall_s: wall,
+        cost_per_instance_s: wall / sim_s,
+        instance_steps_per_s: map.instance_steps_per_s(),
+        segment_steps_per_s: map.segment_steps_per_s(),
+        mean_abs_dk: mean(|r| r.k),
+        mean_abs_dr: mean(|r| r.r),
+        k_class_changed: share(|a, b| (a.k > 0.5) != (b.k > 0.5)),
+        period_changed: share(|a, b| a.period != b.period),
+        failed: map
+            .results
+            .iter()
+            .filter(|r| r.status != Status::Ok)
+            .count(),
+    }
+}
+
+/// The engines a study measures configurations on.
+struct Engines<'a> {
+    cpu64: Engine,
+    cpu32: Engine,
+    gpu: Option<&'a Engine>,
+}
+
+impl Engines<'_> {
+    fn for_config(&self, cfg: &BenchConfig) -> Option<&Engine> {
+        match (cfg.backend, cfg.precision) {
+            (EngineKind::Gpu, _) => self.gpu,
+            (EngineKind::Cpu, Precision::F32) => Some(&self.cpu32),
+            (EngineKind::Cpu, Precision::F64) => Some(&self.cpu64),
+        }
+    }
+}
+
+/// One configuration: its trajectory error and its map against the reference map.
+fn measure_config(
+    cfg: BenchConfig,
+    engine: &Engine,
+    trajectory: &[f64],
+    reference: &MapRun,
+    quick: bool,
+) -> Result<ConfigResult, EngineError> {
+    let (alpha_err_rad, dt_s) = horizon_error(&cfg, engine, trajectory)?;
+    // N = 17, f64, automatic step on the CPU is the reference map itself.
+    let is_reference = cfg.segments == 17
+        && cfg.backend == EngineKind::Cpu
+        && cfg.precision == Precision::F64
+        && cfg.dt_factor == 1.0;
+    let fresh;
+    let map = if is_reference {
+        reference
+    } else {
+        let scenes = map_scenes(cfg.segments, Some(cfg.dt_factor), quick);
+        fresh = run_map_scenes(&scenes, MAP_METRICS.to_vec(), engine)?;
+        &fresh
+    };
+    Ok(compare_maps(cfg, dt_s, alpha_err_rad, map, reference))
+}
 
 /// Run the study. `progress` receives a line per finished step.
-pub fn run_bench(opts: &BenchOptions, progress: &dyn Fn(&str)) -> Result<BenchReport> {
+pub fn run_bench(opts: &BenchOptions, progress: &dyn Fn(&str)) -> Result<BenchReport, BenchError> {
     let t_all = Instant::now();
     let quick = opts.quick;
-    // Long enough for several impacts, short enough that N = 17 variants have not separated.
-    let horizon = 0.5;
-    let gpu = if opts.backends.contains(&Backend::Gpu) {
-        Some(GpuContext::new(AdapterChoice::Any)?)
-    } else {
-        None
+    let engines = Engines {
+        cpu64: Engine::cpu(Precision::F64),
+        cpu32: Engine::cpu(Precision::F32),
+        gpu: opts.gpu,
     };
-
-    // (a) The reference trajectory: DOP853 at N = 17 over the horizon, rows at 16 per period.
     let t0 = Instant::now();
-    let ref_scene = scene_with(
-        17,
-        &[
-            format!("integration.duration_s={horizon}"),
-            format!(
-                "output.sample_rate_hz={}",
-                8.0 * f64::from(SAMPLES_PER_PERIOD)
-            ),
-        ],
-    )?;
-    let params = ModelParams::from_scene(&ref_scene);
-    let inst: Instance<f64> = Instance::from_scene(&ref_scene, &params);
-    let plan = StepPlan::for_scene(&ref_scene, &modes(&ref_scene));
-    let mut rows = AlphaRows(Vec::new());
-    integrate_reference(&inst, &plan, &ReferenceOptions::default(), &mut rows)
-        .map_err(|e| anyhow::anyhow!("reference integration failed: {e}"))?;
+    let trajectory = reference_trajectory()?;
     let reference_wall_s = t0.elapsed().as_secs_f64();
     progress(&format!(
-        "reference trajectory: N = 17, {horizon} s, DOP853, {reference_wall_s:.1} s"
+        "reference trajectory: N = 17, {HORIZON_S} s, DOP853, {reference_wall_s:.1} s"
     ));
-
-    // (b) The reference map: f64 RK4 at N = 17, automatic step.
     let t0 = Instant::now();
     let ref_map = run_map_scenes(
-        &map_scenes(17, None, quick)?,
+        &map_scenes(17, None, quick),
         MAP_METRICS.to_vec(),
-        Backend::Cpu,
-        Precision::F64,
+        &engines.cpu64,
     )?;
     let reference_map_wall_s = t0.elapsed().as_secs_f64();
     progress(&format!(
         "reference map: {} instances at N = 17, {reference_map_wall_s:.1} s",
         ref_map.results.len()
     ));
-
-    let mut configs = Vec::new();
     let ns: &[usize] = if quick {
         &[1, 3, 5, 9]
     } else {
         &[1, 3, 5, 9, 17]
     };
-    for &n in ns {
-        let mut list = vec![
-            (Backend::Cpu, Precision::F64, 1.0),
-            (Backend::Cpu, Precision::F64, 0.5),
-            (Backend::Cpu, Precision::F32, 1.0),
-        ];
-        // N = 17 at smaller steps costs minutes per map and (part a shows) changes nothing.
-        if !quick && n < 17 {
-            list.push((Backend::Cpu, Precision::F64, 0.25));
-            list.push((Backend::Cpu, Precision::F32, 0.5));
-        }
-        if n == 17 {
-            list.retain(|c| c.2 == 1.0);
-        }
-        if gpu.is_some() {
-            list.push((Backend::Gpu, Precision::F32, 1.0));
-            if !quick && n < 17 {
-                list.push((Backend::Gpu, Precision::F32, 0.5));
-            }
-        }
-        for (backend, precision, dt_factor) in list {
-            if !opts.backends.contains(&backend) {
-                continue;
-            }
-            let cfg = BenchConfig {
-                segments: n,
-                dt_factor,
-                precision,
-                backend,
-            };
-            let (alpha_err_rad, dt_s) = horizon_error(&cfg, horizon, &rows.0, gpu.as_ref())?;
-            // N = 17, f64, automatic step on the CPU is the reference map itself.
-            let is_reference = n == 17
-                && backend == Backend::Cpu
-                && precision == Precision::F64
-                && dt_factor == 1.0;
-            let map = if is_reference {
-                ref_map.clone()
-            } else {
-                run_map_scenes(
-                    &map_scenes(n, Some(dt_factor), quick)?,
-                    MAP_METRICS.to_vec(),
-                    backend,
-                    precision,
-                )?
-            };
-            let cells = map.results.len() as f64;
-            let pairs = || map.results.iter().zip(&ref_map.results);
-            let mean = |f: &dyn Fn(f64, f64) -> f64,
-                        g: fn(&crate::reduce::InstanceResult) -> f64| {
-                pairs()
-                    .map(|(a, b)| f(g(a), g(b)))
-                    .filter(|v| v.is_finite())
-                    .sum::<f64>()
-                    / cells
-            };
-            let wall = match &map.timings.gpu {
-                Some(g) => g.integrate_s + g.reduce_s,
-                None => map.timings.integrate_s + map.timings.reduce_s,
-            };
-            let sim_s: f64 = map
-                .plan
-                .instances
-                .iter()
-                .map(|p| p.total_periods as f64 / p.frequency_hz)
-                .sum();
-            let r = ConfigResult {
-                config: cfg,
-                dt_s,
-                alpha_err_rad,
-                map_wall_s: wall,
-                cost_per_instance_s: wall / sim_s,
-                instance_steps_per_s: map.instance_steps_per_s(),
-                segment_steps_per_s: map.segment_steps_per_s(),
-                mean_abs_dk: mean(&|a, b| (a - b).abs(), |r| r.k),
-                mean_abs_dr: mean(&|a, b| (a - b).abs(), |r| r.r),
-                k_class_changed: pairs().filter(|(a, b)| (a.k > 0.5) != (b.k > 0.5)).count() as f64
-                    / cells,
-                period_changed: pairs().filter(|(a, b)| a.period != b.period).count() as f64
-                    / cells,
-                failed: map
-                    .results
-                    .iter()
-                    .filter(|r| r.status != crate::integrate::Status::Ok)
-                    .count(),
-            };
-            progress(&format!(
-                "N = {n:2} {:<22} α error {:.2e} rad, map {:.1} s, |ΔK| {:.3}, class changes {:.0} %",
-                cfg.family(),
-                r.alpha_err_rad,
-                r.map_wall_s,
-                r.mean_abs_dk,
-                100.0 * r.k_class_changed
-            ));
-            configs.push(r);
-        }
+    let mut configs = Vec::new();
+    for cfg in ns
+        .iter()
+        .flat_map(|&n| configs_for(n, quick, opts.gpu.is_some()))
+    {
+        let Some(engine) = engines.for_config(&cfg) else {
+            continue;
+        };
+        let r = measure_config(cfg, engine, &trajectory, &ref_map, quick)?;
+        progress(&format!(
+            "N = {:2} {:<22} α error {:.2e} rad, map {:.1} s, |ΔK| {:.3}, class changes {:.0} %",
+            cfg.segments,
+            cfg.family(),
+            r.alpha_err_rad,
+            r.map_wall_s,
+            r.mean_abs_dk,
+            100.0 * r.k_class_changed
+        ));
+        configs.push(r);
     }
-
-    let mut scaling = scaling(opts, progress)?;
-    scaling.gpu = gpu.as_ref().and_then(|g| {
+    let mut scaling = scaling(quick, &engines.cpu64, progress)?;
+    scaling.gpu = opts.gpu.and_then(|g| {
         configs
             .iter()
-            .filter(|c| c.config.backend == Backend::Gpu)
+            .filter(|c| c.config.backend == EngineKind::Gpu)
             .map(|c| c.segment_steps_per_s)
             .reduce(f64::max)
-            .map(|v| (g.adapter_name.clone(), v))
+            .map(|v| (g.info().device.clone(), v))
     });
-    // K only against all metrics: an 8 x 8 map at N = 3, 20 s, on every backend measured.
-    let mut scenes3 = Vec::new();
-    for i in 0..8 {
-        for j in 0..8 {
-            scenes3.push(scene_with(
-                3,
-                &[
-                    format!("excitation.frequency_hz={}", 4.0 + i as f64),
-                    format!("excitation.amplitude_m={}", 0.004 + 0.002 * j as f64),
-                    "integration.duration_s=20.0".into(),
-                    "integration.transient_s=5.0".into(),
-                ],
-            )?);
-        }
+    let mut k_only_rows = vec![k_only(&engines.cpu64, progress)?];
+    if let Some(g) = opts.gpu {
+        k_only_rows.push(k_only(g, progress)?);
     }
-    let mut k_only = Vec::new();
-    for &backend in &opts.backends {
-        let precision = if backend == Backend::Gpu {
-            Precision::F32
-        } else {
-            Precision::F64
-        };
-        let wall = |m: &MapRun| match &m.timings.gpu {
-            Some(g) => g.integrate_s + g.reduce_s,
-            None => m.timings.integrate_s + m.timings.reduce_s,
-        };
-        let all = run_map_scenes(&scenes3, Metric::ALL[..6].to_vec(), backend, precision)?;
-        let k = run_map_scenes(&scenes3, vec![Metric::K], backend, precision)?;
-        let entry = KOnly {
-            backend,
-            all_metrics_s: wall(&all),
-            k_only_s: wall(&k),
-            speedup: wall(&all) / wall(&k),
-        };
-        progress(&format!(
-            "K only vs all metrics ({backend:?}, N = 3, 64 instances): {:.2} s vs {:.2} s",
-            entry.k_only_s, entry.all_metrics_s
-        ));
-        k_only.push(entry);
-    }
-
     Ok(BenchReport {
         quick,
         machine: format!(
             "{} CPU threads (rayon){}",
             rayon::current_num_threads(),
-            gpu.as_ref()
-                .map(|g| format!(", GPU adapter {}", g.adapter_name))
+            opts.gpu
+                .map(|g| format!(", GPU adapter {}", g.info().device))
                 .unwrap_or_default()
         ),
-        horizon_s: horizon,
+        horizon_s: HORIZON_S,
         reference_map: if quick {
             "f in {5, 7.5, 10, 12} Hz x A in {6, 12, 20} mm, 6 s (transient 2 s)".into()
         } else {
@@ -528,84 +488,105 @@ pub fn run_bench(opts: &BenchOptions, progress: &dyn Fn(&str)) -> Result<BenchRe
         reference_map_wall_s,
         configs,
         scaling,
-        k_only,
+        k_only: k_only_rows,
         total_s: t_all.elapsed().as_secs_f64(),
     })
 }
 
-fn scaling(opts: &BenchOptions, progress: &dyn Fn(&str)) -> Result<Scaling> {
-    let mut s = Scaling::default();
-    // Per-step cost against N: a fixed step and no dampers so every N runs the same steps.
-    let ns: &[usize] = if opts.quick {
+/// K only against all metrics: an 8 × 8 map at N = 3, 20 s.
+fn k_only(engine: &Engine, progress: &dyn Fn(&str)) -> Result<KOnly, EngineError> {
+    let mut scenes = Vec::new();
+    for i in 0..8 {
+        for j in 0..8 {
+            scenes.push(bench_scene(3, |s| {
+                s.excitation.kind = crate::model::ExcitationKind::Harmonic {
+                    frequency_hz: 4.0 + i as f64,
+                };
+                s.excitation.amplitude_m = 0.004 + 0.002 * j as f64;
+                timing(s, 20.0, 5.0);
+            }));
+        }
+    }
+    let all = run_map_scenes(&scenes, Metric::ALL[..6].to_vec(), engine)?;
+    let k = run_map_scenes(&scenes, vec![Metric::K], engine)?;
+    let entry = KOnly {
+        backend: engine.info().kind,
+        all_metrics_s: all.engine_s(),
+        k_only_s: k.engine_s(),
+        speedup: all.engine_s() / k.engine_s(),
+    };
+    progress(&format!(
+        "K only vs all metrics ({}, N = 3, 64 instances): {:.2} s vs {:.2} s",
+        entry.backend.name(),
+        entry.k_only_s,
+        entry.all_metrics_s
+    ));
+    Ok(entry)
+}
+
+/// Per-step cost against N: a fixed step and no dampers so every N runs the same steps.
+fn per_step_cost(quick: bool) -> Result<Vec<(usize, f64, f64)>, EngineError> {
+    let ns: &[usize] = if quick {
         &[1, 4, 16, 64]
     } else {
         &[1, 2, 4, 8, 16, 32, 64]
     };
+    let mut out = Vec::new();
     for &n in ns {
-        let scene = scene_with(
-            n,
-            &[
-                "beam.damping_ratio=0.0".into(),
-                "integration.dt_s=1e-6".into(),
-                "excitation.frequency_hz=50.0".into(),
-                "integration.duration_s=0.04".into(),
-                "integration.transient_s=0.02".into(),
-            ],
-        )?;
+        let scene = bench_scene(n, |s| {
+            s.beam.damping_ratio = 0.0;
+            s.integration.dt_s = TimeStep::Seconds(1e-6);
+            s.excitation.kind = crate::model::ExcitationKind::Harmonic { frequency_hz: 50.0 };
+            timing(s, 0.04, 0.02);
+        });
         let plan = EnsemblePlan::from_scenes(&[scene], &options(vec![Metric::Hops]))?;
         let t0 = Instant::now();
-        let raw = run_instance::<f64>(&plan.instances[0], false, false);
-        let ns_step = t0.elapsed().as_secs_f64() * 1e9 / raw.steps_done as f64;
-        s.per_step_vs_segments
-            .push((n, ns_step, ns_step / n as f64));
+        let raw = crate::engine::cpu::run_instance::<f64>(&plan.instances[0], false, false);
+        let ns_step = t0.elapsed().as_secs_f64() * 1e9 / raw.tally.steps as f64;
+        out.push((n, ns_step, ns_step / n as f64));
     }
+    Ok(out)
+}
+
+/// Scaling of the CPU engine: per-step cost against N, wall time against grid size, run
+/// length and threads.
+fn scaling(quick: bool, cpu: &Engine, progress: &dyn Fn(&str)) -> Result<Scaling, BenchError> {
+    let mut s = Scaling {
+        per_step_vs_segments: per_step_cost(quick)?,
+        ..Scaling::default()
+    };
     progress("scaling: per-step cost against N done");
-    // Wall time against grid size and run length, N = 3.
-    let base = |count: usize, duration: f64| -> Result<Vec<Scene>> {
+    let base = |count: usize, duration: f64| -> Vec<Scene> {
         (0..count)
             .map(|i| {
-                scene_with(
-                    3,
-                    &[
-                        format!(
-                            "excitation.frequency_hz={}",
-                            5.0 + 7.0 * i as f64 / count as f64
-                        ),
-                        format!("integration.duration_s={duration}"),
-                        "integration.transient_s=1.0".into(),
-                    ],
-                )
+                bench_scene(3, |s| {
+                    let f = 5.0 + 7.0 * i as f64 / count as f64;
+                    s.excitation.kind = crate::model::ExcitationKind::Harmonic { frequency_hz: f };
+                    timing(s, duration, 1.0);
+                })
             })
             .collect()
     };
     let metrics = vec![Metric::Hops, Metric::AlphaRange];
+    let wall = |scenes: &[Scene]| -> Result<f64, EngineError> {
+        Ok(run_map_scenes(scenes, metrics.clone(), cpu)?
+            .timings
+            .integrate_s)
+    };
     for count in [16usize, 64, 256] {
-        let m = run_map_scenes(
-            &base(count, 4.0)?,
-            metrics.clone(),
-            Backend::Cpu,
-            Precision::F64,
-        )?;
-        s.wall_vs_instances.push((count, m.timings.integrate_s));
+        s.wall_vs_instances.push((count, wall(&base(count, 4.0))?));
     }
     for duration in [2.0, 4.0, 8.0] {
-        let m = run_map_scenes(
-            &base(64, duration)?,
-            metrics.clone(),
-            Backend::Cpu,
-            Precision::F64,
-        )?;
-        s.wall_vs_duration.push((duration, m.timings.integrate_s));
+        s.wall_vs_duration
+            .push((duration, wall(&base(64, duration))?));
     }
-    let scenes = base(128, 4.0)?;
+    let scenes = base(128, 4.0);
     let mut times = Vec::new();
     for threads in [1usize, 2] {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()?;
-        let m = pool
-            .install(|| run_map_scenes(&scenes, metrics.clone(), Backend::Cpu, Precision::F64))?;
-        times.push(m.timings.integrate_s);
+        times.push(pool.install(|| wall(&scenes))?);
     }
     s.threads = Some((times[0], times[1], times[0] / times[1]));
     progress("scaling: grid size, run length and threads done");

@@ -172,7 +172,10 @@ pub fn markdown(r: &BenchReport) -> String {
         let _ = writeln!(
             s,
             "| {:?} | {:.2} | {:.2} | {:.2}x |",
-            k.backend, k.all_metrics_s, k.k_only_s, k.speedup
+            k.backend.name(),
+            k.all_metrics_s,
+            k.k_only_s,
+            k.speedup
         );
     }
     s

@@ -1,7 +1,7 @@
 //! `pendulum-atlas bench`: the work-precision study and scaling measurements.
 
+use super::engine::BackendArg;
 use pendulum_atlas::bench::{BenchOptions, report::write_bench, run_bench};
-use pendulum_atlas::map::Backend;
 use std::path::PathBuf;
 
 /// Arguments of `bench`.
@@ -9,8 +9,8 @@ use std::path::PathBuf;
 pub struct BenchArgs {
     /// Engines to measure: `auto` (the CPU, plus the GPU when an adapter exists), `gpu`
     /// (GPU configurations only, besides the CPU references) or `cpu`.
-    #[arg(long, value_enum, default_value_t = Backend::Auto)]
-    pub backend: Backend,
+    #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
+    pub backend: BackendArg,
     /// Fewer configurations and shorter runs (a few minutes on 2 cores).
     #[arg(long)]
     pub quick: bool,
@@ -21,22 +21,16 @@ pub struct BenchArgs {
 
 /// Run `bench`.
 pub fn run(a: BenchArgs) -> anyhow::Result<()> {
-    let gpu_available = || {
-        pendulum_atlas::integrate::gpu::GpuContext::new(
-            pendulum_atlas::integrate::gpu::AdapterChoice::Any,
-        )
-        .is_ok()
-    };
-    let backends = match a.backend {
-        Backend::Cpu => vec![Backend::Cpu],
-        Backend::Gpu => vec![Backend::Cpu, Backend::Gpu],
-        Backend::Auto if gpu_available() => vec![Backend::Cpu, Backend::Gpu],
-        Backend::Auto => vec![Backend::Cpu],
+    // The GPU device is opened once here and reused by every configuration.
+    let gpu = match a.backend {
+        BackendArg::Cpu => None,
+        BackendArg::Gpu => Some(super::engine::EngineArgs::gpu_engine()?),
+        BackendArg::Auto => super::engine::EngineArgs::gpu_engine().ok(),
     };
     let report = run_bench(
         &BenchOptions {
             quick: a.quick,
-            backends,
+            gpu: gpu.as_ref(),
         },
         &|line| eprintln!("{line}"),
     )?;

@@ -1,8 +1,11 @@
 //! `pendulum-atlas map`: a chaos/bifurcation map over 1–3 scene keys on the GPU or the CPU.
 
+use super::engine::{EngineArgs, hint};
 use indicatif::{ProgressBar, ProgressStyle};
 use pendulum_atlas::config::load_map;
-use pendulum_atlas::map::{Backend, Precision, run_map};
+use pendulum_atlas::engine::ProgressUnit;
+use pendulum_atlas::map::run_map;
+use pendulum_atlas::model::Status;
 use pendulum_atlas::output::map::write_map;
 use std::path::PathBuf;
 
@@ -15,13 +18,8 @@ pub struct MapArgs {
     /// Override a scene or map key, e.g. `--set beam.segments=5 --set map.samples_per_period=32`.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub sets: Vec<String>,
-    /// Engine: `auto` (a hardware GPU, else the software adapter lavapipe, else the CPU),
-    /// `gpu` (any wgpu adapter, lavapipe included) or `cpu`.
-    #[arg(long, value_enum, default_value_t = Backend::Auto)]
-    pub backend: Backend,
-    /// Float type of the CPU engine (the GPU integrates in f32).
-    #[arg(long, value_enum)]
-    pub precision: Option<Precision>,
+    #[command(flatten)]
+    pub engine: EngineArgs,
     /// Output folder.
     #[arg(long, default_value = "runs/map")]
     pub out: PathBuf,
@@ -33,10 +31,7 @@ pub struct MapArgs {
 /// Run `map`.
 pub fn run(a: MapArgs) -> anyhow::Result<()> {
     let spec = load_map(a.scene.as_deref(), &a.sets)?;
-    let precision = a.precision.unwrap_or(match a.backend {
-        Backend::Cpu => Precision::F64,
-        _ => Precision::F32,
-    });
+    let engine = a.engine.open()?;
     let bar = if a.quiet {
         ProgressBar::hidden()
     } else {
@@ -50,25 +45,25 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
         .progress_chars("=> "),
     );
     bar.set_message(format!("map of {} instances", spec.instances()));
-    let progress = |done: u64, total: u64, unit: &str| {
+    let progress = |done: u64, total: u64, unit: ProgressUnit| {
         bar.set_length(total);
         bar.set_position(done);
-        bar.set_prefix(unit.to_string());
+        bar.set_prefix(unit.name());
     };
-    let run = run_map(&spec, a.backend, precision, &progress)?;
+    let run = run_map(&spec, &engine, &progress).map_err(hint)?;
     bar.finish_and_clear();
     let files = write_map(&a.out, &spec, &run)?;
     let ok = run
         .results
         .iter()
-        .filter(|r| r.status == pendulum_atlas::integrate::Status::Ok)
+        .filter(|r| r.status == Status::Ok)
         .count();
     println!(
         "map: {} instances ({} ok) on {} [{}], N = {}, {:.2e} instance-steps in {:.1} s ({:.3e} instance-steps/s, {:.3e} segment-steps/s)",
         run.results.len(),
         ok,
-        run.backend,
-        run.device,
+        run.engine.kind.name(),
+        run.engine.device,
         run.plan.segments,
         run.plan.total_steps as f64,
         run.timings.total_s,

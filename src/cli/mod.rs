@@ -3,6 +3,7 @@
 
 mod analyze;
 mod bench;
+mod engine;
 mod map;
 mod modes;
 mod report;

@@ -1,7 +1,6 @@
 //! `pendulum-atlas modes`: the linearisation about the straight upright beam.
 
 use super::SceneArgs;
-use pendulum_atlas::model::modes;
 
 /// Arguments of `modes`.
 #[derive(Debug, clap::Args)]
@@ -16,7 +15,7 @@ pub struct ModesArgs {
 /// Print the modes of the scene.
 pub fn run(a: ModesArgs) -> anyhow::Result<()> {
     let scene = a.scene.load()?;
-    let m = modes(&scene);
+    let m = scene.modes();
     if a.json {
         println!("{}", serde_json::to_string_pretty(&m)?);
     } else {

@@ -1,8 +1,8 @@
 //! `pendulum-atlas search`: the broadband-harvesting design search over a harvester scene.
 
+use super::engine::EngineArgs;
 use indicatif::{ProgressBar, ProgressStyle};
 use pendulum_atlas::harvest::{load_search, run_search, verify_design, write_search};
-use pendulum_atlas::map::{Backend, Precision};
 use std::path::PathBuf;
 
 /// Arguments of `search`.
@@ -14,13 +14,8 @@ pub struct SearchArgs {
     /// Override a scene or search key, e.g. `--set search.band.base_acceleration_m_s2=5 --set search.refine.rounds=0`.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub sets: Vec<String>,
-    /// Engine: `auto` (a hardware GPU, else the software adapter lavapipe, else the CPU),
-    /// `gpu` (any wgpu adapter, lavapipe included) or `cpu`.
-    #[arg(long, value_enum, default_value_t = Backend::Auto)]
-    pub backend: Backend,
-    /// Float type of the CPU engine (the GPU integrates in f32).
-    #[arg(long, value_enum)]
-    pub precision: Option<Precision>,
+    #[command(flatten)]
+    pub engine: EngineArgs,
     /// Output folder.
     #[arg(long, default_value = "runs/harvest")]
     pub out: PathBuf,
@@ -36,10 +31,7 @@ pub fn run(a: SearchArgs) -> anyhow::Result<()> {
         || "configs/harvest/default.toml (embedded)".to_string(),
         |p| p.display().to_string(),
     );
-    let precision = a.precision.unwrap_or(match a.backend {
-        Backend::Cpu => Precision::F64,
-        _ => Precision::F32,
-    });
+    let engine = a.engine.open()?;
     let bar = if a.quiet {
         ProgressBar::hidden()
     } else {
@@ -60,7 +52,7 @@ pub fn run(a: SearchArgs) -> anyhow::Result<()> {
         bar.set_length(total);
         bar.set_position(done);
     };
-    let run = run_search(&spec, a.backend, precision, &progress)?;
+    let run = run_search(&spec, &engine, &progress)?;
     let verification = if spec.verify {
         bar.set_message("re-simulating the best design with the simulate engine");
         bar.set_length(1);
@@ -89,8 +81,8 @@ pub fn run(a: SearchArgs) -> anyhow::Result<()> {
     let b = &run.baseline.metrics;
     println!(
         "search on {} [{}]: {} designs in {:.1} s; best #{}: robust bandwidth {:.2} Hz (baseline {:.2} Hz), robust band-averaged power {:.3e} W (baseline {:.3e} W)",
-        run.backend,
-        run.device,
+        run.engine.kind.name(),
+        run.engine.device,
         run.designs.len(),
         run.total_s,
         best.id,

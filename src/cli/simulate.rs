@@ -6,10 +6,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use pendulum_atlas::analysis::{RecordAnalysis, RecordOptions, Sampling, analyze_record};
 use pendulum_atlas::config::ExcitationKind;
 use pendulum_atlas::config::Scene;
-use pendulum_atlas::integrate::{
-    Instance, Outcome, ReferenceOptions, StepPlan, integrate, integrate_reference,
+use pendulum_atlas::engine::{
+    DtSource, Instance, Outcome, ReferenceOptions, StepPlan, integrate, integrate_reference,
 };
-use pendulum_atlas::model::{ModelParams, Modes, modes};
+use pendulum_atlas::model::{Modes, Status};
 use pendulum_atlas::output::Row;
 use pendulum_atlas::output::{TrajectoryRecorder, write_trajectory_csv};
 use pendulum_atlas::render::{self, Panel, Series};
@@ -59,13 +59,13 @@ struct RunJson<'a> {
     integrator: IntegratorChoice,
     precision: &'a str,
     dt_s: f64,
-    dt_source: &'a str,
+    dt_source: DtSource,
     dt_stable_s: f64,
     steps: u64,
     steps_done: u64,
     rows: usize,
     wall_time_s: f64,
-    status: &'a str,
+    status: Status,
     failed_at_s: Option<f64>,
     impacts: u64,
     modes: &'a Modes,
@@ -76,16 +76,16 @@ struct RunJson<'a> {
 /// Run one simulation and write its files.
 pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     let scene = a.scene.load()?;
-    let m = modes(&scene);
+    let m = scene.modes();
     let plan = StepPlan::for_scene(&scene, &m);
     for w in &plan.warnings {
         eprintln!("warning: {w}");
     }
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create output folder {}", a.out.display()))?;
-    let params = ModelParams::from_scene(&scene);
+    let piezo = scene.piezo_params();
     let mut rec = TrajectoryRecorder {
-        load_ohm: params.piezo.as_ref().map(|z| z.load_ohm),
+        load_ohm: piezo.as_ref().map(|z| z.load_ohm),
         ..Default::default()
     };
     let bar = progress_bar(&plan, scene.beam.segments, a.integrator);
@@ -95,17 +95,16 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     let started = Instant::now();
     let (outcome, precision): (Outcome, &str) = match (a.integrator, a.precision) {
         (IntegratorChoice::Reference, _) => {
-            let inst = Instance::<f64>::from_scene(&scene, &params);
-            let o = integrate_reference(&inst, &plan, &ReferenceOptions::default(), &mut rec)
-                .map_err(anyhow::Error::msg)?;
+            let inst = Instance::<f64>::from_scene(&scene);
+            let o = integrate_reference(&inst, &plan, &ReferenceOptions::default(), &mut rec)?;
             (o, "f64")
         }
         (IntegratorChoice::Rk4, Precision::F64) => {
-            let inst = Instance::<f64>::from_scene(&scene, &params);
+            let inst = Instance::<f64>::from_scene(&scene);
             (integrate(&inst, &plan, &mut rec), "f64")
         }
         (IntegratorChoice::Rk4, Precision::F32) => {
-            let inst = Instance::<f32>::from_scene(&scene, &params);
+            let inst = Instance::<f32>::from_scene(&scene);
             (integrate(&inst, &plan, &mut rec), "f32")
         }
     };
@@ -114,15 +113,15 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
         b.finish_and_clear();
     }
     let csv_path = a.out.join("trajectory.csv");
-    write_trajectory_csv(&csv_path, &rec.rows, params.piezo.is_some())?;
+    write_trajectory_csv(&csv_path, &rec.rows, piezo.is_some())?;
     let mut warnings = plan.warnings.clone();
     if let Some(t) = outcome.failed_at_s {
         warnings.push(format!(
             "run stopped at t = {t:.6} s with status `{}`: rows after that time are not written",
-            outcome.status.as_str()
+            outcome.status
         ));
     }
-    let analysis = if outcome.status.as_str() != "ok" {
+    let analysis = if outcome.status != Status::Ok {
         None
     } else {
         match analyse_run(&scene, &rec.rows, &a.out) {
@@ -144,7 +143,7 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
         steps_done: outcome.steps_done,
         rows: rec.rows.len(),
         wall_time_s: wall,
-        status: outcome.status.as_str(),
+        status: outcome.status,
         failed_at_s: outcome.failed_at_s,
         impacts: outcome.impacts,
         modes: &m,
@@ -156,7 +155,7 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
         "{} steps of {:.3e} s in {wall:.2} s, status {}: wrote {} and run.json",
         outcome.steps_done,
         plan.dt_s,
-        outcome.status.as_str(),
+        outcome.status,
         csv_path.display()
     );
     Ok(())

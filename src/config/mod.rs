@@ -6,6 +6,7 @@
 
 mod error;
 mod map;
+mod physics;
 mod reader;
 mod scene;
 

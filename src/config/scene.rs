@@ -1,7 +1,9 @@
-//! The validated scene: every physical input with its unit, as MODEL.md's parameter table.
+//! The validated scene: every physical input with its unit (the parameter table of
+//! `docs/model.md`).
 
 use super::error::ConfigError;
 use super::reader::{Range, Reader, apply_override, parse_toml};
+pub use crate::model::ExcitationKind;
 use serde::Serialize;
 use toml::Table;
 
@@ -77,26 +79,6 @@ pub struct Pivot {
     pub holder_inertia_kgm2: f64,
 }
 
-/// The cart's motion.
-#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
-#[serde(tag = "kind", rename_all = "lowercase")]
-pub enum ExcitationKind {
-    /// x0 = A sin(2π f t).
-    Harmonic {
-        /// Forcing frequency f (Hz).
-        frequency_hz: f64,
-    },
-    /// Linear chirp from `start_hz` to `end_hz` over `duration_s`, then held at `end_hz`.
-    Sweep {
-        /// Initial instantaneous frequency (Hz).
-        start_hz: f64,
-        /// Final instantaneous frequency (Hz).
-        end_hz: f64,
-        /// Sweep duration (s).
-        duration_s: f64,
-    },
-}
-
 /// The cart excitation.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct Excitation {
@@ -109,10 +91,7 @@ pub struct Excitation {
 impl Excitation {
     /// The frequency that defines one forcing period (harmonic f, or the sweep's end frequency).
     pub fn reference_frequency_hz(&self) -> f64 {
-        match self.kind {
-            ExcitationKind::Harmonic { frequency_hz } => frequency_hz,
-            ExcitationKind::Sweep { end_hz, .. } => end_hz,
-        }
+        self.kind.reference_frequency_hz()
     }
 }
 
@@ -135,7 +114,7 @@ pub struct Piezo {
 #[derive(Debug, Clone, Copy, Serialize, PartialEq)]
 #[serde(rename_all = "lowercase")]
 pub enum TimeStep {
-    /// `safety · 2.78 / max|λ|`, see MODEL.md.
+    /// `safety · 2.78 / max|λ|` (`docs/model.md`, "Time step").
     Auto,
     /// A fixed step (s).
     Seconds(f64),

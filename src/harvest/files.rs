@@ -376,8 +376,8 @@ fn best_md(
             .iter()
             .map(|st| st.instance_steps as f64)
             .sum::<f64>(),
-        run.backend,
-        run.device,
+        run.engine.kind.name(),
+        run.engine.device,
         run.total_s
     );
 
@@ -607,7 +607,7 @@ fn best_md(
             100.0 * v.median_rel_diff,
             100.0 * v.max_rel_diff,
             v.max_rel_diff_at_hz,
-            if run.precision == crate::map::Precision::F32 {
+            if run.engine.precision == crate::engine::Precision::F32 {
                 "and integrates in f32 on the GPU"
             } else {
                 "in f64"
@@ -644,10 +644,10 @@ fn search_json(
         "scene_origin": origin,
         "settings": spec,
         "excitation": excitation,
-        "backend": run.backend,
-        "backend_reason": run.backend_reason,
-        "adapter": run.device,
-        "precision": run.precision,
+        "backend": run.engine.kind,
+        "backend_reason": run.engine.reason,
+        "adapter": run.engine.device,
+        "precision": run.engine.precision,
         "threshold_w": run.threshold_w,
         "period_test": super::search::period_test_possible(spec),
         "baseline": {

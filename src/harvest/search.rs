@@ -14,12 +14,10 @@
 
 use super::band::{BandMetrics, band_metrics, mean_curve, robust_curve};
 use super::spec::{InitialState, Objective, SearchSpec, describe_design};
-use crate::analysis::{PhaseConvention, ZeroOneOptions};
 use crate::config::{Metric, Scene};
-use crate::integrate::Status;
-use crate::integrate::ensemble::{EnsembleOptions, EnsemblePlan};
-use crate::map::{Backend, Precision, run_plan};
-use crate::model::modes;
+use crate::engine::{Engine, EngineInfo, EnsembleOptions, EnsemblePlan, ProgressUnit};
+use crate::map::run_plan;
+use crate::model::Status;
 use crate::reduce::{InstanceResult, ReduceOptions};
 use anyhow::{Context, Result, bail};
 use rayon::prelude::*;
@@ -121,14 +119,8 @@ pub struct SearchRun {
     pub ranking: Vec<usize>,
     /// One entry per batch.
     pub stages: Vec<StageReport>,
-    /// `gpu` or `cpu`.
-    pub backend: String,
-    /// Why that backend ran.
-    pub backend_reason: String,
-    /// The adapter or the CPU threads.
-    pub device: String,
-    /// Float type of the integration.
-    pub precision: Precision,
+    /// The engine that ran every batch.
+    pub engine: EngineInfo,
     /// Wall time of the whole search (s).
     pub total_s: f64,
 }
@@ -149,13 +141,10 @@ impl SearchRun {
     }
 }
 
-/// The engine settings shared by every batch.
-struct Engine<'a> {
-    backend: Backend,
-    precision: Precision,
+/// The opened engine every batch runs on, and the progress callback.
+struct Batches<'a> {
+    engine: &'a Engine,
     progress: SearchProgress<'a>,
-    /// Filled by the first batch.
-    meta: Option<(String, String, String, Precision)>,
 }
 
 /// Whether the runs are long enough for the period test (it needs 20 stroboscopic samples
@@ -188,13 +177,7 @@ fn ensemble_options(spec: &SearchSpec) -> EnsembleOptions {
 
 /// Reduction settings: the map's defaults (only the period test is used).
 fn reduce_options() -> ReduceOptions {
-    ReduceOptions {
-        zero_one: ZeroOneOptions::default(),
-        convention: PhaseConvention::Standard,
-        period_max: 8,
-        period_window: 16,
-        period_tol_rad: 1e-3,
-    }
+    ReduceOptions::default()
 }
 
 /// Bytes of GPU buffers an ensemble may use per buffer; adapters allow at least 128 MiB per
@@ -217,7 +200,7 @@ fn chunk_len(scenes: &[Scene], max: usize) -> usize {
     ((CHUNK_BUFFER_BYTES / per_instance) as usize).clamp(1, max.max(1))
 }
 
-impl Engine<'_> {
+impl Batches<'_> {
     /// Integrate a list of scenes: one ensemble, or several chunks of one when the batch
     /// is too large for one set of GPU buffers. Results keep the order of `scenes`.
     fn run(
@@ -256,24 +239,9 @@ impl Engine<'_> {
                 format!("{stage}: {designs} designs, {instances} instances")
             };
             let progress = self.progress;
-            let cb = |done: u64, total: u64, _unit: &str| progress(&label, done, total);
-            let run = run_plan(
-                plan,
-                &reduce_options(),
-                None,
-                self.backend,
-                self.precision,
-                &cb,
-            )
-            .with_context(|| format!("integrating the {stage} batch"))?;
-            if self.meta.is_none() {
-                self.meta = Some((
-                    run.backend.to_string(),
-                    run.backend_reason.clone(),
-                    run.device.clone(),
-                    run.precision,
-                ));
-            }
+            let cb = |done: u64, total: u64, _unit: ProgressUnit| progress(&label, done, total);
+            let run = run_plan(plan, &reduce_options(), None, self.engine, &cb)
+                .with_context(|| format!("integrating the {stage} batch"))?;
             let steps = run.plan.total_steps;
             report.instance_steps += steps;
             report.engine_s += run.timings.total_s;
@@ -324,7 +292,7 @@ fn design_scenes(spec: &SearchSpec, designs: &[Vec<f64>]) -> Result<Vec<Scene>> 
 /// Evaluate a batch of designs and turn the instances back into P(f) curves.
 fn evaluate(
     spec: &SearchSpec,
-    engine: &mut Engine,
+    engine: &mut Batches,
     stage: &str,
     designs: Vec<Vec<f64>>,
     first_id: usize,
@@ -392,11 +360,12 @@ fn baseline_frequencies(spec: &SearchSpec, f1: f64) -> Vec<f64> {
 }
 
 /// Evaluate the clamped linear cantilever over the band (and the zoom around its resonance).
-fn evaluate_baseline(spec: &SearchSpec, engine: &mut Engine) -> Result<(Baseline, StageReport)> {
+fn evaluate_baseline(spec: &SearchSpec, engine: &mut Batches) -> Result<(Baseline, StageReport)> {
     let started = Instant::now();
     let table = spec.baseline_table()?;
     let scene0 = Scene::from_table(table.clone())?;
-    let first_natural_hz = modes(&scene0)
+    let first_natural_hz = scene0
+        .modes()
         .frequencies_hz
         .first()
         .copied()
@@ -550,17 +519,11 @@ fn refinement_candidates(
 /// Run a whole search: baseline, grid, refinement, ranking.
 pub fn run_search(
     spec: &SearchSpec,
-    backend: Backend,
-    precision: Precision,
+    engine: &Engine,
     progress: SearchProgress,
 ) -> Result<SearchRun> {
     let t_all = Instant::now();
-    let mut engine = Engine {
-        backend,
-        precision,
-        progress,
-        meta: None,
-    };
+    let mut engine = Batches { engine, progress };
     let mut stages = Vec::new();
 
     let (mut baseline, mut report) = evaluate_baseline(spec, &mut engine)?;
@@ -611,18 +574,13 @@ pub fn run_search(
     for (pos, &id) in ranking.iter().enumerate() {
         designs[id].rank = pos + 1;
     }
-    let (backend_name, backend_reason, device, precision) =
-        engine.meta.clone().expect("at least one batch ran");
     Ok(SearchRun {
         baseline,
         threshold_w,
         designs,
         ranking,
         stages,
-        backend: backend_name,
-        backend_reason,
-        device,
-        precision,
+        engine: engine.engine.info().clone(),
         total_s: t_all.elapsed().as_secs_f64(),
     })
 }

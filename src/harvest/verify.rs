@@ -6,8 +6,8 @@
 use super::search::DesignResult;
 use super::spec::SearchSpec;
 use crate::analysis::{ZeroOneOptions, stroboscopic, zero_one_test};
-use crate::integrate::{Instance, Observer, StepPlan, integrate};
-use crate::model::{CartState, Chain, ModelParams, Real, Workspace, modes};
+use crate::engine::{Instance, Observer, StepPlan, integrate};
+use crate::model::{CartState, Chain, Real, Status, Workspace};
 use anyhow::Result;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -57,7 +57,7 @@ pub struct VerifiedPoint {
     /// Power of the single-run re-simulation (W).
     pub simulate_w: f64,
     /// Status of the re-simulation.
-    pub status: String,
+    pub status: Status,
     /// Hops between wells the search counted (after the transient).
     pub hops: f64,
     /// Period of the search's stroboscopic section (0: not periodic up to 8 periods).
@@ -130,26 +130,24 @@ pub struct Resimulated {
     pub power_w: f64,
     /// 0–1 test K of the stroboscopic holder angle after the transient (NaN if too short).
     pub k: f64,
-    /// `ok`, `diverged` or `non-finite`.
-    pub status: &'static str,
+    /// How the run ended.
+    pub status: Status,
 }
 
 /// One instance integrated as `simulate` integrates it.
 pub fn simulate_power(scene: &crate::config::Scene) -> Resimulated {
-    let m = modes(scene);
-    let plan = StepPlan::for_scene(scene, &m);
-    let params = ModelParams::from_scene(scene);
-    let inst = Instance::<f64>::from_scene(scene, &params);
+    let plan = StepPlan::for_scene(scene, &scene.modes());
+    let inst = Instance::<f64>::from_scene(scene);
     let mut meter = PowerMeter {
         transient_s: scene.integration.transient_s,
-        inv_load: params.piezo.as_ref().map_or(0.0, |z| 1.0 / z.load_ohm),
+        inv_load: scene.piezo_params().map_or(0.0, |z| 1.0 / z.load_ohm),
         sum_w: 0.0,
         rows: 0,
         t_s: Vec::with_capacity(plan.rows()),
         alpha_rad: Vec::with_capacity(plan.rows()),
     };
     let outcome = integrate(&inst, &plan, &mut meter);
-    let ok = outcome.status.as_str() == "ok";
+    let ok = outcome.status == Status::Ok;
     let power_w = if meter.rows == 0 || !ok {
         f64::NAN
     } else {
@@ -172,7 +170,7 @@ pub fn simulate_power(scene: &crate::config::Scene) -> Resimulated {
     Resimulated {
         power_w,
         k,
-        status: outcome.status.as_str(),
+        status: outcome.status,
     }
 }
 
@@ -197,7 +195,7 @@ pub fn verify_design(spec: &SearchSpec, design: &DesignResult) -> Result<Verific
                 search_w: design.power_w[s][j],
                 simulate_w: re.power_w,
                 k_simulate: re.k,
-                status: re.status.to_string(),
+                status: re.status,
                 hops: design.hops[s][j],
                 period: design.period[s][j],
             })

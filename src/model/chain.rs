@@ -1,4 +1,4 @@
-//! The equations of motion M(θ)θ̈ = Q of MODEL.md, solved in O(N) per evaluation.
+//! The equations of motion M(θ)θ̈ = Q (`docs/model.md`), solved in O(N) per evaluation.
 //!
 //! The serial chain is solved articulated-body style (a Newton–Euler recursion): a backward
 //! sweep from the tip condenses the chain above node i−1 into a 2×2 articulated inertia `K_i`
@@ -6,7 +6,7 @@
 //! the cart's known acceleration then yields θ̈_i segment by segment. Springs, dampers, the
 //! bumper contact and the piezo enter as generalised forces Q_i (couples on segment i), which
 //! is exactly how they appear in the Lagrange equations. [`crate::model::dense`] builds the
-//! dense M and Q of MODEL.md for the cross-check in tests.
+//! dense M and Q term by term for the cross-check in tests.
 
 use crate::model::params::ModelParams;
 use crate::model::real::Real;
@@ -324,7 +324,7 @@ impl<T: Real> Chain<T> {
     }
 
     /// Which bumpers are penetrated (δ > 0): the contact flags used to count impacts.
-    pub fn touching(&self, ws: &mut Workspace<T>, y: &[T]) -> (bool, bool) {
+    pub fn touching(&self, y: &[T]) -> (bool, bool) {
         let Some(c) = &self.contact else {
             return (false, false);
         };
@@ -332,7 +332,6 @@ impl<T: Real> Chain<T> {
         for (i, &lam) in c.levers.iter().enumerate() {
             x += lam * y[i].sin();
         }
-        let _ = ws;
         (x - c.gap > T::zero(), -x - c.gap > T::zero())
     }
 
@@ -356,9 +355,9 @@ impl<T: Real> Chain<T> {
         )
     }
 
-    /// Stored energy in the inertial frame, given the cart position and velocity.
-    pub fn energy(&self, y: &[T], cart_x: f64, cart_v: f64) -> Energy {
-        let _ = cart_x; // the energy does not depend on the cart position
+    /// Stored energy in the inertial frame, given the cart velocity (m/s); it does not depend
+    /// on the cart position.
+    pub fn energy(&self, y: &[T], cart_v: f64) -> Energy {
         let n = self.n;
         let w = |x: T| x.wide();
         let (l, m, g) = (w(self.l), w(self.m), w(self.g));

@@ -1,4 +1,4 @@
-//! The dense Lagrange form M(θ)θ̈ = Q of MODEL.md, term by term. O(N³): used only to
+//! The dense Lagrange form M(θ)θ̈ = Q (`docs/model.md`), term by term. O(N³): used only to
 //! cross-check the O(N) recursion in tests and to build the linearisation.
 
 use crate::model::params::ModelParams;

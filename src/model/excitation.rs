@@ -1,12 +1,56 @@
-//! Cart kinematics x0(t), ẋ0(t), ẍ0(t) for harmonic and sweep excitation.
+//! Cart kinematics x0(t), ẋ0(t), ẍ0(t) for harmonic and sweep excitation: the one definition of
+//! the cart motion (see `docs/model.md`, "Excitation").
 //!
-//! Time enters only through [`CartMotion::at_step`], which forms `t = (n + c)·dt` from the
-//! integer step count `n` and the stage fraction `c` in `f64`, and reduces the forcing phase to
-//! one cycle before any `f32` arithmetic sees it. No path accumulates `t += dt`.
+//! Time never accumulates as `t += dt`. Two evaluations exist, one per way a run counts time:
+//! - [`CartMotion::at_step`] / [`CartMotion::at_time`] form `t = (n + c)·dt` in `f64` from the
+//!   integer step count and reduce the forcing phase to one cycle before any `f32` sees it
+//!   (single runs, sweeps);
+//! - [`CartMotion::at_phase`] takes the phase in cycles directly, `(step mod spp + c)/spp`, exact
+//!   in integers on an ensemble's step grid (every map instance, CPU and GPU alike; the WGSL
+//!   kernels evaluate the same expressions from the amplitudes of [`CartMotion::amplitudes`]).
 
-use crate::config::{Excitation, ExcitationKind};
 use serde::Serialize;
 use std::f64::consts::TAU;
+
+/// How the cart moves.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+#[serde(tag = "kind", rename_all = "lowercase")]
+pub enum ExcitationKind {
+    /// x0 = A sin(2π f t).
+    Harmonic {
+        /// Forcing frequency f (Hz).
+        frequency_hz: f64,
+    },
+    /// Linear chirp from `start_hz` to `end_hz` over `duration_s`, then held at `end_hz`.
+    Sweep {
+        /// Initial instantaneous frequency (Hz).
+        start_hz: f64,
+        /// Final instantaneous frequency (Hz).
+        end_hz: f64,
+        /// Sweep duration (s).
+        duration_s: f64,
+    },
+}
+
+impl ExcitationKind {
+    /// The frequency that defines one forcing period (harmonic f, or the sweep's end frequency).
+    pub fn reference_frequency_hz(&self) -> f64 {
+        match *self {
+            ExcitationKind::Harmonic { frequency_hz } => frequency_hz,
+            ExcitationKind::Sweep { end_hz, .. } => end_hz,
+        }
+    }
+
+    /// The highest instantaneous frequency the cart reaches (Hz).
+    pub fn max_frequency_hz(&self) -> f64 {
+        match *self {
+            ExcitationKind::Harmonic { frequency_hz } => frequency_hz,
+            ExcitationKind::Sweep {
+                start_hz, end_hz, ..
+            } => start_hz.max(end_hz),
+        }
+    }
+}
 
 /// Cart position, velocity and acceleration at one instant.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
@@ -19,6 +63,17 @@ pub struct CartState {
     pub a_m_s2: f64,
 }
 
+/// Amplitudes of a harmonic cart motion: A, Aω and Aω².
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HarmonicAmplitudes {
+    /// A (m).
+    pub position_m: f64,
+    /// Aω (m/s).
+    pub velocity_m_s: f64,
+    /// Aω² (m/s²).
+    pub acceleration_m_s2: f64,
+}
+
 /// The prescribed cart motion of a scene.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct CartMotion {
@@ -29,14 +84,6 @@ pub struct CartMotion {
 }
 
 impl CartMotion {
-    /// From the validated scene section.
-    pub fn from_excitation(e: &Excitation) -> Self {
-        CartMotion {
-            amplitude_m: e.amplitude_m,
-            kind: e.kind,
-        }
-    }
-
     /// Forcing phase φ(t) in cycles (not reduced), its rate (Hz) and its second derivative (Hz/s).
     fn phase_cycles(&self, t: f64) -> (f64, f64, f64) {
         match self.kind {
@@ -75,6 +122,29 @@ impl CartMotion {
             x_m: a * s,
             v_m_s: a * w * c,
             a_m_s2: -a * w * w * s + a * wdot * c,
+        }
+    }
+
+    /// A, Aω and Aω² of the reference frequency (the harmonic motion's amplitudes).
+    pub fn amplitudes(&self) -> HarmonicAmplitudes {
+        let w = TAU * self.kind.reference_frequency_hz();
+        HarmonicAmplitudes {
+            position_m: self.amplitude_m,
+            velocity_m_s: self.amplitude_m * TAU * self.kind.reference_frequency_hz(),
+            acceleration_m_s2: self.amplitude_m * w.powi(2),
+        }
+    }
+
+    /// Harmonic cart state at the forcing phase `cycles` ∈ [0, 1) (fraction of a period):
+    /// x0 = A sin 2πφ, ẋ0 = Aω cos 2πφ, ẍ0 = −Aω² sin 2πφ.
+    #[inline]
+    pub fn at_phase(&self, cycles: f64) -> CartState {
+        let amp = self.amplitudes();
+        let (s, c) = (TAU * cycles).sin_cos();
+        CartState {
+            x_m: amp.position_m * s,
+            v_m_s: amp.velocity_m_s * c,
+            a_m_s2: -amp.acceleration_m_s2 * s,
         }
     }
 

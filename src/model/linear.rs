@@ -1,13 +1,13 @@
 //! Linearisation about the straight upright beam: natural frequencies, unstable growth rates,
-//! and the automatic RK4 time step from the spectral radius of the first-order Jacobian.
+//! the damping that gives a first-mode damping ratio, and the automatic RK4 time step from the
+//! spectral radius of the first-order Jacobian (`docs/model.md`, "Linearisation").
 
-use crate::config::{PivotMode, Scene};
 use crate::model::dense::mass_matrix;
 use crate::model::params::ModelParams;
 use nalgebra::{Complex, DMatrix};
 use serde::Serialize;
 
-/// The stability boundary of classical RK4 on the negative real axis, |z| ≈ 2.785 (MODEL.md uses 2.78).
+/// The stability boundary of classical RK4 on the negative real axis, |z| ≈ 2.785 (the automatic step uses 2.78).
 pub const RK4_REAL_AXIS_LIMIT: f64 = 2.78;
 
 /// Modal summary of a scene.
@@ -65,21 +65,29 @@ pub fn generalized_eigenvalues(p: &ModelParams) -> Vec<f64> {
     ev
 }
 
-/// ω1 (rad/s) of the clamped, g = 0 chain with the scene's beam: the reference for ζ1.
-pub fn clamped_first_omega(scene: &Scene) -> f64 {
-    let mut s = scene.clone();
-    s.pivot.mode = PivotMode::Clamped;
-    s.gravity.g_m_s2 = 0.0;
-    s.limiter.enabled = false;
-    s.piezo.enabled = false;
-    s.pivot.holder_inertia_kgm2 = scene.pivot.holder_inertia_kgm2;
-    let p = ModelParams::undamped(&s);
-    let ev = generalized_eigenvalues(&p);
+/// ω1 (rad/s): the first natural frequency of the chain clamped to a still cart without gravity
+/// ([`ModelParams::clamped_cantilever`]), the reference of the damping ratio ζ1.
+pub fn clamped_first_omega(p: &ModelParams) -> f64 {
+    let ev = generalized_eigenvalues(&p.clamped_cantilever());
     ev.iter()
         .copied()
         .find(|&x| x > 0.0)
         .expect("a clamped chain has a positive stiffness")
         .sqrt()
+}
+
+/// The stiffness-proportional damping time β = 2ζ1/ω1 (s) that gives the first clamped bending
+/// mode the damping ratio `zeta1`.
+pub fn damping_time_for_ratio(p: &ModelParams, zeta1: f64) -> f64 {
+    if zeta1 == 0.0 {
+        return 0.0;
+    }
+    2.0 * zeta1 / clamped_first_omega(p)
+}
+
+/// The damping ratio ζ1 = β ω1 / 2 of the first clamped bending mode for the chain's β.
+pub fn first_mode_damping_ratio(p: &ModelParams) -> f64 {
+    0.5 * p.beta_s * clamped_first_omega(p)
 }
 
 /// The first-order Jacobian about θ = 0 with dampers, an engaged bumper, and the piezo.
@@ -156,10 +164,10 @@ pub fn rk4_stable_dt(eigs: &[Complex<f64>]) -> f64 {
     dt_max
 }
 
-/// Natural frequencies, unstable rates and the automatic step for a scene.
-pub fn modes(scene: &Scene) -> Modes {
-    let p = ModelParams::from_scene(scene);
-    let ev = generalized_eigenvalues(&p);
+/// Natural frequencies, unstable rates and the automatic RK4 step (`dt_safety` times the
+/// real-axis limit over the spectral radius) of a chain.
+pub fn modes(p: &ModelParams, dt_safety: f64) -> Modes {
+    let ev = generalized_eigenvalues(p);
     let scale = ev.iter().fold(0.0f64, |a, &x| a.max(x.abs())).max(1e-300);
     let frequencies_hz = ev
         .iter()
@@ -172,12 +180,12 @@ pub fn modes(scene: &Scene) -> Modes {
         .map(|&x| (-x).sqrt())
         .collect();
     unstable_rates_per_s.sort_by(f64::total_cmp);
-    let eigs = jacobian_eigenvalues(&p);
+    let eigs = jacobian_eigenvalues(p);
     let radius = eigs.iter().fold(0.0f64, |a, z| a.max(z.norm()));
     Modes {
         frequencies_hz,
         unstable_rates_per_s,
-        dt_auto_s: scene.integration.dt_safety * RK4_REAL_AXIS_LIMIT / radius,
+        dt_auto_s: dt_safety * RK4_REAL_AXIS_LIMIT / radius,
         spectral_radius_per_s: radius,
         dt_stable_s: rk4_stable_dt(&eigs),
     }

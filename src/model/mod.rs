@@ -1,15 +1,26 @@
-//! The physics of MODEL.md: parameters, cart motion, the chain's equations of motion,
-//! energies, and the linearisation.
+//! The physics of `docs/model.md`, free of any file format: the parameters of a built pendulum,
+//! the cart motion, the chain's equations of motion, energies, the health rules of a run, and
+//! the linearisation.
+//!
+//! Stages, in the order a model is built and used:
+//! 1. [`ChainDesign`], [`BumperDesign`], [`PiezoParams`], [`CartMotion`] → [`ModelParams`]: every
+//!    coefficient derived once (the scene is converted into these by `crate::config`);
+//! 2. [`modes`], [`linear`]: natural frequencies, the damping for a first-mode ratio, the
+//!    automatic RK4 step;
+//! 3. [`Chain`]: the O(N) solve of M(θ)θ̈ = Q in the engine's float type ([`Real`]), energies;
+//! 4. [`Guard`] and [`Status`]: what makes a state healthy, checked every [`CHECK_EVERY`] steps.
 
 mod chain;
 pub mod dense;
 mod excitation;
+mod health;
 pub mod linear;
 mod params;
 mod real;
 
 pub use chain::{Chain, ContactLaw, ContactReport, Energy, Workspace};
-pub use excitation::{CartMotion, CartState};
+pub use excitation::{CartMotion, CartState, ExcitationKind, HarmonicAmplitudes};
+pub use health::{CHECK_EVERY, Guard, Status, health_due};
 pub use linear::{Modes, modes};
-pub use params::{ContactParams, ModelParams, PiezoParams};
+pub use params::{BumperDesign, ChainDesign, ContactParams, ModelParams, PiezoParams, Tube};
 pub use real::Real;

@@ -2,24 +2,14 @@
 //! a PNG per metric (per 2-D slice of a 3-D grid), and `bifurcation.png`.
 
 use crate::config::{MapSpec, Metric};
-use crate::integrate::Status;
 use crate::map::MapRun;
+use crate::model::Status;
 use crate::output::npy::{write_npy_f64, write_npy_u8};
 use crate::render::{Axis, heatmap, scatter};
 use anyhow::{Context, Result};
 use serde_json::json;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-
-/// Numeric code of a status in `status.npy`.
-pub fn status_code(s: Status) -> u8 {
-    match s {
-        Status::Ok => 0,
-        Status::Diverged => 1,
-        Status::NonFinite => 2,
-        Status::Escaped => 3,
-    }
-}
 
 /// The arrays written per metric: (file stem, metric, accessor).
 type Column = (
@@ -89,7 +79,7 @@ pub fn write_map(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf
         write_npy_f64(&p, &shape, &data)?;
         written.push(p);
     }
-    let status: Vec<u8> = run.results.iter().map(|r| status_code(r.status)).collect();
+    let status: Vec<u8> = run.results.iter().map(|r| r.status.code()).collect();
     let p = dir.join("status.npy");
     write_npy_u8(&p, &shape, &status)?;
     written.push(p);
@@ -145,10 +135,10 @@ pub fn write_map(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf
         "instances": n,
         "order": "C order over the axes as listed (last axis varies fastest); .npy arrays have this shape",
         "metrics": spec.metrics,
-        "backend": run.backend,
-        "backend_reason": run.backend_reason,
-        "adapter": run.device,
-        "precision": run.precision,
+        "backend": run.engine.kind,
+        "backend_reason": run.engine.reason,
+        "adapter": run.engine.device,
+        "precision": run.engine.precision,
         "segments": run.plan.segments,
         "dt_s": {"min": run.plan.dt_range_s.0, "max": run.plan.dt_range_s.1},
         "steps": {
@@ -163,12 +153,10 @@ pub fn write_map(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf
             "instance_steps_per_s": run.instance_steps_per_s(),
             "segment_steps_per_s": run.segment_steps_per_s(),
         },
-        "status_counts": {
-            "ok": counts(Status::Ok),
-            "diverged": counts(Status::Diverged),
-            "non-finite": counts(Status::NonFinite),
-            "escaped": counts(Status::Escaped),
-        },
+        "status_counts": Status::ALL
+            .iter()
+            .map(|&s| (s.as_str().to_string(), json!(counts(s))))
+            .collect::<serde_json::Map<String, serde_json::Value>>(),
         "sampling": {
             "samples_per_period": spec.samples_per_period,
             "strobe_phase": spec.strobe_phase,

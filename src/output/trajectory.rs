@@ -1,6 +1,6 @@
 //! Recording a trajectory at the output rows and writing it as CSV.
 
-use crate::integrate::Observer;
+use crate::engine::Observer;
 use crate::model::{CartState, Chain, Real, Workspace};
 use std::path::Path;
 
@@ -83,7 +83,7 @@ impl<T: Real> Observer<T> for TrajectoryRecorder {
             tip_y_m: ty,
             chord_m: chord,
             contact_force_n: contact.force_x_n.wide(),
-            energy_j: chain.energy(y, cart.x_m, cart.v_m_s).total_j(),
+            energy_j: chain.energy(y, cart.v_m_s).total_j(),
             piezo_v: v,
             power_w: self.load_ohm.map_or(0.0, |r| v * v / r),
             dissipation_w: chain.dissipated_power_w(y),

@@ -1,18 +1,17 @@
-//! Per-instance results of a map, from either engine.
+//! Per-instance results of an ensemble: the running accumulators of either engine and the
+//! reductions of the recorded series (`docs/analysis.md`).
 //!
-//! The CPU engine leaves raw series ([`RawInstance`]); they are reduced here with the analysis
-//! library ([`crate::analysis`]): the 0–1 test on the stroboscopic samples, R from the uniform
-//! series, the period of the stroboscopic section. The GPU engine reduces on the device with
-//! the same definitions (`shaders/ensemble.wgsl`); [`from_gpu`] only converts units.
+//! The CPU engine records raw series and reduces them here with the analysis library: the 0–1
+//! test on the stroboscopic samples ([`k_of`]), R from the uniform series against the cart
+//! ([`r_of`]), the period of the stroboscopic section ([`period_of`]). The GPU engine reduces
+//! on the device with the same definitions (`shaders/reduce_*.wgsl`) and converts its
+//! accumulators with [`Tally::result`] like the CPU engine does.
 
 use crate::analysis::{
     K01Method, PhaseConvention, ZeroOneOptions, detect_period, phase_sync, zero_one_test,
 };
 use crate::config::{MapSpec, Metric};
-use crate::integrate::Status;
-use crate::integrate::ensemble::{EnsemblePlan, InstancePlan, RawInstance};
-use crate::integrate::gpu::GpuRun;
-use rayon::prelude::*;
+use crate::model::Status;
 use serde::Serialize;
 
 /// The numbers a map shows for one grid point. Metrics not requested, and every metric of an
@@ -74,6 +73,20 @@ pub struct ReduceOptions {
     pub period_tol_rad: f64,
 }
 
+impl Default for ReduceOptions {
+    /// A map's defaults: K by correlation with 100 seeded c values, R in the standard
+    /// convention, periods up to 8 over 16 samples within 1e-3 rad.
+    fn default() -> Self {
+        ReduceOptions {
+            zero_one: ZeroOneOptions::default(),
+            convention: PhaseConvention::Standard,
+            period_max: 8,
+            period_window: 16,
+            period_tol_rad: 1e-3,
+        }
+    }
+}
+
 impl ReduceOptions {
     /// From a map scene.
     pub fn from_spec(spec: &MapSpec) -> ReduceOptions {
@@ -90,24 +103,69 @@ impl ReduceOptions {
             period_tol_rad: spec.period_tol_rad,
         }
     }
-
-    /// The same settings in the form the GPU kernels take.
-    pub fn for_gpu(&self) -> crate::integrate::gpu::ReduceSettings {
-        crate::integrate::gpu::ReduceSettings {
-            c_values: crate::analysis::draw_c_values(self.zero_one.n_c, self.zero_one.seed),
-            paper_convention: self.convention == PhaseConvention::Paper,
-            period_max: self.period_max,
-            period_window: self.period_window,
-            period_tol_rad: self.period_tol_rad,
-        }
-    }
 }
 
-/// The cart position at the R samples of an instance: the reference signal of R.
-pub fn cart_series(p: &InstancePlan) -> Vec<f64> {
-    (0..u64::from(p.r_count))
-        .map(|j| p.cart_pos(u64::from(p.r_start) + j * u64::from(p.r_every)))
-        .collect()
+/// The running accumulators of one instance after the transient, as either engine keeps them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tally {
+    /// How the integration ended.
+    pub status: Status,
+    /// Steps taken.
+    pub steps: u64,
+    /// Smallest and largest α (rad).
+    pub alpha_range_rad: (f64, f64),
+    /// Hops between the wells.
+    pub hops: u32,
+    /// Bumper contact onsets.
+    pub impacts: u32,
+    /// Σ v²/R_L over the steps (W).
+    pub power_sum_w: f64,
+}
+
+/// What a tally was accumulated over: the time and steps after the transient.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Span {
+    /// Simulated time after the transient (s).
+    pub seconds: f64,
+    /// Steps after the transient.
+    pub steps: u64,
+}
+
+impl Tally {
+    /// The accumulator-based metrics (everything but K, R and period), NaN when not requested
+    /// or when the instance failed; K, R and period NaN until [`reduce_series`] fills them.
+    pub fn result(&self, span: Span, metrics: &[Metric]) -> InstanceResult {
+        let nan = f64::NAN;
+        let mut out = InstanceResult {
+            k: nan,
+            r: nan,
+            period: nan,
+            hops: nan,
+            impacts_per_s: nan,
+            alpha_min_rad: nan,
+            alpha_max_rad: nan,
+            power_w: nan,
+            status: self.status,
+            steps: self.steps,
+        };
+        if self.status != Status::Ok {
+            return out;
+        }
+        let wants = |m: Metric| metrics.contains(&m);
+        if wants(Metric::Hops) {
+            out.hops = f64::from(self.hops);
+        }
+        if wants(Metric::ImpactsPerS) {
+            out.impacts_per_s = f64::from(self.impacts) / span.seconds;
+        }
+        if wants(Metric::AlphaRange) {
+            (out.alpha_min_rad, out.alpha_max_rad) = self.alpha_range_rad;
+        }
+        if wants(Metric::Power) {
+            out.power_w = self.power_sum_w / span.steps as f64;
+        }
+        out
+    }
 }
 
 /// K of a stroboscopic series as the map computes it (NaN if the test refuses the series).
@@ -115,135 +173,50 @@ pub fn k_of(strobe: &[f64], opts: &ReduceOptions) -> f64 {
     zero_one_test(strobe, &opts.zero_one).map_or(f64::NAN, |r| r.k)
 }
 
-/// R of an instance's α series against its cart series.
-pub fn r_of(p: &InstancePlan, alpha: &[f64], opts: &ReduceOptions) -> f64 {
-    phase_sync(&cart_series(p), alpha, opts.convention).map_or(f64::NAN, |r| r.r)
+/// R of an α series against the cart positions at the same instants.
+pub fn r_of(cart: &[f64], alpha: &[f64], opts: &ReduceOptions) -> f64 {
+    phase_sync(cart, alpha, opts.convention).map_or(f64::NAN, |r| r.r)
 }
 
-/// Reduce the CPU engine's raw instances with the analysis library.
-pub fn from_cpu(
-    plan: &EnsemblePlan,
-    raw: &[RawInstance],
+/// The period of a stroboscopic series in forcing periods (0: none up to `period_max`).
+pub fn period_of(strobe: &[f64], opts: &ReduceOptions) -> f64 {
+    detect_period(
+        strobe,
+        opts.period_max as usize,
+        opts.period_window as usize,
+        opts.period_tol_rad,
+    ) as f64
+}
+
+/// The series an instance recorded: stroboscopic α, and the R series with its cart reference.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Series<'a> {
+    /// Stroboscopic α after the transient (rad).
+    pub strobe: &'a [f64],
+    /// Uniform α for R (rad).
+    pub r_alpha: &'a [f64],
+    /// Cart positions at the R samples (m).
+    pub r_cart: &'a [f64],
+}
+
+/// Fill K, period and R of an `ok` result from its recorded series, as far as requested.
+pub fn reduce_series(
+    out: &mut InstanceResult,
+    series: Series,
+    metrics: &[Metric],
     opts: &ReduceOptions,
-) -> Vec<InstanceResult> {
-    plan.instances
-        .par_iter()
-        .zip(raw)
-        .map(|(p, r)| {
-            let wants = |m: Metric| plan.metrics.contains(&m);
-            let mut out = accumulators(
-                p,
-                plan,
-                r.steps_done,
-                r.status,
-                (r.alpha_min, r.alpha_max),
-                r.hops,
-                r.impacts,
-                r.power_sum,
-            );
-            if r.status == Status::Ok {
-                if wants(Metric::K) {
-                    out.k = k_of(&r.strobe, opts);
-                }
-                if wants(Metric::Period) {
-                    out.period = detect_period(
-                        &r.strobe,
-                        opts.period_max as usize,
-                        opts.period_window as usize,
-                        opts.period_tol_rad,
-                    ) as f64;
-                }
-                if wants(Metric::R) {
-                    out.r = r_of(p, &r.r_alpha, opts);
-                }
-            }
-            out
-        })
-        .collect()
-}
-
-/// Convert the GPU engine's per-instance results.
-pub fn from_gpu(plan: &EnsemblePlan, run: &GpuRun) -> Vec<InstanceResult> {
-    plan.instances
-        .iter()
-        .zip(&run.accum)
-        .map(|(p, a)| {
-            let status = match a.status {
-                0 => Status::Ok,
-                1 => Status::Diverged,
-                3 => Status::Escaped,
-                _ => Status::NonFinite,
-            };
-            let mut out = accumulators(
-                p,
-                plan,
-                u64::from(a.step),
-                status,
-                (f64::from(a.alpha_min), f64::from(a.alpha_max)),
-                a.hops,
-                a.impacts,
-                f64::from(a.power_sum),
-            );
-            if status == Status::Ok {
-                let wants = |m: Metric| plan.metrics.contains(&m);
-                if wants(Metric::K) {
-                    out.k = f64::from(a.k);
-                }
-                if wants(Metric::R) {
-                    out.r = f64::from(a.r);
-                }
-                if wants(Metric::Period) {
-                    out.period = f64::from(a.period);
-                }
-            }
-            out
-        })
-        .collect()
-}
-
-/// The accumulator-based metrics (everything but K, R and period), NaN when not requested
-/// or when the instance failed.
-#[allow(clippy::too_many_arguments)]
-fn accumulators(
-    p: &InstancePlan,
-    plan: &EnsemblePlan,
-    steps: u64,
-    status: Status,
-    alpha: (f64, f64),
-    hops: u32,
-    impacts: u32,
-    power_sum: f64,
-) -> InstanceResult {
-    let nan = f64::NAN;
-    let mut out = InstanceResult {
-        k: nan,
-        r: nan,
-        period: nan,
-        hops: nan,
-        impacts_per_s: nan,
-        alpha_min_rad: nan,
-        alpha_max_rad: nan,
-        power_w: nan,
-        status,
-        steps,
-    };
-    if status != Status::Ok {
-        return out;
+) {
+    if out.status != Status::Ok {
+        return;
     }
-    let wants = |m: Metric| plan.metrics.contains(&m);
-    if wants(Metric::Hops) {
-        out.hops = f64::from(hops);
+    let wants = |m: Metric| metrics.contains(&m);
+    if wants(Metric::K) {
+        out.k = k_of(series.strobe, opts);
     }
-    if wants(Metric::ImpactsPerS) {
-        out.impacts_per_s = f64::from(impacts) / p.post_transient_s();
+    if wants(Metric::Period) {
+        out.period = period_of(series.strobe, opts);
     }
-    if wants(Metric::AlphaRange) {
-        out.alpha_min_rad = alpha.0;
-        out.alpha_max_rad = alpha.1;
+    if wants(Metric::R) {
+        out.r = r_of(series.r_cart, series.r_alpha, opts);
     }
-    if wants(Metric::Power) {
-        let steps = p.total_steps() - p.transient_steps();
-        out.power_w = power_sum / steps as f64;
-    }
-    out
 }

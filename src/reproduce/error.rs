@@ -23,7 +23,7 @@ pub enum ReproduceError {
         /// Case identifier.
         case: String,
         /// `diverged` or `non-finite`.
-        status: String,
+        status: crate::model::Status,
         /// Simulated time at which the failure was detected (s).
         at_s: f64,
     },

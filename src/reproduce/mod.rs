@@ -321,17 +321,9 @@ fn draw_case(
 
 /// First natural frequency of the clamped beam (no gravity, no bumpers) at the run's N (Hz).
 fn first_clamped_hz(case: &PaperCase, opts: &ReproduceOptions) -> Result<f64, ReproduceError> {
-    let sets = [
-        "pivot.mode=clamped".to_string(),
-        "gravity.g_m_s2=0".to_string(),
-        "limiter.enabled=false".to_string(),
-    ];
-    let scene = case.scene(opts.quick, &sets)?;
-    Ok(crate::model::modes(&scene)
-        .frequencies_hz
-        .first()
-        .copied()
-        .unwrap_or(f64::NAN))
+    let scene = case.scene(opts.quick, &[])?;
+    let omega = crate::model::linear::clamped_first_omega(&scene.model_params());
+    Ok(omega / std::f64::consts::TAU)
 }
 
 /// One paragraph on the fidelity of the run.

@@ -2,8 +2,7 @@
 
 use super::error::ReproduceError;
 use crate::config::Scene;
-use crate::integrate::{Instance, StepPlan, integrate};
-use crate::model::{ModelParams, modes};
+use crate::engine::{Instance, StepPlan, integrate};
 use crate::output::{Row, TrajectoryRecorder};
 use serde::Serialize;
 use std::time::Instant;
@@ -52,13 +51,11 @@ impl Simulation {
 /// Integrate `scene` (case `case` in error messages) at its automatic step with f64 RK4.
 /// A run that diverges or turns non-finite is an error: its numbers would mean nothing.
 pub fn simulate(case: &str, scene: &Scene) -> Result<Simulation, ReproduceError> {
-    let m = modes(scene);
-    let plan = StepPlan::for_scene(scene, &m);
-    let params = ModelParams::from_scene(scene);
-    let inst = Instance::<f64>::from_scene(scene, &params);
+    let plan = StepPlan::for_scene(scene, &scene.modes());
+    let inst = Instance::<f64>::from_scene(scene);
     let mut rec = TrajectoryRecorder {
         rows: Vec::with_capacity(plan.rows()),
-        load_ohm: params.piezo.as_ref().map(|z| z.load_ohm),
+        load_ohm: scene.piezo_params().map(|z| z.load_ohm),
         on_row: None,
     };
     let started = Instant::now();
@@ -67,7 +64,7 @@ pub fn simulate(case: &str, scene: &Scene) -> Result<Simulation, ReproduceError>
     if let Some(at_s) = outcome.failed_at_s {
         return Err(ReproduceError::Failed {
             case: case.to_string(),
-            status: outcome.status.as_str().to_string(),
+            status: outcome.status,
             at_s,
         });
     }

@@ -2,7 +2,7 @@
 
 use pendulum_atlas::bench::report::write_bench;
 use pendulum_atlas::bench::{BenchConfig, BenchReport, ConfigResult, KOnly, Scaling};
-use pendulum_atlas::map::{Backend, Precision};
+use pendulum_atlas::engine::{EngineKind, Precision};
 
 fn config(n: usize, precision: Precision, err: f64, cost: f64) -> ConfigResult {
     ConfigResult {
@@ -10,7 +10,7 @@ fn config(n: usize, precision: Precision, err: f64, cost: f64) -> ConfigResult {
             segments: n,
             dt_factor: 1.0,
             precision,
-            backend: Backend::Cpu,
+            backend: EngineKind::Cpu,
         },
         dt_s: 1e-4,
         alpha_err_rad: err,
@@ -49,7 +49,7 @@ fn bench_report_writes_table_json_and_pictures() {
             gpu: None,
         },
         k_only: vec![KOnly {
-            backend: Backend::Cpu,
+            backend: EngineKind::Cpu,
             all_metrics_s: 1.0,
             k_only_s: 0.5,
             speedup: 2.0,

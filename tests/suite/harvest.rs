@@ -2,11 +2,11 @@
 //! linear baseline against the clamped beam's natural frequency, `search` end to end on both
 //! backends (with its power re-checked by `simulate`, as a user would), and its input errors.
 
+use pendulum_atlas::engine::{Engine, Precision};
 use pendulum_atlas::harvest::{
     SearchSpec, band_average_w, band_metrics, bandwidth_hz, mean_curve, robust_curve, run_search,
     search_from_toml,
 };
-use pendulum_atlas::map::{Backend, Precision};
 use std::process::Command;
 
 fn bin() -> Command {
@@ -143,12 +143,12 @@ fn the_baseline_peaks_at_the_clamped_first_natural_frequency() {
         "search.band={start_hz=20.0,end_hz=28.0,count=17,base_acceleration_m_s2=2.0}",
         "search.baseline.zoom_count=0",
     ]);
-    let run = run_search(&spec, Backend::Cpu, Precision::F64, &|_, _, _| {}).expect("search");
+    let run = run_search(&spec, &Engine::cpu(Precision::F64), &|_, _, _| {}).expect("search");
     // `modes` of the clamped beam, no limiter, g as given.
     let mut clamped = spec.scene.clone();
     clamped.pivot.mode = pendulum_atlas::config::PivotMode::Clamped;
     clamped.limiter.enabled = false;
-    let f1 = pendulum_atlas::model::modes(&clamped).frequencies_hz[0];
+    let f1 = clamped.modes().frequencies_hz[0];
     close(run.baseline.first_natural_hz, f1, 1e-9, "baseline f1");
     let b = &run.baseline;
     assert_eq!(b.failed, 0);
@@ -181,8 +181,8 @@ fn batches_cut_into_chunks_give_the_same_results() {
     let whole = tiny_spec(&sets);
     let mut chunked = whole.clone();
     chunked.max_batch_instances = 7;
-    let a = run_search(&whole, Backend::Cpu, Precision::F64, &|_, _, _| {}).expect("search");
-    let b = run_search(&chunked, Backend::Cpu, Precision::F64, &|_, _, _| {}).expect("search");
+    let a = run_search(&whole, &Engine::cpu(Precision::F64), &|_, _, _| {}).expect("search");
+    let b = run_search(&chunked, &Engine::cpu(Precision::F64), &|_, _, _| {}).expect("search");
     assert_eq!(a.baseline.power_w, b.baseline.power_w);
     assert_eq!(a.designs.len(), b.designs.len());
     for (x, y) in a.designs.iter().zip(&b.designs) {
@@ -379,7 +379,7 @@ fn search_runs_end_to_end_on_the_cpu() {
 
 #[test]
 fn search_runs_end_to_end_on_the_gpu() {
-    if crate::gpu::gpu().is_none() {
+    if crate::engine::gpu().is_none() {
         return;
     }
     let out = out_dir("gpu");

@@ -1,18 +1,18 @@
 //! The test suite, one binary split into modules by pipeline stage:
-//! config → model → integrate → analysis → command line.
+//! config → model → engine (every engine runs the same suite) → single runs → analysis →
+//! outputs → command line.
 
 mod analysis;
 mod bench;
 mod cli;
 mod config;
-mod gpu;
+mod engine;
 mod harvest;
-mod integrate;
 mod map;
 mod model;
 mod render;
 mod reproduce;
-mod stress;
+mod single_run;
 
 use pendulum_atlas::config::{PAPER_SCENE_TOML, Scene};
 

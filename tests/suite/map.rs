@@ -97,7 +97,7 @@ fn map_runs_end_to_end_on_the_cpu() {
 
 #[test]
 fn map_runs_end_to_end_on_the_gpu() {
-    if crate::gpu::gpu().is_none() {
+    if crate::engine::gpu().is_none() {
         return;
     }
     let out = out_dir("gpu");
@@ -210,7 +210,9 @@ fn bad_map_scenes_are_refused_with_the_key_named() {
 #[test]
 fn early_stop_ends_confirmed_periodic_orbits_and_keeps_their_metrics() {
     use pendulum_atlas::config::map_from_toml;
-    use pendulum_atlas::map::{Backend, Precision, run_map};
+    use pendulum_atlas::engine::{Engine, Precision, no_progress};
+    use pendulum_atlas::map::run_map;
+    let cpu = Engine::cpu(Precision::F64);
     let text = |early: bool| {
         format!(
             "[beam]\nsegments = 1\ndamping_ratio = 0.05\n[pivot]\nmode = \"clamped\"\n[limiter]\nenabled = false\n\
@@ -221,8 +223,8 @@ fn early_stop_ends_confirmed_periodic_orbits_and_keeps_their_metrics() {
     };
     let full = map_from_toml(&text(false), "<t>", &[]).unwrap();
     let early = map_from_toml(&text(true), "<t>", &[]).unwrap();
-    let a = run_map(&full, Backend::Cpu, Precision::F64, &|_, _, _| {}).unwrap();
-    let b = run_map(&early, Backend::Cpu, Precision::F64, &|_, _, _| {}).unwrap();
+    let a = run_map(&full, &cpu, &no_progress).unwrap();
+    let b = run_map(&early, &cpu, &no_progress).unwrap();
     assert_eq!(
         b.stopped_early, 2,
         "both forced linear responses settle on period 1"
@@ -245,7 +247,7 @@ fn early_stop_ends_confirmed_periodic_orbits_and_keeps_their_metrics() {
         &[],
     )
     .unwrap();
-    let c = run_map(&spec, Backend::Cpu, Precision::F64, &|_, _, _| {}).unwrap();
+    let c = run_map(&spec, &cpu, &no_progress).unwrap();
     assert_eq!(c.stopped_early, 0);
     assert!(
         c.plan

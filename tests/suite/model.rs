@@ -1,7 +1,7 @@
 //! The model against MODEL.md's reference numbers and against its own dense form.
 
 use super::scene;
-use pendulum_atlas::model::{Chain, ContactLaw, ModelParams, dense, linear, modes};
+use pendulum_atlas::model::{Chain, ContactLaw, ModelParams, dense, linear};
 
 const CLAMPED_G0: [&str; 3] = [
     "pivot.mode=clamped",
@@ -13,7 +13,7 @@ fn clamped(n: usize) -> Vec<f64> {
     let seg = format!("beam.segments={n}");
     let mut sets: Vec<&str> = CLAMPED_G0.to_vec();
     sets.push(&seg);
-    modes(&scene(&sets)).frequencies_hz
+    scene(&sets).modes().frequencies_hz
 }
 
 #[test]
@@ -35,7 +35,7 @@ fn clamped_first_frequency_matches_model_md() {
 
 #[test]
 fn hinged_upright_chain_has_one_falling_mode() {
-    let m = modes(&scene(&[]));
+    let m = scene(&[]).modes();
     assert_eq!(
         m.unstable_rates_per_s.len(),
         1,
@@ -50,7 +50,7 @@ fn hinged_upright_chain_has_one_falling_mode() {
 
 #[test]
 fn spectral_radius_and_auto_step_match_model_md() {
-    let r = |sets: &[&str]| modes(&scene(sets)).spectral_radius_per_s;
+    let r = |sets: &[&str]| scene(sets).modes().spectral_radius_per_s;
     let n3 = r(&["beam.segments=3"]);
     let n17_undamped = r(&["beam.damping_ratio=0"]);
     let n17 = r(&[]);
@@ -60,7 +60,7 @@ fn spectral_radius_and_auto_step_match_model_md() {
         "N=17 undamped: {n17_undamped}"
     );
     assert!((n17 / 6.3e5 - 1.0).abs() < 0.05, "N=17 damped: {n17}");
-    let m = modes(&scene(&[]));
+    let m = scene(&[]).modes();
     assert!((m.dt_auto_s - 0.8 * 2.78 / n17).abs() < 1e-12);
     // The automatic step lies inside the RK4 stability limit.
     assert!(m.dt_auto_s < m.dt_stable_s);
@@ -69,9 +69,9 @@ fn spectral_radius_and_auto_step_match_model_md() {
 #[test]
 fn damping_gives_the_requested_ratio_on_the_first_clamped_mode() {
     let s = scene(&CLAMPED_G0);
-    let p = ModelParams::from_scene(&s);
+    let p = s.model_params();
     let eig = linear::jacobian_eigenvalues(&p);
-    let w1 = 2.0 * std::f64::consts::PI * modes(&s).frequencies_hz[0];
+    let w1 = 2.0 * std::f64::consts::PI * s.modes().frequencies_hz[0];
     // The eigenvalue pair closest to ω1 has ζ = −Re λ / |λ| = 0.0035.
     let lam = eig
         .iter()
@@ -162,7 +162,7 @@ fn recursive_solve_equals_dense_solve() {
         let seg = format!("beam.segments={n}");
         let mut sets = extra.clone();
         sets.push(&seg);
-        let p = ModelParams::from_scene(&scene(&sets));
+        let p = scene(&sets).model_params();
         let chain = Chain::<f64>::new(&p);
         let mut ws = chain.workspace();
         for _ in 0..20 {

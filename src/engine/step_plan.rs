@@ -1,8 +1,19 @@
-//! The step plan of a run: the time step (automatic or given), step count, output cadence.
+//! The step plan of a single run: the time step (automatic or given), step count, output
+//! cadence.
 
 use crate::config::{Scene, TimeStep};
 use crate::model::Modes;
 use serde::Serialize;
+
+/// Where a run's step came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DtSource {
+    /// `integration.dt_s = "auto"`: from the linearisation.
+    Auto,
+    /// `integration.dt_s` given in seconds.
+    Given,
+}
 
 /// How a run is discretised in time.
 #[derive(Debug, Clone, Serialize)]
@@ -13,8 +24,8 @@ pub struct StepPlan {
     pub steps: u64,
     /// Steps between output rows (the output interval is `sample_every · dt_s`).
     pub sample_every: u64,
-    /// Where dt came from: "auto" or "given".
-    pub dt_source: &'static str,
+    /// Where dt came from.
+    pub dt_source: DtSource,
     /// Largest stable RK4 step of the linearised model (s).
     pub dt_stable_s: f64,
     /// Warnings about the step (an explicit dt beyond the stable limit, ...).
@@ -32,7 +43,7 @@ impl StepPlan {
             TimeStep::Auto => {
                 let dt0 = modes.dt_auto_s.min(out_dt);
                 let per_row = (out_dt / dt0 - 1e-9).ceil().max(1.0);
-                (out_dt / per_row, per_row as u64, "auto")
+                (out_dt / per_row, per_row as u64, DtSource::Auto)
             }
             TimeStep::Seconds(dt) => {
                 if dt > modes.dt_stable_s {
@@ -48,7 +59,7 @@ impl StepPlan {
                         every as f64 * dt
                     ));
                 }
-                (dt, every, "given")
+                (dt, every, DtSource::Given)
             }
         };
         StepPlan {

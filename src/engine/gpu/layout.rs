@@ -1,10 +1,10 @@
 //! The structs the GPU kernels read and write, `#[repr(C)]` and [`bytemuck::Pod`], mirrored
-//! member for member in `shaders/ensemble.wgsl` (a test compares both layouts with naga).
+//! member for member in `shaders/common.wgsl` (a test compares both layouts with naga).
 //!
 //! [`GpuInstanceParams`] is filled from the one parameter struct, [`ModelParams`], and the
 //! instance's step plan: no physical coefficient is derived anywhere else.
 
-use crate::integrate::ensemble::InstancePlan;
+use crate::engine::plan::InstancePlan;
 use bytemuck::{Pod, Zeroable};
 
 /// Largest segment count the GPU kernel's per-invocation arrays hold.

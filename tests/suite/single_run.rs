@@ -1,20 +1,19 @@
-//! The engines: energy conservation, convergence order, f32/f64/reference agreement, the
-//! piezo energy balance, and divergence flagging.
+//! Single runs (what `simulate` integrates): energy conservation, convergence order,
+//! f32/f64/reference agreement, the piezo energy balance, and divergence flagging.
 
 use super::scene;
 use pendulum_atlas::config::Scene;
-use pendulum_atlas::integrate::{
-    Instance, ReferenceOptions, Status, StepPlan, integrate, integrate_batch, integrate_reference,
+use pendulum_atlas::engine::{
+    Instance, ReferenceOptions, StepPlan, integrate, integrate_batch, integrate_reference,
 };
-use pendulum_atlas::model::{ModelParams, Real, modes};
+use pendulum_atlas::model::{Real, Status};
 use pendulum_atlas::output::{Row, TrajectoryRecorder};
 
 fn run_rk4<T: Real>(s: &Scene) -> (Vec<Row>, Status) {
-    let plan = StepPlan::for_scene(s, &modes(s));
-    let p = ModelParams::from_scene(s);
-    let inst = Instance::<T>::from_scene(s, &p);
+    let plan = StepPlan::for_scene(s, &s.modes());
+    let inst = Instance::<T>::from_scene(s);
     let mut rec = TrajectoryRecorder {
-        load_ohm: p.piezo.as_ref().map(|z| z.load_ohm),
+        load_ohm: s.piezo_params().map(|z| z.load_ohm),
         ..Default::default()
     };
     let o = integrate(&inst, &plan, &mut rec);
@@ -22,11 +21,10 @@ fn run_rk4<T: Real>(s: &Scene) -> (Vec<Row>, Status) {
 }
 
 fn run_reference(s: &Scene) -> Vec<Row> {
-    let plan = StepPlan::for_scene(s, &modes(s));
-    let p = ModelParams::from_scene(s);
-    let inst = Instance::<f64>::from_scene(s, &p);
+    let plan = StepPlan::for_scene(s, &s.modes());
+    let inst = Instance::<f64>::from_scene(s);
     let mut rec = TrajectoryRecorder {
-        load_ohm: p.piezo.as_ref().map(|z| z.load_ohm),
+        load_ohm: s.piezo_params().map(|z| z.load_ohm),
         ..Default::default()
     };
     let o = integrate_reference(&inst, &plan, &ReferenceOptions::default(), &mut rec).unwrap();
@@ -196,7 +194,7 @@ fn piezo_energy_balance_holds() {
 #[test]
 fn a_step_three_times_the_limit_is_flagged_not_returned() {
     let s0 = scene(&["beam.segments=5", "integration.duration_s=0.5"]);
-    let m = modes(&s0);
+    let m = s0.modes();
     let dt = format!("integration.dt_s={}", 3.0 * m.dt_stable_s);
     let s = scene(&["beam.segments=5", "integration.duration_s=0.5", &dt]);
     let plan = StepPlan::for_scene(&s, &m);
@@ -225,11 +223,8 @@ fn batch_equals_single_runs_and_keeps_order() {
             ])
         })
         .collect();
-    let plan = StepPlan::for_scene(&scenes[0], &modes(&scenes[0]));
-    let insts: Vec<Instance<f64>> = scenes
-        .iter()
-        .map(|s| Instance::from_scene(s, &ModelParams::from_scene(s)))
-        .collect();
+    let plan = StepPlan::for_scene(&scenes[0], &scenes[0].modes());
+    let insts: Vec<Instance<f64>> = scenes.iter().map(Instance::from_scene).collect();
     let mut recs: Vec<TrajectoryRecorder> = (0..3).map(|_| TrajectoryRecorder::default()).collect();
     integrate_batch(&insts, &plan, &mut recs);
     for (i, inst) in insts.iter().enumerate() {

@@ -13,10 +13,10 @@
 //! about second order (found by this module's convergence test). The autonomous form is
 //! immune, since the weights a_ij alone then determine every stage.
 
-use crate::integrate::plan::StepPlan;
-use crate::integrate::rk4::{Instance, Observer, Outcome, health};
-use crate::integrate::status::Status;
-use crate::model::{CartMotion, Chain, ContactLaw, Workspace};
+use crate::engine::error::EngineError;
+use crate::engine::single::{Instance, Observer, Outcome};
+use crate::engine::step_plan::StepPlan;
+use crate::model::{CartMotion, Chain, ContactLaw, Status, Workspace};
 use nalgebra::DVector;
 use ode_solvers::{Dop853, OutputType, System};
 use std::cell::RefCell;
@@ -93,7 +93,7 @@ fn run_piece(
     y0: &DVector<f64>,
     t1: f64,
     opts: &ReferenceOptions,
-) -> Result<(f64, DVector<f64>), String> {
+) -> Result<(f64, DVector<f64>), EngineError> {
     piece.last_ok = (t0, y0.clone());
     piece.switched = None;
     let mut solver = Dop853::from_param(
@@ -116,7 +116,7 @@ fn run_piece(
     );
     solver
         .integrate()
-        .map_err(|e| format!("DOP853 failed at t = {t0:e} s: {e}"))?;
+        .map_err(|e| EngineError::Reference(format!("at t = {t0:e} s: {e}")))?;
     let t = *solver.x_out().last().expect("at least the initial point");
     let y = solver
         .y_out()
@@ -132,7 +132,7 @@ pub fn integrate_reference<O: Observer<f64>>(
     plan: &StepPlan,
     opts: &ReferenceOptions,
     obs: &mut O,
-) -> Result<Outcome, String> {
+) -> Result<Outcome, EngineError> {
     let chain = &inst.chain;
     let mut ws = chain.workspace();
     let dim = inst.y0.len();
@@ -147,7 +147,7 @@ pub fn integrate_reference<O: Observer<f64>>(
         switched: None,
     };
     let mut impacts = 0u64;
-    let mut touching = chain.touching(&mut ws, &y.as_slice()[..dim]);
+    let mut touching = chain.touching(&y.as_slice()[..dim]);
     obs.sample(
         0,
         0.0,
@@ -177,12 +177,13 @@ pub fn integrate_reference<O: Observer<f64>>(
                     piece.mode = chain.engaged(&mut ws, &y.as_slice()[..dim]);
                 }
             }
-            let now = chain.touching(&mut ws, &y.as_slice()[..dim]);
+            let now = chain.touching(&y.as_slice()[..dim]);
             impacts += u64::from(now.0 && !touching.0) + u64::from(now.1 && !touching.1);
             touching = now;
         }
         let cart = inst.cart.at_time(t_row);
-        if let Some(status) = health(inst, &y.as_slice()[..dim], &cart) {
+        let status = inst.guard.check(chain, &y.as_slice()[..dim], cart.v_m_s);
+        if status != Status::Ok {
             return Ok(Outcome {
                 status,
                 steps_done: row * plan.sample_every,
@@ -215,7 +216,7 @@ fn locate_switch(
     y_lo: &DVector<f64>,
     mut t_hi: f64,
     opts: &ReferenceOptions,
-) -> Result<(f64, DVector<f64>), String> {
+) -> Result<(f64, DVector<f64>), EngineError> {
     piece.watch = false;
     let mut y_lo = y_lo.clone();
     let mut y_hi = run_piece(piece, t_lo, &y_lo, t_hi, opts)?.1;

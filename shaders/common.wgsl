@@ -1,0 +1,135 @@
+// Common definitions of the ensemble kernels of pendulum-atlas: specialisation constants, the
+// data structures shared with Rust, the bindings and the integrator's per-invocation state.
+//
+// The kernels are assembled from four files (common, integrate, reduce_r, reduce_k; see
+// src/engine/gpu/kernels.rs) behind a header generated from the Rust definitions: the status
+// codes (STATUS_OK, STATUS_DIVERGED, STATUS_NONFINITE, STATUS_ESCAPED), the health-check
+// interval CHECK_EVERY and the array bound MAX_SEG. The physics is docs/model.md, the
+// reductions docs/analysis.md; the CPU twin of every function is named where it is defined,
+// and the engine test suite holds the two against each other.
+
+// ---- specialisation --------------------------------------------------------------------
+override N_SEG: u32 = 3u;           // rigid segments N (<= MAX_SEG)
+override HAS_CONTACT: bool = true;  // limiter.enabled
+override HAS_PIEZO: bool = false;   // piezo.enabled
+override WANT_STROBE: bool = true;  // K, period or a bifurcation diagram asked for
+override WANT_RSERIES: bool = true; // R asked for
+override WANT_K: bool = true;      // K asked for (the period alone skips the 0–1 test)
+override PAPER_CONVENTION: bool = false; // R with Δφ reduced modulo π (paper) or 2π (standard)
+override WG: u32 = 64u;             // workgroup size of the integration and R kernels
+override WG_K: u32 = 32u;           // workgroup size of the 0–1 test kernel
+override N_C: u32 = 100u;           // number of c values of the 0–1 test
+
+const TAU: f32 = 6.2831853071795864;
+const PI: f32 = 3.1415926535897932;
+
+// ---- data ------------------------------------------------------------------------------
+// Mirrors `GpuInstanceParams` in src/engine/gpu/layout.rs (a test compares the layouts).
+struct InstanceParams {
+    seg_len: f32,
+    seg_mass: f32,
+    seg_inertia: f32,
+    tip_mass: f32,
+    holder_inertia: f32,
+    g: f32,
+    k: f32,
+    k0: f32,
+    b: f32,
+    b0: f32,
+    gap: f32,
+    kc: f32,
+    cc: f32,
+    piezo_inv_c: f32,
+    piezo_inv_r: f32,
+    piezo_theta: f32,
+    pos_amp: f32,
+    vel_amp: f32,
+    acc_amp: f32,
+    dt: f32,
+    guard_energy: f32,
+    guard_bend: f32,
+    theta0: f32,
+    omega0: f32,
+    volt0: f32,
+    half_clearance: f32,
+    guard_holder: f32,
+    pad1: f32,
+    n_levers: u32,
+    piezo_last: u32,
+    spp: u32,
+    transient_periods: u32,
+    total_periods: u32,
+    strobe_offset: u32,
+    strobe_count: u32,
+    r_every: u32,
+    r_count: u32,
+    r_start: u32,
+    pad2: u32,
+    pad3: u32,
+    levers: array<f32, 64>,
+}
+
+// Mirrors `GpuAccum`: running accumulators while integrating, then the reductions.
+struct Accum {
+    step: u32,
+    status: u32,
+    touch: u32,
+    well: i32,
+    hops: u32,
+    impacts: u32,
+    period: u32,
+    pad0: u32,
+    alpha_min: f32,
+    alpha_max: f32,
+    power_sum: f32,
+    power_comp: f32,
+    k: f32,
+    r: f32,
+    pad1: f32,
+    pad2: f32,
+}
+
+// Mirrors `GpuControl`.
+struct Control {
+    n_inst: u32,
+    steps_per_dispatch: u32,
+    strobe_stride: u32,
+    rwork_stride: u32,
+    period_max: u32,
+    period_window: u32,
+    period_tol: f32,
+    c_index: u32,
+}
+
+@group(0) @binding(0) var<storage, read> params: array<InstanceParams>;
+// State, structure of arrays: component j of instance i at [j * n_inst + i], j < 2N + 1.
+@group(0) @binding(1) var<storage, read_write> state: array<f32>;
+@group(0) @binding(2) var<storage, read_write> acc: array<Accum>;
+// Stroboscopic samples of α, `strobe_stride` per instance.
+@group(0) @binding(3) var<storage, read_write> strobe: array<f32>;
+// Work space of the reductions: the uniform α series (then its analytic signal and the
+// cart's), or the (p, q) sums of the 0–1 test; `rwork_stride` per instance.
+@group(0) @binding(4) var<storage, read_write> rwork: array<vec2<f32>>;
+// c / 2π of the 0–1 test as 32-bit fixed-point fractions of a turn (exact phase arithmetic).
+@group(0) @binding(5) var<storage, read> cturns: array<u32>;
+@group(0) @binding(6) var<uniform> ctl: Control;
+// K_c of every instance and c value, N_C per instance.
+@group(0) @binding(7) var<storage, read_write> kc: array<f32>;
+
+// ---- per-invocation state of the integrator ---------------------------------------------
+var<private> P: InstanceParams;
+var<private> th: array<f32, MAX_SEG>;     // θ at the start of the step
+var<private> om: array<f32, MAX_SEG>;     // θ̇ at the start of the step
+var<private> th_acc: array<f32, MAX_SEG>; // Σ w_s k_s for θ
+var<private> om_acc: array<f32, MAX_SEG>; // Σ w_s k_s for θ̇
+var<private> sth: array<f32, MAX_SEG>;    // stage state θ
+var<private> som: array<f32, MAX_SEG>;    // stage state θ̇
+var<private> sn: array<f32, MAX_SEG>;
+var<private> cs: array<f32, MAX_SEG>;
+var<private> hx: array<f32, MAX_SEG>;
+var<private> hy: array<f32, MAX_SEG>;
+var<private> dinv: array<f32, MAX_SEG>;
+var<private> beta: array<f32, MAX_SEG>;
+var<private> volt: f32;
+var<private> volt_acc: f32;
+var<private> svolt: f32;

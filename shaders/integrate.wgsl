@@ -1,0 +1,341 @@
+// Integration kernel: one invocation advances one instance by classical RK4 in f32, with the
+// O(N) articulated-body solve of src/model/chain.rs, the step loop of src/engine/rk4.rs and the
+// bookkeeping of src/engine/cpu.rs (accumulators, stroboscopic and R samples).
+
+// Cart acceleration at phase (step mod spp + frac) / spp: CartMotion::at_phase of
+// src/model/excitation.rs (exact phase, never t += dt).
+fn cart_acc(phase_steps: u32, frac: f32) -> f32 {
+    let ph = (f32(phase_steps) + frac) / f32(P.spp);
+    return -P.acc_amp * sin(TAU * ph);
+}
+
+// Bumper forces at the stage state: the horizontal force fl − fr on the beam.
+fn contact_force() -> f32 {
+    if !HAS_CONTACT {
+        return 0.0;
+    }
+    var x = 0.0;
+    var xd = 0.0;
+    for (var i = 0u; i < P.n_levers; i++) {
+        let lam = P.levers[i];
+        x += lam * sin(sth[i]);
+        xd += lam * cos(sth[i]) * som[i];
+    }
+    let dr = x - P.gap;
+    let dl = -x - P.gap;
+    var fr = 0.0;
+    var fl = 0.0;
+    if dr > 0.0 {
+        fr = max(P.kc * dr + P.cc * xd, 0.0);
+    }
+    if dl > 0.0 {
+        fl = max(P.kc * dl - P.cc * xd, 0.0);
+    }
+    return fl - fr;
+}
+
+// Relative-joint torque on segment i from joint (i−1, i); the root spring for i = 0.
+fn joint_torque(i: u32) -> f32 {
+    if i == 0u {
+        return -P.k0 * sth[0] - P.b0 * som[0];
+    }
+    return -P.k * (sth[i] - sth[i - 1u]) - P.b * (som[i] - som[i - 1u]);
+}
+
+// One RK4 stage: evaluate the derivative at the stage state (sth, som, svolt), add
+// `w · dt · k` to the accumulators, and form the next stage state y + a_next · dt · k.
+// The O(N) articulated-body recursion of src/model/chain.rs, with Q_i formed on the fly.
+fn stage(cart_a: f32, w: f32, a_next: f32, dt: f32) {
+    let l = P.seg_len;
+    let m = P.seg_mass;
+    let hml = 0.5 * m * l;
+    let base_d = P.seg_inertia + m * l * l * 0.25;
+    let fx = contact_force();
+    var dvolt = 0.0;
+    var couple = 0.0;
+    if HAS_PIEZO {
+        dvolt = (P.piezo_theta * (som[P.piezo_last] - som[0]) - svolt * P.piezo_inv_r) * P.piezo_inv_c;
+        couple = P.piezo_theta * svolt;
+    }
+    var kxx = P.tip_mass;
+    var kxy = 0.0;
+    var kyy = P.tip_mass;
+    var px = 0.0;
+    var py = P.tip_mass * P.g;
+    for (var ii = 0u; ii < N_SEG; ii++) {
+        let i = N_SEG - 1u - ii;
+        let s = sin(sth[i]);
+        let c = cos(sth[i]);
+        sn[i] = s;
+        cs[i] = c;
+        var q = joint_torque(i);
+        if i + 1u < N_SEG {
+            q -= joint_torque(i + 1u);
+        }
+        if HAS_CONTACT && i < P.n_levers {
+            q += fx * P.levers[i] * c;
+        }
+        if HAS_PIEZO {
+            if i == 0u {
+                q += couple;
+            }
+            if i == P.piezo_last {
+                q -= couple;
+            }
+        }
+        let nx = c;
+        let ny = -s;
+        let w2 = som[i] * som[i];
+        let knx = kxx * nx + kxy * ny;
+        let kny = kxy * nx + kyy * ny;
+        let kux = kxx * s + kxy * c;
+        let kuy = kxy * s + kyy * c;
+        let h_x = hml * nx + l * knx;
+        let h_y = hml * ny + l * kny;
+        var d = base_d + l * l * (nx * knx + ny * kny);
+        if i == 0u {
+            d += P.holder_inertia;
+        }
+        let ex = -(hml * s + l * kux) * w2 + px;
+        let ey = -(hml * c + l * kuy) * w2 + py + m * P.g;
+        let b2x = -(hml * s + 2.0 * l * kux) * w2 + 2.0 * px;
+        let b2y = -(hml * c + 2.0 * l * kuy) * w2 + 2.0 * py + m * P.g;
+        let bt = -0.5 * l * (nx * b2x + ny * b2y) + q;
+        let inv_d = 1.0 / d;
+        kxx = m + kxx - h_x * h_x * inv_d;
+        kxy -= h_x * h_y * inv_d;
+        kyy = m + kyy - h_y * h_y * inv_d;
+        px = ex + h_x * bt * inv_d;
+        py = ey + h_y * bt * inv_d;
+        hx[i] = h_x;
+        hy[i] = h_y;
+        dinv[i] = inv_d;
+        beta[i] = bt;
+    }
+    var ax = cart_a;
+    var ay = 0.0;
+    let wdt = w * dt;
+    let adt = a_next * dt;
+    for (var i = 0u; i < N_SEG; i++) {
+        let accel = (beta[i] - hx[i] * ax - hy[i] * ay) * dinv[i];
+        let s = sn[i];
+        let c = cs[i];
+        let rate = som[i];
+        let w2 = rate * rate;
+        ax += l * (c * accel - s * w2);
+        ay += l * (-s * accel - c * w2);
+        th_acc[i] += wdt * rate;
+        om_acc[i] += wdt * accel;
+        sth[i] = th[i] + adt * rate;
+        som[i] = om[i] + adt * accel;
+    }
+    if HAS_PIEZO {
+        volt_acc += wdt * dvolt;
+        svolt = volt + adt * dvolt;
+    }
+}
+
+// One classical RK4 step from step count `s` (phase within the period `ph`).
+fn rk4_step(ph: u32, dt: f32) {
+    for (var i = 0u; i < N_SEG; i++) {
+        th_acc[i] = 0.0;
+        om_acc[i] = 0.0;
+        sth[i] = th[i];
+        som[i] = om[i];
+    }
+    volt_acc = 0.0;
+    svolt = volt;
+    let a0 = cart_acc(ph, 0.0);
+    let am = cart_acc(ph, 0.5);
+    let a1 = cart_acc(ph, 1.0);
+    stage(a0, 1.0 / 6.0, 0.5, dt);
+    stage(am, 1.0 / 3.0, 0.5, dt);
+    stage(am, 1.0 / 3.0, 1.0, dt);
+    stage(a1, 1.0 / 6.0, 0.0, dt);
+    for (var i = 0u; i < N_SEG; i++) {
+        th[i] += th_acc[i];
+        om[i] += om_acc[i];
+    }
+    if HAS_PIEZO {
+        volt += volt_acc;
+    }
+}
+
+fn not_finite(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7f800000u) == 0x7f800000u;
+}
+
+// Stored energy (inertial frame) at the step's state, as Chain::energy computes it.
+fn energy(cart_v: f32) -> f32 {
+    let l = P.seg_len;
+    let m = P.seg_mass;
+    var vx = cart_v;
+    var vy = 0.0;
+    var height = 0.0;
+    var e = 0.0;
+    for (var i = 0u; i < N_SEG; i++) {
+        let s = sin(th[i]);
+        let c = cos(th[i]);
+        let w = om[i];
+        let gvx = vx + 0.5 * l * c * w;
+        let gvy = vy - 0.5 * l * s * w;
+        e += 0.5 * m * (gvx * gvx + gvy * gvy) + 0.5 * P.seg_inertia * w * w;
+        e += m * P.g * (height + 0.5 * l * c);
+        vx += l * c * w;
+        vy -= l * s * w;
+        height += l * c;
+        if i > 0u {
+            let rel = th[i] - th[i - 1u];
+            e += 0.5 * P.k * rel * rel;
+        }
+    }
+    e += 0.5 * P.tip_mass * (vx * vx + vy * vy) + 0.5 * P.holder_inertia * om[0] * om[0];
+    e += P.tip_mass * P.g * height;
+    e += 0.5 * P.k0 * th[0] * th[0];
+    if HAS_CONTACT {
+        var x = 0.0;
+        for (var i = 0u; i < P.n_levers; i++) {
+            x += P.levers[i] * sin(th[i]);
+        }
+        let delta = abs(x) - P.gap;
+        if delta > 0.0 {
+            e += 0.5 * P.kc * delta * delta;
+        }
+    }
+    if HAS_PIEZO {
+        e += 0.5 * volt * volt / P.piezo_inv_c;
+    }
+    return e;
+}
+
+// Guard::check of src/model/health.rs: non-finite state, holder escaped over a bumper, folded
+// chain, or runaway energy.
+fn health(ph: u32) -> u32 {
+    for (var i = 0u; i < N_SEG; i++) {
+        if not_finite(th[i]) || not_finite(om[i]) {
+            return STATUS_NONFINITE;
+        }
+    }
+    if HAS_PIEZO && not_finite(volt) {
+        return STATUS_NONFINITE;
+    }
+    if abs(th[0]) > P.guard_holder {
+        return STATUS_ESCAPED;
+    }
+    for (var i = 1u; i < N_SEG; i++) {
+        if abs(th[i] - th[i - 1u]) > P.guard_bend {
+            return STATUS_DIVERGED;
+        }
+    }
+    let cart_v = P.vel_amp * cos(TAU * f32(ph) / f32(P.spp));
+    let e = energy(cart_v);
+    if not_finite(e) || abs(e) > P.guard_energy {
+        return STATUS_DIVERGED;
+    }
+    return STATUS_OK;
+}
+
+// Bumper penetration flags at the step's state: bit 0 the +x bumper, bit 1 the −x one.
+fn touch_flags() -> u32 {
+    if !HAS_CONTACT {
+        return 0u;
+    }
+    var x = 0.0;
+    for (var i = 0u; i < P.n_levers; i++) {
+        x += P.levers[i] * sin(th[i]);
+    }
+    var f = 0u;
+    if x - P.gap > 0.0 {
+        f |= 1u;
+    }
+    if -x - P.gap > 0.0 {
+        f |= 2u;
+    }
+    return f;
+}
+
+// Advance every unfinished instance by up to `ctl.steps_per_dispatch` steps.
+@compute @workgroup_size(WG)
+fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let inst = gid.x;
+    let n_inst = ctl.n_inst;
+    if inst >= n_inst {
+        return;
+    }
+    var a = acc[inst];
+    P = params[inst];
+    let total = P.total_periods * P.spp;
+    if a.status != STATUS_OK || a.step >= total {
+        return;
+    }
+    for (var i = 0u; i < N_SEG; i++) {
+        th[i] = state[i * n_inst + inst];
+        om[i] = state[(N_SEG + i) * n_inst + inst];
+    }
+    volt = state[2u * N_SEG * n_inst + inst];
+    let transient = P.transient_periods * P.spp;
+    let end = min(total, a.step + min(ctl.steps_per_dispatch, total - a.step));
+    let dt = P.dt;
+    var s = a.step;
+    loop {
+        if s >= end {
+            break;
+        }
+        let ph = s % P.spp;
+        rk4_step(ph, dt);
+        s += 1u;
+        let alpha = th[0];
+        let now = touch_flags();
+        if s > transient {
+            a.impacts += countOneBits(now & ~a.touch);
+            a.alpha_min = min(a.alpha_min, alpha);
+            a.alpha_max = max(a.alpha_max, alpha);
+            var well = 0i;
+            if alpha > P.half_clearance {
+                well = 1i;
+            } else if alpha < -P.half_clearance {
+                well = -1i;
+            }
+            if well != 0i {
+                if a.well != 0i && a.well != well {
+                    a.hops += 1u;
+                }
+                a.well = well;
+            }
+            if HAS_PIEZO {
+                // Kahan-compensated Σ v²/R_L.
+                let y = volt * volt * P.piezo_inv_r - a.power_comp;
+                let t = a.power_sum + y;
+                a.power_comp = (t - a.power_sum) - y;
+                a.power_sum = t;
+            }
+        }
+        a.touch = now;
+        if WANT_STROBE && s >= transient && s % P.spp == P.strobe_offset {
+            let k = (s - P.strobe_offset) / P.spp - P.transient_periods;
+            if k < P.strobe_count {
+                strobe[inst * ctl.strobe_stride + k] = alpha;
+            }
+        }
+        if WANT_RSERIES && s >= P.r_start && (s - P.r_start) % P.r_every == 0u {
+            let j = (s - P.r_start) / P.r_every;
+            if j < P.r_count {
+                rwork[inst * ctl.rwork_stride + j] = vec2<f32>(alpha, 0.0);
+            }
+        }
+        if s % CHECK_EVERY == 0u || s == total {
+            let h = health(s % P.spp);
+            if h != STATUS_OK {
+                a.status = h;
+                break;
+            }
+        }
+    }
+    a.step = s;
+    for (var i = 0u; i < N_SEG; i++) {
+        state[i * n_inst + inst] = th[i];
+        state[(N_SEG + i) * n_inst + inst] = om[i];
+    }
+    state[2u * N_SEG * n_inst + inst] = volt;
+    acc[inst] = a;
+}

@@ -1,0 +1,127 @@
+// Reductions, part 1: the phase-synchronisation index R of α against the cart (src/analysis/
+// phase.rs), from the uniform α series the integration recorded: a radix-2 FFT Hilbert
+// transform of each signal, then R in the convention asked for.
+
+fn cmul(a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
+    return vec2<f32>(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x);
+}
+
+// In-place iterative radix-2 FFT of rwork[base .. base + n] (n a power of two); `sign` is
+// −1 for the forward transform and +1 for the (unscaled) inverse.
+fn fft(base: u32, n: u32, sign: f32) {
+    var j = 0u;
+    for (var i = 1u; i < n; i++) {
+        var bit = n >> 1u;
+        loop {
+            if (j & bit) == 0u {
+                break;
+            }
+            j ^= bit;
+            bit >>= 1u;
+        }
+        j ^= bit;
+        if i < j {
+            let t = rwork[base + i];
+            rwork[base + i] = rwork[base + j];
+            rwork[base + j] = t;
+        }
+    }
+    var len = 2u;
+    loop {
+        if len > n {
+            break;
+        }
+        let half = len >> 1u;
+        for (var start = 0u; start < n; start += len) {
+            for (var k = 0u; k < half; k++) {
+                let ang = sign * TAU * f32(k) / f32(len);
+                let w = vec2<f32>(cos(ang), sin(ang));
+                let u = rwork[base + start + k];
+                let v = cmul(rwork[base + start + k + half], w);
+                rwork[base + start + k] = u + v;
+                rwork[base + start + k + half] = u - v;
+            }
+        }
+        len <<= 1u;
+    }
+}
+
+// Analytic signal of the real parts of rwork[base .. base + n] (mean removed), in place:
+// FFT, weights h (1 at DC and Nyquist, 2 for positive, 0 for negative frequencies), inverse.
+fn analytic(base: u32, n: u32) {
+    var mean = 0.0;
+    for (var j = 0u; j < n; j++) {
+        mean += rwork[base + j].x;
+    }
+    mean /= f32(n);
+    for (var j = 0u; j < n; j++) {
+        rwork[base + j] = vec2<f32>(rwork[base + j].x - mean, 0.0);
+    }
+    fft(base, n, -1.0);
+    let half = n / 2u;
+    for (var k = 1u; k < n; k++) {
+        if k < half {
+            rwork[base + k] *= 2.0;
+        } else if k > half {
+            rwork[base + k] = vec2<f32>(0.0, 0.0);
+        }
+    }
+    fft(base, n, 1.0);
+}
+
+// Phase synchronisation R of α against the cart position x0 over the R series, in three
+// kernels so that no invocation runs long loops (lavapipe stops any invocation after 65535
+// loop iterations): the analytic signal of α, that of the cart, then R.
+@compute @workgroup_size(WG)
+fn r_alpha(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let inst = gid.x;
+    if inst >= ctl.n_inst || acc[inst].status != STATUS_OK {
+        return;
+    }
+    analytic(inst * ctl.rwork_stride, params[inst].r_count);
+}
+
+@compute @workgroup_size(WG)
+fn r_cart(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let inst = gid.x;
+    if inst >= ctl.n_inst || acc[inst].status != STATUS_OK {
+        return;
+    }
+    let p = params[inst];
+    let n = p.r_count;
+    let base_c = inst * ctl.rwork_stride + n;
+    for (var j = 0u; j < n; j++) {
+        let s = p.r_start + j * p.r_every;
+        let ph = f32(s % p.spp) / f32(p.spp);
+        rwork[base_c + j] = vec2<f32>(p.pos_amp * sin(TAU * ph), 0.0);
+    }
+    analytic(base_c, n);
+}
+
+@compute @workgroup_size(WG)
+fn r_phase(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let inst = gid.x;
+    if inst >= ctl.n_inst {
+        return;
+    }
+    if acc[inst].status != STATUS_OK {
+        acc[inst].r = bitcast<f32>(0x7fc00000u);
+        return;
+    }
+    let n = params[inst].r_count;
+    let base_a = inst * ctl.rwork_stride;
+    let base_c = base_a + n;
+    var sum_c = 0.0;
+    var sum_s = 0.0;
+    for (var j = 0u; j < n; j++) {
+        let za = rwork[base_a + j];
+        let zc = rwork[base_c + j];
+        var d = atan2(za.y, za.x) - atan2(zc.y, zc.x);
+        if PAPER_CONVENTION {
+            d = d - PI * floor((d + 0.5 * PI) / PI);
+        }
+        sum_c += cos(d);
+        sum_s += sin(d);
+    }
+    acc[inst].r = sqrt(sum_c * sum_c + sum_s * sum_s) / f32(n);
+}

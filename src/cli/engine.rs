@@ -1,0 +1,82 @@
+//! The engine flags shared by `map`, `search`, `bench`: the CLI's spelling of
+//! [`Backend`] and [`Precision`], and opening the engine once per command.
+
+use pendulum_atlas::engine::{Backend, Engine, EngineError, Precision};
+
+/// CLI spelling of [`Backend`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum BackendArg {
+    /// A hardware GPU if present, else the software adapter lavapipe, else the CPU engine.
+    Auto,
+    /// The GPU engine (any wgpu adapter, lavapipe included).
+    Gpu,
+    /// The CPU engine (rayon).
+    Cpu,
+}
+
+impl From<BackendArg> for Backend {
+    fn from(b: BackendArg) -> Backend {
+        match b {
+            BackendArg::Auto => Backend::Auto,
+            BackendArg::Gpu => Backend::Gpu,
+            BackendArg::Cpu => Backend::Cpu,
+        }
+    }
+}
+
+/// CLI spelling of [`Precision`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PrecisionArg {
+    /// Single precision, as the GPU integrates.
+    F32,
+    /// Double precision.
+    F64,
+}
+
+impl From<PrecisionArg> for Precision {
+    fn from(p: PrecisionArg) -> Precision {
+        match p {
+            PrecisionArg::F32 => Precision::F32,
+            PrecisionArg::F64 => Precision::F64,
+        }
+    }
+}
+
+/// `--backend` and `--precision`.
+#[derive(Debug, clap::Args)]
+pub struct EngineArgs {
+    /// Engine: `auto` (a hardware GPU, else the software adapter lavapipe, else the CPU),
+    /// `gpu` (any wgpu adapter, lavapipe included) or `cpu`.
+    #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
+    pub backend: BackendArg,
+    /// Float type (default: f64 on the CPU engine, f32 otherwise; the GPU integrates in f32).
+    #[arg(long, value_enum)]
+    pub precision: Option<PrecisionArg>,
+}
+
+impl EngineArgs {
+    /// Open the engine once for the whole command.
+    pub fn open(&self) -> anyhow::Result<Engine> {
+        Engine::open(self.backend.into(), self.precision.map(Into::into)).map_err(hint)
+    }
+
+    /// The GPU engine (any adapter, lavapipe included).
+    pub fn gpu_engine() -> anyhow::Result<Engine> {
+        Engine::open(Backend::Gpu, None).map_err(hint)
+    }
+}
+
+/// An engine error with the command-line flag that mends it, where one does.
+pub fn hint(e: EngineError) -> anyhow::Error {
+    let flag = match &e {
+        EngineError::GpuNeedsF32 => Some("drop --precision f64, or use --backend cpu"),
+        EngineError::NoAdapter { .. }
+        | EngineError::TooManySegments { .. }
+        | EngineError::SoftwareLoopBudget { .. } => Some("--backend cpu"),
+        _ => None,
+    };
+    match flag {
+        Some(f) => anyhow::anyhow!("{e} [{f}]"),
+        None => anyhow::Error::new(e),
+    }
+}

@@ -1,0 +1,88 @@
+//! The one place where a validated [`Scene`] becomes the physics of [`crate::model`]: the built
+//! pendulum ([`ChainDesign`], [`BumperDesign`], [`PiezoParams`], [`CartMotion`]), its
+//! coefficients ([`ModelParams`], damping included), its initial state and its modes.
+
+use super::scene::{PivotMode, Scene};
+use crate::model::{
+    BumperDesign, CartMotion, ChainDesign, ModelParams, Modes, PiezoParams, Tube, linear, modes,
+};
+
+impl Scene {
+    /// The beam, tip, root and gravity as the model describes them.
+    pub fn chain_design(&self) -> ChainDesign {
+        let b = &self.beam;
+        ChainDesign {
+            tube: Tube {
+                length_m: b.length_m,
+                mass_kg: b.mass_kg,
+                outer_diameter_m: b.outer_diameter_m,
+                inner_diameter_m: b.inner_diameter_m,
+                youngs_modulus_pa: b.youngs_modulus_pa,
+            },
+            segments: b.segments,
+            tip_mass_kg: self.tip.mass_kg,
+            holder_inertia_kgm2: self.pivot.holder_inertia_kgm2,
+            g_m_s2: self.gravity.g_m_s2,
+            clamped: self.pivot.mode == PivotMode::Clamped,
+            bearing_damping_nms: self.pivot.damping_nms,
+        }
+    }
+
+    /// The bumpers, when enabled.
+    pub fn bumper_design(&self) -> Option<BumperDesign> {
+        let l = &self.limiter;
+        l.enabled.then(|| BumperDesign {
+            contact_arc_m: l.contact_arc_m,
+            clearance_rad: l.clearance_deg.to_radians(),
+            stiffness_n_per_m: l.stiffness_n_per_m,
+            damping_ns_per_m: l.damping_ns_per_m,
+        })
+    }
+
+    /// The piezo patch and load, when enabled.
+    pub fn piezo_params(&self) -> Option<PiezoParams> {
+        let z = &self.piezo;
+        z.enabled.then_some(PiezoParams {
+            last_segment: z.segments,
+            capacitance_f: z.capacitance_f,
+            load_ohm: z.load_ohm,
+            coupling_nm_per_v: z.coupling_nm_per_v,
+        })
+    }
+
+    /// The cart motion.
+    pub fn cart_motion(&self) -> CartMotion {
+        CartMotion {
+            amplitude_m: self.excitation.amplitude_m,
+            kind: self.excitation.kind,
+        }
+    }
+
+    /// Every coefficient of the equations of motion, the joint dampers set from
+    /// `beam.damping_ratio` (one small eigenproblem for ω1 of the clamped chain).
+    pub fn model_params(&self) -> ModelParams {
+        let bumpers = self.bumper_design();
+        let p = ModelParams::undamped(
+            &self.chain_design(),
+            bumpers.as_ref(),
+            self.piezo_params(),
+            self.cart_motion(),
+        );
+        let beta_s = linear::damping_time_for_ratio(&p, self.beam.damping_ratio);
+        p.with_damping_time(beta_s)
+    }
+
+    /// The initial state `[θ; θ̇; v]` of the scene: a straight beam at `initial.angle_deg`.
+    pub fn initial_state(&self, p: &ModelParams) -> Vec<f64> {
+        p.straight_state(
+            self.initial.angle_deg.to_radians(),
+            self.initial.rate_deg_s.to_radians(),
+            self.initial.voltage_v,
+        )
+    }
+
+    /// Natural frequencies, unstable rates and the automatic RK4 step of the scene.
+    pub fn modes(&self) -> Modes {
+        modes(&self.model_params(), self.integration.dt_safety)
+    }
+}

@@ -1,0 +1,111 @@
+//! What can stop an engine: a plan that cannot be integrated as asked, or a GPU that refuses.
+//! Each variant says what to change.
+
+use thiserror::Error;
+
+/// Errors of planning and running an ensemble.
+#[derive(Debug, Error)]
+pub enum EngineError {
+    /// A scene of the ensemble is invalid.
+    #[error(transparent)]
+    Config(#[from] crate::config::ConfigError),
+    /// An ensemble needs at least one instance.
+    #[error("an ensemble needs at least one instance")]
+    Empty,
+    /// Ensembles are integrated on a stroboscopic step grid, which needs one forcing period.
+    #[error("ensembles need harmonic excitation, found a {0}")]
+    NotHarmonic(&'static str),
+    /// Every instance of an ensemble shares the kernel's structure.
+    #[error(
+        "every instance of an ensemble must share beam.segments, limiter.enabled and piezo.enabled (instance {index} differs from the first)"
+    )]
+    MixedStructure {
+        /// The first instance that differs.
+        index: usize,
+    },
+    /// The run is too short for what it must measure.
+    #[error("{at}: {reason}")]
+    TooShort {
+        /// The instance's frequency, duration and transient.
+        at: String,
+        /// What is missing, and how to get it.
+        reason: String,
+    },
+    /// An instance needs more steps than the engines' 32-bit step counter holds.
+    #[error(
+        "{at}: {steps} steps per instance exceed the engines' 32-bit step counter; shorten integration.duration_s or lengthen the step"
+    )]
+    TooManySteps {
+        /// The instance's frequency, duration and transient.
+        at: String,
+        /// Steps it would need.
+        steps: u64,
+    },
+    /// No wgpu adapter could be found.
+    #[error(
+        "no GPU adapter found (no Vulkan, Metal or DX12 driver){}",
+        if *hardware_only { ": a hardware GPU was required" } else { ". On Debian/Ubuntu `apt-get install mesa-vulkan-drivers` provides the software adapter lavapipe; or use the CPU engine" }
+    )]
+    NoAdapter {
+        /// Only hardware adapters were acceptable.
+        hardware_only: bool,
+    },
+    /// The adapter was found but its device could not be opened.
+    #[error("cannot open GPU device `{adapter}`: {message}")]
+    DeviceOpen {
+        /// Adapter name.
+        adapter: String,
+        /// wgpu's message.
+        message: String,
+    },
+    /// The GPU engine integrates in single precision only.
+    #[error("the GPU engine integrates in f32: ask for f32, or use the CPU engine for f64")]
+    GpuNeedsF32,
+    /// The GPU kernel's per-invocation arrays hold a bounded number of segments.
+    #[error(
+        "the GPU kernel holds at most {max} segments, the scene has {segments}: use the CPU engine"
+    )]
+    TooManySegments {
+        /// The scene's N.
+        segments: usize,
+        /// The kernel's limit.
+        max: usize,
+    },
+    /// lavapipe ends any shader invocation after 65535 loop iterations.
+    #[error(
+        "the software GPU adapter ({adapter}) stops a shader after 65535 loop iterations; {what} needs about {loops}: {remedy}"
+    )]
+    SoftwareLoopBudget {
+        /// Adapter name.
+        adapter: String,
+        /// The kernel's work.
+        what: String,
+        /// Loop iterations it would need.
+        loops: usize,
+        /// What to change.
+        remedy: String,
+    },
+    /// A buffer larger than the adapter allows.
+    #[error(
+        "the ensemble needs a {bytes}-byte GPU buffer ({what}), more than the adapter allows ({limit} bytes): use fewer instances, a shorter run or fewer R samples"
+    )]
+    BufferTooLarge {
+        /// Which buffer.
+        what: &'static str,
+        /// Bytes needed.
+        bytes: u64,
+        /// The adapter's limit.
+        limit: u64,
+    },
+    /// The DOP853 reference integrator failed.
+    #[error("the reference integration (DOP853) failed: {0}")]
+    Reference(String),
+    /// The GPU failed while waiting for work or reading results back.
+    #[error("GPU {stage} failed: {message}")]
+    Gpu {
+        /// `wait` or `readback`.
+        stage: &'static str,
+        /// wgpu's message.
+        message: String,
+    },
+}

@@ -1,0 +1,254 @@
+//! The buffers of one GPU run: sized and checked against the adapter before anything is
+//! allocated, filled from the plan, bound once.
+
+use crate::engine::error::EngineError;
+use crate::engine::gpu::ReduceSettings;
+use crate::engine::gpu::context::GpuContext;
+use crate::engine::gpu::kernels::KernelKey;
+use crate::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams};
+use crate::engine::plan::EnsemblePlan;
+use crate::model::Chain;
+use wgpu::util::DeviceExt;
+
+/// Loop iterations one invocation may run on a software adapter (lavapipe stops at 65535).
+const SOFTWARE_LOOP_BUDGET: usize = 60_000;
+
+/// Per-instance strides and buffer sizes of a run (bytes; at least 16, a placeholder for a
+/// series no metric needs).
+#[derive(Debug, Clone, Copy)]
+pub struct Sizes {
+    pub n_inst: usize,
+    pub state_len: usize,
+    pub n_c: usize,
+    pub strobe_stride: u32,
+    pub rwork_stride: u32,
+    pub accum_bytes: u64,
+    pub strobe_bytes: u64,
+    pub rwork_bytes: u64,
+    pub kc_bytes: u64,
+}
+
+impl Sizes {
+    /// The sizes of `plan`, each checked against the adapter's buffer limits.
+    pub fn new(
+        ctx: &GpuContext,
+        plan: &EnsemblePlan,
+        key: &KernelKey,
+    ) -> Result<Sizes, EngineError> {
+        let n_inst = plan.instances.len();
+        let state_len = 2 * plan.segments + 1;
+        let strobe_stride = plan.strobe_stride.max(1);
+        let n_cut_max = (plan.strobe_stride + 5) / 10;
+        let rwork_stride = (if key.want_r { 2 * plan.r_stride } else { 0 }).max(if key.want_k {
+            plan.strobe_stride + n_cut_max
+        } else {
+            0
+        });
+        let limit = ctx
+            .limits
+            .max_storage_buffer_binding_size
+            .min(ctx.limits.max_buffer_size);
+        let bytes = |what: &'static str, count: usize, size: usize| -> Result<u64, EngineError> {
+            let b = (count as u64).saturating_mul(size as u64);
+            if b > limit {
+                return Err(EngineError::BufferTooLarge {
+                    what,
+                    bytes: b,
+                    limit,
+                });
+            }
+            Ok(b.max(16))
+        };
+        let placeholder = |on: bool, b: Result<u64, EngineError>| if on { b } else { Ok(16) };
+        bytes("parameters", n_inst, size_of::<GpuInstanceParams>())?;
+        bytes("state", n_inst * state_len, 4)?;
+        Ok(Sizes {
+            n_inst,
+            state_len,
+            n_c: key.n_c,
+            strobe_stride,
+            rwork_stride,
+            accum_bytes: bytes("accumulators", n_inst, size_of::<GpuAccum>())?,
+            strobe_bytes: placeholder(
+                key.want_strobe,
+                bytes("stroboscopic samples", n_inst * strobe_stride as usize, 4),
+            )?,
+            rwork_bytes: placeholder(
+                key.want_r || key.want_k,
+                bytes("reduction work space", n_inst * rwork_stride as usize, 8),
+            )?,
+            kc_bytes: placeholder(key.want_k, bytes("K_c values", n_inst * key.n_c, 4))?,
+        })
+    }
+}
+
+/// Integration steps one invocation may take per dispatch on a software adapter (`None` on
+/// hardware), after checking that every reduction kernel fits lavapipe's loop limit.
+pub fn software_step_budget(
+    ctx: &GpuContext,
+    plan: &EnsemblePlan,
+    key: &KernelKey,
+    reduce: &ReduceSettings,
+) -> Result<Option<u64>, EngineError> {
+    if !ctx.is_software {
+        return Ok(None);
+    }
+    let refuse = |what: String, loops: usize, remedy: &str| EngineError::SoftwareLoopBudget {
+        adapter: ctx.adapter_name.clone(),
+        what,
+        loops,
+        remedy: remedy.into(),
+    };
+    let n_seg = plan.segments;
+    let n_cut_max = (plan.strobe_stride as usize + 5) / 10;
+    let r_n = plan.r_stride as usize;
+    let r_loops = 11 * r_n + r_n * (r_n.max(2).ilog2() as usize);
+    if key.want_r && r_loops > SOFTWARE_LOOP_BUDGET {
+        return Err(refuse(
+            format!("R on {r_n} samples"),
+            r_loops,
+            "set map.r_max_samples <= 1024, or use the CPU engine",
+        ));
+    }
+    let s_n = plan.strobe_stride as usize;
+    let k_loops = s_n + s_n * n_cut_max + 2 * n_cut_max;
+    if key.want_k && k_loops > SOFTWARE_LOOP_BUDGET {
+        return Err(refuse(
+            format!("the 0-1 test on {s_n} stroboscopic samples"),
+            k_loops,
+            "shorten the run (fewer forcing periods after the transient) or use the CPU engine",
+        ));
+    }
+    let n_c = key.n_c;
+    let f_loops =
+        n_c * n_c / 2 + n_c + (reduce.period_max as usize + 1) * reduce.period_window as usize;
+    if key.run_k_final && f_loops > SOFTWARE_LOOP_BUDGET {
+        return Err(refuse(
+            format!("the median over map.k_n_c = {n_c} c values"),
+            f_loops,
+            "use fewer c values, or the CPU engine",
+        ));
+    }
+    let max_lever = plan
+        .instances
+        .iter()
+        .map(|p| p.params.contact.as_ref().map_or(0, |c| c.levers_m.len()))
+        .max()
+        .unwrap_or(0);
+    let per_step = 4 * (max_lever + 2 * n_seg + 2) + 3 * n_seg + 2 * max_lever + 8;
+    Ok(Some(((SOFTWARE_LOOP_BUDGET / per_step) as u64).max(1)))
+}
+
+/// The buffers of a run and their bind group (which keeps the others alive).
+pub struct Buffers {
+    pub accum: wgpu::Buffer,
+    pub strobe: wgpu::Buffer,
+    pub rwork: wgpu::Buffer,
+    pub control: wgpu::Buffer,
+    pub bind: wgpu::BindGroup,
+}
+
+impl Buffers {
+    /// Create and fill every buffer of `plan`.
+    pub fn upload(
+        ctx: &GpuContext,
+        plan: &EnsemblePlan,
+        reduce: &ReduceSettings,
+        sizes: &Sizes,
+        control: &GpuControl,
+    ) -> Buffers {
+        let dev = &ctx.device;
+        let sto = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        let init = |label: &str, contents: &[u8], usage| {
+            dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        let empty = |label: &str, size: u64| {
+            dev.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: sto,
+                mapped_at_creation: false,
+            })
+        };
+        let params: Vec<GpuInstanceParams> = plan
+            .instances
+            .iter()
+            .map(GpuInstanceParams::from_plan)
+            .collect();
+        let (state, accum) = initial_state(plan, sizes);
+        let params = init("params", bytemuck::cast_slice(&params), sto);
+        let state = init("state", bytemuck::cast_slice(&state), sto);
+        let accum = init("accum", bytemuck::cast_slice(&accum), sto);
+        let strobe = empty("strobe", sizes.strobe_bytes);
+        let rwork = empty("rwork", sizes.rwork_bytes);
+        let kc = empty("kc", sizes.kc_bytes);
+        let turns = init("c_turns", bytemuck::cast_slice(&c_turns(reduce)), sto);
+        let control = init(
+            "control",
+            bytemuck::bytes_of(control),
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        let bind = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("ensemble"),
+            layout: &ctx.bind_layout,
+            entries: &[
+                entry(0, &params),
+                entry(1, &state),
+                entry(2, &accum),
+                entry(3, &strobe),
+                entry(4, &rwork),
+                entry(5, &turns),
+                entry(6, &control),
+                entry(7, &kc),
+            ],
+        });
+        Buffers {
+            accum,
+            strobe,
+            rwork,
+            control,
+            bind,
+        }
+    }
+}
+
+fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: buffer.as_entire_binding(),
+    }
+}
+
+/// The initial states (structure of arrays: component j of instance i at `j·n_inst + i`) and
+/// accumulators, with the bumper contacts of the initial state.
+fn initial_state(plan: &EnsemblePlan, sizes: &Sizes) -> (Vec<f32>, Vec<GpuAccum>) {
+    let n_inst = sizes.n_inst;
+    let mut state = vec![0f32; n_inst * sizes.state_len];
+    let mut accum = Vec::with_capacity(n_inst);
+    for (i, p) in plan.instances.iter().enumerate() {
+        for (j, &v) in p.y0.iter().enumerate() {
+            state[j * n_inst + i] = v as f32;
+        }
+        let chain: Chain<f32> = Chain::new(&p.params);
+        let y: Vec<f32> = p.y0.iter().map(|&v| v as f32).collect();
+        let (r, l) = chain.touching(&y);
+        accum.push(GpuAccum::initial(u32::from(r) | (u32::from(l) << 1)));
+    }
+    (state, accum)
+}
+
+/// c / 2π of the 0–1 test as 32-bit fixed-point fractions of a turn (exact phase arithmetic).
+/// Padded to at least 4 entries (a buffer holds at least 16 bytes).
+fn c_turns(reduce: &ReduceSettings) -> Vec<u32> {
+    let mut turns: Vec<u32> = reduce
+        .c_values
+        .iter()
+        .map(|c| (c / std::f64::consts::TAU * 4294967296.0).round() as u64 as u32)
+        .collect();
+    turns.resize(turns.len().max(4), 0);
+    turns
+}

@@ -1,0 +1,161 @@
+//! The GPU device, opened once by the caller, with the kernels it has compiled: every batch of
+//! a search, a bench or a reproduction reuses them.
+
+use crate::engine::error::EngineError;
+use crate::engine::gpu::kernels::{KernelKey, Kernels, shader_source};
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
+
+/// Which adapters [`GpuContext::new`] may pick.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AdapterChoice {
+    /// A hardware GPU if there is one, otherwise a software one.
+    Any,
+    /// Only a hardware GPU.
+    HardwareOnly,
+}
+
+/// A wgpu device ready for the ensemble kernels, and the kernels compiled on it so far.
+pub struct GpuContext {
+    pub(crate) device: wgpu::Device,
+    pub(crate) queue: wgpu::Queue,
+    /// Adapter name, e.g. "NVIDIA H100 80GB HBM3" or "llvmpipe (LLVM 15.0.6, 256 bits)".
+    pub adapter_name: String,
+    /// Backend name (Vulkan, Metal, Dx12).
+    pub backend: String,
+    /// Whether the adapter is a software rasteriser running on the CPU (lavapipe).
+    pub is_software: bool,
+    pub(crate) limits: wgpu::Limits,
+    pub(crate) bind_layout: wgpu::BindGroupLayout,
+    pipeline_layout: wgpu::PipelineLayout,
+    module: OnceLock<wgpu::ShaderModule>,
+    kernels: Mutex<HashMap<KernelKey, Arc<Kernels>>>,
+}
+
+impl GpuContext {
+    /// Open the best adapter: a discrete GPU, then an integrated one, then a software one
+    /// (lavapipe) unless `choice` is [`AdapterChoice::HardwareOnly`].
+    pub fn new(choice: AdapterChoice) -> Result<GpuContext, EngineError> {
+        let adapter = pick_adapter(choice)?;
+        let info = adapter.get_info();
+        let limits = adapter.limits();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("pendulum-atlas"),
+            required_features: wgpu::Features::empty(),
+            required_limits: limits.clone(),
+            ..Default::default()
+        }))
+        .map_err(|e| EngineError::DeviceOpen {
+            adapter: info.name.clone(),
+            message: e.to_string(),
+        })?;
+        let bind_layout = bind_group_layout(&device);
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("ensemble"),
+            bind_group_layouts: &[Some(&bind_layout)],
+            immediate_size: 0,
+        });
+        Ok(GpuContext {
+            device,
+            queue,
+            adapter_name: info.name.clone(),
+            backend: format!("{:?}", info.backend),
+            is_software: info.device_type == wgpu::DeviceType::Cpu,
+            limits,
+            bind_layout,
+            pipeline_layout,
+            module: OnceLock::new(),
+            kernels: Mutex::new(HashMap::new()),
+        })
+    }
+
+    /// The kernels of `key`, compiled on first use and cached.
+    pub fn kernels(&self, key: &KernelKey) -> Arc<Kernels> {
+        let mut cache = self.kernels.lock().unwrap_or_else(|e| e.into_inner());
+        cache
+            .entry(*key)
+            .or_insert_with(|| {
+                let module = self.module.get_or_init(|| {
+                    self.device
+                        .create_shader_module(wgpu::ShaderModuleDescriptor {
+                            label: Some("ensemble kernels"),
+                            source: wgpu::ShaderSource::Wgsl(shader_source().into()),
+                        })
+                });
+                Arc::new(Kernels::compile(
+                    &self.device,
+                    &self.pipeline_layout,
+                    module,
+                    key,
+                ))
+            })
+            .clone()
+    }
+
+    /// Number of distinct kernel sets compiled so far.
+    pub fn compiled_kernel_sets(&self) -> usize {
+        self.kernels.lock().map_or(0, |c| c.len())
+    }
+}
+
+/// The adapter of highest rank that `choice` allows.
+fn pick_adapter(choice: AdapterChoice) -> Result<wgpu::Adapter, EngineError> {
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+        backends: wgpu::Backends::PRIMARY,
+        ..wgpu::InstanceDescriptor::new_without_display_handle()
+    });
+    let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::PRIMARY));
+    let rank = |t: wgpu::DeviceType| match t {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Other => 3,
+        wgpu::DeviceType::Cpu => 4,
+    };
+    adapters
+        .into_iter()
+        .filter(|a| {
+            choice == AdapterChoice::Any || a.get_info().device_type != wgpu::DeviceType::Cpu
+        })
+        .min_by_key(|a| rank(a.get_info().device_type))
+        .ok_or(EngineError::NoAdapter {
+            hardware_only: choice == AdapterChoice::HardwareOnly,
+        })
+}
+
+/// Bindings 0–7 of the kernels (see `shaders/common.wgsl`).
+fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let uniform = wgpu::BindGroupLayoutEntry {
+        binding: 6,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("ensemble"),
+        entries: &[
+            storage(0, true),
+            storage(1, false),
+            storage(2, false),
+            storage(3, false),
+            storage(4, false),
+            storage(5, true),
+            storage(7, false),
+            uniform,
+        ],
+    })
+}

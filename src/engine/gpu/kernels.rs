@@ -1,0 +1,151 @@
+//! The WGSL kernels: their source, assembled at build time from the stage files in `shaders/`
+//! behind a header generated from the Rust definitions, and their specialisation.
+//!
+//! The header holds the status codes ([`Status::code`]), the health-check interval
+//! ([`CHECK_EVERY`]) and the bound of the per-invocation arrays, so the shader never carries
+//! its own copy of a rule defined in [`crate::model`].
+
+use crate::engine::gpu::layout::GPU_MAX_SEGMENTS;
+use crate::model::{CHECK_EVERY, Status};
+use std::fmt::Write;
+
+/// The stage files of the ensemble kernels, in assembly order: common definitions,
+/// integration, the R reduction, the 0–1 test and period.
+pub const SHADER_STAGES: [(&str, &str); 4] = [
+    ("common.wgsl", include_str!("../../../shaders/common.wgsl")),
+    (
+        "integrate.wgsl",
+        include_str!("../../../shaders/integrate.wgsl"),
+    ),
+    (
+        "reduce_r.wgsl",
+        include_str!("../../../shaders/reduce_r.wgsl"),
+    ),
+    (
+        "reduce_k.wgsl",
+        include_str!("../../../shaders/reduce_k.wgsl"),
+    ),
+];
+
+/// The stage files concatenated (assembled at build time).
+pub const SHADER_BODY: &str = concat!(
+    include_str!("../../../shaders/common.wgsl"),
+    include_str!("../../../shaders/integrate.wgsl"),
+    include_str!("../../../shaders/reduce_r.wgsl"),
+    include_str!("../../../shaders/reduce_k.wgsl"),
+);
+
+/// The constants the kernels take from the Rust side.
+pub fn shader_header() -> String {
+    let mut h =
+        String::from("// Generated from the Rust definitions (src/engine/gpu/kernels.rs).\n");
+    for s in Status::ALL {
+        let _ = writeln!(h, "const {}: u32 = {}u;", s.wgsl_name(), s.code());
+    }
+    let _ = writeln!(h, "const CHECK_EVERY: u32 = {CHECK_EVERY}u;");
+    let _ = writeln!(h, "const MAX_SEG: u32 = {GPU_MAX_SEGMENTS}u;");
+    h.push('\n');
+    h
+}
+
+/// The complete WGSL source of the ensemble kernels.
+pub fn shader_source() -> String {
+    shader_header() + SHADER_BODY
+}
+
+/// Everything the kernels are specialised on (their override constants): one compiled set of
+/// pipelines per distinct key, cached by [`crate::engine::GpuContext`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct KernelKey {
+    /// Segments N.
+    pub segments: usize,
+    /// Bumpers present.
+    pub has_contact: bool,
+    /// Piezo present.
+    pub has_piezo: bool,
+    /// Stroboscopic samples recorded.
+    pub want_strobe: bool,
+    /// R series recorded (and R reduced).
+    pub want_r: bool,
+    /// The 0–1 test wanted.
+    pub want_k: bool,
+    /// The K/period kernel is needed (K or the period).
+    pub run_k_final: bool,
+    /// R in the paper's convention.
+    pub paper_convention: bool,
+    /// c values of the 0–1 test.
+    pub n_c: usize,
+}
+
+/// Workgroup size of the integration and R kernels.
+pub const WG: u32 = 64;
+
+impl KernelKey {
+    /// Workgroup size of the K kernel: its sorting rows live in 16 KiB of workgroup memory.
+    pub fn wg_k(&self) -> u32 {
+        ((16384 / (4 * self.n_c)) as u32).clamp(1, 64)
+    }
+
+    /// The override constants of this specialisation.
+    pub fn constants(&self) -> Vec<(&'static str, f64)> {
+        let flag = |b: bool| if b { 1.0 } else { 0.0 };
+        vec![
+            ("N_SEG", self.segments as f64),
+            ("HAS_CONTACT", flag(self.has_contact)),
+            ("HAS_PIEZO", flag(self.has_piezo)),
+            ("WANT_STROBE", flag(self.want_strobe)),
+            ("WANT_RSERIES", flag(self.want_r)),
+            ("WANT_K", flag(self.want_k)),
+            ("PAPER_CONVENTION", flag(self.paper_convention)),
+            ("WG", f64::from(WG)),
+            ("WG_K", f64::from(self.wg_k())),
+            ("N_C", self.n_c as f64),
+        ]
+    }
+}
+
+/// The compiled pipelines of one [`KernelKey`]; kernels of metrics not asked for are absent.
+#[derive(Debug)]
+pub struct Kernels {
+    /// The integration kernel.
+    pub integrate: wgpu::ComputePipeline,
+    /// The three R kernels (α's analytic signal, the cart's, then R).
+    pub r: Option<[wgpu::ComputePipeline; 3]>,
+    /// One pass of the 0–1 test per c value.
+    pub k_pass: Option<wgpu::ComputePipeline>,
+    /// The median over c and the period.
+    pub k_final: Option<wgpu::ComputePipeline>,
+}
+
+impl Kernels {
+    /// Compile the pipelines of `key` from `module`.
+    pub fn compile(
+        device: &wgpu::Device,
+        layout: &wgpu::PipelineLayout,
+        module: &wgpu::ShaderModule,
+        key: &KernelKey,
+    ) -> Kernels {
+        let constants = key.constants();
+        let pipeline = |entry: &str| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(layout),
+                module,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &constants,
+                    zero_initialize_workgroup_memory: false,
+                },
+                cache: None,
+            })
+        };
+        Kernels {
+            integrate: pipeline("integrate"),
+            r: key
+                .want_r
+                .then(|| [pipeline("r_alpha"), pipeline("r_cart"), pipeline("r_phase")]),
+            k_pass: key.want_k.then(|| pipeline("k_pass")),
+            k_final: key.run_k_final.then(|| pipeline("k_final")),
+        }
+    }
+}

@@ -1,0 +1,405 @@
+//! The GPU ensemble engine: the WGSL kernels of `shaders/` on wgpu.
+//!
+//! One invocation integrates one instance in `f32`. Integration is split into bounded
+//! dispatches (state stays in buffers between them) so that no submission holds the GPU for
+//! long and a progress bar can move; then the reductions run on the GPU, and only the
+//! per-instance results (plus, when asked, the recorded series) come back.
+//!
+//! Stages of [`GpuEngine::run`]: the kernels of the plan's [`KernelKey`] (compiled once per
+//! [`GpuContext`]), buffers sized against the adapter ([`buffers`]), integration dispatches
+//! sized by wall time, the R and K reductions, the read-back.
+
+mod buffers;
+mod context;
+pub mod kernels;
+pub mod layout;
+
+pub use context::{AdapterChoice, GpuContext};
+
+use crate::analysis::PhaseConvention;
+use crate::config::Metric;
+use crate::engine::error::EngineError;
+use crate::engine::plan::EnsemblePlan;
+use crate::engine::{EngineRun, EngineTimings, EnsembleEngine, Progress, ProgressUnit, Readback};
+use crate::model::Status;
+use crate::reduce::{InstanceResult, ReduceOptions, Span, Tally};
+use buffers::{Buffers, Sizes, software_step_budget};
+use kernels::{KernelKey, Kernels, WG};
+use layout::{GPU_MAX_SEGMENTS, GpuAccum, GpuControl};
+use serde::Serialize;
+use std::time::{Duration, Instant};
+
+/// Environment variable that turns "no GPU adapter" from a skip into a test failure.
+pub const REQUIRE_GPU_ENV: &str = "PENDULUM_ATLAS_REQUIRE_GPU";
+
+/// Target wall time of one integration dispatch.
+const DISPATCH_TARGET: Duration = Duration::from_millis(100);
+
+/// Wall time of each stage of a GPU run (s).
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct GpuTimings {
+    /// Looking up (and, the first time, compiling) the kernels.
+    pub pipelines_s: f64,
+    /// Buffer creation and upload.
+    pub upload_s: f64,
+    /// Integration dispatches.
+    pub integrate_s: f64,
+    /// Reduction kernels (R, K, period).
+    pub reduce_s: f64,
+    /// Copy back to the host.
+    pub readback_s: f64,
+}
+
+/// The reduction settings in the form the kernels take.
+#[derive(Debug, Clone)]
+pub struct ReduceSettings {
+    /// c values of the 0–1 test (rad).
+    pub c_values: Vec<f64>,
+    /// R in the paper's convention.
+    pub paper_convention: bool,
+    /// Longest period searched.
+    pub period_max: u32,
+    /// Trailing samples that must repeat.
+    pub period_window: u32,
+    /// Tolerance (rad).
+    pub period_tol_rad: f64,
+}
+
+impl ReduceSettings {
+    /// From the map's reduction options (the same seeded c values as the CPU engine).
+    pub fn from_options(o: &ReduceOptions) -> ReduceSettings {
+        ReduceSettings {
+            c_values: crate::analysis::draw_c_values(o.zero_one.n_c, o.zero_one.seed),
+            paper_convention: o.convention == PhaseConvention::Paper,
+            period_max: o.period_max,
+            period_window: o.period_window,
+            period_tol_rad: o.period_tol_rad,
+        }
+    }
+}
+
+/// The GPU engine on an opened device.
+pub struct GpuEngine {
+    ctx: GpuContext,
+}
+
+impl GpuEngine {
+    /// The engine of an opened device.
+    pub fn new(ctx: GpuContext) -> GpuEngine {
+        GpuEngine { ctx }
+    }
+
+    /// The device and its compiled kernels.
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+}
+
+impl EnsembleEngine for GpuEngine {
+    fn run(
+        &self,
+        plan: &EnsemblePlan,
+        reduce: &ReduceOptions,
+        readback: Readback,
+        progress: Progress,
+    ) -> Result<EngineRun, EngineError> {
+        run_gpu(&self.ctx, plan, reduce, readback, progress)
+    }
+}
+
+/// The specialisation a plan needs.
+fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings) -> KernelKey {
+    let want = |m: Metric| plan.metrics.contains(&m);
+    KernelKey {
+        segments: plan.segments,
+        has_contact: plan.has_contact,
+        has_piezo: plan.has_piezo,
+        want_strobe: plan.want_strobe,
+        want_r: plan.want_rseries,
+        want_k: want(Metric::K),
+        run_k_final: want(Metric::K) || want(Metric::Period),
+        paper_convention: reduce.paper_convention,
+        n_c: reduce.c_values.len().max(1),
+    }
+}
+
+/// Integrate and reduce every instance of `plan` on the GPU of `ctx`.
+pub fn run_gpu(
+    ctx: &GpuContext,
+    plan: &EnsemblePlan,
+    opts: &ReduceOptions,
+    readback: Readback,
+    progress: Progress,
+) -> Result<EngineRun, EngineError> {
+    if plan.segments > GPU_MAX_SEGMENTS {
+        return Err(EngineError::TooManySegments {
+            segments: plan.segments,
+            max: GPU_MAX_SEGMENTS,
+        });
+    }
+    if plan.instances.is_empty() {
+        return Err(EngineError::Empty);
+    }
+    let t_all = Instant::now();
+    let reduce = ReduceSettings::from_options(opts);
+    let key = kernel_key(plan, &reduce);
+    let sizes = Sizes::new(ctx, plan, &key)?;
+    let budget = software_step_budget(ctx, plan, &key, &reduce)?;
+    let mut timings = GpuTimings::default();
+    let t0 = Instant::now();
+    let kernels = ctx.kernels(&key);
+    timings.pipelines_s = t0.elapsed().as_secs_f64();
+    let t0 = Instant::now();
+    let mut control = GpuControl {
+        n_inst: sizes.n_inst as u32,
+        steps_per_dispatch: 64,
+        strobe_stride: sizes.strobe_stride,
+        rwork_stride: sizes.rwork_stride,
+        period_max: reduce.period_max,
+        period_window: reduce.period_window,
+        period_tol: reduce.period_tol_rad as f32,
+        c_index: 0,
+    };
+    let bufs = Buffers::upload(ctx, plan, &reduce, &sizes, &control);
+    timings.upload_s = t0.elapsed().as_secs_f64();
+    let t0 = Instant::now();
+    let dispatches = integrate(ctx, &kernels, &bufs, plan, &mut control, budget, progress)?;
+    timings.integrate_s = t0.elapsed().as_secs_f64();
+    let t0 = Instant::now();
+    let (strobe, r_series) = read_series(ctx, &bufs, plan, &sizes, readback)?;
+    timings.readback_s += t0.elapsed().as_secs_f64();
+    let t0 = Instant::now();
+    run_reductions(ctx, &kernels, &bufs, &key, &sizes, &mut control)?;
+    timings.reduce_s = t0.elapsed().as_secs_f64();
+    let t0 = Instant::now();
+    let accum: Vec<GpuAccum> = read_buffer(ctx, &bufs.accum, sizes.accum_bytes)?;
+    timings.readback_s += t0.elapsed().as_secs_f64();
+    Ok(EngineRun {
+        results: results(plan, &accum[..sizes.n_inst]),
+        strobe,
+        r_series,
+        timings: EngineTimings {
+            integrate_s: t_all.elapsed().as_secs_f64(),
+            reduce_s: 0.0,
+            gpu: Some(timings),
+        },
+        dispatches,
+        stopped_early: 0,
+    })
+}
+
+/// Integration in bounded dispatches, each aimed at [`DISPATCH_TARGET`] of wall time.
+fn integrate(
+    ctx: &GpuContext,
+    kernels: &Kernels,
+    bufs: &Buffers,
+    plan: &EnsemblePlan,
+    control: &mut GpuControl,
+    budget: Option<u64>,
+    progress: Progress,
+) -> Result<u32, EngineError> {
+    let groups = (plan.instances.len() as u32).div_ceil(WG);
+    let max_steps = plan
+        .instances
+        .iter()
+        .map(|p| p.total_steps())
+        .max()
+        .unwrap_or(0);
+    let (mut done, mut chunk, mut dispatches) = (0u64, 64u64, 0u32);
+    while done < max_steps {
+        let this = chunk.min(max_steps - done).min(budget.unwrap_or(u64::MAX));
+        control.steps_per_dispatch = this as u32;
+        ctx.queue
+            .write_buffer(&bufs.control, 0, bytemuck::bytes_of(control));
+        let started = Instant::now();
+        submit(ctx, &kernels.integrate, &bufs.bind, groups);
+        wait(ctx)?;
+        let took = started.elapsed();
+        dispatches += 1;
+        done += this;
+        progress(done, max_steps, ProgressUnit::Steps);
+        // Aim each dispatch at DISPATCH_TARGET, growing at most 4× at a time.
+        let scale = DISPATCH_TARGET.as_secs_f64() / took.as_secs_f64().max(1e-6);
+        chunk = ((this as f64 * scale.clamp(0.25, 4.0)) as u64).clamp(16, 1 << 22);
+    }
+    Ok(dispatches)
+}
+
+/// Per-instance series read back from the GPU: (stroboscopic α, R series).
+type SeriesReadback = (Vec<Vec<f64>>, Vec<Vec<f64>>);
+
+/// The stroboscopic and R series, read back before the reductions overwrite the work space.
+fn read_series(
+    ctx: &GpuContext,
+    bufs: &Buffers,
+    plan: &EnsemblePlan,
+    sizes: &Sizes,
+    readback: Readback,
+) -> Result<SeriesReadback, EngineError> {
+    let widen = |s: &[f32]| s.iter().map(|&v| f64::from(v)).collect::<Vec<f64>>();
+    let mut r_series = Vec::new();
+    if readback.r_series && plan.want_rseries {
+        let raw: Vec<[f32; 2]> = read_buffer(ctx, &bufs.rwork, sizes.rwork_bytes)?;
+        let stride = sizes.rwork_stride as usize;
+        r_series = plan
+            .instances
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                (0..p.r_count as usize)
+                    .map(|j| f64::from(raw[i * stride + j][0]))
+                    .collect()
+            })
+            .collect();
+    }
+    let mut strobe = Vec::new();
+    if readback.strobe && plan.want_strobe {
+        let raw: Vec<f32> = read_buffer(ctx, &bufs.strobe, sizes.strobe_bytes)?;
+        let stride = sizes.strobe_stride as usize;
+        strobe = plan
+            .instances
+            .iter()
+            .enumerate()
+            .map(|(i, p)| widen(&raw[i * stride..i * stride + p.strobe_count as usize]))
+            .collect();
+    }
+    Ok((strobe, r_series))
+}
+
+/// R (three kernels), then the 0–1 test (one pass per c value) and the median and period.
+fn run_reductions(
+    ctx: &GpuContext,
+    kernels: &Kernels,
+    bufs: &Buffers,
+    key: &KernelKey,
+    sizes: &Sizes,
+    control: &mut GpuControl,
+) -> Result<(), EngineError> {
+    let groups = (sizes.n_inst as u32).div_ceil(WG);
+    if let Some(r) = &kernels.r {
+        for p in r {
+            submit(ctx, p, &bufs.bind, groups);
+        }
+        wait(ctx)?;
+    }
+    if let Some(p) = &kernels.k_pass {
+        for ci in 0..sizes.n_c as u32 {
+            control.c_index = ci;
+            ctx.queue
+                .write_buffer(&bufs.control, 0, bytemuck::bytes_of(control));
+            submit(ctx, p, &bufs.bind, groups);
+        }
+        wait(ctx)?;
+    }
+    if let Some(p) = &kernels.k_final {
+        submit(
+            ctx,
+            p,
+            &bufs.bind,
+            (sizes.n_inst as u32).div_ceil(key.wg_k()),
+        );
+        wait(ctx)?;
+    }
+    Ok(())
+}
+
+/// The GPU's accumulators and reductions as instance results.
+fn results(plan: &EnsemblePlan, accum: &[GpuAccum]) -> Vec<InstanceResult> {
+    let wants = |m: Metric| plan.metrics.contains(&m);
+    plan.instances
+        .iter()
+        .zip(accum)
+        .map(|(p, a)| {
+            let status = Status::from_code(a.status).unwrap_or(Status::NonFinite);
+            let tally = Tally {
+                status,
+                steps: u64::from(a.step),
+                alpha_range_rad: (f64::from(a.alpha_min), f64::from(a.alpha_max)),
+                hops: a.hops,
+                impacts: a.impacts,
+                power_sum_w: f64::from(a.power_sum),
+            };
+            let span = Span {
+                seconds: p.post_transient_s(),
+                steps: p.total_steps() - p.transient_steps(),
+            };
+            let mut out = tally.result(span, &plan.metrics);
+            if status == Status::Ok {
+                if wants(Metric::K) {
+                    out.k = f64::from(a.k);
+                }
+                if wants(Metric::R) {
+                    out.r = f64::from(a.r);
+                }
+                if wants(Metric::Period) {
+                    out.period = f64::from(a.period);
+                }
+            }
+            out
+        })
+        .collect()
+}
+
+fn submit(ctx: &GpuContext, pipeline: &wgpu::ComputePipeline, bind: &wgpu::BindGroup, groups: u32) {
+    let mut enc = ctx
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: None,
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, bind, &[]);
+        pass.dispatch_workgroups(groups, 1, 1);
+    }
+    ctx.queue.submit([enc.finish()]);
+}
+
+fn wait(ctx: &GpuContext) -> Result<(), EngineError> {
+    ctx.device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| EngineError::Gpu {
+            stage: "wait",
+            message: e.to_string(),
+        })?;
+    Ok(())
+}
+
+/// Copy a storage buffer to the host.
+fn read_buffer<T: bytemuck::Pod>(
+    ctx: &GpuContext,
+    src: &wgpu::Buffer,
+    size: u64,
+) -> Result<Vec<T>, EngineError> {
+    let failed = |message: String| EngineError::Gpu {
+        stage: "readback",
+        message,
+    };
+    let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut enc = ctx
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    enc.copy_buffer_to_buffer(src, 0, &staging, 0, size);
+    ctx.queue.submit([enc.finish()]);
+    let (tx, rx) = std::sync::mpsc::channel();
+    staging.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    wait(ctx)?;
+    rx.recv()
+        .map_err(|_| failed("the read-back was dropped".into()))?
+        .map_err(|e| failed(e.to_string()))?;
+    let view = staging
+        .get_mapped_range(..)
+        .map_err(|e| failed(format!("{e:?}")))?;
+    let out = bytemuck::cast_slice::<u8, T>(&view).to_vec();
+    drop(view);
+    staging.unmap();
+    Ok(out)
+}

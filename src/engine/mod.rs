@@ -1,0 +1,328 @@
+//! The engine layer: an ensemble plan in, per-instance results out, on the CPU or the GPU.
+//!
+//! Stages, in the order a run goes through them:
+//! 1. [`EnsemblePlan`] ([`plan`]): every instance's step, sampling and records, from validated
+//!    scenes; [`StepPlan`] does the same for a single run;
+//! 2. [`Engine::open`]: the engine is chosen and opened once by the caller (a GPU device and
+//!    its compiled kernels live in [`gpu::GpuContext`] and are reused by every batch);
+//! 3. [`Engine::run`]: both engines implement [`EnsembleEngine`]: the CPU engine ([`cpu`],
+//!    rayon, `f32`/`f64`) runs the shared RK4 step loop of [`rk4`]; the GPU engine ([`gpu`],
+//!    WGSL, `f32`) mirrors it in `shaders/`; each reduces its instances to
+//!    [`crate::reduce::InstanceResult`]s;
+//! 4. single runs ([`integrate`], [`integrate_reference`]) hand every output row to an
+//!    [`Observer`]: RK4, and the DOP853 reference with contact events.
+//!
+//! The health rules, status codes, check interval and cart motion are defined once in
+//! [`crate::model`]; the physics is written down in `docs/model.md`.
+
+pub mod cpu;
+mod error;
+pub mod gpu;
+pub mod plan;
+mod reference;
+pub mod rk4;
+mod single;
+mod step_plan;
+
+pub use cpu::CpuEngine;
+pub use error::EngineError;
+pub use gpu::{GpuContext, GpuEngine};
+pub use plan::{EARLY_STOP_METRICS, EarlyStop, EnsembleOptions, EnsemblePlan, InstancePlan};
+pub use reference::{ReferenceOptions, integrate_reference};
+pub use single::{Instance, NoObserver, Observer, Outcome, integrate, integrate_batch};
+pub use step_plan::{DtSource, StepPlan};
+
+use crate::reduce::{InstanceResult, ReduceOptions};
+use serde::Serialize;
+use std::time::Instant;
+
+/// Which engine a user asks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Backend {
+    /// A hardware GPU if present, else the software adapter lavapipe (measured about 3x faster
+    /// than the CPU engine on the same cores; see the README), else the CPU engine.
+    Auto,
+    /// The GPU engine (wgpu): a hardware adapter, or lavapipe when that is all there is.
+    Gpu,
+    /// The CPU engine (rayon).
+    Cpu,
+}
+
+/// Float type of an engine.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Precision {
+    /// Single precision, as the GPU integrates.
+    F32,
+    /// Double precision: the reference.
+    F64,
+}
+
+impl Precision {
+    /// "f32" or "f64".
+    pub fn name(self) -> &'static str {
+        match self {
+            Precision::F32 => "f32",
+            Precision::F64 => "f64",
+        }
+    }
+}
+
+/// Which engine ran.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EngineKind {
+    /// The CPU engine.
+    Cpu,
+    /// The GPU engine.
+    Gpu,
+}
+
+impl EngineKind {
+    /// "cpu" or "gpu".
+    pub fn name(self) -> &'static str {
+        match self {
+            EngineKind::Cpu => "cpu",
+            EngineKind::Gpu => "gpu",
+        }
+    }
+}
+
+/// What an opened engine is, and why it was chosen.
+#[derive(Debug, Clone, Serialize)]
+pub struct EngineInfo {
+    /// CPU or GPU.
+    pub kind: EngineKind,
+    /// Float type of the integration.
+    pub precision: Precision,
+    /// The GPU adapter's name, or the CPU's thread count.
+    pub device: String,
+    /// Why this engine runs.
+    pub reason: String,
+    /// Wall time of opening it (the GPU device; 0 for the CPU) (s).
+    pub open_s: f64,
+}
+
+/// What counts as one unit of progress.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ProgressUnit {
+    /// Integration steps of the longest instance (GPU dispatches).
+    Steps,
+    /// Finished instances (CPU).
+    Instances,
+}
+
+impl ProgressUnit {
+    /// "steps" or "instances".
+    pub fn name(self) -> &'static str {
+        match self {
+            ProgressUnit::Steps => "steps",
+            ProgressUnit::Instances => "instances",
+        }
+    }
+}
+
+/// Progress callback: `(done, total, unit)`.
+pub type Progress<'a> = &'a (dyn Fn(u64, u64, ProgressUnit) + Sync);
+
+/// A progress callback that shows nothing.
+pub fn no_progress(_: u64, _: u64, _: ProgressUnit) {}
+
+/// Series to bring back besides the results.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Readback {
+    /// The stroboscopic α of every instance (bifurcation diagrams, tests).
+    pub strobe: bool,
+    /// The uniform α series of R (tests, the bench's trajectory errors).
+    pub r_series: bool,
+}
+
+/// Wall time of an engine's stages (s).
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct EngineTimings {
+    /// Integration (on the GPU: every dispatch, its reductions included; see `gpu`).
+    pub integrate_s: f64,
+    /// Reductions on the host (CPU engine: K, R, period with the analysis library).
+    pub reduce_s: f64,
+    /// The GPU's own stages.
+    pub gpu: Option<gpu::GpuTimings>,
+}
+
+/// What an engine returns for a plan.
+#[derive(Debug, Clone)]
+pub struct EngineRun {
+    /// Per-instance results in plan order.
+    pub results: Vec<InstanceResult>,
+    /// Stroboscopic α per instance (each `strobe_count` long), when read back.
+    pub strobe: Vec<Vec<f64>>,
+    /// The R series of α per instance (each `r_count` long), when read back.
+    pub r_series: Vec<Vec<f64>>,
+    /// Wall time per stage.
+    pub timings: EngineTimings,
+    /// Integration dispatches (GPU).
+    pub dispatches: u32,
+    /// Instances stopped early on a confirmed periodic orbit (CPU).
+    pub stopped_early: usize,
+}
+
+impl EngineRun {
+    /// Wall time of the integration alone (the GPU's integration dispatches, without its
+    /// reductions) (s).
+    pub fn integration_s(&self) -> f64 {
+        match &self.timings.gpu {
+            Some(g) => g.integrate_s,
+            None => self.timings.integrate_s,
+        }
+    }
+
+    /// Wall time of integration and reductions (s).
+    pub fn engine_s(&self) -> f64 {
+        match &self.timings.gpu {
+            Some(g) => g.integrate_s + g.reduce_s,
+            None => self.timings.integrate_s + self.timings.reduce_s,
+        }
+    }
+
+    /// Instance-steps per second of the integration.
+    pub fn instance_steps_per_s(&self) -> f64 {
+        let steps: u64 = self.results.iter().map(|r| r.steps).sum();
+        steps as f64 / self.integration_s().max(1e-12)
+    }
+}
+
+/// The one interface of the engines: a plan in, per-instance results out.
+pub trait EnsembleEngine {
+    /// Integrate and reduce every instance of `plan`.
+    fn run(
+        &self,
+        plan: &EnsemblePlan,
+        reduce: &ReduceOptions,
+        readback: Readback,
+        progress: Progress,
+    ) -> Result<EngineRun, EngineError>;
+}
+
+impl EnsembleEngine for CpuEngine {
+    fn run(
+        &self,
+        plan: &EnsemblePlan,
+        reduce: &ReduceOptions,
+        readback: Readback,
+        progress: Progress,
+    ) -> Result<EngineRun, EngineError> {
+        Ok(CpuEngine::run(self, plan, reduce, readback, progress))
+    }
+}
+
+/// An opened engine: what the caller creates once and hands to every batch.
+pub struct Engine {
+    info: EngineInfo,
+    inner: EngineImpl,
+}
+
+enum EngineImpl {
+    Cpu(CpuEngine),
+    Gpu(Box<GpuEngine>),
+}
+
+impl Engine {
+    /// The CPU engine in `precision`.
+    pub fn cpu(precision: Precision) -> Engine {
+        Engine::cpu_because(precision, "requested: the CPU engine".into())
+    }
+
+    fn cpu_because(precision: Precision, reason: String) -> Engine {
+        Engine {
+            info: EngineInfo {
+                kind: EngineKind::Cpu,
+                precision,
+                device: format!("CPU, {} rayon threads", rayon::current_num_threads()),
+                reason,
+                open_s: 0.0,
+            },
+            inner: EngineImpl::Cpu(CpuEngine { precision }),
+        }
+    }
+
+    /// The GPU engine on an opened device.
+    pub fn gpu(ctx: GpuContext, reason: String, open_s: f64) -> Engine {
+        Engine {
+            info: EngineInfo {
+                kind: EngineKind::Gpu,
+                precision: Precision::F32,
+                device: ctx.adapter_name.clone(),
+                reason,
+                open_s,
+            },
+            inner: EngineImpl::Gpu(Box::new(GpuEngine::new(ctx))),
+        }
+    }
+
+    /// Open the engine a user asked for. `precision` defaults to `f64` on the CPU and `f32`
+    /// otherwise (an `auto` request that finds no adapter runs the CPU engine in `f32`).
+    pub fn open(backend: Backend, precision: Option<Precision>) -> Result<Engine, EngineError> {
+        let t0 = Instant::now();
+        match (backend, precision) {
+            (Backend::Cpu, p) => Ok(Engine::cpu(p.unwrap_or(Precision::F64))),
+            (Backend::Gpu, Some(Precision::F64)) => Err(EngineError::GpuNeedsF32),
+            (Backend::Gpu, _) => {
+                let ctx = GpuContext::new(gpu::AdapterChoice::Any)?;
+                let why = format!("requested: the GPU engine ({})", ctx.adapter_name);
+                Ok(Engine::gpu(ctx, why, t0.elapsed().as_secs_f64()))
+            }
+            (Backend::Auto, Some(Precision::F64)) => Ok(Engine::cpu_because(
+                Precision::F64,
+                "auto: f64 runs on the CPU engine".into(),
+            )),
+            (Backend::Auto, _) => Ok(Engine::auto(t0)),
+        }
+    }
+
+    fn auto(t0: Instant) -> Engine {
+        match GpuContext::new(gpu::AdapterChoice::Any) {
+            Ok(ctx) => {
+                let why = if ctx.is_software {
+                    format!(
+                        "auto: no hardware GPU; the software adapter `{}` runs maps about 3x faster than the CPU engine on the same cores (README, Backends)",
+                        ctx.adapter_name
+                    )
+                } else {
+                    format!("auto: hardware GPU `{}`", ctx.adapter_name)
+                };
+                Engine::gpu(ctx, why, t0.elapsed().as_secs_f64())
+            }
+            Err(_) => Engine::cpu_because(
+                Precision::F32,
+                "auto: no GPU adapter at all (not even lavapipe): CPU engine".into(),
+            ),
+        }
+    }
+
+    /// What this engine is.
+    pub fn info(&self) -> &EngineInfo {
+        &self.info
+    }
+
+    /// The GPU context, when this is the GPU engine.
+    pub fn gpu_context(&self) -> Option<&GpuContext> {
+        match &self.inner {
+            EngineImpl::Gpu(g) => Some(g.context()),
+            EngineImpl::Cpu(_) => None,
+        }
+    }
+
+    /// The same engine's results in plan order (see [`EnsembleEngine::run`]).
+    pub fn run(
+        &self,
+        plan: &EnsemblePlan,
+        reduce: &ReduceOptions,
+        readback: Readback,
+        progress: Progress,
+    ) -> Result<EngineRun, EngineError> {
+        match &self.inner {
+            EngineImpl::Cpu(c) => EnsembleEngine::run(c, plan, reduce, readback, progress),
+            EngineImpl::Gpu(g) => EnsembleEngine::run(g.as_ref(), plan, reduce, readback, progress),
+        }
+    }
+}

@@ -1,0 +1,418 @@
+//! The plan of an ensemble: one independent instance per grid point (or design, case, …), each
+//! with its own step and sampling, integrated by either engine.
+//!
+//! Every instance's step divides its forcing period exactly: `spp` steps per period, a multiple
+//! of `samples_per_period`. The forcing phase is `(step mod spp)/spp`, exact in integer
+//! arithmetic on both engines, and stroboscopic samples fall on steps.
+//!
+//! While integrating, each instance keeps running accumulators over the steps after the
+//! transient (α range, hops, impacts, harvested power) and records only the series its metrics
+//! need: the stroboscopic α (K, period, bifurcation) and a power-of-two uniform α series at
+//! `samples_per_period` per period (R). Trajectories are never stored.
+
+use crate::config::{MapSpec, Metric, Scene, TimeStep};
+use crate::engine::error::EngineError;
+use crate::model::{CartState, ExcitationKind, Guard, ModelParams, modes};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::HashMap;
+
+/// The step plan and sampling of one instance.
+#[derive(Debug, Clone, Serialize)]
+pub struct InstancePlan {
+    /// The instance's coefficients.
+    #[serde(skip)]
+    pub params: ModelParams,
+    /// Initial state `[θ; θ̇; v]`.
+    #[serde(skip)]
+    pub y0: Vec<f64>,
+    /// Divergence bounds.
+    #[serde(skip)]
+    pub guard: Guard,
+    /// Forcing frequency (Hz).
+    pub frequency_hz: f64,
+    /// Cart amplitude A (m).
+    pub amplitude_m: f64,
+    /// Steps per forcing period.
+    pub spp: u32,
+    /// The step (s) = 1/(f · spp).
+    pub dt_s: f64,
+    /// Forcing periods discarded as transient.
+    pub transient_periods: u32,
+    /// Forcing periods integrated in all.
+    pub total_periods: u32,
+    /// Step within the period at which stroboscopic samples are taken.
+    pub strobe_offset: u32,
+    /// Number of stroboscopic samples after the transient.
+    pub strobe_count: u32,
+    /// Steps between samples of the R series.
+    pub r_every: u32,
+    /// Length of the R series (a power of two).
+    pub r_count: u32,
+    /// Step of the first R sample.
+    pub r_start: u32,
+    /// Half the clearance (rad): the well thresholds of hop counting.
+    pub half_clearance_rad: f64,
+}
+
+impl InstancePlan {
+    /// Total steps.
+    pub fn total_steps(&self) -> u64 {
+        u64::from(self.total_periods) * u64::from(self.spp)
+    }
+
+    /// Steps of the transient.
+    pub fn transient_steps(&self) -> u64 {
+        u64::from(self.transient_periods) * u64::from(self.spp)
+    }
+
+    /// Time after the transient (s).
+    pub fn post_transient_s(&self) -> f64 {
+        f64::from(self.total_periods - self.transient_periods) / self.frequency_hz
+    }
+
+    /// The cart at `(step mod spp + frac)/spp` of a forcing period (exact phase).
+    #[inline]
+    pub fn cart_at(&self, step: u64, frac: f64) -> CartState {
+        let phase_steps = step % u64::from(self.spp);
+        let cycles = (phase_steps as f64 + frac) / f64::from(self.spp);
+        self.params.cart.at_phase(cycles)
+    }
+
+    /// The cart positions at the R samples: the reference signal of R.
+    pub fn cart_series(&self) -> Vec<f64> {
+        (0..u64::from(self.r_count))
+            .map(|j| {
+                let step = u64::from(self.r_start) + j * u64::from(self.r_every);
+                self.cart_at(step, 0.0).x_m
+            })
+            .collect()
+    }
+}
+
+/// Every instance of an ensemble with the settings shared by all.
+#[derive(Debug, Clone, Serialize)]
+pub struct EnsemblePlan {
+    /// The instances, in the caller's order (a map's grid order: last axis fastest).
+    #[serde(skip)]
+    pub instances: Vec<InstancePlan>,
+    /// Segments N (shared).
+    pub segments: usize,
+    /// Bumpers present (shared).
+    pub has_contact: bool,
+    /// Piezo present (shared).
+    pub has_piezo: bool,
+    /// Metrics requested.
+    pub metrics: Vec<Metric>,
+    /// Stroboscopic samples are recorded (K, period or bifurcation).
+    pub want_strobe: bool,
+    /// The R series is recorded.
+    pub want_rseries: bool,
+    /// Largest stroboscopic count over the instances.
+    pub strobe_stride: u32,
+    /// Largest R series length over the instances.
+    pub r_stride: u32,
+    /// Smallest and largest step over the instances (s).
+    pub dt_range_s: (f64, f64),
+    /// Total instance-steps.
+    pub total_steps: u64,
+    /// Warnings from planning (explicit dt beyond the stability limit, ...).
+    pub warnings: Vec<String>,
+    /// Early termination, when asked for and allowed by the metrics.
+    pub early_stop: Option<EarlyStop>,
+}
+
+/// How the instances of an ensemble are sampled, and what they record.
+#[derive(Debug, Clone, Serialize)]
+pub struct EnsembleOptions {
+    /// Metrics to compute.
+    pub metrics: Vec<Metric>,
+    /// Record the stroboscopic samples even if no metric needs them (bifurcation diagrams).
+    pub keep_strobe: bool,
+    /// Steps per period are a multiple of this; R's samples per period.
+    pub samples_per_period: u32,
+    /// Phase of the stroboscopic samples, in [0, 1).
+    pub strobe_phase: f64,
+    /// Longest R series (a power of two).
+    pub r_max_samples: u32,
+    /// Stop an instance once its periodic orbit is confirmed (only honoured when every
+    /// requested metric allows it: see [`EarlyStop`]).
+    pub early_stop: Option<EarlyStop>,
+}
+
+/// Early termination of instances whose periodic orbit is confirmed.
+///
+/// At each stroboscopic sample, an instance stops when, for some p ≤ `p_max` forcing periods,
+/// (a) its last `window` stroboscopic angles each equal the one p samples earlier and (b) its
+/// whole state (every angle, rate and the voltage) equals the state p samples earlier, both
+/// within `tol · max(1, |x|)`. The rest of the run would repeat that orbit, so the remaining
+/// stroboscopic samples are filled by periodic continuation. Only K, the period and the α
+/// range are exactly preserved by that; with any other metric the option is ignored.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct EarlyStop {
+    /// Longest orbit period tried (forcing periods).
+    pub p_max: u32,
+    /// Trailing stroboscopic samples that must repeat.
+    pub window: u32,
+    /// Relative tolerance of the repetition.
+    pub tol: f64,
+}
+
+/// The metrics whose values a periodic continuation preserves exactly.
+pub const EARLY_STOP_METRICS: [Metric; 3] = [Metric::K, Metric::Period, Metric::AlphaRange];
+
+impl EnsembleOptions {
+    /// The options of a map scene.
+    pub fn from_spec(spec: &MapSpec) -> EnsembleOptions {
+        EnsembleOptions {
+            metrics: spec.metrics.clone(),
+            keep_strobe: spec.bifurcation,
+            samples_per_period: spec.samples_per_period,
+            strobe_phase: spec.strobe_phase,
+            r_max_samples: spec.r_max_samples,
+            early_stop: spec.early_stop.then_some(EarlyStop {
+                p_max: spec.period_max,
+                window: spec.period_window,
+                tol: spec.early_stop_tol,
+            }),
+        }
+    }
+
+    fn wants(&self, m: Metric) -> bool {
+        self.metrics.contains(&m)
+    }
+}
+
+/// Minimum stroboscopic samples the 0–1 test accepts.
+const MIN_STROBE: u32 = crate::analysis::ZERO_ONE_MIN_SAMPLES as u32;
+
+/// The RK4 limits of one structure: the automatic step and the stable step (s).
+#[derive(Debug, Clone, Copy)]
+struct StepLimits {
+    dt_auto_s: f64,
+    dt_stable_s: f64,
+}
+
+impl EnsemblePlan {
+    /// Plan every instance of a map: validate its scene, choose its step and sampling.
+    pub fn new(spec: &MapSpec) -> Result<EnsemblePlan, EngineError> {
+        let scenes: Vec<Scene> = (0..spec.instances())
+            .into_par_iter()
+            .map(|k| spec.instance_scene(k))
+            .collect::<Result<_, _>>()?;
+        EnsemblePlan::from_scenes(&scenes, &EnsembleOptions::from_spec(spec))
+    }
+
+    /// Plan an ensemble of arbitrary validated scenes (a grid, a list of designs × frequencies
+    /// × initial states, ...). They must share the segment count, bumpers and piezo, and use
+    /// harmonic excitation.
+    pub fn from_scenes(
+        scenes: &[Scene],
+        opts: &EnsembleOptions,
+    ) -> Result<EnsemblePlan, EngineError> {
+        let first = scenes.first().ok_or(EngineError::Empty)?;
+        check_shared_structure(scenes)?;
+        let params: Vec<ModelParams> = scenes.par_iter().map(Scene::model_params).collect();
+        let limits = step_limits(scenes, &params);
+        let instances: Vec<InstancePlan> = scenes
+            .par_iter()
+            .zip(params)
+            .zip(&limits)
+            .map(|((s, p), lim)| plan_instance(opts, s, p, *lim))
+            .collect::<Result<_, _>>()?;
+        let mut warnings = Vec::new();
+        if let TimeStep::Seconds(dt) = first.integration.dt_s {
+            let unstable = limits.iter().filter(|l| dt > l.dt_stable_s).count();
+            if unstable > 0 {
+                warnings.push(format!(
+                    "integration.dt_s = {dt:e} s exceeds the RK4 stability limit of the linearised model for {unstable} of {} instances; those that blow up are flagged `diverged`",
+                    scenes.len()
+                ));
+            }
+        }
+        let early_stop = allowed_early_stop(opts, &mut warnings);
+        Ok(EnsemblePlan::assemble(
+            first, opts, instances, warnings, early_stop,
+        ))
+    }
+
+    fn assemble(
+        first: &Scene,
+        opts: &EnsembleOptions,
+        instances: Vec<InstancePlan>,
+        warnings: Vec<String>,
+        early_stop: Option<EarlyStop>,
+    ) -> EnsemblePlan {
+        let want_strobe = opts.wants(Metric::K)
+            || opts.wants(Metric::Period)
+            || opts.keep_strobe
+            || early_stop.is_some();
+        let dts = instances.iter().map(|p| p.dt_s);
+        let dt_range_s = (
+            dts.clone().fold(f64::INFINITY, f64::min),
+            dts.fold(0.0, f64::max),
+        );
+        EnsemblePlan {
+            segments: first.beam.segments,
+            has_contact: first.limiter.enabled,
+            has_piezo: first.piezo.enabled,
+            metrics: opts.metrics.clone(),
+            want_strobe,
+            want_rseries: opts.wants(Metric::R),
+            strobe_stride: instances.iter().map(|p| p.strobe_count).max().unwrap_or(0),
+            r_stride: instances.iter().map(|p| p.r_count).max().unwrap_or(0),
+            dt_range_s,
+            total_steps: instances.iter().map(InstancePlan::total_steps).sum(),
+            warnings,
+            early_stop,
+            instances,
+        }
+    }
+}
+
+/// Harmonic excitation, and one segment count, bumper and piezo setting for all.
+fn check_shared_structure(scenes: &[Scene]) -> Result<(), EngineError> {
+    let first = &scenes[0];
+    for (index, s) in scenes.iter().enumerate() {
+        if let ExcitationKind::Sweep { .. } = s.excitation.kind {
+            return Err(EngineError::NotHarmonic("sweep"));
+        }
+        if s.limiter.enabled != first.limiter.enabled
+            || s.piezo.enabled != first.piezo.enabled
+            || s.beam.segments != first.beam.segments
+        {
+            return Err(EngineError::MixedStructure { index });
+        }
+    }
+    Ok(())
+}
+
+/// The RK4 limits of every instance. They depend on the structure, not on the cart: one
+/// eigenproblem per distinct structure (and step safety factor).
+fn step_limits(scenes: &[Scene], params: &[ModelParams]) -> Vec<StepLimits> {
+    let key = |k: usize| {
+        let mut bits = params[k].structure_bits();
+        bits.push(scenes[k].integration.dt_safety.to_bits());
+        bits
+    };
+    let mut first_of: HashMap<Vec<u64>, usize> = HashMap::new();
+    let owner: Vec<usize> = (0..scenes.len())
+        .map(|k| *first_of.entry(key(k)).or_insert(k))
+        .collect();
+    let reps: Vec<usize> = first_of.into_values().collect();
+    let solved: HashMap<usize, StepLimits> = reps
+        .par_iter()
+        .map(|&k| {
+            let m = modes(&params[k], scenes[k].integration.dt_safety);
+            let lim = StepLimits {
+                dt_auto_s: m.dt_auto_s,
+                dt_stable_s: m.dt_stable_s,
+            };
+            (k, lim)
+        })
+        .collect();
+    owner.iter().map(|k| solved[k]).collect()
+}
+
+/// The early stop of the options, unless a requested metric needs the whole run.
+fn allowed_early_stop(opts: &EnsembleOptions, warnings: &mut Vec<String>) -> Option<EarlyStop> {
+    let e = opts.early_stop?;
+    let blocking: Vec<&str> = opts
+        .metrics
+        .iter()
+        .filter(|m| !EARLY_STOP_METRICS.contains(m))
+        .map(|m| m.name())
+        .collect();
+    if blocking.is_empty() {
+        return Some(e);
+    }
+    warnings.push(format!(
+        "map.early_stop ignored: metric(s) {} need the whole run (only K, period and alpha_range survive a periodic continuation)",
+        blocking.join(", ")
+    ));
+    None
+}
+
+/// Steps per forcing period: a multiple of `samples_per_period` near the automatic (or
+/// given) step.
+fn steps_per_period(opts: &EnsembleOptions, scene: &Scene, period_s: f64, lim: StepLimits) -> u64 {
+    let sp = u64::from(opts.samples_per_period);
+    let blocks = match scene.integration.dt_s {
+        TimeStep::Auto => (period_s / (sp as f64 * lim.dt_auto_s) - 1e-9)
+            .ceil()
+            .max(1.0),
+        TimeStep::Seconds(dt) => (period_s / (sp as f64 * dt)).round().max(1.0),
+    } as u64;
+    sp * blocks
+}
+
+fn plan_instance(
+    opts: &EnsembleOptions,
+    scene: &Scene,
+    params: ModelParams,
+    lim: StepLimits,
+) -> Result<InstancePlan, EngineError> {
+    let f = scene.excitation.reference_frequency_hz();
+    let period = 1.0 / f;
+    let spp = steps_per_period(opts, scene, period, lim);
+    let blocks = spp / u64::from(opts.samples_per_period);
+    let total_periods = (scene.integration.duration_s * f).round().max(1.0) as u64;
+    let transient_periods = ((scene.integration.transient_s * f).round() as u64).max(1);
+    let at = format!(
+        "f = {f} Hz, duration {} s, transient {} s",
+        scene.integration.duration_s, scene.integration.transient_s
+    );
+    let short = |reason: String| EngineError::TooShort {
+        at: at.clone(),
+        reason,
+    };
+    if transient_periods >= total_periods {
+        return Err(short(
+            "the transient leaves no forcing period to analyse".into(),
+        ));
+    }
+    let total_steps = total_periods * spp;
+    if total_steps > u64::from(u32::MAX) {
+        return Err(EngineError::TooManySteps {
+            at,
+            steps: total_steps,
+        });
+    }
+    let strobe_offset = ((opts.strobe_phase * spp as f64).round() as u64) % spp;
+    let mut strobe_count = 0u64;
+    while (transient_periods + strobe_count) * spp + strobe_offset <= total_steps {
+        strobe_count += 1;
+    }
+    let needs_strobe = opts.wants(Metric::K) || opts.wants(Metric::Period);
+    if needs_strobe && strobe_count < u64::from(MIN_STROBE) {
+        return Err(short(format!(
+            "only {strobe_count} stroboscopic samples after the transient; K and period need at least {MIN_STROBE}: lengthen integration.duration_s"
+        )));
+    }
+    let r_every = blocks;
+    let avail = (total_steps - transient_periods * spp) / r_every + 1;
+    let r_count = (1u64 << (63 - avail.leading_zeros())).min(u64::from(opts.r_max_samples));
+    if opts.wants(Metric::R) && r_count < 32 {
+        return Err(short(
+            "too short after the transient for R (needs 32 samples)".into(),
+        ));
+    }
+    let r_start = total_steps - (r_count - 1) * r_every;
+    Ok(InstancePlan {
+        frequency_hz: f,
+        amplitude_m: scene.excitation.amplitude_m,
+        spp: spp as u32,
+        dt_s: period / spp as f64,
+        transient_periods: transient_periods as u32,
+        total_periods: total_periods as u32,
+        strobe_offset: strobe_offset as u32,
+        strobe_count: strobe_count as u32,
+        r_every: r_every as u32,
+        r_count: r_count as u32,
+        r_start: r_start as u32,
+        half_clearance_rad: 0.5 * scene.limiter.clearance_deg.to_radians(),
+        y0: scene.initial_state(&params),
+        guard: Guard::for_params(&params),
+        params,
+    })
+}

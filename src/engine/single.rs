@@ -1,0 +1,188 @@
+//! A single run: one instance integrated by RK4 over a [`StepPlan`], its state handed to an
+//! [`Observer`] at every output row (`simulate`, `reproduce`, the harvest check, the bench's
+//! trajectories). Time is formed from the integer step count ([`CartMotion::at_step`]); a
+//! failed instance stops at the first health check that fails and is reported by its status.
+
+use crate::config::Scene;
+use crate::engine::rk4::{CartClock, StepHook, run_steps};
+use crate::engine::step_plan::StepPlan;
+use crate::model::{CartMotion, CartState, Chain, Guard, ModelParams, Real, Status, Workspace};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::ops::ControlFlow;
+
+/// Receives the state at every output row (step 0 and every `sample_every` steps).
+pub trait Observer<T: Real> {
+    /// One output row. `ws` is scratch the observer may use with `chain`.
+    fn sample(
+        &mut self,
+        step: u64,
+        t_s: f64,
+        cart: &CartState,
+        y: &[T],
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+    );
+}
+
+/// An observer that records nothing.
+pub struct NoObserver;
+
+impl<T: Real> Observer<T> for NoObserver {
+    fn sample(
+        &mut self,
+        _: u64,
+        _: f64,
+        _: &CartState,
+        _: &[T],
+        _: &Chain<T>,
+        _: &mut Workspace<T>,
+    ) {
+    }
+}
+
+/// How one instance's integration ended.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Outcome {
+    /// Final status.
+    pub status: Status,
+    /// Steps actually taken (fewer than planned when the instance failed).
+    pub steps_done: u64,
+    /// Bumper contact onsets counted at every step.
+    pub impacts: u64,
+    /// Time at which the failure was detected (s), if any.
+    pub failed_at_s: Option<f64>,
+}
+
+/// One independent instance: its chain, cart motion, initial state and health bounds.
+pub struct Instance<T: Real> {
+    /// The chain's coefficients.
+    pub chain: Chain<T>,
+    /// The cart motion.
+    pub cart: CartMotion,
+    /// Initial state `[θ; θ̇; v]`.
+    pub y0: Vec<f64>,
+    /// Divergence bounds.
+    pub guard: Guard,
+}
+
+impl<T: Real> Instance<T> {
+    /// The instance a scene describes, with its initial state.
+    pub fn from_scene(scene: &Scene) -> Instance<T> {
+        let params = scene.model_params();
+        Instance::new(&params, scene.initial_state(&params))
+    }
+
+    /// The instance of a chain started from `y0`.
+    pub fn new(params: &ModelParams, y0: Vec<f64>) -> Instance<T> {
+        Instance {
+            chain: Chain::new(params),
+            cart: params.cart,
+            y0,
+            guard: Guard::for_params(params),
+        }
+    }
+}
+
+/// The cart of a single run: `t = (step + stage)·dt` in `f64`.
+struct TimeClock<'a> {
+    cart: &'a CartMotion,
+    dt_s: f64,
+}
+
+impl CartClock for TimeClock<'_> {
+    fn stage_accelerations(&self, step: u64) -> [f64; 3] {
+        [0.0, 0.5, 1.0].map(|c| self.cart.at_step(step, c, self.dt_s).a_m_s2)
+    }
+
+    fn velocity(&self, step: u64) -> f64 {
+        self.cart.at_step(step, 0.0, self.dt_s).v_m_s
+    }
+}
+
+/// Samples the rows of a single run and counts every contact onset.
+struct Rows<'a, O> {
+    obs: &'a mut O,
+    cart: &'a CartMotion,
+    plan: &'a StepPlan,
+    impacts: u64,
+}
+
+impl<T: Real, O: Observer<T>> StepHook<T> for Rows<'_, O> {
+    fn records(&self, step: u64) -> bool {
+        step.is_multiple_of(self.plan.sample_every)
+    }
+
+    fn after_step(
+        &mut self,
+        step: u64,
+        y: &[T],
+        onsets: u32,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+    ) -> ControlFlow<()> {
+        self.impacts += u64::from(onsets);
+        if StepHook::<T>::records(self, step) {
+            let t = step as f64 * self.plan.dt_s;
+            let cart = self.cart.at_step(step, 0.0, self.plan.dt_s);
+            self.obs.sample(step, t, &cart, y, chain, ws);
+        }
+        ControlFlow::Continue(())
+    }
+}
+
+/// Integrate one instance with RK4 over the plan, calling the observer at every output row.
+pub fn integrate<T: Real, O: Observer<T>>(
+    inst: &Instance<T>,
+    plan: &StepPlan,
+    obs: &mut O,
+) -> Outcome {
+    let chain = &inst.chain;
+    let mut y: Vec<T> = inst.y0.iter().map(|&v| T::of(v)).collect();
+    let mut ws = chain.workspace();
+    let cart0 = inst.cart.at_step(0, 0.0, plan.dt_s);
+    obs.sample(0, 0.0, &cart0, &y, chain, &mut ws);
+    let clock = TimeClock {
+        cart: &inst.cart,
+        dt_s: plan.dt_s,
+    };
+    let mut rows = Rows {
+        obs,
+        cart: &inst.cart,
+        plan,
+        impacts: 0,
+    };
+    let end = run_steps(
+        chain,
+        &inst.guard,
+        &mut y,
+        plan.dt_s,
+        plan.steps,
+        &clock,
+        &mut rows,
+    );
+    Outcome {
+        status: end.status,
+        steps_done: end.steps_done,
+        impacts: rows.impacts,
+        failed_at_s: (!end.status.is_ok()).then_some(end.steps_done as f64 * plan.dt_s),
+    }
+}
+
+/// Integrate a batch of independent instances in parallel (rayon), one observer each.
+pub fn integrate_batch<T: Real, O: Observer<T> + Send>(
+    instances: &[Instance<T>],
+    plan: &StepPlan,
+    observers: &mut [O],
+) -> Vec<Outcome> {
+    assert_eq!(
+        instances.len(),
+        observers.len(),
+        "one observer per instance"
+    );
+    instances
+        .par_iter()
+        .zip(observers.par_iter_mut())
+        .map(|(inst, obs)| integrate(inst, plan, obs))
+        .collect()
+}

@@ -1,0 +1,166 @@
+//! The GPU side that needs no adapter: the structs shared with WGSL have the same layout in
+//! both languages, the assembled shader validates, its generated header carries the Rust
+//! definitions; and, with an adapter, one device compiles each kernel set once.
+
+use pendulum_atlas::engine::gpu::kernels::{SHADER_STAGES, shader_header, shader_source};
+use pendulum_atlas::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams};
+use pendulum_atlas::model::{CHECK_EVERY, Status};
+
+/// Member offsets of a Rust struct, by name.
+macro_rules! offsets {
+    ($t:ty; $($f:ident),* $(,)?) => {
+        vec![$((stringify!($f), std::mem::offset_of!($t, $f))),*]
+    };
+}
+
+fn module() -> naga::Module {
+    let src = shader_source();
+    naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{}", e.emit_to_string(&src)))
+}
+
+/// (member name, offset) of a WGSL struct, and its size.
+fn wgsl_layout(module: &naga::Module, name: &str) -> (Vec<(String, usize)>, usize) {
+    for (_, ty) in module.types.iter() {
+        if ty.name.as_deref() == Some(name)
+            && let naga::TypeInner::Struct { members, span } = &ty.inner
+        {
+            let m = members
+                .iter()
+                .map(|m| (m.name.clone().unwrap_or_default(), m.offset as usize))
+                .collect();
+            return (m, *span as usize);
+        }
+    }
+    panic!("struct {name} not found in the shader");
+}
+
+fn assert_same_layout(
+    module: &naga::Module,
+    wgsl: &str,
+    rust: Vec<(&str, usize)>,
+    rust_size: usize,
+) {
+    let (members, span) = wgsl_layout(module, wgsl);
+    let names: Vec<&str> = members.iter().map(|(n, _)| n.as_str()).collect();
+    let rust_names: Vec<&str> = rust.iter().map(|(n, _)| *n).collect();
+    assert_eq!(names, rust_names, "{wgsl}: member names and order");
+    for ((n, wo), (_, ro)) in members.iter().zip(&rust) {
+        assert_eq!(wo, ro, "{wgsl}.{n}: WGSL offset {wo}, Rust offset {ro}");
+    }
+    assert_eq!(span, rust_size, "{wgsl}: size");
+}
+
+#[test]
+fn parameter_structs_have_the_same_layout_in_rust_and_wgsl() {
+    let m = module();
+    assert_same_layout(
+        &m,
+        "InstanceParams",
+        offsets!(GpuInstanceParams; seg_len, seg_mass, seg_inertia, tip_mass, holder_inertia, g,
+            k, k0, b, b0, gap, kc, cc, piezo_inv_c, piezo_inv_r, piezo_theta, pos_amp, vel_amp,
+            acc_amp, dt, guard_energy, guard_bend, theta0, omega0, volt0, half_clearance,
+            guard_holder, pad1, n_levers, piezo_last, spp, transient_periods, total_periods, strobe_offset,
+            strobe_count, r_every, r_count, r_start, pad2, pad3, levers),
+        size_of::<GpuInstanceParams>(),
+    );
+    assert_same_layout(
+        &m,
+        "Accum",
+        offsets!(GpuAccum; step, status, touch, well, hops, impacts, period, pad0, alpha_min,
+            alpha_max, power_sum, power_comp, k, r, pad1, pad2),
+        size_of::<GpuAccum>(),
+    );
+    assert_same_layout(
+        &m,
+        "Control",
+        offsets!(GpuControl; n_inst, steps_per_dispatch, strobe_stride, rwork_stride,
+            period_max, period_window, period_tol, c_index),
+        size_of::<GpuControl>(),
+    );
+}
+
+#[test]
+fn the_assembled_shader_validates_without_an_adapter() {
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::default(),
+    )
+    .validate(&module())
+    .unwrap_or_else(|e| panic!("{e:?}"));
+    // Every stage file of shaders/ is part of the assembly, and nothing else is there.
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+    let mut on_disk: Vec<String> = std::fs::read_dir(&dir)
+        .expect("shaders/")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".wgsl"))
+        .collect();
+    on_disk.sort();
+    let mut assembled: Vec<String> = SHADER_STAGES.iter().map(|(n, _)| n.to_string()).collect();
+    assembled.sort();
+    assert_eq!(on_disk, assembled);
+}
+
+/// The value of a `const NAME: u32 = …u;` of the assembled shader, as naga evaluates it.
+fn wgsl_const(module: &naga::Module, name: &str) -> u32 {
+    let (_, c) = module
+        .constants
+        .iter()
+        .find(|(_, c)| c.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("no const {name} in the shader"));
+    match module.global_expressions[c.init] {
+        naga::Expression::Literal(naga::Literal::U32(v)) => v,
+        ref other => panic!("{name} = {other:?}"),
+    }
+}
+
+#[test]
+fn the_shader_takes_status_codes_and_the_check_interval_from_rust() {
+    let m = module();
+    for s in Status::ALL {
+        assert_eq!(wgsl_const(&m, s.wgsl_name()), u32::from(s.code()), "{s}");
+        assert_eq!(Status::from_code(u32::from(s.code())), Some(s));
+    }
+    assert_eq!(u64::from(wgsl_const(&m, "CHECK_EVERY")), CHECK_EVERY);
+    // The stage files carry no copy of their own.
+    for (name, text) in SHADER_STAGES {
+        for s in Status::ALL {
+            assert!(
+                !text.contains(&format!("const {}", s.wgsl_name())),
+                "{name} defines {s}"
+            );
+        }
+        assert!(
+            !text.contains("const CHECK_EVERY"),
+            "{name} defines CHECK_EVERY"
+        );
+    }
+    assert!(shader_header().contains("Generated"));
+}
+
+#[test]
+fn one_gpu_device_compiles_each_kernel_set_once() {
+    use pendulum_atlas::engine::gpu::{AdapterChoice, GpuContext};
+    use pendulum_atlas::engine::{Engine, no_progress};
+    if super::gpu().is_none() {
+        return;
+    }
+    // A fresh device, so that the suite's other tests do not count.
+    let engine = Engine::gpu(
+        GpuContext::new(AdapterChoice::Any).expect("adapter"),
+        String::new(),
+        0.0,
+    );
+    let ctx = engine.gpu_context().expect("gpu");
+    let k_only = super::cases::tiny_map(
+        "",
+        "metrics = [\"K\"]\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [5.0, 8.0]",
+    );
+    let hops = super::cases::tiny_map(
+        "",
+        "metrics = [\"hops\"]\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [5.0, 8.0]",
+    );
+    for spec in [&k_only, &k_only, &hops, &k_only, &hops] {
+        pendulum_atlas::map::run_map(spec, &engine, &no_progress).expect("map");
+    }
+    assert_eq!(ctx.compiled_kernel_sets(), 2);
+}

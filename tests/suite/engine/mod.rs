@@ -1,0 +1,91 @@
+//! One suite for every engine: the same test bodies ([`cases`]) run on the CPU engine in f64
+//! and in f32 and on the GPU engine, so parity is a property of the suite, not a special test.
+//!
+//! The GPU needs a wgpu adapter (lavapipe is enough). Without one its tests print a skip
+//! message, unless PENDULUM_ATLAS_REQUIRE_GPU=1 (as `.ci/run` sets), which makes them fail.
+
+mod cases;
+mod layout;
+
+use pendulum_atlas::engine::gpu::REQUIRE_GPU_ENV;
+use pendulum_atlas::engine::{Backend, Engine, Precision};
+use std::sync::OnceLock;
+
+/// The engines the suite runs on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Under {
+    /// The CPU engine in f64: the reference of the others.
+    CpuF64,
+    /// The CPU engine in f32.
+    CpuF32,
+    /// The GPU engine (f32).
+    Gpu,
+}
+
+impl Under {
+    /// The engine, or `None` (skip) for the GPU when there is no adapter and none is required.
+    pub fn engine(self) -> Option<&'static Engine> {
+        static CPU64: OnceLock<Engine> = OnceLock::new();
+        static CPU32: OnceLock<Engine> = OnceLock::new();
+        match self {
+            Under::CpuF64 => Some(CPU64.get_or_init(|| Engine::cpu(Precision::F64))),
+            Under::CpuF32 => Some(CPU32.get_or_init(|| Engine::cpu(Precision::F32))),
+            Under::Gpu => gpu(),
+        }
+    }
+
+    /// Single precision: the looser parity tolerances apply.
+    pub fn is_f32(self) -> bool {
+        self != Under::CpuF64
+    }
+}
+
+/// The shared GPU engine, or `None` (skip) when there is no adapter and none is required.
+pub fn gpu() -> Option<&'static Engine> {
+    static GPU: OnceLock<Option<Engine>> = OnceLock::new();
+    let e = GPU.get_or_init(|| match Engine::open(Backend::Gpu, None) {
+        Ok(e) => Some(e),
+        Err(e) => {
+            if std::env::var(REQUIRE_GPU_ENV).is_ok_and(|v| v == "1") {
+                panic!("{REQUIRE_GPU_ENV}=1 but no GPU adapter: {e}");
+            }
+            None
+        }
+    });
+    if e.is_none() {
+        eprintln!(
+            "SKIPPED: no GPU adapter (install mesa-vulkan-drivers for lavapipe; set {REQUIRE_GPU_ENV}=1 to fail instead)"
+        );
+    }
+    e.as_ref()
+}
+
+/// The same tests, one module per engine.
+macro_rules! engine_suite {
+    ($($case:ident),* $(,)?) => {
+        mod cpu_f64 {
+            $(#[test] fn $case() { super::cases::$case(super::Under::CpuF64) })*
+        }
+        mod cpu_f32 {
+            $(#[test] fn $case() { super::cases::$case(super::Under::CpuF32) })*
+        }
+        mod gpu {
+            $(#[test] fn $case() { super::cases::$case(super::Under::Gpu) })*
+        }
+    };
+}
+
+engine_suite!(
+    holder_angle_over_a_short_horizon_matches_the_reference_integrator,
+    reductions_equal_the_analysis_library_on_the_engines_own_series,
+    maps_agree_with_the_f64_cpu_engine_on_classes_r_and_statuses,
+    diverging_instances_are_flagged_like_on_the_f64_cpu_engine,
+    step_beyond_the_stability_limit_is_flagged_not_returned,
+    violent_forcing_up_to_a_tenth_of_a_metre_and_fifty_hertz,
+    clearances_from_half_a_degree_to_sixty_and_stiff_bumpers,
+    sixty_four_segments_integrate,
+    ten_thousand_forcing_periods_keep_the_phase_and_the_energy,
+    metrics_not_requested_are_not_computed,
+    a_map_runs_end_to_end_into_its_files,
+    a_search_runs_end_to_end_and_agrees_with_single_runs,
+);
