@@ -1,79 +1,84 @@
 //! Files of a study: `bench.json`, `work_precision.png`, `map_error.png`, `BENCHMARKS.md`.
 
 use super::{BenchReport, ConfigResult};
+use crate::output::OutputError;
+use crate::output::files::{create_dir, draw, write_bytes, write_json};
 use crate::render::{Series, line_chart};
-use anyhow::{Context, Result};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// Write the study's files into `dir`.
-pub fn write_bench(dir: &Path, r: &BenchReport) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let mut out = Vec::new();
-    let p = dir.join("bench.json");
-    std::fs::write(&p, serde_json::to_string_pretty(r)?)?;
-    out.push(p);
+pub fn write_bench(dir: &Path, r: &BenchReport) -> Result<Vec<PathBuf>, OutputError> {
+    create_dir(dir)?;
+    let title = format!(
+        "Holder-angle error over {} s vs N = 17 DOP853 (points: N = 1, 3, 5, 9, 17 from the left)",
+        r.horizon_s
+    );
+    let err = Curves::new(r, |c| (c.cost_per_instance_s, c.alpha_err_rad));
+    let dk = Curves::new(r, |c| (c.cost_per_instance_s, c.mean_abs_dk.max(1e-4)));
+    let x_label = "wall time per instance and simulated second on this machine (s/s)";
+    Ok(vec![
+        write_json(&dir.join("bench.json"), r)?,
+        draw(&dir.join("work_precision.png"), |p| {
+            line_chart(
+                p,
+                &title,
+                x_label,
+                "max |α − α_ref| (rad)",
+                &err.series(),
+                true,
+                true,
+            )
+        })?,
+        draw(&dir.join("map_error.png"), |p| {
+            line_chart(
+                p,
+                "Indicator error on the reference map vs N = 17 f64 (floor 1e-4)",
+                x_label,
+                "mean |K − K_ref|",
+                &dk.series(),
+                true,
+                true,
+            )
+        })?,
+        write_bytes(&dir.join("BENCHMARKS.md"), markdown(r).as_bytes())?,
+    ])
+}
 
-    // One curve per configuration family, points along N.
-    let mut families: BTreeMap<String, Vec<&ConfigResult>> = BTreeMap::new();
-    for c in &r.configs {
-        families.entry(c.config.family()).or_default().push(c);
+/// One curve per configuration family, points along N (positive values only).
+struct Curves {
+    names: Vec<String>,
+    points: Vec<(Vec<f64>, Vec<f64>)>,
+}
+
+impl Curves {
+    fn new(r: &BenchReport, f: fn(&ConfigResult) -> (f64, f64)) -> Curves {
+        let mut families: BTreeMap<String, Vec<&ConfigResult>> = BTreeMap::new();
+        for c in &r.configs {
+            families.entry(c.config.family()).or_default().push(c);
+        }
+        Curves {
+            names: families.keys().cloned().collect(),
+            points: families
+                .values()
+                .map(|v| {
+                    v.iter()
+                        .map(|c| f(c))
+                        .filter(|(x, y)| *x > 0.0 && *y > 0.0)
+                        .unzip()
+                })
+                .collect(),
+        }
     }
-    let names: Vec<String> = families.keys().cloned().collect();
-    let pick = |f: fn(&ConfigResult) -> (f64, f64)| -> Vec<(Vec<f64>, Vec<f64>)> {
-        families
-            .values()
-            .map(|v| {
-                v.iter()
-                    .map(|c| f(c))
-                    .filter(|(x, y)| *x > 0.0 && *y > 0.0)
-                    .unzip()
-            })
-            .collect()
-    };
-    let curves = pick(|c| (c.cost_per_instance_s, c.alpha_err_rad));
-    let series: Vec<Series> = names
-        .iter()
-        .zip(&curves)
-        .map(|(n, (x, y))| Series { name: n, x, y })
-        .collect();
-    let p = dir.join("work_precision.png");
-    line_chart(
-        &p,
-        &format!(
-            "Holder-angle error over {} s vs N = 17 DOP853 (points: N = 1, 3, 5, 9, 17 from the left)",
-            r.horizon_s
-        ),
-        "wall time per instance and simulated second on this machine (s/s)",
-        "max |α − α_ref| (rad)",
-        &series,
-        true,
-        true,
-    )?;
-    out.push(p);
-    let curves = pick(|c| (c.cost_per_instance_s, c.mean_abs_dk.max(1e-4)));
-    let series: Vec<Series> = names
-        .iter()
-        .zip(&curves)
-        .map(|(n, (x, y))| Series { name: n, x, y })
-        .collect();
-    let p = dir.join("map_error.png");
-    line_chart(
-        &p,
-        "Indicator error on the reference map vs N = 17 f64 (floor 1e-4)",
-        "wall time per instance and simulated second on this machine (s/s)",
-        "mean |K − K_ref|",
-        &series,
-        true,
-        true,
-    )?;
-    out.push(p);
 
-    let p = dir.join("BENCHMARKS.md");
-    std::fs::write(&p, markdown(r))?;
-    out.push(p);
-    Ok(out)
+    fn series(&self) -> Vec<Series<'_>> {
+        self.names
+            .iter()
+            .zip(&self.points)
+            .map(|(n, (x, y))| Series { name: n, x, y })
+            .collect()
+    }
 }
 
 /// The study as a Markdown page.

@@ -236,35 +236,39 @@ fn time_series_figure(scene: &Scene, rows: &[Row], out: &std::path::Path) -> any
         series: vec![Series { name, x, y }],
         log_y: false,
     };
-    render::stacked_panels(
-        &out.join("time_series.png"),
-        &format!(
-            "f = {} Hz, A = {} mm, N = {}",
-            scene.excitation.reference_frequency_hz(),
-            scene.excitation.amplitude_m * 1e3,
-            scene.beam.segments
-        ),
-        &[
-            line("cart x0 (mm)", &t, &x0),
-            line("holder angle α (rad)", &t, &alpha),
-            line("chord reduction (mm)", &t, &chord),
-            Panel {
-                x_label: "frequency (Hz)",
-                y_label: "amplitude",
-                series: vec![
-                    Series {
-                        name: "α (rad)",
-                        x: &spec_a.frequency_hz[..keep],
-                        y: &spec_a.amplitude[..keep],
-                    },
-                    Series {
-                        name: "chord (mm)",
-                        x: &spec_c.frequency_hz[..keep],
-                        y: &spec_c.amplitude[..keep],
-                    },
-                ],
-                log_y: true,
-            },
-        ],
-    )
+    let path = out.join("time_series.png");
+    pendulum_atlas::output::files::draw(&path, |p| {
+        render::stacked_panels(
+            p,
+            &format!(
+                "f = {} Hz, A = {} mm, N = {}",
+                scene.excitation.reference_frequency_hz(),
+                scene.excitation.amplitude_m * 1e3,
+                scene.beam.segments
+            ),
+            &[
+                line("cart x0 (mm)", &t, &x0),
+                line("holder angle α (rad)", &t, &alpha),
+                line("chord reduction (mm)", &t, &chord),
+                Panel {
+                    x_label: "frequency (Hz)",
+                    y_label: "amplitude",
+                    series: vec![
+                        Series {
+                            name: "α (rad)",
+                            x: &spec_a.frequency_hz[..keep],
+                            y: &spec_a.amplitude[..keep],
+                        },
+                        Series {
+                            name: "chord (mm)",
+                            x: &spec_c.frequency_hz[..keep],
+                            y: &spec_c.amplitude[..keep],
+                        },
+                    ],
+                    log_y: true,
+                },
+            ],
+        )
+    })?;
+    Ok(())
 }

@@ -15,7 +15,7 @@
 //! any scene, so a swept value out of range is reported with its key.
 
 use super::error::ConfigError;
-use super::reader::{Range, Reader, apply_override, parse_toml};
+use super::reader::{Range, Reader, apply_override, parse_toml, set_key};
 use super::scene::{ExcitationKind, Scene};
 use serde::Serialize;
 use toml::{Table, Value};
@@ -242,7 +242,7 @@ impl MapSpec {
 /// Set a numeric key in a scene table, keeping integer keys integer.
 fn set_number(table: &mut Table, key: &str, v: f64) -> Result<(), ConfigError> {
     let existing_int = lookup_key(table, key).is_some_and(|x| x.is_integer());
-    let text = if existing_int {
+    let value = if existing_int {
         if v.fract() != 0.0 {
             return Err(ConfigError::WrongType {
                 key: key.into(),
@@ -250,11 +250,11 @@ fn set_number(table: &mut Table, key: &str, v: f64) -> Result<(), ConfigError> {
                 found: format!("{v}"),
             });
         }
-        format!("{key}={}", v as i64)
+        Value::Integer(v as i64)
     } else {
-        format!("{key}={v:e}")
+        Value::Float(v)
     };
-    apply_override(table, &text)
+    set_key(table, key, value)
 }
 
 /// The text of a scene file, or of the embedded default (`default_name` names it in errors),

@@ -25,13 +25,28 @@ pub fn parse_override_value(raw: &str) -> Value {
 
 /// Apply one `section.key=value` override to a scene table, creating sections as needed.
 pub fn apply_override(table: &mut Table, arg: &str) -> Result<(), ConfigError> {
-    let bad = |reason: &str| ConfigError::BadOverride {
-        arg: arg.to_string(),
-        reason: reason.to_string(),
-    };
     let (key, raw) = arg
         .split_once('=')
-        .ok_or_else(|| bad("expected `section.key=value`"))?;
+        .ok_or_else(|| ConfigError::BadOverride {
+            arg: arg.to_string(),
+            reason: "expected `section.key=value`".into(),
+        })?;
+    set_key(table, key, parse_override_value(raw)).map_err(|e| match e {
+        ConfigError::BadOverride { reason, .. } => ConfigError::BadOverride {
+            arg: arg.to_string(),
+            reason,
+        },
+        other => other,
+    })
+}
+
+/// Set a dotted key of a scene table to a typed value, creating sections as needed (the
+/// typed twin of [`apply_override`]: no text is formatted or parsed).
+pub fn set_key(table: &mut Table, key: &str, value: Value) -> Result<(), ConfigError> {
+    let bad = |reason: &str| ConfigError::BadOverride {
+        arg: format!("{key}={value}"),
+        reason: reason.to_string(),
+    };
     let key = key.trim();
     if key.is_empty() || key.split('.').any(|p| p.trim().is_empty()) {
         return Err(bad("the key is empty or has an empty part"));
@@ -53,7 +68,7 @@ pub fn apply_override(table: &mut Table, arg: &str) -> Result<(), ConfigError> {
             }
         };
     }
-    cursor.insert(leaf.to_string(), parse_override_value(raw));
+    cursor.insert(leaf.to_string(), value);
     Ok(())
 }
 

@@ -3,10 +3,12 @@
 
 use super::search::SearchRun;
 use super::spec::SearchSpec;
+use crate::render::RenderError;
 use crate::render::{
     AxisSpec, PALETTE, Series, TICK_PX, build_chart, canvas, font, line_chart, plot_value,
 };
-use anyhow::Result;
+
+type Result<T> = std::result::Result<T, RenderError>;
 use plotters::prelude::*;
 use std::path::Path;
 

@@ -1,11 +1,13 @@
 //! The files of a search: `designs.csv`, `instances.csv`, `best.md`, `best_design.toml`,
 //! `pareto.png`, `power_vs_frequency.png` and `search.json`.
 
+use super::error::HarvestError;
 use super::figures::{pareto_figure, power_figure};
 use super::search::{DesignResult, SearchRun};
 use super::spec::{BaseExcitation, SearchSpec, Threshold};
 use super::verify::Verification;
-use anyhow::{Context, Result};
+use crate::output::OutputError;
+use crate::output::files::{AtomicFile, create_dir, draw, write_bytes, write_json};
 use serde_json::json;
 use std::fmt::Write as _;
 use std::io::Write;
@@ -64,54 +66,38 @@ pub fn write_search(
     run: &SearchRun,
     verification: Option<&Verification>,
     origin: &str,
-) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let mut written = Vec::new();
-
-    let p = dir.join("designs.csv");
-    write_designs_csv(&p, spec, run)?;
-    written.push(p);
-
-    let p = dir.join("instances.csv");
-    write_instances_csv(&p, spec, run)?;
-    written.push(p);
-
-    let p = dir.join("best_design.toml");
-    std::fs::write(&p, best_design_toml(spec, run.best(), verification)?)?;
-    written.push(p);
-
+) -> Result<Vec<PathBuf>, HarvestError> {
+    create_dir(dir)?;
+    let toml = best_design_toml(spec, run.best(), verification)?;
+    let mut written = vec![
+        write_designs_csv(&dir.join("designs.csv"), spec, run)?,
+        write_instances_csv(&dir.join("instances.csv"), spec, run)?,
+        write_bytes(&dir.join("best_design.toml"), toml.as_bytes())?,
+    ];
     if let Some(v) = verification {
-        let p = dir.join("verification.csv");
-        write_verification_csv(&p, v)?;
-        written.push(p);
+        written.push(write_verification_csv(&dir.join("verification.csv"), v)?);
     }
-
-    let p = dir.join("best.md");
-    std::fs::write(&p, best_md(spec, run, verification, origin))?;
-    written.push(p);
-
-    let p = dir.join("pareto.png");
-    pareto_figure(&p, spec, run)?;
-    written.push(p);
-
-    let p = dir.join("power_vs_frequency.png");
-    power_figure(&p, spec, run)?;
-    written.push(p);
-
-    let p = dir.join("search.json");
-    std::fs::write(
-        &p,
-        serde_json::to_string_pretty(&search_json(spec, run, verification, origin))?,
-    )?;
-    written.push(p);
+    let md = best_md(spec, run, verification, origin);
+    written.push(write_bytes(&dir.join("best.md"), md.as_bytes())?);
+    written.push(draw(&dir.join("pareto.png"), |p| {
+        pareto_figure(p, spec, run)
+    })?);
+    written.push(draw(&dir.join("power_vs_frequency.png"), |p| {
+        power_figure(p, spec, run)
+    })?);
+    let json = search_json(spec, run, verification, origin);
+    written.push(write_json(&dir.join("search.json"), &json)?);
     Ok(written)
 }
 
 /// `designs.csv`: one row per evaluated design.
-fn write_designs_csv(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<()> {
-    let mut w = std::io::BufWriter::new(
-        std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
-    );
+fn write_designs_csv(
+    path: &Path,
+    spec: &SearchSpec,
+    run: &SearchRun,
+) -> Result<PathBuf, OutputError> {
+    let io = |e| OutputError::io(path, e);
+    let mut w = AtomicFile::create(path)?;
     let mut header: Vec<String> = vec!["id".into(), "stage".into()];
     header.extend(spec.variables.iter().map(|v| v.key.clone()));
     header.extend(
@@ -130,7 +116,7 @@ fn write_designs_csv(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<
         ]
         .map(String::from),
     );
-    writeln!(w, "{}", header.join(","))?;
+    writeln!(w, "{}", header.join(",")).map_err(io)?;
     for d in &run.designs {
         let mut row = vec![d.id.to_string(), d.stage.clone()];
         row.extend(d.values.iter().map(|&v| num(v)));
@@ -147,21 +133,19 @@ fn write_designs_csv(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<
             d.pareto.to_string(),
             d.rank.to_string(),
         ]);
-        writeln!(w, "{}", row.join(","))?;
+        writeln!(w, "{}", row.join(",")).map_err(io)?;
     }
-    w.flush()?;
-    Ok(())
+    w.commit()
 }
 
 /// `verification.csv`: the best design re-simulated at every point, next to the search.
-fn write_verification_csv(path: &Path, v: &Verification) -> Result<()> {
-    let mut w = std::io::BufWriter::new(
-        std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
-    );
+fn write_verification_csv(path: &Path, v: &Verification) -> Result<PathBuf, OutputError> {
+    let io = |e| OutputError::io(path, e);
+    let mut w = AtomicFile::create(path)?;
     writeln!(
         w,
         "design,initial_state,frequency_hz,search_power_w,simulate_power_w,rel_diff,period,hops,k_simulate,regular,status"
-    )?;
+    ).map_err(io)?;
     for p in &v.points {
         writeln!(
             w,
@@ -177,10 +161,10 @@ fn write_verification_csv(path: &Path, v: &Verification) -> Result<()> {
             num(p.k_simulate),
             p.regular(),
             p.status
-        )?;
+        )
+        .map_err(io)?;
     }
-    w.flush()?;
-    Ok(())
+    w.commit()
 }
 
 /// Mean hops per instance (after the transient) over a design's ok instances.
@@ -206,14 +190,18 @@ pub fn periodic_fraction(d: &DesignResult) -> f64 {
 }
 
 /// `instances.csv`: every instance of every design (and the baseline), one row each.
-fn write_instances_csv(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<()> {
-    let mut w = std::io::BufWriter::new(
-        std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
-    );
+fn write_instances_csv(
+    path: &Path,
+    spec: &SearchSpec,
+    run: &SearchRun,
+) -> Result<PathBuf, OutputError> {
+    let io = |e| OutputError::io(path, e);
+    let mut w = AtomicFile::create(path)?;
     writeln!(
         w,
         "design,initial_state,frequency_hz,amplitude_m,power_w,hops,impacts_per_s,period"
-    )?;
+    )
+    .map_err(io)?;
     for (f, p) in run
         .baseline
         .frequencies_hz
@@ -225,7 +213,8 @@ fn write_instances_csv(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Resul
             "baseline,rest,{f},{},{},nan,nan,nan",
             spec.band.excitation.amplitude_m(*f),
             num(*p)
-        )?;
+        )
+        .map_err(io)?;
     }
     for d in &run.designs {
         for (s, state) in spec.initial_states.iter().enumerate() {
@@ -240,12 +229,12 @@ fn write_instances_csv(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Resul
                     num(d.hops[s][j]),
                     num(d.impacts_per_s[s][j]),
                     num(d.period[s][j])
-                )?;
+                )
+                .map_err(io)?;
             }
         }
     }
-    w.flush()?;
-    Ok(())
+    w.commit()
 }
 
 /// The frequency at which the best design is checked by `simulate`, from the first initial
@@ -286,7 +275,7 @@ fn best_design_toml(
     spec: &SearchSpec,
     d: &DesignResult,
     verification: Option<&Verification>,
-) -> Result<String> {
+) -> Result<String, HarvestError> {
     let (table, scene) = spec.design_table(&d.values)?;
     let (f, j) = check_point(spec, d, verification);
     let state = &spec.initial_states[0];
@@ -299,10 +288,10 @@ fn best_design_toml(
         ("initial.rate_deg_s", inst.initial.rate_deg_s),
         ("initial.voltage_v", inst.initial.voltage_v),
     ] {
-        crate::config::apply_override(&mut t, &format!("{k}={v:e}"))?;
+        crate::config::set_key(&mut t, k, toml::Value::Float(v))?;
     }
     let mut out = String::new();
-    writeln!(
+    let _ = writeln!(
         out,
         "# The best design of a harvesting search (design #{}) at {f} Hz from the initial\n\
          # state `{}` (its robust peak, or its strongest regular response if the peak is not\n\
@@ -315,8 +304,8 @@ fn best_design_toml(
         state.name,
         scene.integration.transient_s,
         num(d.power_w[0][j]),
-    )?;
-    out.push_str(&toml::to_string(&t)?);
+    );
+    out.push_str(&toml::to_string(&t).map_err(HarvestError::Toml)?);
     Ok(out)
 }
 

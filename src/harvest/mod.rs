@@ -8,7 +8,7 @@
 //!    excitation (constant acceleration or constant amplitude), initial states, threshold.
 //! 2. [`search`]: the linear baseline, the grid of designs and the refinement rounds, each
 //!    one batch of designs × initial states × frequencies on the ensemble engine
-//!    ([`crate::map::run_plan`], GPU or CPU), reduced to P(f) curves and ranked.
+//!    ([`crate::map::run_plan`] on the engine the caller opened once), reduced to P(f) curves and ranked.
 //! 3. [`band`]: the band metric of a P(f) curve: bandwidth above a threshold, band-averaged
 //!    power, peak; robust (smallest over initial states) and mean curves.
 //! 4. [`verify`]: the best design re-simulated with `simulate`'s own engine and step.
@@ -16,6 +16,7 @@
 //!    `best_design.toml`, `search.json`, `pareto.png`, `power_vs_frequency.png`.
 
 pub mod band;
+mod error;
 pub mod figures;
 pub mod files;
 pub mod search;
@@ -23,6 +24,7 @@ pub mod spec;
 pub mod verify;
 
 pub use band::{BandMetrics, band_average_w, band_metrics, bandwidth_hz, mean_curve, robust_curve};
+pub use error::HarvestError;
 pub use files::write_search;
 pub use search::{Baseline, DesignResult, SearchProgress, SearchRun, StageReport, run_search};
 pub use spec::{

@@ -13,13 +13,13 @@
 //! batch, which a one-point-at-a-time optimiser (Nelder–Mead and the like) could not do.
 
 use super::band::{BandMetrics, band_metrics, mean_curve, robust_curve};
+use super::error::HarvestError;
 use super::spec::{InitialState, Objective, SearchSpec, describe_design};
-use crate::config::{Metric, Scene};
+use crate::config::{ConfigError, Metric, Scene};
 use crate::engine::{Engine, EngineInfo, EnsembleOptions, EnsemblePlan, ProgressUnit};
 use crate::map::run_plan;
 use crate::model::Status;
 use crate::reduce::{InstanceResult, ReduceOptions};
-use anyhow::{Context, Result, bail};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::HashSet;
@@ -210,7 +210,7 @@ impl Batches<'_> {
         designs: usize,
         scenes: Vec<Scene>,
         started: Instant,
-    ) -> Result<(Vec<InstanceResult>, StageReport)> {
+    ) -> Result<(Vec<InstanceResult>, StageReport), HarvestError> {
         let instances = scenes.len();
         let chunk = chunk_len(&scenes, spec.max_batch_instances);
         let n_chunks = instances.div_ceil(chunk);
@@ -228,8 +228,11 @@ impl Batches<'_> {
         };
         let mut integrate_s = 0.0;
         for (c, part) in scenes.chunks(chunk).enumerate() {
-            let plan = EnsemblePlan::from_scenes(part, &ensemble_options(spec))
-                .with_context(|| format!("planning the {stage} batch"))?;
+            let failed = |source| HarvestError::Engine {
+                stage: stage.to_string(),
+                source,
+            };
+            let plan = EnsemblePlan::from_scenes(part, &ensemble_options(spec)).map_err(failed)?;
             let label = if n_chunks > 1 {
                 format!(
                     "{stage}: {designs} designs, {instances} instances (chunk {}/{n_chunks})",
@@ -240,8 +243,7 @@ impl Batches<'_> {
             };
             let progress = self.progress;
             let cb = |done: u64, total: u64, _unit: ProgressUnit| progress(&label, done, total);
-            let run = run_plan(plan, &reduce_options(), None, self.engine, &cb)
-                .with_context(|| format!("integrating the {stage} batch"))?;
+            let run = run_plan(plan, &reduce_options(), None, self.engine, &cb).map_err(failed)?;
             let steps = run.plan.total_steps;
             report.instance_steps += steps;
             report.engine_s += run.timings.total_s;
@@ -262,10 +264,10 @@ impl Batches<'_> {
 }
 
 /// Build the scenes of a batch of designs: designs × initial states × band frequencies.
-fn design_scenes(spec: &SearchSpec, designs: &[Vec<f64>]) -> Result<Vec<Scene>> {
+fn design_scenes(spec: &SearchSpec, designs: &[Vec<f64>]) -> Result<Vec<Scene>, HarvestError> {
     let per_design: Vec<Vec<Scene>> = designs
         .par_iter()
-        .map(|d| -> Result<Vec<Scene>> {
+        .map(|d| -> Result<Vec<Scene>, HarvestError> {
             let (table, scene) = spec.design_table(d)?;
             let clearance = scene.limiter.clearance_deg;
             let mut out = Vec::new();
@@ -273,19 +275,20 @@ fn design_scenes(spec: &SearchSpec, designs: &[Vec<f64>]) -> Result<Vec<Scene>> 
                 for &f in &spec.band.frequencies_hz {
                     out.push(
                         spec.instance_scene(&table, clearance, state, f)
-                            .with_context(|| {
-                                format!(
-                                    "design {} at {f} Hz from {}",
+                            .map_err(|e| ConfigError::Inconsistent {
+                                key: "search.variables".into(),
+                                reason: format!(
+                                    "design {} at {f} Hz from {}: {e}",
                                     describe_design(&spec.variables, d),
                                     state.name
-                                )
+                                ),
                             })?,
                     );
                 }
             }
             Ok(out)
         })
-        .collect::<Result<_>>()?;
+        .collect::<Result<_, _>>()?;
     Ok(per_design.into_iter().flatten().collect())
 }
 
@@ -297,7 +300,7 @@ fn evaluate(
     designs: Vec<Vec<f64>>,
     first_id: usize,
     threshold_w: f64,
-) -> Result<(Vec<DesignResult>, StageReport)> {
+) -> Result<(Vec<DesignResult>, StageReport), HarvestError> {
     let started = Instant::now();
     let scenes = design_scenes(spec, &designs)?;
     let (results, report) = engine.run(spec, stage, designs.len(), scenes, started)?;
@@ -360,7 +363,10 @@ fn baseline_frequencies(spec: &SearchSpec, f1: f64) -> Vec<f64> {
 }
 
 /// Evaluate the clamped linear cantilever over the band (and the zoom around its resonance).
-fn evaluate_baseline(spec: &SearchSpec, engine: &mut Batches) -> Result<(Baseline, StageReport)> {
+fn evaluate_baseline(
+    spec: &SearchSpec,
+    engine: &mut Batches,
+) -> Result<(Baseline, StageReport), HarvestError> {
     let started = Instant::now();
     let table = spec.baseline_table()?;
     let scene0 = Scene::from_table(table.clone())?;
@@ -369,7 +375,7 @@ fn evaluate_baseline(spec: &SearchSpec, engine: &mut Batches) -> Result<(Baselin
         .frequencies_hz
         .first()
         .copied()
-        .context("the clamped baseline has no stable mode")?;
+        .ok_or(HarvestError::NoBaselineMode)?;
     let freqs = baseline_frequencies(spec, first_natural_hz);
     let rest = InitialState {
         name: "rest".into(),
@@ -521,7 +527,7 @@ pub fn run_search(
     spec: &SearchSpec,
     engine: &Engine,
     progress: SearchProgress,
-) -> Result<SearchRun> {
+) -> Result<SearchRun, HarvestError> {
     let t_all = Instant::now();
     let mut engine = Batches { engine, progress };
     let mut stages = Vec::new();
@@ -538,9 +544,7 @@ pub fn run_search(
     let peak = band_metrics(&baseline.frequencies_hz, &baseline.power_w, 0.0).peak_w;
     let threshold_w = spec.threshold.power_w(peak);
     if !(threshold_w.is_finite() && threshold_w >= 0.0) {
-        bail!(
-            "the bandwidth threshold is relative to the linear baseline's peak, but the baseline has no valid power (peak {peak} W): give search.threshold.power_w instead"
-        );
+        return Err(HarvestError::NoBaselinePower { peak_w: peak });
     }
     baseline.metrics = band_metrics(&baseline.frequencies_hz, &baseline.power_w, threshold_w);
     baseline.band_metrics = band_metrics(

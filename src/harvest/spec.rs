@@ -22,8 +22,8 @@
 //! variable is checked against the scene schema before any integration starts.
 
 use crate::config::{
-    AxisScale, ConfigError, ExcitationKind, Range, Reader, Scene, apply_override, lookup_key,
-    read_sweep, scene_text, split_section,
+    AxisScale, ConfigError, ExcitationKind, Range, Reader, Scene, lookup_key, read_sweep,
+    scene_text, set_key, split_section,
 };
 use serde::Serialize;
 use toml::{Table, Value};
@@ -340,14 +340,14 @@ impl SearchSpec {
     /// The linear baseline's table: the base scene clamped, without bumpers, at rest.
     pub fn baseline_table(&self) -> Result<Table, ConfigError> {
         let mut t = self.base_table.clone();
-        for s in [
-            "pivot.mode=\"clamped\"",
-            "limiter.enabled=false",
-            "initial.angle_deg=0.0",
-            "initial.rate_deg_s=0.0",
-            "initial.voltage_v=0.0",
+        for (key, value) in [
+            ("pivot.mode", Value::String("clamped".into())),
+            ("limiter.enabled", Value::Boolean(false)),
+            ("initial.angle_deg", Value::Float(0.0)),
+            ("initial.rate_deg_s", Value::Float(0.0)),
+            ("initial.voltage_v", Value::Float(0.0)),
         ] {
-            apply_override(&mut t, s)?;
+            set_key(&mut t, key, value)?;
         }
         Ok(t)
     }
@@ -364,7 +364,7 @@ pub fn describe_design(vars: &[DesignVariable], values: &[f64]) -> String {
 
 /// Set a numeric key in a scene table (integers for integer keys).
 fn set_number(table: &mut Table, key: &str, v: f64, integer: bool) -> Result<(), ConfigError> {
-    let text = if integer {
+    let value = if integer {
         if v.fract() != 0.0 {
             return Err(ConfigError::WrongType {
                 key: key.into(),
@@ -372,11 +372,11 @@ fn set_number(table: &mut Table, key: &str, v: f64, integer: bool) -> Result<(),
                 found: format!("{v}"),
             });
         }
-        format!("{key}={}", v as i64)
+        Value::Integer(v as i64)
     } else {
-        format!("{key}={v:e}")
+        Value::Float(v)
     };
-    apply_override(table, &text)
+    set_key(table, key, value)
 }
 
 /// Read a search scene: `path` (or the embedded default when `None`) with `--set` overrides,

@@ -3,12 +3,12 @@
 //! the output rows, averaged over the rows after the transient. This is the independent
 //! check of the powers the ensemble engine reports.
 
+use super::error::HarvestError;
 use super::search::DesignResult;
 use super::spec::SearchSpec;
 use crate::analysis::{ZeroOneOptions, stroboscopic, zero_one_test};
 use crate::engine::{Instance, Observer, StepPlan, integrate};
 use crate::model::{CartState, Chain, Real, Status, Workspace};
-use anyhow::Result;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
@@ -175,7 +175,10 @@ pub fn simulate_power(scene: &crate::config::Scene) -> Resimulated {
 }
 
 /// Re-simulate a design at every band frequency from every initial state.
-pub fn verify_design(spec: &SearchSpec, design: &DesignResult) -> Result<Verification> {
+pub fn verify_design(
+    spec: &SearchSpec,
+    design: &DesignResult,
+) -> Result<Verification, HarvestError> {
     let started = Instant::now();
     let (table, scene) = spec.design_table(&design.values)?;
     let clearance = scene.limiter.clearance_deg;
@@ -184,7 +187,7 @@ pub fn verify_design(spec: &SearchSpec, design: &DesignResult) -> Result<Verific
         .collect();
     let points: Vec<VerifiedPoint> = jobs
         .par_iter()
-        .map(|&(s, j)| -> Result<VerifiedPoint> {
+        .map(|&(s, j)| -> Result<VerifiedPoint, HarvestError> {
             let state = &spec.initial_states[s];
             let f = spec.band.frequencies_hz[j];
             let scene = spec.instance_scene(&table, clearance, state, f)?;
@@ -200,7 +203,7 @@ pub fn verify_design(spec: &SearchSpec, design: &DesignResult) -> Result<Verific
                 period: design.period[s][j],
             })
         })
-        .collect::<Result<_>>()?;
+        .collect::<Result<_, _>>()?;
     let n_f = spec.band.frequencies_hz.len();
     let per_state: Vec<Vec<f64>> = points
         .chunks(n_f)

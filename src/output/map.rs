@@ -4,9 +4,10 @@
 use crate::config::{MapSpec, Metric};
 use crate::map::MapRun;
 use crate::model::Status;
+use crate::output::OutputError;
+use crate::output::files::{AtomicFile, create_dir, draw, write_json};
 use crate::output::npy::{write_npy_f64, write_npy_u8};
 use crate::render::{Axis, heatmap, scatter};
-use anyhow::{Context, Result};
 use serde_json::json;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -30,46 +31,49 @@ const COLUMNS: [Column; 8] = [
 ];
 
 /// Write every file of a map into `dir` (created if needed); returns the paths written.
-pub fn write_map(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let mut written = Vec::new();
-    let shape = spec.shape();
-    let n = spec.instances();
+/// `map.json` comes last, so that its presence means the map is complete.
+pub fn write_map(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf>, OutputError> {
+    create_dir(dir)?;
+    let mut written = vec![write_grid_csv(&dir.join("grid.csv"), spec, run)?];
+    written.extend(write_arrays(dir, spec, run)?);
+    for m in &spec.metrics {
+        written.extend(draw_metric(dir, spec, run, *m)?);
+    }
+    if spec.bifurcation && !run.strobe_tail.is_empty() {
+        written.extend(draw_bifurcation(&dir.join("bifurcation.png"), spec, run)?);
+    }
+    let files: Vec<String> = written
+        .iter()
+        .filter_map(|p| p.file_name().map(|f| f.to_string_lossy().into_owned()))
+        .collect();
+    written.push(write_json(
+        &dir.join("map.json"),
+        &map_json(spec, run, &files),
+    )?);
+    Ok(written)
+}
 
-    // grid.csv: a row per instance.
-    let csv_path = dir.join("grid.csv");
-    let mut w = std::io::BufWriter::new(
-        std::fs::File::create(&csv_path)
-            .with_context(|| format!("creating {}", csv_path.display()))?,
-    );
-    let mut header: Vec<String> = spec.axes.iter().map(|a| a.key.clone()).collect();
-    header.extend(
-        [
-            "K",
-            "R",
-            "period",
-            "hops",
-            "impacts_per_s",
-            "alpha_min_rad",
-            "alpha_max_rad",
-            "power_w",
-            "status",
-        ]
-        .map(String::from),
-    );
-    writeln!(w, "{}", header.join(","))?;
+/// `grid.csv`: a row per instance, the axis values then every column.
+fn write_grid_csv(path: &Path, spec: &MapSpec, run: &MapRun) -> Result<PathBuf, OutputError> {
+    let io = |e| OutputError::io(path, e);
+    let mut w = AtomicFile::create(path)?;
+    let mut header: Vec<&str> = spec.axes.iter().map(|a| a.key.as_str()).collect();
+    header.extend(COLUMNS.iter().map(|c| c.0));
+    header.push("status");
+    writeln!(w, "{}", header.join(",")).map_err(io)?;
     for (k, r) in run.results.iter().enumerate() {
         let mut row: Vec<String> = spec.values_of(k).iter().map(|v| format!("{v}")).collect();
-        for (_, _, get) in COLUMNS {
-            row.push(fmt(get(r)));
-        }
+        row.extend(COLUMNS.iter().map(|(_, _, get)| fmt(get(r))));
         row.push(r.status.as_str().to_string());
-        writeln!(w, "{}", row.join(","))?;
+        writeln!(w, "{}", row.join(",")).map_err(io)?;
     }
-    w.flush()?;
-    written.push(csv_path);
+    w.commit()
+}
 
-    // One .npy per metric array, the axes, and the status codes.
+/// One `.npy` per requested metric array shaped like the grid, `status.npy` and the axes.
+fn write_arrays(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf>, OutputError> {
+    let shape = spec.shape();
+    let mut written = Vec::new();
     for (stem, metric, get) in COLUMNS {
         if !spec.wants(metric) {
             continue;
@@ -88,51 +92,47 @@ pub fn write_map(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf
         write_npy_f64(&p, &[a.values.len()], &a.values)?;
         written.push(p);
     }
+    Ok(written)
+}
 
-    // Pictures.
-    for m in &spec.metrics {
-        written.extend(draw_metric(dir, spec, run, *m)?);
-    }
-    if spec.bifurcation && !run.strobe_tail.is_empty() {
-        let axis = &spec.axes[0];
-        let (mut xs, mut ys) = (Vec::new(), Vec::new());
-        for (k, tail) in run.strobe_tail.iter().enumerate() {
-            if run.results[k].status != Status::Ok {
-                continue;
-            }
-            for &v in tail.iter().filter(|v| v.is_finite()) {
-                xs.push(axis.values[k]);
-                ys.push(v.to_degrees());
-            }
+/// The bifurcation diagram of a 1-D map: the stroboscopic tail of every `ok` instance.
+fn draw_bifurcation(
+    path: &Path,
+    spec: &MapSpec,
+    run: &MapRun,
+) -> Result<Option<PathBuf>, OutputError> {
+    let axis = &spec.axes[0];
+    let (mut xs, mut ys) = (Vec::new(), Vec::new());
+    for (k, tail) in run.strobe_tail.iter().enumerate() {
+        if run.results[k].status != Status::Ok {
+            continue;
         }
-        let p = dir.join("bifurcation.png");
-        if !xs.is_empty() {
-            scatter(
-                &p,
-                &format!(
-                    "Bifurcation diagram: stroboscopic holder angle, last {} periods",
-                    spec.bifurcation_samples
-                ),
-                &axis.label(),
-                "holder angle α at the forcing phase (deg)",
-                &xs,
-                &ys,
-                false,
-            )?;
-            written.push(p);
+        for &v in tail.iter().filter(|v| v.is_finite()) {
+            xs.push(axis.values[k]);
+            ys.push(v.to_degrees());
         }
     }
+    if xs.is_empty() {
+        return Ok(None);
+    }
+    let title = format!(
+        "Bifurcation diagram: stroboscopic holder angle, last {} periods",
+        spec.bifurcation_samples
+    );
+    let label = "holder angle α at the forcing phase (deg)";
+    draw(path, |p| {
+        scatter(p, &title, &axis.label(), label, &xs, &ys, false)
+    })
+    .map(Some)
+}
 
-    // map.json last, so that its presence means the map is complete.
+/// `map.json`: what the map is, how it ran, and which files belong to it.
+fn map_json(spec: &MapSpec, run: &MapRun, files: &[String]) -> serde_json::Value {
     let counts = |s: Status| run.results.iter().filter(|r| r.status == s).count();
-    let files: Vec<String> = written
-        .iter()
-        .filter_map(|p| p.file_name().map(|f| f.to_string_lossy().into_owned()))
-        .collect();
-    let doc = json!({
+    json!({
         "axes": spec.axes,
-        "shape": shape,
-        "instances": n,
+        "shape": spec.shape(),
+        "instances": spec.instances(),
         "order": "C order over the axes as listed (last axis varies fastest); .npy arrays have this shape",
         "metrics": spec.metrics,
         "backend": run.engine.kind,
@@ -168,12 +168,7 @@ pub fn write_map(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf
         "warnings": run.plan.warnings,
         "scene": spec.scene,
         "files": files,
-    });
-    let p = dir.join("map.json");
-    std::fs::write(&p, serde_json::to_string_pretty(&doc)?)
-        .with_context(|| format!("writing {}", p.display()))?;
-    written.push(p);
-    Ok(written)
+    })
 }
 
 fn fmt(v: f64) -> String {
@@ -209,85 +204,98 @@ fn metric_style(m: Metric, spec: &MapSpec) -> (String, Option<(f64, f64)>) {
     }
 }
 
+/// The value drawn for cell `k`: period 0 ("no period found") is drawn as no-data grey, not
+/// as a colour below 1.
+fn drawn_value(run: &MapRun, m: Metric, k: usize) -> f64 {
+    let v = run.results[k].metric(m);
+    if m == Metric::Period && v == 0.0 {
+        f64::NAN
+    } else {
+        v
+    }
+}
+
 /// The picture(s) of one metric: a heat map per 2-D slice, or a curve for a 1-D map.
-fn draw_metric(dir: &Path, spec: &MapSpec, run: &MapRun, m: Metric) -> Result<Vec<PathBuf>> {
+fn draw_metric(
+    dir: &Path,
+    spec: &MapSpec,
+    run: &MapRun,
+    m: Metric,
+) -> Result<Vec<PathBuf>, OutputError> {
+    if spec.axes.len() == 1 {
+        return Ok(draw_curve(dir, spec, run, m)?.into_iter().collect());
+    }
+    let nz = spec.shape().get(2).copied().unwrap_or(1);
+    (0..nz)
+        .map(|iz| draw_slice(dir, spec, run, m, iz))
+        .collect()
+}
+
+/// The curve of a 1-D map; failed points are left out (and counted in the title).
+fn draw_curve(
+    dir: &Path,
+    spec: &MapSpec,
+    run: &MapRun,
+    m: Metric,
+) -> Result<Option<PathBuf>, OutputError> {
+    let (label, _) = metric_style(m, spec);
+    let axis = &spec.axes[0];
+    let bad = |k: usize| run.results[k].status != Status::Ok;
+    let (xs, ys): (Vec<f64>, Vec<f64>) = (0..axis.values.len())
+        .filter(|&k| !bad(k) && drawn_value(run, m, k).is_finite())
+        .map(|k| (axis.values[k], drawn_value(run, m, k)))
+        .unzip();
+    if xs.is_empty() {
+        return Ok(None);
+    }
+    let diverged = (0..axis.values.len()).filter(|&k| bad(k)).count();
+    let title = if diverged > 0 {
+        format!("{label} ({diverged} diverged points omitted)")
+    } else {
+        label.clone()
+    };
+    let p = dir.join(format!("{}.png", m.name()));
+    draw(&p, |t| {
+        scatter(t, &title, &axis.label(), &label, &xs, &ys, xs.len() > 1)
+    })
+    .map(Some)
+}
+
+/// The heat map of slice `iz` of a 2-D or 3-D map; failed cells are marked.
+fn draw_slice(
+    dir: &Path,
+    spec: &MapSpec,
+    run: &MapRun,
+    m: Metric,
+    iz: usize,
+) -> Result<PathBuf, OutputError> {
     let (label, range) = metric_style(m, spec);
     let shape = spec.shape();
-    // Period 0 means "no period found": drawn as no-data grey, not as a colour below 1.
-    let value = |k: usize| {
-        let v = run.results[k].metric(m);
-        if m == Metric::Period && v == 0.0 {
-            f64::NAN
-        } else {
-            v
-        }
+    let (nx, ny) = (shape[0], shape[1]);
+    let nz = shape.get(2).copied().unwrap_or(1);
+    // heatmap wants rows of x for each y: cell (ix, iy) of slice iz.
+    let cells = (0..ny).flat_map(|iy| (0..nx).map(move |ix| (ix * ny + iy) * nz + iz));
+    let vals: Vec<f64> = cells.clone().map(|k| drawn_value(run, m, k)).collect();
+    let invalid: Vec<bool> = cells.map(|k| run.results[k].status != Status::Ok).collect();
+    let (p, title) = if nz == 1 {
+        (dir.join(format!("{}.png", m.name())), label.clone())
+    } else {
+        let a = &spec.axes[2];
+        (
+            dir.join(format!("{}_slice{iz:03}.png", m.name())),
+            format!("{label} at {} = {}", a.key, a.values[iz]),
+        )
     };
-    let bad = |k: usize| run.results[k].status != Status::Ok;
-    let mut out = Vec::new();
-    match shape.len() {
-        1 => {
-            let axis = &spec.axes[0];
-            let (xs, ys): (Vec<f64>, Vec<f64>) = (0..shape[0])
-                .filter(|&k| !bad(k) && value(k).is_finite())
-                .map(|k| (axis.values[k], value(k)))
-                .unzip();
-            if xs.is_empty() {
-                return Ok(out);
-            }
-            let p = dir.join(format!("{}.png", m.name()));
-            let diverged = (0..shape[0]).filter(|&k| bad(k)).count();
-            let title = if diverged > 0 {
-                format!("{label} ({diverged} diverged points omitted)")
-            } else {
-                label.clone()
-            };
-            scatter(&p, &title, &axis.label(), &label, &xs, &ys, xs.len() > 1)?;
-            out.push(p);
-        }
-        _ => {
-            let (nx, ny) = (shape[0], shape[1]);
-            let nz = shape.get(2).copied().unwrap_or(1);
-            let (xl, yl) = (spec.axes[0].label(), spec.axes[1].label());
-            for iz in 0..nz {
-                // heatmap wants rows of x for each y: cell (ix, iy) of slice iz.
-                let k_of = |ix: usize, iy: usize| (ix * ny + iy) * nz + iz;
-                let mut vals = Vec::with_capacity(nx * ny);
-                let mut invalid = Vec::with_capacity(nx * ny);
-                for iy in 0..ny {
-                    for ix in 0..nx {
-                        let k = k_of(ix, iy);
-                        vals.push(value(k));
-                        invalid.push(bad(k));
-                    }
-                }
-                let (p, title) = if nz == 1 {
-                    (dir.join(format!("{}.png", m.name())), label.clone())
-                } else {
-                    let a = &spec.axes[2];
-                    (
-                        dir.join(format!("{}_{}{iz:03}.png", m.name(), "slice")),
-                        format!("{label} at {} = {}", a.key, a.values[iz]),
-                    )
-                };
-                heatmap(
-                    &p,
-                    &title,
-                    &Axis {
-                        label: &xl,
-                        values: &spec.axes[0].values,
-                    },
-                    &Axis {
-                        label: &yl,
-                        values: &spec.axes[1].values,
-                    },
-                    &vals,
-                    &label,
-                    &invalid,
-                    range,
-                )?;
-                out.push(p);
-            }
-        }
-    }
-    Ok(out)
+    let (xl, yl) = (spec.axes[0].label(), spec.axes[1].label());
+    let x = Axis {
+        label: &xl,
+        values: &spec.axes[0].values,
+    };
+    let y = Axis {
+        label: &yl,
+        values: &spec.axes[1].values,
+    };
+    draw(&p, |t| {
+        heatmap(t, &title, &x, &y, &vals, &label, &invalid, range)
+    })
 }

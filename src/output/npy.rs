@@ -1,54 +1,75 @@
-//! Minimal `.npy` writers (NumPy format v1, little-endian, C order) on top of `npyz`.
+//! Minimal `.npy` writers (NumPy format v1, little-endian, C order) on top of `npyz`, written
+//! through a temporary file like every output.
 
-use std::fs::File;
-use std::io::BufWriter;
-use std::path::Path;
-
-use anyhow::{Context, Result, bail};
+use super::error::OutputError;
+use super::files::AtomicFile;
 use npyz::WriterBuilder;
+use std::path::Path;
 
 /// Writes `data` (row-major, `shape.iter().product()` elements) as an `.npy` file.
 fn write_npy<T: npyz::AutoSerialize + Copy>(
     path: &Path,
     shape: &[usize],
     data: &[T],
-) -> Result<()> {
+) -> Result<(), OutputError> {
+    let fail = |reason: String| OutputError::Npy {
+        path: path.display().to_string(),
+        reason,
+    };
     let n: usize = shape.iter().product();
     if n != data.len() {
-        bail!(
-            "npy {}: shape {shape:?} needs {n} elements, got {}",
-            path.display(),
+        return Err(fail(format!(
+            "shape {shape:?} needs {n} elements, got {}",
             data.len()
-        );
+        )));
     }
-    let file = File::create(path).with_context(|| format!("creating {}", path.display()))?;
+    let mut file = AtomicFile::create(path)?;
     let shape64: Vec<u64> = shape.iter().map(|&s| s as u64).collect();
     let mut w = npyz::WriteOptions::new()
         .default_dtype()
         .shape(&shape64)
-        .writer(BufWriter::new(file))
-        .begin_nd()?;
-    w.extend(data.iter().copied())?;
-    w.finish()?;
+        .writer(&mut file)
+        .begin_nd()
+        .map_err(|e| fail(e.to_string()))?;
+    w.extend(data.iter().copied())
+        .map_err(|e| fail(e.to_string()))?;
+    w.finish().map_err(|e| fail(e.to_string()))?;
+    file.commit()?;
     Ok(())
 }
 
 /// Writes a float64 array of the given `shape` (row-major data) to `path`.
-pub fn write_npy_f64(path: &Path, shape: &[usize], data_row_major: &[f64]) -> Result<()> {
+pub fn write_npy_f64(
+    path: &Path,
+    shape: &[usize],
+    data_row_major: &[f64],
+) -> Result<(), OutputError> {
     write_npy(path, shape, data_row_major)
 }
 
 /// Writes a float32 array of the given `shape` (row-major data) to `path`.
-pub fn write_npy_f32(path: &Path, shape: &[usize], data_row_major: &[f32]) -> Result<()> {
+pub fn write_npy_f32(
+    path: &Path,
+    shape: &[usize],
+    data_row_major: &[f32],
+) -> Result<(), OutputError> {
     write_npy(path, shape, data_row_major)
 }
 
 /// Writes a uint8 array (e.g. masks/flags) of the given `shape` to `path`.
-pub fn write_npy_u8(path: &Path, shape: &[usize], data_row_major: &[u8]) -> Result<()> {
+pub fn write_npy_u8(
+    path: &Path,
+    shape: &[usize],
+    data_row_major: &[u8],
+) -> Result<(), OutputError> {
     write_npy(path, shape, data_row_major)
 }
 
 /// Writes an int32 array (e.g. labels/counts) of the given `shape` to `path`.
-pub fn write_npy_i32(path: &Path, shape: &[usize], data_row_major: &[i32]) -> Result<()> {
+pub fn write_npy_i32(
+    path: &Path,
+    shape: &[usize],
+    data_row_major: &[i32],
+) -> Result<(), OutputError> {
     write_npy(path, shape, data_row_major)
 }

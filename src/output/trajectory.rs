@@ -2,6 +2,8 @@
 
 use crate::engine::Observer;
 use crate::model::{CartState, Chain, Real, Workspace};
+use crate::output::OutputError;
+use crate::output::files::{commit_csv, create_csv, csv_error};
 use std::path::Path;
 
 /// Columns of `trajectory.csv` (the piezo columns are appended when the piezo is on).
@@ -95,13 +97,14 @@ impl<T: Real> Observer<T> for TrajectoryRecorder {
 }
 
 /// Write rows as `trajectory.csv` with a header line.
-pub fn write_trajectory_csv(path: &Path, rows: &[Row], piezo: bool) -> anyhow::Result<()> {
-    let mut w = csv::Writer::from_path(path)?;
+pub fn write_trajectory_csv(path: &Path, rows: &[Row], piezo: bool) -> Result<(), OutputError> {
+    let err = csv_error(path);
+    let mut w = create_csv(path)?;
     let mut header: Vec<&str> = BASE_COLUMNS.to_vec();
     if piezo {
         header.extend(PIEZO_COLUMNS);
     }
-    w.write_record(&header)?;
+    w.write_record(&header).map_err(&err)?;
     let mut rec: Vec<String> = Vec::with_capacity(header.len());
     for r in rows {
         rec.clear();
@@ -122,8 +125,8 @@ pub fn write_trajectory_csv(path: &Path, rows: &[Row], piezo: bool) -> anyhow::R
             rec.push(r.piezo_v.to_string());
             rec.push(r.power_w.to_string());
         }
-        w.write_record(&rec)?;
+        w.write_record(&rec).map_err(&err)?;
     }
-    w.flush()?;
+    commit_csv(w, path)?;
     Ok(())
 }

@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use anyhow::{Result, bail};
+use super::error::{Result, bad_input};
 use plotters::prelude::*;
 
 use super::{
@@ -94,7 +94,7 @@ pub fn line_chart(
 /// spectrum); 1000 px wide, 300 px per panel plus a title band.
 pub fn stacked_panels(path: &Path, title: &str, panels: &[Panel]) -> Result<()> {
     if panels.is_empty() {
-        bail!("stacked_panels: no panels given");
+        bad_input!("stacked_panels: no panels given");
     }
     for p in panels {
         check_series(&p.series)?;
@@ -121,14 +121,14 @@ pub fn histogram(
     y_label: &str,
 ) -> Result<()> {
     if density.is_empty() || edges.len() != density.len() + 1 {
-        bail!(
+        bad_input!(
             "histogram: need edges.len() == density.len() + 1 > 1 (got {} edges, {} bars)",
             edges.len(),
             density.len()
         );
     }
     if edges.iter().any(|e| !e.is_finite()) || edges.windows(2).any(|w| w[1] <= w[0]) {
-        bail!("histogram: edges must be finite and strictly increasing");
+        bad_input!("histogram: edges must be finite and strictly increasing");
     }
     let xa = AxisSpec::fixed(edges[0], edges[edges.len() - 1], false);
     let top = density
@@ -231,7 +231,7 @@ pub fn zero_one_figure(
     k: f64,
 ) -> Result<()> {
     if p.len() != q.len() || c_values.len() != k_c.len() {
-        bail!(
+        bad_input!(
             "zero_one_figure: p/q lengths {}/{} or c/K_c lengths {}/{} differ",
             p.len(),
             q.len(),

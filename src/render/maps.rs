@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use anyhow::{Result, bail};
+use super::error::{Result, bad_input};
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
@@ -27,7 +27,7 @@ const SCALOGRAM_OCTAVES: f64 = 16.0;
 /// Fails unless `v` is non-empty, finite and strictly increasing.
 fn check_axis(name: &str, v: &[f64]) -> Result<()> {
     if v.is_empty() || v.iter().any(|x| !x.is_finite()) || v.windows(2).any(|w| w[1] <= w[0]) {
-        bail!("{name}: values must be non-empty, finite and strictly increasing");
+        bad_input!("{name}: values must be non-empty, finite and strictly increasing");
     }
     Ok(())
 }
@@ -155,15 +155,15 @@ pub fn scalogram(
     check_axis("scalogram times", times_s)?;
     check_axis("scalogram periods", periods_s)?;
     if periods_s[0] <= 0.0 {
-        bail!("scalogram: periods must be positive");
+        bad_input!("scalogram: periods must be positive");
     }
     let (nt, np) = (times_s.len(), periods_s.len());
     let shape_ok = |m: &[Vec<f64>]| m.len() == np && m.iter().all(|r| r.len() == nt);
     if !shape_ok(power) || significance_ratio.is_some_and(|s| !shape_ok(s)) {
-        bail!("scalogram: power/significance must be [{np} periods][{nt} times]");
+        bad_input!("scalogram: power/significance must be [{np} periods][{nt} times]");
     }
     if !coi_s.is_empty() && coi_s.len() != nt {
-        bail!("scalogram: coi has {} values, expected {nt}", coi_s.len());
+        bad_input!("scalogram: coi has {} values, expected {nt}", coi_s.len());
     }
     let lp: Vec<Vec<f64>> = power
         .iter()
@@ -301,7 +301,7 @@ pub fn heatmap(
     check_axis("heatmap y", y.values)?;
     let (nx, ny) = (x.values.len(), y.values.len());
     if values.len() != nx * ny || !(invalid.is_empty() || invalid.len() == values.len()) {
-        bail!(
+        bad_input!(
             "heatmap: {} values / {} flags for a {ny}×{nx} grid",
             values.len(),
             invalid.len()
@@ -310,7 +310,7 @@ pub fn heatmap(
     let bad = |k: usize| invalid.get(k).copied().unwrap_or(false);
     let (lo, hi) = match range {
         Some((a, b)) if a.is_finite() && b.is_finite() && a < b => (a, b),
-        Some(r) => bail!("heatmap: invalid colour range {r:?}"),
+        Some(r) => bad_input!("heatmap: invalid colour range {r:?}"),
         None => match finite_min_max((0..values.len()).filter(|&k| !bad(k)).map(|k| values[k])) {
             Some((a, b)) if b > a => (a, b),
             Some((a, _)) => (a - 0.5, a + 0.5),

@@ -4,23 +4,25 @@
 //! Everything is drawn with `plotters`' bitmap backend and an embedded
 //! DejaVu Sans font (registered once via `ab_glyph`), so no system fonts or
 //! fontconfig are needed. Every function writes one PNG with a white
-//! background and returns `anyhow::Result<()>`; bad input (mismatched lengths,
+//! background and returns `Result<(), RenderError>`; bad input (mismatched lengths,
 //! non-monotonic axes, ...) yields `Err`, while empty or non-finite data is
 //! drawn gracefully (empty axes, skipped points) — nothing here panics.
 
 mod charts;
 mod colormap;
+mod error;
 mod maps;
 
 use std::sync::Once;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use anyhow::{Result, bail};
+use error::{Result, bad_input};
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
 pub use charts::{histogram, line_chart, scatter, stacked_panels, zero_one_figure};
 pub use colormap::viridis;
+pub use error::RenderError;
 pub use maps::{INVALID_COLOR, heatmap, scalogram};
 
 /// One named curve: `x[i]`, `y[i]` pairs (both slices must have equal length).
@@ -82,7 +84,7 @@ pub(crate) fn ensure_font() -> Result<()> {
     if FONT_OK.load(Ordering::SeqCst) {
         Ok(())
     } else {
-        bail!("embedded DejaVuSans.ttf could not be parsed")
+        Err(RenderError::Font)
     }
 }
 
@@ -425,7 +427,7 @@ pub(crate) fn segments(s: &Series, xa: &AxisSpec, ya: &AxisSpec) -> Vec<Vec<(f64
 pub(crate) fn check_series(series: &[Series]) -> Result<()> {
     for s in series {
         if s.x.len() != s.y.len() {
-            bail!(
+            bad_input!(
                 "series '{}': x has {} points but y has {}",
                 s.name,
                 s.x.len(),

@@ -45,14 +45,9 @@ pub enum ReproduceError {
         /// Underlying I/O error.
         source: std::io::Error,
     },
-    /// A figure could not be drawn.
-    #[error("cannot draw `{path}`: {message}")]
-    Render {
-        /// PNG path.
-        path: String,
-        /// The renderer's error chain.
-        message: String,
-    },
+    /// A file or figure could not be written.
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
 }
 
 impl ReproduceError {

@@ -12,13 +12,12 @@ use std::path::{Path, PathBuf};
 /// Length of the time window of Fig. 10 (s), as the paper's experimental records.
 pub const FIG10_WINDOW_S: f64 = 8.0;
 
-/// Map a renderer error to a [`ReproduceError`] naming the file.
-fn drawn(path: PathBuf, r: anyhow::Result<()>) -> Result<PathBuf, ReproduceError> {
-    r.map(|()| path.clone())
-        .map_err(|e| ReproduceError::Render {
-            path: path.display().to_string(),
-            message: format!("{e:#}"),
-        })
+/// Draw a figure at `path` (through a temporary file), the error naming the file.
+fn drawn(
+    path: PathBuf,
+    render: impl FnOnce(&Path) -> Result<(), crate::render::RenderError>,
+) -> Result<PathBuf, ReproduceError> {
+    Ok(crate::output::files::draw(&path, render)?)
 }
 
 /// The bins of `spec` up to `f_max_hz`, as (frequency, amplitude) slices.
@@ -76,18 +75,19 @@ pub fn time_series_fig3_5(
     spec_a.log_y = true;
     let mut spec_c = line(&spec_label, "chord spectrum (mm)", fc, sc);
     spec_c.log_y = true;
-    let r = render::stacked_panels(
-        &path,
-        &title,
-        &[
-            line("time (s)", "cart x0 (mm)", &t, &x0),
-            line("time (s)", "holder angle α (deg)", &t, &alpha),
-            line("time (s)", "chord reduction (mm)", &t, &chord),
-            spec_a,
-            spec_c,
-        ],
-    );
-    drawn(path, r)
+    drawn(path, |p| {
+        render::stacked_panels(
+            p,
+            &title,
+            &[
+                line("time (s)", "cart x0 (mm)", &t, &x0),
+                line("time (s)", "holder angle α (deg)", &t, &alpha),
+                line("time (s)", "chord reduction (mm)", &t, &chord),
+                spec_a,
+                spec_c,
+            ],
+        )
+    })
 }
 
 /// Fig. 6: the local extrema of α (upper panel) and K_c against c for both estimators with
@@ -129,46 +129,47 @@ pub fn zero_one_fig6(
             .map(|k| format!(", paper K = {k:.2}"))
             .unwrap_or_default()
     );
-    let r = render::stacked_panels(
-        &path,
-        &title,
-        &[
-            line(
-                "extremum number",
-                "local extrema of α (deg)",
-                &index,
-                &extrema_deg,
-            ),
-            Panel {
-                x_label: "c (rad)",
-                y_label: "K_c",
-                series: vec![
-                    Series {
-                        name: &name1,
-                        x: &c1,
-                        y: &k1,
-                    },
-                    Series {
-                        name: &name2,
-                        x: &c2,
-                        y: &k2,
-                    },
-                    Series {
-                        name: "median (correlation)",
-                        x: &m1x,
-                        y: &m1y,
-                    },
-                    Series {
-                        name: "median (eq. 10)",
-                        x: &m2x,
-                        y: &m2y,
-                    },
-                ],
-                log_y: false,
-            },
-        ],
-    );
-    drawn(path, r)
+    drawn(path, |p| {
+        render::stacked_panels(
+            p,
+            &title,
+            &[
+                line(
+                    "extremum number",
+                    "local extrema of α (deg)",
+                    &index,
+                    &extrema_deg,
+                ),
+                Panel {
+                    x_label: "c (rad)",
+                    y_label: "K_c",
+                    series: vec![
+                        Series {
+                            name: &name1,
+                            x: &c1,
+                            y: &k1,
+                        },
+                        Series {
+                            name: &name2,
+                            x: &c2,
+                            y: &k2,
+                        },
+                        Series {
+                            name: "median (correlation)",
+                            x: &m1x,
+                            y: &m1y,
+                        },
+                        Series {
+                            name: "median (eq. 10)",
+                            x: &m2x,
+                            y: &m2y,
+                        },
+                    ],
+                    log_y: false,
+                },
+            ],
+        )
+    })
 }
 
 /// Fig. 7: histogram of Δφ (cart → holder angle) in the paper's convention.
@@ -187,15 +188,16 @@ pub fn phase_fig7(
             .map(|r| format!(" (paper {r:.2})"))
             .unwrap_or_default()
     );
-    let r = render::histogram(
-        &path,
-        &title,
-        &a.phase_hist_paper.edges_rad,
-        &a.phase_hist_paper.density_per_rad,
-        "Δφ = φ(α) − φ(x0), modulo π (rad)",
-        "pdf (1/rad)",
-    );
-    drawn(path, r)
+    drawn(path, |p| {
+        render::histogram(
+            p,
+            &title,
+            &a.phase_hist_paper.edges_rad,
+            &a.phase_hist_paper.density_per_rad,
+            "Δφ = φ(α) − φ(x0), modulo π (rad)",
+            "pdf (1/rad)",
+        )
+    })
 }
 
 /// Fig. 9a: cart displacement, holder angle and angular velocity of the sweep.
@@ -215,16 +217,17 @@ pub fn sweep_fig9a(
         sim.scene.integration.duration_s,
         sim.scene.beam.segments
     );
-    let r = render::stacked_panels(
-        &path,
-        &title,
-        &[
-            line("time (s)", "displacement (mm)", &t, &x0),
-            line("time (s)", "angle (deg)", &t, &alpha),
-            line("time (s)", "ang. velocity (deg/s)", &t, &rate),
-        ],
-    );
-    drawn(path, r)
+    drawn(path, |p| {
+        render::stacked_panels(
+            p,
+            &title,
+            &[
+                line("time (s)", "displacement (mm)", &t, &x0),
+                line("time (s)", "angle (deg)", &t, &alpha),
+                line("time (s)", "ang. velocity (deg/s)", &t, &rate),
+            ],
+        )
+    })
 }
 
 /// Fig. 9b: scalograms of the cart displacement (`which = "base"`) or of the angle.
@@ -248,17 +251,18 @@ pub fn sweep_fig9b(
             "holder angle"
         },
     );
-    let r = render::scalogram(
-        &path,
-        &title,
-        &s.times_s,
-        &wt.period_s,
-        &wt.power,
-        &wt.coi_s,
-        Some(sig),
-        "time (s)",
-    );
-    drawn(path, r)
+    drawn(path, |p| {
+        render::scalogram(
+            p,
+            &title,
+            &s.times_s,
+            &wt.period_s,
+            &wt.power,
+            &wt.coi_s,
+            Some(sig),
+            "time (s)",
+        )
+    })
 }
 
 /// Fig. 10: the last [`FIG10_WINDOW_S`] seconds of displacement, angle and angular velocity.
@@ -284,16 +288,17 @@ pub fn experiment_fig10(
         end
     );
     let x_label = format!("time (s) from t = {from:.0} s");
-    let r = render::stacked_panels(
-        &path,
-        &title,
-        &[
-            line(&x_label, "displacement (mm)", &t, &x0),
-            line(&x_label, "angle (deg)", &t, &alpha),
-            line(&x_label, "ang. velocity (deg/s)", &t, &rate),
-        ],
-    );
-    drawn(path, r)
+    drawn(path, |p| {
+        render::stacked_panels(
+            p,
+            &title,
+            &[
+                line(&x_label, "displacement (mm)", &t, &x0),
+                line(&x_label, "angle (deg)", &t, &alpha),
+                line(&x_label, "ang. velocity (deg/s)", &t, &rate),
+            ],
+        )
+    })
 }
 
 /// Fig. 11: spectra of displacement, angle and angular velocity after the transient.
@@ -317,16 +322,17 @@ pub fn experiment_fig11(
         case.short_label(),
         a.transient_s
     );
-    let r = render::stacked_panels(
-        &path,
-        &title,
-        &[
-            line("frequency (Hz)", "displacement (mm)", f1, s1),
-            line("frequency (Hz)", "angle (deg)", f2, s2),
-            line("frequency (Hz)", "ang. velocity (deg/s)", f3, s3),
-        ],
-    );
-    drawn(path, r)
+    drawn(path, |p| {
+        render::stacked_panels(
+            p,
+            &title,
+            &[
+                line("frequency (Hz)", "displacement (mm)", f1, s1),
+                line("frequency (Hz)", "angle (deg)", f2, s2),
+                line("frequency (Hz)", "ang. velocity (deg/s)", f3, s3),
+            ],
+        )
+    })
 }
 
 /// Fig. 12: phase portrait, holder angle against cart displacement, after the transient.
@@ -356,14 +362,15 @@ pub fn experiment_fig12(
             .map(|r| format!(" (exp. {r:.2})"))
             .unwrap_or_default()
     );
-    let r = render::scatter(
-        &path,
-        &title,
-        "displacement x0 (mm)",
-        "angle α (deg)",
-        &x0,
-        &alpha,
-        true,
-    );
-    drawn(path, r)
+    drawn(path, |p| {
+        render::scatter(
+            p,
+            &title,
+            "displacement x0 (mm)",
+            "angle α (deg)",
+            &x0,
+            &alpha,
+            true,
+        )
+    })
 }

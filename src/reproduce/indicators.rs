@@ -34,25 +34,101 @@ pub const SWEEP_MAX_PERIOD_S: f64 = 8.0;
 /// shorter periodics in the region 0.32–0.64 s").
 pub const SWEEP_PAPER_BAND_S: (f64, f64) = (0.32, 0.64);
 
-/// "chaotic" or "regular" for a K value (NaN gives "n/a").
-pub fn regime(k: f64) -> &'static str {
-    if k.is_nan() {
-        "n/a"
-    } else if k >= K_CHAOTIC_THRESHOLD {
-        "chaotic"
-    } else {
-        "regular"
+/// The regime a K value stands for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum Regime {
+    /// K ≥ [`K_CHAOTIC_THRESHOLD`].
+    #[serde(rename = "chaotic")]
+    Chaotic,
+    /// K below it.
+    #[serde(rename = "regular")]
+    Regular,
+    /// No K (the test refused the series).
+    #[serde(rename = "n/a")]
+    Unknown,
+}
+
+impl std::fmt::Display for Regime {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Regime::Chaotic => "chaotic",
+            Regime::Regular => "regular",
+            Regime::Unknown => "n/a",
+        })
     }
 }
 
-/// "synchronised" or "not synchronised" for an R in the paper's convention.
-pub fn sync_class(r_paper: f64) -> &'static str {
-    if r_paper.is_nan() {
-        "n/a"
-    } else if r_paper >= R_PAPER_SYNC_THRESHOLD {
-        "synchronised"
+/// The regime of a K value.
+pub fn regime(k: f64) -> Regime {
+    if k.is_nan() {
+        Regime::Unknown
+    } else if k >= K_CHAOTIC_THRESHOLD {
+        Regime::Chaotic
     } else {
-        "not synchronised"
+        Regime::Regular
+    }
+}
+
+/// Whether an R in the paper's convention counts as synchronised.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum SyncClass {
+    /// R ≥ [`R_PAPER_SYNC_THRESHOLD`].
+    #[serde(rename = "synchronised")]
+    Synchronised,
+    /// R below it.
+    #[serde(rename = "not synchronised")]
+    NotSynchronised,
+    /// No R.
+    #[serde(rename = "n/a")]
+    Unknown,
+}
+
+impl std::fmt::Display for SyncClass {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            SyncClass::Synchronised => "synchronised",
+            SyncClass::NotSynchronised => "not synchronised",
+            SyncClass::Unknown => "n/a",
+        })
+    }
+}
+
+/// The sync class of an R in the paper's convention.
+pub fn sync_class(r_paper: f64) -> SyncClass {
+    if r_paper.is_nan() {
+        SyncClass::Unknown
+    } else if r_paper >= R_PAPER_SYNC_THRESHOLD {
+        SyncClass::Synchronised
+    } else {
+        SyncClass::NotSynchronised
+    }
+}
+
+/// What became of a run and its twin.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum TwinVerdict {
+    /// |Δα| grew beyond [`TWIN_SEPARATED_RAD`].
+    #[serde(rename = "separate")]
+    Separate,
+    /// |Δα| shrank below [`TWIN_CONVERGED_RAD`].
+    #[serde(rename = "converge")]
+    Converge,
+    /// In between.
+    #[serde(rename = "stay close")]
+    StayClose,
+    /// No twin was run.
+    #[serde(rename = "n/a")]
+    Unknown,
+}
+
+impl std::fmt::Display for TwinVerdict {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            TwinVerdict::Separate => "separate",
+            TwinVerdict::Converge => "converge",
+            TwinVerdict::StayClose => "stay close",
+            TwinVerdict::Unknown => "n/a",
+        })
     }
 }
 
@@ -65,8 +141,8 @@ pub struct TwinDivergence {
     pub max_after_transient_rad: f64,
     /// First time |α − α_twin| exceeded [`TWIN_SEPARATED_RAD`] (s), if it did.
     pub separated_at_s: Option<f64>,
-    /// "separate", "converge" or "stay close".
-    pub verdict: &'static str,
+    /// Separate, converge or stay close.
+    pub verdict: TwinVerdict,
 }
 
 /// Everything computed for a stationary (harmonically forced) case.
@@ -299,11 +375,11 @@ fn twin_divergence(sim: &Simulation, twin: &Simulation) -> TwinDivergence {
         }
     }
     let verdict = if max_after > TWIN_SEPARATED_RAD {
-        "separate"
+        TwinVerdict::Separate
     } else if max_after < TWIN_CONVERGED_RAD {
-        "converge"
+        TwinVerdict::Converge
     } else {
-        "stay close"
+        TwinVerdict::StayClose
     };
     TwinDivergence {
         perturbation_deg: TWIN_PERTURBATION_DEG,

@@ -28,9 +28,9 @@ pub use cases::{
 pub use error::ReproduceError;
 pub use figures::FIG10_WINDOW_S;
 pub use indicators::{
-    K_CHAOTIC_THRESHOLD, R_PAPER_SYNC_THRESHOLD, StationaryAnalysis, SweepAnalysis, SweepWindow,
-    TWIN_PERTURBATION_DEG, TwinDivergence, analyse_stationary, analyse_sweep, line_prominence,
-    regime, sync_class,
+    K_CHAOTIC_THRESHOLD, R_PAPER_SYNC_THRESHOLD, Regime, StationaryAnalysis, SweepAnalysis,
+    SweepWindow, SyncClass, TWIN_PERTURBATION_DEG, TwinDivergence, TwinVerdict, analyse_stationary,
+    analyse_sweep, line_prominence, regime, sync_class,
 };
 pub use report::{CaseResult, ReportInput, report_markdown};
 pub use run::{RunStats, Simulation, simulate};

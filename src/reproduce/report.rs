@@ -6,8 +6,8 @@
 
 use super::cases::PaperCase;
 use super::indicators::{
-    K_CHAOTIC_THRESHOLD, R_PAPER_SYNC_THRESHOLD, SWEEP_PAPER_BAND_S, StationaryAnalysis,
-    SweepAnalysis, TWIN_PERTURBATION_DEG, TWIN_SEPARATED_RAD, regime,
+    K_CHAOTIC_THRESHOLD, R_PAPER_SYNC_THRESHOLD, Regime, SWEEP_PAPER_BAND_S, StationaryAnalysis,
+    SweepAnalysis, SyncClass, TWIN_PERTURBATION_DEG, TWIN_SEPARATED_RAD, TwinVerdict, regime,
 };
 use super::table::{CaseRow, k_cell, num, table2_markdown};
 use std::f64::consts::FRAC_2_PI;
@@ -213,12 +213,12 @@ fn summary(s: &mut String, inp: &ReportInput) {
     );
     let sync_paper: Vec<String> = t
         .iter()
-        .filter(|c| c.row.sync_paper == "synchronised")
+        .filter(|c| c.row.sync_paper == SyncClass::Synchronised)
         .map(short)
         .collect();
     let sync_ours: Vec<String> = t
         .iter()
-        .filter(|c| c.row.sync_ours == "synchronised")
+        .filter(|c| c.row.sync_ours == SyncClass::Synchronised)
         .map(short)
         .collect();
     let _ = writeln!(
@@ -230,7 +230,7 @@ fn summary(s: &mut String, inp: &ReportInput) {
     );
     let sep: Vec<String> = t
         .iter()
-        .filter(|c| c.row.twin_verdict == "separate")
+        .filter(|c| c.row.twin_verdict == TwinVerdict::Separate)
         .map(short)
         .collect();
     let _ = writeln!(
@@ -260,7 +260,9 @@ fn statements(s: &mut String, inp: &ReportInput) {
     if let Some(c) = find(9.0, 8.0) {
         let a = c.analysis;
         let ok = a.prominence_third >= LINE_VISIBLE
-            || a.alpha_ratio.as_ref().is_some_and(|r| r.label == "1/3");
+            || a.alpha_ratio
+                .as_ref()
+                .is_some_and(|r| r.fraction == Some((1, 3)));
         let _ = writeln!(
             s,
             "| 8 Hz, 9 mm: a broad peak of the holder angle at one third of the forcing, 2.7 Hz | §2.1, Fig. 4a \
@@ -274,7 +276,9 @@ fn statements(s: &mut String, inp: &ReportInput) {
     if let Some(c) = find(12.0, 8.0) {
         let a = c.analysis;
         let ok = a.prominence_half >= LINE_VISIBLE
-            || a.alpha_ratio.as_ref().is_some_and(|r| r.label == "1/2");
+            || a.alpha_ratio
+                .as_ref()
+                .is_some_and(|r| r.fraction == Some((1, 2)));
         let _ = writeln!(
             s,
             "| 8 Hz, 12 mm: the response frequency \"switched to one half\" | §2.1, Fig. 4b | prominence at \
@@ -322,7 +326,7 @@ fn statements(s: &mut String, inp: &ReportInput) {
     );
     if let Some(c) = find(12.0, 5.0) {
         let r = c.row;
-        let regular = regime(r.k_extrema) == "regular" && r.period > 0;
+        let regular = regime(r.k_extrema) == Regime::Regular && r.period > 0;
         let _ = writeln!(
             s,
             "| 5 Hz, 12 mm: periodic, a single frequency; K = 0.13, R = 0.88, the best synchronisation | \
@@ -337,7 +341,7 @@ fn statements(s: &mut String, inp: &ReportInput) {
             },
             num(r.r_paper_convention, 2),
             r.hops,
-            if regular && r.sync_ours == "synchronised" {
+            if regular && r.sync_ours == SyncClass::Synchronised {
                 "agrees"
             } else if regular {
                 "regular, but not synchronised"
@@ -354,7 +358,7 @@ fn statements(s: &mut String, inp: &ReportInput) {
             num(r.k_extrema, 2),
             num(r.k_strobe, 2),
             r.hops,
-            if regime(r.k_extrema) == "regular" {
+            if regime(r.k_extrema) == Regime::Regular {
                 "agrees"
             } else {
                 "not reproduced: chaotic here"
@@ -364,7 +368,7 @@ fn statements(s: &mut String, inp: &ReportInput) {
     let random_paper: Vec<&CaseResult> = inp
         .table2
         .iter()
-        .filter(|c| c.row.sync_paper != "synchronised")
+        .filter(|c| c.row.sync_paper != SyncClass::Synchronised)
         .collect();
     let near = random_paper
         .iter()
@@ -390,7 +394,9 @@ fn statements(s: &mut String, inp: &ReportInput) {
     if let Some(c) = inp.experiments.iter().find(|c| c.row.frequency_hz == 8.0) {
         let a = c.analysis;
         let ok = a.prominence_third >= LINE_VISIBLE
-            || a.alpha_ratio.as_ref().is_some_and(|r| r.label == "1/3");
+            || a.alpha_ratio
+                .as_ref()
+                .is_some_and(|r| r.fraction == Some((1, 3)));
         let _ = writeln!(
             s,
             "| experiment 8 Hz, 9 mm: frequency division from 8 Hz to about 2.6 Hz (one third) | §3.2, \
@@ -618,16 +624,16 @@ fn reasons(s: &mut String, inp: &ReportInput) {
     );
     let paper_regular: Vec<&CaseResult> = t
         .iter()
-        .filter(|c| c.row.regime_paper == "regular")
+        .filter(|c| c.row.regime_paper == Regime::Regular)
         .collect();
     let chaotic_here: Vec<&&CaseResult> = paper_regular
         .iter()
-        .filter(|c| regime(c.row.k_extrema) == "chaotic")
+        .filter(|c| regime(c.row.k_extrema) == Regime::Chaotic)
         .collect();
     if !chaotic_here.is_empty() {
         let sep: Vec<String> = chaotic_here
             .iter()
-            .filter(|c| c.row.twin_verdict == "separate")
+            .filter(|c| c.row.twin_verdict == TwinVerdict::Separate)
             .map(|c| {
                 format!(
                     "{} (|Δα| up to {} rad, {} hops)",
@@ -720,7 +726,7 @@ fn reasons(s: &mut String, inp: &ReportInput) {
     let d_q = mean_abs(t.iter().map(|c| (c.row.k_extrema_eq10, c.row.k_paper)));
     let chaotic_paper: Vec<&CaseResult> = t
         .iter()
-        .filter(|c| c.row.regime_paper == "chaotic")
+        .filter(|c| c.row.regime_paper == Regime::Chaotic)
         .collect();
     let (pk_lo, pk_hi) = range_of(chaotic_paper.iter().map(|c| c.row.k_paper));
     let (ce_lo, ce_hi) = range_of(chaotic_paper.iter().map(|c| c.row.k_extrema));
@@ -792,14 +798,17 @@ fn reasons(s: &mut String, inp: &ReportInput) {
         {
             let synced: Vec<&CaseResult> = t
                 .iter()
-                .filter(|c| c.row.sync_paper == "synchronised")
+                .filter(|c| c.row.sync_paper == SyncClass::Synchronised)
                 .collect();
-            if synced.iter().all(|c| c.row.sync_ours == "synchronised") {
+            if synced
+                .iter()
+                .all(|c| c.row.sync_ours == SyncClass::Synchronised)
+            {
                 "are locked too".to_string()
             } else {
                 let hopping: Vec<String> = synced
                     .iter()
-                    .filter(|c| c.row.sync_ours != "synchronised" && c.row.hops > 0)
+                    .filter(|c| c.row.sync_ours != SyncClass::Synchronised && c.row.hops > 0)
                     .map(|c| format!("{} hops at {}", c.row.hops, short(c)))
                     .collect();
                 if hopping.is_empty() {

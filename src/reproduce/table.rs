@@ -2,7 +2,7 @@
 
 use super::cases::PaperCase;
 use super::error::ReproduceError;
-use super::indicators::{StationaryAnalysis, regime, sync_class};
+use super::indicators::{Regime, StationaryAnalysis, SyncClass, TwinVerdict, regime, sync_class};
 use super::run::RunStats;
 use serde::Serialize;
 use std::path::Path;
@@ -37,13 +37,13 @@ pub struct CaseRow {
     /// Number of stroboscopic samples.
     pub n_strobe: usize,
     /// Regime the paper's K implies.
-    pub regime_paper: String,
+    pub regime_paper: Regime,
     /// Regime of our K on the extrema.
-    pub regime_extrema: String,
+    pub regime_extrema: Regime,
     /// Regime of our K on the extrema with eq. 10.
-    pub regime_extrema_eq10: String,
+    pub regime_extrema_eq10: Regime,
     /// Regime of our stroboscopic K.
-    pub regime_strobe: String,
+    pub regime_strobe: Regime,
     /// R published by the paper (NaN when none).
     pub r_paper: f64,
     /// Our R, paper convention (Δφ modulo π; uniform phases give 2/π ≈ 0.64).
@@ -51,9 +51,9 @@ pub struct CaseRow {
     /// Our R, standard convention (uniform phases give 0).
     pub r_standard: f64,
     /// Synchronisation class of the paper's R.
-    pub sync_paper: String,
+    pub sync_paper: SyncClass,
     /// Synchronisation class of our R (paper convention).
-    pub sync_ours: String,
+    pub sync_ours: SyncClass,
     /// Strongest line of α's spectrum after the transient (Hz).
     pub alpha_peak_hz: f64,
     /// Its ratio to the forcing.
@@ -78,8 +78,8 @@ pub struct CaseRow {
     pub impacts: u64,
     /// Largest |Δα| after the transient between the run and its twin (rad); NaN without twin.
     pub twin_max_dalpha_rad: f64,
-    /// "separate", "converge" or "stay close".
-    pub twin_verdict: String,
+    /// Separate, converge or stay close.
+    pub twin_verdict: TwinVerdict,
     /// RK4 step (s).
     pub dt_s: f64,
     /// Wall time of the integration (s).
@@ -105,15 +105,15 @@ impl CaseRow {
             k_strobe: a.k_strobe.k,
             k_strobe_oversampled: a.k_strobe.oversampled,
             n_strobe: a.k_strobe.n_samples,
-            regime_paper: regime(k_paper).into(),
-            regime_extrema: regime(a.k_extrema.k).into(),
-            regime_extrema_eq10: regime(a.k_extrema_eq10.k).into(),
-            regime_strobe: regime(a.k_strobe.k).into(),
+            regime_paper: regime(k_paper),
+            regime_extrema: regime(a.k_extrema.k),
+            regime_extrema_eq10: regime(a.k_extrema_eq10.k),
+            regime_strobe: regime(a.k_strobe.k),
             r_paper,
             r_paper_convention: a.r_paper,
             r_standard: a.r_standard,
-            sync_paper: sync_class(r_paper).into(),
-            sync_ours: sync_class(a.r_paper).into(),
+            sync_paper: sync_class(r_paper),
+            sync_ours: sync_class(a.r_paper),
             alpha_peak_hz: a.alpha_peak.map_or(f64::NAN, |p| p.frequency_hz),
             alpha_peak_ratio: a.alpha_ratio.as_ref().map_or(f64::NAN, |r| r.ratio),
             alpha_peak_label: a
@@ -135,10 +135,7 @@ impl CaseRow {
                 .twin
                 .as_ref()
                 .map_or(f64::NAN, |t| t.max_after_transient_rad),
-            twin_verdict: a
-                .twin
-                .as_ref()
-                .map_or("n/a".into(), |t| t.verdict.to_string()),
+            twin_verdict: a.twin.as_ref().map_or(TwinVerdict::Unknown, |t| t.verdict),
             dt_s: s.dt_s,
             wall_s: s.wall_s,
         }

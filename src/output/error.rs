@@ -1,0 +1,58 @@
+//! What can go wrong while writing results: every variant names the file.
+
+use thiserror::Error;
+
+/// Errors of the output writers.
+#[derive(Debug, Error)]
+pub enum OutputError {
+    /// A file or folder could not be created, written or renamed.
+    #[error("cannot write `{path}`: {source}")]
+    Io {
+        /// The file or folder.
+        path: String,
+        /// The operating system's reason.
+        source: std::io::Error,
+    },
+    /// A CSV writer failed.
+    #[error("cannot write `{path}`: {source}")]
+    Csv {
+        /// The file.
+        path: String,
+        /// The CSV writer's reason.
+        source: csv::Error,
+    },
+    /// A `.npy` array does not match its shape, or its writer failed.
+    #[error("cannot write `{path}`: {reason}")]
+    Npy {
+        /// The file.
+        path: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A JSON document could not be serialised.
+    #[error("cannot write `{path}`: {source}")]
+    Json {
+        /// The file.
+        path: String,
+        /// serde_json's reason.
+        source: serde_json::Error,
+    },
+    /// A picture could not be drawn.
+    #[error("cannot draw `{path}`: {source}")]
+    Render {
+        /// The picture.
+        path: String,
+        /// The renderer's reason.
+        source: crate::render::RenderError,
+    },
+}
+
+impl OutputError {
+    /// An I/O error on `path`.
+    pub fn io(path: &std::path::Path, source: std::io::Error) -> OutputError {
+        OutputError::Io {
+            path: path.display().to_string(),
+            source,
+        }
+    }
+}
