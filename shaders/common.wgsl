@@ -4,7 +4,8 @@
 // The kernels are assembled from four files (common, integrate, reduce_r, reduce_k; see
 // src/engine/gpu/kernels.rs) behind a header generated from the Rust definitions: the status
 // codes (STATUS_OK, STATUS_DIVERGED, STATUS_NONFINITE, STATUS_ESCAPED), the health-check
-// interval CHECK_EVERY and the array bound MAX_SEG. The physics is docs/model.md, the
+// interval CHECK_EVERY, the array bound MAX_SEG (the scene's N) and the IMEX method's
+// tableaux. The physics is docs/model.md, the
 // reductions docs/analysis.md; the CPU twin of every function is named where it is defined,
 // and the engine test suite holds the two against each other.
 
@@ -19,6 +20,7 @@ override PAPER_CONVENTION: bool = false; // R with Δφ reduced modulo π (paper
 override WG: u32 = 64u;             // workgroup size of the integration and R kernels
 override WG_K: u32 = 32u;           // workgroup size of the 0–1 test kernel
 override N_C: u32 = 100u;           // number of c values of the 0–1 test
+override METHOD_IMEX: bool = false; // integrate with the IMEX method (else classical RK4)
 
 const TAU: f32 = 6.2831853071795864;
 const PI: f32 = 3.1415926535897932;
@@ -64,7 +66,7 @@ struct InstanceParams {
     r_every: u32,
     r_count: u32,
     r_start: u32,
-    pad2: u32,
+    imex_offset: u32,
     pad3: u32,
     levers: array<f32, 64>,
 }
@@ -105,6 +107,8 @@ struct Control {
 // State, structure of arrays: component j of instance i at [j * n_inst + i], j < 2N + 1.
 @group(0) @binding(1) var<storage, read_write> state: array<f32>;
 @group(0) @binding(2) var<storage, read_write> acc: array<Accum>;
+// The IMEX method's matrices (M0⁻¹, S⁻¹, M0; N × N each, row-major) per structure and step.
+@group(0) @binding(8) var<storage, read> imex_mats: array<f32>;
 // Stroboscopic samples of α, `strobe_stride` per instance.
 @group(0) @binding(3) var<storage, read_write> strobe: array<f32>;
 // Work space of the reductions: the uniform α series (then its analytic signal and the
@@ -130,6 +134,8 @@ var<private> hx: array<f32, MAX_SEG>;
 var<private> hy: array<f32, MAX_SEG>;
 var<private> dinv: array<f32, MAX_SEG>;
 var<private> beta: array<f32, MAX_SEG>;
+var<private> acc_out: array<f32, MAX_SEG>; // θ̈ of the last derivative
+var<private> dvolt_out: f32;              // v̇ of the last derivative
 var<private> volt: f32;
 var<private> volt_acc: f32;
 var<private> svolt: f32;

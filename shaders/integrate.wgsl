@@ -1,6 +1,7 @@
-// Integration kernel: one invocation advances one instance by classical RK4 in f32, with the
-// O(N) articulated-body solve of src/model/chain.rs, the step loop of src/engine/rk4.rs and the
-// bookkeeping of src/engine/cpu.rs (accumulators, stroboscopic and R samples).
+// Integration kernel: one invocation advances one instance in f32 by classical RK4 or by the
+// IMEX method (shaders/imex.wgsl), with the O(N) articulated-body solve of src/model/chain.rs,
+// the step loop of src/engine/stepper.rs and the bookkeeping of src/engine/cpu.rs
+// (accumulators, stroboscopic and R samples).
 
 // Cart acceleration at phase (step mod spp + frac) / spp: CartMotion::at_phase of
 // src/model/excitation.rs (exact phase, never t += dt).
@@ -42,19 +43,18 @@ fn joint_torque(i: u32) -> f32 {
     return -P.k * (sth[i] - sth[i - 1u]) - P.b * (som[i] - som[i - 1u]);
 }
 
-// One RK4 stage: evaluate the derivative at the stage state (sth, som, svolt), add
-// `w · dt · k` to the accumulators, and form the next stage state y + a_next · dt · k.
+// The derivative at the stage state (sth, som, svolt): θ̈ into acc_out, v̇ into dvolt_out.
 // The O(N) articulated-body recursion of src/model/chain.rs, with Q_i formed on the fly.
-fn stage(cart_a: f32, w: f32, a_next: f32, dt: f32) {
+fn derivative(cart_a: f32) {
     let l = P.seg_len;
     let m = P.seg_mass;
     let hml = 0.5 * m * l;
     let base_d = P.seg_inertia + m * l * l * 0.25;
     let fx = contact_force();
-    var dvolt = 0.0;
     var couple = 0.0;
+    dvolt_out = 0.0;
     if HAS_PIEZO {
-        dvolt = (P.piezo_theta * (som[P.piezo_last] - som[0]) - svolt * P.piezo_inv_r) * P.piezo_inv_c;
+        dvolt_out = (P.piezo_theta * (som[P.piezo_last] - som[0]) - svolt * P.piezo_inv_r) * P.piezo_inv_c;
         couple = P.piezo_theta * svolt;
     }
     var kxx = P.tip_mass;
@@ -114,24 +114,34 @@ fn stage(cart_a: f32, w: f32, a_next: f32, dt: f32) {
     }
     var ax = cart_a;
     var ay = 0.0;
-    let wdt = w * dt;
-    let adt = a_next * dt;
     for (var i = 0u; i < N_SEG; i++) {
         let accel = (beta[i] - hx[i] * ax - hy[i] * ay) * dinv[i];
         let s = sn[i];
         let c = cs[i];
-        let rate = som[i];
-        let w2 = rate * rate;
+        let w2 = som[i] * som[i];
         ax += l * (c * accel - s * w2);
         ay += l * (-s * accel - c * w2);
+        acc_out[i] = accel;
+    }
+}
+
+// One RK4 stage: the derivative at the stage state, `w · dt · k` added to the accumulators,
+// and the next stage state y + a_next · dt · k (src/engine/rk4.rs).
+fn stage(cart_a: f32, w: f32, a_next: f32, dt: f32) {
+    derivative(cart_a);
+    let wdt = w * dt;
+    let adt = a_next * dt;
+    for (var i = 0u; i < N_SEG; i++) {
+        let rate = som[i];
+        let accel = acc_out[i];
         th_acc[i] += wdt * rate;
         om_acc[i] += wdt * accel;
         sth[i] = th[i] + adt * rate;
         som[i] = om[i] + adt * accel;
     }
     if HAS_PIEZO {
-        volt_acc += wdt * dvolt;
-        svolt = volt + adt * dvolt;
+        volt_acc += wdt * dvolt_out;
+        svolt = volt + adt * dvolt_out;
     }
 }
 
@@ -282,7 +292,11 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
             break;
         }
         let ph = s % P.spp;
-        rk4_step(ph, dt);
+        if METHOD_IMEX {
+            imex_step(ph, dt);
+        } else {
+            rk4_step(ph, dt);
+        }
         s += 1u;
         let alpha = th[0];
         let now = touch_flags();

@@ -213,7 +213,7 @@ fn reference_trajectory() -> Result<Vec<f64>, EngineError> {
         s.output.sample_rate_hz = 8.0 * f64::from(SAMPLES_PER_PERIOD);
     });
     let inst: Instance<f64> = Instance::from_scene(&scene);
-    let plan = StepPlan::for_scene(&scene, &scene.modes());
+    let plan = StepPlan::for_scene(&scene);
     let mut rows = AlphaRows(Vec::new());
     integrate_reference(&inst, &plan, &ReferenceOptions::default(), &mut rows)?;
     Ok(rows.0)

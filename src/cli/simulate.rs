@@ -77,7 +77,7 @@ struct RunJson<'a> {
 pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     let scene = a.scene.load()?;
     let m = scene.modes();
-    let plan = StepPlan::for_scene(&scene, &m);
+    let plan = StepPlan::for_scene(&scene);
     for w in &plan.warnings {
         eprintln!("warning: {w}");
     }

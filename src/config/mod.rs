@@ -17,6 +17,7 @@ pub use map::{
 };
 pub use reader::{Range, Reader, apply_override, parse_override_value, parse_toml, set_key};
 pub use scene::{
-    Beam, Excitation, ExcitationKind, Gravity, Initial, Integration, Limiter, MAX_SEGMENTS, Output,
-    PAPER_SCENE_TOML, Piezo, Pivot, PivotMode, Scene, TimeStep, Tip, load_scene,
+    Beam, Excitation, ExcitationKind, Gravity, Initial, Integration, Limiter, MAX_SEGMENTS,
+    MethodChoice, Output, PAPER_SCENE_TOML, Piezo, Pivot, PivotMode, Scene, TimeStep, Tip,
+    load_scene,
 };

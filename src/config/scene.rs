@@ -120,16 +120,31 @@ pub enum TimeStep {
     Seconds(f64),
 }
 
+/// Which integration method a run asks for.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum MethodChoice {
+    /// The cheaper of the two for the scene, at their automatic steps.
+    Auto,
+    /// Classical RK4: every term explicit, step bound by the stiffest joint mode.
+    Rk4,
+    /// ARK3(2)4L[2]SA: joint springs and dampers implicit, step set by accuracy.
+    Imex,
+}
+
 /// Integration settings.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct Integration {
+    /// Integration method.
+    pub method: MethodChoice,
     /// Simulated time (s).
     pub duration_s: f64,
     /// Time discarded before indicators are computed (s).
     pub transient_s: f64,
     /// Time step.
     pub dt_s: TimeStep,
-    /// Safety factor on the RK4 stability limit used by the automatic step.
+    /// Safety factor of the automatic step (on RK4's stability limit, or on the IMEX method's
+    /// limits).
     pub dt_safety: f64,
 }
 
@@ -343,7 +358,16 @@ fn read_integration(r: &mut Reader) -> Result<Integration, ConfigError> {
         }
         Some(_) => TimeStep::Seconds(r.number("integration.dt_s", 0.0, Range::Positive, "s")?),
     };
+    let method = match r
+        .choice("integration.method", "auto", &["auto", "rk4", "imex"])?
+        .as_str()
+    {
+        "rk4" => MethodChoice::Rk4,
+        "imex" => MethodChoice::Imex,
+        _ => MethodChoice::Auto,
+    };
     Ok(Integration {
+        method,
         duration_s,
         transient_s,
         dt_s,

@@ -5,8 +5,10 @@
 //! keeps the accumulators after the transient, records the stroboscopic and R samples, and
 //! (with [`EarlyStop`]) ends a confirmed periodic orbit early.
 
+use crate::engine::imex::Imex;
 use crate::engine::plan::{EarlyStop, EnsemblePlan, InstancePlan};
-use crate::engine::rk4::{CartClock, StepHook, run_steps};
+use crate::engine::rk4::Rk4;
+use crate::engine::stepper::{CartClock, StepHook, run_steps};
 use crate::engine::{EngineRun, EngineTimings, Precision, Progress, ProgressUnit, Readback};
 use crate::model::{Chain, Real, Status, Workspace};
 use crate::reduce::{ReduceOptions, Series, Span, Tally, reduce_series};
@@ -32,8 +34,8 @@ pub struct RawInstance {
 struct PhaseClock<'a>(&'a InstancePlan);
 
 impl CartClock for PhaseClock<'_> {
-    fn stage_accelerations(&self, step: u64) -> [f64; 3] {
-        [0.0, 0.5, 1.0].map(|c| self.0.cart_at(step, c).a_m_s2)
+    fn acceleration(&self, step: u64, frac: f64) -> f64 {
+        self.0.cart_at(step, frac).a_m_s2
     }
 
     fn velocity(&self, step: u64) -> f64 {
@@ -186,8 +188,8 @@ impl<T: Real> StepHook<T> for EnsembleHook<'_, T> {
     }
 }
 
-/// Integrate one instance with RK4 in the float type `T`, as the GPU kernel does, over the
-/// whole run.
+/// Integrate one instance with the plan's method in the float type `T`, as the GPU kernel
+/// does, over the whole run.
 pub fn run_instance<T: Real>(
     plan: &InstancePlan,
     want_strobe: bool,
@@ -206,15 +208,33 @@ pub fn run_instance_with<T: Real>(
     let chain: Chain<T> = Chain::new(&plan.params);
     let mut y: Vec<T> = plan.y0.iter().map(|&v| T::of(v)).collect();
     let mut hook = EnsembleHook::<T>::new(plan, want_strobe, want_rseries, early);
-    let end = run_steps(
-        &chain,
-        &plan.guard,
-        &mut y,
-        plan.dt_s,
-        plan.total_steps(),
-        &PhaseClock(plan),
-        &mut hook,
-    );
+    let (steps, clock) = (plan.total_steps(), PhaseClock(plan));
+    let end = match &plan.imex {
+        None => {
+            let mut rk4 = Rk4::new(plan.dt_s, y.len());
+            run_steps(
+                &chain,
+                &plan.guard,
+                &mut y,
+                &mut rk4,
+                steps,
+                &clock,
+                &mut hook,
+            )
+        }
+        Some(m) => {
+            let mut imex = Imex::new(m, y.len());
+            run_steps(
+                &chain,
+                &plan.guard,
+                &mut y,
+                &mut imex,
+                steps,
+                &clock,
+                &mut hook,
+            )
+        }
+    };
     let mut raw = hook.raw;
     raw.tally.status = end.status;
     raw.tally.steps = end.steps_done;

@@ -6,7 +6,7 @@
 //! 2. [`Engine::open`]: the engine is chosen and opened once by the caller (a GPU device and
 //!    its compiled kernels live in [`gpu::GpuContext`] and are reused by every batch);
 //! 3. [`Engine::run`]: both engines implement [`EnsembleEngine`]: the CPU engine ([`cpu`],
-//!    rayon, `f32`/`f64`) runs the shared RK4 step loop of [`rk4`]; the GPU engine ([`gpu`],
+//!    rayon, `f32`/`f64`) runs the shared step loop of [`stepper`] with [`rk4`]; the GPU engine ([`gpu`],
 //!    WGSL, `f32`) mirrors it in `shaders/`; each reduces its instances to
 //!    [`crate::reduce::InstanceResult`]s;
 //! 4. single runs ([`integrate`], [`integrate_reference`]) hand every output row to an
@@ -18,18 +18,23 @@
 pub mod cpu;
 mod error;
 pub mod gpu;
+pub mod imex;
+pub mod method;
 pub mod plan;
 mod reference;
 pub mod rk4;
 mod single;
 mod step_plan;
+pub mod stepper;
 
 pub use cpu::CpuEngine;
 pub use error::EngineError;
 pub use gpu::{GpuContext, GpuEngine};
 pub use plan::{EARLY_STOP_METRICS, EarlyStop, EnsembleOptions, EnsemblePlan, InstancePlan};
 pub use reference::{ReferenceOptions, integrate_reference};
-pub use single::{Instance, NoObserver, Observer, Outcome, integrate, integrate_batch};
+pub use single::{
+    Instance, NoObserver, Observer, Outcome, integrate, integrate_batch, integrate_with,
+};
 pub use step_plan::{DtSource, StepPlan};
 
 use crate::reduce::{InstanceResult, ReduceOptions};

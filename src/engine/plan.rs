@@ -10,12 +10,16 @@
 //! need: the stroboscopic α (K, period, bifurcation) and a power-of-two uniform α series at
 //! `samples_per_period` per period (R). Trajectories are never stored.
 
-use crate::config::{MapSpec, Metric, Scene, TimeStep};
+use crate::config::{MapSpec, MethodChoice, Metric, Scene, TimeStep};
 use crate::engine::error::EngineError;
-use crate::model::{CartState, ExcitationKind, Guard, ModelParams, modes};
+use crate::engine::imex::ImexMatrices;
+use crate::engine::method::{Method, MethodSteps};
+use crate::engine::step_plan::given_step_warning;
+use crate::model::{CartState, ExcitationKind, Guard, ModelParams};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::HashMap;
+use std::sync::Arc;
 
 /// The step plan and sampling of one instance.
 #[derive(Debug, Clone, Serialize)]
@@ -53,6 +57,9 @@ pub struct InstancePlan {
     pub r_start: u32,
     /// Half the clearance (rad): the well thresholds of hop counting.
     pub half_clearance_rad: f64,
+    /// The IMEX method's matrices for this structure and step (shared between instances).
+    #[serde(skip)]
+    pub imex: Option<Arc<ImexMatrices>>,
 }
 
 impl InstancePlan {
@@ -96,6 +103,12 @@ pub struct EnsemblePlan {
     /// The instances, in the caller's order (a map's grid order: last axis fastest).
     #[serde(skip)]
     pub instances: Vec<InstancePlan>,
+    /// Integration method (shared).
+    pub method: Method,
+    /// Why that method.
+    pub method_reason: String,
+    /// Distinct IMEX matrix sets (structure × step) the instances share.
+    pub imex_matrix_sets: usize,
     /// Segments N (shared).
     pub segments: usize,
     /// Bumpers present (shared).
@@ -186,13 +199,6 @@ impl EnsembleOptions {
 /// Minimum stroboscopic samples the 0–1 test accepts.
 const MIN_STROBE: u32 = crate::analysis::ZERO_ONE_MIN_SAMPLES as u32;
 
-/// The RK4 limits of one structure: the automatic step and the stable step (s).
-#[derive(Debug, Clone, Copy)]
-struct StepLimits {
-    dt_auto_s: f64,
-    dt_stable_s: f64,
-}
-
 impl EnsemblePlan {
     /// Plan every instance of a map: validate its scene, choose its step and sampling.
     pub fn new(spec: &MapSpec) -> Result<EnsemblePlan, EngineError> {
@@ -214,26 +220,38 @@ impl EnsemblePlan {
         check_shared_structure(scenes)?;
         let params: Vec<ModelParams> = scenes.par_iter().map(Scene::model_params).collect();
         let limits = step_limits(scenes, &params);
-        let instances: Vec<InstancePlan> = scenes
+        let (method, method_reason) = ensemble_method(scenes, &limits);
+        let mut instances: Vec<InstancePlan> = scenes
             .par_iter()
             .zip(params)
             .zip(&limits)
-            .map(|((s, p), lim)| plan_instance(opts, s, p, *lim))
+            .map(|((s, p), lim)| plan_instance(opts, s, p, lim.auto_s(method)))
             .collect::<Result<_, _>>()?;
+        let imex_matrix_sets = if method == Method::Imex {
+            attach_imex_matrices(&mut instances)
+        } else {
+            0
+        };
         let mut warnings = Vec::new();
         if let TimeStep::Seconds(dt) = first.integration.dt_s {
-            let unstable = limits.iter().filter(|l| dt > l.dt_stable_s).count();
-            if unstable > 0 {
+            let beyond = limits
+                .iter()
+                .filter(|l| given_step_warning(method, dt, l).is_some())
+                .count();
+            if beyond > 0 {
                 warnings.push(format!(
-                    "integration.dt_s = {dt:e} s exceeds the RK4 stability limit of the linearised model for {unstable} of {} instances; those that blow up are flagged `diverged`",
+                    "integration.dt_s = {dt:e} s exceeds the {} method's limit for {beyond} of {} instances; those that blow up are flagged `diverged`",
+                    method.name(),
                     scenes.len()
                 ));
             }
         }
         let early_stop = allowed_early_stop(opts, &mut warnings);
-        Ok(EnsemblePlan::assemble(
-            first, opts, instances, warnings, early_stop,
-        ))
+        let mut plan = EnsemblePlan::assemble(first, opts, instances, warnings, early_stop);
+        plan.method = method;
+        plan.method_reason = method_reason;
+        plan.imex_matrix_sets = imex_matrix_sets;
+        Ok(plan)
     }
 
     fn assemble(
@@ -253,6 +271,9 @@ impl EnsemblePlan {
             dts.fold(0.0, f64::max),
         );
         EnsemblePlan {
+            method: Method::Rk4,
+            method_reason: String::new(),
+            imex_matrix_sets: 0,
             segments: first.beam.segments,
             has_contact: first.limiter.enabled,
             has_piezo: first.piezo.enabled,
@@ -287,9 +308,9 @@ fn check_shared_structure(scenes: &[Scene]) -> Result<(), EngineError> {
     Ok(())
 }
 
-/// The RK4 limits of every instance. They depend on the structure, not on the cart: one
-/// eigenproblem per distinct structure (and step safety factor).
-fn step_limits(scenes: &[Scene], params: &[ModelParams]) -> Vec<StepLimits> {
+/// Both methods' automatic steps for every instance. They depend on the structure, not on the
+/// cart: one set of eigenproblems per distinct structure (and step safety factor).
+fn step_limits(scenes: &[Scene], params: &[ModelParams]) -> Vec<MethodSteps> {
     let key = |k: usize| {
         let mut bits = params[k].structure_bits();
         bits.push(scenes[k].integration.dt_safety.to_bits());
@@ -300,18 +321,89 @@ fn step_limits(scenes: &[Scene], params: &[ModelParams]) -> Vec<StepLimits> {
         .map(|k| *first_of.entry(key(k)).or_insert(k))
         .collect();
     let reps: Vec<usize> = first_of.into_values().collect();
-    let solved: HashMap<usize, StepLimits> = reps
+    let solved: HashMap<usize, MethodSteps> = reps
         .par_iter()
         .map(|&k| {
-            let m = modes(&params[k], scenes[k].integration.dt_safety);
-            let lim = StepLimits {
-                dt_auto_s: m.dt_auto_s,
-                dt_stable_s: m.dt_stable_s,
-            };
-            (k, lim)
+            (
+                k,
+                MethodSteps::of(&params[k], scenes[k].integration.dt_safety),
+            )
         })
         .collect();
     owner.iter().map(|k| solved[k]).collect()
+}
+
+/// One method for the whole ensemble (the kernels are specialised on it): the one every scene
+/// names, or, with `auto`, the one with the smaller total cost over the instances (or, with a
+/// given step, IMEX as soon as it is beyond RK4's stable limit for some instance).
+fn ensemble_method(scenes: &[Scene], limits: &[MethodSteps]) -> (Method, String) {
+    // Every scene of an ensemble comes from one base scene: its choice applies.
+    let choice = scenes[0].integration.method;
+    match (choice, scenes[0].integration.dt_s) {
+        (MethodChoice::Rk4, _) => (Method::Rk4, "integration.method = \"rk4\"".into()),
+        (MethodChoice::Imex, _) => (Method::Imex, "integration.method = \"imex\"".into()),
+        (MethodChoice::Auto, TimeStep::Seconds(dt)) => {
+            if limits.iter().any(|l| dt > l.rk4_stable_s) {
+                (
+                    Method::Imex,
+                    format!("auto: the given step {dt:e} s is beyond RK4's stable limit"),
+                )
+            } else {
+                (
+                    Method::Rk4,
+                    "auto: the given step is within RK4's stable limit".into(),
+                )
+            }
+        }
+        (MethodChoice::Auto, TimeStep::Auto) => {
+            let cost = |m: Method| -> f64 {
+                scenes
+                    .iter()
+                    .zip(limits)
+                    .map(|(s, l)| l.cost_per_s(m) * s.integration.duration_s)
+                    .sum()
+            };
+            let (rk4, imex) = (cost(Method::Rk4), cost(Method::Imex));
+            let m = if imex < rk4 {
+                Method::Imex
+            } else {
+                Method::Rk4
+            };
+            (
+                m,
+                format!(
+                    "auto: {} is {:.1}x cheaper for these instances at the automatic steps",
+                    m.name(),
+                    rk4.max(imex) / rk4.min(imex)
+                ),
+            )
+        }
+    }
+}
+
+/// Build the IMEX matrices once per distinct structure and step and hand every instance its
+/// set; returns the number of distinct sets.
+fn attach_imex_matrices(instances: &mut [InstancePlan]) -> usize {
+    let key = |p: &InstancePlan| {
+        let mut bits = p.params.structure_bits();
+        bits.push(p.dt_s.to_bits());
+        bits
+    };
+    let mut first_of: HashMap<Vec<u64>, usize> = HashMap::new();
+    for (k, p) in instances.iter().enumerate() {
+        first_of.entry(key(p)).or_insert(k);
+    }
+    let built: HashMap<Vec<u64>, Arc<ImexMatrices>> = first_of
+        .par_iter()
+        .map(|(bits, &k)| {
+            let p = &instances[k];
+            (bits.clone(), Arc::new(ImexMatrices::new(&p.params, p.dt_s)))
+        })
+        .collect();
+    for p in instances.iter_mut() {
+        p.imex = Some(built[&key(p)].clone());
+    }
+    built.len()
 }
 
 /// The early stop of the options, unless a requested metric needs the whole run.
@@ -333,14 +425,12 @@ fn allowed_early_stop(opts: &EnsembleOptions, warnings: &mut Vec<String>) -> Opt
     None
 }
 
-/// Steps per forcing period: a multiple of `samples_per_period` near the automatic (or
-/// given) step.
-fn steps_per_period(opts: &EnsembleOptions, scene: &Scene, period_s: f64, lim: StepLimits) -> u64 {
+/// Steps per forcing period: a multiple of `samples_per_period` near the method's automatic
+/// step `dt_auto_s` (or the given step).
+fn steps_per_period(opts: &EnsembleOptions, scene: &Scene, period_s: f64, dt_auto_s: f64) -> u64 {
     let sp = u64::from(opts.samples_per_period);
     let blocks = match scene.integration.dt_s {
-        TimeStep::Auto => (period_s / (sp as f64 * lim.dt_auto_s) - 1e-9)
-            .ceil()
-            .max(1.0),
+        TimeStep::Auto => (period_s / (sp as f64 * dt_auto_s) - 1e-9).ceil().max(1.0),
         TimeStep::Seconds(dt) => (period_s / (sp as f64 * dt)).round().max(1.0),
     } as u64;
     sp * blocks
@@ -350,11 +440,11 @@ fn plan_instance(
     opts: &EnsembleOptions,
     scene: &Scene,
     params: ModelParams,
-    lim: StepLimits,
+    dt_auto_s: f64,
 ) -> Result<InstancePlan, EngineError> {
     let f = scene.excitation.reference_frequency_hz();
     let period = 1.0 / f;
-    let spp = steps_per_period(opts, scene, period, lim);
+    let spp = steps_per_period(opts, scene, period, dt_auto_s);
     let blocks = spp / u64::from(opts.samples_per_period);
     let total_periods = (scene.integration.duration_s * f).round().max(1.0) as u64;
     let transient_periods = ((scene.integration.transient_s * f).round() as u64).max(1);
@@ -414,5 +504,6 @@ fn plan_instance(
         y0: scene.initial_state(&params),
         guard: Guard::for_params(&params),
         params,
+        imex: None,
     })
 }

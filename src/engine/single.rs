@@ -4,12 +4,16 @@
 //! failed instance stops at the first health check that fails and is reported by its status.
 
 use crate::config::Scene;
-use crate::engine::rk4::{CartClock, StepHook, run_steps};
+use crate::engine::imex::{Imex, ImexMatrices};
+use crate::engine::method::Method;
+use crate::engine::rk4::Rk4;
 use crate::engine::step_plan::StepPlan;
+use crate::engine::stepper::{CartClock, StepHook, Stepper, run_steps};
 use crate::model::{CartMotion, CartState, Chain, Guard, ModelParams, Real, Status, Workspace};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::ops::ControlFlow;
+use std::sync::Arc;
 
 /// Receives the state at every output row (step 0 and every `sample_every` steps).
 pub trait Observer<T: Real> {
@@ -56,6 +60,8 @@ pub struct Outcome {
 
 /// One independent instance: its chain, cart motion, initial state and health bounds.
 pub struct Instance<T: Real> {
+    /// Every coefficient, in f64 (the IMEX method's matrices are built from it).
+    pub params: ModelParams,
     /// The chain's coefficients.
     pub chain: Chain<T>,
     /// The cart motion.
@@ -76,6 +82,7 @@ impl<T: Real> Instance<T> {
     /// The instance of a chain started from `y0`.
     pub fn new(params: &ModelParams, y0: Vec<f64>) -> Instance<T> {
         Instance {
+            params: params.clone(),
             chain: Chain::new(params),
             cart: params.cart,
             y0,
@@ -91,8 +98,8 @@ struct TimeClock<'a> {
 }
 
 impl CartClock for TimeClock<'_> {
-    fn stage_accelerations(&self, step: u64) -> [f64; 3] {
-        [0.0, 0.5, 1.0].map(|c| self.cart.at_step(step, c, self.dt_s).a_m_s2)
+    fn acceleration(&self, step: u64, frac: f64) -> f64 {
+        self.cart.at_step(step, frac, self.dt_s).a_m_s2
     }
 
     fn velocity(&self, step: u64) -> f64 {
@@ -131,10 +138,29 @@ impl<T: Real, O: Observer<T>> StepHook<T> for Rows<'_, O> {
     }
 }
 
-/// Integrate one instance with RK4 over the plan, calling the observer at every output row.
+/// Integrate one instance over the plan with the plan's method, calling the observer at every
+/// output row.
 pub fn integrate<T: Real, O: Observer<T>>(
     inst: &Instance<T>,
     plan: &StepPlan,
+    obs: &mut O,
+) -> Outcome {
+    let dim = inst.y0.len();
+    match plan.method {
+        Method::Rk4 => integrate_with(inst, plan, &mut Rk4::new(plan.dt_s, dim), obs),
+        Method::Imex => {
+            let m = Arc::new(ImexMatrices::new(&inst.params, plan.dt_s));
+            integrate_with(inst, plan, &mut Imex::new(&m, dim), obs)
+        }
+    }
+}
+
+/// Integrate one instance with `stepper` (whose step must be the plan's) over the plan,
+/// calling the observer at every output row.
+pub fn integrate_with<T: Real, S: Stepper<T>, O: Observer<T>>(
+    inst: &Instance<T>,
+    plan: &StepPlan,
+    stepper: &mut S,
     obs: &mut O,
 ) -> Outcome {
     let chain = &inst.chain;
@@ -156,7 +182,7 @@ pub fn integrate<T: Real, O: Observer<T>>(
         chain,
         &inst.guard,
         &mut y,
-        plan.dt_s,
+        stepper,
         plan.steps,
         &clock,
         &mut rows,

@@ -1,15 +1,15 @@
-//! The step plan of a single run: the time step (automatic or given), step count, output
-//! cadence.
+//! The step plan of a single run: the method, its time step (automatic or given), the step
+//! count and the output cadence.
 
 use crate::config::{Scene, TimeStep};
-use crate::model::Modes;
+use crate::engine::method::{Method, MethodSteps, choose_method};
 use serde::Serialize;
 
 /// Where a run's step came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum DtSource {
-    /// `integration.dt_s = "auto"`: from the linearisation.
+    /// `integration.dt_s = "auto"`: the method's automatic step.
     Auto,
     /// `integration.dt_s` given in seconds.
     Given,
@@ -18,7 +18,11 @@ pub enum DtSource {
 /// How a run is discretised in time.
 #[derive(Debug, Clone, Serialize)]
 pub struct StepPlan {
-    /// The RK4 step (s).
+    /// The integration method.
+    pub method: Method,
+    /// Why that method.
+    pub method_reason: String,
+    /// The step (s).
     pub dt_s: f64,
     /// Total number of steps.
     pub steps: u64,
@@ -28,30 +32,29 @@ pub struct StepPlan {
     pub dt_source: DtSource,
     /// Largest stable RK4 step of the linearised model (s).
     pub dt_stable_s: f64,
+    /// Both methods' automatic steps and what bounds them.
+    pub method_steps: MethodSteps,
     /// Warnings about the step (an explicit dt beyond the stable limit, ...).
     pub warnings: Vec<String>,
 }
 
 impl StepPlan {
-    /// Choose the step for a scene. The automatic step is `safety · 2.78 / max|λ|`, capped by the
-    /// output interval and then shortened so that the output interval is a whole number of steps.
-    pub fn for_scene(scene: &Scene, modes: &Modes) -> StepPlan {
+    /// Choose the method and step for a scene. The automatic step is the method's (see
+    /// [`MethodSteps`]), capped by the output interval and then shortened so that the output
+    /// interval is a whole number of steps.
+    pub fn for_scene(scene: &Scene) -> StepPlan {
+        let steps = MethodSteps::of_scene(scene);
+        let chosen = choose_method(scene.integration.method, scene.integration.dt_s, &steps);
         let out_dt = 1.0 / scene.output.sample_rate_hz;
-        let duration = scene.integration.duration_s;
         let mut warnings = Vec::new();
         let (dt_s, sample_every, dt_source) = match scene.integration.dt_s {
             TimeStep::Auto => {
-                let dt0 = modes.dt_auto_s.min(out_dt);
+                let dt0 = steps.auto_s(chosen.method).min(out_dt);
                 let per_row = (out_dt / dt0 - 1e-9).ceil().max(1.0);
                 (out_dt / per_row, per_row as u64, DtSource::Auto)
             }
             TimeStep::Seconds(dt) => {
-                if dt > modes.dt_stable_s {
-                    warnings.push(format!(
-                        "integration.dt_s = {dt:e} s exceeds the RK4 stability limit {:e} s of the linearised model; instances that blow up are flagged `diverged`",
-                        modes.dt_stable_s
-                    ));
-                }
+                warnings.extend(given_step_warning(chosen.method, dt, &steps));
                 let every = (out_dt / dt).round().max(1.0) as u64;
                 if ((every as f64) * dt - out_dt).abs() > 1e-9 * out_dt {
                     warnings.push(format!(
@@ -63,11 +66,14 @@ impl StepPlan {
             }
         };
         StepPlan {
+            method: chosen.method,
+            method_reason: chosen.reason,
             dt_s,
-            steps: (duration / dt_s).round() as u64,
+            steps: (scene.integration.duration_s / dt_s).round() as u64,
             sample_every,
             dt_source,
-            dt_stable_s: modes.dt_stable_s,
+            dt_stable_s: steps.rk4_stable_s,
+            method_steps: steps,
             warnings,
         }
     }
@@ -75,5 +81,21 @@ impl StepPlan {
     /// Number of output rows, including t = 0.
     pub fn rows(&self) -> usize {
         (self.steps / self.sample_every) as usize + 1
+    }
+}
+
+/// The warning for a given step beyond what `method` handles: RK4's stable limit, or the IMEX
+/// method's automatic step at safety 1 (its explicit stability and accuracy bound).
+pub fn given_step_warning(method: Method, dt: f64, steps: &MethodSteps) -> Option<String> {
+    match method {
+        Method::Rk4 if dt > steps.rk4_stable_s => Some(format!(
+            "integration.dt_s = {dt:e} s exceeds the RK4 stability limit {:e} s of the linearised model; instances that blow up are flagged `diverged`",
+            steps.rk4_stable_s
+        )),
+        Method::Imex if dt > steps.imex_limit_s() => Some(format!(
+            "integration.dt_s = {dt:e} s exceeds the IMEX method's limit {:e} s (explicit stability and 1/80 of the first bending period): expect lost accuracy, and instances that blow up are flagged `diverged`",
+            steps.imex_limit_s()
+        )),
+        _ => None,
     }
 }

@@ -136,7 +136,7 @@ pub struct Resimulated {
 
 /// One instance integrated as `simulate` integrates it.
 pub fn simulate_power(scene: &crate::config::Scene) -> Resimulated {
-    let plan = StepPlan::for_scene(scene, &scene.modes());
+    let plan = StepPlan::for_scene(scene);
     let inst = Instance::<f64>::from_scene(scene);
     let mut meter = PowerMeter {
         transient_s: scene.integration.transient_s,

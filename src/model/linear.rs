@@ -36,7 +36,7 @@ pub fn stiffness_matrix(p: &ModelParams) -> DMatrix<f64> {
 }
 
 /// The tridiagonal pattern of joint elements plus a root element at (1,1).
-fn spring_pattern(n: usize, joint: f64, root: f64) -> DMatrix<f64> {
+pub fn spring_pattern(n: usize, joint: f64, root: f64) -> DMatrix<f64> {
     let mut k = DMatrix::zeros(n, n);
     k[(0, 0)] += root;
     for i in 1..n {
@@ -132,6 +132,20 @@ pub fn jacobian(p: &ModelParams) -> DMatrix<f64> {
 /// Eigenvalues of the first-order Jacobian.
 pub fn jacobian_eigenvalues(p: &ModelParams) -> Vec<Complex<f64>> {
     jacobian(p).complex_eigenvalues().iter().copied().collect()
+}
+
+/// Spectral radius (1/s) of the first-order Jacobian without the joint and root springs and
+/// dampers: what is left when those linear terms are treated implicitly (gravity, an engaged
+/// bumper, the piezo circuit, all through the straight beam's mass matrix).
+pub fn explicit_part_radius(p: &ModelParams) -> f64 {
+    let mut q = p.clone();
+    q.joint_stiffness_nm = 0.0;
+    q.root_stiffness_nm = 0.0;
+    q.joint_damping_nms = 0.0;
+    q.root_damping_nms = 0.0;
+    jacobian_eigenvalues(&q)
+        .iter()
+        .fold(0.0f64, |a, z| a.max(z.norm()))
 }
 
 /// |R(z)| for classical RK4, R(z) = 1 + z + z²/2 + z³/6 + z⁴/24.

@@ -140,6 +140,9 @@ fn map_json(spec: &MapSpec, run: &MapRun, files: &[String]) -> serde_json::Value
         "adapter": run.engine.device,
         "precision": run.engine.precision,
         "segments": run.plan.segments,
+        "method": run.plan.method,
+        "method_reason": run.plan.method_reason,
+        "imex_matrix_sets": run.plan.imex_matrix_sets,
         "dt_s": {"min": run.plan.dt_range_s.0, "max": run.plan.dt_range_s.1},
         "steps": {
             "total_instance_steps": run.plan.total_steps,

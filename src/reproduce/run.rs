@@ -51,7 +51,7 @@ impl Simulation {
 /// Integrate `scene` (case `case` in error messages) at its automatic step with f64 RK4.
 /// A run that diverges or turns non-finite is an error: its numbers would mean nothing.
 pub fn simulate(case: &str, scene: &Scene) -> Result<Simulation, ReproduceError> {
-    let plan = StepPlan::for_scene(scene, &scene.modes());
+    let plan = StepPlan::for_scene(scene);
     let inst = Instance::<f64>::from_scene(scene);
     let mut rec = TrajectoryRecorder {
         rows: Vec::with_capacity(plan.rows()),

@@ -10,7 +10,7 @@ use pendulum_atlas::model::{Real, Status};
 use pendulum_atlas::output::{Row, TrajectoryRecorder};
 
 fn run_rk4<T: Real>(s: &Scene) -> (Vec<Row>, Status) {
-    let plan = StepPlan::for_scene(s, &s.modes());
+    let plan = StepPlan::for_scene(s);
     let inst = Instance::<T>::from_scene(s);
     let mut rec = TrajectoryRecorder {
         load_ohm: s.piezo_params().map(|z| z.load_ohm),
@@ -21,7 +21,7 @@ fn run_rk4<T: Real>(s: &Scene) -> (Vec<Row>, Status) {
 }
 
 fn run_reference(s: &Scene) -> Vec<Row> {
-    let plan = StepPlan::for_scene(s, &s.modes());
+    let plan = StepPlan::for_scene(s);
     let inst = Instance::<f64>::from_scene(s);
     let mut rec = TrajectoryRecorder {
         load_ohm: s.piezo_params().map(|z| z.load_ohm),
@@ -197,7 +197,7 @@ fn a_step_three_times_the_limit_is_flagged_not_returned() {
     let m = s0.modes();
     let dt = format!("integration.dt_s={}", 3.0 * m.dt_stable_s);
     let s = scene(&["beam.segments=5", "integration.duration_s=0.5", &dt]);
-    let plan = StepPlan::for_scene(&s, &m);
+    let plan = StepPlan::for_scene(&s);
     assert!(
         plan.warnings.iter().any(|w| w.contains("stability limit")),
         "{:?}",
@@ -223,7 +223,7 @@ fn batch_equals_single_runs_and_keeps_order() {
             ])
         })
         .collect();
-    let plan = StepPlan::for_scene(&scenes[0], &scenes[0].modes());
+    let plan = StepPlan::for_scene(&scenes[0]);
     let insts: Vec<Instance<f64>> = scenes.iter().map(Instance::from_scene).collect();
     let mut recs: Vec<TrajectoryRecorder> = (0..3).map(|_| TrajectoryRecorder::default()).collect();
     integrate_batch(&insts, &plan, &mut recs);

@@ -6,6 +6,8 @@ use crate::engine::gpu::ReduceSettings;
 use crate::engine::gpu::context::GpuContext;
 use crate::engine::gpu::kernels::KernelKey;
 use crate::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams};
+use crate::engine::imex::ImexMatrices;
+use crate::engine::method::Method;
 use crate::engine::plan::EnsemblePlan;
 use crate::model::Chain;
 use wgpu::util::DeviceExt;
@@ -135,8 +137,19 @@ pub fn software_step_budget(
         .map(|p| p.params.contact.as_ref().map_or(0, |c| c.levers_m.len()))
         .max()
         .unwrap_or(0);
-    let per_step = 4 * (max_lever + 2 * n_seg + 2) + 3 * n_seg + 2 * max_lever + 8;
+    let per_step = loops_per_step(key.method, n_seg, max_lever);
     Ok(Some(((SOFTWARE_LOOP_BUDGET / per_step) as u64).max(1)))
+}
+
+/// Loop iterations of one integration step in the kernel (an upper bound): four derivatives
+/// (two sweeps of N plus the contact levers), the health and bookkeeping loops, and for the
+/// IMEX method its stage sums, joint couples and seven N × N products.
+fn loops_per_step(method: Method, n: usize, levers: usize) -> usize {
+    let rk4 = 4 * (levers + 2 * n + 2) + 3 * n + 2 * levers + 8;
+    match method {
+        Method::Rk4 => rk4,
+        Method::Imex => rk4 + 9 * n * n + 13 * n + 8 * n + 16,
+    }
 }
 
 /// The buffers of a run and their bind group (which keeps the others alive).
@@ -174,10 +187,12 @@ impl Buffers {
                 mapped_at_creation: false,
             })
         };
+        let (mats, offsets) = imex_matrices(plan);
         let params: Vec<GpuInstanceParams> = plan
             .instances
             .iter()
-            .map(GpuInstanceParams::from_plan)
+            .zip(&offsets)
+            .map(|(p, &off)| GpuInstanceParams::from_plan(p, off))
             .collect();
         let (state, accum) = initial_state(plan, sizes);
         let params = init("params", bytemuck::cast_slice(&params), sto);
@@ -187,6 +202,7 @@ impl Buffers {
         let rwork = empty("rwork", sizes.rwork_bytes);
         let kc = empty("kc", sizes.kc_bytes);
         let turns = init("c_turns", bytemuck::cast_slice(&c_turns(reduce)), sto);
+        let imex = init("imex_mats", bytemuck::cast_slice(&mats), sto);
         let control = init(
             "control",
             bytemuck::bytes_of(control),
@@ -204,6 +220,7 @@ impl Buffers {
                 entry(5, &turns),
                 entry(6, &control),
                 entry(7, &kc),
+                entry(8, &imex),
             ],
         });
         Buffers {
@@ -239,6 +256,32 @@ fn initial_state(plan: &EnsemblePlan, sizes: &Sizes) -> (Vec<f32>, Vec<GpuAccum>
         accum.push(GpuAccum::initial(u32::from(r) | (u32::from(l) << 1)));
     }
     (state, accum)
+}
+
+/// The IMEX matrices of every distinct (structure, step) set the instances share, as f32
+/// (M0⁻¹, S⁻¹, M0 per set), and each instance's offset into them; a 16-byte placeholder and
+/// zero offsets for RK4.
+pub fn imex_matrices(plan: &EnsemblePlan) -> (Vec<f32>, Vec<u32>) {
+    let mut data: Vec<f32> = Vec::new();
+    let mut seen: std::collections::HashMap<*const ImexMatrices, u32> = Default::default();
+    let mut offsets = Vec::with_capacity(plan.instances.len());
+    for p in &plan.instances {
+        let Some(m) = &p.imex else {
+            offsets.push(0);
+            continue;
+        };
+        let key = std::sync::Arc::as_ptr(m);
+        let off = *seen.entry(key).or_insert_with(|| {
+            let off = data.len() as u32;
+            for block in [&m.m0_inv, &m.s_inv, &m.m0] {
+                data.extend(block.iter().map(|&v| v as f32));
+            }
+            off
+        });
+        offsets.push(off);
+    }
+    data.resize(data.len().max(4), 0.0);
+    (data, offsets)
 }
 
 /// c / 2π of the 0–1 test as 32-bit fixed-point fractions of a turn (exact phase arithmetic).

@@ -4,7 +4,7 @@
 use crate::engine::error::EngineError;
 use crate::engine::gpu::kernels::{KernelKey, Kernels, shader_source};
 use std::collections::HashMap;
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, Mutex};
 
 /// Which adapters [`GpuContext::new`] may pick.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -28,7 +28,8 @@ pub struct GpuContext {
     pub(crate) limits: wgpu::Limits,
     pub(crate) bind_layout: wgpu::BindGroupLayout,
     pipeline_layout: wgpu::PipelineLayout,
-    module: OnceLock<wgpu::ShaderModule>,
+    /// One shader module per segment count (its arrays are sized by N).
+    modules: Mutex<HashMap<usize, Arc<wgpu::ShaderModule>>>,
     kernels: Mutex<HashMap<KernelKey, Arc<Kernels>>>,
 }
 
@@ -64,7 +65,7 @@ impl GpuContext {
             limits,
             bind_layout,
             pipeline_layout,
-            module: OnceLock::new(),
+            modules: Mutex::new(HashMap::new()),
             kernels: Mutex::new(HashMap::new()),
         })
     }
@@ -75,19 +76,30 @@ impl GpuContext {
         cache
             .entry(*key)
             .or_insert_with(|| {
-                let module = self.module.get_or_init(|| {
-                    self.device
-                        .create_shader_module(wgpu::ShaderModuleDescriptor {
-                            label: Some("ensemble kernels"),
-                            source: wgpu::ShaderSource::Wgsl(shader_source().into()),
-                        })
-                });
+                let module = self.module(key.segments);
                 Arc::new(Kernels::compile(
                     &self.device,
                     &self.pipeline_layout,
-                    module,
+                    &module,
                     key,
                 ))
+            })
+            .clone()
+    }
+
+    /// The shader module of chains of `segments` segments, compiled on first use.
+    fn module(&self, segments: usize) -> Arc<wgpu::ShaderModule> {
+        let mut modules = self.modules.lock().unwrap_or_else(|e| e.into_inner());
+        modules
+            .entry(segments)
+            .or_insert_with(|| {
+                Arc::new(
+                    self.device
+                        .create_shader_module(wgpu::ShaderModuleDescriptor {
+                            label: Some("ensemble kernels"),
+                            source: wgpu::ShaderSource::Wgsl(shader_source(segments).into()),
+                        }),
+                )
             })
             .clone()
     }
@@ -123,7 +135,7 @@ fn pick_adapter(choice: AdapterChoice) -> Result<wgpu::Adapter, EngineError> {
         })
 }
 
-/// Bindings 0–7 of the kernels (see `shaders/common.wgsl`).
+/// Bindings 0–8 of the kernels (see `shaders/common.wgsl`).
 fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
         binding,
@@ -155,6 +167,7 @@ fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             storage(4, false),
             storage(5, true),
             storage(7, false),
+            storage(8, true),
             uniform,
         ],
     })

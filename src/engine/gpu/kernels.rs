@@ -2,21 +2,24 @@
 //! behind a header generated from the Rust definitions, and their specialisation.
 //!
 //! The header holds the status codes ([`Status::code`]), the health-check interval
-//! ([`CHECK_EVERY`]) and the bound of the per-invocation arrays, so the shader never carries
-//! its own copy of a rule defined in [`crate::model`].
+//! ([`CHECK_EVERY`]), the IMEX method's tableaux ([`crate::engine::imex`]) and the bound of the
+//! per-invocation arrays, the scene's N (so no private array is larger than the scene needs):
+//! the shader never carries its own copy of a rule or coefficient defined in Rust.
 
-use crate::engine::gpu::layout::GPU_MAX_SEGMENTS;
+use crate::engine::imex::{AE, AI, B, C, GAMMA};
+use crate::engine::method::Method;
 use crate::model::{CHECK_EVERY, Status};
 use std::fmt::Write;
 
 /// The stage files of the ensemble kernels, in assembly order: common definitions,
-/// integration, the R reduction, the 0–1 test and period.
-pub const SHADER_STAGES: [(&str, &str); 4] = [
+/// integration (RK4), the IMEX method, the R reduction, the 0–1 test and period.
+pub const SHADER_STAGES: [(&str, &str); 5] = [
     ("common.wgsl", include_str!("../../../shaders/common.wgsl")),
     (
         "integrate.wgsl",
         include_str!("../../../shaders/integrate.wgsl"),
     ),
+    ("imex.wgsl", include_str!("../../../shaders/imex.wgsl")),
     (
         "reduce_r.wgsl",
         include_str!("../../../shaders/reduce_r.wgsl"),
@@ -31,26 +34,42 @@ pub const SHADER_STAGES: [(&str, &str); 4] = [
 pub const SHADER_BODY: &str = concat!(
     include_str!("../../../shaders/common.wgsl"),
     include_str!("../../../shaders/integrate.wgsl"),
+    include_str!("../../../shaders/imex.wgsl"),
     include_str!("../../../shaders/reduce_r.wgsl"),
     include_str!("../../../shaders/reduce_k.wgsl"),
 );
 
-/// The constants the kernels take from the Rust side.
-pub fn shader_header() -> String {
+/// A WGSL array constant of f32 values.
+fn wgsl_array(name: &str, values: &[f64]) -> String {
+    let items: Vec<String> = values.iter().map(|v| format!("{v:e}")).collect();
+    format!(
+        "const {name}: array<f32, {n}> = array<f32, {n}>({});\n",
+        items.join(", "),
+        n = values.len()
+    )
+}
+
+/// The constants the kernels take from the Rust side, for chains of `segments` segments.
+pub fn shader_header(segments: usize) -> String {
     let mut h =
         String::from("// Generated from the Rust definitions (src/engine/gpu/kernels.rs).\n");
     for s in Status::ALL {
         let _ = writeln!(h, "const {}: u32 = {}u;", s.wgsl_name(), s.code());
     }
     let _ = writeln!(h, "const CHECK_EVERY: u32 = {CHECK_EVERY}u;");
-    let _ = writeln!(h, "const MAX_SEG: u32 = {GPU_MAX_SEGMENTS}u;");
+    let _ = writeln!(h, "const MAX_SEG: u32 = {}u;", segments.max(1));
+    let _ = writeln!(h, "const IMEX_GAMMA: f32 = {GAMMA:e};");
+    h.push_str(&wgsl_array("IMEX_C", &C));
+    h.push_str(&wgsl_array("IMEX_B", &B));
+    h.push_str(&wgsl_array("IMEX_AE", AE.as_flattened()));
+    h.push_str(&wgsl_array("IMEX_AI", AI.as_flattened()));
     h.push('\n');
     h
 }
 
-/// The complete WGSL source of the ensemble kernels.
-pub fn shader_source() -> String {
-    shader_header() + SHADER_BODY
+/// The complete WGSL source of the ensemble kernels for chains of `segments` segments.
+pub fn shader_source(segments: usize) -> String {
+    shader_header(segments) + SHADER_BODY
 }
 
 /// Everything the kernels are specialised on (their override constants): one compiled set of
@@ -75,6 +94,8 @@ pub struct KernelKey {
     pub paper_convention: bool,
     /// c values of the 0–1 test.
     pub n_c: usize,
+    /// Integration method.
+    pub method: Method,
 }
 
 /// Workgroup size of the integration and R kernels.
@@ -100,6 +121,7 @@ impl KernelKey {
             ("WG", f64::from(WG)),
             ("WG_K", f64::from(self.wg_k())),
             ("N_C", self.n_c as f64),
+            ("METHOD_IMEX", flag(self.method == Method::Imex)),
         ]
     }
 }

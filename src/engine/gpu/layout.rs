@@ -90,8 +90,8 @@ pub struct GpuInstanceParams {
     pub r_count: u32,
     /// Step of the first R sample.
     pub r_start: u32,
-    /// Padding.
-    pub pad2: u32,
+    /// Index (in f32) of this instance's IMEX matrices in the matrix buffer (0 for RK4).
+    pub imex_offset: u32,
     /// Padding.
     pub pad3: u32,
     /// Contact levers λ_i (m).
@@ -99,8 +99,9 @@ pub struct GpuInstanceParams {
 }
 
 impl GpuInstanceParams {
-    /// From an instance plan (its [`ModelParams`] and step plan).
-    pub fn from_plan(p: &InstancePlan) -> GpuInstanceParams {
+    /// From an instance plan (its [`ModelParams`] and step plan), its IMEX matrices at
+    /// `imex_offset` of the matrix buffer.
+    pub fn from_plan(p: &InstancePlan, imex_offset: u32) -> GpuInstanceParams {
         let m = &p.params;
         let mut levers = [0f32; GPU_MAX_SEGMENTS];
         let (n_levers, gap, kc, cc) = match &m.contact {
@@ -167,7 +168,7 @@ impl GpuInstanceParams {
             r_every: p.r_every,
             r_count: p.r_count,
             r_start: p.r_start,
-            pad2: 0,
+            imex_offset,
             pad3: 0,
             levers,
         }

@@ -120,6 +120,7 @@ fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings) -> KernelKey {
         run_k_final: want(Metric::K) || want(Metric::Period),
         paper_convention: reduce.paper_convention,
         n_c: reduce.c_values.len().max(1),
+        method: plan.method,
     }
 }
 

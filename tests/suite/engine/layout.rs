@@ -14,7 +14,11 @@ macro_rules! offsets {
 }
 
 fn module() -> naga::Module {
-    let src = shader_source();
+    module_for(3)
+}
+
+fn module_for(segments: usize) -> naga::Module {
+    let src = shader_source(segments);
     naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{}", e.emit_to_string(&src)))
 }
 
@@ -60,7 +64,7 @@ fn parameter_structs_have_the_same_layout_in_rust_and_wgsl() {
             k, k0, b, b0, gap, kc, cc, piezo_inv_c, piezo_inv_r, piezo_theta, pos_amp, vel_amp,
             acc_amp, dt, guard_energy, guard_bend, theta0, omega0, volt0, half_clearance,
             guard_holder, pad1, n_levers, piezo_last, spp, transient_periods, total_periods, strobe_offset,
-            strobe_count, r_every, r_count, r_start, pad2, pad3, levers),
+            strobe_count, r_every, r_count, r_start, imex_offset, pad3, levers),
         size_of::<GpuInstanceParams>(),
     );
     assert_same_layout(
@@ -134,7 +138,7 @@ fn the_shader_takes_status_codes_and_the_check_interval_from_rust() {
             "{name} defines CHECK_EVERY"
         );
     }
-    assert!(shader_header().contains("Generated"));
+    assert!(shader_header(17).contains("const MAX_SEG: u32 = 17u;"));
 }
 
 #[test]
@@ -152,10 +156,18 @@ fn one_gpu_device_compiles_each_kernel_set_once() {
     );
     let ctx = engine.gpu_context().expect("gpu");
     let k_only = super::cases::tiny_map(
+        super::Under {
+            eng: super::Eng::Gpu,
+            method: pendulum_atlas::engine::method::Method::Rk4,
+        },
         "",
         "metrics = [\"K\"]\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [5.0, 8.0]",
     );
     let hops = super::cases::tiny_map(
+        super::Under {
+            eng: super::Eng::Gpu,
+            method: pendulum_atlas::engine::method::Method::Rk4,
+        },
         "",
         "metrics = [\"hops\"]\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [5.0, 8.0]",
     );

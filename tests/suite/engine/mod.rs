@@ -1,5 +1,6 @@
-//! One suite for every engine: the same test bodies ([`cases`]) run on the CPU engine in f64
-//! and in f32 and on the GPU engine, so parity is a property of the suite, not a special test.
+//! One suite for every engine and method: the same test bodies ([`cases`]) run on the CPU
+//! engine in f64 and in f32 and on the GPU engine, each with RK4 and with the IMEX method, so
+//! parity is a property of the suite, not a special test.
 //!
 //! The GPU needs a wgpu adapter (lavapipe is enough). Without one its tests print a skip
 //! message, unless PENDULUM_ATLAS_REQUIRE_GPU=1 (as `.ci/run` sets), which makes them fail.
@@ -8,12 +9,13 @@ mod cases;
 mod layout;
 
 use pendulum_atlas::engine::gpu::REQUIRE_GPU_ENV;
+use pendulum_atlas::engine::method::Method;
 use pendulum_atlas::engine::{Backend, Engine, Precision};
 use std::sync::OnceLock;
 
 /// The engines the suite runs on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Under {
+pub enum Eng {
     /// The CPU engine in f64: the reference of the others.
     CpuF64,
     /// The CPU engine in f32.
@@ -22,21 +24,43 @@ pub enum Under {
     Gpu,
 }
 
+/// An engine and an integration method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Under {
+    /// The engine.
+    pub eng: Eng,
+    /// The method every scene of the case asks for.
+    pub method: Method,
+}
+
 impl Under {
     /// The engine, or `None` (skip) for the GPU when there is no adapter and none is required.
     pub fn engine(self) -> Option<&'static Engine> {
         static CPU64: OnceLock<Engine> = OnceLock::new();
         static CPU32: OnceLock<Engine> = OnceLock::new();
-        match self {
-            Under::CpuF64 => Some(CPU64.get_or_init(|| Engine::cpu(Precision::F64))),
-            Under::CpuF32 => Some(CPU32.get_or_init(|| Engine::cpu(Precision::F32))),
-            Under::Gpu => gpu(),
+        match self.eng {
+            Eng::CpuF64 => Some(CPU64.get_or_init(|| Engine::cpu(Precision::F64))),
+            Eng::CpuF32 => Some(CPU32.get_or_init(|| Engine::cpu(Precision::F32))),
+            Eng::Gpu => gpu(),
         }
     }
 
     /// Single precision: the looser parity tolerances apply.
     pub fn is_f32(self) -> bool {
-        self != Under::CpuF64
+        self.eng != Eng::CpuF64
+    }
+
+    /// The CPU engine in f64 with the same method: the reference of the comparisons.
+    pub fn reference(self) -> Under {
+        Under {
+            eng: Eng::CpuF64,
+            method: self.method,
+        }
+    }
+
+    /// The scene override that selects the method.
+    pub fn method_set(self) -> String {
+        format!("integration.method={}", self.method.name())
     }
 }
 
@@ -60,18 +84,27 @@ pub fn gpu() -> Option<&'static Engine> {
     e.as_ref()
 }
 
-/// The same tests, one module per engine.
+/// The same tests for one engine and one method.
+macro_rules! engine_method {
+    ($module:ident, $eng:ident, $method:ident, [$($case:ident),*]) => {
+        mod $module {
+            use super::{Eng, Under};
+            use pendulum_atlas::engine::method::Method;
+            const UNDER: Under = Under { eng: Eng::$eng, method: Method::$method };
+            $(#[test] fn $case() { super::cases::$case(UNDER) })*
+        }
+    };
+}
+
+/// The same tests, one module per engine and method.
 macro_rules! engine_suite {
     ($($case:ident),* $(,)?) => {
-        mod cpu_f64 {
-            $(#[test] fn $case() { super::cases::$case(super::Under::CpuF64) })*
-        }
-        mod cpu_f32 {
-            $(#[test] fn $case() { super::cases::$case(super::Under::CpuF32) })*
-        }
-        mod gpu {
-            $(#[test] fn $case() { super::cases::$case(super::Under::Gpu) })*
-        }
+        engine_method!(cpu_f64_rk4, CpuF64, Rk4, [$($case),*]);
+        engine_method!(cpu_f32_rk4, CpuF32, Rk4, [$($case),*]);
+        engine_method!(gpu_rk4, Gpu, Rk4, [$($case),*]);
+        engine_method!(cpu_f64_imex, CpuF64, Imex, [$($case),*]);
+        engine_method!(cpu_f32_imex, CpuF32, Imex, [$($case),*]);
+        engine_method!(gpu_imex, Gpu, Imex, [$($case),*]);
     };
 }
 

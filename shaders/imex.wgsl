@@ -1,0 +1,127 @@
+// The IMEX method of src/engine/imex.rs in f32: ARK3(2)4L[2]SA with the joint springs and
+// dampers implicit. Tableaux (IMEX_AE, IMEX_AI, IMEX_B, IMEX_C, IMEX_GAMMA) come from the
+// generated header; the matrices M0⁻¹, S⁻¹ and M0 of the instance's structure and step from
+// imex_mats at P.imex_offset (N × N each, row-major, in that order).
+
+// Stage derivatives: θ̇ (= U_ω), ω̇ and v̇ of each stage, and the ω-part of L U_j.
+var<private> f_th: array<array<f32, MAX_SEG>, 4>;
+var<private> f_om: array<array<f32, MAX_SEG>, 4>;
+var<private> f_v: array<f32, 4>;
+var<private> l_om: array<array<f32, MAX_SEG>, 4>;
+// Scratch: joint couples, the implicit right-hand side, R_θ.
+var<private> qv: array<f32, MAX_SEG>;
+var<private> rv: array<f32, MAX_SEG>;
+
+// qv = −(K θ + C ω) at the stage state (sth, som); the dampers only when `damp` is 1.
+fn imex_couples(damp: f32) {
+    qv[0] = -P.k0 * sth[0] - damp * P.b0 * som[0];
+    for (var i = 1u; i < N_SEG; i++) {
+        qv[i] = 0.0;
+    }
+    for (var i = 1u; i < N_SEG; i++) {
+        let tau = -P.k * (sth[i] - sth[i - 1u]) - damp * P.b * (som[i] - som[i - 1u]);
+        qv[i] += tau;
+        qv[i - 1u] -= tau;
+    }
+}
+
+// Row i of the matrix `which` (0: M0⁻¹, 1: S⁻¹, 2: M0) times qv or rv.
+fn mat_row_q(which: u32, i: u32) -> f32 {
+    let base = P.imex_offset + which * N_SEG * N_SEG + i * N_SEG;
+    var s = 0.0;
+    for (var j = 0u; j < N_SEG; j++) {
+        s += imex_mats[base + j] * qv[j];
+    }
+    return s;
+}
+
+fn mat_row_r(which: u32, i: u32) -> f32 {
+    let base = P.imex_offset + which * N_SEG * N_SEG + i * N_SEG;
+    var s = 0.0;
+    for (var j = 0u; j < N_SEG; j++) {
+        s += imex_mats[base + j] * rv[j];
+    }
+    return s;
+}
+
+// The derivative of stage j at the stage state, stored; and L's ω-part when later stages need it.
+fn imex_eval(j: u32, cart_a: f32) {
+    derivative(cart_a);
+    for (var i = 0u; i < N_SEG; i++) {
+        f_th[j][i] = som[i];
+        f_om[j][i] = acc_out[i];
+    }
+    f_v[j] = dvolt_out;
+    if j < 3u {
+        imex_couples(1.0);
+        for (var i = 0u; i < N_SEG; i++) {
+            l_om[j][i] = mat_row_q(0u, i);
+        }
+    }
+}
+
+// Stage i: R = y + h Σ_{j<i} (a^E_ij N_j + a^I_ij L_j), then (I − hγL) U = R into (sth, som, svolt).
+fn imex_implicit_stage(i: u32, h: f32) {
+    for (var s = 0u; s < N_SEG; s++) {
+        var rt = th[s];
+        var ro = om[s];
+        for (var j = 0u; j < i; j++) {
+            let ae = IMEX_AE[i * 4u + j];
+            let ai = IMEX_AI[i * 4u + j];
+            rt += h * ai * f_th[j][s];
+            ro += h * (ae * f_om[j][s] + (ai - ae) * l_om[j][s]);
+        }
+        sth[s] = rt;
+        som[s] = ro;
+    }
+    svolt = volt;
+    for (var j = 0u; j < i; j++) {
+        svolt += h * IMEX_AE[i * 4u + j] * f_v[j];
+    }
+    // S U_ω = M0 R_ω − hγ K R_θ; U_θ = R_θ + hγ U_ω.
+    let hg = h * IMEX_GAMMA;
+    imex_couples(0.0);
+    for (var s = 0u; s < N_SEG; s++) {
+        rv[s] = som[s];
+    }
+    for (var s = 0u; s < N_SEG; s++) {
+        // qv becomes the right-hand side M0 R_ω + hγ q_spring(R_θ).
+        qv[s] = mat_row_r(2u, s) + hg * qv[s];
+    }
+    for (var s = 0u; s < N_SEG; s++) {
+        let u_om = mat_row_q(1u, s);
+        som[s] = u_om;
+        sth[s] += hg * u_om;
+    }
+}
+
+// One IMEX step from phase `ph` within the forcing period.
+fn imex_step(ph: u32, h: f32) {
+    for (var i = 0u; i < N_SEG; i++) {
+        sth[i] = th[i];
+        som[i] = om[i];
+    }
+    svolt = volt;
+    imex_eval(0u, cart_acc(ph, IMEX_C[0]));
+    for (var i = 1u; i < 4u; i++) {
+        imex_implicit_stage(i, h);
+        imex_eval(i, cart_acc(ph, IMEX_C[i]));
+    }
+    for (var s = 0u; s < N_SEG; s++) {
+        var dth = 0.0;
+        var dom = 0.0;
+        for (var j = 0u; j < 4u; j++) {
+            dth += IMEX_B[j] * f_th[j][s];
+            dom += IMEX_B[j] * f_om[j][s];
+        }
+        th[s] += h * dth;
+        om[s] += h * dom;
+    }
+    if HAS_PIEZO {
+        var dv = 0.0;
+        for (var j = 0u; j < 4u; j++) {
+            dv += IMEX_B[j] * f_v[j];
+        }
+        volt += h * dv;
+    }
+}

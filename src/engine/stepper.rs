@@ -1,0 +1,97 @@
+//! The one step loop that every CPU path runs (single runs and the CPU ensemble engine alike;
+//! the WGSL kernel mirrors it, see `shaders/integrate.wgsl`), over any [`Stepper`].
+//!
+//! The loop takes the cart from a [`CartClock`] (time-based for single runs, exact-phase for
+//! ensembles), counts bumper contact onsets, checks the state's health by the model's rules
+//! ([`health_due`], [`Guard::check`]) and hands every step to a [`StepHook`], which records what
+//! its caller needs and may end the run early.
+
+use crate::model::{Chain, Guard, Real, Status, Workspace, health_due};
+use std::ops::ControlFlow;
+
+/// Where the cart is at each step of a run.
+pub trait CartClock {
+    /// Cart acceleration (m/s²) at `frac` of step `step` (0-based): t = (step + frac)·dt.
+    fn acceleration(&self, step: u64, frac: f64) -> f64;
+    /// Cart velocity (m/s) after `step` steps.
+    fn velocity(&self, step: u64) -> f64;
+}
+
+/// A fixed-step integration method: advances the state by one step.
+pub trait Stepper<T: Real> {
+    /// Advance `y = [θ; θ̇; v]` by one step from step index `step`.
+    fn step<C: CartClock>(
+        &mut self,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        y: &mut [T],
+        step: u64,
+        clock: &C,
+    );
+}
+
+/// What a run does with each step.
+pub trait StepHook<T: Real> {
+    /// Whether the state after `step` steps is recorded (its health is then checked first, so
+    /// a failed state is never recorded).
+    fn records(&self, step: u64) -> bool;
+    /// After `step` steps (1-based) with state `y`; `onsets` bumper contacts began at this step.
+    /// `Break` ends the run early (a confirmed periodic orbit, say) with status `ok`.
+    fn after_step(
+        &mut self,
+        step: u64,
+        y: &[T],
+        onsets: u32,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+    ) -> ControlFlow<()>;
+}
+
+/// How a step loop ended.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopEnd {
+    /// `Ok` unless a health check failed.
+    pub status: Status,
+    /// Steps taken.
+    pub steps_done: u64,
+}
+
+/// Integrate `y` over `steps` steps of `stepper`, the cart given by `clock`.
+pub fn run_steps<T: Real, S: Stepper<T>, C: CartClock, H: StepHook<T>>(
+    chain: &Chain<T>,
+    guard: &Guard,
+    y: &mut [T],
+    stepper: &mut S,
+    steps: u64,
+    clock: &C,
+    hook: &mut H,
+) -> LoopEnd {
+    let mut ws = chain.workspace();
+    let mut touching = chain.touching(y);
+    for n in 0..steps {
+        stepper.step(chain, &mut ws, y, n, clock);
+        let now = chain.touching(y);
+        let onsets = u32::from(now.0 && !touching.0) + u32::from(now.1 && !touching.1);
+        touching = now;
+        let step = n + 1;
+        if health_due(step, steps, hook.records(step)) {
+            let status = guard.check(chain, y, clock.velocity(step));
+            if status != Status::Ok {
+                return LoopEnd {
+                    status,
+                    steps_done: step,
+                };
+            }
+        }
+        if hook.after_step(step, y, onsets, chain, &mut ws).is_break() {
+            return LoopEnd {
+                status: Status::Ok,
+                steps_done: step,
+            };
+        }
+    }
+    LoopEnd {
+        status: Status::Ok,
+        steps_done: steps,
+    }
+}
