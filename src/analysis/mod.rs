@@ -34,7 +34,9 @@ pub use report::{
     ZeroOneSummary, analyze_record,
 };
 pub use sampling::{
-    check_uniform_time, local_extrema, resample_uniform, stroboscopic, stroboscopic_uniform,
+    GAP_MEDIAN_STEPS, STROBE_MIN_SAMPLES_PER_PERIOD, TimeGap, check_uniform_time,
+    ensure_forcing_resolved, local_extrema, median_step, resample_uniform, stroboscopic,
+    stroboscopic_uniform, time_gaps,
 };
 pub use spectrum::{
     RATIO_MAX_DENOMINATOR, RATIO_REL_TOL, RatioReport, SPECTRUM_MIN_SAMPLES, SpectralPeak,
