@@ -43,8 +43,10 @@ pub use spectrum::{
     Spectrum, amplitude_spectrum, dominant_peak, ratio_to_forcing, ratio_to_forcing_within,
 };
 pub use wavelet::{
-    DEFAULT_CONFIDENCE, MORLET_C_DELTA, MORLET_OMEGA0, WAVELET_MIN_SAMPLES, WaveletOptions,
-    WaveletResult, chi2_2dof_quantile, cone_of_influence, lag1_autocorrelation, morlet_cwt,
+    DEFAULT_CONFIDENCE, Lag1Estimator, MORLET_C_DELTA, MORLET_DOF_MIN, MORLET_GAMMA, MORLET_OMEGA0,
+    MORLET_OMEGA0_MIN, MotherWavelet, WAVELET_MIN_SAMPLES, WaveletOptions, WaveletResult,
+    chi2_2dof_quantile, chi2_quantile, cone_of_influence, estimate_lag1, global_significance_ar1,
+    global_wavelet_spectrum, lag1_allen_smith, lag1_autocorrelation, morlet_cwt,
     morlet_fourier_factor, power_averaged_inside_coi, reconstruct_signal, reconstruct_variance,
     significance_ar1,
 };

@@ -6,6 +6,7 @@ mod errors;
 mod periodicity;
 mod phase;
 mod sampling;
+mod significance;
 mod spectrum;
 mod wavelet;
 mod zero_one;
