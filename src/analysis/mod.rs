@@ -51,6 +51,6 @@ pub use wavelet::{
     significance_ar1,
 };
 pub use zero_one::{
-    K01Method, ZERO_ONE_MIN_SAMPLES, ZeroOneOptions, ZeroOneResult, draw_c_values, pq_path,
-    zero_one_test,
+    K01Method, ZERO_ONE_COMFORTABLE_SAMPLES, ZERO_ONE_MIN_SAMPLES, ZeroOneOptions, ZeroOneResult,
+    draw_c_values, pq_path, zero_one_test,
 };
