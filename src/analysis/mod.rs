@@ -8,10 +8,12 @@
 //! 3. [`phase_sync`]: Hilbert phases, `R`, phase-difference histograms;
 //! 4. [`amplitude_spectrum`] / [`dominant_peak`] / [`ratio_to_forcing`]: Fourier view;
 //! 5. [`morlet_cwt`]: Torrence & Compo wavelet power with COI and AR(1) significance;
-//! 6. [`detect_period`], [`hops`], [`rms`], [`range`]: per-instance numbers.
+//! 6. [`detect_period`], [`hops`], [`rms`], [`range`]: per-instance numbers;
+//! 7. [`analyze_record`]: all of them for one record, as `analyze` and `simulate` report it.
 //!
 //! Every fallible function returns [`AnalysisError`] instead of panicking on empty, short or
-//! non-finite input.
+//! non-finite input. Library types carry no command-line concerns (no clap): the CLI has its
+//! own spellings of the enums.
 
 mod checks;
 mod error;
@@ -23,6 +25,7 @@ mod spectrum;
 mod wavelet;
 mod zero_one;
 
+pub use checks::FLAT_SIGNAL_REL_RANGE;
 pub use error::AnalysisError;
 pub use periodicity::{detect_period, hops, range, rms};
 pub use phase::{
@@ -30,7 +33,8 @@ pub use phase::{
     instantaneous_phase, phase_histogram, phase_sync,
 };
 pub use report::{
-    PhaseSummary, RecordAnalysis, RecordOptions, Sampling, SpectrumSummary, Statistics,
+    Lag1Choice, PhaseSummary, RECORD_MIN_SAMPLES, RecordAnalysis, RecordOptions, Sampling,
+    SpectrumSummary, Statistics, WaveletSettings, WaveletSignificance, WaveletSummary,
     ZeroOneSummary, analyze_record,
 };
 pub use sampling::{

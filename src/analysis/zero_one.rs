@@ -13,7 +13,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use super::checks::{ensure_finite, ensure_min_len, mean, median, population_variance};
+use super::checks::{ensure_finite, ensure_min_len, mean, median, min_max, population_variance};
 use super::error::AnalysisError;
 
 /// Shortest series the test accepts: `N = 95`, the smallest length whose lag window
@@ -368,14 +368,6 @@ fn low_minus_high_c_median(c_values: &[f64], k_c: &[f64]) -> f64 {
         return 0.0;
     }
     median(&low) - median(&high)
-}
-
-/// Smallest and largest value of a non-empty slice.
-fn min_max(x: &[f64]) -> (f64, f64) {
-    x.iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
-            (lo.min(v), hi.max(v))
-        })
 }
 
 #[cfg(test)]

@@ -5,6 +5,7 @@ mod common;
 mod errors;
 mod periodicity;
 mod phase;
+mod record;
 mod sampling;
 mod significance;
 mod spectrum;
