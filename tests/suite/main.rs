@@ -2,6 +2,7 @@
 //! config → model → integrate → analysis → command line.
 
 mod analysis;
+mod analyze_cli;
 mod bench;
 mod cli;
 mod config;
