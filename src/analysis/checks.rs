@@ -87,3 +87,47 @@ pub(crate) fn median(x: &[f64]) -> f64 {
         0.5 * (sorted[n / 2 - 1] + sorted[n / 2])
     }
 }
+
+/// Relative range `(max − min)/max|x|` at or below which a record counts as constant.
+///
+/// `1e-9` lies far above the rounding noise of a computed signal at rest (an integrator holding
+/// an equilibrium jitters by ~1e-15 relative) and far below any measured motion (a 24-bit
+/// converter resolves 6e-8 of its full scale), so a record under it is flat in every practical
+/// sense: its standard deviation is rounding noise, and normalising by it would blow that noise
+/// up into spectra, wavelet power and phases of pure artefacts.
+pub const FLAT_SIGNAL_REL_RANGE: f64 = 1e-9;
+
+/// Smallest and largest value of a non-empty slice.
+pub(crate) fn min_max(x: &[f64]) -> (f64, f64) {
+    x.iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        })
+}
+
+/// True when the range of `x` is at most `rel_range` times its largest magnitude (an
+/// all-zero series included).
+pub(crate) fn is_flat(x: &[f64], rel_range: f64) -> bool {
+    let (lo, hi) = min_max(x);
+    hi - lo <= rel_range * lo.abs().max(hi.abs())
+}
+
+/// Refuses a non-empty, finite series whose variance overflows or which is constant to within
+/// [`FLAT_SIGNAL_REL_RANGE`]: every indicator of a record measures its variation.
+pub(crate) fn ensure_varying(what: &str, x: &[f64]) -> Result<(), AnalysisError> {
+    if !population_variance(x).is_finite() {
+        let max_abs = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        return Err(AnalysisError::Overflow {
+            what: what.to_string(),
+            max_abs,
+        });
+    }
+    if is_flat(x, FLAT_SIGNAL_REL_RANGE) {
+        return Err(AnalysisError::ConstantSignal {
+            what: what.to_string(),
+            value: x[0],
+            rel_range: FLAT_SIGNAL_REL_RANGE,
+        });
+    }
+    Ok(())
+}

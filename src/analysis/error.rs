@@ -31,15 +31,16 @@ pub enum AnalysisError {
     },
     /// Time stamps that should be uniform are not, within the tolerance.
     #[error(
-        "time step at index {index} is {step_s} s, but the mean step is {expected_s} s \
-         (relative tolerance {rel_tol}); resample with resample_uniform first"
+        "time stamps are not uniform: the step before sample {index} is {step_s} s, but the \
+         median step is {expected_s} s (relative tolerance {rel_tol}); resample the record onto \
+         a uniform grid first"
     )]
     NonUniformTime {
         /// Index of the later sample of the offending step.
         index: usize,
         /// The step found there, in seconds.
         step_s: f64,
-        /// The mean step of the whole record, in seconds.
+        /// The median step of the whole record, in seconds.
         expected_s: f64,
         /// The relative tolerance that was exceeded.
         rel_tol: f64,
@@ -65,6 +66,61 @@ pub enum AnalysisError {
         left: usize,
         /// Length of the second input.
         right: usize,
+    },
+    /// The transient leaves too little of the record to analyse.
+    #[error(
+        "the transient of {transient_s} s leaves {remaining} of the samples of a {record_s} s \
+         record, but at least {needed} are needed: shorten the transient"
+    )]
+    TransientTooLong {
+        /// The transient asked for, in seconds.
+        transient_s: f64,
+        /// Length of the whole record (last minus first time stamp), in seconds.
+        record_s: f64,
+        /// Samples left after the transient.
+        remaining: usize,
+        /// Samples the analysis needs.
+        needed: usize,
+    },
+    /// The forcing period is too short for the record's sampling to resolve.
+    #[error(
+        "a forcing frequency of {forcing_hz} Hz is not resolved by a record sampled at \
+         {sample_rate_hz} Hz: stroboscopic samples need at least {min_samples_per_period} \
+         samples per forcing period, so the forcing must lie in (0, {max_forcing_hz}] Hz"
+    )]
+    ForcingUnresolved {
+        /// The forcing frequency asked for, in Hz.
+        forcing_hz: f64,
+        /// The record's (mean) sample rate, in Hz.
+        sample_rate_hz: f64,
+        /// The smallest number of samples per forcing period accepted.
+        min_samples_per_period: f64,
+        /// The largest forcing frequency accepted at this sample rate, in Hz.
+        max_forcing_hz: f64,
+    },
+    /// The series does not vary, so indicators that measure variation are undefined.
+    #[error(
+        "{what} is constant (every sample equals {value} to within {rel_range:e} of its \
+         magnitude): there is no motion for K, R, a spectrum or a wavelet to describe"
+    )]
+    ConstantSignal {
+        /// Which input was constant.
+        what: String,
+        /// Its (first) value.
+        value: f64,
+        /// The relative range below which a series counts as constant.
+        rel_range: f64,
+    },
+    /// The values are finite but so large that sums of their squares overflow.
+    #[error(
+        "{what} holds values up to {max_abs:e} in magnitude, too large to analyse (their \
+         variance overflows a double); rescale the data"
+    )]
+    Overflow {
+        /// Which input overflowed.
+        what: String,
+        /// Its largest magnitude.
+        max_abs: f64,
     },
     /// An argument (a rate, a tolerance, a bin count…) is outside its valid range.
     #[error("invalid argument: {0}")]

@@ -8,10 +8,12 @@
 //! 3. [`phase_sync`]: Hilbert phases, `R`, phase-difference histograms;
 //! 4. [`amplitude_spectrum`] / [`dominant_peak`] / [`ratio_to_forcing`]: Fourier view;
 //! 5. [`morlet_cwt`]: Torrence & Compo wavelet power with COI and AR(1) significance;
-//! 6. [`detect_period`], [`hops`], [`rms`], [`range`]: per-instance numbers.
+//! 6. [`detect_period`], [`hops`], [`rms`], [`range`]: per-instance numbers;
+//! 7. [`analyze_record`]: all of them for one record, as `analyze` and `simulate` report it.
 //!
 //! Every fallible function returns [`AnalysisError`] instead of panicking on empty, short or
-//! non-finite input.
+//! non-finite input. Library types carry no command-line concerns (no clap): the CLI has its
+//! own spellings of the enums.
 
 mod checks;
 mod error;
@@ -23,6 +25,7 @@ mod spectrum;
 mod wavelet;
 mod zero_one;
 
+pub use checks::FLAT_SIGNAL_REL_RANGE;
 pub use error::AnalysisError;
 pub use periodicity::{detect_period, hops, range, rms};
 pub use phase::{
@@ -30,23 +33,28 @@ pub use phase::{
     instantaneous_phase, phase_histogram, phase_sync,
 };
 pub use report::{
-    PhaseSummary, RecordAnalysis, RecordOptions, Sampling, SpectrumSummary, Statistics,
+    Lag1Choice, PhaseSummary, RECORD_MIN_SAMPLES, RecordAnalysis, RecordOptions, Sampling,
+    SpectrumSummary, Statistics, WaveletSettings, WaveletSignificance, WaveletSummary,
     ZeroOneSummary, analyze_record,
 };
 pub use sampling::{
-    check_uniform_time, local_extrema, resample_uniform, stroboscopic, stroboscopic_uniform,
+    GAP_MEDIAN_STEPS, STROBE_MIN_SAMPLES_PER_PERIOD, TimeGap, check_uniform_time,
+    ensure_forcing_resolved, local_extrema, median_step, resample_uniform, stroboscopic,
+    stroboscopic_uniform, time_gaps,
 };
 pub use spectrum::{
     RATIO_MAX_DENOMINATOR, RATIO_REL_TOL, RatioReport, SPECTRUM_MIN_SAMPLES, SpectralPeak,
     Spectrum, amplitude_spectrum, dominant_peak, ratio_to_forcing, ratio_to_forcing_within,
 };
 pub use wavelet::{
-    DEFAULT_CONFIDENCE, MORLET_C_DELTA, MORLET_OMEGA0, WAVELET_MIN_SAMPLES, WaveletOptions,
-    WaveletResult, chi2_2dof_quantile, cone_of_influence, lag1_autocorrelation, morlet_cwt,
+    DEFAULT_CONFIDENCE, Lag1Estimator, MORLET_C_DELTA, MORLET_DOF_MIN, MORLET_GAMMA, MORLET_OMEGA0,
+    MORLET_OMEGA0_MIN, MotherWavelet, WAVELET_MIN_SAMPLES, WaveletOptions, WaveletResult,
+    chi2_2dof_quantile, chi2_quantile, cone_of_influence, estimate_lag1, global_significance_ar1,
+    global_wavelet_spectrum, lag1_allen_smith, lag1_autocorrelation, morlet_cwt,
     morlet_fourier_factor, power_averaged_inside_coi, reconstruct_signal, reconstruct_variance,
     significance_ar1,
 };
 pub use zero_one::{
-    K01Method, ZERO_ONE_MIN_SAMPLES, ZeroOneOptions, ZeroOneResult, draw_c_values, pq_path,
-    zero_one_test,
+    K01Method, ZERO_ONE_COMFORTABLE_SAMPLES, ZERO_ONE_MIN_SAMPLES, ZeroOneOptions, ZeroOneResult,
+    draw_c_values, pq_path, zero_one_test,
 };

@@ -1,11 +1,14 @@
-//! Files of a record analysis: arrays a numpy user loads directly, and the pictures.
+//! Files of a record analysis: arrays a numpy user loads directly (`.npy`, `numpy.load`), and
+//! the pictures, every axis labelled in the record's time unit.
 
+use anyhow::Context;
 use pendulum_atlas::analysis::{RecordAnalysis, pq_path};
 use pendulum_atlas::output::npy::write_npy_f64;
 use pendulum_atlas::render::{self, Series};
 use std::path::Path;
 
-/// Write spectrum.csv, the wavelet and phase arrays (.npy) and the PNGs of an analysis.
+/// Write spectrum.csv, the wavelet and phase arrays (.npy) and the PNGs of an analysis of the
+/// uniform record `signal` (and `reference`) sampled at `rate_hz` from `start_s`.
 pub fn write_analysis(
     out: &Path,
     r: &RecordAnalysis,
@@ -14,23 +17,71 @@ pub fn write_analysis(
     rate_hz: f64,
     start_s: f64,
 ) -> anyhow::Result<()> {
-    let spec = &r.spectrum_full;
-    let mut w = csv::Writer::from_path(out.join("spectrum.csv"))?;
-    w.write_record(["frequency_hz", "amplitude"])?;
-    for (f, a) in spec.frequency_hz.iter().zip(&spec.amplitude) {
-        w.write_record([f.to_string(), a.to_string()])?;
+    let unit = r.options.time_unit.as_str();
+    write_spectrum(out, r, unit)?;
+    write_wavelet(out, r, unit)?;
+    npy(
+        out,
+        "phase_diff_rad.npy",
+        &[r.phase_diff_rad.len()],
+        &r.phase_diff_rad,
+    )?;
+    zero_one_picture(out, r)?;
+    phase_pictures(out, r, signal, reference, rate_hz, start_s)
+}
+
+/// `frequency (Hz)` for seconds, `frequency (1/ms)` for another unit.
+fn frequency_label(unit: &str) -> String {
+    if unit == "s" {
+        "frequency (Hz)".to_string()
+    } else {
+        format!("frequency (1/{unit})")
     }
-    w.flush()?;
+}
+
+/// Writes one array as `.npy`, naming the file in any error.
+fn npy(out: &Path, name: &str, shape: &[usize], data: &[f64]) -> anyhow::Result<()> {
+    let path = out.join(name);
+    write_npy_f64(&path, shape, data).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// A 2-D `[rows][cols]` array as one row-major `.npy`.
+fn npy_2d(out: &Path, name: &str, rows: &[Vec<f64>]) -> anyhow::Result<()> {
+    let cols = rows.first().map_or(0, Vec::len);
+    let flat: Vec<f64> = rows.iter().flatten().copied().collect();
+    npy(out, name, &[rows.len(), cols], &flat)
+}
+
+/// spectrum.csv and spectrum.png.
+fn write_spectrum(out: &Path, r: &RecordAnalysis, unit: &str) -> anyhow::Result<()> {
+    let spec = &r.spectrum_full;
+    let path = out.join("spectrum.csv");
+    let write = || -> anyhow::Result<()> {
+        let mut w = csv::Writer::from_path(&path)?;
+        w.write_record(["frequency_hz", "amplitude"])?;
+        for (f, a) in spec.frequency_hz.iter().zip(&spec.amplitude) {
+            w.write_record([f.to_string(), a.to_string()])?;
+        }
+        w.flush()?;
+        Ok(())
+    };
+    write().with_context(|| format!("cannot write {}", path.display()))?;
+    let freq_unit = if unit == "s" {
+        "Hz".to_string()
+    } else {
+        format!("1/{unit}")
+    };
+    let png = out.join("spectrum.png");
     render::line_chart(
-        &out.join("spectrum.png"),
+        &png,
         &format!(
             "Amplitude spectrum (Hann){}",
             r.spectrum
                 .dominant_hz
-                .map(|f| format!(": peak {f:.3} Hz{}", ratio_text(r)))
+                .map(|f| format!(": peak {f:.3} {freq_unit}{}", ratio_text(r)))
                 .unwrap_or_default()
         ),
-        "frequency (Hz)",
+        &frequency_label(unit),
         "amplitude (signal units)",
         &[Series {
             name: "spectrum",
@@ -39,53 +90,99 @@ pub fn write_analysis(
         }],
         false,
         true,
+    )
+    .with_context(|| format!("cannot write {}", png.display()))
+}
+
+/// The wavelet arrays, their significance and scalogram.png.
+fn write_wavelet(out: &Path, r: &RecordAnalysis, unit: &str) -> anyhow::Result<()> {
+    let wt = &r.wavelet_full;
+    let cols = wt.power.first().map_or(0, Vec::len);
+    let times: Vec<f64> = (0..cols)
+        .map(|i| r.wavelet.t0_s + i as f64 * wt.dt_s)
+        .collect();
+    npy_2d(out, "wavelet_power.npy", &wt.power)?;
+    npy(
+        out,
+        "wavelet_period_s.npy",
+        &[wt.period_s.len()],
+        &wt.period_s,
     )?;
-    if let Some(wt) = &r.wavelet {
-        let rows = wt.power.len();
-        let cols = wt.power.first().map_or(0, Vec::len);
-        let flat: Vec<f64> = wt.power.iter().flatten().copied().collect();
-        write_npy_f64(&out.join("wavelet_power.npy"), &[rows, cols], &flat)?;
-        write_npy_f64(&out.join("wavelet_period_s.npy"), &[rows], &wt.period_s)?;
-        write_npy_f64(&out.join("wavelet_coi_s.npy"), &[cols], &wt.coi_s)?;
-        let t0 = start_s + r.options.transient_s;
-        let times: Vec<f64> = (0..cols).map(|i| t0 + i as f64 * wt.dt_s).collect();
-        render::scalogram(
-            &out.join("scalogram.png"),
-            "Morlet wavelet power (normalised), 95 % red-noise contour, COI shaded",
-            &times,
-            &wt.period_s,
-            &wt.power,
-            &wt.coi_s,
-            Some(&r.significance_ratio),
-            "time (s)",
+    npy(out, "wavelet_scale_s.npy", &[wt.scales.len()], &wt.scales)?;
+    npy(out, "wavelet_time_s.npy", &[cols], &times)?;
+    npy(out, "wavelet_coi_s.npy", &[cols], &wt.coi_s)?;
+    if let Some(sig) = &r.wavelet_significance {
+        npy(
+            out,
+            "wavelet_signif_level.npy",
+            &[sig.level.len()],
+            &sig.level,
+        )?;
+        npy_2d(out, "wavelet_signif_ratio.npy", &sig.ratio)?;
+        npy(
+            out,
+            "wavelet_global_power.npy",
+            &[sig.global_power.len()],
+            &sig.global_power,
+        )?;
+        npy(
+            out,
+            "wavelet_global_signif.npy",
+            &[sig.global_level.len()],
+            &sig.global_level,
         )?;
     }
-    write_npy_f64(
-        &out.join("phase_diff_rad.npy"),
-        &[r.phase_diff_rad.len()],
-        &r.phase_diff_rad,
-    )?;
-    let zo = &r.zero_one_full;
-    // The (p, q) path for the c whose K_c is closest to the median.
-    if let Some((i, _)) = zo
+    let percent = r.wavelet.confidence * 100.0;
+    let contour = match &r.wavelet_significance {
+        Some(_) => format!(", {percent:.0} % red-noise contour"),
+        None => ", no significance (lag-1 not estimable)".to_string(),
+    };
+    let png = out.join("scalogram.png");
+    render::scalogram(
+        &png,
+        &format!("Morlet wavelet power (normalised){contour}, COI shaded; period in {unit}"),
+        &times,
+        &wt.period_s,
+        &wt.power,
+        &wt.coi_s,
+        r.wavelet_significance.as_ref().map(|s| s.ratio.as_slice()),
+        &format!("time ({unit})"),
+    )
+    .with_context(|| format!("cannot write {}", png.display()))
+}
+
+/// zero_one.png: the (p, q) path for the c whose K_c is closest to the median, and K_c(c).
+fn zero_one_picture(out: &Path, r: &RecordAnalysis) -> anyhow::Result<()> {
+    let Some(zo) = &r.zero_one_full else {
+        return Ok(());
+    };
+    let Some((i, _)) = zo
         .k_c
         .iter()
         .enumerate()
         .min_by(|a, b| (a.1 - zo.k).abs().total_cmp(&(b.1 - zo.k).abs()))
-    {
-        let (p, q) = pq_path(&r.zero_one_series, zo.c_values[i]);
-        render::zero_one_figure(
-            &out.join("zero_one.png"),
-            &p,
-            &q,
-            &zo.c_values,
-            &zo.k_c,
-            zo.k,
-        )?;
-    }
+    else {
+        return Ok(());
+    };
+    let (p, q) = pq_path(&r.zero_one_series, zo.c_values[i]);
+    let png = out.join("zero_one.png");
+    render::zero_one_figure(&png, &p, &q, &zo.c_values, &zo.k_c, zo.k)
+        .with_context(|| format!("cannot write {}", png.display()))
+}
+
+/// phase_hist.png and portrait.png, when a reference was given.
+fn phase_pictures(
+    out: &Path,
+    r: &RecordAnalysis,
+    signal: &[f64],
+    reference: Option<&[f64]>,
+    rate_hz: f64,
+    start_s: f64,
+) -> anyhow::Result<()> {
     if let (Some(h), Some(ps)) = (&r.phase_hist, &r.phase_sync) {
+        let png = out.join("phase_hist.png");
         render::histogram(
-            &out.join("phase_hist.png"),
+            &png,
             &format!(
                 "Phase difference, R = {:.3} ({:?} convention)",
                 ps.r, ps.convention
@@ -94,23 +191,28 @@ pub fn write_analysis(
             &h.density_per_rad,
             "phase difference Δφ (rad)",
             "probability density (1/rad)",
-        )?;
+        )
+        .with_context(|| format!("cannot write {}", png.display()))?;
     }
     if let Some(reference) = reference {
-        let skip = ((r.options.transient_s * rate_hz).ceil() as usize).min(signal.len());
+        let skip =
+            (((r.analysed_from_s - start_s) * rate_hz).round().max(0.0) as usize).min(signal.len());
+        let png = out.join("portrait.png");
         render::scatter(
-            &out.join("portrait.png"),
+            &png,
             "Phase portrait (after the transient)",
             "reference",
             "signal",
             &reference[skip..],
             &signal[skip..],
             true,
-        )?;
+        )
+        .with_context(|| format!("cannot write {}", png.display()))?;
     }
     Ok(())
 }
 
+/// " = 0.333 × forcing (1/3)", or nothing without a forcing.
 fn ratio_text(r: &RecordAnalysis) -> String {
     match (&r.spectrum.ratio_label, r.spectrum.ratio_to_forcing) {
         (Some(l), Some(x)) => format!(" = {x:.3} × forcing ({l})"),

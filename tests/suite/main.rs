@@ -3,6 +3,7 @@
 //! outputs → command line.
 
 mod analysis;
+mod analyze_cli;
 mod bench;
 mod cli;
 mod config;

@@ -1,8 +1,8 @@
 //! Bad input is refused with the variant, and the message, that says what was wrong.
 
 use pendulum_atlas::analysis::{
-    AnalysisError, PhaseConvention, WaveletOptions, ZeroOneOptions, amplitude_spectrum, morlet_cwt,
-    phase_histogram, phase_sync, rms, stroboscopic, zero_one_test,
+    AnalysisError, PhaseConvention, WaveletOptions, ZERO_ONE_MIN_SAMPLES, ZeroOneOptions,
+    amplitude_spectrum, morlet_cwt, phase_histogram, phase_sync, rms, stroboscopic, zero_one_test,
 };
 
 #[test]
@@ -12,11 +12,14 @@ fn empty_input_is_too_few_samples() {
         err,
         AnalysisError::TooFewSamples {
             method: "0-1 test",
-            needed: 20,
+            needed: ZERO_ONE_MIN_SAMPLES,
             got: 0
         }
     );
-    assert_eq!(err.to_string(), "0-1 test needs at least 20 samples, got 0");
+    assert_eq!(
+        err.to_string(),
+        format!("0-1 test needs at least {ZERO_ONE_MIN_SAMPLES} samples, got 0")
+    );
     assert!(matches!(
         rms(&[]),
         Err(AnalysisError::TooFewSamples { got: 0, .. })
@@ -34,20 +37,21 @@ fn short_input_is_too_few_samples() {
         err.to_string(),
         "wavelet transform needs at least 8 samples, got 3"
     );
-    let err = zero_one_test(&[0.5; 19], &ZeroOneOptions::default()).unwrap_err();
-    assert!(matches!(
+    let short = vec![0.5; ZERO_ONE_MIN_SAMPLES - 1];
+    let err = zero_one_test(&short, &ZeroOneOptions::default()).unwrap_err();
+    assert_eq!(
         err,
         AnalysisError::TooFewSamples {
-            needed: 20,
-            got: 19,
-            ..
+            method: "0-1 test",
+            needed: ZERO_ONE_MIN_SAMPLES,
+            got: ZERO_ONE_MIN_SAMPLES - 1,
         }
-    ));
+    );
 }
 
 #[test]
 fn nan_input_is_non_finite_with_its_index() {
-    let mut x: Vec<f64> = (0..50).map(|k| (k as f64).sin()).collect();
+    let mut x: Vec<f64> = (0..200).map(|k| (k as f64).sin()).collect();
     x[17] = f64::NAN;
     let err = zero_one_test(&x, &ZeroOneOptions::default()).unwrap_err();
     assert_eq!(
@@ -61,7 +65,7 @@ fn nan_input_is_non_finite_with_its_index() {
         err.to_string(),
         "0-1 test series has a non-finite value (NaN or infinity) at index 17; drop or repair that sample"
     );
-    let y = vec![0.0; 50];
+    let y = vec![0.0; 200];
     let err = phase_sync(&y, &x, PhaseConvention::Standard).unwrap_err();
     assert!(err.to_string().contains("phase_sync x2") && err.to_string().contains("index 17"));
 }
@@ -78,6 +82,8 @@ fn mismatched_lengths_and_bad_arguments() {
         err.to_string(),
         "invalid argument: forcing_hz must be finite and > 0, got -8"
     );
+    let err = stroboscopic(&[0.0, 1.0], &[0.0, 1.0], 0.05, 0.0, -1.0).unwrap_err();
+    assert!(matches!(err, AnalysisError::InvalidArgument(_)), "{err}");
     let err = phase_histogram(&[0.1], 0, PhaseConvention::Paper).unwrap_err();
     assert!(matches!(err, AnalysisError::InvalidArgument(_)), "{err}");
     let err = morlet_cwt(&[2.0; 16], 0.1, &WaveletOptions::default()).unwrap_err();
