@@ -197,7 +197,11 @@ impl EnsembleOptions {
 }
 
 /// Minimum stroboscopic samples the 0–1 test accepts.
-const MIN_STROBE: u32 = crate::analysis::ZERO_ONE_MIN_SAMPLES as u32;
+const MIN_STROBE_K: u32 = crate::analysis::ZERO_ONE_MIN_SAMPLES as u32;
+
+/// Minimum stroboscopic samples of the period test alone (its default window of 16 samples
+/// and a few periods to compare with).
+const MIN_STROBE_PERIOD: u32 = 20;
 
 impl EnsemblePlan {
     /// Plan every instance of a map: validate its scene, choose its step and sampling.
@@ -245,6 +249,9 @@ impl EnsemblePlan {
                     scenes.len()
                 ));
             }
+        }
+        if opts.wants(Metric::K) {
+            warnings.extend(short_k_warning(&instances));
         }
         let early_stop = allowed_early_stop(opts, &mut warnings);
         let mut plan = EnsemblePlan::assemble(first, opts, instances, warnings, early_stop);
@@ -331,6 +338,23 @@ fn step_limits(scenes: &[Scene], params: &[ModelParams]) -> Vec<MethodSteps> {
         })
         .collect();
     owner.iter().map(|k| solved[k]).collect()
+}
+
+/// The warning when some instances give the 0–1 test fewer samples than it needs to be reliable
+/// (long-period orbits can then read as chaotic).
+fn short_k_warning(instances: &[InstancePlan]) -> Option<String> {
+    let comfortable = crate::analysis::ZERO_ONE_COMFORTABLE_SAMPLES as u32;
+    let short: Vec<u32> = instances
+        .iter()
+        .map(|p| p.strobe_count)
+        .filter(|&n| n < comfortable)
+        .collect();
+    let fewest = short.iter().min()?;
+    Some(format!(
+        "K of {} of {} instances comes from fewer than {comfortable} stroboscopic samples (fewest {fewest}): orbits of long period may read as chaotic; lengthen integration.duration_s for a firmer K",
+        short.len(),
+        instances.len()
+    ))
 }
 
 /// One method for the whole ensemble (the kernels are specialised on it): the one every scene
@@ -473,10 +497,18 @@ fn plan_instance(
     while (transient_periods + strobe_count) * spp + strobe_offset <= total_steps {
         strobe_count += 1;
     }
-    let needs_strobe = opts.wants(Metric::K) || opts.wants(Metric::Period);
-    if needs_strobe && strobe_count < u64::from(MIN_STROBE) {
+    let (need, what) = if opts.wants(Metric::K) {
+        (MIN_STROBE_K, "the 0-1 test (K) needs")
+    } else if opts.wants(Metric::Period) {
+        (MIN_STROBE_PERIOD, "the period test needs")
+    } else {
+        (0, "")
+    };
+    if strobe_count < u64::from(need) {
+        let more_s = f64::from(need) / f - (total_periods - transient_periods) as f64 / f;
         return Err(short(format!(
-            "only {strobe_count} stroboscopic samples after the transient; K and period need at least {MIN_STROBE}: lengthen integration.duration_s"
+            "only {strobe_count} stroboscopic samples after the transient; {what} at least {need}: lengthen integration.duration_s by {:.1} s (or shorten the transient)",
+            more_s.max(0.0)
         )));
     }
     let r_every = blocks;

@@ -47,7 +47,7 @@ pub struct PaperCase {
 /// Segments of the chain in `--quick` mode (a cheap model for CI and a first look).
 pub const QUICK_SEGMENTS: usize = 3;
 /// Simulated time in `--quick` mode (s); a sweep is compressed into it as well.
-pub const QUICK_DURATION_S: f64 = 12.0;
+pub const QUICK_DURATION_S: f64 = 24.0;
 /// Transient discarded in `--quick` mode for the stationary cases (s).
 pub const QUICK_TRANSIENT_S: f64 = 4.0;
 
@@ -232,7 +232,7 @@ impl PaperCase {
         })
     }
 
-    /// The `--quick` overrides: a 3-segment chain and 12 s runs (the sweep compressed into them).
+    /// The `--quick` overrides: a 3-segment chain and 24 s runs (the sweep compressed into them).
     pub fn quick_overrides(&self) -> Vec<String> {
         let mut sets = vec![
             format!("beam.segments={QUICK_SEGMENTS}"),

@@ -45,7 +45,7 @@ use std::time::Instant;
 /// How to reproduce.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct ReproduceOptions {
-    /// A 3-segment chain and 12 s runs: the same pipeline in seconds, for CI and a first look.
+    /// A 3-segment chain and 24 s runs: the same pipeline in seconds, for CI and a first look.
     pub quick: bool,
 }
 

@@ -115,7 +115,7 @@ pub fn report_markdown(inp: &ReportInput) -> String {
     if inp.quick {
         let _ = writeln!(
             s,
-            "> **Quick mode**: a 3-segment chain and 12 s runs, for CI and a first look. The numbers \
+            "> **Quick mode**: a 3-segment chain and 24 s runs, for CI and a first look. The numbers \
              below are *not* the paper's fidelity; run `pendulum-atlas reproduce` for the comparison.\n"
         );
     }

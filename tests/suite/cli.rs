@@ -129,7 +129,9 @@ fn simulate_analyses_its_own_run() {
             "--set",
             "beam.segments=3",
             "--set",
-            "integration.duration_s=8",
+            "integration.duration_s=20",
+            "--set",
+            "integration.transient_s=5",
         ])
         .arg("--out")
         .arg(&out)
@@ -265,7 +267,15 @@ fn analyze_rejects_bad_records_clearly() {
         e.contains("no column `encoder`") && e.contains("cart_m"),
         "{e}"
     );
-    let e = run(&["--signal", "cart_m", "--time", "t_s"]);
+    // Stroboscopic sampling without the forcing frequency cannot be done: say which flag.
+    let e = run(&[
+        "--signal",
+        "cart_m",
+        "--time",
+        "t_s",
+        "--sampling",
+        "stroboscopic",
+    ]);
     assert!(e.contains("--forcing-hz"), "{e}");
     std::fs::write(&data, "t_s,angle_rad\n").unwrap();
     let e = run(&[
@@ -277,7 +287,17 @@ fn analyze_rejects_bad_records_clearly() {
         "8",
     ]);
     assert!(e.contains("no data rows"), "{e}");
-    std::fs::write(&data, "t_s,angle_rad\n0,1\n0.1,2\n0.25,3\n0.3,4\n").unwrap();
+    // 20 rows whose time steps alternate 0.1 s and 0.15 s: not uniform.
+    let rows: String = (0..20)
+        .map(|i| {
+            format!(
+                "{},{}\n",
+                0.125 * f64::from(i) - 0.025 * f64::from(i % 2),
+                i
+            )
+        })
+        .collect();
+    std::fs::write(&data, format!("t_s,angle_rad\n{rows}")).unwrap();
     let e = run(&[
         "--signal",
         "angle_rad",

@@ -152,7 +152,11 @@ fn every_shipped_scene_is_valid() {
             }
             let text = std::fs::read_to_string(&path).unwrap();
             if text.contains("[map]") {
-                load_map(Some(&path), &[]).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+                let spec = load_map(Some(&path), &[])
+                    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+                // Planning checks what validation cannot: enough samples for every metric.
+                pendulum_atlas::engine::EnsemblePlan::new(&spec)
+                    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             } else {
                 load_scene(Some(&path), &[]).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             }

@@ -14,7 +14,7 @@ fn out_dir(name: &str) -> std::path::PathBuf {
 
 const TINY: [&str; 8] = [
     "--set",
-    "integration.duration_s=6.0",
+    "integration.duration_s=21.0",
     "--set",
     "integration.transient_s=1.5",
     "--set",
@@ -125,7 +125,7 @@ fn bifurcation_diagram_of_a_one_axis_map() {
         ])
         .args([
             "--set",
-            "integration.duration_s=6.0",
+            "integration.duration_s=22.0",
             "--set",
             "integration.transient_s=2.0",
             "--set",

@@ -193,10 +193,19 @@ fn piezo_energy_balance_holds() {
 
 #[test]
 fn a_step_three_times_the_limit_is_flagged_not_returned() {
-    let s0 = scene(&["beam.segments=5", "integration.duration_s=0.5"]);
+    let s0 = scene(&[
+        "beam.segments=5",
+        "integration.duration_s=0.5",
+        "integration.method=rk4",
+    ]);
     let m = s0.modes();
     let dt = format!("integration.dt_s={}", 3.0 * m.dt_stable_s);
-    let s = scene(&["beam.segments=5", "integration.duration_s=0.5", &dt]);
+    let s = scene(&[
+        "beam.segments=5",
+        "integration.duration_s=0.5",
+        "integration.method=rk4",
+        &dt,
+    ]);
     let plan = StepPlan::for_scene(&s);
     assert!(
         plan.warnings.iter().any(|w| w.contains("stability limit")),

@@ -23,7 +23,7 @@ pub fn tiny_map(under: Under, extra: &str, map: &str) -> MapSpec {
     let integration = if extra.contains("[integration]") {
         String::new()
     } else {
-        "[integration]\nduration_s = 6.0\ntransient_s = 2.0\n".to_string()
+        "[integration]\nduration_s = 21.0\ntransient_s = 2.0\n".to_string()
     };
     let text = format!("[beam]\nsegments = 3\n{integration}{extra}\n[map]\n{map}");
     map_from_toml(&text, "<test>", &[under.method_set()]).expect("valid test map")
@@ -176,22 +176,41 @@ start = 0.004
 end = 0.02
 count = 3
 "#;
-    let spec = tiny_map(
-        under,
-        "[integration]\nduration_s = 12.0\ntransient_s = 4.0",
-        axes,
-    );
+    let timing = "[integration]\nduration_s = 28.0\ntransient_s = 4.0";
+    let spec = tiny_map(under, timing, axes);
     let Some(run) = map_on(under, &spec) else {
         return;
     };
     let reference = map_on(under.reference(), &spec).expect("cpu map");
-    let n = reference.results.len();
-    let pairs = || reference.results.iter().zip(&run.results);
-    let same_class = pairs().filter(|(a, b)| (a.k > 0.5) == (b.k > 0.5)).count();
-    assert!(
-        same_class * 10 >= n * 9,
-        "{under:?}: K class agrees on {same_class} of {n} cells"
+    // A twin of the reference started 1e-6 deg away: a cell whose K class the twin changes is
+    // sensitive to any perturbation (chaos near the class boundary), and no two engines can be
+    // expected to agree on it. Parity is judged on the others.
+    let twin_spec = tiny_map(
+        under,
+        &format!("{timing}\n[initial]\nangle_deg = 20.000001"),
+        axes,
     );
+    let twin = map_on(under.reference(), &twin_spec).expect("cpu map");
+    let class = |k: f64| k > 0.5;
+    let robust: Vec<usize> = (0..reference.results.len())
+        .filter(|&c| class(reference.results[c].k) == class(twin.results[c].k))
+        .collect();
+    let n = reference.results.len();
+    assert!(
+        robust.len() * 2 >= n,
+        "only {} of {n} cells are robust",
+        robust.len()
+    );
+    let same = robust
+        .iter()
+        .filter(|&&c| class(reference.results[c].k) == class(run.results[c].k))
+        .count();
+    assert!(
+        same * 10 >= robust.len() * 9,
+        "{under:?}: K class agrees on {same} of {} robust cells",
+        robust.len()
+    );
+    let pairs = || reference.results.iter().zip(&run.results);
     let mut dr: Vec<f64> = pairs().map(|(a, b)| (a.r - b.r).abs()).collect();
     dr.sort_by(f64::total_cmp);
     assert!(dr[n / 2] <= 0.05, "{under:?}: median |ΔR| = {}", dr[n / 2]);
@@ -205,7 +224,7 @@ pub fn diverging_instances_are_flagged_like_on_the_f64_cpu_engine(under: Under) 
     let axes = "[[map.axes]]\nkey = \"limiter.stiffness_n_per_m\"\nvalues = [1e3, 1e4, 1e6, 1e7]";
     let spec = tiny_map(
         under,
-        "[integration]\nduration_s = 4.0\ntransient_s = 1.0\ndt_s = 8e-4",
+        "[integration]\nduration_s = 13.0\ntransient_s = 1.0\ndt_s = 8e-4",
         &format!("metrics = [\"K\", \"R\", \"hops\"]\n{axes}"),
     );
     let Some(run) = map_on(under, &spec) else {
