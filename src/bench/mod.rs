@@ -215,7 +215,8 @@ fn reference_trajectory() -> Result<Vec<f64>, EngineError> {
     let inst: Instance<f64> = Instance::from_scene(&scene);
     let plan = StepPlan::for_scene(&scene);
     let mut rows = AlphaRows(Vec::new());
-    integrate_reference(&inst, &plan, &ReferenceOptions::default(), &mut rows)?;
+    let opts = ReferenceOptions::for_stiffness(scene.modes().spectral_radius_per_s);
+    integrate_reference(&inst, &plan, &opts, &mut rows)?;
     Ok(rows.0)
 }
 

@@ -96,7 +96,8 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     let (outcome, precision): (Outcome, &str) = match (a.integrator, a.precision) {
         (IntegratorChoice::Reference, _) => {
             let inst = Instance::<f64>::from_scene(&scene);
-            let o = integrate_reference(&inst, &plan, &ReferenceOptions::default(), &mut rec)?;
+            let opts = ReferenceOptions::for_stiffness(m.spectral_radius_per_s);
+            let o = integrate_reference(&inst, &plan, &opts, &mut rec)?;
             (o, "f64")
         }
         (IntegratorChoice::Rk4, Precision::F64) => {

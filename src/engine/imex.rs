@@ -307,10 +307,10 @@ impl<T: Real> Stepper<T> for Imex<T> {
         self.u.copy_from_slice(y);
         chain.derivative(ws, acc(C[0]), y, &mut self.f[0], ContactLaw::Exact);
         self.linear_part(0);
-        for i in 1..4 {
+        for (i, &c) in C.iter().enumerate().skip(1) {
             self.implicit_stage(y, i);
             let u = std::mem::take(&mut self.u);
-            chain.derivative(ws, acc(C[i]), &u, &mut self.f[i], ContactLaw::Exact);
+            chain.derivative(ws, acc(c), &u, &mut self.f[i], ContactLaw::Exact);
             self.u = u;
             if i < 3 {
                 self.linear_part(i);
@@ -319,8 +319,8 @@ impl<T: Real> Stepper<T> for Imex<T> {
         let h = self.h;
         for (s, ys) in y.iter_mut().enumerate() {
             let mut inc = T::zero();
-            for j in 0..4 {
-                inc += T::of(B[j]) * self.f[j][s];
+            for (f, &b) in self.f.iter().zip(&B) {
+                inc += T::of(b) * f[s];
             }
             *ys += h * inc;
         }

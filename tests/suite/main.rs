@@ -9,6 +9,7 @@ mod cli;
 mod config;
 mod engine;
 mod harvest;
+mod imex;
 mod map;
 mod model;
 mod render;
