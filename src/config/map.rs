@@ -17,6 +17,7 @@
 use super::error::ConfigError;
 use super::reader::{Range, Reader, apply_override, parse_toml, set_key};
 use super::scene::{ExcitationKind, Scene};
+use crate::analysis::PhaseConvention;
 use serde::Serialize;
 use toml::{Table, Value};
 
@@ -359,21 +360,8 @@ fn read_map(mut map: Table, scene: Scene, base_table: Table) -> Result<MapSpec, 
     }
     let samples_per_period = r.integer("map.samples_per_period", 16, 4, 4096)? as u32;
     let strobe_phase = r.number("map.strobe_phase", 0.0, Range::ClosedOpen(0.0, 1.0), "")?;
-    let r_max_samples = r.integer("map.r_max_samples", 1024, 32, 65536)? as u32;
-    if !r_max_samples.is_power_of_two() {
-        return Err(ConfigError::OutOfRange {
-            key: "map.r_max_samples".into(),
-            value: r_max_samples as f64,
-            range: "powers of two in [32, 65536]".into(),
-        });
-    }
-    let phase_convention = match r
-        .choice("map.phase_convention", "standard", &["standard", "paper"])?
-        .as_str()
-    {
-        "paper" => crate::analysis::PhaseConvention::Paper,
-        _ => crate::analysis::PhaseConvention::Standard,
-    };
+    let r_max_samples = read_r_max_samples(&mut r)?;
+    let phase_convention = read_phase_convention(&mut r)?;
     let k_n_c = r.integer("map.k_n_c", 100, 1, 1000)? as usize;
     let k_seed = r.integer("map.k_seed", 0, 0, i64::MAX)? as u64;
     let period_max = r.integer("map.period_max", 8, 1, 64)? as u32;
@@ -406,6 +394,32 @@ fn read_map(mut map: Table, scene: Scene, base_table: Table) -> Result<MapSpec, 
     // Every axis key must be a scene key that takes this kind of value: check the first point.
     spec.instance_scene(0)?;
     Ok(spec)
+}
+
+/// `map.r_max_samples`: the longest series R is computed from, 1024 by default; a power of
+/// two, since R's series are cut to power-of-two lengths.
+fn read_r_max_samples(r: &mut Reader) -> Result<u32, ConfigError> {
+    let r_max_samples = r.integer("map.r_max_samples", 1024, 32, 65536)? as u32;
+    if !r_max_samples.is_power_of_two() {
+        return Err(ConfigError::OutOfRange {
+            key: "map.r_max_samples".into(),
+            value: r_max_samples as f64,
+            range: "powers of two in [32, 65536]".into(),
+        });
+    }
+    Ok(r_max_samples)
+}
+
+/// `map.phase_convention`: `standard` (the default) or the paper's.
+fn read_phase_convention(r: &mut Reader) -> Result<PhaseConvention, ConfigError> {
+    let convention = match r
+        .choice("map.phase_convention", "standard", &["standard", "paper"])?
+        .as_str()
+    {
+        "paper" => PhaseConvention::Paper,
+        _ => PhaseConvention::Standard,
+    };
+    Ok(convention)
 }
 
 fn read_metrics(v: Option<Value>, scene: &Scene) -> Result<Vec<Metric>, ConfigError> {
