@@ -118,10 +118,7 @@ pub fn reproduce(
         .sweep
         .map(|s| s.1.windows.clone())
         .unwrap_or_default();
-    let names: Vec<String> = figures
-        .iter()
-        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
-        .collect();
+    let names = file_names(&figures);
     let report_input = ReportInput {
         quick: opts.quick,
         settings: &settings,
@@ -301,6 +298,14 @@ fn case_results<'a>(cases: &'a [StationaryCase<'a>]) -> Vec<CaseResult<'a>> {
             analysis: a,
             row: r,
         })
+        .collect()
+}
+
+/// The file names of `paths`, for the report's list of figures.
+fn file_names(paths: &[PathBuf]) -> Vec<String> {
+    paths
+        .iter()
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
         .collect()
 }
 
