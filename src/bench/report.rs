@@ -85,6 +85,19 @@ impl Curves {
 pub fn markdown(r: &BenchReport) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# Benchmarks: run time against error\n");
+    intro(&mut s, r);
+    configurations(&mut s, r);
+    let _ = writeln!(
+        s,
+        "\n![work-precision](work_precision.png)\n\n![map error](map_error.png)\n"
+    );
+    scaling(&mut s, r);
+    metrics_a_scene_does_not_need(&mut s, r);
+    s
+}
+
+/// How the page was made, and what the errors and the cost are measured against.
+fn intro(s: &mut String, r: &BenchReport) {
     let _ = writeln!(
         s,
         "Written by `pendulum-atlas bench{}` on {} in {:.0} s. Regenerate with the same command.\n",
@@ -103,6 +116,10 @@ pub fn markdown(r: &BenchReport) -> String {
          instance-seconds, on all the machine's cores.\n",
         r.horizon_s, r.reference_wall_s, r.reference_map, r.reference_map_wall_s
     );
+}
+
+/// One row per configuration: step, errors, cost and throughput.
+fn configurations(s: &mut String, r: &BenchReport) {
     let _ = writeln!(
         s,
         "| N | engine | dt (s) | α error (rad) | cost (s/s) | instance-steps/s | segment-steps/s | mean \\|ΔK\\| | mean \\|ΔR\\| | K class changed | period changed | failed |"
@@ -126,10 +143,11 @@ pub fn markdown(r: &BenchReport) -> String {
             c.failed
         );
     }
-    let _ = writeln!(
-        s,
-        "\n![work-precision](work_precision.png)\n\n![map error](map_error.png)\n"
-    );
+}
+
+/// "Scaling": cost per step against N, map wall time against grid size and run length,
+/// threads, and the GPU's best throughput.
+fn scaling(s: &mut String, r: &BenchReport) {
     let _ = writeln!(s, "## Scaling\n");
     let _ = writeln!(
         s,
@@ -167,6 +185,10 @@ pub fn markdown(r: &BenchReport) -> String {
             "\nGPU `{name}`: up to {v:.3e} segment-steps/s in the table above."
         );
     }
+}
+
+/// "Metrics a scene does not need": a K-only map against one with every metric, per engine.
+fn metrics_a_scene_does_not_need(s: &mut String, r: &BenchReport) {
     let _ = writeln!(
         s,
         "\n## Metrics a scene does not need\n\nAn 8 x 8 map at N = 3, 20 s (K, R, period, hops, impacts, α range against K alone). \
@@ -183,5 +205,4 @@ pub fn markdown(r: &BenchReport) -> String {
             k.speedup
         );
     }
-    s
 }

@@ -17,6 +17,7 @@
 use super::error::ConfigError;
 use super::reader::{Range, Reader, apply_override, parse_toml, set_key};
 use super::scene::{ExcitationKind, Scene};
+use crate::analysis::PhaseConvention;
 use serde::Serialize;
 use toml::{Table, Value};
 
@@ -359,21 +360,8 @@ fn read_map(mut map: Table, scene: Scene, base_table: Table) -> Result<MapSpec, 
     }
     let samples_per_period = r.integer("map.samples_per_period", 16, 4, 4096)? as u32;
     let strobe_phase = r.number("map.strobe_phase", 0.0, Range::ClosedOpen(0.0, 1.0), "")?;
-    let r_max_samples = r.integer("map.r_max_samples", 1024, 32, 65536)? as u32;
-    if !r_max_samples.is_power_of_two() {
-        return Err(ConfigError::OutOfRange {
-            key: "map.r_max_samples".into(),
-            value: r_max_samples as f64,
-            range: "powers of two in [32, 65536]".into(),
-        });
-    }
-    let phase_convention = match r
-        .choice("map.phase_convention", "standard", &["standard", "paper"])?
-        .as_str()
-    {
-        "paper" => crate::analysis::PhaseConvention::Paper,
-        _ => crate::analysis::PhaseConvention::Standard,
-    };
+    let r_max_samples = read_r_max_samples(&mut r)?;
+    let phase_convention = read_phase_convention(&mut r)?;
     let k_n_c = r.integer("map.k_n_c", 100, 1, 1000)? as usize;
     let k_seed = r.integer("map.k_seed", 0, 0, i64::MAX)? as u64;
     let period_max = r.integer("map.period_max", 8, 1, 64)? as u32;
@@ -406,6 +394,32 @@ fn read_map(mut map: Table, scene: Scene, base_table: Table) -> Result<MapSpec, 
     // Every axis key must be a scene key that takes this kind of value: check the first point.
     spec.instance_scene(0)?;
     Ok(spec)
+}
+
+/// `map.r_max_samples`: the longest series R is computed from, 1024 by default; a power of
+/// two, since R's series are cut to power-of-two lengths.
+fn read_r_max_samples(r: &mut Reader) -> Result<u32, ConfigError> {
+    let r_max_samples = r.integer("map.r_max_samples", 1024, 32, 65536)? as u32;
+    if !r_max_samples.is_power_of_two() {
+        return Err(ConfigError::OutOfRange {
+            key: "map.r_max_samples".into(),
+            value: r_max_samples as f64,
+            range: "powers of two in [32, 65536]".into(),
+        });
+    }
+    Ok(r_max_samples)
+}
+
+/// `map.phase_convention`: `standard` (the default) or the paper's.
+fn read_phase_convention(r: &mut Reader) -> Result<PhaseConvention, ConfigError> {
+    let convention = match r
+        .choice("map.phase_convention", "standard", &["standard", "paper"])?
+        .as_str()
+    {
+        "paper" => PhaseConvention::Paper,
+        _ => PhaseConvention::Standard,
+    };
+    Ok(convention)
 }
 
 fn read_metrics(v: Option<Value>, scene: &Scene) -> Result<Vec<Metric>, ConfigError> {
@@ -458,7 +472,48 @@ fn read_metrics(v: Option<Value>, scene: &Scene) -> Result<Vec<Metric>, ConfigEr
     Ok(out)
 }
 
+/// `[[map.axes]]`: 1 to 3 distinct swept keys, each with its values, and at most
+/// [`MAX_INSTANCES`] grid points in all.
 fn read_axes(v: Option<Value>, base: &Table) -> Result<Vec<MapAxis>, ConfigError> {
+    let items = axis_tables(v)?;
+    let mut axes: Vec<MapAxis> = Vec::new();
+    let mut total: usize = 1;
+    for (i, item) in items.into_iter().enumerate() {
+        let prefix = format!("map.axes[{}]", i + 1);
+        let Value::Table(t) = item else {
+            return Err(ConfigError::WrongType {
+                key: prefix,
+                expected: "a table with key, start, end, count".into(),
+                found: "a value".into(),
+            });
+        };
+        let mut wrapped = Table::new();
+        let mut inner = Table::new();
+        inner.insert(format!("axes[{}]", i + 1), Value::Table(t));
+        wrapped.insert("map".into(), Value::Table(inner));
+        let mut r = Reader::new(wrapped);
+        let key = axis_key(&mut r, &prefix, &axes)?;
+        let (values, scale) = read_sweep(&mut r, &prefix, &key, MAX_INSTANCES)?;
+        r.finish()?;
+        total = total
+            .checked_mul(values.len())
+            .filter(|&t| t <= MAX_INSTANCES)
+            .ok_or_else(|| ConfigError::OutOfRange {
+                key: format!("{prefix}.count"),
+                value: values.len() as f64,
+                range: format!(
+                    "grids of at most {MAX_INSTANCES} instances in all (this one would need more)"
+                ),
+            })?;
+        // The key must exist in the scene schema: checked by validating the first grid point.
+        let _ = base;
+        axes.push(MapAxis { key, values, scale });
+    }
+    Ok(axes)
+}
+
+/// The entries of `map.axes`: an array of 1 to 3 items.
+fn axis_tables(v: Option<Value>) -> Result<Vec<Value>, ConfigError> {
     let items = match v {
         Some(Value::Array(items)) => items,
         Some(_) => {
@@ -481,76 +536,49 @@ fn read_axes(v: Option<Value>, base: &Table) -> Result<Vec<MapAxis>, ConfigError
             reason: format!("a map needs 1 to 3 axes, found {}", items.len()),
         });
     }
-    let mut axes: Vec<MapAxis> = Vec::new();
-    let mut total: usize = 1;
-    for (i, item) in items.into_iter().enumerate() {
-        let prefix = format!("map.axes[{}]", i + 1);
-        let Value::Table(t) = item else {
+    Ok(items)
+}
+
+/// The scene key an axis at `prefix` sweeps: a string that [`axis_refusal`] accepts.
+fn axis_key(r: &mut Reader, prefix: &str, axes: &[MapAxis]) -> Result<String, ConfigError> {
+    let key = match r.raw(&format!("{prefix}.key"))? {
+        Some(Value::String(s)) => s.clone(),
+        Some(other) => {
             return Err(ConfigError::WrongType {
-                key: prefix,
-                expected: "a table with key, start, end, count".into(),
-                found: "a value".into(),
-            });
-        };
-        let mut wrapped = Table::new();
-        let mut inner = Table::new();
-        inner.insert(format!("axes[{}]", i + 1), Value::Table(t));
-        wrapped.insert("map".into(), Value::Table(inner));
-        let mut r = Reader::new(wrapped);
-        let key = match r.raw(&format!("{prefix}.key"))? {
-            Some(Value::String(s)) => s.clone(),
-            Some(other) => {
-                return Err(ConfigError::WrongType {
-                    key: format!("{prefix}.key"),
-                    expected: "a dotted scene key such as \"excitation.frequency_hz\"".into(),
-                    found: format!("{other}"),
-                });
-            }
-            None => {
-                return Err(ConfigError::Inconsistent {
-                    key: format!("{prefix}.key"),
-                    reason: "missing: name the scene key this axis sweeps".into(),
-                });
-            }
-        };
-        if key == "beam.segments" {
-            return Err(ConfigError::Inconsistent {
                 key: format!("{prefix}.key"),
-                reason: "beam.segments cannot be swept: every instance of a map shares one segment count (run one map per N)".into(),
+                expected: "a dotted scene key such as \"excitation.frequency_hz\"".into(),
+                found: format!("{other}"),
             });
         }
-        if key.starts_with("map.")
-            || key.starts_with("excitation.sweep")
-            || key == "excitation.kind"
-        {
+        None => {
             return Err(ConfigError::Inconsistent {
                 key: format!("{prefix}.key"),
-                reason: format!("`{key}` cannot be a map axis"),
+                reason: "missing: name the scene key this axis sweeps".into(),
             });
         }
-        if axes.iter().any(|a| a.key == key) {
-            return Err(ConfigError::Inconsistent {
-                key: format!("{prefix}.key"),
-                reason: format!("`{key}` is swept twice"),
-            });
-        }
-        let (values, scale) = read_sweep(&mut r, &prefix, &key, MAX_INSTANCES)?;
-        r.finish()?;
-        total = total
-            .checked_mul(values.len())
-            .filter(|&t| t <= MAX_INSTANCES)
-            .ok_or_else(|| ConfigError::OutOfRange {
-                key: format!("{prefix}.count"),
-                value: values.len() as f64,
-                range: format!(
-                    "grids of at most {MAX_INSTANCES} instances in all (this one would need more)"
-                ),
-            })?;
-        // The key must exist in the scene schema: checked by validating the first grid point.
-        let _ = base;
-        axes.push(MapAxis { key, values, scale });
+    };
+    match axis_refusal(&key, axes) {
+        Some(reason) => Err(ConfigError::Inconsistent {
+            key: format!("{prefix}.key"),
+            reason,
+        }),
+        None => Ok(key),
     }
-    Ok(axes)
+}
+
+/// Why `key` cannot be swept next to `axes`: every instance of a map shares the segment
+/// count and the excitation's kind, map settings are not scene keys, and a key is swept once.
+fn axis_refusal(key: &str, axes: &[MapAxis]) -> Option<String> {
+    if key == "beam.segments" {
+        return Some("beam.segments cannot be swept: every instance of a map shares one segment count (run one map per N)".into());
+    }
+    if key.starts_with("map.") || key.starts_with("excitation.sweep") || key == "excitation.kind" {
+        return Some(format!("`{key}` cannot be a map axis"));
+    }
+    if axes.iter().any(|a| a.key == key) {
+        return Some(format!("`{key}` is swept twice"));
+    }
+    None
 }
 
 /// The values of a swept scene key (a map axis, a design variable) read from the table at
@@ -569,52 +597,8 @@ pub fn read_sweep(
         "log" => AxisScale::Log,
         _ => AxisScale::Linear,
     };
-    let named = |what: &str, reason: String| ConfigError::Inconsistent {
-        key: format!("{prefix}.{what}"),
-        reason: format!("{key}: {reason}"),
-    };
     let values = match r.raw(&format!("{prefix}.values"))?.cloned() {
-        Some(Value::Array(vs)) => {
-            let mut out = Vec::new();
-            for v in vs {
-                let x = match v {
-                    Value::Float(f) => f,
-                    Value::Integer(i) => i as f64,
-                    other => {
-                        return Err(ConfigError::WrongType {
-                            key: format!("{prefix}.values"),
-                            expected: "an array of numbers".into(),
-                            found: format!("{other}"),
-                        });
-                    }
-                };
-                if !x.is_finite() {
-                    return Err(ConfigError::NotFinite {
-                        key: format!("{prefix}.values"),
-                        value: x,
-                    });
-                }
-                out.push(x);
-            }
-            if out.is_empty() {
-                return Err(named("values", "the range is empty (values = [])".into()));
-            }
-            if out.len() > max {
-                return Err(named("values", format!("at most {max} values")));
-            }
-            if out.windows(2).any(|w| w[1] <= w[0]) {
-                return Err(named("values", "values must be strictly increasing".into()));
-            }
-            for k in ["start", "end", "count"] {
-                if r.raw(&format!("{prefix}.{k}"))?.is_some() {
-                    return Err(named(
-                        k,
-                        "give either `values` or start/end/count, not both".into(),
-                    ));
-                }
-            }
-            out
-        }
+        Some(Value::Array(vs)) => listed_values(r, prefix, key, max, vs)?,
         Some(other) => {
             return Err(ConfigError::WrongType {
                 key: format!("{prefix}.values"),
@@ -622,71 +606,166 @@ pub fn read_sweep(
                 found: format!("{other}"),
             });
         }
-        None => {
-            let missing = |what: &str| {
-                named(
-                    what,
-                    "missing: give start, end and count (or values)".into(),
-                )
-            };
-            let start = r
-                .number_opt(&format!("{prefix}.start"), Range::Any, "")?
-                .ok_or_else(|| missing("start"))?;
-            let end = r
-                .number_opt(&format!("{prefix}.end"), Range::Any, "")?
-                .ok_or_else(|| missing("end"))?;
-            let count = match r.raw(&format!("{prefix}.count"))? {
-                None => return Err(missing("count")),
-                Some(_) => r.integer(&format!("{prefix}.count"), 0, i64::MIN, i64::MAX)?,
-            };
-            if count < 1 {
-                return Err(named(
-                    "count",
-                    format!("the range is empty (count = {count})"),
-                ));
-            }
-            if end < start {
-                return Err(named(
-                    "end",
-                    format!("the range is empty: end = {end} is below start = {start}"),
-                ));
-            }
-            if count == 1 && start != end {
-                return Err(named("count", "count = 1 needs start = end".into()));
-            }
-            if count > 1 && end == start {
-                return Err(named(
-                    "end",
-                    format!("the range is empty: start = end = {start} with count = {count}"),
-                ));
-            }
-            if scale == AxisScale::Log && start <= 0.0 {
-                return Err(named("start", "a log range needs start > 0".into()));
-            }
-            if count as u64 > max as u64 {
-                return Err(ConfigError::OutOfRange {
-                    key: format!("{prefix}.count"),
-                    value: count as f64,
-                    range: format!("at most {max} values"),
-                });
-            }
-            let n = count as usize;
-            (0..n)
-                .map(|j| {
-                    let u = if n == 1 {
-                        0.0
-                    } else {
-                        j as f64 / (n - 1) as f64
-                    };
-                    match scale {
-                        AxisScale::Linear => start + (end - start) * u,
-                        AxisScale::Log => (start.ln() + (end.ln() - start.ln()) * u).exp(),
-                    }
-                })
-                .collect()
-        }
+        None => ranged_values(r, prefix, key, max, scale)?,
     };
     Ok((values, scale))
+}
+
+/// An inconsistency at `{prefix}.{what}`, its reason prefixed with the swept key.
+fn sweep_error(prefix: &str, key: &str, what: &str, reason: String) -> ConfigError {
+    ConfigError::Inconsistent {
+        key: format!("{prefix}.{what}"),
+        reason: format!("{key}: {reason}"),
+    }
+}
+
+/// `values = [...]`: 1 to `max` finite numbers, strictly increasing, with no start, end or
+/// count beside them.
+fn listed_values(
+    r: &mut Reader,
+    prefix: &str,
+    key: &str,
+    max: usize,
+    vs: Vec<Value>,
+) -> Result<Vec<f64>, ConfigError> {
+    let named = |what: &str, reason: String| sweep_error(prefix, key, what, reason);
+    let out = vs
+        .into_iter()
+        .map(|v| listed_number(prefix, v))
+        .collect::<Result<Vec<f64>, _>>()?;
+    if out.is_empty() {
+        return Err(named("values", "the range is empty (values = [])".into()));
+    }
+    if out.len() > max {
+        return Err(named("values", format!("at most {max} values")));
+    }
+    if out.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(named("values", "values must be strictly increasing".into()));
+    }
+    for k in ["start", "end", "count"] {
+        if r.raw(&format!("{prefix}.{k}"))?.is_some() {
+            return Err(named(
+                k,
+                "give either `values` or start/end/count, not both".into(),
+            ));
+        }
+    }
+    Ok(out)
+}
+
+/// One entry of `values`: a finite number (an integer is taken as a float).
+fn listed_number(prefix: &str, v: Value) -> Result<f64, ConfigError> {
+    let x = match v {
+        Value::Float(f) => f,
+        Value::Integer(i) => i as f64,
+        other => {
+            return Err(ConfigError::WrongType {
+                key: format!("{prefix}.values"),
+                expected: "an array of numbers".into(),
+                found: format!("{other}"),
+            });
+        }
+    };
+    if !x.is_finite() {
+        return Err(ConfigError::NotFinite {
+            key: format!("{prefix}.values"),
+            value: x,
+        });
+    }
+    Ok(x)
+}
+
+/// `start`, `end` and `count` (all required), checked for an empty or impossible range, then
+/// spread over it linearly or logarithmically per `scale`.
+fn ranged_values(
+    r: &mut Reader,
+    prefix: &str,
+    key: &str,
+    max: usize,
+    scale: AxisScale,
+) -> Result<Vec<f64>, ConfigError> {
+    let missing = |what: &str| {
+        sweep_error(
+            prefix,
+            key,
+            what,
+            "missing: give start, end and count (or values)".into(),
+        )
+    };
+    let start = r
+        .number_opt(&format!("{prefix}.start"), Range::Any, "")?
+        .ok_or_else(|| missing("start"))?;
+    let end = r
+        .number_opt(&format!("{prefix}.end"), Range::Any, "")?
+        .ok_or_else(|| missing("end"))?;
+    let count = match r.raw(&format!("{prefix}.count"))? {
+        None => return Err(missing("count")),
+        Some(_) => r.integer(&format!("{prefix}.count"), 0, i64::MIN, i64::MAX)?,
+    };
+    check_range(prefix, key, max, scale, (start, end, count))?;
+    Ok(spread(start, end, count as usize, scale))
+}
+
+/// Refuse a range that is empty, whose count and ends disagree, a log range reaching 0, or
+/// one of more than `max` values.
+fn check_range(
+    prefix: &str,
+    key: &str,
+    max: usize,
+    scale: AxisScale,
+    (start, end, count): (f64, f64, i64),
+) -> Result<(), ConfigError> {
+    let named = |what: &str, reason: String| sweep_error(prefix, key, what, reason);
+    if count < 1 {
+        return Err(named(
+            "count",
+            format!("the range is empty (count = {count})"),
+        ));
+    }
+    if end < start {
+        return Err(named(
+            "end",
+            format!("the range is empty: end = {end} is below start = {start}"),
+        ));
+    }
+    if count == 1 && start != end {
+        return Err(named("count", "count = 1 needs start = end".into()));
+    }
+    if count > 1 && end == start {
+        return Err(named(
+            "end",
+            format!("the range is empty: start = end = {start} with count = {count}"),
+        ));
+    }
+    if scale == AxisScale::Log && start <= 0.0 {
+        return Err(named("start", "a log range needs start > 0".into()));
+    }
+    if count as u64 > max as u64 {
+        return Err(ConfigError::OutOfRange {
+            key: format!("{prefix}.count"),
+            value: count as f64,
+            range: format!("at most {max} values"),
+        });
+    }
+    Ok(())
+}
+
+/// `n` values from `start` to `end`, evenly spaced on a linear or a log scale (`start` alone
+/// when `n` is 1).
+fn spread(start: f64, end: f64, n: usize, scale: AxisScale) -> Vec<f64> {
+    (0..n)
+        .map(|j| {
+            let u = if n == 1 {
+                0.0
+            } else {
+                j as f64 / (n - 1) as f64
+            };
+            match scale {
+                AxisScale::Linear => start + (end - start) * u,
+                AxisScale::Log => (start.ln() + (end.ln() - start.ln()) * u).exp(),
+            }
+        })
+        .collect()
 }
 
 /// The value at a dotted key of a scene table, if any.

@@ -5,7 +5,7 @@ use super::search::SearchRun;
 use super::spec::SearchSpec;
 use crate::render::RenderError;
 use crate::render::{
-    AxisSpec, PALETTE, Series, TICK_PX, build_chart, canvas, font, line_chart, plot_value,
+    AxisSpec, Chart, PALETTE, Series, TICK_PX, build_chart, canvas, font, line_chart, plot_value,
 };
 
 type Result<T> = std::result::Result<T, RenderError>;
@@ -78,6 +78,26 @@ pub fn pareto_figure(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<
         25,
     )?;
     let map = |(x, y): (f64, f64)| Some((xa.map(x)?, ya.map(y)?));
+    draw_designs_and_front(&mut chart, &pts, map)?;
+    draw_best_and_baseline(&mut chart, map(best_pt), best.id, map(base))?;
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(font(TICK_PX))
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
+
+/// Every design as a grey dot, and the Pareto front (`pts` marked `true`) as red dots joined
+/// by increasing bandwidth; `map` takes data to plotting coordinates.
+fn draw_designs_and_front(
+    chart: &mut Chart,
+    pts: &[(f64, f64, bool)],
+    map: impl Fn((f64, f64)) -> Option<(f64, f64)>,
+) -> Result<()> {
     let grey = RGBColor(150, 150, 150);
     chart
         .draw_series(
@@ -99,27 +119,30 @@ pub fn pareto_figure(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<
         .draw_series(front.iter().map(|&p| Circle::new(p, 5, red.filled())))?
         .label("Pareto front")
         .legend(move |(x, y)| Circle::new((x + 12, y), 5, red.filled()));
-    if let Some(p) = map(best_pt) {
+    Ok(())
+}
+
+/// A ring on the best design (#`best_id`) and a triangle on the baseline, each where it falls
+/// on the plot (`None`: off a log axis, not drawn).
+fn draw_best_and_baseline(
+    chart: &mut Chart,
+    best: Option<(f64, f64)>,
+    best_id: usize,
+    baseline: Option<(f64, f64)>,
+) -> Result<()> {
+    if let Some(p) = best {
         let c = PALETTE[0];
         chart
             .draw_series(std::iter::once(Circle::new(p, 9, c.stroke_width(3))))?
-            .label(format!("best: #{}", best.id))
+            .label(format!("best: #{best_id}"))
             .legend(move |(x, y)| Circle::new((x + 12, y), 7, c.stroke_width(3)));
     }
-    if let Some(p) = map(base) {
+    if let Some(p) = baseline {
         chart
             .draw_series(std::iter::once(TriangleMarker::new(p, 10, BLACK.filled())))?
             .label("linear clamped baseline")
             .legend(|(x, y)| TriangleMarker::new((x + 12, y), 7, BLACK.filled()));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(font(TICK_PX))
-        .draw()?;
-    root.present()?;
     Ok(())
 }
 

@@ -589,72 +589,83 @@ fn read_initial_states(v: Option<Value>) -> Result<Vec<InitialState>, ConfigErro
             reason: "the list of initial states is empty".into(),
         });
     }
-    let mut out = Vec::new();
-    for (i, item) in items.into_iter().enumerate() {
-        let prefix = format!("search.initial[{}]", i + 1);
-        let Value::Table(t) = item else {
+    items
+        .into_iter()
+        .enumerate()
+        .map(|(i, item)| read_initial_state(&format!("search.initial[{}]", i + 1), item))
+        .collect()
+}
+
+/// One `[[search.initial]]` table at `prefix`: a well or an angle, a rate, a voltage and an
+/// optional name.
+fn read_initial_state(prefix: &str, item: Value) -> Result<InitialState, ConfigError> {
+    let Value::Table(t) = item else {
+        return Err(ConfigError::WrongType {
+            key: prefix.to_string(),
+            expected: "a table with well or angle_deg".into(),
+            found: "a value".into(),
+        });
+    };
+    let mut r = Reader::new(wrap(prefix, t));
+    let well = r.number_opt(&format!("{prefix}.well"), Range::Closed(-1.0, 1.0), "")?;
+    let angle = r.number_opt(
+        &format!("{prefix}.angle_deg"),
+        Range::Open(-90.0, 90.0),
+        "deg",
+    )?;
+    let rate = r.number(&format!("{prefix}.rate_deg_s"), 0.0, Range::Any, "deg/s")?;
+    let volt = r.number(&format!("{prefix}.voltage_v"), 0.0, Range::Any, "V")?;
+    let name = match r.raw(&format!("{prefix}.name"))? {
+        Some(Value::String(s)) => Some(s.clone()),
+        Some(other) => {
             return Err(ConfigError::WrongType {
-                key: prefix,
-                expected: "a table with well or angle_deg".into(),
-                found: "a value".into(),
+                key: format!("{prefix}.name"),
+                expected: "a string".into(),
+                found: format!("{other}"),
             });
-        };
-        let mut r = Reader::new(wrap(&prefix, t));
-        let well = r.number_opt(&format!("{prefix}.well"), Range::Closed(-1.0, 1.0), "")?;
-        let angle = r.number_opt(
-            &format!("{prefix}.angle_deg"),
-            Range::Open(-90.0, 90.0),
-            "deg",
-        )?;
-        let rate = r.number(&format!("{prefix}.rate_deg_s"), 0.0, Range::Any, "deg/s")?;
-        let volt = r.number(&format!("{prefix}.voltage_v"), 0.0, Range::Any, "V")?;
-        let name = match r.raw(&format!("{prefix}.name"))? {
-            Some(Value::String(s)) => Some(s.clone()),
-            Some(other) => {
-                return Err(ConfigError::WrongType {
-                    key: format!("{prefix}.name"),
-                    expected: "a string".into(),
-                    found: format!("{other}"),
-                });
-            }
-            None => None,
-        };
-        r.finish()?;
-        let mut s = match (well, angle) {
-            (Some(w), None) if w == 1.0 || w == -1.0 => well_state(w, rate, volt),
-            (Some(w), None) => {
-                return Err(ConfigError::OutOfRange {
-                    key: format!("{prefix}.well"),
-                    value: w,
-                    range: "1 (positive bumper) or -1 (negative bumper)".into(),
-                });
-            }
-            (None, Some(a)) => InitialState {
-                name: format!("{a} deg, {rate} deg/s"),
-                well: None,
-                angle_deg: Some(a),
-                rate_deg_s: rate,
-                voltage_v: volt,
-            },
-            (Some(_), Some(_)) => {
-                return Err(ConfigError::Inconsistent {
-                    key: format!("{prefix}.angle_deg"),
-                    reason: "give either well (±1: on a bumper) or angle_deg, not both".into(),
-                });
-            }
-            (None, None) => {
-                return Err(missing(
-                    &format!("{prefix}.well"),
-                    "well = 1 or -1 (straight beam on that bumper) or angle_deg",
-                ));
-            }
-        };
-        if let Some(n) = name {
-            s.name = n;
         }
-        out.push(s);
+        None => None,
+    };
+    r.finish()?;
+    let mut s = start_state(prefix, well, angle, rate, volt)?;
+    if let Some(n) = name {
+        s.name = n;
     }
-    Ok(out)
+    Ok(s)
+}
+
+/// The state a `[[search.initial]]` entry gives: on the bumper of `well` (±1), or at `angle`
+/// (deg); exactly one of them.
+fn start_state(
+    prefix: &str,
+    well: Option<f64>,
+    angle: Option<f64>,
+    rate: f64,
+    volt: f64,
+) -> Result<InitialState, ConfigError> {
+    match (well, angle) {
+        (Some(w), None) if w == 1.0 || w == -1.0 => Ok(well_state(w, rate, volt)),
+        (Some(w), None) => Err(ConfigError::OutOfRange {
+            key: format!("{prefix}.well"),
+            value: w,
+            range: "1 (positive bumper) or -1 (negative bumper)".into(),
+        }),
+        (None, Some(a)) => Ok(InitialState {
+            name: format!("{a} deg, {rate} deg/s"),
+            well: None,
+            angle_deg: Some(a),
+            rate_deg_s: rate,
+            voltage_v: volt,
+        }),
+        (Some(_), Some(_)) => Err(ConfigError::Inconsistent {
+            key: format!("{prefix}.angle_deg"),
+            reason: "give either well (±1: on a bumper) or angle_deg, not both".into(),
+        }),
+        (None, None) => Err(missing(
+            &format!("{prefix}.well"),
+            "well = 1 or -1 (straight beam on that bumper) or angle_deg",
+        )),
+    }
 }
 
 /// A straight beam at rest (or at `rate`) on the bumper of well `w` (±1).
@@ -704,8 +715,53 @@ fn reserved(key: &str) -> Option<&'static str> {
     }
 }
 
-/// `[[search.variables]]`: each key with its grid values, checked for empty ranges.
+/// `[[search.variables]]`: each key with its grid values, checked for empty ranges, and at
+/// most [`MAX_GRID_DESIGNS`] grid designs in all.
 fn read_variables(v: Option<Value>, base: &Table) -> Result<Vec<DesignVariable>, ConfigError> {
+    let items = variable_tables(v)?;
+    let mut vars: Vec<DesignVariable> = Vec::new();
+    let mut total: usize = 1;
+    for (i, item) in items.into_iter().enumerate() {
+        let prefix = format!("search.variables[{}]", i + 1);
+        let Value::Table(t) = item else {
+            return Err(ConfigError::WrongType {
+                key: prefix,
+                expected: "a table with key, start, end, count (or values)".into(),
+                found: "a value".into(),
+            });
+        };
+        let mut r = Reader::new(wrap(&prefix, t));
+        let key = variable_key(&mut r, &prefix, &vars)?;
+        let (values, scale) = read_sweep(&mut r, &prefix, &key, MAX_GRID_DESIGNS)?;
+        r.finish()?;
+        total = total
+            .checked_mul(values.len())
+            .filter(|&t| t <= MAX_GRID_DESIGNS)
+            .ok_or_else(|| ConfigError::OutOfRange {
+                key: format!("{prefix}.count"),
+                value: values.len() as f64,
+                range: format!("grids of at most {MAX_GRID_DESIGNS} designs in all"),
+            })?;
+        let integer = INTEGER_KEYS.contains(&key.as_str())
+            || lookup_key(base, &key).is_some_and(Value::is_integer);
+        if integer && values.iter().any(|v| v.fract() != 0.0) {
+            return Err(ConfigError::Inconsistent {
+                key: format!("{prefix}.values"),
+                reason: format!("{key}: this key takes integers: every value must be whole"),
+            });
+        }
+        vars.push(DesignVariable {
+            key,
+            values,
+            scale,
+            integer,
+        });
+    }
+    Ok(vars)
+}
+
+/// The entries of `search.variables`: a non-empty array.
+fn variable_tables(v: Option<Value>) -> Result<Vec<Value>, ConfigError> {
     let items = match v {
         Some(Value::Array(items)) => items,
         Some(_) => {
@@ -728,76 +784,45 @@ fn read_variables(v: Option<Value>, base: &Table) -> Result<Vec<DesignVariable>,
             reason: "the list of design variables is empty".into(),
         });
     }
-    let mut vars: Vec<DesignVariable> = Vec::new();
-    let mut total: usize = 1;
-    for (i, item) in items.into_iter().enumerate() {
-        let prefix = format!("search.variables[{}]", i + 1);
-        let Value::Table(t) = item else {
+    Ok(items)
+}
+
+/// The scene key a variable at `prefix` sets: a string, not [`reserved`], and not already a
+/// variable of `vars`.
+fn variable_key(
+    r: &mut Reader,
+    prefix: &str,
+    vars: &[DesignVariable],
+) -> Result<String, ConfigError> {
+    let key = match r.raw(&format!("{prefix}.key"))? {
+        Some(Value::String(s)) => s.clone(),
+        Some(other) => {
             return Err(ConfigError::WrongType {
-                key: prefix,
-                expected: "a table with key, start, end, count (or values)".into(),
-                found: "a value".into(),
-            });
-        };
-        let mut r = Reader::new(wrap(&prefix, t));
-        let key = match r.raw(&format!("{prefix}.key"))? {
-            Some(Value::String(s)) => s.clone(),
-            Some(other) => {
-                return Err(ConfigError::WrongType {
-                    key: format!("{prefix}.key"),
-                    expected: "a dotted scene key such as \"limiter.clearance_deg\"".into(),
-                    found: format!("{other}"),
-                });
-            }
-            None => {
-                return Err(missing(
-                    &format!("{prefix}.key"),
-                    "the scene key this variable sets",
-                ));
-            }
-        };
-        if let Some(why) = reserved(&key) {
-            return Err(ConfigError::Inconsistent {
                 key: format!("{prefix}.key"),
-                reason: format!("`{key}` cannot be a design variable: {why}"),
+                expected: "a dotted scene key such as \"limiter.clearance_deg\"".into(),
+                found: format!("{other}"),
             });
         }
-        if vars.iter().any(|v| v.key == key) {
-            return Err(ConfigError::Inconsistent {
-                key: format!("{prefix}.key"),
-                reason: format!("`{key}` is a design variable twice"),
-            });
-        }
-        let named = |what: &str, reason: String| ConfigError::Inconsistent {
-            key: format!("{prefix}.{what}"),
-            reason: format!("{key}: {reason}"),
-        };
-        let (values, scale) = read_sweep(&mut r, &prefix, &key, MAX_GRID_DESIGNS)?;
-        r.finish()?;
-        total = total
-            .checked_mul(values.len())
-            .filter(|&t| t <= MAX_GRID_DESIGNS)
-            .ok_or_else(|| ConfigError::OutOfRange {
-                key: format!("{prefix}.count"),
-                value: values.len() as f64,
-                range: format!("grids of at most {MAX_GRID_DESIGNS} designs in all"),
-            })?;
-        let integer = INTEGER_KEYS.contains(&key.as_str())
-            || lookup_key(base, &key).is_some_and(Value::is_integer);
-        if integer && values.iter().any(|v| v.fract() != 0.0) {
-            return Err(named(
-                "values",
-                "this key takes integers: every value must be whole".into(),
+        None => {
+            return Err(missing(
+                &format!("{prefix}.key"),
+                "the scene key this variable sets",
             ));
         }
-        vars.push(DesignVariable {
-            key,
-            values,
-            scale,
-            integer,
+    };
+    if let Some(why) = reserved(&key) {
+        return Err(ConfigError::Inconsistent {
+            key: format!("{prefix}.key"),
+            reason: format!("`{key}` cannot be a design variable: {why}"),
         });
     }
-    Ok(vars)
+    if vars.iter().any(|v| v.key == key) {
+        return Err(ConfigError::Inconsistent {
+            key: format!("{prefix}.key"),
+            reason: format!("`{key}` is a design variable twice"),
+        });
+    }
+    Ok(key)
 }
 
 /// Every variable must be a numeric scene key, and each of its values must give a valid

@@ -180,30 +180,7 @@ pub fn verify_design(
     design: &DesignResult,
 ) -> Result<Verification, HarvestError> {
     let started = Instant::now();
-    let (table, scene) = spec.design_table(&design.values)?;
-    let clearance = scene.limiter.clearance_deg;
-    let jobs: Vec<(usize, usize)> = (0..spec.initial_states.len())
-        .flat_map(|s| (0..spec.band.frequencies_hz.len()).map(move |j| (s, j)))
-        .collect();
-    let points: Vec<VerifiedPoint> = jobs
-        .par_iter()
-        .map(|&(s, j)| -> Result<VerifiedPoint, HarvestError> {
-            let state = &spec.initial_states[s];
-            let f = spec.band.frequencies_hz[j];
-            let scene = spec.instance_scene(&table, clearance, state, f)?;
-            let re = simulate_power(&scene);
-            Ok(VerifiedPoint {
-                frequency_hz: f,
-                state: state.name.clone(),
-                search_w: design.power_w[s][j],
-                simulate_w: re.power_w,
-                k_simulate: re.k,
-                status: re.status,
-                hops: design.hops[s][j],
-                period: design.period[s][j],
-            })
-        })
-        .collect::<Result<_, _>>()?;
+    let points = resimulate_points(spec, design)?;
     let n_f = spec.band.frequencies_hz.len();
     let per_state: Vec<Vec<f64>> = points
         .chunks(n_f)
@@ -240,4 +217,35 @@ pub fn verify_design(
         wall_s: started.elapsed().as_secs_f64(),
         points,
     })
+}
+
+/// The design simulated by `simulate`'s engine at every (initial state, frequency), in
+/// parallel, states outermost, each point next to the search's numbers there.
+fn resimulate_points(
+    spec: &SearchSpec,
+    design: &DesignResult,
+) -> Result<Vec<VerifiedPoint>, HarvestError> {
+    let (table, scene) = spec.design_table(&design.values)?;
+    let clearance = scene.limiter.clearance_deg;
+    let jobs: Vec<(usize, usize)> = (0..spec.initial_states.len())
+        .flat_map(|s| (0..spec.band.frequencies_hz.len()).map(move |j| (s, j)))
+        .collect();
+    jobs.par_iter()
+        .map(|&(s, j)| -> Result<VerifiedPoint, HarvestError> {
+            let state = &spec.initial_states[s];
+            let f = spec.band.frequencies_hz[j];
+            let scene = spec.instance_scene(&table, clearance, state, f)?;
+            let re = simulate_power(&scene);
+            Ok(VerifiedPoint {
+                frequency_hz: f,
+                state: state.name.clone(),
+                search_w: design.power_w[s][j],
+                simulate_w: re.power_w,
+                k_simulate: re.k,
+                status: re.status,
+                hops: design.hops[s][j],
+                period: design.period[s][j],
+            })
+        })
+        .collect()
 }

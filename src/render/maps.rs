@@ -152,19 +152,8 @@ pub fn scalogram(
     significance_ratio: Option<&[Vec<f64>]>,
     time_label: &str,
 ) -> Result<()> {
-    check_axis("scalogram times", times_s)?;
-    check_axis("scalogram periods", periods_s)?;
-    if periods_s[0] <= 0.0 {
-        bad_input!("scalogram: periods must be positive");
-    }
+    check_scalogram_input(times_s, periods_s, power, coi_s, significance_ratio)?;
     let (nt, np) = (times_s.len(), periods_s.len());
-    let shape_ok = |m: &[Vec<f64>]| m.len() == np && m.iter().all(|r| r.len() == nt);
-    if !shape_ok(power) || significance_ratio.is_some_and(|s| !shape_ok(s)) {
-        bad_input!("scalogram: power/significance must be [{np} periods][{nt} times]");
-    }
-    if !coi_s.is_empty() && coi_s.len() != nt {
-        bad_input!("scalogram: coi has {} values, expected {nt}", coi_s.len());
-    }
     let lp: Vec<Vec<f64>> = power
         .iter()
         .map(|r| r.iter().map(|p| p.log2()).collect())
@@ -183,18 +172,7 @@ pub fn scalogram(
     let body = titled(&root, title)?;
     let (main, bar) = body.split_horizontally(SIZE.0 - BAR_COL);
     let mut chart = build_chart(&main, None, &xa, &ya, time_label, "Period (s)", false, 15)?;
-    let coi_at = |t: f64| -> f64 {
-        let k = times_s.partition_point(|&x| x <= t);
-        let c = if k == 0 {
-            coi_s[0]
-        } else if k >= nt {
-            coi_s[nt - 1]
-        } else {
-            let f = (t - times_s[k - 1]) / (times_s[k] - times_s[k - 1]);
-            coi_s[k - 1] + f * (coi_s[k] - coi_s[k - 1])
-        };
-        c.max(0.0).log2()
-    };
+    let coi_at = |t: f64| coi_log2_at(times_s, coi_s, t);
     paint_cells(&chart, &xe, &ye, |ix, iy, x, y| {
         let v = lp[iy][ix];
         let c = if v.is_finite() {
@@ -227,6 +205,47 @@ pub fn scalogram(
     colorbar(&bar, lo, hi, "log2 power (normalised)", &[])?;
     root.present()?;
     Ok(())
+}
+
+/// Refuse axes that are not strictly increasing, non-positive periods, a power or
+/// significance matrix not shaped [periods][times], and a COI not one value per time.
+fn check_scalogram_input(
+    times_s: &[f64],
+    periods_s: &[f64],
+    power: &[Vec<f64>],
+    coi_s: &[f64],
+    significance_ratio: Option<&[Vec<f64>]>,
+) -> Result<()> {
+    check_axis("scalogram times", times_s)?;
+    check_axis("scalogram periods", periods_s)?;
+    if periods_s[0] <= 0.0 {
+        bad_input!("scalogram: periods must be positive");
+    }
+    let (nt, np) = (times_s.len(), periods_s.len());
+    let shape_ok = |m: &[Vec<f64>]| m.len() == np && m.iter().all(|r| r.len() == nt);
+    if !shape_ok(power) || significance_ratio.is_some_and(|s| !shape_ok(s)) {
+        bad_input!("scalogram: power/significance must be [{np} periods][{nt} times]");
+    }
+    if !coi_s.is_empty() && coi_s.len() != nt {
+        bad_input!("scalogram: coi has {} values, expected {nt}", coi_s.len());
+    }
+    Ok(())
+}
+
+/// log2 of the cone of influence at time `t` (s), interpolated linearly between the times
+/// and held beyond them: the period above which edge effects dominate.
+fn coi_log2_at(times_s: &[f64], coi_s: &[f64], t: f64) -> f64 {
+    let nt = times_s.len();
+    let k = times_s.partition_point(|&x| x <= t);
+    let c = if k == 0 {
+        coi_s[0]
+    } else if k >= nt {
+        coi_s[nt - 1]
+    } else {
+        let f = (t - times_s[k - 1]) / (times_s[k] - times_s[k - 1]);
+        coi_s[k - 1] + f * (coi_s[k] - coi_s[k - 1])
+    };
+    c.max(0.0).log2()
 }
 
 /// Marching-squares contour of `f(iy, ix)` at `level` on the node grid

@@ -114,6 +114,14 @@ const fn experiment(
 /// (b) 5 Hz/12 mm, (c) 8 Hz/9 mm and (d) the case "from Fig. 3a", which is 10 Hz/9 mm (the
 /// caption's "f = 5 Hz" for (d) contradicts Fig. 3a's own caption; we follow Fig. 3a).
 pub fn paper_cases() -> Vec<PaperCase> {
+    let mut cases = table2_cases();
+    cases.push(sweep_case());
+    cases.extend(experiment_cases());
+    cases
+}
+
+/// The six simulated cases of Table 2, by amplitude then frequency.
+fn table2_cases() -> Vec<PaperCase> {
     vec![
         table2(
             "table2_A09_f05",
@@ -175,18 +183,28 @@ pub fn paper_cases() -> Vec<PaperCase> {
             0.00,
             0.66,
         ),
-        PaperCase {
-            id: "fig09_sweep_4_8hz",
-            kind: CaseKind::Sweep,
-            scene_path: scene!("fig09_sweep_4_8hz").0,
-            scene_toml: scene!("fig09_sweep_4_8hz").1,
-            amplitude_mm: 9.0,
-            frequency_hz: None,
-            figure: "fig9",
-            zero_one_panel: None,
-            published_k: None,
-            published_r: None,
-        },
+    ]
+}
+
+/// The 4 → 8 Hz sweep of Fig. 9 (no published K or R).
+fn sweep_case() -> PaperCase {
+    PaperCase {
+        id: "fig09_sweep_4_8hz",
+        kind: CaseKind::Sweep,
+        scene_path: scene!("fig09_sweep_4_8hz").0,
+        scene_toml: scene!("fig09_sweep_4_8hz").1,
+        amplitude_mm: 9.0,
+        frequency_hz: None,
+        figure: "fig9",
+        zero_one_panel: None,
+        published_k: None,
+        published_r: None,
+    }
+}
+
+/// The three stationary experiments of Figs. 10–12.
+fn experiment_cases() -> Vec<PaperCase> {
+    vec![
         experiment(
             "fig10a_f08_A09",
             scene!("fig10a_f08_A09"),

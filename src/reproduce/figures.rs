@@ -5,7 +5,7 @@ use super::cases::PaperCase;
 use super::error::ReproduceError;
 use super::indicators::{StationaryAnalysis, SweepAnalysis};
 use super::run::Simulation;
-use crate::analysis::Spectrum;
+use crate::analysis::{Spectrum, ZeroOneResult};
 use crate::render::{self, Panel, Series};
 use std::path::{Path, PathBuf};
 
@@ -90,6 +90,21 @@ pub fn time_series_fig3_5(
     })
 }
 
+/// c and K_c of a 0–1 test, sorted by c (the test draws c at random), for a line plot.
+fn k_c_by_c(r: &ZeroOneResult) -> (Vec<f64>, Vec<f64>) {
+    let mut pairs: Vec<(f64, f64)> = r.c_values.iter().copied().zip(r.k_c.clone()).collect();
+    pairs.sort_by(|x, y| x.0.total_cmp(&y.0));
+    pairs.into_iter().unzip()
+}
+
+/// The first and last of the sorted `c` (0 and 1 when empty): the span of a median line.
+fn c_ends(c: &[f64]) -> Vec<f64> {
+    vec![
+        c.first().copied().unwrap_or(0.0),
+        c.last().copied().unwrap_or(1.0),
+    ]
+}
+
 /// Fig. 6: the local extrema of α (upper panel) and K_c against c for both estimators with
 /// their medians (lower panel).
 pub fn zero_one_fig6(
@@ -101,21 +116,10 @@ pub fn zero_one_fig6(
     let path = out.join(format!("fig6{panel}_{}.png", case.file_tag()));
     let index: Vec<f64> = (1..=a.extrema.len()).map(|i| i as f64).collect();
     let extrema_deg: Vec<f64> = a.extrema.iter().map(|v| v.to_degrees()).collect();
-    let sorted = |r: &crate::analysis::ZeroOneResult| -> (Vec<f64>, Vec<f64>) {
-        let mut pairs: Vec<(f64, f64)> = r.c_values.iter().copied().zip(r.k_c.clone()).collect();
-        pairs.sort_by(|x, y| x.0.total_cmp(&y.0));
-        pairs.into_iter().unzip()
-    };
-    let (c1, k1) = sorted(&a.k_extrema);
-    let (c2, k2) = sorted(&a.k_extrema_eq10);
-    let ends = |c: &[f64]| -> Vec<f64> {
-        vec![
-            c.first().copied().unwrap_or(0.0),
-            c.last().copied().unwrap_or(1.0),
-        ]
-    };
-    let (m1x, m1y) = (ends(&c1), vec![a.k_extrema.k; 2]);
-    let (m2x, m2y) = (ends(&c2), vec![a.k_extrema_eq10.k; 2]);
+    let (c1, k1) = k_c_by_c(&a.k_extrema);
+    let (c2, k2) = k_c_by_c(&a.k_extrema_eq10);
+    let (m1x, m1y) = (c_ends(&c1), vec![a.k_extrema.k; 2]);
+    let (m2x, m2y) = (c_ends(&c2), vec![a.k_extrema_eq10.k; 2]);
     let name1 = format!("K_c, correlation: median K = {:.2}", a.k_extrema.k);
     let name2 = format!(
         "K_c, eq. 10 regression: median K = {:.2}",

@@ -4,13 +4,14 @@
 use super::error::ReproduceError;
 use super::run::Simulation;
 use crate::analysis::{
-    K01Method, PhaseConvention, PhaseHistogram, RatioReport, SpectralPeak, Spectrum,
+    AnalysisError, K01Method, PhaseConvention, PhaseHistogram, RatioReport, SpectralPeak, Spectrum,
     WaveletOptions, WaveletResult, ZeroOneOptions, ZeroOneResult, amplitude_spectrum,
     detect_period, dominant_peak, hops, lag1_autocorrelation, local_extrema, morlet_cwt,
     phase_histogram, phase_sync, ratio_to_forcing, significance_ar1, stroboscopic_uniform,
     zero_one_test,
 };
 use crate::config::ExcitationKind;
+use crate::output::Row;
 use serde::Serialize;
 
 /// K at or above this is called chaotic, below it regular (the paper calls 0.67 and 0.70
@@ -238,6 +239,11 @@ pub fn line_prominence(spec: &Spectrum, target_hz: f64) -> f64 {
     }
 }
 
+/// Maps an analysis error of `case` to one that names the indicator `what`.
+fn failed<'a>(case: &'a str, what: &'static str) -> impl Fn(AnalysisError) -> ReproduceError + 'a {
+    move |e| ReproduceError::analysis(case, what, e)
+}
+
 /// The indicators of a harmonically forced case; `twin` is the same scene started
 /// [`TWIN_PERTURBATION_DEG`] lower.
 pub fn analyse_stationary(
@@ -245,105 +251,44 @@ pub fn analyse_stationary(
     sim: &Simulation,
     twin: Option<&Simulation>,
 ) -> Result<StationaryAnalysis, ReproduceError> {
-    let err = |what| move |e| ReproduceError::analysis(case, what, e);
-    let forcing_hz = match sim.scene.excitation.kind {
-        ExcitationKind::Harmonic { frequency_hz } => frequency_hz,
-        ExcitationKind::Sweep { .. } => {
-            return Err(ReproduceError::analysis(
-                case,
-                "stationary indicators",
-                crate::analysis::AnalysisError::InvalidArgument(
-                    "a sweep has no single forcing frequency".into(),
-                ),
-            ));
-        }
-    };
-    let rate = sim.rate_hz();
+    let forcing_hz = harmonic_forcing_hz(case, sim)?;
     let skip = sim.transient_rows();
     let alpha = sim.column(|r| r.alpha_rad);
     let x0 = sim.column(|r| r.x0_m);
-    let deg = |v: &[f64]| -> Vec<f64> { v.iter().map(|x| x.to_degrees()).collect() };
-    let mm = |v: &[f64]| -> Vec<f64> { v.iter().map(|x| x * 1e3).collect() };
-    let tail_alpha = &alpha[skip..];
-
-    let extrema = local_extrema(&alpha).map_err(err("local extrema of α"))?;
-    let normalised = |method| ZeroOneOptions {
-        method,
-        normalize: true,
-        ..ZeroOneOptions::default()
-    };
-    let k_extrema = zero_one_test(&extrema, &normalised(K01Method::Correlation))
-        .map_err(err("0-1 test on the extrema"))?;
-    let k_extrema_eq10 = zero_one_test(&extrema, &normalised(K01Method::Regression))
-        .map_err(err("0-1 test on the extrema, eq. 10"))?;
-    let strobe = stroboscopic_uniform(
-        &alpha,
-        rate,
-        0.0,
-        forcing_hz,
-        0.0,
-        sim.scene.integration.transient_s,
-    )
-    .map_err(err("stroboscopic samples"))?;
-    let k_strobe = zero_one_test(&strobe, &ZeroOneOptions::default())
-        .map_err(err("0-1 test on the stroboscopic samples"))?;
-
-    let paper = phase_sync(&x0[skip..], tail_alpha, PhaseConvention::Paper)
-        .map_err(err("phase synchronisation"))?;
-    let standard = phase_sync(&x0[skip..], tail_alpha, PhaseConvention::Standard)
-        .map_err(err("phase synchronisation"))?;
-    let phase_hist_paper = phase_histogram(&paper.delta_phi_rad, 36, PhaseConvention::Paper)
-        .map_err(err("phase histogram"))?;
-
-    let spectrum = |x: Vec<f64>, what| amplitude_spectrum(&x, rate).map_err(err(what));
-    let spectrum_x0_mm = spectrum(mm(&x0[skip..]), "spectrum of x0")?;
-    let spectrum_alpha_deg = spectrum(deg(tail_alpha), "spectrum of α")?;
-    let spectrum_rate_deg_s = spectrum(
-        deg(&sim.column(|r| r.alpha_dot_rad_s)[skip..]),
-        "spectrum of α̇",
-    )?;
-    let spectrum_chord_mm = spectrum(
-        mm(&sim.column(|r| r.chord_m)[skip..]),
-        "spectrum of the chord",
-    )?;
+    let (tail_alpha, tail_x0) = (&alpha[skip..], &x0[skip..]);
+    let (extrema, k_extrema, k_extrema_eq10) = k_on_extrema(case, &alpha)?;
+    let (strobe, k_strobe) = k_stroboscopic(case, sim, &alpha, forcing_hz)?;
+    let (r_paper, r_standard, phase_hist_paper) = phase_locking(case, tail_x0, tail_alpha)?;
+    let [
+        spectrum_x0_mm,
+        spectrum_alpha_deg,
+        spectrum_rate_deg_s,
+        spectrum_chord_mm,
+    ] = spectra(case, sim, tail_x0, tail_alpha)?;
     let ratio = |p: Option<SpectralPeak>| -> Result<Option<RatioReport>, ReproduceError> {
         p.map(|p| ratio_to_forcing(p.frequency_hz, forcing_hz))
             .transpose()
-            .map_err(err("frequency ratio"))
+            .map_err(failed(case, "frequency ratio"))
     };
     let alpha_peak = dominant_peak(&spectrum_alpha_deg);
     let chord_peak = dominant_peak(&spectrum_chord_mm);
+    let prominence = |target_hz: f64| line_prominence(&spectrum_alpha_deg, target_hz);
     let clearance = sim.scene.limiter.clearance_deg.to_radians();
-    let lo = tail_alpha.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = tail_alpha.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let chord_max_mm = sim.rows[skip..]
-        .iter()
-        .map(|r| r.chord_m * 1e3)
-        .fold(f64::NEG_INFINITY, f64::max);
-    let tip_deflection_max_mm = sim.rows[skip..]
-        .iter()
-        .map(|r| {
-            let (sin, cos) = r.alpha_rad.sin_cos();
-            ((r.tip_x_m - r.x0_m) * cos - r.tip_y_m * sin).abs() * 1e3
-        })
-        .fold(f64::NEG_INFINITY, f64::max);
     Ok(StationaryAnalysis {
         forcing_hz,
         duration_s: sim.scene.integration.duration_s,
         transient_s: sim.scene.integration.transient_s,
-        chord_max_mm,
-        tip_deflection_max_mm,
+        chord_max_mm: chord_max_mm(&sim.rows[skip..]),
+        tip_deflection_max_mm: tip_deflection_max_mm(&sim.rows[skip..]),
         k_extrema,
         k_extrema_eq10,
         k_strobe,
-        r_paper: paper.r,
-        r_standard: standard.r,
+        r_paper,
+        r_standard,
         phase_hist_paper,
-        prominence_third: line_prominence(&spectrum_alpha_deg, forcing_hz / 3.0),
-        prominence_half: line_prominence(&spectrum_alpha_deg, forcing_hz / 2.0),
-        prominence_peak: alpha_peak.map_or(f64::NAN, |p| {
-            line_prominence(&spectrum_alpha_deg, p.frequency_hz)
-        }),
+        prominence_third: prominence(forcing_hz / 3.0),
+        prominence_half: prominence(forcing_hz / 2.0),
+        prominence_peak: alpha_peak.map_or(f64::NAN, |p| prominence(p.frequency_hz)),
         alpha_ratio: ratio(alpha_peak)?,
         chord_ratio: ratio(chord_peak)?,
         alpha_peak,
@@ -354,10 +299,131 @@ pub fn analyse_stationary(
         spectrum_chord_mm,
         period: detect_period(&strobe, 12, 12, 1e-3),
         hops: hops(tail_alpha, clearance),
-        alpha_range_deg: (hi - lo).to_degrees(),
+        alpha_range_deg: range_deg(tail_alpha),
         twin: twin.map(|t| twin_divergence(sim, t)),
         extrema,
     })
+}
+
+/// The forcing frequency of a harmonically forced scene; an error for a sweep.
+fn harmonic_forcing_hz(case: &str, sim: &Simulation) -> Result<f64, ReproduceError> {
+    match sim.scene.excitation.kind {
+        ExcitationKind::Harmonic { frequency_hz } => Ok(frequency_hz),
+        ExcitationKind::Sweep { .. } => Err(ReproduceError::analysis(
+            case,
+            "stationary indicators",
+            AnalysisError::InvalidArgument("a sweep has no single forcing frequency".into()),
+        )),
+    }
+}
+
+/// The paper's K: the local extrema of α over the whole run, and the normalised 0–1 test on
+/// them by the correlation method and by the paper's regression (eq. 10).
+fn k_on_extrema(
+    case: &str,
+    alpha: &[f64],
+) -> Result<(Vec<f64>, ZeroOneResult, ZeroOneResult), ReproduceError> {
+    let extrema = local_extrema(alpha).map_err(failed(case, "local extrema of α"))?;
+    let normalised = |method| ZeroOneOptions {
+        method,
+        normalize: true,
+        ..ZeroOneOptions::default()
+    };
+    let k_extrema = zero_one_test(&extrema, &normalised(K01Method::Correlation))
+        .map_err(failed(case, "0-1 test on the extrema"))?;
+    let k_extrema_eq10 = zero_one_test(&extrema, &normalised(K01Method::Regression))
+        .map_err(failed(case, "0-1 test on the extrema, eq. 10"))?;
+    Ok((extrema, k_extrema, k_extrema_eq10))
+}
+
+/// One α sample per forcing period after the transient, and the 0–1 test on them.
+fn k_stroboscopic(
+    case: &str,
+    sim: &Simulation,
+    alpha: &[f64],
+    forcing_hz: f64,
+) -> Result<(Vec<f64>, ZeroOneResult), ReproduceError> {
+    let strobe = stroboscopic_uniform(
+        alpha,
+        sim.rate_hz(),
+        0.0,
+        forcing_hz,
+        0.0,
+        sim.scene.integration.transient_s,
+    )
+    .map_err(failed(case, "stroboscopic samples"))?;
+    let k_strobe = zero_one_test(&strobe, &ZeroOneOptions::default())
+        .map_err(failed(case, "0-1 test on the stroboscopic samples"))?;
+    Ok((strobe, k_strobe))
+}
+
+/// R of cart position and α after the transient in the paper's convention and the standard
+/// one, and the histogram of Δφ in the paper's (Fig. 7).
+fn phase_locking(
+    case: &str,
+    tail_x0: &[f64],
+    tail_alpha: &[f64],
+) -> Result<(f64, f64, PhaseHistogram), ReproduceError> {
+    let paper = phase_sync(tail_x0, tail_alpha, PhaseConvention::Paper)
+        .map_err(failed(case, "phase synchronisation"))?;
+    let standard = phase_sync(tail_x0, tail_alpha, PhaseConvention::Standard)
+        .map_err(failed(case, "phase synchronisation"))?;
+    let hist = phase_histogram(&paper.delta_phi_rad, 36, PhaseConvention::Paper)
+        .map_err(failed(case, "phase histogram"))?;
+    Ok((paper.r, standard.r, hist))
+}
+
+/// Amplitude spectra after the transient of the cart position (mm), α (deg), α̇ (deg/s) and
+/// the chord reduction (mm), in that order.
+fn spectra(
+    case: &str,
+    sim: &Simulation,
+    tail_x0: &[f64],
+    tail_alpha: &[f64],
+) -> Result<[Spectrum; 4], ReproduceError> {
+    let skip = sim.transient_rows();
+    let rate = sim.rate_hz();
+    let deg = |v: &[f64]| -> Vec<f64> { v.iter().map(|x| x.to_degrees()).collect() };
+    let mm = |v: &[f64]| -> Vec<f64> { v.iter().map(|x| x * 1e3).collect() };
+    let spectrum = |x: Vec<f64>, what| amplitude_spectrum(&x, rate).map_err(failed(case, what));
+    Ok([
+        spectrum(mm(tail_x0), "spectrum of x0")?,
+        spectrum(deg(tail_alpha), "spectrum of α")?,
+        spectrum(
+            deg(&sim.column(|r| r.alpha_dot_rad_s)[skip..]),
+            "spectrum of α̇",
+        )?,
+        spectrum(
+            mm(&sim.column(|r| r.chord_m)[skip..]),
+            "spectrum of the chord",
+        )?,
+    ])
+}
+
+/// Largest chord reduction over `rows` (mm).
+fn chord_max_mm(rows: &[Row]) -> f64 {
+    rows.iter()
+        .map(|r| r.chord_m * 1e3)
+        .fold(f64::NEG_INFINITY, f64::max)
+}
+
+/// Largest distance of the tip from the holder's line over `rows`: how far the beam bends
+/// (mm).
+fn tip_deflection_max_mm(rows: &[Row]) -> f64 {
+    rows.iter()
+        .map(|r| {
+            let (sin, cos) = r.alpha_rad.sin_cos();
+            ((r.tip_x_m - r.x0_m) * cos - r.tip_y_m * sin).abs() * 1e3
+        })
+        .fold(f64::NEG_INFINITY, f64::max)
+}
+
+/// Range of an angle series (rad), in degrees.
+fn range_deg(x: &[f64]) -> f64 {
+    let (lo, hi) = x.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &v| {
+        (a.0.min(v), a.1.max(v))
+    });
+    (hi - lo).to_degrees()
 }
 
 /// Compare a run with its twin row by row.
@@ -443,7 +509,6 @@ fn sweep_wavelet(
     x: &[f64],
     rate_hz: f64,
 ) -> Result<(WaveletResult, Vec<Vec<f64>>), ReproduceError> {
-    let err = |what| move |e| ReproduceError::analysis(case, what, e);
     let factor = ((rate_hz / SWEEP_WAVELET_RATE_HZ).floor() as usize).max(1);
     let reduced: Vec<f64> = x
         .chunks_exact(factor)
@@ -461,12 +526,12 @@ fn sweep_wavelet(
         j: Some(j),
         ..WaveletOptions::default()
     };
-    let wt = morlet_cwt(&reduced, dt, &opts).map_err(err("wavelet transform"))?;
+    let wt = morlet_cwt(&reduced, dt, &opts).map_err(failed(case, "wavelet transform"))?;
     let lag1 = lag1_autocorrelation(&reduced)
-        .map_err(err("lag-1 autocorrelation"))?
+        .map_err(failed(case, "lag-1 autocorrelation"))?
         .clamp(-0.999_999, 0.999_999);
-    let level =
-        significance_ar1(1.0, dt, &wt.period_s, lag1, 0.95).map_err(err("wavelet significance"))?;
+    let level = significance_ar1(1.0, dt, &wt.period_s, lag1, 0.95)
+        .map_err(failed(case, "wavelet significance"))?;
     let ratio = wt
         .power
         .iter()
@@ -503,20 +568,7 @@ fn peak_period(wt: &WaveletResult, avg: &[Option<f64>]) -> Option<f64> {
 
 /// The sweep's indicators: wavelets of cart and angle, and one window per hertz.
 pub fn analyse_sweep(case: &str, sim: &Simulation) -> Result<SweepAnalysis, ReproduceError> {
-    let ExcitationKind::Sweep {
-        start_hz,
-        end_hz,
-        duration_s,
-    } = sim.scene.excitation.kind
-    else {
-        return Err(ReproduceError::analysis(
-            case,
-            "sweep indicators",
-            crate::analysis::AnalysisError::InvalidArgument(
-                "the sweep case needs excitation.kind = \"sweep\"".into(),
-            ),
-        ));
-    };
+    let (start_hz, end_hz, duration_s) = sweep_excitation(case, sim)?;
     let rate = sim.rate_hz();
     let alpha = sim.column(|r| r.alpha_rad);
     let x0 = sim.column(|r| r.x0_m);
@@ -541,49 +593,23 @@ pub fn analyse_sweep(case: &str, sim: &Simulation) -> Result<SweepAnalysis, Repr
         let c0 = ((ta / angle.dt_s).floor() as usize).min(c1);
         let avg_angle = averaged_inside_coi(&angle, c0, c1);
         let avg_base = averaged_inside_coi(&base, c0, c1);
-        let in_band = |p: &f64| (SWEEP_PAPER_BAND_S.0..=SWEEP_PAPER_BAND_S.1).contains(p);
-        let total: f64 = avg_angle.iter().flatten().sum();
-        let band: f64 = avg_angle
-            .iter()
-            .zip(&angle.period_s)
-            .filter(|(_, p)| in_band(p))
-            .filter_map(|(a, _)| *a)
-            .sum();
-        let (mut cells, mut significant) = (0usize, 0usize);
-        for (row, p) in angle_significance.iter().zip(&angle.period_s) {
-            if !in_band(p) {
-                continue;
-            }
-            for (ratio, coi) in row[c0..c1].iter().zip(&angle.coi_s[c0..c1]) {
-                if p <= coi {
-                    cells += 1;
-                    significant += usize::from(*ratio >= 1.0);
-                }
-            }
-        }
-        let (lo, hi) = seg
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |a, &v| {
-                (a.0.min(v), a.1.max(v))
-            });
         windows.push(SweepWindow {
             f_start_hz: fa,
             f_end_hz: fb,
             t_start_s: ta,
             t_end_s: tb,
-            alpha_rms_deg: if seg.is_empty() {
-                f64::NAN
-            } else {
-                (seg.iter().map(|v| v * v).sum::<f64>() / seg.len() as f64)
-                    .sqrt()
-                    .to_degrees()
-            },
-            alpha_range_deg: (hi - lo).to_degrees(),
+            alpha_rms_deg: rms_deg(seg),
+            alpha_range_deg: range_deg(seg),
             hops: hops(seg, clearance),
             base_peak_period_s: peak_period(&base, &avg_base),
             angle_peak_period_s: peak_period(&angle, &avg_angle),
-            angle_share_paper_band: (total > 0.0).then(|| band / total),
-            angle_significant_paper_band: (cells > 0).then(|| significant as f64 / cells as f64),
+            angle_share_paper_band: paper_band_share(&angle, &avg_angle),
+            angle_significant_paper_band: paper_band_significant(
+                &angle,
+                &angle_significance,
+                c0,
+                c1,
+            ),
         });
     }
     Ok(SweepAnalysis {
@@ -595,4 +621,75 @@ pub fn analyse_sweep(case: &str, sim: &Simulation) -> Result<SweepAnalysis, Repr
         windows,
         hops: hops(&alpha, clearance),
     })
+}
+
+/// Start and end frequency (Hz) and duration (s) of the sweep; an error for a harmonic scene.
+fn sweep_excitation(case: &str, sim: &Simulation) -> Result<(f64, f64, f64), ReproduceError> {
+    let ExcitationKind::Sweep {
+        start_hz,
+        end_hz,
+        duration_s,
+    } = sim.scene.excitation.kind
+    else {
+        return Err(ReproduceError::analysis(
+            case,
+            "sweep indicators",
+            AnalysisError::InvalidArgument(
+                "the sweep case needs excitation.kind = \"sweep\"".into(),
+            ),
+        ));
+    };
+    Ok((start_hz, end_hz, duration_s))
+}
+
+/// RMS of an angle series (rad), in degrees; NaN when empty.
+fn rms_deg(x: &[f64]) -> f64 {
+    if x.is_empty() {
+        f64::NAN
+    } else {
+        (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64)
+            .sqrt()
+            .to_degrees()
+    }
+}
+
+/// Whether a period lies in the band the paper names ([`SWEEP_PAPER_BAND_S`]).
+fn in_paper_band(period_s: &f64) -> bool {
+    (SWEEP_PAPER_BAND_S.0..=SWEEP_PAPER_BAND_S.1).contains(period_s)
+}
+
+/// Share of the time-averaged power `avg` (inside the COI) at periods in the paper's band;
+/// `None` without power.
+fn paper_band_share(wt: &WaveletResult, avg: &[Option<f64>]) -> Option<f64> {
+    let total: f64 = avg.iter().flatten().sum();
+    let band: f64 = avg
+        .iter()
+        .zip(&wt.period_s)
+        .filter(|(_, p)| in_paper_band(p))
+        .filter_map(|(a, _)| *a)
+        .sum();
+    (total > 0.0).then(|| band / total)
+}
+
+/// Share of the cells in columns `c0..c1` inside the COI at periods in the paper's band whose
+/// power reaches the 95 % red-noise level (`significance` ≥ 1); `None` without such cells.
+fn paper_band_significant(
+    wt: &WaveletResult,
+    significance: &[Vec<f64>],
+    c0: usize,
+    c1: usize,
+) -> Option<f64> {
+    let (mut cells, mut significant) = (0usize, 0usize);
+    for (row, p) in significance.iter().zip(&wt.period_s) {
+        if !in_paper_band(p) {
+            continue;
+        }
+        for (ratio, coi) in row[c0..c1].iter().zip(&wt.coi_s[c0..c1]) {
+            if p <= coi {
+                cells += 1;
+                significant += usize::from(*ratio >= 1.0);
+            }
+        }
+    }
+    (cells > 0).then(|| significant as f64 / cells as f64)
 }

@@ -103,9 +103,75 @@ pub fn reproduce(
     let cases = paper_cases();
     let jobs = plan_jobs(&cases, opts)?;
     std::fs::create_dir_all(out).map_err(|e| ReproduceError::io(out, e))?;
+    let unique = simulate_jobs(&cases, &jobs, progress)?;
+    let integration_s: f64 = unique.iter().flatten().map(|s| s.stats.wall_s).sum();
+    let simulations = unique.iter().flatten().count();
+    let (main, twins) = runs_per_case(&cases, &jobs, &unique);
+    let analysed = analyse_cases(&cases, &main, &twins)?;
+    let figures = draw_figures(out, &cases, &main, &analysed)?;
+    let sorted = Sorted::new(&cases, &main, &analysed);
+    let settings = settings_text(opts, &main);
+    let table2_rows: Vec<CaseRow> = sorted.table2.iter().map(|t| t.2.clone()).collect();
+    let exp_rows: Vec<CaseRow> = sorted.experiments.iter().map(|t| t.2.clone()).collect();
+    let mut files = write_tables(out, &table2_rows, &exp_rows, &settings)?;
+    let sweep_windows = sorted
+        .sweep
+        .map(|s| s.1.windows.clone())
+        .unwrap_or_default();
+    let names = file_names(&figures);
+    let report_input = ReportInput {
+        quick: opts.quick,
+        settings: &settings,
+        wall_s: started.elapsed().as_secs_f64(),
+        integration_s,
+        threads: rayon::current_num_threads(),
+        first_clamped_hz: first_clamped_hz(&cases[0], opts)?,
+        simulations,
+        table2: case_results(&sorted.table2),
+        experiments: case_results(&sorted.experiments),
+        sweep: sorted.sweep,
+        figures: &names,
+    };
+    files.push(write_text(
+        out,
+        "REPORT.md",
+        &report_markdown(&report_input),
+    )?);
+    let wall_s = started.elapsed().as_secs_f64();
+    let summary = Summary {
+        quick: opts.quick,
+        settings: &settings,
+        cases: &cases,
+        runs: cases
+            .iter()
+            .map(|c| c.id)
+            .zip(main.iter().map(|s| &s.stats))
+            .collect(),
+        table2: &table2_rows,
+        experiments: &exp_rows,
+        sweep_windows: &sweep_windows,
+        wall_s,
+    };
+    files.push(write_summary(out, &summary)?);
+    files.extend(figures);
+    Ok(Reproduction {
+        files,
+        table2: table2_rows,
+        experiments: exp_rows,
+        sweep_windows,
+        wall_s,
+    })
+}
 
-    // A scene that equals an earlier one (the 8 Hz/9 mm and 10 Hz/12 mm experiments are
-    // Table 2 cases) is integrated once: the engine is deterministic, so the copy is exact.
+/// Integrate every job in parallel, longest first (the jobs' order), reporting each finished
+/// one. A scene that equals an earlier one (the 8 Hz/9 mm and 10 Hz/12 mm experiments are
+/// Table 2 cases) is integrated once: its slot stays `None` and [`runs_per_case`] copies the
+/// earlier result, which is exact since the engine is deterministic.
+fn simulate_jobs(
+    cases: &[PaperCase],
+    jobs: &[Job],
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<Vec<Option<Simulation>>, ReproduceError> {
     let results: Vec<Option<Result<Simulation, ReproduceError>>> = jobs
         .par_iter()
         .with_max_len(1)
@@ -128,8 +194,16 @@ pub fn reproduce(
     for r in results {
         unique.push(r.transpose()?);
     }
-    let integration_s: f64 = unique.iter().flatten().map(|s| s.stats.wall_s).sum();
-    let simulations = unique.iter().flatten().count();
+    Ok(unique)
+}
+
+/// Each case's run (in the cases' order) and its twin's, if it has one, from the jobs'
+/// results, copying a shared scene's result to every job that reuses it.
+fn runs_per_case(
+    cases: &[PaperCase],
+    jobs: &[Job],
+    unique: &[Option<Simulation>],
+) -> (Vec<Simulation>, Vec<Option<Simulation>>) {
     let mut main: Vec<Option<Simulation>> = vec![None; cases.len()];
     let mut twins: Vec<Option<Simulation>> = vec![None; cases.len()];
     for (i, j) in jobs.iter().enumerate() {
@@ -137,11 +211,18 @@ pub fn reproduce(
         let slot = if j.twin { &mut twins } else { &mut main };
         slot[j.case] = sim;
     }
-    let main: Vec<Simulation> = main.into_iter().flatten().collect();
+    (main.into_iter().flatten().collect(), twins)
+}
 
-    let analysed: Vec<Analysed> = cases
+/// The indicators of every case, in parallel: stationary ones (with the twin) or the sweep's.
+fn analyse_cases(
+    cases: &[PaperCase],
+    main: &[Simulation],
+    twins: &[Option<Simulation>],
+) -> Result<Vec<Analysed>, ReproduceError> {
+    cases
         .par_iter()
-        .zip(&main)
+        .zip(main)
         .enumerate()
         .map(|(i, (c, sim))| match c.kind {
             CaseKind::Sweep => analyse_sweep(c.id, sim).map(|a| Analysed::Sweep(Box::new(a))),
@@ -150,111 +231,111 @@ pub fn reproduce(
                     .map(|a| Analysed::Stationary(Box::new(a)))
             }
         })
-        .collect::<Result<_, _>>()?;
+        .collect()
+}
 
+/// Every case's figures, drawn in parallel; the paths in the cases' order.
+fn draw_figures(
+    out: &Path,
+    cases: &[PaperCase],
+    main: &[Simulation],
+    analysed: &[Analysed],
+) -> Result<Vec<PathBuf>, ReproduceError> {
     let figures: Vec<Vec<PathBuf>> = cases
         .par_iter()
-        .zip(&main)
-        .zip(&analysed)
+        .zip(main)
+        .zip(analysed)
         .map(|((c, sim), a)| draw_case(out, c, sim, a))
         .collect::<Result<_, _>>()?;
-    let figures: Vec<PathBuf> = figures.into_iter().flatten().collect();
+    Ok(figures.into_iter().flatten().collect())
+}
 
-    let mut table2 = Vec::new();
-    let mut experiments = Vec::new();
-    let mut sweep = None;
-    for ((c, sim), a) in cases.iter().zip(&main).zip(&analysed) {
-        match a {
-            Analysed::Stationary(a) => {
-                let row = CaseRow::new(c, sim.scene.beam.segments, a, &sim.stats);
-                match c.kind {
-                    CaseKind::Table2 => table2.push((c, a.as_ref(), row)),
-                    _ => experiments.push((c, a.as_ref(), row)),
+/// A stationary case with its indicators and table row.
+type StationaryCase<'a> = (&'a PaperCase, &'a StationaryAnalysis, CaseRow);
+
+/// The analysed cases sorted by where the report puts them.
+struct Sorted<'a> {
+    /// The six Table 2 cases.
+    table2: Vec<StationaryCase<'a>>,
+    /// The simulated experiments.
+    experiments: Vec<StationaryCase<'a>>,
+    /// The sweep, its analysis and its clearance (deg).
+    sweep: Option<(&'a PaperCase, &'a SweepAnalysis, f64)>,
+}
+
+impl<'a> Sorted<'a> {
+    /// Sort the cases, making the table row of each stationary one.
+    fn new(cases: &'a [PaperCase], main: &'a [Simulation], analysed: &'a [Analysed]) -> Self {
+        let mut sorted = Sorted {
+            table2: Vec::new(),
+            experiments: Vec::new(),
+            sweep: None,
+        };
+        for ((c, sim), a) in cases.iter().zip(main).zip(analysed) {
+            match a {
+                Analysed::Stationary(a) => {
+                    let row = CaseRow::new(c, sim.scene.beam.segments, a, &sim.stats);
+                    match c.kind {
+                        CaseKind::Table2 => sorted.table2.push((c, a.as_ref(), row)),
+                        _ => sorted.experiments.push((c, a.as_ref(), row)),
+                    }
+                }
+                Analysed::Sweep(a) => {
+                    sorted.sweep = Some((c, a.as_ref(), sim.scene.limiter.clearance_deg));
                 }
             }
-            Analysed::Sweep(a) => sweep = Some((c, a.as_ref(), sim.scene.limiter.clearance_deg)),
         }
+        sorted
     }
-    let settings = settings_text(opts, &main);
-    let mut files = Vec::new();
-    let table2_rows: Vec<CaseRow> = table2.iter().map(|t| t.2.clone()).collect();
-    let exp_rows: Vec<CaseRow> = experiments.iter().map(|t| t.2.clone()).collect();
-    let write = |name: &str, text: &str, files: &mut Vec<PathBuf>| {
-        let p = out.join(name);
-        std::fs::write(&p, text).map_err(|e| ReproduceError::io(&p, e))?;
-        files.push(p);
-        Ok::<(), ReproduceError>(())
-    };
-    let p = out.join("table2.csv");
-    table::write_csv(&p, &table2_rows)?;
-    files.push(p);
-    write(
-        "table2.md",
-        &table2_document(&table2_rows, &settings),
-        &mut files,
-    )?;
-    let p = out.join("experiments.csv");
-    table::write_csv(&p, &exp_rows)?;
-    files.push(p);
-    let sweep_windows = sweep.map(|s| s.1.windows.clone()).unwrap_or_default();
-    let names: Vec<String> = figures
+}
+
+/// The report's view of stationary cases.
+fn case_results<'a>(cases: &'a [StationaryCase<'a>]) -> Vec<CaseResult<'a>> {
+    cases
+        .iter()
+        .map(|(c, a, r)| CaseResult {
+            case: c,
+            analysis: a,
+            row: r,
+        })
+        .collect()
+}
+
+/// The file names of `paths`, for the report's list of figures.
+fn file_names(paths: &[PathBuf]) -> Vec<String> {
+    paths
         .iter()
         .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
-        .collect();
-    let report_input = ReportInput {
-        quick: opts.quick,
-        settings: &settings,
-        wall_s: started.elapsed().as_secs_f64(),
-        integration_s,
-        threads: rayon::current_num_threads(),
-        first_clamped_hz: first_clamped_hz(&cases[0], opts)?,
-        simulations,
-        table2: table2
-            .iter()
-            .map(|(c, a, r)| CaseResult {
-                case: c,
-                analysis: a,
-                row: r,
-            })
-            .collect(),
-        experiments: experiments
-            .iter()
-            .map(|(c, a, r)| CaseResult {
-                case: c,
-                analysis: a,
-                row: r,
-            })
-            .collect(),
-        sweep,
-        figures: &names,
-    };
-    write("REPORT.md", &report_markdown(&report_input), &mut files)?;
-    let wall_s = started.elapsed().as_secs_f64();
-    let summary = Summary {
-        quick: opts.quick,
-        settings: &settings,
-        cases: &cases,
-        runs: cases
-            .iter()
-            .map(|c| c.id)
-            .zip(main.iter().map(|s| &s.stats))
-            .collect(),
-        table2: &table2_rows,
-        experiments: &exp_rows,
-        sweep_windows: &sweep_windows,
-        wall_s,
-    };
-    let json = serde_json::to_string_pretty(&summary)
+        .collect()
+}
+
+/// Write `text` to `out/name`; returns the path.
+fn write_text(out: &Path, name: &str, text: &str) -> Result<PathBuf, ReproduceError> {
+    let p = out.join(name);
+    std::fs::write(&p, text).map_err(|e| ReproduceError::io(&p, e))?;
+    Ok(p)
+}
+
+/// `table2.csv`, `table2.md` and `experiments.csv`; returns their paths in that order.
+fn write_tables(
+    out: &Path,
+    table2_rows: &[CaseRow],
+    exp_rows: &[CaseRow],
+    settings: &str,
+) -> Result<Vec<PathBuf>, ReproduceError> {
+    let table2_csv = out.join("table2.csv");
+    table::write_csv(&table2_csv, table2_rows)?;
+    let table2_md = write_text(out, "table2.md", &table2_document(table2_rows, settings))?;
+    let experiments_csv = out.join("experiments.csv");
+    table::write_csv(&experiments_csv, exp_rows)?;
+    Ok(vec![table2_csv, table2_md, experiments_csv])
+}
+
+/// `summary.json`; returns its path.
+fn write_summary(out: &Path, summary: &Summary) -> Result<PathBuf, ReproduceError> {
+    let json = serde_json::to_string_pretty(summary)
         .map_err(|e| ReproduceError::io(&out.join("summary.json"), std::io::Error::other(e)))?;
-    write("summary.json", &json, &mut files)?;
-    files.extend(figures);
-    Ok(Reproduction {
-        files,
-        table2: table2_rows,
-        experiments: exp_rows,
-        sweep_windows,
-        wall_s,
-    })
+    write_text(out, "summary.json", &json)
 }
 
 /// Validate every scene (and its twin) before any integration, longest runs first.

@@ -5,13 +5,19 @@
 //! modelling choices (MODEL.md) are fixed text.
 
 use super::cases::PaperCase;
-use super::indicators::{
-    K_CHAOTIC_THRESHOLD, R_PAPER_SYNC_THRESHOLD, Regime, SWEEP_PAPER_BAND_S, StationaryAnalysis,
-    SweepAnalysis, SyncClass, TWIN_PERTURBATION_DEG, TWIN_SEPARATED_RAD, TwinVerdict, regime,
-};
+use super::indicators::{StationaryAnalysis, SweepAnalysis};
 use super::table::{CaseRow, k_cell, num, table2_markdown};
-use std::f64::consts::FRAC_2_PI;
 use std::fmt::Write;
+
+mod reasons;
+mod statements;
+mod summary;
+mod sweep;
+
+use reasons::reasons;
+use statements::statements;
+use summary::summary;
+use sweep::sweep;
 
 /// A spectral line at least this many times its neighbourhood's median counts as visible.
 pub const LINE_VISIBLE: f64 = 3.0;
@@ -134,316 +140,28 @@ pub fn report_markdown(inp: &ReportInput) -> String {
     s
 }
 
-/// The counts a reader wants first.
-fn summary(s: &mut String, inp: &ReportInput) {
-    let t = &inp.table2;
-    let n = t.len();
-    let agree = |f: fn(&CaseRow) -> f64| -> (usize, Vec<String>) {
-        let mut bad = Vec::new();
-        let mut ok = 0;
-        for c in t {
-            if regime(f(c.row)) == c.row.regime_paper {
-                ok += 1;
-            } else {
-                bad.push(short(c));
-            }
-        }
-        (ok, bad)
-    };
-    let (e_ok, e_bad) = agree(|r| r.k_extrema);
-    let (q_ok, _) = agree(|r| r.k_extrema_eq10);
-    let (s_ok, _) = agree(|r| r.k_strobe);
-    let _ = writeln!(s, "## Verdict in numbers\n");
-    let _ = writeln!(
-        s,
-        "- **Regular or chaotic (K)**: our classification (K ≥ {K_CHAOTIC_THRESHOLD} chaotic) agrees with \
-         the paper's Table 2 in **{e_ok} of {n}** cases with K on the local extrema (the paper's samples), \
-         {q_ok} of {n} with the paper's own estimator (eq. 10) on them, and {s_ok} of {n} with stroboscopic \
-         samples. Cases classified differently (extrema): {}.",
-        list(&e_bad)
-    );
-    let flagged: Vec<String> = t
-        .iter()
-        .filter(|c| c.row.k_extrema_oversampled)
-        .map(|c| {
-            let periods = c.analysis.forcing_hz * c.case_duration_s();
-            format!(
-                "{} ({} extrema, {:.1} per forcing period)",
-                short(c),
-                c.row.n_extrema,
-                c.row.n_extrema as f64 / periods
-            )
-        })
-        .collect();
-    if !flagged.is_empty() {
-        let _ = writeln!(
-            s,
-            "- **Unreliable K**: the 0–1 test's oversampling check fired on the extrema of {} (marked † in \
-             the tables): successive extrema differ by little against their range, and K on them should \
-             not be trusted.",
-            list(&flagged)
-        );
-    }
-    let d_e = mean_abs(t.iter().map(|c| (c.row.k_extrema, c.row.k_paper)));
-    let d_q = mean_abs(t.iter().map(|c| (c.row.k_extrema_eq10, c.row.k_paper)));
-    let d_s = mean_abs(t.iter().map(|c| (c.row.k_strobe, c.row.k_paper)));
-    let _ = writeln!(
-        s,
-        "- **K values**: mean |K ours − K paper| = {} (extrema, correlation), {} (extrema, eq. 10), {} \
-         (stroboscopic).",
-        num(d_e, 2),
-        num(d_q, 2),
-        num(d_s, 2)
-    );
-    let r_ok: Vec<String> = t
-        .iter()
-        .filter(|c| (c.row.r_paper_convention - c.row.r_paper).abs() <= R_AGREE)
-        .map(short)
-        .collect();
-    let (r_lo, r_hi) = range_of(t.iter().map(|c| c.row.r_paper_convention));
-    let _ = writeln!(
-        s,
-        "- **R (paper convention)**: within ±{R_AGREE} of the published value in **{} of {n}** cases \
-         ({}). Ours lie in {}–{}; independent phases give 2/π = {:.3} in this convention.",
-        r_ok.len(),
-        list(&r_ok),
-        num(r_lo, 3),
-        num(r_hi, 3),
-        FRAC_2_PI
-    );
-    let sync_paper: Vec<String> = t
-        .iter()
-        .filter(|c| c.row.sync_paper == SyncClass::Synchronised)
-        .map(short)
-        .collect();
-    let sync_ours: Vec<String> = t
-        .iter()
-        .filter(|c| c.row.sync_ours == SyncClass::Synchronised)
-        .map(short)
-        .collect();
-    let _ = writeln!(
-        s,
-        "- **Phase synchronisation** (R ≥ {R_PAPER_SYNC_THRESHOLD}, paper convention): the paper finds it \
-         in {}; we find it in {}.",
-        list(&sync_paper),
-        list(&sync_ours)
-    );
-    let sep: Vec<String> = t
-        .iter()
-        .filter(|c| c.row.twin_verdict == TwinVerdict::Separate)
-        .map(short)
-        .collect();
-    let _ = writeln!(
-        s,
-        "- **Sensitive dependence** (independent of any estimator): a start {TWIN_PERTURBATION_DEG}° lower \
-         leads to a different motion (|Δα| > {TWIN_SEPARATED_RAD} rad after the transient) in **{} of {n}** \
-         cases ({}).\n",
-        sep.len(),
-        list(&sep)
-    );
-}
-
-/// The paper's qualitative statements, one per row, with our numbers and a verdict.
-fn statements(s: &mut String, inp: &ReportInput) {
-    let find = |a: f64, f: f64| {
-        inp.table2
-            .iter()
-            .find(|c| c.row.amplitude_mm == a && c.row.frequency_hz == f)
-    };
-    let _ = writeln!(
-        s,
-        "## The paper's statements, checked\n\n\
-         A spectral line counts as *visible* when it stands at least {LINE_VISIBLE}× above the median of \
-         the spectrum between half and twice its frequency (*prominence*), as a *clear peak* from \
-         {LINE_CLEAR}×.\n\n| the paper says | where | ours | verdict |\n|---|---|---|---|"
-    );
-    if let Some(c) = find(9.0, 8.0) {
-        let a = c.analysis;
-        let ok = a.prominence_third >= LINE_VISIBLE
-            || a.alpha_ratio
-                .as_ref()
-                .is_some_and(|r| r.fraction == Some((1, 3)));
-        let _ = writeln!(
-            s,
-            "| 8 Hz, 9 mm: a broad peak of the holder angle at one third of the forcing, 2.7 Hz | §2.1, Fig. 4a \
-             | prominence at f/3 = {}; strongest line {} Hz ({}) | {} |",
-            num(a.prominence_third, 1),
-            num(c.row.alpha_peak_hz, 2),
-            c.row.alpha_peak_label,
-            if ok { "agrees" } else { "not reproduced" }
-        );
-    }
-    if let Some(c) = find(12.0, 8.0) {
-        let a = c.analysis;
-        let ok = a.prominence_half >= LINE_VISIBLE
-            || a.alpha_ratio
-                .as_ref()
-                .is_some_and(|r| r.fraction == Some((1, 2)));
-        let _ = writeln!(
-            s,
-            "| 8 Hz, 12 mm: the response frequency \"switched to one half\" | §2.1, Fig. 4b | prominence at \
-             f/2 = {}; strongest line {} Hz ({}) | {} |",
-            num(a.prominence_half, 1),
-            num(c.row.alpha_peak_hz, 2),
-            c.row.alpha_peak_label,
-            if ok { "agrees" } else { "not reproduced" }
-        );
-    }
-    let doubled: Vec<String> = inp
-        .table2
-        .iter()
-        .filter(|c| {
-            c.analysis
-                .chord_ratio
-                .as_ref()
-                .is_some_and(|r| r.fraction == Some((2, 1)))
-        })
-        .map(short)
-        .collect();
-    let chord_labels: Vec<String> = inp
-        .table2
-        .iter()
-        .map(|c| format!("{} {}", short(c), c.row.chord_peak_label))
-        .collect();
-    let n = inp.table2.len();
-    let (chord_lo, chord_hi) = range_of(inp.table2.iter().map(|c| c.row.chord_max_mm));
-    let (tip_lo, tip_hi) = range_of(inp.table2.iter().map(|c| c.row.tip_deflection_max_mm));
-    let _ = writeln!(
-        s,
-        "| the chord reduction happens twice per forcing period (its spectrum peaks at 2f) | §2.1, Figs. 3–5 \
-         | chord's strongest line at 2f in {} of {n} cases ({}); largest chord reduction {}–{} mm, largest tip deflection from the holder's line {}–{} mm | {} |",
-        doubled.len(),
-        chord_labels.join("; "),
-        num(chord_lo, 4),
-        num(chord_hi, 4),
-        num(tip_lo, 2),
-        num(tip_hi, 2),
-        match doubled.len() {
-            0 => "not reproduced",
-            k if k == n => "agrees",
-            _ => "partly",
-        }
-    );
-    if let Some(c) = find(12.0, 5.0) {
-        let r = c.row;
-        let regular = regime(r.k_extrema) == Regime::Regular && r.period > 0;
-        let _ = writeln!(
-            s,
-            "| 5 Hz, 12 mm: periodic, a single frequency; K = 0.13, R = 0.88, the best synchronisation | \
-             §2.1–2.3, Fig. 5b, Table 2 | K = {} (extrema), {} (strobe); period {}; R = {} (paper conv.); {} \
-             hops | {} |",
-            num(r.k_extrema, 2),
-            num(r.k_strobe, 2),
-            if r.period > 0 {
-                format!("{} T", r.period)
-            } else {
-                "none found".into()
-            },
-            num(r.r_paper_convention, 2),
-            r.hops,
-            if regular && r.sync_ours == SyncClass::Synchronised {
-                "agrees"
-            } else if regular {
-                "regular, but not synchronised"
-            } else {
-                "not reproduced: chaotic here"
-            }
-        );
-    }
-    if let Some(c) = find(12.0, 10.0) {
-        let r = c.row;
-        let _ = writeln!(
-            s,
-            "| 10 Hz, 12 mm: K = 0.00, regular | Table 2, Fig. 3b | K = {} (extrema), {} (strobe); {} hops | {} |",
-            num(r.k_extrema, 2),
-            num(r.k_strobe, 2),
-            r.hops,
-            if regime(r.k_extrema) == Regime::Regular {
-                "agrees"
-            } else {
-                "not reproduced: chaotic here"
-            }
-        );
-    }
-    let random_paper: Vec<&CaseResult> = inp
-        .table2
-        .iter()
-        .filter(|c| c.row.sync_paper != SyncClass::Synchronised)
-        .collect();
-    let near = random_paper
-        .iter()
-        .filter(|c| (c.row.r_paper_convention - FRAC_2_PI).abs() <= R_RANDOM_BAND)
-        .count();
-    let _ = writeln!(
-        s,
-        "| the other solutions have R close to the random value 0.64 | §2.3, Table 2 | R = {} | {} |",
-        random_paper
-            .iter()
-            .map(|c| format!("{} ({})", num(c.row.r_paper_convention, 3), short(c)))
-            .collect::<Vec<_>>()
-            .join(", "),
-        if near == random_paper.len() {
-            "agrees".to_string()
-        } else {
-            format!(
-                "{near} of {} within ±{R_RANDOM_BAND} of 2/π",
-                random_paper.len()
-            )
-        }
-    );
-    if let Some(c) = inp.experiments.iter().find(|c| c.row.frequency_hz == 8.0) {
-        let a = c.analysis;
-        let ok = a.prominence_third >= LINE_VISIBLE
-            || a.alpha_ratio
-                .as_ref()
-                .is_some_and(|r| r.fraction == Some((1, 3)));
-        let _ = writeln!(
-            s,
-            "| experiment 8 Hz, 9 mm: frequency division from 8 Hz to about 2.6 Hz (one third) | §3.2, \
-             Figs. 10a, 11a | prominence at f/3 = {}; strongest line {} Hz ({}) | {} |",
-            num(a.prominence_third, 1),
-            num(c.row.alpha_peak_hz, 2),
-            c.row.alpha_peak_label,
-            if ok { "agrees" } else { "not reproduced" }
-        );
-    }
-    let band: Vec<&CaseResult> = inp
-        .experiments
-        .iter()
-        .filter(|c| c.row.frequency_hz != 8.0)
-        .collect();
-    if !band.is_empty() {
-        let broad = band
-            .iter()
-            .filter(|c| {
-                c.analysis.prominence_peak.is_nan() || c.analysis.prominence_peak < LINE_CLEAR
-            })
-            .count();
-        let _ = writeln!(
-            s,
-            "| experiments 10 Hz/12 mm and 5 Hz/25 mm: a band response in place of frequency peaks | §3.2, \
-             Figs. 11b, c | prominence of the strongest line: {} | {} |",
-            band.iter()
-                .map(|c| format!("{} ({})", num(c.analysis.prominence_peak, 1), short(c)))
-                .collect::<Vec<_>>()
-                .join(", "),
-            if broad == band.len() {
-                "agrees"
-            } else if broad == 0 {
-                "not reproduced: clear lines here"
-            } else {
-                "partly"
-            }
-        );
-    }
-    let _ = writeln!(s);
-}
-
 /// The simulated experiments against the R values of §3.2.
 fn experiments(s: &mut String, inp: &ReportInput) {
     if inp.experiments.is_empty() {
         return;
     }
+    experiment_table(s, &inp.experiments);
+    experiments_shared_with_table2(s, inp);
+    let agree = inp
+        .experiments
+        .iter()
+        .filter(|c| (c.row.r_paper_convention - c.row.r_paper).abs() <= R_AGREE)
+        .count();
+    let _ = writeln!(
+        s,
+        "\nR agrees with the experiment within ±{R_AGREE} in {agree} of {} cases.\n",
+        inp.experiments.len()
+    );
+}
+
+/// The heading and one row per simulated experiment: R against the measured R, K, the
+/// strongest line, hops.
+fn experiment_table(s: &mut String, experiments: &[CaseResult]) {
     let _ = writeln!(
         s,
         "## Experiments (Figs. 10–12), simulated\n\n\
@@ -452,7 +170,7 @@ fn experiments(s: &mut String, inp: &ReportInput) {
          | case | R experiment | R ours (paper conv.) | R ours (standard) | K extrema | K strobe | α peak (Hz, fraction) | prominence | hops | α range (deg) |\n\
          |---|---:|---:|---:|---:|---:|---|---:|---:|---:|"
     );
-    for c in &inp.experiments {
+    for c in experiments {
         let r = c.row;
         let _ = writeln!(
             s,
@@ -471,6 +189,10 @@ fn experiments(s: &mut String, inp: &ReportInput) {
             num(r.alpha_range_deg, 1)
         );
     }
+}
+
+/// A note on the experiments whose setting is a Table 2 case's: one simulation serves both.
+fn experiments_shared_with_table2(s: &mut String, inp: &ReportInput) {
     let shared: Vec<String> = inp
         .experiments
         .iter()
@@ -490,353 +212,6 @@ fn experiments(s: &mut String, inp: &ReportInput) {
             if shared.len() == 1 { "has" } else { "have" }
         );
     }
-    let agree = inp
-        .experiments
-        .iter()
-        .filter(|c| (c.row.r_paper_convention - c.row.r_paper).abs() <= R_AGREE)
-        .count();
-    let _ = writeln!(
-        s,
-        "\nR agrees with the experiment within ±{R_AGREE} in {agree} of {} cases.\n",
-        inp.experiments.len()
-    );
-}
-
-/// The sweep's windows against the paper's description of Fig. 9.
-fn sweep(s: &mut String, inp: &ReportInput) {
-    let Some((case, sw, clearance_deg)) = inp.sweep else {
-        return;
-    };
-    let _ = writeln!(
-        s,
-        "## Frequency sweep (Fig. 9), simulated: {}\n\n\
-         Wavelet peaks are of the time-averaged power inside the cone of influence, over periods up to \
-         {} s; *significant* cells exceed the 95 % red-noise level (the paper's black contours).\n\n\
-         | forcing (Hz) | time (s) | α RMS (deg) | α range (deg) | hops | base wavelet peak (s) | 1/f (s) | angle wavelet peak (s) | angle power at {b0}–{b1} s | significant cells at {b0}–{b1} s |\n\
-         |---|---|---:|---:|---:|---:|---:|---:|---:|---:|",
-        case.label(),
-        super::indicators::SWEEP_MAX_PERIOD_S,
-        b0 = SWEEP_PAPER_BAND_S.0,
-        b1 = SWEEP_PAPER_BAND_S.1
-    );
-    let opt = |x: Option<f64>, d| x.map_or("–".to_string(), |v| num(v, d));
-    for w in &sw.windows {
-        let _ = writeln!(
-            s,
-            "| {:.0}–{:.0} | {:.0}–{:.0} | {} | {} | {} | {} | {} | {} | {} | {} |",
-            w.f_start_hz,
-            w.f_end_hz,
-            w.t_start_s,
-            w.t_end_s,
-            num(w.alpha_rms_deg, 1),
-            num(w.alpha_range_deg, 1),
-            w.hops,
-            opt(w.base_peak_period_s, 3),
-            num(2.0 / (w.f_start_hz + w.f_end_hz), 3),
-            opt(w.angle_peak_period_s, 3),
-            opt(w.angle_share_paper_band.map(|x| 100.0 * x), 0) + " %",
-            opt(w.angle_significant_paper_band.map(|x| 100.0 * x), 0) + " %",
-        );
-    }
-    let n = sw.windows.len();
-    let large = sw
-        .windows
-        .iter()
-        .filter(|w| w.alpha_range_deg >= 2.0 * clearance_deg)
-        .count();
-    let base_ok = sw
-        .windows
-        .iter()
-        .filter(|w| {
-            w.base_peak_period_s.is_some_and(|p| {
-                let mid = 2.0 / (w.f_start_hz + w.f_end_hz);
-                (p - mid).abs() <= 0.15 * mid
-            })
-        })
-        .count();
-    let unlocked = sw
-        .windows
-        .iter()
-        .filter(|w| match (w.angle_peak_period_s, w.base_peak_period_s) {
-            (Some(a), Some(b)) => (a - b).abs() > 0.15 * b,
-            _ => false,
-        })
-        .count();
-    let band_windows = sw
-        .windows
-        .iter()
-        .filter(|w| w.angle_significant_paper_band.is_some_and(|x| x >= 0.1))
-        .count();
-    let _ = writeln!(
-        s,
-        "\n- The paper: \"the large amplitude response is present for the most of studied frequency range\" \
-         (§4). Ours: α spans both wells (range ≥ 2 × {clearance_deg}°) in {large} of {n} one-hertz windows, \
-         with {} hops over the sweep — {}.\n\
-         - The paper: the base's wavelet power follows the linearly rising frequency. Ours: the base's \
-         wavelet peak lies within 15 % of 1/f in {base_ok} of {n} windows — {}.\n\
-         - The paper: \"the angular response is not synchronized with the excitation\", with \"shorter \
-         periodics in the region 0.32–0.64 s\". Ours: the angle's wavelet peak differs from the base's by \
-         more than 15 % in {unlocked} of {n} windows ({}). In the band 0.32–0.64 s at least 10 % of the \
-         angle's cells are significant in {band_windows} of {n} windows ({}).\n",
-        sw.hops,
-        if 2 * large > n {
-            "agrees"
-        } else {
-            "does not agree"
-        },
-        if base_ok == n { "agrees" } else { "partly" },
-        if 2 * unlocked > n {
-            "agrees: not synchronised"
-        } else {
-            "does not agree: mostly synchronised"
-        },
-        if 2 * band_windows > n {
-            let (lo, hi) = range_of(sw.windows.iter().filter_map(|w| w.angle_share_paper_band));
-            let (lo, hi) = (num(100.0 * lo, 0), num(100.0 * hi, 0));
-            format!(
-                "the paper's shorter periodicities are there, though they hold only {} % of the \
-                 angle's wavelet power",
-                if lo == hi { lo } else { format!("{lo}–{hi}") }
-            )
-        } else {
-            let (lo, hi) = range_of(sw.windows.iter().filter_map(|w| w.angle_peak_period_s));
-            format!(
-                "the paper's shorter periodicities are not reproduced; our angle's power peaks at \
-                 periods of {}–{} s{}",
-                num(lo, 1),
-                num(hi, 1),
-                if lo > 1.0 {
-                    ", the time scale of the hops between the wells"
-                } else {
-                    ""
-                }
-            )
-        }
-    );
-}
-
-/// Likely reasons for the differences, each paragraph included when the numbers call for it.
-fn reasons(s: &mut String, inp: &ReportInput) {
-    let t = &inp.table2;
-    let _ = writeln!(
-        s,
-        "## Why the numbers differ: likely reasons and the evidence\n"
-    );
-    let paper_regular: Vec<&CaseResult> = t
-        .iter()
-        .filter(|c| c.row.regime_paper == Regime::Regular)
-        .collect();
-    let chaotic_here: Vec<&&CaseResult> = paper_regular
-        .iter()
-        .filter(|c| regime(c.row.k_extrema) == Regime::Chaotic)
-        .collect();
-    if !chaotic_here.is_empty() {
-        let sep: Vec<String> = chaotic_here
-            .iter()
-            .filter(|c| c.row.twin_verdict == TwinVerdict::Separate)
-            .map(|c| {
-                format!(
-                    "{} (|Δα| up to {} rad, {} hops)",
-                    short(c),
-                    num(c.row.twin_max_dalpha_rad, 2),
-                    c.row.hops
-                )
-            })
-            .collect();
-        let _ = writeln!(
-            s,
-            "1. **{} chaotic in our model.** The paper calls {} regular; our K on \
-             the extrema is {}. {}The model choices \
-             that decide where the boundary between regular and chaotic motion lies, all marked \"(choice)\" \
-             in MODEL.md, are the first suspects: Table 1's \"damping constant 0.35\" read as a damping ratio \
-             ζ1 = 0.35 % of the first bending mode (the paper gives no unit); point bumpers touching the beam \
-             at 30 mm from the pivot (the paper: \"attached to the beam elements depending on deflection \
-             shape\"); a rigid-segment chain with rotational springs in place of Simscape's flexible beam; \
-             no friction or damping in the hinge (the paper names \"the rotating handle\" as a source of \
-             dissipation in §4); and the start at rest on the +20° bumper (the paper says only \"in the \
-             positive well\").\n",
-            {
-                let names: Vec<String> = chaotic_here.iter().map(|c| short(c)).collect();
-                if names.len() == 1 {
-                    format!("The paper's regular case {} is", names[0])
-                } else {
-                    format!("The paper's regular cases {} are", list(&names))
-                }
-            },
-            list(&paper_regular.iter().map(|c| short(c)).collect::<Vec<_>>()),
-            list(
-                &paper_regular
-                    .iter()
-                    .map(|c| format!("{} for {}", num(c.row.k_extrema, 2), short(c)))
-                    .collect::<Vec<_>>()
-            ),
-            if sep.is_empty() {
-                String::new()
-            } else {
-                format!(
-                    "A start {TWIN_PERTURBATION_DEG}° lower leads to a different motion in {}: {} \
-                     sensitively on the initial condition, whatever K says{} ",
-                    list(&sep),
-                    if sep.len() == 1 {
-                        "this response depends"
-                    } else {
-                        "these responses depend"
-                    },
-                    if sep.len() == chaotic_here.len() {
-                        ", so the difference is one of dynamics, not of the estimator."
-                    } else {
-                        "."
-                    }
-                )
-            }
-        );
-    }
-    let third_missing = t
-        .iter()
-        .chain(&inp.experiments)
-        .filter(|c| c.row.frequency_hz == 8.0 && c.row.amplitude_mm == 9.0)
-        .all(|c| c.analysis.prominence_third < LINE_VISIBLE);
-    if third_missing {
-        let (tip_lo, tip_hi) = range_of(t.iter().map(|c| c.row.tip_deflection_max_mm));
-        let (ch_lo, ch_hi) = range_of(t.iter().map(|c| c.row.chord_max_mm));
-        let (pk_lo, pk_hi) = range_of(t.iter().map(|c| c.row.alpha_peak_hz));
-        let length_mm = 375.0;
-        let _ = writeln!(
-            s,
-            "1. **No 1/3 subharmonic at 8 Hz.** The paper attributes its 2.7 Hz peak to \"the first mode \
-             large amplitude deflection oscillation of the beam-and-tip-mass system coupled to the pendulum \
-             holder\". Our beam hardly deflects: its tip strays at most {}–{} mm from the holder's line \
-             ({}–{} % of the length) and the chord shortens by {}–{} mm, so the holder angle's spectrum is \
-             set by the rocking and hopping of an almost rigid pendulum (strongest lines {}–{} Hz). This \
-             points to more compliance in the paper's Simscape beam or its clamping than in our chain (our \
-             first clamped bending frequency is {} Hz; the paper quotes \"about 30 Hz and larger\"), or \
-             to bumpers acting higher up the beam than our 30 mm, which would bend it on impact.\n",
-            num(tip_lo, 1),
-            num(tip_hi, 1),
-            num(100.0 * tip_lo / length_mm, 1),
-            num(100.0 * tip_hi / length_mm, 1),
-            num(ch_lo, 4),
-            num(ch_hi, 4),
-            num(pk_lo, 2),
-            num(pk_hi, 2),
-            num(inp.first_clamped_hz, 1),
-        );
-    }
-    let d_e = mean_abs(t.iter().map(|c| (c.row.k_extrema, c.row.k_paper)));
-    let d_q = mean_abs(t.iter().map(|c| (c.row.k_extrema_eq10, c.row.k_paper)));
-    let chaotic_paper: Vec<&CaseResult> = t
-        .iter()
-        .filter(|c| c.row.regime_paper == Regime::Chaotic)
-        .collect();
-    let (pk_lo, pk_hi) = range_of(chaotic_paper.iter().map(|c| c.row.k_paper));
-    let (ce_lo, ce_hi) = range_of(chaotic_paper.iter().map(|c| c.row.k_extrema));
-    let (cq_lo, cq_hi) = range_of(chaotic_paper.iter().map(|c| c.row.k_extrema_eq10));
-    if !chaotic_paper.is_empty() {
-        let closer = d_q < d_e;
-        let intermediate = chaotic_paper
-            .iter()
-            .filter(|c| (0.2..=0.8).contains(&c.row.k_extrema_eq10))
-            .count();
-        let (n_lo, n_hi) = range_of(t.iter().map(|c| c.row.n_extrema as f64));
-        let bias = if 2 * intermediate > chaotic_paper.len() {
-            format!(
-                "The regression converges to 0 or 1 only as n and N grow; with N = {n_lo:.0}–{n_hi:.0} \
-                 extrema it gives intermediate values (0.2–0.8) in {intermediate} of these {} cases, as the \
-                 paper's own values are.",
-                chaotic_paper.len()
-            )
-        } else {
-            format!(
-                "With N = {n_lo:.0}–{n_hi:.0} extrema eq. 10 gives intermediate values (0.2–0.8) in only \
-                 {intermediate} of these {} cases, so the estimator alone does not produce the paper's \
-                 0.59–0.70.",
-                chaotic_paper.len()
-            )
-        };
-        let _ = writeln!(
-            s,
-            "1. **The estimator explains {} of the K values.** For the {} cases the paper calls chaotic, its K \
-             are {}–{}; on the same kind of series (local extrema over the whole run) the correlation method \
-             gives {}–{} and the paper's eq. 10 (slope of ln M_c(n) against ln n up to n = N/10) gives \
-             {}–{}. Over all six cases eq. 10 is {} the published values than the correlation method \
-             (mean |ΔK| {} against {}). {bias} The paper also draws \
-             c from (0, π), where resonant c near 0 and π bias K_c; we use (π/5, 4π/5) as Gottwald & \
-             Melbourne advise.\n",
-            if closer { "part" } else { "little" },
-            chaotic_paper.len(),
-            num(pk_lo, 2),
-            num(pk_hi, 2),
-            num(ce_lo, 2),
-            num(ce_hi, 2),
-            num(cq_lo, 2),
-            num(cq_hi, 2),
-            if closer { "closer to" } else { "no closer to" },
-            num(d_q, 2),
-            num(d_e, 2),
-        );
-    }
-    let random = t
-        .iter()
-        .filter(|c| (c.row.r_paper_convention - FRAC_2_PI).abs() <= R_RANDOM_BAND)
-        .count();
-    let (rs_lo, rs_hi) = range_of(t.iter().map(|c| c.row.r_standard));
-    let _ = writeln!(
-        s,
-        "1. **R.** In the paper's convention our R is within ±{R_RANDOM_BAND} of the random value 2/π in \
-         {random} of {} cases, and in the standard convention (where random phases give 0) our R is \
-         {}–{}: {}. Where the paper reports R well above 0.64 (0.74 and 0.88 at 5 Hz) its motions are \
-         phase-locked to the cart; ours {}. Note that the paper's convention compresses the scale: \
-         0.64 means no locking at all, so differences between 0.64 and 0.66 carry no information.\n",
-        t.len(),
-        num(rs_lo, 2),
-        num(rs_hi, 2),
-        if rs_hi < 0.3 {
-            "the holder's phase is not locked to the cart in any case"
-        } else {
-            "some cases show partial locking"
-        },
-        {
-            let synced: Vec<&CaseResult> = t
-                .iter()
-                .filter(|c| c.row.sync_paper == SyncClass::Synchronised)
-                .collect();
-            if synced
-                .iter()
-                .all(|c| c.row.sync_ours == SyncClass::Synchronised)
-            {
-                "are locked too".to_string()
-            } else {
-                let hopping: Vec<String> = synced
-                    .iter()
-                    .filter(|c| c.row.sync_ours != SyncClass::Synchronised && c.row.hops > 0)
-                    .map(|c| format!("{} hops at {}", c.row.hops, short(c)))
-                    .collect();
-                if hopping.is_empty() {
-                    "are not, though they stay in one well".to_string()
-                } else {
-                    format!("are not: they hop between the wells ({})", list(&hopping))
-                }
-            }
-        }
-    );
-    let _ = writeln!(
-        s,
-        "1. **The paper is not consistent with itself**, so some \"disagreements\" are transcription \
-         choices. The text says \"for Fig. 6a, c the median of K_c is K = 0.70 and K = 0.67\", but Table 2 \
-         gives 0.67 to 5 Hz/9 mm (Fig. 6a) and 0.70 to 8 Hz/9 mm (Fig. 6c); it calls \"f = 8 Hz and A = 12 \
-         mm\" periodic while Table 2 gives that case K = 0.59 and the periodic K = 0.13 to 5 Hz/12 mm; it \
-         calls \"f = 5 Hz, A = 9 mm (Fig. 5b)\" periodic though Fig. 5b is the 12 mm case; and the caption \
-         of Fig. 6d takes its data \"from Fig. 3a with f = 5 Hz\" though Fig. 3a is 10 Hz, 9 mm. We \
-         transcribe Table 2 as printed and take Fig. 6d to be 10 Hz, 9 mm. The sweep's amplitude and \
-         duration are not stated at all (our choices are documented in configs/paper/fig09_sweep_4_8hz.toml).\n"
-    );
-    let _ = writeln!(
-        s,
-        "1. **What the paper does not say.** The clearance of the simulations (we use the experiment's \
-         20°), the hinge model, where the bumpers touch, the integration step and the sampling of the \
-         records. The paper's K uses the whole run (\"for simplicity, we used whole time series\"), so does \
-         our K on extrema; our stroboscopic K and R discard the transient.\n"
-    );
 }
 
 /// Figure number and panel of a file name `fig12c_…png`, for sorting in the paper's order.
