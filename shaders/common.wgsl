@@ -67,7 +67,7 @@ struct InstanceParams {
     r_count: u32,
     r_start: u32,
     imex_offset: u32,
-    pad3: u32,
+    contact_law: u32,
     levers: array<f32, 64>,
 }
 

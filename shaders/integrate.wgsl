@@ -22,17 +22,19 @@ fn contact_force() -> f32 {
         x += lam * sin(sth[i]);
         xd += lam * cos(sth[i]) * som[i];
     }
-    let dr = x - P.gap;
-    let dl = -x - P.gap;
-    var fr = 0.0;
-    var fl = 0.0;
-    if dr > 0.0 {
-        fr = max(P.kc * dr + P.cc * xd, 0.0);
+    return bumper_force(-x - P.gap, -xd) - bumper_force(x - P.gap, xd);
+}
+
+// The force of one bumper with penetration `delta` and rate `rate`, by the scene's law
+// (bumper_mode and bumper_force of src/model/chain.rs).
+fn bumper_force(delta: f32, rate: f32) -> f32 {
+    if delta <= 0.0 {
+        return 0.0;
     }
-    if dl > 0.0 {
-        fl = max(P.kc * dl - P.cc * xd, 0.0);
+    if P.contact_law == CONTACT_LOADING {
+        return P.kc * delta + P.cc * max(rate, 0.0);
     }
-    return fl - fr;
+    return max(P.kc * delta + P.cc * rate, 0.0);
 }
 
 // Relative-joint torque on segment i from joint (i−1, i); the root spring for i = 0.

@@ -535,7 +535,7 @@ fn per_step_cost(quick: bool) -> Result<Vec<(usize, f64, f64)>, EngineError> {
     let mut out = Vec::new();
     for &n in ns {
         let scene = bench_scene(n, |s| {
-            s.beam.damping_ratio = 0.0;
+            s.beam.damping = crate::config::BeamDamping::TimeS(0.0);
             s.integration.dt_s = TimeStep::Seconds(1e-6);
             s.excitation.kind = crate::model::ExcitationKind::Harmonic { frequency_hz: 50.0 };
             timing(s, 0.04, 0.02);

@@ -15,9 +15,11 @@ pub use map::{
     AxisScale, DEFAULT_MAP_TOML, MAX_INSTANCES, MapAxis, MapSpec, Metric, axis_label, load_map,
     lookup_key, map_from_toml, read_sweep, scene_text, split_section,
 };
+pub use physics::DampingReport;
 pub use reader::{Range, Reader, apply_override, parse_override_value, parse_toml, set_key};
 pub use scene::{
-    Beam, Excitation, ExcitationKind, Gravity, Initial, Integration, Limiter, MAX_SEGMENTS,
-    MethodChoice, Output, PAPER_SCENE_TOML, Piezo, Pivot, PivotMode, Scene, TimeStep, Tip,
-    load_scene,
+    Beam, BeamDamping, ContactDamping, EARLIER_READING_DAMPING_RATIO, Excitation, ExcitationKind,
+    Gravity, Initial, Integration, LIBRARY_JOINT_DAMPING_NMS, LIBRARY_SEGMENTS, Limiter,
+    MAX_SEGMENTS, MethodChoice, Output, PAPER_SCENE_TOML, Piezo, Pivot, PivotMode, Scene, TimeStep,
+    Tip, load_scene,
 };

@@ -2,10 +2,22 @@
 //! pendulum ([`ChainDesign`], [`BumperDesign`], [`PiezoParams`], [`CartMotion`]), its
 //! coefficients ([`ModelParams`], damping included), its initial state and its modes.
 
-use super::scene::{PivotMode, Scene};
+use super::scene::{BeamDamping, LIBRARY_JOINT_DAMPING_NMS, LIBRARY_SEGMENTS, PivotMode, Scene};
 use crate::model::{
     BumperDesign, CartMotion, ChainDesign, ModelParams, Modes, PiezoParams, Tube, linear, modes,
 };
+use serde::Serialize;
+
+/// The joint damping of a scene in all three of its forms.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct DampingReport {
+    /// β = b/k (s).
+    pub damping_time_s: f64,
+    /// b per joint at the scene's N (N m s/rad).
+    pub joint_damping_nms: f64,
+    /// ζ1 of the first clamped bending mode.
+    pub first_mode_damping_ratio: f64,
+}
 
 impl Scene {
     /// The beam, tip, root and gravity as the model describes them.
@@ -36,6 +48,7 @@ impl Scene {
             clearance_rad: l.clearance_deg.to_radians(),
             stiffness_n_per_m: l.stiffness_n_per_m,
             damping_ns_per_m: l.damping_ns_per_m,
+            law: l.damping_law,
         })
     }
 
@@ -58,8 +71,8 @@ impl Scene {
         }
     }
 
-    /// Every coefficient of the equations of motion, the joint dampers set from
-    /// `beam.damping_ratio` (one small eigenproblem for ω1 of the clamped chain).
+    /// Every coefficient of the equations of motion, the joint dampers set from the scene's
+    /// damping key (`beam.damping_ratio` solves one small eigenproblem for ω1).
     pub fn model_params(&self) -> ModelParams {
         let bumpers = self.bumper_design();
         let p = ModelParams::undamped(
@@ -68,8 +81,30 @@ impl Scene {
             self.piezo_params(),
             self.cart_motion(),
         );
-        let beta_s = linear::damping_time_for_ratio(&p, self.beam.damping_ratio);
+        let beta_s = match self.beam.damping {
+            BeamDamping::TimeS(beta) => beta,
+            BeamDamping::Ratio(zeta) => linear::damping_time_for_ratio(&p, zeta),
+            BeamDamping::JointNms(b) => b / p.joint_stiffness_nm,
+        };
         p.with_damping_time(beta_s)
+    }
+
+    /// The library reading's damping time β = 0.35 N m s/rad / (EI/(L/17)) for this scene's
+    /// tube (s): Table 1's per-joint constant at the paper's N = 17.
+    pub fn library_damping_time_s(&self) -> f64 {
+        let ei = self.chain_design().tube.bending_stiffness_nm2();
+        LIBRARY_JOINT_DAMPING_NMS / (ei / (self.beam.length_m / LIBRARY_SEGMENTS as f64))
+    }
+
+    /// The joint damping a run uses: β, the per-joint b at this N, and ζ1 of the first clamped
+    /// bending mode.
+    pub fn damping_report(&self) -> DampingReport {
+        let p = self.model_params();
+        DampingReport {
+            damping_time_s: p.beta_s,
+            joint_damping_nms: p.joint_damping_nms,
+            first_mode_damping_ratio: linear::first_mode_damping_ratio(&p),
+        }
     }
 
     /// The initial state `[θ; θ̇; v]` of the scene: a straight beam at `initial.angle_deg`.

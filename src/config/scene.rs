@@ -3,7 +3,7 @@
 
 use super::error::ConfigError;
 use super::reader::{Range, Reader, apply_override, parse_toml};
-pub use crate::model::ExcitationKind;
+pub use crate::model::{ContactDamping, ExcitationKind};
 use serde::Serialize;
 use toml::Table;
 
@@ -25,9 +25,33 @@ pub struct Beam {
     pub youngs_modulus_pa: f64,
     /// Number of rigid segments N (the fidelity knob).
     pub segments: usize,
-    /// Damping ratio ζ1 of the first clamped bending mode (stiffness-proportional joint dampers).
-    pub damping_ratio: f64,
+    /// How the stiffness-proportional joint dampers are set.
+    pub damping: BeamDamping,
 }
+
+/// The joint dampers' setting: exactly one of the three keys (`docs/model.md`, "Damping").
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub enum BeamDamping {
+    /// `beam.damping_time_s`: β = b/k (s), kept for every N.
+    #[serde(rename = "damping_time_s")]
+    TimeS(f64),
+    /// `beam.damping_ratio`: ζ1 of the first clamped bending mode (β = 2ζ1/ω1).
+    #[serde(rename = "damping_ratio")]
+    Ratio(f64),
+    /// `beam.joint_damping_nms`: b per joint at the scene's N (N m s/rad).
+    #[serde(rename = "joint_damping_nms")]
+    JointNms(f64),
+}
+
+/// The damping ratio of the earlier reading of Table 1 ("0.35" read as 0.35 %).
+pub const EARLIER_READING_DAMPING_RATIO: f64 = 0.0035;
+
+/// The per-joint damping constant of the library reading of Table 1 (N m s/rad), at the
+/// paper's N = 17: the default β is this over the joint stiffness EI/(L/17).
+pub const LIBRARY_JOINT_DAMPING_NMS: f64 = 0.35;
+
+/// The segment count the library reading's per-joint constant refers to.
+pub const LIBRARY_SEGMENTS: usize = 17;
 
 /// The tip mass.
 #[derive(Debug, Clone, Serialize, PartialEq)]
@@ -49,6 +73,8 @@ pub struct Limiter {
     pub stiffness_n_per_m: f64,
     /// Contact damping c_c (N s/m).
     pub damping_ns_per_m: f64,
+    /// How the contact damper acts: on loading only, or Kelvin–Voigt.
+    pub damping_law: ContactDamping,
 }
 
 /// Gravity.
@@ -314,12 +340,39 @@ fn read_beam(r: &mut Reader) -> Result<Beam, ConfigError> {
         inner_diameter_m: inner,
         youngs_modulus_pa: r.number("beam.youngs_modulus_pa", 2e11, Range::Positive, "Pa")?,
         segments: r.integer("beam.segments", 17, 1, MAX_SEGMENTS)? as usize,
-        damping_ratio: r.number(
-            "beam.damping_ratio",
-            0.0035,
-            Range::ClosedOpen(0.0, 1.0),
-            "",
-        )?,
+        damping: read_beam_damping(r)?,
+    })
+}
+
+/// At most one of `beam.damping_time_s`, `beam.damping_ratio`, `beam.joint_damping_nms`;
+/// without any, the earlier reading ζ1 = 0.0035.
+fn read_beam_damping(r: &mut Reader) -> Result<BeamDamping, ConfigError> {
+    let time = r.number_opt("beam.damping_time_s", Range::NonNegative, "s")?;
+    let ratio = r.number_opt("beam.damping_ratio", Range::ClosedOpen(0.0, 1.0), "")?;
+    let joint = r.number_opt("beam.joint_damping_nms", Range::NonNegative, "N m s/rad")?;
+    let given: Vec<&str> = [
+        (time.is_some(), "beam.damping_time_s"),
+        (ratio.is_some(), "beam.damping_ratio"),
+        (joint.is_some(), "beam.joint_damping_nms"),
+    ]
+    .iter()
+    .filter(|(on, _)| *on)
+    .map(|(_, k)| *k)
+    .collect();
+    if given.len() > 1 {
+        return Err(ConfigError::Inconsistent {
+            key: given[1].into(),
+            reason: format!(
+                "the joint damping is set twice ({}): give at most one of beam.damping_time_s, beam.damping_ratio, beam.joint_damping_nms",
+                given.join(" and ")
+            ),
+        });
+    }
+    Ok(match (time, ratio, joint) {
+        (Some(t), _, _) => BeamDamping::TimeS(t),
+        (_, _, Some(b)) => BeamDamping::JointNms(b),
+        (_, Some(z), _) => BeamDamping::Ratio(z),
+        (None, None, None) => BeamDamping::Ratio(EARLIER_READING_DAMPING_RATIO),
     })
 }
 
@@ -335,6 +388,17 @@ fn read_limiter(r: &mut Reader, length_m: f64) -> Result<Limiter, ConfigError> {
         )?,
         stiffness_n_per_m: r.number("limiter.stiffness_n_per_m", 1e4, Range::NonNegative, "N/m")?,
         damping_ns_per_m: r.number("limiter.damping_ns_per_m", 1e2, Range::NonNegative, "N s/m")?,
+        damping_law: match r
+            .choice(
+                "limiter.damping_law",
+                "kelvin_voigt",
+                &["loading", "kelvin_voigt"],
+            )?
+            .as_str()
+        {
+            "loading" => ContactDamping::Loading,
+            _ => ContactDamping::KelvinVoigt,
+        },
     })
 }
 

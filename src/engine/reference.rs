@@ -16,7 +16,7 @@
 use crate::engine::error::EngineError;
 use crate::engine::single::{Instance, Observer, Outcome};
 use crate::engine::step_plan::StepPlan;
-use crate::model::{CartMotion, Chain, ContactLaw, Status, Workspace};
+use crate::model::{BumperMode, CartMotion, Chain, ContactLaw, Status, Workspace};
 use nalgebra::DVector;
 use ode_solvers::{Dop853, OutputType, System};
 use std::cell::RefCell;
@@ -67,7 +67,7 @@ struct Piece<'a> {
     chain: &'a Chain<f64>,
     cart: &'a CartMotion,
     ws: RefCell<Workspace<f64>>,
-    mode: (bool, bool),
+    mode: (BumperMode, BumperMode),
     watch: bool,
     /// Last accepted (t, y) before the engagement changed, and the first one after.
     last_ok: (f64, DVector<f64>),
@@ -99,7 +99,7 @@ impl System<f64, DVector<f64>> for &mut Piece<'_> {
         }
         let now = self
             .chain
-            .engaged(&mut self.ws.borrow_mut(), &y.as_slice()[..y.len() - 1]);
+            .bumper_modes(&mut self.ws.borrow_mut(), &y.as_slice()[..y.len() - 1]);
         if now != self.mode {
             self.switched = Some((t, y.clone()));
             return true;
@@ -164,7 +164,7 @@ pub fn integrate_reference<O: Observer<f64>>(
         chain,
         cart: &inst.cart,
         ws: RefCell::new(chain.workspace()),
-        mode: chain.engaged(&mut ws, &y.as_slice()[..dim]),
+        mode: chain.bumper_modes(&mut ws, &y.as_slice()[..dim]),
         watch: true,
         last_ok: (0.0, y.clone()),
         switched: None,
@@ -197,7 +197,7 @@ pub fn integrate_reference<O: Observer<f64>>(
                     let (t_sw, y_sw) = locate_switch(&mut piece, t_lo, &y_lo, t_hit, opts)?;
                     t = t_sw;
                     y = y_sw;
-                    piece.mode = chain.engaged(&mut ws, &y.as_slice()[..dim]);
+                    piece.mode = chain.bumper_modes(&mut ws, &y.as_slice()[..dim]);
                 }
             }
             let now = chain.touching(&y.as_slice()[..dim]);
@@ -251,7 +251,7 @@ fn locate_switch(
         let t_mid = 0.5 * (t_lo + t_hi);
         let y_mid = run_piece(piece, t_lo, &y_lo, t_mid, opts)?.1;
         let dim = y_mid.len() - 1;
-        if piece.chain.engaged(&mut ws, &y_mid.as_slice()[..dim]) != piece.mode {
+        if piece.chain.bumper_modes(&mut ws, &y_mid.as_slice()[..dim]) != piece.mode {
             t_hi = t_mid;
             y_hi = y_mid;
         } else {

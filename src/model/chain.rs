@@ -8,22 +8,60 @@
 //! is exactly how they appear in the Lagrange equations. [`crate::model::dense`] builds the
 //! dense M and Q term by term for the cross-check in tests.
 
-use crate::model::params::ModelParams;
+use crate::model::params::{ContactDamping, ModelParams};
 use crate::model::real::Real;
+
+/// Which branch of the force law a bumper is on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BumperMode {
+    /// Not pushing: F = 0.
+    Free,
+    /// Spring only: F = k_c δ (the loading law while the penetration shrinks).
+    Spring,
+    /// Spring and damper: F = k_c δ + c_c δ̇.
+    SpringDamper,
+}
 
 /// How the bumper force law is evaluated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ContactLaw {
-    /// The physical law: F = max(0, k_c δ + c_c δ̇) while δ > 0.
+    /// The physical law of the scene (`limiter.damping_law`): loading-only damping,
+    /// F = k_c δ + c_c max(δ̇, 0), or Kelvin–Voigt, F = max(0, k_c δ + c_c δ̇), while δ > 0.
     Exact,
-    /// Each bumper frozen engaged (F = k_c δ + c_c δ̇, any sign) or free (F = 0): the smooth
-    /// pieces between contact events, used by the event-locating reference integrator.
+    /// Each bumper frozen on one branch of the law (any sign, no clipping): the smooth pieces
+    /// between contact events, used by the event-locating reference integrator.
     Frozen {
-        /// The +x bumper is engaged.
-        right: bool,
-        /// The −x bumper is engaged.
-        left: bool,
+        /// The +x bumper's branch.
+        right: BumperMode,
+        /// The −x bumper's branch.
+        left: BumperMode,
     },
+}
+
+/// The branch of the exact law a bumper with penetration `delta` (m) and penetration rate
+/// `rate` (m/s) is on.
+#[inline]
+pub fn bumper_mode<T: Real>(law: ContactDamping, kc: T, cc: T, delta: T, rate: T) -> BumperMode {
+    let z = T::zero();
+    if delta <= z {
+        return BumperMode::Free;
+    }
+    match law {
+        ContactDamping::Loading if rate > z => BumperMode::SpringDamper,
+        ContactDamping::Loading => BumperMode::Spring,
+        ContactDamping::KelvinVoigt if kc * delta + cc * rate > z => BumperMode::SpringDamper,
+        ContactDamping::KelvinVoigt => BumperMode::Free,
+    }
+}
+
+/// The force (N) of a bumper on `mode`'s branch.
+#[inline]
+pub fn bumper_force<T: Real>(mode: BumperMode, kc: T, cc: T, delta: T, rate: T) -> T {
+    match mode {
+        BumperMode::Free => T::zero(),
+        BumperMode::Spring => kc * delta,
+        BumperMode::SpringDamper => kc * delta + cc * rate,
+    }
 }
 
 /// The chain's coefficients in the engine's float type, plus scratch space for one instance.
@@ -50,6 +88,7 @@ struct ChainContact<T> {
     gap: T,
     kc: T,
     cc: T,
+    law: ContactDamping,
 }
 
 #[derive(Debug, Clone)]
@@ -125,6 +164,7 @@ impl<T: Real> Chain<T> {
                 gap: t(c.gap_m),
                 kc: t(c.stiffness_n_per_m),
                 cc: t(c.damping_ns_per_m),
+                law: c.law,
             }),
             piezo: p.piezo.as_ref().map(|z| ChainPiezo {
                 last: z.last_segment,
@@ -188,36 +228,19 @@ impl<T: Real> Chain<T> {
         let mut report = ContactReport::default();
         if let Some(c) = &self.contact {
             let (x, xd) = self.contact_kinematics(c, ws, omega);
-            let dr = x - c.gap;
-            let dl = -x - c.gap;
-            report.right_touch = dr > T::zero();
-            report.left_touch = dl > T::zero();
-            let (fr, fl) = match law {
+            // Penetrations and their rates: (δ, δ̇) of the +x and −x bumpers.
+            let (right, left) = ((x - c.gap, xd), (-x - c.gap, -xd));
+            report.right_touch = right.0 > T::zero();
+            report.left_touch = left.0 > T::zero();
+            let (mr, ml) = match law {
                 ContactLaw::Exact => (
-                    if report.right_touch {
-                        (c.kc * dr + c.cc * xd).max(T::zero())
-                    } else {
-                        T::zero()
-                    },
-                    if report.left_touch {
-                        (c.kc * dl - c.cc * xd).max(T::zero())
-                    } else {
-                        T::zero()
-                    },
+                    bumper_mode(c.law, c.kc, c.cc, right.0, right.1),
+                    bumper_mode(c.law, c.kc, c.cc, left.0, left.1),
                 ),
-                ContactLaw::Frozen { right, left } => (
-                    if right {
-                        c.kc * dr + c.cc * xd
-                    } else {
-                        T::zero()
-                    },
-                    if left {
-                        c.kc * dl - c.cc * xd
-                    } else {
-                        T::zero()
-                    },
-                ),
+                ContactLaw::Frozen { right, left } => (right, left),
             };
+            let fr = bumper_force(mr, c.kc, c.cc, right.0, right.1);
+            let fl = bumper_force(ml, c.kc, c.cc, left.0, left.1);
             // The bumpers push towards the centre: horizontal force fl − fr on the beam.
             let fx = fl - fr;
             for (i, &lam) in c.levers.iter().enumerate() {
@@ -335,10 +358,10 @@ impl<T: Real> Chain<T> {
         (x - c.gap > T::zero(), -x - c.gap > T::zero())
     }
 
-    /// Which bumpers the exact law engages at this state (δ > 0 and k_cδ + c_cδ̇ > 0).
-    pub fn engaged(&self, ws: &mut Workspace<T>, y: &[T]) -> (bool, bool) {
+    /// The branch of the exact law each bumper (+x, −x) is on at this state.
+    pub fn bumper_modes(&self, ws: &mut Workspace<T>, y: &[T]) -> (BumperMode, BumperMode) {
         let Some(c) = &self.contact else {
-            return (false, false);
+            return (BumperMode::Free, BumperMode::Free);
         };
         let n = self.n;
         let k = c.levers.len();
@@ -346,12 +369,9 @@ impl<T: Real> Chain<T> {
             (*s, *co) = th.sin_cos();
         }
         let (x, xd) = self.contact_kinematics(c, ws, &y[n..2 * n]);
-        let dr = x - c.gap;
-        let dl = -x - c.gap;
-        let z = T::zero();
         (
-            dr > z && c.kc * dr + c.cc * xd > z,
-            dl > z && c.kc * dl - c.cc * xd > z,
+            bumper_mode(c.law, c.kc, c.cc, x - c.gap, xd),
+            bumper_mode(c.law, c.kc, c.cc, -x - c.gap, -xd),
         )
     }
 
@@ -414,7 +434,35 @@ impl<T: Real> Chain<T> {
         if let Some(z) = &self.piezo {
             p += w(y[2 * n]).powi(2) * w(z.inv_r);
         }
-        p
+        p + self.contact_dissipation_w(y)
+    }
+
+    /// Power the bumpers take out of the chain (W): (F − k_c δ) δ̇ of each penetrated bumper,
+    /// what its force does beyond storing ½ k_c δ² (c_c max(δ̇, 0)² on the loading law).
+    fn contact_dissipation_w(&self, y: &[T]) -> f64 {
+        let Some(c) = &self.contact else {
+            return 0.0;
+        };
+        let n = self.n;
+        let (mut x, mut xd) = (0.0, 0.0);
+        for (i, &lam) in c.levers.iter().enumerate() {
+            let (s, co) = y[i].wide().sin_cos();
+            x += lam.wide() * s;
+            xd += lam.wide() * co * y[n + i].wide();
+        }
+        let (kc, cc, gap) = (c.kc.wide(), c.cc.wide(), c.gap.wide());
+        [(x - gap, xd), (-x - gap, -xd)]
+            .iter()
+            .map(|&(delta, rate)| {
+                let mode = bumper_mode(c.law, kc, cc, delta, rate);
+                let f = bumper_force(mode, kc, cc, delta, rate);
+                if delta > 0.0 {
+                    (f - kc * delta) * rate
+                } else {
+                    0.0
+                }
+            })
+            .sum()
     }
 
     /// Tip position relative to the pivot (m) and chord reduction L − |r_N − r_0| (m).

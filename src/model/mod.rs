@@ -18,9 +18,13 @@ pub mod linear;
 mod params;
 mod real;
 
-pub use chain::{Chain, ContactLaw, ContactReport, Energy, Workspace};
+pub use chain::{
+    BumperMode, Chain, ContactLaw, ContactReport, Energy, Workspace, bumper_force, bumper_mode,
+};
 pub use excitation::{CartMotion, CartState, ExcitationKind, HarmonicAmplitudes};
 pub use health::{CHECK_EVERY, Guard, Status, health_due};
 pub use linear::{Modes, modes};
-pub use params::{BumperDesign, ChainDesign, ContactParams, ModelParams, PiezoParams, Tube};
+pub use params::{
+    BumperDesign, ChainDesign, ContactDamping, ContactParams, ModelParams, PiezoParams, Tube,
+};
 pub use real::Real;

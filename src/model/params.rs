@@ -54,6 +54,38 @@ pub struct ChainDesign {
     pub bearing_damping_nms: f64,
 }
 
+/// How a bumper's contact damper acts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ContactDamping {
+    /// F = k_c δ + c_c max(δ̇, 0): damping only while the penetration grows (the contact
+    /// library's linear law); the force falls to zero continuously on release.
+    Loading,
+    /// F = max(0, k_c δ + c_c δ̇): damping both ways, clipped so it never pulls.
+    KelvinVoigt,
+}
+
+impl ContactDamping {
+    /// Both laws, in code order.
+    pub const ALL: [ContactDamping; 2] = [ContactDamping::Loading, ContactDamping::KelvinVoigt];
+
+    /// The law's code in the GPU parameter struct.
+    pub fn gpu_code(self) -> u32 {
+        match self {
+            ContactDamping::Loading => 0,
+            ContactDamping::KelvinVoigt => 1,
+        }
+    }
+
+    /// The name of the WGSL constant holding [`ContactDamping::gpu_code`].
+    pub fn wgsl_name(self) -> &'static str {
+        match self {
+            ContactDamping::Loading => "CONTACT_LOADING",
+            ContactDamping::KelvinVoigt => "CONTACT_KELVIN_VOIGT",
+        }
+    }
+}
+
 /// The two bumpers as built.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct BumperDesign {
@@ -65,6 +97,8 @@ pub struct BumperDesign {
     pub stiffness_n_per_m: f64,
     /// Contact damping c_c (N s/m).
     pub damping_ns_per_m: f64,
+    /// How the contact damper acts.
+    pub law: ContactDamping,
 }
 
 /// The bumper contact, resolved onto the chain.
@@ -80,6 +114,8 @@ pub struct ContactParams {
     pub stiffness_n_per_m: f64,
     /// Contact damping c_c (N s/m).
     pub damping_ns_per_m: f64,
+    /// How the contact damper acts.
+    pub law: ContactDamping,
 }
 
 impl ContactParams {
@@ -95,6 +131,7 @@ impl ContactParams {
             gap_m: s_b * b.clearance_rad.sin(),
             stiffness_n_per_m: b.stiffness_n_per_m,
             damping_ns_per_m: b.damping_ns_per_m,
+            law: b.law,
         }
     }
 }
@@ -261,6 +298,7 @@ impl ModelParams {
             bits.extend([u64::MAX - 1, c.segment as u64, c.levers_m.len() as u64]);
             bits.extend(c.levers_m.iter().map(|x| x.to_bits()));
             bits.extend([c.gap_m, c.stiffness_n_per_m, c.damping_ns_per_m].map(f64::to_bits));
+            bits.push(c.law as u64);
         }
         if let Some(z) = &self.piezo {
             bits.extend([u64::MAX - 2, z.last_segment as u64]);

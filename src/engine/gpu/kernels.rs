@@ -8,7 +8,7 @@
 
 use crate::engine::imex::{AE, AI, B, C, GAMMA};
 use crate::engine::method::Method;
-use crate::model::{CHECK_EVERY, Status};
+use crate::model::{CHECK_EVERY, ContactDamping, Status};
 use std::fmt::Write;
 
 /// The stage files of the ensemble kernels, in assembly order: common definitions,
@@ -55,6 +55,9 @@ pub fn shader_header(segments: usize) -> String {
         String::from("// Generated from the Rust definitions (src/engine/gpu/kernels.rs).\n");
     for s in Status::ALL {
         let _ = writeln!(h, "const {}: u32 = {}u;", s.wgsl_name(), s.code());
+    }
+    for law in ContactDamping::ALL {
+        let _ = writeln!(h, "const {}: u32 = {}u;", law.wgsl_name(), law.gpu_code());
     }
     let _ = writeln!(h, "const CHECK_EVERY: u32 = {CHECK_EVERY}u;");
     let _ = writeln!(h, "const MAX_SEG: u32 = {}u;", segments.max(1));

@@ -92,8 +92,8 @@ pub struct GpuInstanceParams {
     pub r_start: u32,
     /// Index (in f32) of this instance's IMEX matrices in the matrix buffer (0 for RK4).
     pub imex_offset: u32,
-    /// Padding.
-    pub pad3: u32,
+    /// The contact damping law ([`crate::model::ContactDamping::gpu_code`]).
+    pub contact_law: u32,
     /// Contact levers λ_i (m).
     pub levers: [f32; GPU_MAX_SEGMENTS],
 }
@@ -169,7 +169,7 @@ impl GpuInstanceParams {
             r_count: p.r_count,
             r_start: p.r_start,
             imex_offset,
-            pad3: 0,
+            contact_law: m.contact.as_ref().map_or(0, |c| c.law.gpu_code()),
             levers,
         }
     }

@@ -64,7 +64,7 @@ fn parameter_structs_have_the_same_layout_in_rust_and_wgsl() {
             k, k0, b, b0, gap, kc, cc, piezo_inv_c, piezo_inv_r, piezo_theta, pos_amp, vel_amp,
             acc_amp, dt, guard_energy, guard_bend, theta0, omega0, volt0, half_clearance,
             guard_holder, pad1, n_levers, piezo_last, spp, transient_periods, total_periods, strobe_offset,
-            strobe_count, r_every, r_count, r_start, imex_offset, pad3, levers),
+            strobe_count, r_every, r_count, r_start, imex_offset, contact_law, levers),
         size_of::<GpuInstanceParams>(),
     );
     assert_same_layout(
@@ -125,6 +125,9 @@ fn the_shader_takes_status_codes_and_the_check_interval_from_rust() {
         assert_eq!(Status::from_code(u32::from(s.code())), Some(s));
     }
     assert_eq!(u64::from(wgsl_const(&m, "CHECK_EVERY")), CHECK_EVERY);
+    for law in pendulum_atlas::model::ContactDamping::ALL {
+        assert_eq!(wgsl_const(&m, law.wgsl_name()), law.gpu_code(), "{law:?}");
+    }
     // The stage files carry no copy of their own.
     for (name, text) in SHADER_STAGES {
         for s in Status::ALL {
