@@ -2,7 +2,7 @@
 //! pendulum ([`ChainDesign`], [`BumperDesign`], [`PiezoParams`], [`CartMotion`]), its
 //! coefficients ([`ModelParams`], damping included), its initial state and its modes.
 
-use super::scene::{BeamDamping, LIBRARY_JOINT_DAMPING_NMS, LIBRARY_SEGMENTS, PivotMode, Scene};
+use super::scene::{BeamDamping, PivotMode, Scene};
 use crate::model::{
     BumperDesign, CartMotion, ChainDesign, ModelParams, Modes, PiezoParams, Tube, linear, modes,
 };
@@ -92,8 +92,7 @@ impl Scene {
     /// The library reading's damping time β = 0.35 N m s/rad / (EI/(L/17)) for this scene's
     /// tube (s): Table 1's per-joint constant at the paper's N = 17.
     pub fn library_damping_time_s(&self) -> f64 {
-        let ei = self.chain_design().tube.bending_stiffness_nm2();
-        LIBRARY_JOINT_DAMPING_NMS / (ei / (self.beam.length_m / LIBRARY_SEGMENTS as f64))
+        super::scene::library_damping_time_s(&self.chain_design().tube)
     }
 
     /// The joint damping a run uses: β, the per-joint b at this N, and ζ1 of the first clamped

@@ -3,6 +3,7 @@
 
 use super::error::ConfigError;
 use super::reader::{Range, Reader, apply_override, parse_toml};
+use crate::model::Tube;
 pub use crate::model::{ContactDamping, ExcitationKind};
 use serde::Serialize;
 use toml::Table;
@@ -333,20 +334,34 @@ fn read_beam(r: &mut Reader) -> Result<Beam, ConfigError> {
             range: format!("[0, {outer}) m (below beam.outer_diameter_m)"),
         });
     }
-    Ok(Beam {
+    let tube = Tube {
         length_m: r.number("beam.length_m", 0.375, Range::Positive, "m")?,
         mass_kg: r.number("beam.mass_kg", 0.05525, Range::Positive, "kg")?,
         outer_diameter_m: outer,
         inner_diameter_m: inner,
         youngs_modulus_pa: r.number("beam.youngs_modulus_pa", 2e11, Range::Positive, "Pa")?,
+    };
+    Ok(Beam {
         segments: r.integer("beam.segments", 17, 1, MAX_SEGMENTS)? as usize,
-        damping: read_beam_damping(r)?,
+        damping: read_beam_damping(r, library_damping_time_s(&tube))?,
+        length_m: tube.length_m,
+        mass_kg: tube.mass_kg,
+        outer_diameter_m: tube.outer_diameter_m,
+        inner_diameter_m: tube.inner_diameter_m,
+        youngs_modulus_pa: tube.youngs_modulus_pa,
     })
 }
 
+/// The library reading's β for a tube: `b / k` with `b` = [`LIBRARY_JOINT_DAMPING_NMS`] and
+/// `k = EI / (L / 17)` (s), the same for every N of the scene.
+pub fn library_damping_time_s(tube: &Tube) -> f64 {
+    LIBRARY_JOINT_DAMPING_NMS
+        / (tube.bending_stiffness_nm2() / (tube.length_m / LIBRARY_SEGMENTS as f64))
+}
+
 /// At most one of `beam.damping_time_s`, `beam.damping_ratio`, `beam.joint_damping_nms`;
-/// without any, the earlier reading ζ1 = 0.0035.
-fn read_beam_damping(r: &mut Reader) -> Result<BeamDamping, ConfigError> {
+/// without any, the library reading's β (`library_beta_s`).
+fn read_beam_damping(r: &mut Reader, library_beta_s: f64) -> Result<BeamDamping, ConfigError> {
     let time = r.number_opt("beam.damping_time_s", Range::NonNegative, "s")?;
     let ratio = r.number_opt("beam.damping_ratio", Range::ClosedOpen(0.0, 1.0), "")?;
     let joint = r.number_opt("beam.joint_damping_nms", Range::NonNegative, "N m s/rad")?;
@@ -372,7 +387,7 @@ fn read_beam_damping(r: &mut Reader) -> Result<BeamDamping, ConfigError> {
         (Some(t), _, _) => BeamDamping::TimeS(t),
         (_, _, Some(b)) => BeamDamping::JointNms(b),
         (_, Some(z), _) => BeamDamping::Ratio(z),
-        (None, None, None) => BeamDamping::Ratio(EARLIER_READING_DAMPING_RATIO),
+        (None, None, None) => BeamDamping::TimeS(library_beta_s),
     })
 }
 
@@ -391,7 +406,7 @@ fn read_limiter(r: &mut Reader, length_m: f64) -> Result<Limiter, ConfigError> {
         damping_law: match r
             .choice(
                 "limiter.damping_law",
-                "kelvin_voigt",
+                "loading",
                 &["loading", "kelvin_voigt"],
             )?
             .as_str()

@@ -165,3 +165,33 @@ fn every_shipped_scene_is_valid() {
     }
     assert!(checked >= 15, "only {checked} scenes found");
 }
+
+#[test]
+fn two_joint_damping_keys_are_an_error_naming_both() {
+    // paper.toml sets none of them: any two given together are refused.
+    let e = scene_error(&["beam.damping_ratio=0.01", "beam.joint_damping_nms=0.35"]);
+    assert!(e.contains("beam.damping_ratio"), "{e}");
+    assert!(e.contains("beam.joint_damping_nms"), "{e}");
+    let e = scene_error(&["beam.damping_time_s=1e-4", "beam.damping_ratio=0.01"]);
+    assert!(
+        e.contains("beam.damping_time_s") && e.contains("beam.damping_ratio"),
+        "{e}"
+    );
+    let e = scene_error(&["beam.damping_ratio=1.5"]);
+    assert!(e.contains("beam.damping_ratio"), "{e}");
+    let e = scene_error(&["beam.joint_damping_nms=-1"]);
+    assert!(e.contains("beam.joint_damping_nms"), "{e}");
+}
+
+#[test]
+fn the_contact_damping_law_is_one_of_two_names() {
+    use pendulum_atlas::config::ContactDamping;
+    assert_eq!(scene(&[]).limiter.damping_law, ContactDamping::Loading);
+    let kv = scene(&["limiter.damping_law=\"kelvin_voigt\""]);
+    assert_eq!(kv.limiter.damping_law, ContactDamping::KelvinVoigt);
+    let e = scene_error(&["limiter.damping_law=\"viscous\""]);
+    assert!(
+        e.contains("limiter.damping_law") && e.contains("loading") && e.contains("kelvin_voigt"),
+        "{e}"
+    );
+}

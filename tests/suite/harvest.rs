@@ -164,9 +164,11 @@ fn the_baseline_peaks_at_the_clamped_first_natural_frequency() {
         spec.band.step_hz(),
         b.band_power_w
     );
-    // A real resonance: the peak stands well above the band's edges.
+    // A real resonance: the peak stands well above the band's edges (±16 % of f1). With the
+    // library damping (ζ1 ≈ 0.054, Q ≈ 9) the measured peak/edge power ratio is 8.5; it was
+    // above 10 with ζ1 = 0.0035.
     let edge = b.band_power_w[0].max(b.band_power_w[b.band_power_w.len() - 1]);
-    assert!(b.band_metrics.peak_w > 10.0 * edge, "{:?}", b.band_power_w);
+    assert!(b.band_metrics.peak_w > 5.0 * edge, "{:?}", b.band_power_w);
 }
 
 #[test]

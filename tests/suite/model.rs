@@ -1,7 +1,7 @@
 //! The model against MODEL.md's reference numbers and against its own dense form.
 
 use super::scene;
-use pendulum_atlas::model::{Chain, ContactLaw, ModelParams, dense, linear};
+use pendulum_atlas::model::{Chain, ContactDamping, ContactLaw, ModelParams, dense, linear};
 
 const CLAMPED_G0: [&str; 3] = [
     "pivot.mode=clamped",
@@ -51,35 +51,82 @@ fn hinged_upright_chain_has_one_falling_mode() {
 #[test]
 fn spectral_radius_and_auto_step_match_model_md() {
     let r = |sets: &[&str]| scene(sets).modes().spectral_radius_per_s;
-    let n3 = r(&["beam.segments=3"]);
+    let n3 = r(&["beam.segments=3", "beam.damping_ratio=0.0035"]);
     let n17_undamped = r(&["beam.damping_ratio=0"]);
+    let n17_earlier = r(&["beam.damping_ratio=0.0035"]);
     let n17 = r(&[]);
     assert!((n3 / 2.5e3 - 1.0).abs() < 0.05, "N=3: {n3}");
     assert!(
         (n17_undamped / 1.2e5 - 1.0).abs() < 0.05,
         "N=17 undamped: {n17_undamped}"
     );
-    assert!((n17 / 6.3e5 - 1.0).abs() < 0.05, "N=17 damped: {n17}");
+    assert!(
+        (n17_earlier / 6.3e5 - 1.0).abs() < 0.05,
+        "N=17 ζ1 = 0.0035: {n17_earlier}"
+    );
+    assert!((n17 / 1.0e7 - 1.0).abs() < 0.05, "N=17 library: {n17}");
     let m = scene(&[]).modes();
     assert!((m.dt_auto_s - 0.8 * 2.78 / n17).abs() < 1e-12);
     // The automatic step lies inside the RK4 stability limit.
     assert!(m.dt_auto_s < m.dt_stable_s);
 }
 
-#[test]
-fn damping_gives_the_requested_ratio_on_the_first_clamped_mode() {
-    let s = scene(&CLAMPED_G0);
-    let p = s.model_params();
-    let eig = linear::jacobian_eigenvalues(&p);
+/// ζ = −Re λ / |λ| of the eigenvalue pair of the clamped chain closest to its first mode.
+fn first_mode_zeta(sets: &[&str]) -> f64 {
+    let mut all = CLAMPED_G0.to_vec();
+    all.extend_from_slice(sets);
+    let s = scene(&all);
+    let eig = linear::jacobian_eigenvalues(&s.model_params());
     let w1 = 2.0 * std::f64::consts::PI * s.modes().frequencies_hz[0];
-    // The eigenvalue pair closest to ω1 has ζ = −Re λ / |λ| = 0.0035.
     let lam = eig
         .iter()
         .filter(|z| z.im > 0.0)
         .min_by(|a, b| (a.norm() - w1).abs().total_cmp(&(b.norm() - w1).abs()))
         .unwrap();
-    let zeta = -lam.re / lam.norm();
+    -lam.re / lam.norm()
+}
+
+#[test]
+fn damping_gives_the_requested_ratio_on_the_first_clamped_mode() {
+    let zeta = first_mode_zeta(&["beam.damping_ratio=0.0035"]);
     assert!((zeta - 0.0035).abs() < 1e-6, "ζ = {zeta}");
+}
+
+#[test]
+fn the_library_reading_gives_zeta_0_054_at_seventeen_segments() {
+    // b = 0.35 N m s/rad per joint at N = 17 (MODEL.md, "Damping"): ζ1 ≈ 0.054.
+    let zeta = first_mode_zeta(&[]);
+    assert!((zeta - 0.054).abs() <= 0.001, "ζ1 = {zeta}");
+    let s = scene(&[]);
+    let report = s.damping_report();
+    assert!(
+        (report.joint_damping_nms - 0.35).abs() < 1e-12,
+        "{report:?}"
+    );
+    assert!(
+        (report.first_mode_damping_ratio - 0.054).abs() <= 0.001,
+        "{report:?}"
+    );
+    // The same β at any N: b scales with the joint stiffness EI/(L/N).
+    let n5 = scene(&["beam.segments=5"]).damping_report();
+    assert!((n5.damping_time_s - report.damping_time_s).abs() < 1e-18);
+    assert!(
+        (n5.joint_damping_nms - 0.35 * 5.0 / 17.0).abs() < 1e-12,
+        "{n5:?}"
+    );
+    // The three keys name the same damping.
+    let beta = report.damping_time_s;
+    for set in [
+        format!("beam.damping_time_s={beta:e}"),
+        "beam.joint_damping_nms=0.35".to_string(),
+        format!("beam.damping_ratio={:e}", report.first_mode_damping_ratio),
+    ] {
+        let other = scene(&[&set]).damping_report();
+        assert!(
+            (other.damping_time_s / beta - 1.0).abs() < 1e-9,
+            "{set}: {other:?}"
+        );
+    }
 }
 
 /// Pseudo-random numbers in [−1, 1) without a dependency (a fixed LCG is enough here).
@@ -114,17 +161,22 @@ fn applied_couples(p: &ModelParams, th: &[f64], om: &[f64], v: f64) -> Vec<f64> 
             .enumerate()
             .map(|(i, l)| l * th[i].cos() * om[i])
             .sum();
-        let (dr, dl) = (x - c.gap_m, -x - c.gap_m);
-        let fr = if dr > 0.0 {
-            (c.stiffness_n_per_m * dr + c.damping_ns_per_m * xd).max(0.0)
-        } else {
-            0.0
+        // Penetration δ and its rate on each side; MODEL.md's two laws.
+        let force = |delta: f64, rate: f64| {
+            if delta <= 0.0 {
+                return 0.0;
+            }
+            match c.law {
+                ContactDamping::Loading => {
+                    c.stiffness_n_per_m * delta + c.damping_ns_per_m * rate.max(0.0)
+                }
+                ContactDamping::KelvinVoigt => {
+                    (c.stiffness_n_per_m * delta + c.damping_ns_per_m * rate).max(0.0)
+                }
+            }
         };
-        let fl = if dl > 0.0 {
-            (c.stiffness_n_per_m * dl - c.damping_ns_per_m * xd).max(0.0)
-        } else {
-            0.0
-        };
+        let fr = force(x - c.gap_m, xd);
+        let fl = force(-x - c.gap_m, -xd);
         for (i, l) in c.levers_m.iter().enumerate() {
             q[i] += (fl - fr) * l * th[i].cos();
         }
@@ -158,6 +210,7 @@ fn recursive_solve_equals_dense_solve() {
             vec!["piezo.enabled=true", "pivot.holder_inertia_kgm2=2e-5"],
         ),
         (33, vec!["tip.mass_kg=0"]),
+        (5, vec!["limiter.damping_law=\"kelvin_voigt\""]),
     ] {
         let seg = format!("beam.segments={n}");
         let mut sets = extra.clone();

@@ -84,12 +84,13 @@ fn reference_alpha(scene: &Scene, periods: u32) -> Vec<f64> {
 
 pub fn holder_angle_over_a_short_horizon_matches_the_reference_integrator(under: Under) {
     let Some(engine) = under.engine() else { return };
-    // 0.8 s with bumper impacts at a tenth of the RK4 limit; R's uniform series records α at 16
-    // samples per period.
+    // 0.8 s with bumper impacts (every cell of this grid has some after 0.1 s) at a tenth of
+    // the RK4 limit; R's uniform series records α at 16 samples per period.
+    let axes = AXES.replace("start = 5.0\nend = 10.0", "start = 6.0\nend = 10.0");
     let spec = tiny_map(
         under,
-        "[integration]\nduration_s = 0.8\ntransient_s = 0.2\ndt_safety = 0.08",
-        &format!("metrics = [\"R\", \"impacts_per_s\"]\n{AXES}"),
+        "[integration]\nduration_s = 0.8\ntransient_s = 0.1\ndt_safety = 0.08",
+        &format!("metrics = [\"R\", \"impacts_per_s\"]\n{axes}"),
     );
     let plan = EnsemblePlan::new(&spec).expect("plan");
     let readback = Readback {
@@ -104,11 +105,13 @@ pub fn holder_angle_over_a_short_horizon_matches_the_reference_integrator(under:
             &no_progress,
         )
         .expect("run");
-    // Fixed steps lose order at contact onsets (the force law has a kink there): at this
-    // step the f64 engine itself differs from the event-locating reference by up to 1.3e-4
-    // rad after 0.8 s and 1-4 impacts, f32 adds no more than 3e-5. A wrong term (a cart phase
-    // off by one stage, a missing damper) shows up as 1e-2.
-    let tol = 5e-4;
+    // Fixed steps lose order at contact onsets (the damper's force jumps to c δ̇ there) and
+    // converge slowly through grazing re-contacts: with the loading-only law, RK4 in f64 at
+    // this step differs from the event-locating reference by up to 6.1e-4 rad after 0.8 s and
+    // 1-4 impacts (at a step 16x smaller, still 1.2e-5), f32 adds no more than 3e-5. A wrong
+    // term (a cart phase off by one stage, a missing damper, the other contact law) shows up
+    // as 1e-2.
+    let tol = 1e-3;
     for (k, p) in plan.instances.iter().enumerate() {
         assert!(
             run.results[k].impacts_per_s > 0.0,
@@ -182,18 +185,29 @@ count = 3
         return;
     };
     let reference = map_on(under.reference(), &spec).expect("cpu map");
-    // A twin of the reference started 1e-6 deg away: a cell whose K class the twin changes is
-    // sensitive to any perturbation (chaos near the class boundary), and no two engines can be
-    // expected to agree on it. Parity is judged on the others.
-    let twin_spec = tiny_map(
-        under,
-        &format!("{timing}\n[initial]\nangle_deg = 20.000001"),
-        axes,
-    );
-    let twin = map_on(under.reference(), &twin_spec).expect("cpu map");
+    // Twins of the reference started 1e-3 deg (1.7e-5 rad) either side: a cell whose K class
+    // a twin changes is sensitive to perturbations (chaos near the class boundary, coexisting
+    // attractors), and no two engines can be expected to agree on it. f32 rounding perturbs
+    // the state by ~1e-7 relative at every step, more than a single 1e-6 deg twin did: with
+    // that twin, a cell at 12 Hz / 4 mm passed as robustly regular (K = 0.10 and 0.22) while
+    // both f32 engines found K = 0.98. Parity is judged on the cells both twins keep in class.
+    let twins: Vec<MapRun> = ["19.999", "20.001"]
+        .iter()
+        .map(|angle| {
+            let spec = tiny_map(
+                under,
+                &format!("{timing}\n[initial]\nangle_deg = {angle}"),
+                axes,
+            );
+            map_on(under.reference(), &spec).expect("cpu map")
+        })
+        .collect();
     let class = |k: f64| k > 0.5;
     let robust: Vec<usize> = (0..reference.results.len())
-        .filter(|&c| class(reference.results[c].k) == class(twin.results[c].k))
+        .filter(|&c| {
+            let k = class(reference.results[c].k);
+            twins.iter().all(|t| class(t.results[c].k) == k)
+        })
         .collect();
     let n = reference.results.len();
     assert!(
@@ -201,13 +215,15 @@ count = 3
         "only {} of {n} cells are robust",
         robust.len()
     );
-    let same = robust
+    let differing: Vec<(usize, f64, f64)> = robust
         .iter()
-        .filter(|&&c| class(reference.results[c].k) == class(run.results[c].k))
-        .count();
+        .filter(|&&c| class(reference.results[c].k) != class(run.results[c].k))
+        .map(|&c| (c, reference.results[c].k, run.results[c].k))
+        .collect();
     assert!(
-        same * 10 >= robust.len() * 9,
-        "{under:?}: K class agrees on {same} of {} robust cells",
+        differing.len() * 10 <= robust.len(),
+        "{under:?}: K class differs on {} of {} robust cells (cell, K f64, K here): {differing:?}",
+        differing.len(),
         robust.len()
     );
     let pairs = || reference.results.iter().zip(&run.results);
@@ -233,7 +249,14 @@ pub fn diverging_instances_are_flagged_like_on_the_f64_cpu_engine(under: Under) 
     let reference = map_on(under.reference(), &spec).expect("cpu map");
     let statuses: Vec<Status> = run.results.iter().map(|r| r.status).collect();
     let expected: Vec<Status> = reference.results.iter().map(|r| r.status).collect();
-    assert_eq!(statuses, expected, "{under:?}");
+    // The same instances fail; which guard trips first (a non-finite number or the escape
+    // bound) may differ with the precision.
+    let ok = |s: &[Status]| s.iter().map(|s| *s == Status::Ok).collect::<Vec<_>>();
+    assert_eq!(
+        ok(&statuses),
+        ok(&expected),
+        "{under:?}: {statuses:?} vs {expected:?}"
+    );
     assert!(
         statuses[0] == Status::Ok && statuses[3] != Status::Ok,
         "{statuses:?}"
@@ -282,7 +305,10 @@ pub fn step_beyond_the_stability_limit_is_flagged_not_returned(under: Under) {
     let n3 = "[beam]\nsegments = 3\n[integration]\nduration_s = 3.0\ntransient_s = 0.5";
     let scene = Scene::from_toml(n3, "<stress>", &[]).unwrap();
     let m = scene.modes();
-    for (factor, must_fail) in [(0.5, false), (1.0, false), (3.0, true)] {
+    // 0.9 of the estimate, not 1.0: with the library damping the largest eigenvalue is real,
+    // where 2.78/max|λ| lies just inside RK4's boundary (|R| = 0.992) and the nonlinear terms
+    // can tip a step exactly at the estimate over it.
+    for (factor, must_fail) in [(0.5, false), (0.9, false), (3.0, true)] {
         let dt = factor * m.dt_auto_s / scene.integration.dt_safety;
         let s = stress_scene(
             under,
