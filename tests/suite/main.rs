@@ -7,6 +7,7 @@ mod analyze_cli;
 mod bench;
 mod cli;
 mod config;
+mod contact;
 mod engine;
 mod harvest;
 mod imex;
