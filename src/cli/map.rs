@@ -73,6 +73,13 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
     for w in &run.plan.warnings {
         eprintln!("warning: {w}");
     }
+    println!(
+        "method: {} ({}), dt {:.3e}..{:.3e} s",
+        run.plan.method.name(),
+        run.plan.method_reason,
+        run.plan.dt_range_s.0,
+        run.plan.dt_range_s.1
+    );
     println!("wrote {} files to {}", files.len(), a.out.display());
     Ok(())
 }

@@ -5,7 +5,8 @@ use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use pendulum_atlas::analysis::{RecordAnalysis, RecordOptions, Sampling, analyze_record};
 use pendulum_atlas::config::ExcitationKind;
-use pendulum_atlas::config::Scene;
+use pendulum_atlas::config::{DampingReport, Scene};
+use pendulum_atlas::engine::method::MethodSteps;
 use pendulum_atlas::engine::{
     DtSource, Instance, Outcome, ReferenceOptions, StepPlan, integrate, integrate_reference,
 };
@@ -18,17 +19,19 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 /// Which integrator `simulate` uses.
-#[derive(Debug, Clone, Copy, clap::ValueEnum, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, clap::ValueEnum, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum IntegratorChoice {
-    /// Fixed-step classical RK4 at the plan's dt (the engine the maps use).
-    Rk4,
+    /// The fixed-step engine the maps use: the scene's `integration.method` (RK4 or IMEX, or
+    /// the cheaper of the two for "auto") at the plan's dt. `rk4` is accepted for it too.
+    #[value(alias = "rk4")]
+    Engine,
     /// Adaptive DOP853 with contact events, f64 (for validation; slower).
     Reference,
 }
 
 /// Floating-point precision of the RK4 engine.
-#[derive(Debug, Clone, Copy, clap::ValueEnum, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, clap::ValueEnum, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Precision {
     /// Double precision (the CPU reference).
@@ -43,11 +46,11 @@ pub struct SimulateArgs {
     #[command(flatten)]
     scene: SceneArgs,
     /// Integrator.
-    #[arg(long, value_enum, default_value = "rk4")]
+    #[arg(long, value_enum, default_value = "engine")]
     integrator: IntegratorChoice,
-    /// Precision of the RK4 engine (the reference is always f64).
-    #[arg(long, value_enum, default_value = "f64")]
-    precision: Precision,
+    /// Precision of the fixed-step engine (the reference is f64 only).
+    #[arg(long, value_enum)]
+    precision: Option<Precision>,
     /// Output folder (created if needed).
     #[arg(long)]
     out: PathBuf,
@@ -58,6 +61,10 @@ struct RunJson<'a> {
     scene: &'a Scene,
     integrator: IntegratorChoice,
     precision: &'a str,
+    method: &'a str,
+    method_reason: &'a str,
+    method_steps: &'a MethodSteps,
+    damping: DampingReport,
     dt_s: f64,
     dt_source: DtSource,
     dt_stable_s: f64,
@@ -75,9 +82,22 @@ struct RunJson<'a> {
 
 /// Run one simulation and write its files.
 pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
+    if a.integrator == IntegratorChoice::Reference && a.precision == Some(Precision::F32) {
+        anyhow::bail!(
+            "--integrator reference runs in f64 only: drop --precision f32, or use --integrator engine for an f32 run"
+        );
+    }
     let scene = a.scene.load()?;
     let m = scene.modes();
     let plan = StepPlan::for_scene(&scene);
+    if a.integrator == IntegratorChoice::Engine {
+        eprintln!(
+            "method: {} ({}), dt = {:.3e} s",
+            plan.method.name(),
+            plan.method_reason,
+            plan.dt_s
+        );
+    }
     for w in &plan.warnings {
         eprintln!("warning: {w}");
     }
@@ -93,18 +113,19 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
         rec.on_row = Some(Box::new(move |step| b.set_position(step)));
     }
     let started = Instant::now();
-    let (outcome, precision): (Outcome, &str) = match (a.integrator, a.precision) {
+    let precision = a.precision.unwrap_or(Precision::F64);
+    let (outcome, precision): (Outcome, &str) = match (a.integrator, precision) {
         (IntegratorChoice::Reference, _) => {
             let inst = Instance::<f64>::from_scene(&scene);
             let opts = ReferenceOptions::for_stiffness(m.spectral_radius_per_s);
             let o = integrate_reference(&inst, &plan, &opts, &mut rec)?;
             (o, "f64")
         }
-        (IntegratorChoice::Rk4, Precision::F64) => {
+        (IntegratorChoice::Engine, Precision::F64) => {
             let inst = Instance::<f64>::from_scene(&scene);
             (integrate(&inst, &plan, &mut rec), "f64")
         }
-        (IntegratorChoice::Rk4, Precision::F32) => {
+        (IntegratorChoice::Engine, Precision::F32) => {
             let inst = Instance::<f32>::from_scene(&scene);
             (integrate(&inst, &plan, &mut rec), "f32")
         }
@@ -137,6 +158,13 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
         scene: &scene,
         integrator: a.integrator,
         precision,
+        method: match a.integrator {
+            IntegratorChoice::Engine => plan.method.name(),
+            IntegratorChoice::Reference => "dop853",
+        },
+        method_reason: &plan.method_reason,
+        method_steps: &plan.method_steps,
+        damping: scene.damping_report(),
         dt_s: plan.dt_s,
         dt_source: plan.dt_source,
         dt_stable_s: plan.dt_stable_s,
@@ -166,7 +194,7 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
 fn progress_bar(plan: &StepPlan, segments: usize, integ: IntegratorChoice) -> Option<ProgressBar> {
     let work = plan.steps as f64 * segments as f64;
     let factor = match integ {
-        IntegratorChoice::Rk4 => 1.0,
+        IntegratorChoice::Engine => 1.0,
         IntegratorChoice::Reference => 20.0,
     };
     if work * factor < 2e7 {

@@ -143,6 +143,8 @@ fn map_json(spec: &MapSpec, run: &MapRun, files: &[String]) -> serde_json::Value
         "method": run.plan.method,
         "method_reason": run.plan.method_reason,
         "imex_matrix_sets": run.plan.imex_matrix_sets,
+        "method_steps_of_base_scene": crate::engine::method::MethodSteps::of_scene(&spec.scene),
+        "damping_of_base_scene": spec.scene.damping_report(),
         "dt_s": {"min": run.plan.dt_range_s.0, "max": run.plan.dt_range_s.1},
         "steps": {
             "total_instance_steps": run.plan.total_steps,

@@ -50,6 +50,39 @@ fn simulate_writes_trajectory_and_run_json() {
     }
     assert_eq!(run["status"], "ok");
     assert_eq!(run["scene"]["beam"]["segments"], 3);
+    // The method, both automatic steps and the damping in its three forms.
+    assert_eq!(run["integrator"], "engine");
+    assert!(["rk4", "imex"].contains(&run["method"].as_str().unwrap()));
+    assert!(run["method_reason"].as_str().unwrap().contains("auto"));
+    for key in ["rk4_auto_s", "imex_auto_s", "rk4_stable_s"] {
+        assert!(run["method_steps"][key].as_f64().unwrap() > 0.0, "{key}");
+    }
+    let zeta = run["damping"]["first_mode_damping_ratio"].as_f64().unwrap();
+    assert!((zeta - 0.054).abs() < 0.003, "ζ1 = {zeta} at N = 3");
+    let beta = run["damping"]["damping_time_s"].as_f64().unwrap();
+    assert!((beta - 6.86e-4).abs() < 0.01e-4, "β = {beta}");
+    assert!(run["damping"]["joint_damping_nms"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn simulate_refuses_the_reference_in_f32() {
+    let out = out_dir("reference_f32");
+    let o = bin()
+        .args([
+            "simulate",
+            "--integrator",
+            "reference",
+            "--precision",
+            "f32",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("f64 only"), "{err}");
+    assert!(!out.join("run.json").exists());
 }
 
 #[test]
@@ -100,6 +133,9 @@ fn modes_json_has_the_documented_keys() {
     assert!((f[0].as_f64().unwrap() - 24.41).abs() < 0.01);
     assert!(v["unstable_rates_per_s"].as_array().unwrap().is_empty());
     assert!(v["dt_auto_s"].as_f64().unwrap() > 0.0);
+    assert!(v["method_steps"]["imex_auto_s"].as_f64().unwrap() > 0.0);
+    assert!(v["damping"]["damping_time_s"].as_f64().unwrap() > 0.0);
+    assert!(["rk4", "imex"].contains(&v["method"].as_str().unwrap()));
 }
 
 #[test]

@@ -41,11 +41,27 @@ fn check_map_dir(out: &std::path::Path, backend: &str) {
         "throughput",
         "status_counts",
         "axes",
+        "method",
+        "method_reason",
     ] {
         assert!(json.get(key).is_some(), "map.json lacks `{key}`");
     }
     assert!(json["throughput"]["instance_steps_per_s"].as_f64().unwrap() > 0.0);
     assert_eq!(json["status_counts"]["ok"], 6);
+    let damping = &json["damping_of_base_scene"];
+    for key in [
+        "damping_time_s",
+        "joint_damping_nms",
+        "first_mode_damping_ratio",
+    ] {
+        assert!(damping[key].as_f64().unwrap() > 0.0, "damping.{key}");
+    }
+    assert!(
+        json["method_steps_of_base_scene"]["imex_auto_s"]
+            .as_f64()
+            .unwrap()
+            > 0.0
+    );
     let csv = std::fs::read_to_string(out.join("grid.csv")).unwrap();
     let mut lines = csv.lines();
     assert_eq!(
