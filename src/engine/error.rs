@@ -108,4 +108,15 @@ pub enum EngineError {
         /// wgpu's message.
         message: String,
     },
+    /// The GPU handed back an instance that is not what the dispatches should have left:
+    /// a status code the engines do not define, or an `ok` instance short of its last step.
+    #[error(
+        "GPU result of instance {index} is inconsistent: {what}; the GPU's work was lost or cut short (try again, or use --backend cpu)"
+    )]
+    GpuInconsistent {
+        /// The instance.
+        index: usize,
+        /// What is wrong with it.
+        what: String,
+    },
 }

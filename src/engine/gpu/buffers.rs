@@ -9,7 +9,7 @@ use crate::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams};
 use crate::engine::imex::ImexMatrices;
 use crate::engine::method::Method;
 use crate::engine::plan::EnsemblePlan;
-use crate::model::Chain;
+use crate::model::{CHECK_EVERY, Chain};
 use wgpu::util::DeviceExt;
 
 /// Loop iterations one invocation may run on a software adapter (lavapipe stops at 65535).
@@ -137,18 +137,34 @@ pub fn software_step_budget(
         .map(|p| p.params.contact.as_ref().map_or(0, |c| c.levers_m.len()))
         .max()
         .unwrap_or(0);
-    let per_step = loops_per_step(key.method, n_seg, max_lever);
-    Ok(Some(((SOFTWARE_LOOP_BUDGET / per_step) as u64).max(1)))
+    Ok(Some(steps_within_loop_budget(key.method, n_seg, max_lever)))
 }
 
-/// Loop iterations of one integration step in the kernel (an upper bound): four derivatives
-/// (two sweeps of N plus the contact levers), the health and bookkeeping loops, and for the
-/// IMEX method its stage sums, joint couples and seven N × N products.
+/// Steps per dispatch whose loop iterations, health checks included (one every
+/// [`CHECK_EVERY`] steps, one at the end and one at a dispatch's start at most), stay within
+/// [`SOFTWARE_LOOP_BUDGET`]. lavapipe counts every loop iteration of an invocation against
+/// one limit, and silently ends the loop when it is reached: an undercount here left
+/// instances short of their last step (caught by the GPU results' check).
+fn steps_within_loop_budget(method: Method, n: usize, levers: usize) -> u64 {
+    let per_step = loops_per_step(method, n, levers) as f64;
+    let health = (3 * n + levers) as f64;
+    let spare = SOFTWARE_LOOP_BUDGET as f64 - 2.0 * health;
+    ((spare / (per_step + health / CHECK_EVERY as f64)) as u64).max(1)
+}
+
+/// Loop iterations of one integration step in the kernel, counted from the WGSL (an upper
+/// bound: loops the compiler unrolls cost nothing), without the health check:
+/// - RK4: the step loop (1), `rk4_step`'s two sweeps (2N), four stages of a derivative
+///   (levers + 2N) and a stage update (N), and `touch_flags` (levers):
+///   `14 N + 5 levers + 1`;
+/// - IMEX: the step loop (1), `imex_step`'s copy (N), stage loop (3) and weighted sums
+///   (5N + 4), four `imex_eval` (levers + 3N each) of which three add the joint couples and
+///   an N × N product (N² + 3N), three `imex_implicit_stage` (2N² + (6 + i) N + i for
+///   i = 1, 2, 3), and `touch_flags`: `9 N² + 51 N + 5 levers + 14`.
 fn loops_per_step(method: Method, n: usize, levers: usize) -> usize {
-    let rk4 = 4 * (levers + 2 * n + 2) + 3 * n + 2 * levers + 8;
     match method {
-        Method::Rk4 => rk4,
-        Method::Imex => rk4 + 9 * n * n + 13 * n + 8 * n + 16,
+        Method::Rk4 => 14 * n + 5 * levers + 1,
+        Method::Imex => 9 * n * n + 51 * n + 5 * levers + 14,
     }
 }
 

@@ -176,7 +176,7 @@ pub fn run_gpu(
     let accum: Vec<GpuAccum> = read_buffer(ctx, &bufs.accum, sizes.accum_bytes)?;
     timings.readback_s += t0.elapsed().as_secs_f64();
     Ok(EngineRun {
-        results: results(plan, &accum[..sizes.n_inst]),
+        results: results(plan, &accum[..sizes.n_inst])?,
         strobe,
         r_series,
         timings: EngineTimings {
@@ -304,14 +304,30 @@ fn run_reductions(
     Ok(())
 }
 
+/// The status of instance `index` as the GPU left it, checked: a defined code, and an `ok`
+/// instance only after its last step.
+fn checked_status(index: usize, a: &GpuAccum, total_steps: u64) -> Result<Status, EngineError> {
+    let inconsistent = |what: String| EngineError::GpuInconsistent { index, what };
+    let status = Status::from_code(a.status)
+        .ok_or_else(|| inconsistent(format!("unknown status code {}", a.status)))?;
+    if status == Status::Ok && u64::from(a.step) != total_steps {
+        return Err(inconsistent(format!(
+            "status ok at step {} of {total_steps}",
+            a.step
+        )));
+    }
+    Ok(status)
+}
+
 /// The GPU's accumulators and reductions as instance results.
-fn results(plan: &EnsemblePlan, accum: &[GpuAccum]) -> Vec<InstanceResult> {
+fn results(plan: &EnsemblePlan, accum: &[GpuAccum]) -> Result<Vec<InstanceResult>, EngineError> {
     let wants = |m: Metric| plan.metrics.contains(&m);
     plan.instances
         .iter()
         .zip(accum)
-        .map(|(p, a)| {
-            let status = Status::from_code(a.status).unwrap_or(Status::NonFinite);
+        .enumerate()
+        .map(|(index, (p, a))| {
+            let status = checked_status(index, a, p.total_steps())?;
             let tally = Tally {
                 status,
                 steps: u64::from(a.step),
@@ -336,7 +352,7 @@ fn results(plan: &EnsemblePlan, accum: &[GpuAccum]) -> Vec<InstanceResult> {
                     out.period = f64::from(a.period);
                 }
             }
-            out
+            Ok(out)
         })
         .collect()
 }
