@@ -139,3 +139,15 @@ var<private> dvolt_out: f32;              // v̇ of the last derivative
 var<private> volt: f32;
 var<private> volt_acc: f32;
 var<private> svolt: f32;
+// Summation compensation of the state (compensated_add of src/engine/stepper.rs), zero at the
+// start of each dispatch: at most one rounding per dispatch is not carried over.
+var<private> th_c: array<f32, MAX_SEG>;
+var<private> om_c: array<f32, MAX_SEG>;
+var<private> volt_c: f32;
+
+// y + inc with compensation c: (new y, new c).
+fn comp_add(y: f32, c: f32, inc: f32) -> vec2<f32> {
+    let corrected = inc - c;
+    let sum = y + corrected;
+    return vec2<f32>(sum, (sum - y) - corrected);
+}

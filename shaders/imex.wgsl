@@ -114,14 +114,20 @@ fn imex_step(ph: u32, h: f32) {
             dth += IMEX_B[j] * f_th[j][s];
             dom += IMEX_B[j] * f_om[j][s];
         }
-        th[s] += h * dth;
-        om[s] += h * dom;
+        let t = comp_add(th[s], th_c[s], h * dth);
+        th[s] = t.x;
+        th_c[s] = t.y;
+        let o = comp_add(om[s], om_c[s], h * dom);
+        om[s] = o.x;
+        om_c[s] = o.y;
     }
     if HAS_PIEZO {
         var dv = 0.0;
         for (var j = 0u; j < 4u; j++) {
             dv += IMEX_B[j] * f_v[j];
         }
-        volt += h * dv;
+        let v = comp_add(volt, volt_c, h * dv);
+        volt = v.x;
+        volt_c = v.y;
     }
 }

@@ -165,11 +165,17 @@ fn rk4_step(ph: u32, dt: f32) {
     stage(am, 1.0 / 3.0, 1.0, dt);
     stage(a1, 1.0 / 6.0, 0.0, dt);
     for (var i = 0u; i < N_SEG; i++) {
-        th[i] += th_acc[i];
-        om[i] += om_acc[i];
+        let t = comp_add(th[i], th_c[i], th_acc[i]);
+        th[i] = t.x;
+        th_c[i] = t.y;
+        let o = comp_add(om[i], om_c[i], om_acc[i]);
+        om[i] = o.x;
+        om_c[i] = o.y;
     }
     if HAS_PIEZO {
-        volt += volt_acc;
+        let v = comp_add(volt, volt_c, volt_acc);
+        volt = v.x;
+        volt_c = v.y;
     }
 }
 
@@ -283,8 +289,11 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var i = 0u; i < N_SEG; i++) {
         th[i] = state[i * n_inst + inst];
         om[i] = state[(N_SEG + i) * n_inst + inst];
+        th_c[i] = 0.0;
+        om_c[i] = 0.0;
     }
     volt = state[2u * N_SEG * n_inst + inst];
+    volt_c = 0.0;
     let transient = P.transient_periods * P.spp;
     let end = min(total, a.step + min(ctl.steps_per_dispatch, total - a.step));
     let dt = P.dt;

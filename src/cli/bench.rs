@@ -1,6 +1,8 @@
 //! `pendulum-atlas bench`: the work-precision study and scaling measurements.
 
 use super::engine::BackendArg;
+use pendulum_atlas::bench::stiff::{StiffOptions, run_stiff};
+use pendulum_atlas::bench::stiff_report::write_stiff;
 use pendulum_atlas::bench::{BenchOptions, report::write_bench, run_bench};
 use std::path::PathBuf;
 
@@ -14,6 +16,10 @@ pub struct BenchArgs {
     /// Fewer configurations and shorter runs (a few minutes on 2 cores).
     #[arg(long)]
     pub quick: bool,
+    /// The stiff-chain study instead: RK4 against the IMEX method on both damping readings
+    /// (writes STIFF.md, stiff.json and stiff_work_precision.png).
+    #[arg(long)]
+    pub stiff: bool,
     /// Output folder.
     #[arg(long, default_value = "runs/bench")]
     pub out: PathBuf,
@@ -27,6 +33,23 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
         BackendArg::Gpu => Some(super::engine::EngineArgs::gpu_engine()?),
         BackendArg::Auto => super::engine::EngineArgs::gpu_engine().ok(),
     };
+    if a.stiff {
+        let report = run_stiff(
+            &StiffOptions {
+                quick: a.quick,
+                gpu: gpu.as_ref(),
+            },
+            &|line| eprintln!("{line}"),
+        )?;
+        let files = write_stiff(&a.out, &report)?;
+        println!(
+            "bench --stiff: {} runs in {:.0} s",
+            report.horizon.len(),
+            report.total_s
+        );
+        println!("wrote {} files to {}", files.len(), a.out.display());
+        return Ok(());
+    }
     let report = run_bench(
         &BenchOptions {
             quick: a.quick,

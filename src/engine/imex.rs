@@ -24,7 +24,7 @@
 //! by every instance that has them. Per step: four evaluations of the O(N) chain solve, three
 //! applications of `S⁻¹` and four of `M0⁻¹` (N² each), all in the engine's float type.
 
-use crate::engine::stepper::{CartClock, Stepper};
+use crate::engine::stepper::{CartClock, Stepper, compensated_add};
 use crate::model::linear::spring_pattern;
 use crate::model::{Chain, ContactLaw, ModelParams, Real, Workspace, dense};
 use nalgebra::DMatrix;
@@ -215,6 +215,8 @@ pub struct Imex<T> {
     q: Vec<T>,
     r: Vec<T>,
     r_theta: Vec<T>,
+    /// The state's summation compensation, carried from step to step ([`compensated_add`]).
+    comp: Vec<T>,
 }
 
 impl<T: Real> Imex<T> {
@@ -237,7 +239,8 @@ impl<T: Real> Imex<T> {
             m0: t(&m.m0),
             f: [zd.clone(), zd.clone(), zd.clone(), zd.clone()],
             l: [zn.clone(), zn.clone(), zn.clone(), zn.clone()],
-            u: zd,
+            u: zd.clone(),
+            comp: zd,
             q: zn.clone(),
             r: zn.clone(),
             r_theta: zn,
@@ -317,12 +320,12 @@ impl<T: Real> Stepper<T> for Imex<T> {
             }
         }
         let h = self.h;
-        for (s, ys) in y.iter_mut().enumerate() {
+        for (s, (ys, cs)) in y.iter_mut().zip(&mut self.comp).enumerate() {
             let mut inc = T::zero();
             for (f, &b) in self.f.iter().zip(&B) {
                 inc += T::of(b) * f[s];
             }
-            *ys += h * inc;
+            compensated_add(ys, cs, h * inc);
         }
     }
 }

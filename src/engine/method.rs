@@ -6,11 +6,15 @@
 //! - The IMEX method ([`crate::engine::imex`]) treats those implicitly; its step is the smaller
 //!   of (a) the explicit half's stability limit on what stays explicit (gravity, an engaged
 //!   bumper, the piezo: `safety · 3.67 / ρ_E`, 3.67 being the explicit tableau's boundary on
-//!   the negative real axis) and (b) an accuracy bound of 1/80 of the period of the first
-//!   clamped bending mode (`safety / (80 f1)`), which kept the holder angle within 1e-4 rad of
-//!   the DOP853 reference over 0.5 s with impacts at N = 3 … 17 (the bench shows it).
+//!   the negative real axis) and (b) an accuracy bound of 1/500 of the period of the first
+//!   clamped bending mode (`safety / (500 f1)`, about 63 µs for Table 1's tube). The bound is
+//!   empirical: fixed steps lose order at bumper impacts (the damper's force jumps at onset,
+//!   and the loading-only law kinks at the turning point), so the error falls roughly with
+//!   dt, not dt³. On the paper's scene (8 Hz / 9 mm, library damping) 1/80 gave 1.2e-4 to
+//!   3.6e-4 rad over 0.5 s at N = 5, 9, 17; 1/500 keeps the holder angle within 1e-4 rad of
+//!   the DOP853 reference (`bench --stiff`, `docs/bench/STIFF.md`).
 //! - `auto` picks the method with the smaller cost per simulated second, steps times the cost
-//!   of one step ([`IMEX_STEP_COST`] RK4 steps).
+//!   of one step ([`imex_step_cost`] RK4 steps).
 
 use crate::config::{MethodChoice, Scene, TimeStep};
 use crate::model::linear::{clamped_first_omega, explicit_part_radius};
@@ -21,11 +25,15 @@ use serde::Serialize;
 pub const IMEX_EXPLICIT_LIMIT: f64 = 3.665;
 
 /// Steps per period of the first clamped bending mode that the IMEX step resolves.
-pub const IMEX_STEPS_PER_FIRST_MODE: f64 = 80.0;
+pub const IMEX_STEPS_PER_FIRST_MODE: f64 = 500.0;
 
-/// Cost of one IMEX step in RK4 steps (four chain solves each, plus the IMEX method's seven
-/// N × N products), measured on the CPU engine with `cargo bench` (about 1.4 at N = 17).
-pub const IMEX_STEP_COST: f64 = 1.6;
+/// Cost of one IMEX step in RK4 steps at N segments: both take four derivatives (O(N) each);
+/// the IMEX method adds its N × N products (about 9 N² multiply-adds against RK4's ~160 N per
+/// step), so the ratio grows as `1 + N/16`. Measured on the CPU engine in f64
+/// (`bench --stiff`): 1.4 at N = 9, 2.1 at N = 17.
+pub fn imex_step_cost(segments: usize) -> f64 {
+    1.0 + segments as f64 / 16.0
+}
 
 /// A resolved integration method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
@@ -60,6 +68,8 @@ pub struct MethodSteps {
     pub explicit_radius_per_s: f64,
     /// First clamped bending frequency, the IMEX method's accuracy scale (Hz).
     pub first_mode_hz: f64,
+    /// Segments N (the IMEX step's cost in RK4 steps grows with it).
+    pub segments: usize,
 }
 
 impl MethodSteps {
@@ -74,6 +84,7 @@ impl MethodSteps {
             imex_auto_s: 0.0,
             explicit_radius_per_s: rho_e,
             first_mode_hz: f1,
+            segments: p.segments,
         };
         steps.imex_auto_s = safety * steps.imex_limit_s();
         steps
@@ -103,7 +114,7 @@ impl MethodSteps {
     pub fn cost_per_s(&self, method: Method) -> f64 {
         match method {
             Method::Rk4 => 1.0 / self.rk4_auto_s,
-            Method::Imex => IMEX_STEP_COST / self.imex_auto_s,
+            Method::Imex => imex_step_cost(self.segments) / self.imex_auto_s,
         }
     }
 }
@@ -154,11 +165,12 @@ pub fn choose_method(choice: MethodChoice, dt: TimeStep, steps: &MethodSteps) ->
             MethodChosen {
                 method,
                 reason: format!(
-                    "auto: {} is {:.1}x cheaper here (RK4 step {:.2e} s, IMEX step {:.2e} s, one IMEX step costs {IMEX_STEP_COST} RK4 steps)",
+                    "auto: {} is {:.1}x cheaper here (RK4 step {:.2e} s, IMEX step {:.2e} s, one IMEX step costs {:.2} RK4 steps)",
                     method.name(),
                     rk4.max(imex) / rk4.min(imex),
                     steps.rk4_auto_s,
-                    steps.imex_auto_s
+                    steps.imex_auto_s,
+                    imex_step_cost(steps.segments)
                 ),
             }
         }

@@ -2,14 +2,16 @@
 //! |λ dt| ≈ 2.78 on the negative real axis, so its step is bound by the largest eigenvalue of
 //! the linearised chain (`docs/model.md`, "Time step").
 
-use crate::engine::stepper::{CartClock, Stepper};
+use crate::engine::stepper::{CartClock, Stepper, compensated_add};
 use crate::model::{Chain, ContactLaw, Real, Workspace};
 
-/// Scratch of one RK4 step: the four stage derivatives and a stage state.
+/// Scratch of one RK4 step: the four stage derivatives and a stage state; and the state's
+/// summation compensation, carried from step to step ([`compensated_add`]).
 #[derive(Debug, Clone)]
 pub struct Rk4Scratch<T> {
     k: [Vec<T>; 4],
     tmp: Vec<T>,
+    comp: Vec<T>,
 }
 
 impl<T: Real> Rk4Scratch<T> {
@@ -18,7 +20,8 @@ impl<T: Real> Rk4Scratch<T> {
         let z = vec![T::zero(); dim];
         Rk4Scratch {
             k: [z.clone(), z.clone(), z.clone(), z.clone()],
-            tmp: z,
+            tmp: z.clone(),
+            comp: z,
         }
     }
 }
@@ -37,7 +40,7 @@ pub fn rk4_step<T: Real>(
     let half = T::of(0.5);
     let sixth = T::of(1.0 / 6.0);
     let [a0, a_mid, a1] = cart_acc;
-    let (k, tmp) = (&mut s.k, &mut s.tmp);
+    let (k, tmp, comp) = (&mut s.k, &mut s.tmp, &mut s.comp);
     chain.derivative(ws, a0, y, &mut k[0], ContactLaw::Exact);
     stage(tmp, y, &k[0], dt * half);
     chain.derivative(ws, a_mid, tmp, &mut k[1], ContactLaw::Exact);
@@ -46,7 +49,8 @@ pub fn rk4_step<T: Real>(
     stage(tmp, y, &k[2], dt);
     chain.derivative(ws, a1, tmp, &mut k[3], ContactLaw::Exact);
     for i in 0..y.len() {
-        y[i] += dt * sixth * (k[0][i] + T::of(2.0) * (k[1][i] + k[2][i]) + k[3][i]);
+        let inc = dt * sixth * (k[0][i] + T::of(2.0) * (k[1][i] + k[2][i]) + k[3][i]);
+        compensated_add(&mut y[i], &mut comp[i], inc);
     }
 }
 

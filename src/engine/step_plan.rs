@@ -93,7 +93,7 @@ pub fn given_step_warning(method: Method, dt: f64, steps: &MethodSteps) -> Optio
             steps.rk4_stable_s
         )),
         Method::Imex if dt > steps.imex_limit_s() => Some(format!(
-            "integration.dt_s = {dt:e} s exceeds the IMEX method's limit {:e} s (explicit stability and 1/80 of the first bending period): expect lost accuracy, and instances that blow up are flagged `diverged`",
+            "integration.dt_s = {dt:e} s exceeds the IMEX method's limit {:e} s (explicit stability and 1/500 of the first bending period): expect lost accuracy, and instances that blow up are flagged `diverged`",
             steps.imex_limit_s()
         )),
         _ => None,

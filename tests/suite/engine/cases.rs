@@ -187,10 +187,12 @@ count = 3
     let reference = map_on(under.reference(), &spec).expect("cpu map");
     // Twins of the reference started 1e-3 deg (1.7e-5 rad) either side: a cell whose K class
     // a twin changes is sensitive to perturbations (chaos near the class boundary, coexisting
-    // attractors), and no two engines can be expected to agree on it. f32 rounding perturbs
-    // the state by ~1e-7 relative at every step, more than a single 1e-6 deg twin did: with
-    // that twin, a cell at 12 Hz / 4 mm passed as robustly regular (K = 0.10 and 0.22) while
-    // both f32 engines found K = 0.98. Parity is judged on the cells both twins keep in class.
+    // attractors), and no two engines can be expected to agree on it; f32 rounding in every
+    // derivative is such a perturbation. (A single 1e-6 deg twin missed cells: one at 12 Hz /
+    // 4 mm passed as robustly regular with K = 0.10 and 0.22, both f32 engines found 0.98.)
+    // Before the state updates were compensated sums, f32 drifted systematically over the
+    // ~4e5 steps of a 28-s IMEX run and two robust chaotic cells came out regular on both
+    // f32 engines. Parity is judged on the cells both twins keep in class.
     let twins: Vec<MapRun> = ["19.999", "20.001"]
         .iter()
         .map(|angle| {
