@@ -187,7 +187,7 @@ pub struct SpectrumSummary {
     pub ratio_label: Option<String>,
 }
 
-/// Per-record statistics of ANALYSIS.md.
+/// Per-record statistics of docs/analysis.md.
 #[derive(Debug, Clone, Serialize)]
 pub struct Statistics {
     /// Period in forcing periods from the stroboscopic samples (0: none found).

@@ -117,7 +117,7 @@ pub struct StiffReport {
     /// Horizon of part (a) (s).
     pub horizon_s: f64,
     /// Wall time of each DOP853 reference (N, reading, s).
-    pub reference_wall_s: Vec<(usize, Reading, f64)>,
+    pub reference_wall_s: ReferenceWalls,
     /// Part (a).
     pub horizon: Vec<HorizonRow>,
     /// Part (b): segments of its maps.
@@ -239,12 +239,15 @@ fn steps_measured(quick: bool) -> Vec<(Method, f64)> {
         .collect()
 }
 
+/// Wall time of each DOP853 reference: (N, reading, s).
+type ReferenceWalls = Vec<(usize, Reading, f64)>;
+
 /// Part (a) for every N, reading, method and step on every engine.
 fn horizon_part(
     opts: &StiffOptions,
     engines: &[&Engine],
     progress: &dyn Fn(&str),
-) -> Result<(Vec<HorizonRow>, Vec<(usize, Reading, f64)>), EngineError> {
+) -> Result<(Vec<HorizonRow>, ReferenceWalls), EngineError> {
     let ns: &[usize] = if opts.quick { &[5] } else { &[5, 9, 17] };
     let (mut rows, mut refs) = (Vec::new(), Vec::new());
     for &n in ns {

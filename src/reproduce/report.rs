@@ -2,18 +2,20 @@
 //!
 //! Every sentence about our results is chosen by a comparison of computed values (a count, a
 //! threshold, a difference); only the transcriptions of the paper and the list of our
-//! modelling choices (MODEL.md) are fixed text.
+//! modelling choices (docs/model.md) are fixed text.
 
 use super::cases::PaperCase;
 use super::indicators::{StationaryAnalysis, SweepAnalysis};
 use super::table::{CaseRow, k_cell, num, table2_markdown};
 use std::fmt::Write;
 
+mod readings;
 mod reasons;
 mod statements;
 mod summary;
 mod sweep;
 
+use readings::both_readings;
 use reasons::reasons;
 use statements::statements;
 use summary::summary;
@@ -69,6 +71,8 @@ pub struct ReportInput<'a> {
     pub sweep: Option<(&'a PaperCase, &'a SweepAnalysis, f64)>,
     /// File names of the figures written.
     pub figures: &'a [String],
+    /// The Table 2 cases and experiments with the earlier reading of the damping.
+    pub earlier_reading: &'a [CaseRow],
 }
 
 fn list(items: &[String]) -> String {
@@ -134,6 +138,7 @@ pub fn report_markdown(inp: &ReportInput) -> String {
     );
     statements(&mut s, inp);
     experiments(&mut s, inp);
+    both_readings(&mut s, inp);
     sweep(&mut s, inp);
     reasons(&mut s, inp);
     figures(&mut s, inp);

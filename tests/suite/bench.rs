@@ -70,3 +70,47 @@ fn bench_report_writes_table_json_and_pictures() {
         assert!(img.width() >= 600 && img.height() >= 400);
     }
 }
+
+#[test]
+fn the_stiff_study_compares_rk4_and_imex_against_the_reference() {
+    use pendulum_atlas::bench::stiff::{Reading, StiffOptions, run_stiff};
+    use pendulum_atlas::bench::stiff_report::markdown;
+    use pendulum_atlas::engine::method::Method;
+    let r = run_stiff(
+        &StiffOptions {
+            quick: true,
+            gpu: None,
+        },
+        &|_| {},
+    )
+    .expect("study");
+    // N = 5, both readings, RK4 at 1x and IMEX at 4, 1 and 0.25x, CPU f64 and f32.
+    assert_eq!(r.horizon.len(), 2 * 4 * 2);
+    for h in &r.horizon {
+        assert_eq!(h.segments, 5);
+        assert!(h.alpha_err_rad.is_finite(), "{h:?}");
+        // Each method at its automatic step is within 1e-4 rad of DOP853 over 0.5 s.
+        if h.dt_factor == 1.0 {
+            assert!(h.alpha_err_rad < 1e-4, "{h:?}");
+        }
+    }
+    // The library damping shortens RK4's step (stiffer joints), not the IMEX method's.
+    let dt = |reading: Reading, method: Method| {
+        r.horizon
+            .iter()
+            .find(|h| h.reading == reading && h.method == method && h.dt_factor == 1.0)
+            .map(|h| h.dt_s)
+            .expect("row")
+    };
+    assert!(dt(Reading::Library, Method::Rk4) < 0.5 * dt(Reading::Earlier, Method::Rk4));
+    assert_eq!(
+        dt(Reading::Library, Method::Imex),
+        dt(Reading::Earlier, Method::Imex)
+    );
+    // Maps: RK4's reference against itself, then IMEX on each CPU engine.
+    assert_eq!(r.maps.len(), 3);
+    assert_eq!(r.maps[0].k_class_agree, 1.0);
+    assert!(r.maps.iter().all(|m| m.cells > 0));
+    let page = markdown(&r);
+    assert!(page.contains("Wall time at the same α error"), "{page}");
+}

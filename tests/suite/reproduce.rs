@@ -21,8 +21,9 @@ fn out_dir(name: &str) -> PathBuf {
 }
 
 /// Every file `reproduce` promises, named after the paper's figures.
-const EXPECTED: [&str; 31] = [
+const EXPECTED: [&str; 32] = [
     "table2.csv",
+    "earlier_reading.csv",
     "table2.md",
     "experiments.csv",
     "summary.json",
@@ -167,9 +168,32 @@ fn quick_reproduction_writes_every_file_with_finite_numbers() {
         assert!(report.contains(name), "REPORT.md does not link {name}");
     }
 
+    // The earlier reading of the damping, run again for every stationary case: its own numbers
+    // (a different damping gives a different motion), counted in the report from its rows.
+    let earlier = read_csv(&out.join("earlier_reading.csv"));
+    assert_eq!(earlier.len(), 9, "6 Table 2 cases and 3 experiments");
+    assert!(
+        earlier
+            .iter()
+            .zip(&rows)
+            .any(|(e, l)| number(e, "k_strobe") != number(l, "k_strobe")),
+        "the earlier reading gave the library reading's numbers"
+    );
+    let agree_earlier = earlier[..6]
+        .iter()
+        .filter(|r| r["regime_extrema"] == r["regime_paper"])
+        .count();
+    assert!(
+        report.contains(&format!(
+            "**{agree} of 6** with the library reading, **{agree_earlier} of 6** with the earlier one"
+        )),
+        "REPORT.md does not count both readings ({agree}, {agree_earlier})"
+    );
+
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["quick"], true);
+    assert_eq!(summary["earlier_reading"].as_array().unwrap().len(), 9);
     assert_eq!(summary["sweep_windows"].as_array().unwrap().len(), 4);
 
     for name in EXPECTED.iter().filter(|n| n.ends_with(".png")) {

@@ -43,8 +43,9 @@ fn regular_cases_chaotic_here(s: &mut String, t: &[CaseResult]) {
         "1. **{} chaotic in our model.** The paper calls {} regular; our K on \
          the extrema is {}. {}The model choices \
          that decide where the boundary between regular and chaotic motion lies, all marked \"(choice)\" \
-         in MODEL.md, are the first suspects: Table 1's \"damping constant 0.35\" read as a damping ratio \
-         ζ1 = 0.35 % of the first bending mode (the paper gives no unit); point bumpers touching the beam \
+         in docs/model.md, are the first suspects: Table 1's \"damping constant 0.35\" (the paper gives no \
+         unit; read here as the modelling library's per-joint constant b = 0.35 N m s/rad, ζ1 ≈ 0.054, \
+         with the contact damper acting on loading only); point bumpers touching the beam \
          at 30 mm from the pivot (the paper: \"attached to the beam elements depending on deflection \
          shape\"); a rigid-segment chain with rotational springs in place of Simscape's flexible beam; \
          no friction or damping in the hinge (the paper names \"the rotating handle\" as a source of \
