@@ -160,6 +160,17 @@ const SAMPLES_PER_PERIOD: u32 = 16;
 
 const MAP_METRICS: [Metric; 3] = [Metric::K, Metric::R, Metric::Period];
 
+/// Forcing periods after the transient in the study's maps (K needs at least 95).
+const MAP_PERIODS: f64 = 100.0;
+
+/// The scenes of the reference map (N = 17, automatic step) and of the K-only comparison, for
+/// a check that each gives K enough samples.
+pub fn study_scenes(quick: bool) -> Vec<Scene> {
+    let mut v = map_scenes(17, None, quick);
+    v.extend(k_only_scenes());
+    v
+}
+
 /// The scene of the study at N segments (Table 1, 8 Hz, 9 mm, limiter at 20°), edited. This
 /// study measures RK4 on the earlier reading of the damping (ζ1 = 0.0035, Kelvin–Voigt
 /// contact), where its step is affordable at N = 17; [`stiff`] compares RK4 with the IMEX
@@ -269,22 +280,18 @@ fn horizon_error(
 
 /// The reference map's scenes for N segments and, when given, a step factor.
 fn map_scenes(n: usize, factor: Option<f64>, quick: bool) -> Vec<Scene> {
-    let (fs, amps, duration, transient): (&[f64], &[f64], f64, f64) = if quick {
-        (&[5.0, 7.5, 10.0, 12.0], &[0.006, 0.012, 0.02], 6.0, 2.0)
+    let (fs, amps, transient): (&[f64], &[f64], f64) = if quick {
+        (&[5.0, 7.5, 10.0, 12.0], &[0.006, 0.012, 0.02], 2.0)
     } else {
-        (
-            &[5.0, 7.0, 9.5, 12.0],
-            &[0.006, 0.01, 0.015, 0.02],
-            12.0,
-            4.0,
-        )
+        (&[5.0, 7.0, 9.5, 12.0], &[0.006, 0.01, 0.015, 0.02], 4.0)
     };
     let dt = factor.map(|f| explicit_step(n, f));
     let mut out = Vec::new();
     for &f in fs {
         for &a in amps {
             out.push(bench_scene(n, |s| {
-                timing(s, duration, transient);
+                // K needs 95 stroboscopic samples after the transient: 100 forcing periods.
+                timing(s, transient + MAP_PERIODS / f, transient);
                 if let Some(dt) = dt {
                     s.integration.dt_s = TimeStep::Seconds(dt);
                 }
@@ -494,9 +501,9 @@ pub fn run_bench(opts: &BenchOptions, progress: &dyn Fn(&str)) -> Result<BenchRe
         machine: machine(opts.gpu),
         horizon_s: HORIZON_S,
         reference_map: if quick {
-            "f in {5, 7.5, 10, 12} Hz x A in {6, 12, 20} mm, 6 s (transient 2 s)".into()
+            "f in {5, 7.5, 10, 12} Hz x A in {6, 12, 20} mm, 2 s + 100 forcing periods".into()
         } else {
-            "f in {5, 7, 9.5, 12} Hz x A in {6, 10, 15, 20} mm, 12 s (transient 4 s)".into()
+            "f in {5, 7, 9.5, 12} Hz x A in {6, 10, 15, 20} mm, 4 s + 100 forcing periods".into()
         },
         reference_wall_s,
         reference_map_wall_s,
@@ -507,20 +514,9 @@ pub fn run_bench(opts: &BenchOptions, progress: &dyn Fn(&str)) -> Result<BenchRe
     })
 }
 
-/// K only against all metrics: an 8 × 8 map at N = 3, 20 s.
+/// K only against all metrics on the 8 × 8 map of [`k_only_scenes`].
 fn k_only(engine: &Engine, progress: &dyn Fn(&str)) -> Result<KOnly, EngineError> {
-    let mut scenes = Vec::new();
-    for i in 0..8 {
-        for j in 0..8 {
-            scenes.push(bench_scene(3, |s| {
-                s.excitation.kind = crate::model::ExcitationKind::Harmonic {
-                    frequency_hz: 4.0 + i as f64,
-                };
-                s.excitation.amplitude_m = 0.004 + 0.002 * j as f64;
-                timing(s, 20.0, 5.0);
-            }));
-        }
-    }
+    let scenes = k_only_scenes();
     let all = run_map_scenes(&scenes, Metric::ALL[..6].to_vec(), engine)?;
     let k = run_map_scenes(&scenes, vec![Metric::K], engine)?;
     let entry = KOnly {
@@ -536,6 +532,22 @@ fn k_only(engine: &Engine, progress: &dyn Fn(&str)) -> Result<KOnly, EngineError
         entry.all_metrics_s
     ));
     Ok(entry)
+}
+
+/// The K-only comparison's 8 × 8 map at N = 3: f 4–11 Hz, A 4–18 mm, 100 periods after 5 s.
+fn k_only_scenes() -> Vec<Scene> {
+    let mut scenes = Vec::new();
+    for i in 0..8 {
+        for j in 0..8 {
+            let f = 4.0 + i as f64;
+            scenes.push(bench_scene(3, |s| {
+                s.excitation.kind = crate::model::ExcitationKind::Harmonic { frequency_hz: f };
+                s.excitation.amplitude_m = 0.004 + 0.002 * j as f64;
+                timing(s, 5.0 + MAP_PERIODS / f, 5.0);
+            }));
+        }
+    }
+    scenes
 }
 
 /// Per-step cost against N: a fixed step and no dampers so every N runs the same steps.

@@ -114,3 +114,25 @@ fn the_stiff_study_compares_rk4_and_imex_against_the_reference() {
     let page = markdown(&r);
     assert!(page.contains("Wall time at the same α error"), "{page}");
 }
+
+#[test]
+fn every_map_of_the_study_gives_k_enough_samples() {
+    // A study that stops on its own map with "the 0-1 test needs at least 95 samples" is a
+    // broken command: plan each of its maps with K the way the study does.
+    use pendulum_atlas::config::Metric;
+    use pendulum_atlas::engine::{EnsembleOptions, EnsemblePlan};
+    for quick in [true, false] {
+        let opts = EnsembleOptions {
+            metrics: vec![Metric::K, Metric::R, Metric::Period],
+            keep_strobe: false,
+            samples_per_period: 16,
+            strobe_phase: 0.0,
+            r_max_samples: 1024,
+            early_stop: None,
+        };
+        for s in pendulum_atlas::bench::study_scenes(quick) {
+            EnsemblePlan::from_scenes(std::slice::from_ref(&s), &opts)
+                .unwrap_or_else(|e| panic!("quick = {quick}: {e}"));
+        }
+    }
+}
