@@ -90,17 +90,7 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     let scene = a.scene.load()?;
     let m = scene.modes();
     let plan = StepPlan::for_scene(&scene);
-    if a.integrator == IntegratorChoice::Engine {
-        eprintln!(
-            "method: {} ({}), dt = {:.3e} s",
-            plan.method.name(),
-            plan.method_reason,
-            plan.dt_s
-        );
-    }
-    for w in &plan.warnings {
-        eprintln!("warning: {w}");
-    }
+    announce(&plan, a.integrator);
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create output folder {}", a.out.display()))?;
     let piezo = scene.piezo_params();
@@ -114,22 +104,8 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     }
     let started = Instant::now();
     let precision = a.precision.unwrap_or(Precision::F64);
-    let (outcome, precision): (Outcome, &str) = match (a.integrator, precision) {
-        (IntegratorChoice::Reference, _) => {
-            let inst = Instance::<f64>::from_scene(&scene);
-            let opts = ReferenceOptions::for_stiffness(m.spectral_radius_per_s);
-            let o = integrate_reference(&inst, &plan, &opts, &mut rec)?;
-            (o, "f64")
-        }
-        (IntegratorChoice::Engine, Precision::F64) => {
-            let inst = Instance::<f64>::from_scene(&scene);
-            (integrate(&inst, &plan, &mut rec), "f64")
-        }
-        (IntegratorChoice::Engine, Precision::F32) => {
-            let inst = Instance::<f32>::from_scene(&scene);
-            (integrate(&inst, &plan, &mut rec), "f32")
-        }
-    };
+    let (outcome, precision) =
+        integrate_run(&scene, &plan, &m, (a.integrator, precision), &mut rec)?;
     let wall = started.elapsed().as_secs_f64();
     if let Some(b) = bar {
         b.finish_and_clear();
@@ -146,13 +122,9 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     let analysis = if outcome.status != Status::Ok {
         None
     } else {
-        match analyse_run(&scene, &rec.rows, &a.out) {
-            Ok(r) => Some(r),
-            Err(e) => {
-                warnings.push(format!("analysis of the run skipped: {e:#}"));
-                None
-            }
-        }
+        analyse_run(&scene, &rec.rows, &a.out)
+            .map_err(|e| warnings.push(format!("analysis of the run skipped: {e:#}")))
+            .ok()
     };
     let json = RunJson {
         scene: &scene,
@@ -188,6 +160,46 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
         csv_path.display()
     );
     Ok(())
+}
+
+/// Print the engine's method and step, and the plan's warnings.
+fn announce(plan: &StepPlan, integrator: IntegratorChoice) {
+    if integrator == IntegratorChoice::Engine {
+        eprintln!(
+            "method: {} ({}), dt = {:.3e} s",
+            plan.method.name(),
+            plan.method_reason,
+            plan.dt_s
+        );
+    }
+    for w in &plan.warnings {
+        eprintln!("warning: {w}");
+    }
+}
+
+/// Integrate the run with the chosen integrator and precision; the precision's name.
+fn integrate_run(
+    scene: &Scene,
+    plan: &StepPlan,
+    m: &Modes,
+    (integrator, precision): (IntegratorChoice, Precision),
+    rec: &mut TrajectoryRecorder,
+) -> anyhow::Result<(Outcome, &'static str)> {
+    Ok(match (integrator, precision) {
+        (IntegratorChoice::Reference, _) => {
+            let inst = Instance::<f64>::from_scene(scene);
+            let opts = ReferenceOptions::for_stiffness(m.spectral_radius_per_s);
+            (integrate_reference(&inst, plan, &opts, rec)?, "f64")
+        }
+        (IntegratorChoice::Engine, Precision::F64) => (
+            integrate(&Instance::<f64>::from_scene(scene), plan, rec),
+            "f64",
+        ),
+        (IntegratorChoice::Engine, Precision::F32) => (
+            integrate(&Instance::<f32>::from_scene(scene), plan, rec),
+            "f32",
+        ),
+    })
 }
 
 /// A progress bar for runs expected to take more than a second or two.
