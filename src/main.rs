@@ -9,7 +9,8 @@ fn main() {
     let args = cli::Cli::parse();
     if let Err(e) = cli::run(args) {
         eprintln!("error: {e:#}");
-        std::process::exit(2);
+        let failed_run = e.downcast_ref::<cli::RunFailed>().is_some();
+        std::process::exit(if failed_run { 3 } else { 2 });
     }
 }
 

@@ -81,5 +81,12 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
         run.plan.dt_range_s.1
     );
     println!("wrote {} files to {}", files.len(), a.out.display());
+    if ok == 0 {
+        return Err(super::RunFailed(format!(
+            "no instance of the map ended ok ({} failed; see status_counts in map.json)",
+            run.results.len()
+        ))
+        .into());
+    }
     Ok(())
 }

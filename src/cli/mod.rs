@@ -12,12 +12,25 @@ mod search;
 mod simulate;
 
 use clap::{Parser, Subcommand};
+
+/// A run that completed and wrote its files, but whose result failed (exit status 3).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct RunFailed(pub String);
 use std::path::PathBuf;
 
 /// Chaos and bifurcation maps of an elastic inverted pendulum with clearance
 /// (Łygas et al., Meccanica 2019), with the analysis of the paper.
 #[derive(Debug, Parser)]
-#[command(name = "pendulum-atlas", version, about, long_about = None)]
+#[command(
+    name = "pendulum-atlas",
+    version,
+    about,
+    long_about = None,
+    after_help = "Exit status: 0 on success; 2 on an error (bad input, files, no GPU adapter), \
+                  with nothing or nothing complete written; 3 when a run completed and wrote its \
+                  files but its result failed (simulate: status not ok; map: no instance ok)."
+)]
 pub struct Cli {
     /// What to do.
     #[command(subcommand)]

@@ -90,6 +90,13 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     let scene = a.scene.load()?;
     let m = scene.modes();
     let plan = StepPlan::for_scene(&scene);
+    if plan.steps == 0 {
+        anyhow::bail!(
+            "integration.duration_s = {} s is shorter than half a step (dt = {:e} s): the run would take no step; lengthen integration.duration_s or shorten integration.dt_s",
+            scene.integration.duration_s,
+            plan.dt_s
+        );
+    }
     announce(&plan, a.integrator);
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create output folder {}", a.out.display()))?;
@@ -159,6 +166,15 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
         outcome.status,
         csv_path.display()
     );
+    if outcome.status != Status::Ok {
+        return Err(super::RunFailed(format!(
+            "the run stopped with status `{}` at t = {:.6} s; what it integrated is in {}",
+            outcome.status,
+            outcome.failed_at_s.unwrap_or(f64::NAN),
+            a.out.display()
+        ))
+        .into());
+    }
     Ok(())
 }
 

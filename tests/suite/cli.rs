@@ -344,3 +344,95 @@ fn analyze_rejects_bad_records_clearly() {
     ]);
     assert!(e.contains("--resample"), "{e}");
 }
+
+#[test]
+fn a_run_of_no_step_is_refused() {
+    // A 2-s scene at dt = 10 s, and a 1-ns scene at the automatic step.
+    for (duration, dt) in [("2", "10"), ("1e-9", "\"auto\"")] {
+        let set = format!("integration.duration_s={duration}");
+        let step = format!("integration.dt_s={dt}");
+        let out = out_dir("no_step");
+        let o = bin()
+            .args([
+                "simulate",
+                "--set",
+                "beam.segments=3",
+                "--set",
+                &set,
+                "--set",
+                &step,
+            ])
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(2), "{set}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.contains("no step") && err.contains("integration.duration_s"),
+            "{err}"
+        );
+        assert!(!out.join("run.json").exists(), "{set}");
+    }
+}
+
+#[test]
+fn a_failed_run_writes_its_files_and_exits_3() {
+    // RK4 at ten times its stable step: the run blows up and is flagged.
+    let out = out_dir("failed_run");
+    let o = bin()
+        .args([
+            "simulate",
+            "--set",
+            "beam.segments=3",
+            "--set",
+            "integration.method=rk4",
+        ])
+        .args([
+            "--set",
+            "integration.dt_s=1e-2",
+            "--set",
+            "integration.duration_s=2",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(3),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let run: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("run.json")).unwrap()).unwrap();
+    assert_ne!(run["status"], "ok");
+    assert!(String::from_utf8_lossy(&o.stderr).contains("stopped with status"));
+    // A map none of whose instances ends ok exits 3 too, after writing map.json.
+    let map_out = out_dir("failed_map");
+    let o = bin()
+        .args([
+            "map",
+            "configs/stress/dt_beyond_limit.toml",
+            "--backend",
+            "cpu",
+            "--quiet",
+        ])
+        .args([
+            "--set",
+            "integration.method=rk4",
+            "--set",
+            "integration.dt_s=1e-2",
+        ])
+        .arg("--out")
+        .arg(&map_out)
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(3),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(map_out.join("map.json").exists());
+}
