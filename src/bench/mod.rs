@@ -13,6 +13,8 @@
 
 pub mod report;
 pub mod stiff;
+pub mod stiff_map;
+pub mod stiff_map_report;
 pub mod stiff_report;
 
 use crate::config::{Metric, Scene, TimeStep};

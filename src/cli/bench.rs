@@ -2,6 +2,8 @@
 
 use super::engine::BackendArg;
 use pendulum_atlas::bench::stiff::{StiffOptions, run_stiff};
+use pendulum_atlas::bench::stiff_map::{StiffMapOptions, run_stiff_map};
+use pendulum_atlas::bench::stiff_map_report::write_stiff_map;
 use pendulum_atlas::bench::stiff_report::write_stiff;
 use pendulum_atlas::bench::{BenchOptions, report::write_bench, run_bench};
 use std::path::PathBuf;
@@ -20,6 +22,12 @@ pub struct BenchArgs {
     /// (writes STIFF.md, stiff.json and stiff_work_precision.png).
     #[arg(long)]
     pub stiff: bool,
+    /// The stiff-chain map study instead: a 48-cell (f, A) map at N = 17 with the library
+    /// damping, RK4 at its limit against the IMEX method, its twin from a perturbed start and
+    /// its half step (writes STIFF_MAP.md, stiff_map.csv and stiff_map.json; over an hour on
+    /// 2 cores, `--quick` minutes).
+    #[arg(long, conflicts_with = "stiff")]
+    pub stiff_map: bool,
     /// Output folder.
     #[arg(long, default_value = "runs/bench")]
     pub out: PathBuf,
@@ -33,6 +41,23 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
         BackendArg::Gpu => Some(super::engine::EngineArgs::gpu_engine()?),
         BackendArg::Auto => super::engine::EngineArgs::gpu_engine().ok(),
     };
+    if a.stiff_map {
+        let report = run_stiff_map(
+            &StiffMapOptions {
+                quick: a.quick,
+                gpu: gpu.as_ref(),
+            },
+            &|line| eprintln!("{line}"),
+        )?;
+        let files = write_stiff_map(&a.out, &report)?;
+        println!(
+            "bench --stiff-map: {} cells in {:.0} s",
+            report.cells.len(),
+            report.total_s
+        );
+        println!("wrote {} files to {}", files.len(), a.out.display());
+        return Ok(());
+    }
     if a.stiff {
         let report = run_stiff(
             &StiffOptions {

@@ -116,6 +116,42 @@ fn the_stiff_study_compares_rk4_and_imex_against_the_reference() {
 }
 
 #[test]
+fn the_stiff_map_study_counts_agreement_on_classified_and_settled_cells() {
+    use pendulum_atlas::bench::stiff_map::{StiffMapOptions, agreement, run_stiff_map};
+    use pendulum_atlas::bench::stiff_map_report::markdown;
+    let r = run_stiff_map(
+        &StiffMapOptions {
+            quick: true,
+            gpu: None,
+        },
+        &|_| {},
+    )
+    .expect("study");
+    let labels: Vec<&str> = r.maps.iter().map(|m| m.label.as_str()).collect();
+    assert_eq!(labels, ["rk4", "imex", "imex-twin", "imex-half", "imex"]);
+    assert_eq!(r.cells.len(), 4);
+    assert!(r.maps.iter().all(|m| m.k.len() == 4 && m.period.len() == 4));
+    // The half step is half the IMEX step (to within the fit to whole steps per sample).
+    let ratio = r.maps[3].dt_s / r.maps[1].dt_s;
+    assert!((ratio - 0.5).abs() < 0.01, "{ratio}");
+    // The reference agrees with itself on every classified cell.
+    let own = agreement(&r.maps[0], &r.maps[0], &r.classified);
+    assert_eq!(
+        (own.k_class, own.period, own.both),
+        (own.cells, own.cells, own.cells)
+    );
+    // Settled: exactly the classified cells where imex, its twin and its half step agree.
+    for &c in &r.classified {
+        let same = |i: usize| r.maps[1].agrees(&r.maps[i], c) == (true, true);
+        assert_eq!(r.settled.contains(&c), same(2) && same(3), "cell {c}");
+    }
+    assert_eq!(r.over_classified.len(), 4);
+    assert!(r.over_settled.iter().all(|a| a.cells == r.settled.len()));
+    let page = markdown(&r);
+    assert!(page.contains("The floor"), "{page}");
+}
+
+#[test]
 fn every_map_of_the_study_gives_k_enough_samples() {
     // A study that stops on its own map with "the 0-1 test needs at least 95 samples" is a
     // broken command: plan each of its maps with K the way the study does.
