@@ -75,7 +75,7 @@ pub fn markdown(r: &StiffMapReport) -> String {
     let mm: Vec<String> = r
         .amplitudes_m
         .iter()
-        .map(|a| format!("{}", a * 1e3))
+        .map(|a| format!("{:.1}", a * 1e3))
         .collect();
     let _ = writeln!(
         s,
@@ -152,7 +152,7 @@ fn cell_table(s: &mut String, r: &StiffMapReport) {
     }
     s.push_str("---|\n");
     for (c, (f, a)) in r.cells.iter().enumerate() {
-        let _ = write!(s, "| {f} | {} |", a * 1e3);
+        let _ = write!(s, "| {f} | {:.1} |", a * 1e3);
         for m in &r.maps {
             let _ = if m.status[c] == crate::model::Status::Ok {
                 write!(s, " {:.2} / {} |", m.k[c], m.period[c])

@@ -82,10 +82,12 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 
 impl SceneArgs {
     /// Load and validate the scene with its overrides.
+    /// Its remarks (keys given but not used) are printed as warnings.
     pub fn load(&self) -> anyhow::Result<pendulum_atlas::config::Scene> {
-        Ok(pendulum_atlas::config::load_scene(
-            self.scene.as_deref(),
-            &self.sets,
-        )?)
+        let scene = pendulum_atlas::config::load_scene(self.scene.as_deref(), &self.sets)?;
+        for note in &scene.notes {
+            eprintln!("warning: {note}");
+        }
+        Ok(scene)
     }
 }

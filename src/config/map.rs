@@ -308,6 +308,37 @@ pub fn split_section(
     }
 }
 
+/// Refuse a `--set` of a key that `section.<array>` sweeps (`[[map.axes]]`,
+/// `[[search.variables]]`): every instance sets its own value, so the override would be
+/// silently replaced.
+pub fn refuse_sets_on_swept(
+    sets: &[String],
+    section: &Table,
+    array: &str,
+    what: &str,
+) -> Result<(), ConfigError> {
+    let Some(Value::Array(items)) = section.get(array) else {
+        return Ok(());
+    };
+    let swept: Vec<&str> = items
+        .iter()
+        .filter_map(|v| v.get("key").and_then(Value::as_str))
+        .collect();
+    for arg in sets {
+        let key = arg.split_once('=').map_or(arg.as_str(), |(k, _)| k).trim();
+        if swept.contains(&key) {
+            return Err(ConfigError::BadOverride {
+                arg: arg.clone(),
+                reason: format!(
+                    "`{key}` is {what}: every instance takes its own value, so --set cannot \
+                     fix it; change its range in the scene file, or remove it there"
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Read a map scene: `path` (or the embedded default map when `None`) with `--set` overrides.
 /// Overrides may target scene keys (`excitation.amplitude_m=0.012`) or map keys
 /// (`map.samples_per_period=32`).
@@ -325,6 +356,7 @@ pub fn map_from_toml(text: &str, origin: &str, sets: &[String]) -> Result<MapSpe
         "map",
         "a map scene names its axes in [[map.axes]] (see configs/maps/)",
     )?;
+    refuse_sets_on_swept(sets, &map, "axes", "an axis of this map")?;
     let scene = Scene::from_table(table.clone())?;
     if !matches!(scene.excitation.kind, ExcitationKind::Harmonic { .. }) {
         return Err(ConfigError::Inconsistent {

@@ -139,6 +139,7 @@ impl Range {
 pub struct Reader {
     table: Table,
     used: BTreeSet<String>,
+    notes: Vec<String>,
 }
 
 impl Reader {
@@ -147,7 +148,18 @@ impl Reader {
         Reader {
             table,
             used: BTreeSet::new(),
+            notes: Vec::new(),
         }
+    }
+
+    /// Record a remark for the user (a key given but not used, say).
+    pub fn note(&mut self, text: String) {
+        self.notes.push(text);
+    }
+
+    /// The remarks recorded so far.
+    pub fn take_notes(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.notes)
     }
 
     /// The raw value at a dotted key, marking the key as known.

@@ -216,6 +216,9 @@ pub struct Scene {
     pub output: Output,
     /// Initial state.
     pub initial: Initial,
+    /// Remarks from reading the scene (keys given but not used), for the commands to print.
+    #[serde(skip)]
+    pub notes: Vec<String>,
 }
 
 /// Upper bound on segments: beyond this the step size and memory make no sense for this tool.
@@ -240,7 +243,8 @@ impl Scene {
     /// Validate an already-parsed table. Every key is optional and defaults to Table 1.
     pub fn from_table(table: Table) -> Result<Scene, ConfigError> {
         let mut r = Reader::new(table);
-        let scene = read_scene(&mut r)?;
+        let mut scene = read_scene(&mut r)?;
+        scene.notes = r.take_notes();
         r.finish()?;
         Ok(scene)
     }
@@ -321,6 +325,7 @@ fn read_scene(r: &mut Reader) -> Result<Scene, ConfigError> {
         integration,
         output,
         initial,
+        notes: Vec::new(),
     })
 }
 
@@ -463,6 +468,12 @@ fn read_excitation(r: &mut Reader, duration_s: f64) -> Result<Excitation, Config
     let kind = r.choice("excitation.kind", "harmonic", &["harmonic", "sweep"])?;
     let frequency_hz = r.number("excitation.frequency_hz", 8.0, Range::Positive, "Hz")?;
     let kind = if kind == "sweep" {
+        if r.raw("excitation.frequency_hz")?.is_some() {
+            r.note(format!(
+                "excitation.frequency_hz = {frequency_hz} is not used: a sweep runs from \
+                 excitation.sweep_start_hz to excitation.sweep_end_hz"
+            ));
+        }
         ExcitationKind::Sweep {
             start_hz: r.number("excitation.sweep_start_hz", 4.0, Range::Positive, "Hz")?,
             end_hz: r.number("excitation.sweep_end_hz", 8.0, Range::Positive, "Hz")?,

@@ -23,7 +23,7 @@
 
 use crate::config::{
     AxisScale, ConfigError, ExcitationKind, Range, Reader, Scene, lookup_key, read_sweep,
-    scene_text, set_key, split_section,
+    refuse_sets_on_swept, scene_text, set_key, split_section,
 };
 use serde::Serialize;
 use toml::{Table, Value};
@@ -401,6 +401,12 @@ pub fn search_from_toml(
         sets,
         "search",
         "a search scene names its design variables and band (see configs/harvest/)",
+    )?;
+    refuse_sets_on_swept(
+        sets,
+        &search,
+        "variables",
+        "a design variable of this search",
     )?;
     let scene = Scene::from_table(table.clone())?;
     if !scene.piezo.enabled {

@@ -195,3 +195,36 @@ fn the_contact_damping_law_is_one_of_two_names() {
         "{e}"
     );
 }
+
+#[test]
+fn a_sweep_says_that_its_frequency_key_is_not_used() {
+    let sweep = pendulum_atlas::config::load_scene(None, &["excitation.kind=\"sweep\"".into()])
+        .expect("scene");
+    assert_eq!(sweep.notes.len(), 1, "{:?}", sweep.notes);
+    assert!(
+        sweep.notes[0].contains("excitation.frequency_hz"),
+        "{:?}",
+        sweep.notes
+    );
+    // The harmonic scene uses every key it is given.
+    assert!(Scene::paper().notes.is_empty());
+}
+
+#[test]
+fn setting_a_swept_key_is_an_error_that_names_the_axis() {
+    for value in ["5.0", "5"] {
+        let arg = format!("excitation.amplitude_m={value}");
+        let err = pendulum_atlas::config::load_map(None, std::slice::from_ref(&arg))
+            .expect_err("an axis cannot be set");
+        let text = err.to_string();
+        assert!(text.contains("is an axis of this map"), "{text}");
+        assert!(!text.contains("integer"), "{text}");
+    }
+    // A key no axis sweeps is still overridden.
+    let spec =
+        pendulum_atlas::config::load_map(None, &["limiter.clearance_deg=15".into()]).expect("map");
+    assert_eq!(spec.scene.limiter.clearance_deg, 15.0);
+    let err = pendulum_atlas::harvest::load_search(None, &["limiter.clearance_deg=15".into()])
+        .expect_err("a design variable cannot be set");
+    assert!(err.to_string().contains("design variable"), "{err}");
+}
