@@ -12,6 +12,7 @@ use pendulum_atlas::engine::{
 };
 use pendulum_atlas::model::{Modes, Status};
 use pendulum_atlas::output::Row;
+use pendulum_atlas::output::files::write_json;
 use pendulum_atlas::output::{TrajectoryRecorder, write_trajectory_csv};
 use pendulum_atlas::render::{self, Panel, Series};
 use serde::Serialize;
@@ -117,6 +118,8 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     if let Some(b) = bar {
         b.finish_and_clear();
     }
+    // File times come from the kernel's coarse clock (a few ms behind): allow for it.
+    let writing = std::time::SystemTime::now() - std::time::Duration::from_millis(20);
     let csv_path = a.out.join("trajectory.csv");
     write_trajectory_csv(&csv_path, &rec.rows, piezo.is_some())?;
     let mut warnings = plan.warnings.clone();
@@ -158,13 +161,23 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
         warnings: &warnings,
         analysis: analysis.as_ref(),
     };
-    std::fs::write(a.out.join("run.json"), serde_json::to_string_pretty(&json)?)?;
+    // The manifest last: its presence means the folder is complete.
+    write_json(&a.out.join("run.json"), &json)?;
+    for w in &warnings[plan.warnings.len()..] {
+        eprintln!("warning: {w}");
+    }
     eprintln!(
-        "{} steps of {:.3e} s in {wall:.2} s, status {}: wrote {} and run.json",
+        "{} steps of {:.3e} s in {wall:.2} s, status {}: wrote {} files to {} (trajectory.csv, run.json{})",
         outcome.steps_done,
         plan.dt_s,
         outcome.status,
-        csv_path.display()
+        files_written_since(&a.out, writing),
+        a.out.display(),
+        if analysis.is_some() {
+            ", the analysis' figures and arrays"
+        } else {
+            ""
+        }
     );
     if outcome.status != Status::Ok {
         return Err(super::RunFailed(format!(
@@ -176,6 +189,17 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
         .into());
     }
     Ok(())
+}
+
+/// Files in `dir` written at or after `since` (this run's, not an earlier run's).
+fn files_written_since(dir: &std::path::Path, since: std::time::SystemTime) -> usize {
+    std::fs::read_dir(dir).map_or(0, |entries| {
+        entries
+            .filter_map(Result::ok)
+            .filter_map(|e| e.metadata().ok())
+            .filter(|m| m.is_file() && m.modified().is_ok_and(|t| t >= since))
+            .count()
+    })
 }
 
 /// Print the engine's method and step, and the plan's warnings.

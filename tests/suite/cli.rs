@@ -436,3 +436,49 @@ fn a_failed_run_writes_its_files_and_exits_3() {
     );
     assert!(map_out.join("map.json").exists());
 }
+
+#[test]
+fn simulate_prints_its_warnings_and_every_file_it_wrote() {
+    // RK4 beyond its stable step: the run stops early, run.json carries the warning that rows
+    // after that time are not written, and it must be printed too; the last line counts the
+    // files this run wrote, not the user's own file beside them.
+    let out = out_dir("feedback");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("notes.txt"), "the user's own file").unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(50));
+    let o = bin()
+        .args([
+            "simulate",
+            "--set",
+            "beam.segments=3",
+            "--set",
+            "integration.method=rk4",
+        ])
+        .args([
+            "--set",
+            "integration.dt_s=1e-2",
+            "--set",
+            "integration.duration_s=2",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(3));
+    let err = String::from_utf8_lossy(&o.stderr);
+    let run: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("run.json")).unwrap()).unwrap();
+    let warnings = run["warnings"].as_array().unwrap();
+    assert!(!warnings.is_empty());
+    for w in warnings {
+        assert!(
+            err.contains(w.as_str().unwrap()),
+            "{w} not printed in:\n{err}"
+        );
+    }
+    let written = std::fs::read_dir(&out).unwrap().count() - 1;
+    assert!(
+        err.contains(&format!("wrote {written} files to {}", out.display())),
+        "{err}"
+    );
+}
