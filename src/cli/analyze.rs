@@ -7,6 +7,8 @@ use pendulum_atlas::analysis::{
     TimeGap, WaveletSettings, ZeroOneOptions, analyze_record, check_uniform_time, median_step,
     resample_uniform, time_gaps,
 };
+use pendulum_atlas::output::files::write_json;
+use pendulum_atlas::output::folder::Product;
 use std::path::{Path, PathBuf};
 
 /// Relative tolerance within which every time step must equal the median step for the record
@@ -79,6 +81,10 @@ pub struct AnalyzeArgs {
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace an earlier run in --out: delete the files this command writes there first
+    /// (other files are left alone). Without it, a folder holding such files is refused.
+    #[arg(long)]
+    pub force: bool,
     /// Wavelet transform and significance.
     #[command(flatten)]
     pub wavelet: Box<WaveletArgs>,
@@ -328,6 +334,7 @@ pub fn run(a: AnalyzeArgs) -> anyhow::Result<()> {
     let mut msgs = Messages::default();
     let record = uniform_record(&a, &table, &mut msgs)?;
     let opts = record_options(&a, &mut msgs)?;
+    super::claim_out(Product::Analyze, &a.out, a.force)?;
     let mut result = analyze_record(
         &record.signal,
         record.reference.as_deref(),
@@ -635,8 +642,6 @@ fn explain(e: AnalysisError, a: &AnalyzeArgs) -> anyhow::Error {
 
 /// analysis.json, spectrum.csv, the arrays and the pictures.
 fn write_outputs(a: &AnalyzeArgs, result: &RecordAnalysis, record: &Record) -> anyhow::Result<()> {
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("cannot create output folder {}", a.out.display()))?;
     super::report::write_analysis(
         &a.out,
         result,
@@ -659,9 +664,9 @@ fn write_outputs(a: &AnalyzeArgs, result: &RecordAnalysis, record: &Record) -> a
         "resampled": record.resampled,
         "gaps": record.gaps,
     });
-    let path = a.out.join("analysis.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&json)?)
-        .with_context(|| format!("cannot write {}", path.display()))
+    // The manifest last: its presence means the folder is complete.
+    write_json(&a.out.join("analysis.json"), &json)?;
+    Ok(())
 }
 
 /// K and R on one line, then the notes and anything left out.

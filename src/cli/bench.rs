@@ -6,6 +6,7 @@ use pendulum_atlas::bench::stiff_map::{StiffMapOptions, run_stiff_map};
 use pendulum_atlas::bench::stiff_map_report::write_stiff_map;
 use pendulum_atlas::bench::stiff_report::write_stiff;
 use pendulum_atlas::bench::{BenchOptions, report::write_bench, run_bench};
+use pendulum_atlas::output::folder::Product;
 use std::path::PathBuf;
 
 /// Arguments of `bench`.
@@ -31,10 +32,22 @@ pub struct BenchArgs {
     /// Output folder.
     #[arg(long, default_value = "runs/bench")]
     pub out: PathBuf,
+    /// Replace an earlier run in --out: delete the files this study writes there first
+    /// (other files are left alone). Without it, a folder holding such files is refused.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Run `bench`.
 pub fn run(a: BenchArgs) -> anyhow::Result<()> {
+    let product = if a.stiff_map {
+        Product::BenchStiffMap
+    } else if a.stiff {
+        Product::BenchStiff
+    } else {
+        Product::Bench
+    };
+    super::claim_out(product, &a.out, a.force)?;
     // The GPU device is opened once here and reused by every configuration.
     let gpu = match a.backend {
         BackendArg::Cpu => None,

@@ -6,6 +6,7 @@ use pendulum_atlas::config::load_map;
 use pendulum_atlas::engine::ProgressUnit;
 use pendulum_atlas::map::run_map;
 use pendulum_atlas::model::Status;
+use pendulum_atlas::output::folder::Product;
 use pendulum_atlas::output::map::write_map;
 use std::path::PathBuf;
 
@@ -23,6 +24,10 @@ pub struct MapArgs {
     /// Output folder.
     #[arg(long, default_value = "runs/map")]
     pub out: PathBuf,
+    /// Replace an earlier run in --out: delete the files this command writes there first
+    /// (other files are left alone). Without it, a folder holding such files is refused.
+    #[arg(long)]
+    pub force: bool,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -32,6 +37,7 @@ pub struct MapArgs {
 pub fn run(a: MapArgs) -> anyhow::Result<()> {
     let spec = load_map(a.scene.as_deref(), &a.sets)?;
     let engine = a.engine.open()?;
+    super::claim_out(Product::Map, &a.out, a.force)?;
     let bar = if a.quiet {
         ProgressBar::hidden()
     } else {

@@ -17,7 +17,8 @@ use clap::{Parser, Subcommand};
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct RunFailed(pub String);
-use std::path::PathBuf;
+use pendulum_atlas::output::folder::Product;
+use std::path::{Path, PathBuf};
 
 /// Chaos and bifurcation maps of an elastic inverted pendulum with clearance
 /// (Łygas et al., Meccanica 2019), with the analysis of the paper.
@@ -65,6 +66,20 @@ pub enum Command {
     Reproduce(reproduce::ReproduceArgs),
     /// Broadband-harvesting design search against the linear clamped cantilever.
     Search(search::SearchArgs),
+}
+
+/// Make `out` the command's output folder before any work (see `output::folder`): refused when
+/// it holds an earlier run, unless `force`, which deletes that run's files (and says so).
+fn claim_out(product: Product, out: &Path, force: bool) -> anyhow::Result<()> {
+    let cleared = product.claim(out, force)?;
+    if cleared > 0 {
+        eprintln!(
+            "--force: deleted {cleared} file(s) of an earlier `{}` run in {}",
+            product.command(),
+            out.display()
+        );
+    }
+    Ok(())
 }
 
 /// Run the parsed command line.

@@ -1,6 +1,7 @@
 //! `pendulum-atlas reproduce`: every case of the paper, its Table 2, figures and a report.
 
 use anyhow::Context;
+use pendulum_atlas::output::folder::Product;
 use pendulum_atlas::reproduce::{ReproduceOptions, paper_cases, reproduce};
 use std::path::PathBuf;
 
@@ -13,16 +14,15 @@ pub struct ReproduceArgs {
     /// Fewer segments (N = 3) and 12 s runs: the same pipeline in seconds, for CI and a first look.
     #[arg(long)]
     quick: bool,
+    /// Replace an earlier run in --out: delete the files this command writes there first
+    /// (other files are left alone). Without it, a folder holding such files is refused.
+    #[arg(long)]
+    force: bool,
 }
 
 /// Run all cases (in parallel) and write table2.csv/.md, REPORT.md and the figures.
 pub fn run(a: ReproduceArgs) -> anyhow::Result<()> {
-    if a.out.is_file() {
-        anyhow::bail!(
-            "--out {} is a file; give a folder (it is created if needed)",
-            a.out.display()
-        );
-    }
+    super::claim_out(Product::Reproduce, &a.out, a.force)?;
     eprintln!(
         "reproducing {} cases of the paper{} on {} threads into {}",
         paper_cases().len(),

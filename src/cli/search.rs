@@ -3,6 +3,7 @@
 use super::engine::EngineArgs;
 use indicatif::{ProgressBar, ProgressStyle};
 use pendulum_atlas::harvest::{load_search, run_search, verify_design, write_search};
+use pendulum_atlas::output::folder::Product;
 use std::path::PathBuf;
 
 /// Arguments of `search`.
@@ -19,6 +20,10 @@ pub struct SearchArgs {
     /// Output folder.
     #[arg(long, default_value = "runs/harvest")]
     pub out: PathBuf,
+    /// Replace an earlier run in --out: delete the files this command writes there first
+    /// (other files are left alone). Without it, a folder holding such files is refused.
+    #[arg(long)]
+    pub force: bool,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -32,6 +37,7 @@ pub fn run(a: SearchArgs) -> anyhow::Result<()> {
         |p| p.display().to_string(),
     );
     let engine = a.engine.open()?;
+    super::claim_out(Product::Search, &a.out, a.force)?;
     let bar = if a.quiet {
         ProgressBar::hidden()
     } else {

@@ -1,7 +1,6 @@
 //! `pendulum-atlas simulate`: one run, written as trajectory.csv and run.json.
 
 use super::SceneArgs;
-use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use pendulum_atlas::analysis::{RecordAnalysis, RecordOptions, Sampling, analyze_record};
 use pendulum_atlas::config::ExcitationKind;
@@ -13,6 +12,7 @@ use pendulum_atlas::engine::{
 use pendulum_atlas::model::{Modes, Status};
 use pendulum_atlas::output::Row;
 use pendulum_atlas::output::files::write_json;
+use pendulum_atlas::output::folder::Product;
 use pendulum_atlas::output::{TrajectoryRecorder, write_trajectory_csv};
 use pendulum_atlas::render::{self, Panel, Series};
 use serde::Serialize;
@@ -55,6 +55,10 @@ pub struct SimulateArgs {
     /// Output folder (created if needed).
     #[arg(long)]
     out: PathBuf,
+    /// Replace an earlier run in --out: delete the files this command writes there first
+    /// (other files are left alone). Without it, a folder holding such files is refused.
+    #[arg(long)]
+    force: bool,
 }
 
 #[derive(Serialize)]
@@ -98,9 +102,8 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
             plan.dt_s
         );
     }
+    super::claim_out(Product::Simulate, &a.out, a.force)?;
     announce(&plan, a.integrator);
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("cannot create output folder {}", a.out.display()))?;
     let piezo = scene.piezo_params();
     let mut rec = TrajectoryRecorder {
         load_ohm: piezo.as_ref().map(|z| z.load_ohm),
@@ -118,8 +121,6 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    // File times come from the kernel's coarse clock (a few ms behind): allow for it.
-    let writing = std::time::SystemTime::now() - std::time::Duration::from_millis(20);
     let csv_path = a.out.join("trajectory.csv");
     write_trajectory_csv(&csv_path, &rec.rows, piezo.is_some())?;
     let mut warnings = plan.warnings.clone();
@@ -171,7 +172,7 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
         outcome.steps_done,
         plan.dt_s,
         outcome.status,
-        files_written_since(&a.out, writing),
+        Product::Simulate.files_in(&a.out)?.len(),
         a.out.display(),
         if analysis.is_some() {
             ", the analysis' figures and arrays"
@@ -189,17 +190,6 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
         .into());
     }
     Ok(())
-}
-
-/// Files in `dir` written at or after `since` (this run's, not an earlier run's).
-fn files_written_since(dir: &std::path::Path, since: std::time::SystemTime) -> usize {
-    std::fs::read_dir(dir).map_or(0, |entries| {
-        entries
-            .filter_map(Result::ok)
-            .filter_map(|e| e.metadata().ok())
-            .filter(|m| m.is_file() && m.modified().is_ok_and(|t| t >= since))
-            .count()
-    })
 }
 
 /// Print the engine's method and step, and the plan's warnings.

@@ -37,6 +37,37 @@ pub enum OutputError {
         /// serde_json's reason.
         source: serde_json::Error,
     },
+    /// The output folder is a file.
+    #[error("--out `{0}` is a file; give a folder (it is created if needed)")]
+    NotAFolder(String),
+    /// The output folder holds files of an earlier run of the same command.
+    #[error(
+        "--out `{dir}` already holds {count} file(s) of an earlier `{command}` run ({examples}): choose a new folder, or pass --force to delete those files first"
+    )]
+    FolderInUse {
+        /// The folder.
+        dir: String,
+        /// The command asked to write there.
+        command: &'static str,
+        /// How many of its files the folder holds.
+        count: usize,
+        /// A few of their names.
+        examples: String,
+    },
+    /// The output folder holds another command's run.
+    #[error(
+        "--out `{dir}` holds a `{other}` run ({manifest}); `{command}` writes into a folder of its own: choose another folder"
+    )]
+    OtherRun {
+        /// The folder.
+        dir: String,
+        /// The other run's manifest.
+        manifest: &'static str,
+        /// The command that wrote it.
+        other: &'static str,
+        /// The command asked to write there.
+        command: &'static str,
+    },
     /// A picture could not be drawn.
     #[error("cannot draw `{path}`: {source}")]
     Render {

@@ -3,6 +3,7 @@
 
 mod error;
 pub mod files;
+pub mod folder;
 pub mod map;
 pub mod npy;
 mod trajectory;

@@ -357,8 +357,7 @@ fn file_names(paths: &[PathBuf]) -> Vec<String> {
 /// Write `text` to `out/name`; returns the path.
 fn write_text(out: &Path, name: &str, text: &str) -> Result<PathBuf, ReproduceError> {
     let p = out.join(name);
-    std::fs::write(&p, text).map_err(|e| ReproduceError::io(&p, e))?;
-    Ok(p)
+    Ok(crate::output::files::write_bytes(&p, text.as_bytes())?)
 }
 
 /// `table2.csv`, `table2.md` and `experiments.csv`; returns their paths in that order.

@@ -383,7 +383,7 @@ fn wavelet_settings_are_options_and_written_out() {
         assert_eq!(npy_shape(&d.join(f)), shape, "{f}");
     }
     // The defaults are written too, with the estimator named.
-    let (_, j) = success(&analyze(&data, &A, &d), &d);
+    let (_, j) = success(&analyze(&data, &[&A[..], &["--force"]].concat(), &d), &d);
     assert_eq!(j["wavelet"]["dj"], 1.0 / 12.0);
     assert_eq!(j["wavelet"]["mother"]["omega0"], 6.0);
     assert!(
@@ -417,7 +417,7 @@ fn time_unit_is_written_to_json() {
     );
     assert_eq!(j["time_unit"], "ms");
     assert_eq!(j["options"]["time_unit"], "ms");
-    let (_, j) = success(&analyze(&data, &A, &d), &d);
+    let (_, j) = success(&analyze(&data, &[&A[..], &["--force"]].concat(), &d), &d);
     assert_eq!(j["time_unit"], "s");
     let e = failure(&analyze(
         &data,

@@ -482,3 +482,115 @@ fn simulate_prints_its_warnings_and_every_file_it_wrote() {
         "{err}"
     );
 }
+
+/// `simulate` of a 1-s N = 3 run into `out`, with extra arguments.
+fn small_simulate(out: &std::path::Path, extra: &[&str]) -> std::process::Output {
+    bin()
+        .args([
+            "simulate",
+            "--set",
+            "beam.segments=3",
+            "--set",
+            "integration.duration_s=1",
+        ])
+        .args(extra)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn a_rerun_into_a_used_folder_is_refused_unless_forced_and_force_clears_only_its_files() {
+    let out = out_dir("rerun");
+    assert!(small_simulate(&out, &[]).status.success());
+    let run_json = std::fs::read(out.join("run.json")).unwrap();
+    // What an earlier, different run could have left, and a file of the user's.
+    std::fs::write(out.join("R_of_an_old_run.npy"), b"old").unwrap();
+    std::fs::write(out.join("notes.txt"), b"mine").unwrap();
+    let o = small_simulate(&out, &["--set", "excitation.frequency_hz=5"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("already holds") && e.contains("--force") && e.contains("run.json"),
+        "{e}"
+    );
+    assert_eq!(std::fs::read(out.join("run.json")).unwrap(), run_json);
+    let o = small_simulate(&out, &["--set", "excitation.frequency_hz=5", "--force"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{e}");
+    assert!(e.contains("--force: deleted"), "{e}");
+    assert!(!out.join("R_of_an_old_run.npy").exists());
+    assert_eq!(std::fs::read(out.join("notes.txt")).unwrap(), b"mine");
+    let run: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("run.json")).unwrap()).unwrap();
+    assert_eq!(run["scene"]["excitation"]["kind"]["frequency_hz"], 5.0);
+}
+
+#[test]
+fn a_folder_holding_another_commands_run_is_refused_even_with_force() {
+    let out = out_dir("other-run");
+    assert!(small_simulate(&out, &[]).status.success());
+    let o = bin()
+        .args([
+            "map",
+            "--backend",
+            "cpu",
+            "--set",
+            "beam.segments=3",
+            "--force",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("`simulate` run") && e.contains("run.json"),
+        "{e}"
+    );
+    assert!(out.join("trajectory.csv").is_file());
+    assert!(!out.join("map.json").exists());
+}
+
+#[test]
+fn map_checks_its_output_folder_before_any_work() {
+    let dir = out_dir("map-out-is-a-file");
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("x");
+    std::fs::write(&file, b"").unwrap();
+    // A map of days of work: only a check made first can answer in time.
+    let mut child = bin()
+        .args([
+            "map",
+            "--backend",
+            "cpu",
+            "--quiet",
+            "--set",
+            "integration.duration_s=1e4",
+        ])
+        .arg("--out")
+        .arg(&file)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = std::time::Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if started.elapsed().as_secs() > 120 {
+            child.kill().unwrap();
+            panic!("map computed before checking --out");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    let mut e = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut e).unwrap();
+    assert_eq!(status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("is a file") && e.contains(&*file.to_string_lossy()),
+        "{e}"
+    );
+}

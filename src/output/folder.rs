@@ -1,0 +1,229 @@
+//! Who owns an output folder. Each command writes into a folder of its own, so that nothing in it
+//! is left from an earlier run (an old `R.npy` of another shape beside a new `K.npy`):
+//!
+//! - a folder that does not exist is created;
+//! - a folder holding files this command writes (its [`Product`]'s names and patterns) is refused,
+//!   unless `--force`, which deletes those files first and nothing else;
+//! - a folder holding another command's manifest (say `map.json` where `simulate` is asked to
+//!   write) is refused even with `--force`: the two runs would mix.
+//!
+//! The check runs before any work, so a bad `--out` costs nothing.
+
+use super::error::OutputError;
+use std::path::{Path, PathBuf};
+
+/// What a command writes into its folder: a manifest written last, fixed file names, and
+/// extensions of which it writes files with varying names (pictures and arrays).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Product {
+    /// `simulate`: `trajectory.csv`, `run.json` and the analysis of the run.
+    Simulate,
+    /// `map`: `grid.csv`, `.npy` arrays, PNG maps, `map.json`.
+    Map,
+    /// `analyze`: the analysis of a record and `analysis.json`.
+    Analyze,
+    /// `reproduce`: Table 2, the experiments, figures, `REPORT.md`, `summary.json`.
+    Reproduce,
+    /// `search`: designs, instances, the best design, figures, `search.json`.
+    Search,
+    /// `bench` (the work-precision study): `BENCHMARKS.md`, its figures, `bench.json`.
+    Bench,
+    /// `bench --stiff`: `STIFF.md`, its figure, `stiff.json`.
+    BenchStiff,
+    /// `bench --stiff-map`: `STIFF_MAP.md`, `stiff_map.csv`, `stiff_map.json`.
+    BenchStiffMap,
+}
+
+impl Product {
+    /// Every product, for finding whose manifest a folder holds.
+    pub const ALL: [Product; 8] = [
+        Product::Simulate,
+        Product::Map,
+        Product::Analyze,
+        Product::Reproduce,
+        Product::Search,
+        Product::Bench,
+        Product::BenchStiff,
+        Product::BenchStiffMap,
+    ];
+
+    /// The command that writes it (the bench studies share one and may share a folder).
+    pub fn command(self) -> &'static str {
+        match self {
+            Product::Simulate => "simulate",
+            Product::Map => "map",
+            Product::Analyze => "analyze",
+            Product::Reproduce => "reproduce",
+            Product::Search => "search",
+            Product::Bench | Product::BenchStiff | Product::BenchStiffMap => "bench",
+        }
+    }
+
+    /// The file written last: its presence means the folder is complete.
+    pub fn manifest(self) -> &'static str {
+        match self {
+            Product::Simulate => "run.json",
+            Product::Map => "map.json",
+            Product::Analyze => "analysis.json",
+            Product::Reproduce => "summary.json",
+            Product::Search => "search.json",
+            Product::Bench => "bench.json",
+            Product::BenchStiff => "stiff.json",
+            Product::BenchStiffMap => "stiff_map.json",
+        }
+    }
+
+    /// File names it writes besides the manifest.
+    fn names(self) -> &'static [&'static str] {
+        match self {
+            Product::Simulate => &["trajectory.csv", "spectrum.csv"],
+            Product::Map => &["grid.csv"],
+            Product::Analyze => &["spectrum.csv"],
+            Product::Reproduce => &[
+                "table2.csv",
+                "table2.md",
+                "experiments.csv",
+                "earlier_reading.csv",
+                "REPORT.md",
+            ],
+            Product::Search => &[
+                "designs.csv",
+                "instances.csv",
+                "verification.csv",
+                "best_design.toml",
+                "best.md",
+            ],
+            Product::Bench => &["BENCHMARKS.md", "work_precision.png", "map_error.png"],
+            Product::BenchStiff => &["STIFF.md", "stiff_work_precision.png"],
+            Product::BenchStiffMap => &["STIFF_MAP.md", "stiff_map.csv"],
+        }
+    }
+
+    /// Extensions of files it writes under names that vary with the run.
+    fn extensions(self) -> &'static [&'static str] {
+        match self {
+            Product::Simulate | Product::Map | Product::Analyze => &["npy", "png"],
+            Product::Reproduce | Product::Search => &["png"],
+            Product::Bench | Product::BenchStiff | Product::BenchStiffMap => &[],
+        }
+    }
+
+    /// Whether a file of this name is one this product writes (or the temporary file of one,
+    /// left by a killed run: `.NAME.tmp-PID.EXT`).
+    pub fn writes(self, name: &str) -> bool {
+        let name = temp_target(name).unwrap_or_else(|| name.to_string());
+        if name == self.manifest() || self.names().contains(&name.as_str()) {
+            return true;
+        }
+        Path::new(&name)
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| self.extensions().contains(&e))
+    }
+
+    /// The files of `dir` this product writes, sorted by name.
+    pub fn files_in(self, dir: &Path) -> Result<Vec<PathBuf>, OutputError> {
+        let mut found: Vec<PathBuf> = plain_files(dir)?
+            .into_iter()
+            .filter(|p| file_name(p).is_some_and(|n| self.writes(&n)))
+            .collect();
+        found.sort();
+        Ok(found)
+    }
+
+    /// Make `dir` this product's: create it, or check that it holds no earlier run (see the
+    /// module's rules); with `force`, delete the files this product writes there. Returns the
+    /// number of files deleted.
+    pub fn claim(self, dir: &Path, force: bool) -> Result<usize, OutputError> {
+        if dir.exists() && !dir.is_dir() {
+            return Err(OutputError::NotAFolder(dir.display().to_string()));
+        }
+        if !dir.exists() {
+            super::files::create_dir(dir)?;
+            return Ok(0);
+        }
+        if let Some(other) = self.foreign_manifest(dir) {
+            return Err(OutputError::OtherRun {
+                dir: dir.display().to_string(),
+                manifest: other.manifest(),
+                other: other.command(),
+                command: self.command(),
+            });
+        }
+        let ours = self.files_in(dir)?;
+        if ours.is_empty() {
+            return Ok(0);
+        }
+        if !force {
+            return Err(OutputError::FolderInUse {
+                dir: dir.display().to_string(),
+                command: self.command(),
+                count: ours.len(),
+                examples: examples(&ours, self.manifest()),
+            });
+        }
+        for p in &ours {
+            std::fs::remove_file(p).map_err(|e| OutputError::io(p, e))?;
+        }
+        Ok(ours.len())
+    }
+
+    /// Another command's manifest in `dir`, if any.
+    fn foreign_manifest(self, dir: &Path) -> Option<Product> {
+        Product::ALL
+            .into_iter()
+            .filter(|p| p.command() != self.command())
+            .find(|p| dir.join(p.manifest()).is_file())
+    }
+}
+
+/// What `--force` does, for each command's `--help`.
+pub const FORCE_HELP: &str = "Replace an earlier run in --out: delete the files this command \
+    writes there first (other files are left alone). Without it, a folder that already holds \
+    such files is refused, so that no file of an earlier run is left beside the new ones";
+
+/// The target name of a temporary file (`.NAME.tmp-PID.EXT` → `NAME.EXT`).
+fn temp_target(name: &str) -> Option<String> {
+    let rest = name.strip_prefix('.')?;
+    let (stem, tail) = rest.split_once(".tmp-")?;
+    let ext = tail.split_once('.').map(|(_, e)| format!(".{e}"));
+    Some(format!("{stem}{}", ext.unwrap_or_default()))
+}
+
+fn plain_files(dir: &Path) -> Result<Vec<PathBuf>, OutputError> {
+    let entries = std::fs::read_dir(dir).map_err(|e| OutputError::io(dir, e))?;
+    Ok(entries
+        .filter_map(Result::ok)
+        .map(|e| e.path())
+        .filter(|p| p.is_file())
+        .collect())
+}
+
+fn file_name(p: &Path) -> Option<String> {
+    p.file_name().map(|n| n.to_string_lossy().into_owned())
+}
+
+/// Up to four names, the manifest first, then "…".
+fn examples(paths: &[PathBuf], manifest: &str) -> String {
+    let mut names: Vec<String> = paths.iter().filter_map(|p| file_name(p)).collect();
+    names.sort_by_key(|n| n != manifest);
+    names.truncate(4);
+    if paths.len() > 4 {
+        names.push("…".into());
+    }
+    names.join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn temporary_files_count_as_their_target() {
+        assert_eq!(temp_target(".K.tmp-123.npy").as_deref(), Some("K.npy"));
+        assert_eq!(temp_target(".x.tmp-7").as_deref(), Some("x"));
+        assert_eq!(temp_target("K.npy"), None);
+        assert!(Product::Map.writes(".grid.tmp-99.csv"));
+        assert!(!Product::Map.writes("data.csv"));
+    }
+}
