@@ -11,8 +11,10 @@ use pendulum_atlas::engine::{
 };
 use pendulum_atlas::model::{Modes, Status};
 use pendulum_atlas::output::Row;
+use pendulum_atlas::output::budget::{self, RunSize};
 use pendulum_atlas::output::files::write_json;
 use pendulum_atlas::output::folder::Product;
+use pendulum_atlas::output::{BASE_COLUMNS, PIEZO_COLUMNS};
 use pendulum_atlas::output::{TrajectoryRecorder, write_trajectory_csv};
 use pendulum_atlas::render::{self, Panel, Series};
 use serde::Serialize;
@@ -95,16 +97,10 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     let scene = a.scene.load()?;
     let m = scene.modes();
     let plan = StepPlan::for_scene(&scene);
-    if plan.steps == 0 {
-        anyhow::bail!(
-            "integration.duration_s = {} s is shorter than half a step (dt = {:e} s): the run would take no step; lengthen integration.duration_s or shorten integration.dt_s",
-            scene.integration.duration_s,
-            plan.dt_s
-        );
-    }
-    super::claim_out(Product::Simulate, &a.out, a.force)?;
-    announce(&plan, a.integrator);
     let piezo = scene.piezo_params();
+    let size = run_size(&scene, &plan, piezo.is_some(), &a.out)?;
+    super::claim_out(Product::Simulate, &a.out, a.force)?;
+    announce(&plan, a.integrator, &size);
     let mut rec = TrajectoryRecorder {
         load_ohm: piezo.as_ref().map(|z| z.load_ohm),
         ..Default::default()
@@ -192,8 +188,29 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Print the engine's method and step, and the plan's warnings.
-fn announce(plan: &StepPlan, integrator: IntegratorChoice) {
+/// The run's steps, rows, memory and CSV size, refused when it takes no step or does not fit
+/// (see `output::budget`).
+fn run_size(
+    scene: &Scene,
+    plan: &StepPlan,
+    piezo: bool,
+    out: &std::path::Path,
+) -> anyhow::Result<RunSize> {
+    let duration = scene.integration.duration_s;
+    let columns = BASE_COLUMNS.len() + if piezo { PIEZO_COLUMNS.len() } else { 0 };
+    let size = RunSize::new(duration, plan.dt_s, plan.sample_every, columns)?;
+    if size.steps == 0 {
+        anyhow::bail!(
+            "integration.duration_s = {duration} s is shorter than half a step (dt = {:e} s): the run would take no step; lengthen integration.duration_s or shorten integration.dt_s",
+            plan.dt_s
+        );
+    }
+    size.check(out)?;
+    Ok(size)
+}
+
+/// Print the engine's method and step, the run's size, and the plan's warnings.
+fn announce(plan: &StepPlan, integrator: IntegratorChoice, size: &RunSize) {
     if integrator == IntegratorChoice::Engine {
         eprintln!(
             "method: {} ({}), dt = {:.3e} s",
@@ -202,6 +219,13 @@ fn announce(plan: &StepPlan, integrator: IntegratorChoice) {
             plan.dt_s
         );
     }
+    eprintln!(
+        "run: {} steps, {} rows (about {} in memory, {} of trajectory.csv)",
+        size.steps,
+        size.rows,
+        budget::bytes(size.memory_bytes),
+        budget::bytes(size.csv_bytes)
+    );
     for w in &plan.warnings {
         eprintln!("warning: {w}");
     }

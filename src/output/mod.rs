@@ -1,6 +1,7 @@
 //! What leaves the program: trajectories as CSV, arrays as `.npy`, maps and their pictures,
 //! every file written whole or not at all ([`files`]).
 
+pub mod budget;
 mod error;
 pub mod files;
 pub mod folder;

@@ -594,3 +594,26 @@ fn map_checks_its_output_folder_before_any_work() {
         "{e}"
     );
 }
+
+#[test]
+fn simulate_refuses_a_run_beyond_the_step_limit_or_the_machine_before_starting() {
+    for (set, says) in [
+        ("integration.dt_s=1e-300", "limit is 4294967295"),
+        ("integration.duration_s=1e12", "limit is 4294967295"),
+        // 4e9 rows of 112 bytes: more memory than a test machine has.
+        ("output.sample_rate_hz=1e9", "of memory"),
+    ] {
+        let out = out_dir("too-large");
+        let o = bin()
+            .args(["simulate", "--set", "beam.segments=3", "--set"])
+            .args(["integration.duration_s=4", "--set", set])
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{set}: {e}");
+        assert!(e.contains(says), "{set}: {e}");
+        assert!(!out.exists(), "{set}: the folder was created");
+    }
+}

@@ -83,12 +83,17 @@ fn negative_mass_and_length_are_refused_with_the_range() {
 }
 
 #[test]
-fn zero_segments_are_refused() {
-    let e = scene_error(&["beam.segments=0"]);
-    assert!(
-        e.contains("`beam.segments` = 0 is out of range: accepted integers in [1, 4096]"),
-        "{e}"
-    );
+fn segments_outside_one_to_256_are_refused_with_the_range() {
+    for n in [0, 257, 4096] {
+        let e = scene_error(&[&format!("beam.segments={n}")]);
+        assert!(
+            e.contains(&format!(
+                "`beam.segments` = {n} is out of range: accepted integers in [1, 256]"
+            )),
+            "{e}"
+        );
+    }
+    assert_eq!(scene(&["beam.segments=256"]).beam.segments, 256);
 }
 
 #[test]

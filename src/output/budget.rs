@@ -1,0 +1,204 @@
+//! What a single run will cost before it starts: steps, output rows, memory and disk, checked
+//! against the engines' step limit and what the machine has, so that `duration_s = 1e12` or
+//! `dt_s = 1e-300` is refused with the numbers instead of running until memory or patience ends.
+//!
+//! - steps ≤ 2³² (the limit the map engines have too);
+//! - memory: every row is held until it is written (`size_of::<Row>()` bytes) plus the copies the
+//!   analysis makes (α and the cart, 16 bytes a row): at most [`MEMORY_SHARE`] of what the
+//!   machine has available;
+//! - disk: [`CSV_BYTES_PER_VALUE`] bytes per CSV value (the shortest round-trip decimal of an
+//!   f64 and its separator, about 20 characters), at most the space left on the output's
+//!   file system.
+
+use super::Row;
+use std::path::Path;
+
+/// The share of available memory a run may plan to use.
+pub const MEMORY_SHARE: f64 = 0.8;
+
+/// Bytes per value of `trajectory.csv` (digits, sign, exponent and the separator).
+pub const CSV_BYTES_PER_VALUE: u64 = 21;
+
+/// The largest number of steps of one run.
+pub const MAX_STEPS: u64 = u32::MAX as u64;
+
+/// The size of one run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunSize {
+    /// Integration steps.
+    pub steps: u64,
+    /// Output rows (t = 0 included).
+    pub rows: u64,
+    /// Memory held for the rows (bytes).
+    pub memory_bytes: u64,
+    /// Size of `trajectory.csv` (bytes, estimated).
+    pub csv_bytes: u64,
+}
+
+/// Why a run is too large.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TooLarge {
+    /// More steps than the engines count.
+    #[error(
+        "the run needs {steps:.3e} steps; the limit is {MAX_STEPS} (2^32): shorten integration.duration_s or lengthen integration.dt_s"
+    )]
+    Steps {
+        /// Steps the run needs.
+        steps: f64,
+    },
+    /// More memory than the machine has available.
+    #[error(
+        "the run's {rows} output rows need about {need} of memory and {available} is available: lower output.sample_rate_hz or shorten integration.duration_s"
+    )]
+    Memory {
+        /// Rows.
+        rows: u64,
+        /// Memory needed, readable.
+        need: String,
+        /// Memory available, readable.
+        available: String,
+    },
+    /// A larger trajectory than the output's file system can hold.
+    #[error(
+        "trajectory.csv would take about {need} and {dir} has {available} free: lower output.sample_rate_hz, shorten integration.duration_s or choose another --out"
+    )]
+    Disk {
+        /// The output folder.
+        dir: String,
+        /// Bytes needed, readable.
+        need: String,
+        /// Bytes free, readable.
+        available: String,
+    },
+}
+
+impl RunSize {
+    /// The size of a run of `duration_s / dt_s` steps writing a row every `sample_every` steps
+    /// with `columns` CSV columns. Counts are computed in floating point first, so a step of
+    /// 1e-300 s is a huge number, not a saturated integer.
+    pub fn new(
+        duration_s: f64,
+        dt_s: f64,
+        sample_every: u64,
+        columns: usize,
+    ) -> Result<RunSize, TooLarge> {
+        let steps = (duration_s / dt_s).round();
+        if !(steps <= MAX_STEPS as f64) {
+            return Err(TooLarge::Steps { steps });
+        }
+        let steps = steps as u64;
+        let rows = steps / sample_every.max(1) + 1;
+        let per_row = std::mem::size_of::<Row>() as u64 + 16;
+        Ok(RunSize {
+            steps,
+            rows,
+            memory_bytes: rows * per_row,
+            csv_bytes: rows * (columns as u64 * CSV_BYTES_PER_VALUE + 1),
+        })
+    }
+
+    /// Refuse a run larger than the memory available now or the space free on `out`'s file
+    /// system.
+    pub fn check(&self, out: &Path) -> Result<(), TooLarge> {
+        self.check_against(memory_available(), free_space(out), out)
+    }
+
+    /// Refuse a run larger than `memory_available` or `disk_free` on `out`'s file system
+    /// (bytes; `None` where it cannot be read: no check).
+    pub fn check_against(
+        &self,
+        memory_available: Option<u64>,
+        disk_free: Option<u64>,
+        out: &Path,
+    ) -> Result<(), TooLarge> {
+        if let Some(available) = memory_available
+            && self.memory_bytes as f64 > MEMORY_SHARE * available as f64
+        {
+            return Err(TooLarge::Memory {
+                rows: self.rows,
+                need: bytes(self.memory_bytes),
+                available: bytes(available),
+            });
+        }
+        if let Some(free) = disk_free
+            && self.csv_bytes > free
+        {
+            return Err(TooLarge::Disk {
+                dir: out.display().to_string(),
+                need: bytes(self.csv_bytes),
+                available: bytes(free),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Memory the machine has available now (bytes), where the system says.
+pub fn memory_available() -> Option<u64> {
+    let mut sys = sysinfo::System::new().ok()?;
+    sys.refresh_memory();
+    Some(sys.available_memory()).filter(|&m| m > 0)
+}
+
+/// Space free to this user on the file system of `dir` or its nearest existing ancestor.
+fn free_space(dir: &Path) -> Option<u64> {
+    dir.ancestors()
+        .find(|p| p.exists())
+        .and_then(|p| fs4::available_space(p).ok())
+}
+
+/// A byte count for people: "1.2 GB".
+pub fn bytes(n: u64) -> String {
+    const UNITS: [&str; 5] = ["B", "kB", "MB", "GB", "TB"];
+    let mut v = n as f64;
+    let mut unit = 0;
+    while v >= 1000.0 && unit + 1 < UNITS.len() {
+        v /= 1000.0;
+        unit += 1;
+    }
+    if unit == 0 {
+        format!("{n} B")
+    } else {
+        format!("{v:.1} {}", UNITS[unit])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_vanishing_step_is_too_many_steps_not_a_saturated_count() {
+        let e = RunSize::new(2.0, 1e-300, 1, 9).unwrap_err();
+        assert!(
+            matches!(e, TooLarge::Steps { steps } if steps > 1e299),
+            "{e}"
+        );
+        let ok = RunSize::new(2.0, 5e-4, 2, 9).unwrap();
+        assert_eq!((ok.steps, ok.rows), (4000, 2001));
+        assert_eq!(ok.csv_bytes, 2001 * (9 * 21 + 1));
+    }
+
+    #[test]
+    fn memory_and_disk_beyond_the_machine_are_refused() {
+        let big = RunSize::new(1e9, 1.0, 1, 9).unwrap();
+        let e = big
+            .check_against(Some(1_000_000), None, Path::new("."))
+            .unwrap_err();
+        assert!(matches!(e, TooLarge::Memory { .. }), "{e}");
+        assert!(e.to_string().contains("1.0 MB"), "{e}");
+        let e = big
+            .check_against(None, Some(1_000_000_000), Path::new("/out"))
+            .unwrap_err();
+        assert!(matches!(e, TooLarge::Disk { .. }), "{e}");
+        assert!(e.to_string().contains("/out has 1.0 GB free"), "{e}");
+        let small = RunSize::new(2.0, 5e-4, 2, 9).unwrap();
+        assert!(
+            small
+                .check_against(Some(1 << 30), Some(1 << 30), Path::new("."))
+                .is_ok()
+        );
+        assert_eq!(bytes(999), "999 B");
+        assert_eq!(bytes(1_500_000), "1.5 MB");
+    }
+}
