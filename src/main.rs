@@ -8,10 +8,27 @@ fn main() {
     quiet_headless_vulkan();
     let args = cli::Cli::parse();
     if let Err(e) = cli::run(args) {
-        eprintln!("error: {e:#}");
+        eprintln!("error: {}", message(&e));
         let failed_run = e.downcast_ref::<cli::RunFailed>().is_some();
         std::process::exit(if failed_run { 3 } else { 2 });
     }
+}
+
+/// The error and its causes, each once: a cause whose text the message already holds (an error
+/// that prints its source, as most of ours do) is not repeated.
+fn message(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain() {
+        let part = cause.to_string();
+        if text.contains(&part) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&part);
+    }
+    text
 }
 
 /// On a headless machine (no XDG_RUNTIME_DIR), Mesa's Vulkan drivers print

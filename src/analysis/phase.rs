@@ -140,7 +140,7 @@ pub fn phase_histogram(
 ) -> Result<PhaseHistogram, AnalysisError> {
     if bins == 0 {
         return Err(AnalysisError::InvalidArgument(
-            "phase_histogram needs bins >= 1".into(),
+            "the phase histogram needs at least 1 bin".into(),
         ));
     }
     ensure_min_len("phase histogram", 1, delta_phi_rad.len())?;

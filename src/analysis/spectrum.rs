@@ -121,12 +121,12 @@ pub fn ratio_to_forcing_within(
     ensure_positive("f_forcing_hz", f_forcing_hz)?;
     if !(f_dominant_hz.is_finite() && f_dominant_hz >= 0.0) {
         return Err(AnalysisError::InvalidArgument(format!(
-            "f_dominant_hz must be finite and >= 0, got {f_dominant_hz}"
+            "the dominant frequency must be finite and >= 0 Hz, got {f_dominant_hz}"
         )));
     }
     if !(rel_tol.is_finite() && rel_tol >= 0.0) {
         return Err(AnalysisError::InvalidArgument(format!(
-            "rel_tol must be finite and >= 0, got {rel_tol}"
+            "the relative tolerance of a line match must be finite and >= 0, got {rel_tol}"
         )));
     }
     let ratio = f_dominant_hz / f_forcing_hz;

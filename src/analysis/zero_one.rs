@@ -119,7 +119,7 @@ pub fn zero_one_test(
     ensure_finite("0-1 test series", series)?;
     if options.n_c == 0 {
         return Err(AnalysisError::InvalidArgument(
-            "0-1 test needs n_c >= 1 values of c".into(),
+            "the 0-1 test needs at least one value of c".into(),
         ));
     }
     let n_cut = (series.len() as f64 / 10.0).round() as usize;

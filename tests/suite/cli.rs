@@ -617,3 +617,22 @@ fn simulate_refuses_a_run_beyond_the_step_limit_or_the_machine_before_starting()
         assert!(!out.exists(), "{set}: the folder was created");
     }
 }
+
+#[test]
+fn a_missing_scene_is_named_once_with_its_reason() {
+    for cmd in ["simulate", "map", "modes"] {
+        let o = bin()
+            .args([cmd, "no-such-scene.toml"])
+            .args(if cmd == "modes" {
+                vec![]
+            } else {
+                vec!["--out", "/nonexistent-out"]
+            })
+            .output()
+            .unwrap();
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{cmd}: {e}");
+        assert_eq!(e.matches("no-such-scene.toml").count(), 1, "{cmd}: {e}");
+        assert_eq!(e.matches("No such file").count(), 1, "{cmd}: {e}");
+    }
+}
