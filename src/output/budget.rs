@@ -83,7 +83,7 @@ impl RunSize {
         columns: usize,
     ) -> Result<RunSize, TooLarge> {
         let steps = (duration_s / dt_s).round();
-        if !(steps <= MAX_STEPS as f64) {
+        if steps.is_nan() || steps > MAX_STEPS as f64 {
             return Err(TooLarge::Steps { steps });
         }
         let steps = steps as u64;
