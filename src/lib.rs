@@ -30,6 +30,7 @@
 
 pub mod analysis;
 pub mod bench;
+pub mod calibrate;
 pub mod config;
 pub mod engine;
 pub mod harvest;

@@ -38,16 +38,20 @@ pub struct BenchArgs {
     pub force: bool,
 }
 
-/// Run `bench`.
-pub fn run(a: BenchArgs) -> anyhow::Result<()> {
-    let product = if a.stiff_map {
+/// The study asked for, as the files it writes.
+fn study(a: &BenchArgs) -> Product {
+    if a.stiff_map {
         Product::BenchStiffMap
     } else if a.stiff {
         Product::BenchStiff
     } else {
         Product::Bench
-    };
-    super::claim_out(product, &a.out, a.force)?;
+    }
+}
+
+/// Run `bench`.
+pub fn run(a: BenchArgs) -> anyhow::Result<()> {
+    super::claim_out(study(&a), &a.out, a.force)?;
     // The GPU device is opened once here and reused by every configuration.
     let gpu = match a.backend {
         BackendArg::Cpu => None,

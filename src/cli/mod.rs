@@ -3,6 +3,7 @@
 
 mod analyze;
 mod bench;
+mod calibrate;
 mod engine;
 mod map;
 mod modes;
@@ -66,6 +67,8 @@ pub enum Command {
     Reproduce(reproduce::ReproduceArgs),
     /// Broadband-harvesting design search against the linear clamped cantilever.
     Search(search::SearchArgs),
+    /// Which values of unknown parameters reproduce observed cases (K, R, period, hops, α).
+    Calibrate(calibrate::CalibrateArgs),
 }
 
 /// Make `out` the command's output folder before any work (see `output::folder`): refused when
@@ -92,6 +95,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Analyze(a) => analyze::run(a),
         Command::Reproduce(a) => reproduce::run(a),
         Command::Search(a) => search::run(a),
+        Command::Calibrate(a) => calibrate::run(a),
     }
 }
 

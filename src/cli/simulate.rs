@@ -101,22 +101,7 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     let size = run_size(&scene, &plan, piezo.is_some(), &a.out)?;
     super::claim_out(Product::Simulate, &a.out, a.force)?;
     announce(&plan, a.integrator, &size);
-    let mut rec = TrajectoryRecorder {
-        load_ohm: piezo.as_ref().map(|z| z.load_ohm),
-        ..Default::default()
-    };
-    let bar = progress_bar(&plan, scene.beam.segments, a.integrator);
-    if let Some(b) = bar.clone() {
-        rec.on_row = Some(Box::new(move |step| b.set_position(step)));
-    }
-    let started = Instant::now();
-    let precision = a.precision.unwrap_or(Precision::F64);
-    let (outcome, precision) =
-        integrate_run(&scene, &plan, &m, (a.integrator, precision), &mut rec)?;
-    let wall = started.elapsed().as_secs_f64();
-    if let Some(b) = bar {
-        b.finish_and_clear();
-    }
+    let (rec, outcome, precision, wall) = integrate_with_progress(&a, &scene, &plan, &m)?;
     let csv_path = a.out.join("trajectory.csv");
     write_trajectory_csv(&csv_path, &rec.rows, piezo.is_some())?;
     let mut warnings = plan.warnings.clone();
@@ -160,6 +145,19 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     };
     // The manifest last: its presence means the folder is complete.
     write_json(&a.out.join("run.json"), &json)?;
+    finish(&a.out, &plan, &outcome, wall, &warnings, analysis.is_some())
+}
+
+/// Print the warnings found while running and what was written; a run that ended badly is a
+/// failed run (exit 3) after its files are written.
+fn finish(
+    out: &std::path::Path,
+    plan: &StepPlan,
+    outcome: &Outcome,
+    wall: f64,
+    warnings: &[String],
+    analysed: bool,
+) -> anyhow::Result<()> {
     for w in &warnings[plan.warnings.len()..] {
         eprintln!("warning: {w}");
     }
@@ -168,9 +166,9 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
         outcome.steps_done,
         plan.dt_s,
         outcome.status,
-        Product::Simulate.files_in(&a.out)?.len(),
-        a.out.display(),
-        if analysis.is_some() {
+        Product::Simulate.files_in(&out)?.len(),
+        out.display(),
+        if analysed {
             ", the analysis' figures and arrays"
         } else {
             ""
@@ -181,11 +179,37 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
             "the run stopped with status `{}` at t = {:.6} s; what it integrated is in {}",
             outcome.status,
             outcome.failed_at_s.unwrap_or(f64::NAN),
-            a.out.display()
+            out.display()
         ))
         .into());
     }
     Ok(())
+}
+
+/// Integrate with a progress bar: the recorded rows, the outcome, the precision's name and the
+/// wall time (s).
+fn integrate_with_progress(
+    a: &SimulateArgs,
+    scene: &Scene,
+    plan: &StepPlan,
+    m: &Modes,
+) -> anyhow::Result<(TrajectoryRecorder, Outcome, &'static str, f64)> {
+    let mut rec = TrajectoryRecorder {
+        load_ohm: scene.piezo_params().map(|z| z.load_ohm),
+        ..Default::default()
+    };
+    let bar = progress_bar(plan, scene.beam.segments, a.integrator);
+    if let Some(b) = bar.clone() {
+        rec.on_row = Some(Box::new(move |step| b.set_position(step)));
+    }
+    let started = Instant::now();
+    let precision = a.precision.unwrap_or(Precision::F64);
+    let (outcome, precision) = integrate_run(scene, plan, m, (a.integrator, precision), &mut rec)?;
+    let wall = started.elapsed().as_secs_f64();
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    Ok((rec, outcome, precision, wall))
 }
 
 /// The run's steps, rows, memory and CSV size, refused when it takes no step or does not fit

@@ -26,6 +26,8 @@ pub enum Product {
     Reproduce,
     /// `search`: designs, instances, the best design, figures, `search.json`.
     Search,
+    /// `calibrate`: candidates, the best scene, the report, `calibrate.json`.
+    Calibrate,
     /// `bench` (the work-precision study): `BENCHMARKS.md`, its figures, `bench.json`.
     Bench,
     /// `bench --stiff`: `STIFF.md`, its figure, `stiff.json`.
@@ -36,12 +38,13 @@ pub enum Product {
 
 impl Product {
     /// Every product, for finding whose manifest a folder holds.
-    pub const ALL: [Product; 8] = [
+    pub const ALL: [Product; 9] = [
         Product::Simulate,
         Product::Map,
         Product::Analyze,
         Product::Reproduce,
         Product::Search,
+        Product::Calibrate,
         Product::Bench,
         Product::BenchStiff,
         Product::BenchStiffMap,
@@ -55,6 +58,7 @@ impl Product {
             Product::Analyze => "analyze",
             Product::Reproduce => "reproduce",
             Product::Search => "search",
+            Product::Calibrate => "calibrate",
             Product::Bench | Product::BenchStiff | Product::BenchStiffMap => "bench",
         }
     }
@@ -67,6 +71,7 @@ impl Product {
             Product::Analyze => "analysis.json",
             Product::Reproduce => "summary.json",
             Product::Search => "search.json",
+            Product::Calibrate => "calibrate.json",
             Product::Bench => "bench.json",
             Product::BenchStiff => "stiff.json",
             Product::BenchStiffMap => "stiff_map.json",
@@ -93,6 +98,7 @@ impl Product {
                 "best_design.toml",
                 "best.md",
             ],
+            Product::Calibrate => &["candidates.csv", "best_scene.toml", "REPORT.md"],
             Product::Bench => &["BENCHMARKS.md", "work_precision.png", "map_error.png"],
             Product::BenchStiff => &["STIFF.md", "stiff_work_precision.png"],
             Product::BenchStiffMap => &["STIFF_MAP.md", "stiff_map.csv"],
@@ -103,7 +109,7 @@ impl Product {
     fn extensions(self) -> &'static [&'static str] {
         match self {
             Product::Simulate | Product::Map | Product::Analyze => &["npy", "png"],
-            Product::Reproduce | Product::Search => &["png"],
+            Product::Reproduce | Product::Search | Product::Calibrate => &["png"],
             Product::Bench | Product::BenchStiff | Product::BenchStiffMap => &[],
         }
     }

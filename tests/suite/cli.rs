@@ -636,3 +636,53 @@ fn a_missing_scene_is_named_once_with_its_reason() {
         assert_eq!(e.matches("No such file").count(), 1, "{cmd}: {e}");
     }
 }
+
+#[test]
+fn calibrate_writes_its_candidates_best_scene_report_and_manifest() {
+    let out = out_dir("calibrate");
+    let o = bin()
+        .args([
+            "calibrate",
+            "configs/calibrate/paper.toml",
+            "--backend",
+            "cpu",
+            "--quiet",
+        ])
+        .args([
+            "--set",
+            "beam.segments=3",
+            "--set",
+            "calibrate.initial_states=1",
+        ])
+        .args(["--set", "calibrate.refine.rounds=0"])
+        .args([
+            "--set",
+            "calibrate.unknowns=[{key=\"limiter.contact_arc_m\",values=[0.03,0.3]}]",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{e}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("calibrate.json")).unwrap())
+            .unwrap();
+    assert_eq!(json["observations"], 12);
+    assert_eq!(json["instances"], 12);
+    let best = json["best"]["values"][0].as_f64().unwrap();
+    let csv = std::fs::read_to_string(out.join("candidates.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().collect();
+    assert_eq!(rows.len(), 3, "{csv}");
+    assert!(rows[1].starts_with(&format!("1,grid,{best},")), "{csv}");
+    // The best scene is a scene `simulate` reads, with the best value in it.
+    let scene = std::fs::read_to_string(out.join("best_scene.toml")).unwrap();
+    let parsed = pendulum_atlas::config::Scene::from_toml(&scene, "<best>", &[]).unwrap();
+    assert_eq!(parsed.limiter.contact_arc_m, best);
+    assert!(!scene.contains("[calibrate]"), "{scene}");
+    let report = std::fs::read_to_string(out.join("REPORT.md")).unwrap();
+    assert!(
+        report.contains("Best candidate") && report.contains("Never matched"),
+        "{report}"
+    );
+}

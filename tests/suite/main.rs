@@ -5,6 +5,7 @@
 mod analysis;
 mod analyze_cli;
 mod bench;
+mod calibrate;
 mod cli;
 mod config;
 mod contact;

@@ -1,0 +1,510 @@
+//! A calibration scene: a scene plus a `[calibrate]` section, validated into a
+//! [`CalibrationSpec`] before any work.
+//!
+//! ```toml
+//! [calibrate]
+//! initial_states = 3          # runs per case, initial.angle_deg spread over ± initial_spread_deg
+//! initial_spread_deg = 1.0
+//! agreement = 0.67            # share of a case's ok runs that must match an observation
+//! phase_convention = "paper"  # R's convention ("standard" or "paper")
+//! samples_per_period = 16
+//! refine = { rounds = 1, top = 3, shrink = 0.5 }
+//!
+//! [[calibrate.unknowns]]      # like a map axis: key, start, end, count (or values), scale
+//! key = "limiter.contact_arc_m"
+//! start = 0.1
+//! end = 0.35
+//! count = 4
+//!
+//! [[calibrate.cases]]
+//! name = "10 Hz, 12 mm"
+//! set = { "excitation.frequency_hz" = 10.0, "excitation.amplitude_m" = 0.012 }
+//! k_class = "regular"         # or "chaotic"
+//! k = { value = 0.0, tol = 0.2 }
+//! r = { value = 0.88, tol = 0.1 }
+//! period = 3
+//! hops = false
+//! alpha_range_rad = [0.1, 0.3]
+//! ```
+
+use super::observe::Observation;
+use crate::analysis::PhaseConvention;
+use crate::config::{
+    AxisScale, ConfigError, Range, Reader, Scene, read_sweep, set_key, split_section,
+};
+use serde::Serialize;
+use toml::{Table, Value};
+
+/// Largest number of grid candidates.
+pub const MAX_CANDIDATES: usize = 10_000;
+
+/// One unknown parameter: a scene key and the values the coarse grid takes.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Unknown {
+    /// Dotted scene key.
+    pub key: String,
+    /// Grid values, increasing.
+    pub values: Vec<f64>,
+    /// Spacing (also the space refinement steps are taken in).
+    pub scale: AxisScale,
+}
+
+impl Unknown {
+    /// Into the space steps are taken in (ln for log unknowns).
+    pub fn to_step_space(&self, v: f64) -> f64 {
+        match self.scale {
+            AxisScale::Linear => v,
+            AxisScale::Log => v.ln(),
+        }
+    }
+
+    /// Back from step space.
+    pub fn from_step_space(&self, u: f64) -> f64 {
+        match self.scale {
+            AxisScale::Linear => u,
+            AxisScale::Log => u.exp(),
+        }
+    }
+
+    /// Mean grid spacing in step space (0 for a single value).
+    pub fn grid_step(&self) -> f64 {
+        let n = self.values.len();
+        if n < 2 {
+            return 0.0;
+        }
+        (self.to_step_space(self.values[n - 1]) - self.to_step_space(self.values[0]))
+            / (n - 1) as f64
+    }
+
+    /// Clamp into the grid's range.
+    pub fn clamp(&self, v: f64) -> f64 {
+        v.clamp(self.values[0], self.values[self.values.len() - 1])
+    }
+}
+
+/// One observed setting and what was observed there.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Case {
+    /// Name for tables.
+    pub name: String,
+    /// Scene overrides of this case (key, value).
+    pub set: Vec<(String, Value)>,
+    /// The observations.
+    pub observations: Vec<Observation>,
+}
+
+/// Refinement around the best candidates.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Refine {
+    /// Rounds after the grid.
+    pub rounds: u32,
+    /// Candidates refined around per round.
+    pub top: usize,
+    /// Step factor per round.
+    pub shrink: f64,
+}
+
+/// A validated calibration.
+#[derive(Debug, Clone)]
+pub struct CalibrationSpec {
+    /// The scene with the `[calibrate]` section removed.
+    pub base_table: Table,
+    /// The unknowns.
+    pub unknowns: Vec<Unknown>,
+    /// The cases.
+    pub cases: Vec<Case>,
+    /// Runs per case.
+    pub initial_states: u32,
+    /// Spread of the initial angles (deg).
+    pub initial_spread_deg: f64,
+    /// Share of ok runs that must match.
+    pub agreement: f64,
+    /// R's convention.
+    pub convention: PhaseConvention,
+    /// Integration steps per forcing period (as a map's).
+    pub samples_per_period: u32,
+    /// Refinement.
+    pub refine: Refine,
+}
+
+impl CalibrationSpec {
+    /// The initial-angle offsets of a case's runs (deg): evenly over ± the spread, 0 for one.
+    pub fn angle_offsets_deg(&self) -> Vec<f64> {
+        let n = self.initial_states as usize;
+        if n == 1 {
+            return vec![0.0];
+        }
+        let s = self.initial_spread_deg;
+        (0..n)
+            .map(|i| -s + 2.0 * s * i as f64 / (n - 1) as f64)
+            .collect()
+    }
+
+    /// The scene of `case` for a candidate's unknowns from initial-angle offset `offset_deg`.
+    pub fn scene(
+        &self,
+        case: &Case,
+        values: &[f64],
+        offset_deg: f64,
+    ) -> Result<Scene, ConfigError> {
+        let mut table = self.base_table.clone();
+        for (k, v) in &case.set {
+            set_key(&mut table, k, v.clone())?;
+        }
+        for (u, &x) in self.unknowns.iter().zip(values) {
+            set_key(&mut table, &u.key, Value::Float(x))?;
+        }
+        let angle = Scene::from_table(table.clone())?.initial.angle_deg + offset_deg;
+        set_key(&mut table, "initial.angle_deg", Value::Float(angle))?;
+        Scene::from_table(table)
+    }
+}
+
+/// Read a calibration scene file with `--set` overrides (scene or `calibrate.` keys).
+pub fn load_calibration(
+    path: &std::path::Path,
+    sets: &[String],
+) -> Result<CalibrationSpec, ConfigError> {
+    let text = std::fs::read_to_string(path).map_err(|e| ConfigError::Io {
+        path: path.display().to_string(),
+        source: e,
+    })?;
+    calibration_from_toml(&text, &path.display().to_string(), sets)
+}
+
+/// Parse a calibration scene from TOML text with `--set` overrides.
+pub fn calibration_from_toml(
+    text: &str,
+    origin: &str,
+    sets: &[String],
+) -> Result<CalibrationSpec, ConfigError> {
+    let (base_table, mut section) = split_section(
+        text,
+        origin,
+        sets,
+        "calibrate",
+        "a calibration lists its [[calibrate.cases]] and [[calibrate.unknowns]]",
+    )?;
+    Scene::from_table(base_table.clone())?;
+    let unknowns = read_unknowns(section.remove("unknowns"))?;
+    let cases = read_cases(section.remove("cases"), &unknowns)?;
+    let mut r = Reader::new(wrap("calibrate", section));
+    let spec = CalibrationSpec {
+        base_table,
+        unknowns,
+        cases,
+        initial_states: r.integer("calibrate.initial_states", 3, 1, 64)? as u32,
+        initial_spread_deg: r.number(
+            "calibrate.initial_spread_deg",
+            1.0,
+            Range::NonNegative,
+            "deg",
+        )?,
+        agreement: r.number(
+            "calibrate.agreement",
+            2.0 / 3.0,
+            Range::OpenClosed(0.0, 1.0),
+            "",
+        )?,
+        convention: match r
+            .choice(
+                "calibrate.phase_convention",
+                "paper",
+                &["standard", "paper"],
+            )?
+            .as_str()
+        {
+            "standard" => PhaseConvention::Standard,
+            _ => PhaseConvention::Paper,
+        },
+        samples_per_period: r.integer("calibrate.samples_per_period", 16, 4, 4096)? as u32,
+        refine: Refine {
+            rounds: r.integer("calibrate.refine.rounds", 1, 0, 10)? as u32,
+            top: r.integer("calibrate.refine.top", 3, 1, 100)? as usize,
+            shrink: r.number("calibrate.refine.shrink", 0.5, Range::Open(0.0, 1.0), "")?,
+        },
+    };
+    r.finish()?;
+    check_scenes(&spec)?;
+    Ok(spec)
+}
+
+/// `{prefix}` as nested tables around `t` (`a.b` → `{a = {b = t}}`); nothing for an empty `t`,
+/// which would otherwise be a key nobody reads.
+fn wrap(prefix: &str, t: Table) -> Table {
+    if t.is_empty() {
+        return t;
+    }
+    let mut out = t;
+    for part in prefix.rsplit('.') {
+        let mut outer = Table::new();
+        outer.insert(part.to_string(), Value::Table(out));
+        out = outer;
+    }
+    out
+}
+
+/// The non-empty array of tables at `key`.
+fn tables(v: Option<Value>, key: &str, what: &str) -> Result<Vec<Table>, ConfigError> {
+    let items = match v {
+        Some(Value::Array(items)) if !items.is_empty() => items,
+        Some(Value::Array(_)) | None => {
+            return Err(ConfigError::Inconsistent {
+                key: key.into(),
+                reason: format!("a calibration needs at least one: {what}"),
+            });
+        }
+        Some(_) => {
+            return Err(ConfigError::WrongType {
+                key: key.into(),
+                expected: format!("an array of tables ([[{key}]])"),
+                found: "a single value".into(),
+            });
+        }
+    };
+    items
+        .into_iter()
+        .enumerate()
+        .map(|(i, item)| match item {
+            Value::Table(t) => Ok(t),
+            _ => Err(ConfigError::WrongType {
+                key: format!("{key}[{}]", i + 1),
+                expected: "a table".into(),
+                found: "a value".into(),
+            }),
+        })
+        .collect()
+}
+
+/// Keys a calibration sets itself.
+fn reserved(key: &str) -> Option<&'static str> {
+    match key {
+        k if k.starts_with("excitation.") => Some("the cases set the excitation"),
+        k if k.starts_with("initial.") => Some("the initial states are calibrate.initial_*"),
+        "beam.segments" | "limiter.enabled" | "piezo.enabled" => {
+            Some("every instance of an ensemble shares N, the bumpers and the piezo")
+        }
+        _ => None,
+    }
+}
+
+/// `[[calibrate.unknowns]]`, at most [`MAX_CANDIDATES`] grid points in all.
+fn read_unknowns(v: Option<Value>) -> Result<Vec<Unknown>, ConfigError> {
+    let mut out: Vec<Unknown> = Vec::new();
+    let mut total = 1usize;
+    let items = tables(
+        v,
+        "calibrate.unknowns",
+        "key, start, end, count (or values)",
+    )?;
+    for (i, t) in items.into_iter().enumerate() {
+        let prefix = format!("calibrate.unknowns[{}]", i + 1);
+        let mut r = Reader::new(wrap(&prefix, t));
+        let key = match r.raw(&format!("{prefix}.key"))? {
+            Some(Value::String(s)) => s.clone(),
+            _ => {
+                return Err(ConfigError::WrongType {
+                    key: format!("{prefix}.key"),
+                    expected: "a dotted scene key such as \"limiter.contact_arc_m\"".into(),
+                    found: "something else or nothing".into(),
+                });
+            }
+        };
+        if let Some(why) = reserved(&key) {
+            return Err(inconsistent(
+                &prefix,
+                format!("`{key}` cannot be an unknown: {why}"),
+            ));
+        }
+        if out.iter().any(|u| u.key == key) {
+            return Err(inconsistent(
+                &prefix,
+                format!("`{key}` is an unknown twice"),
+            ));
+        }
+        let (values, scale) = read_sweep(&mut r, &prefix, &key, MAX_CANDIDATES)?;
+        r.finish()?;
+        total = total
+            .checked_mul(values.len())
+            .filter(|&n| n <= MAX_CANDIDATES)
+            .ok_or_else(|| ConfigError::OutOfRange {
+                key: format!("{prefix}.count"),
+                value: values.len() as f64,
+                range: format!("grids of at most {MAX_CANDIDATES} candidates in all"),
+            })?;
+        out.push(Unknown { key, values, scale });
+    }
+    Ok(out)
+}
+
+fn inconsistent(prefix: &str, reason: String) -> ConfigError {
+    ConfigError::Inconsistent {
+        key: format!("{prefix}.key"),
+        reason,
+    }
+}
+
+/// `[[calibrate.cases]]`: a name, overrides and at least one observation each.
+fn read_cases(v: Option<Value>, unknowns: &[Unknown]) -> Result<Vec<Case>, ConfigError> {
+    let items = tables(
+        v,
+        "calibrate.cases",
+        "a name, its `set` and its observations",
+    )?;
+    items
+        .into_iter()
+        .enumerate()
+        .map(|(i, t)| read_case(&format!("calibrate.cases[{}]", i + 1), t, unknowns))
+        .collect()
+}
+
+fn read_case(prefix: &str, mut t: Table, unknowns: &[Unknown]) -> Result<Case, ConfigError> {
+    let name = match t.remove("name") {
+        Some(Value::String(s)) => s,
+        None => prefix.to_string(),
+        Some(other) => {
+            return Err(ConfigError::WrongType {
+                key: format!("{prefix}.name"),
+                expected: "a string".into(),
+                found: format!("{other}"),
+            });
+        }
+    };
+    let set = match t.remove("set") {
+        Some(Value::Table(s)) => s.into_iter().collect::<Vec<_>>(),
+        None => Vec::new(),
+        Some(_) => {
+            return Err(ConfigError::WrongType {
+                key: format!("{prefix}.set"),
+                expected: "a table of scene keys, e.g. { \"excitation.frequency_hz\" = 8.0 }"
+                    .into(),
+                found: "a value".into(),
+            });
+        }
+    };
+    if let Some((k, _)) = set
+        .iter()
+        .find(|(k, _)| unknowns.iter().any(|u| &u.key == k))
+    {
+        return Err(ConfigError::Inconsistent {
+            key: format!("{prefix}.set"),
+            reason: format!("`{k}` is an unknown of this calibration: a case cannot fix it"),
+        });
+    }
+    let observations = read_observations(prefix, t)?;
+    Ok(Case {
+        name,
+        set,
+        observations,
+    })
+}
+
+/// The observations of one case, in a fixed order.
+fn read_observations(prefix: &str, t: Table) -> Result<Vec<Observation>, ConfigError> {
+    let mut r = Reader::new(wrap(prefix, t));
+    let key = |k: &str| format!("{prefix}.{k}");
+    let mut out = Vec::new();
+    if r.raw(&key("k_class"))?.is_some() {
+        let c = r.choice(&key("k_class"), "chaotic", &["chaotic", "regular"])?;
+        out.push(Observation::KClass {
+            chaotic: c == "chaotic",
+        });
+    }
+    if let Some((value, tol)) = value_tol(&mut r, &key("k"), Range::Closed(-0.5, 1.5))? {
+        out.push(Observation::K { value, tol });
+    }
+    if let Some((value, tol)) = value_tol(&mut r, &key("r"), Range::Closed(0.0, 1.0))? {
+        out.push(Observation::R { value, tol });
+    }
+    if r.raw(&key("period"))?.is_some() {
+        let period = r.integer(&key("period"), 1, 1, 64)? as u32;
+        out.push(Observation::Period { period });
+    }
+    if r.raw(&key("hops"))?.is_some() {
+        out.push(Observation::Hops {
+            hops: r.boolean(&key("hops"), false)?,
+        });
+    }
+    if let Some(range) = alpha_range(&mut r, &key("alpha_range_rad"))? {
+        out.push(range);
+    }
+    r.finish()?;
+    if out.is_empty() {
+        return Err(ConfigError::Inconsistent {
+            key: prefix.into(),
+            reason: "a case needs at least one observation: k_class, k, r, period, hops or alpha_range_rad".into(),
+        });
+    }
+    Ok(out)
+}
+
+/// `{ value = v, tol = t }` with `v` in `range` and `t > 0`.
+fn value_tol(r: &mut Reader, key: &str, range: Range) -> Result<Option<(f64, f64)>, ConfigError> {
+    if r.raw(key)?.is_none() {
+        return Ok(None);
+    }
+    let value = r.number_opt(&format!("{key}.value"), range, "")?;
+    let tol = r.number_opt(&format!("{key}.tol"), Range::Positive, "")?;
+    match (value, tol) {
+        (Some(v), Some(t)) => Ok(Some((v, t))),
+        _ => Err(ConfigError::Inconsistent {
+            key: key.into(),
+            reason: "give both the observed value and its tolerance: { value = 0.9, tol = 0.1 }"
+                .into(),
+        }),
+    }
+}
+
+/// `[lo, hi]` in radians, 0 ≤ lo < hi.
+fn alpha_range(r: &mut Reader, key: &str) -> Result<Option<Observation>, ConfigError> {
+    let Some(v) = r.raw(key)? else {
+        return Ok(None);
+    };
+    let pair = v.as_array().and_then(|a| match a.as_slice() {
+        [lo, hi] => Some((as_f64(lo)?, as_f64(hi)?)),
+        _ => None,
+    });
+    match pair {
+        Some((lo, hi)) if lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo < hi => {
+            Ok(Some(Observation::AlphaRange {
+                lo_rad: lo,
+                hi_rad: hi,
+            }))
+        }
+        _ => Err(ConfigError::WrongType {
+            key: key.into(),
+            expected: "[lo, hi] in radians with 0 <= lo < hi".into(),
+            found: format!("{v}"),
+        }),
+    }
+}
+
+fn as_f64(v: &Value) -> Option<f64> {
+    v.as_float().or_else(|| v.as_integer().map(|i| i as f64))
+}
+
+/// Every case at every unknown's first and last value gives a valid scene.
+fn check_scenes(spec: &CalibrationSpec) -> Result<(), ConfigError> {
+    let ends = |last: bool| -> Vec<f64> {
+        spec.unknowns
+            .iter()
+            .map(|u| {
+                if last {
+                    u.values[u.values.len() - 1]
+                } else {
+                    u.values[0]
+                }
+            })
+            .collect()
+    };
+    for case in &spec.cases {
+        for values in [ends(false), ends(true)] {
+            spec.scene(case, &values, 0.0)
+                .map_err(|e| ConfigError::Inconsistent {
+                    key: "calibrate.cases".into(),
+                    reason: format!("case `{}` gives an invalid scene: {e}", case.name),
+                })?;
+        }
+    }
+    Ok(())
+}

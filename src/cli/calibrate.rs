@@ -1,0 +1,87 @@
+//! `pendulum-atlas calibrate`: which values of the unknowns reproduce the observations.
+
+use super::engine::{EngineArgs, hint};
+use indicatif::{ProgressBar, ProgressStyle};
+use pendulum_atlas::calibrate::{load_calibration, run_calibration, write_calibration};
+use pendulum_atlas::engine::ProgressUnit;
+use pendulum_atlas::output::folder::Product;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `calibrate`.
+#[derive(Debug, clap::Args)]
+pub struct CalibrateArgs {
+    /// Calibration scene (TOML with a [calibrate] section: cases with their observations and
+    /// the unknowns with their ranges; see configs/calibrate/).
+    pub scene: PathBuf,
+    /// Override a scene or calibrate key, e.g. `--set calibrate.initial_states=5`.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<String>,
+    #[command(flatten)]
+    pub engine: EngineArgs,
+    /// Output folder.
+    #[arg(long, default_value = "runs/calibrate")]
+    pub out: PathBuf,
+    /// Replace an earlier run in --out: delete the files this command writes there first
+    /// (other files are left alone). Without it, a folder holding such files is refused.
+    #[arg(long)]
+    pub force: bool,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Run `calibrate`.
+pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
+    let spec = load_calibration(&a.scene, &a.sets)?;
+    let engine = a.engine.open()?;
+    super::claim_out(Product::Calibrate, &a.out, a.force)?;
+    let bar = if a.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(1)
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} calibrate [{bar:40}] {pos}/{len} {elapsed_precise}",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    let progress = |done: u64, total: u64, _unit: ProgressUnit| {
+        bar.set_length(total);
+        bar.set_position(done);
+    };
+    let started = Instant::now();
+    let run = run_calibration(&spec, &engine, &progress).map_err(|e| match e {
+        pendulum_atlas::calibrate::CalibrateError::Engine(e) => hint(e),
+        other => other.into(),
+    })?;
+    bar.finish_and_clear();
+    let wall = started.elapsed().as_secs_f64();
+    let about = serde_json::json!({
+        "scene": a.scene.display().to_string(),
+        "sets": a.sets,
+        "engine": engine.info(),
+        "wall_s": wall,
+    });
+    let files = write_calibration(&a.out, &spec, &run, &about)?;
+    let best = run.best();
+    let values: Vec<String> = spec
+        .unknowns
+        .iter()
+        .zip(&best.values)
+        .map(|(u, v)| format!("{} = {v}", u.key))
+        .collect();
+    println!(
+        "calibrate: {} candidates, {} instances in {wall:.1} s on {}; best matches {} of {} observations at {}",
+        run.candidates.len(),
+        run.instances,
+        engine.info().kind.name(),
+        best.matched,
+        run.observations,
+        values.join(", ")
+    );
+    println!("wrote {} files to {}", files.len(), a.out.display());
+    Ok(())
+}

@@ -1,0 +1,147 @@
+//! Calibration: the spec refuses what it cannot judge, and a calibration recovers an unknown
+//! from observations the model itself produced at a known value.
+
+use pendulum_atlas::calibrate::{Observation, calibration_from_toml, run_calibration};
+use pendulum_atlas::engine::{Engine, EnsembleOptions, EnsemblePlan, Precision, no_progress};
+use pendulum_atlas::map::run_plan;
+use pendulum_atlas::reduce::{InstanceResult, ReduceOptions};
+
+/// N = 3, 22-s runs (2 s transient: 100 stroboscopic samples at 5 Hz for K), the paper's
+/// bumpers.
+const BASE: &str = "[beam]\nsegments = 3\n[integration]\nduration_s = 22.0\ntransient_s = 2.0\n";
+
+const CASES: [(f64, f64); 2] = [(8.0, 0.009), (5.0, 0.012)];
+
+fn case_set(f: f64, a: f64) -> String {
+    format!("set = {{ \"excitation.frequency_hz\" = {f}, \"excitation.amplitude_m\" = {a} }}")
+}
+
+/// What the model does in each case at `limiter.clearance_deg = clearance` (one run each).
+fn truth(clearance: f64) -> Vec<InstanceResult> {
+    let scenes: Vec<_> = CASES
+        .iter()
+        .map(|&(f, a)| {
+            pendulum_atlas::config::Scene::from_toml(
+                BASE,
+                "<truth>",
+                &[
+                    format!("limiter.clearance_deg={clearance}"),
+                    format!("excitation.frequency_hz={f}"),
+                    format!("excitation.amplitude_m={a}"),
+                ],
+            )
+            .unwrap()
+        })
+        .collect();
+    let opts = EnsembleOptions {
+        metrics: pendulum_atlas::config::Metric::ALL[..6].to_vec(),
+        keep_strobe: false,
+        samples_per_period: 16,
+        strobe_phase: 0.0,
+        r_max_samples: 1024,
+        early_stop: None,
+    };
+    let plan = EnsemblePlan::from_scenes(&scenes, &opts).unwrap();
+    let engine = Engine::cpu(Precision::F64);
+    run_plan(plan, &ReduceOptions::default(), None, &engine, &no_progress)
+        .unwrap()
+        .results
+}
+
+#[test]
+fn calibration_recovers_a_clearance_from_the_models_own_observations() {
+    let observed = truth(15.0);
+    let mut text = format!(
+        "{BASE}[calibrate]\ninitial_states = 1\nphase_convention = \"standard\"\n\
+         refine = {{ rounds = 1, top = 1, shrink = 0.5 }}\n\
+         [[calibrate.unknowns]]\nkey = \"limiter.clearance_deg\"\nvalues = [10.0, 12.5, 15.0, 17.5, 20.0]\n"
+    );
+    for (&(f, a), r) in CASES.iter().zip(&observed) {
+        let range = r.alpha_max_rad - r.alpha_min_rad;
+        text.push_str(&format!(
+            "[[calibrate.cases]]\nname = \"{f} Hz\"\n{}\nk_class = \"{}\"\nhops = {}\n\
+             alpha_range_rad = [{}, {}]\n",
+            case_set(f, a),
+            if r.k > 0.5 { "chaotic" } else { "regular" },
+            r.hops > 0.0,
+            0.98 * range,
+            1.02 * range
+        ));
+    }
+    let spec = calibration_from_toml(&text, "<test>", &[]).unwrap();
+    let run = run_calibration(&spec, &Engine::cpu(Precision::F64), &no_progress).unwrap();
+    assert_eq!(run.observations, 6);
+    let best = run.best();
+    assert_eq!(best.matched, 6, "{best:?}");
+    assert!((best.values[0] - 15.0).abs() <= 1.25, "{best:?}");
+    // The observations discriminate: the grid's ends match fewer.
+    for c in run.candidates.iter().filter(|c| c.stage == "grid") {
+        if (c.values[0] - 15.0).abs() >= 5.0 {
+            assert!(
+                c.matched < 6,
+                "clearance {} matches everything",
+                c.values[0]
+            );
+        }
+    }
+    // Refinement added the neighbours of the best grid point.
+    assert!(run.candidates.iter().any(|c| c.stage == "refine 1"));
+}
+
+#[test]
+fn the_spec_reads_every_observation_and_refuses_what_it_cannot_judge() {
+    let with = |case: &str, unknown: &str| {
+        format!(
+            "{BASE}[calibrate]\n[[calibrate.unknowns]]\n{unknown}\n[[calibrate.cases]]\n{}\n{case}\n",
+            case_set(8.0, 0.009)
+        )
+    };
+    let arc = "key = \"limiter.contact_arc_m\"\nstart = 0.1\nend = 0.3\ncount = 3";
+    let spec = calibration_from_toml(
+        &with(
+            "k_class = \"regular\"\nk = { value = 0.0, tol = 0.2 }\nr = { value = 0.88, tol = 0.1 }\n\
+             period = 3\nhops = false\nalpha_range_rad = [0.1, 0.3]",
+            arc,
+        ),
+        "<t>",
+        &[],
+    )
+    .unwrap();
+    assert_eq!(spec.cases[0].observations.len(), 6);
+    assert_eq!(
+        spec.cases[0].observations[3],
+        Observation::Period { period: 3 }
+    );
+    assert_eq!(spec.unknowns[0].values, vec![0.1, 0.2, 0.3]);
+    assert_eq!(spec.angle_offsets_deg(), vec![-1.0, 0.0, 1.0]);
+    for (case, unknown, says) in [
+        ("", arc, "at least one observation"),
+        ("k_class = \"maybe\"", arc, "k_class"),
+        ("k = { value = 0.1 }", arc, "tolerance"),
+        ("alpha_range_rad = [0.3, 0.1]", arc, "lo < hi"),
+        ("period = 2\nperiod_typo = 3", arc, "period_typo"),
+        (
+            "hops = true",
+            "key = \"excitation.frequency_hz\"\nvalues = [5.0]",
+            "cannot be an unknown",
+        ),
+        (
+            "hops = true",
+            "key = \"limiter.no_such_key\"\nvalues = [1.0]",
+            "no_such_key",
+        ),
+    ] {
+        let e = calibration_from_toml(&with(case, unknown), "<t>", &[])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(says), "{case} / {unknown}: {e}");
+    }
+    let fixed = format!(
+        "{BASE}[calibrate]\n[[calibrate.unknowns]]\n{arc}\n[[calibrate.cases]]\n\
+         set = {{ \"limiter.contact_arc_m\" = 0.2 }}\nhops = true\n"
+    );
+    let e = calibration_from_toml(&fixed, "<t>", &[])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("is an unknown of this calibration"), "{e}");
+}
