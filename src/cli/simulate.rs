@@ -166,7 +166,7 @@ fn finish(
         outcome.steps_done,
         plan.dt_s,
         outcome.status,
-        Product::Simulate.files_in(&out)?.len(),
+        Product::Simulate.files_in(out)?.len(),
         out.display(),
         if analysed {
             ", the analysis' figures and arrays"
