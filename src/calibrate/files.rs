@@ -3,9 +3,11 @@
 
 use super::run::{CalibrationRun, Candidate};
 use super::spec::CalibrationSpec;
+use crate::config::axis_label;
 use crate::config::set_key;
 use crate::output::OutputError;
-use crate::output::files::{commit_csv, create_csv, csv_error, write_bytes, write_json};
+use crate::output::files::{commit_csv, create_csv, csv_error, draw, write_bytes, write_json};
+use crate::render::{Axis, heatmap};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use toml::Value;
@@ -25,6 +27,7 @@ pub fn write_calibration(
         )?,
         write_bytes(&dir.join("REPORT.md"), report(spec, run).as_bytes())?,
     ];
+    files.extend(draw_agreement(dir, spec, run)?);
     let names: Vec<String> = files
         .iter()
         .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
@@ -186,4 +189,82 @@ fn report(spec: &CalibrationSpec, run: &CalibrationRun) -> String {
         }
     }
     s
+}
+
+/// `agreement_<key1>_<key2>.png` for each pair of unknowns with two or more grid values: the
+/// share of observations the grid candidate matches over the pair, the other unknowns at the
+/// best grid candidate's values.
+fn draw_agreement(
+    dir: &Path,
+    spec: &CalibrationSpec,
+    run: &CalibrationRun,
+) -> Result<Vec<PathBuf>, OutputError> {
+    let grid: Vec<&Candidate> = run
+        .candidates
+        .iter()
+        .filter(|c| c.stage == "grid")
+        .collect();
+    let Some(best) = run
+        .ranking
+        .iter()
+        .map(|&i| &run.candidates[i])
+        .find(|c| c.stage == "grid")
+    else {
+        return Ok(Vec::new());
+    };
+    let mut out = Vec::new();
+    let n = spec.unknowns.len();
+    for i in 0..n {
+        for j in i + 1..n {
+            let (ux, uy) = (&spec.unknowns[i], &spec.unknowns[j]);
+            if ux.values.len() < 2 || uy.values.len() < 2 {
+                continue;
+            }
+            let share = |x: f64, y: f64| {
+                grid.iter()
+                    .find(|c| {
+                        c.values.iter().enumerate().all(|(k, &v)| {
+                            v == if k == i {
+                                x
+                            } else if k == j {
+                                y
+                            } else {
+                                best.values[k]
+                            }
+                        })
+                    })
+                    .map_or(f64::NAN, |c| c.matched as f64 / run.observations as f64)
+            };
+            let vals: Vec<f64> = uy
+                .values
+                .iter()
+                .flat_map(|&y| ux.values.iter().map(move |&x| share(x, y)))
+                .collect();
+            let name = |k: &str| k.replace('.', "_");
+            let path = dir.join(format!("agreement_{}_{}.png", name(&ux.key), name(&uy.key)));
+            let (xl, yl) = (axis_label(&ux.key), axis_label(&uy.key));
+            let x = Axis {
+                label: &xl,
+                values: &ux.values,
+            };
+            let y = Axis {
+                label: &yl,
+                values: &uy.values,
+            };
+            let title = "share of observations matched (other unknowns at the best)";
+            out.push(draw(&path, |p| {
+                heatmap(
+                    p,
+                    title,
+                    &x,
+                    &y,
+                    &vals,
+                    "share matched",
+                    &[],
+                    Some((0.0, 1.0)),
+                )
+            })?);
+        }
+    }
+    Ok(out)
 }

@@ -657,7 +657,7 @@ fn calibrate_writes_its_candidates_best_scene_report_and_manifest() {
         .args(["--set", "calibrate.refine.rounds=0"])
         .args([
             "--set",
-            "calibrate.unknowns=[{key=\"limiter.contact_arc_m\",values=[0.03,0.3]}]",
+            "calibrate.unknowns=[{key=\"limiter.contact_arc_m\",values=[0.03,0.3]},{key=\"limiter.clearance_deg\",values=[15.0,25.0]}]",
         ])
         .arg("--out")
         .arg(&out)
@@ -669,12 +669,18 @@ fn calibrate_writes_its_candidates_best_scene_report_and_manifest() {
         serde_json::from_str(&std::fs::read_to_string(out.join("calibrate.json")).unwrap())
             .unwrap();
     assert_eq!(json["observations"], 12);
-    assert_eq!(json["instances"], 12);
+    assert_eq!(json["instances"], 24);
     let best = json["best"]["values"][0].as_f64().unwrap();
+    let best_clearance = json["best"]["values"][1].as_f64().unwrap();
     let csv = std::fs::read_to_string(out.join("candidates.csv")).unwrap();
     let rows: Vec<&str> = csv.lines().collect();
-    assert_eq!(rows.len(), 3, "{csv}");
-    assert!(rows[1].starts_with(&format!("1,grid,{best},")), "{csv}");
+    assert_eq!(rows.len(), 5, "{csv}");
+    assert!(
+        rows[1].starts_with(&format!("1,grid,{best},{best_clearance},")),
+        "{csv}"
+    );
+    let png = out.join("agreement_limiter_contact_arc_m_limiter_clearance_deg.png");
+    image::open(&png).unwrap_or_else(|e| panic!("{}: {e}", png.display()));
     // The best scene is a scene `simulate` reads, with the best value in it.
     let scene = std::fs::read_to_string(out.join("best_scene.toml")).unwrap();
     let parsed = pendulum_atlas::config::Scene::from_toml(&scene, "<best>", &[]).unwrap();
