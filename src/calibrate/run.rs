@@ -9,6 +9,7 @@ use super::observe::{Judgement, judge};
 use super::spec::CalibrationSpec;
 use crate::config::{ConfigError, Metric};
 use crate::engine::{Engine, EngineError, EnsembleOptions, EnsemblePlan, Progress};
+use crate::harvest::spec::{design_key as key, neighbours};
 use crate::map::run_plan;
 use crate::reduce::{InstanceResult, ReduceOptions};
 use serde::Serialize;
@@ -124,16 +125,8 @@ fn rank(candidates: &[Candidate]) -> Vec<usize> {
     order
 }
 
-fn key(values: &[f64]) -> String {
-    values
-        .iter()
-        .map(|v| format!("{v:.12e}"))
-        .collect::<Vec<_>>()
-        .join(",")
-}
-
-/// Round `round`'s candidates: one step along each unknown, both ways, around each of the
-/// best `refine.top`, the step shrunk by `refine.shrink` per round, within the grid's range.
+/// Round `round`'s candidates: the neighbours of each of the best `refine.top`, the step
+/// shrunk by `refine.shrink` per round, not yet seen.
 fn refinement(
     spec: &CalibrationSpec,
     candidates: &[Candidate],
@@ -142,24 +135,12 @@ fn refinement(
     seen: &mut HashSet<String>,
 ) -> Vec<Vec<f64>> {
     let shrink = spec.refine.shrink.powi(round as i32);
-    let mut out = Vec::new();
-    for &id in ranking.iter().take(spec.refine.top) {
-        let centre = &candidates[id].values;
-        for (i, u) in spec.unknowns.iter().enumerate() {
-            let step = u.grid_step() * shrink;
-            for sign in [-1.0, 1.0] {
-                if step == 0.0 {
-                    continue;
-                }
-                let mut c = centre.clone();
-                c[i] = u.clamp(u.from_step_space(u.to_step_space(centre[i]) + sign * step));
-                if seen.insert(key(&c)) {
-                    out.push(c);
-                }
-            }
-        }
-    }
-    out
+    ranking
+        .iter()
+        .take(spec.refine.top)
+        .flat_map(|&id| neighbours(&spec.unknowns, &candidates[id].values, shrink))
+        .filter(|c| seen.insert(key(c)))
+        .collect()
 }
 
 /// The ensemble's settings: what the observations need, on the whole run.

@@ -29,58 +29,16 @@
 
 use super::observe::Observation;
 use crate::analysis::PhaseConvention;
-use crate::config::{
-    AxisScale, ConfigError, Range, Reader, Scene, read_sweep, set_key, split_section,
-};
+use crate::config::{ConfigError, Range, Reader, Scene, read_sweep, set_key, split_section};
 use serde::Serialize;
 use toml::{Table, Value};
 
 /// Largest number of grid candidates.
 pub const MAX_CANDIDATES: usize = 10_000;
 
-/// One unknown parameter: a scene key and the values the coarse grid takes.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Unknown {
-    /// Dotted scene key.
-    pub key: String,
-    /// Grid values, increasing.
-    pub values: Vec<f64>,
-    /// Spacing (also the space refinement steps are taken in).
-    pub scale: AxisScale,
-}
-
-impl Unknown {
-    /// Into the space steps are taken in (ln for log unknowns).
-    pub fn to_step_space(&self, v: f64) -> f64 {
-        match self.scale {
-            AxisScale::Linear => v,
-            AxisScale::Log => v.ln(),
-        }
-    }
-
-    /// Back from step space.
-    pub fn from_step_space(&self, u: f64) -> f64 {
-        match self.scale {
-            AxisScale::Linear => u,
-            AxisScale::Log => u.exp(),
-        }
-    }
-
-    /// Mean grid spacing in step space (0 for a single value).
-    pub fn grid_step(&self) -> f64 {
-        let n = self.values.len();
-        if n < 2 {
-            return 0.0;
-        }
-        (self.to_step_space(self.values[n - 1]) - self.to_step_space(self.values[0]))
-            / (n - 1) as f64
-    }
-
-    /// Clamp into the grid's range.
-    pub fn clamp(&self, v: f64) -> f64 {
-        v.clamp(self.values[0], self.values[self.values.len() - 1])
-    }
-}
+/// One unknown parameter: a scene key and the values the coarse grid takes (a design
+/// variable of the harvesting search, with the same step space and refinement).
+pub type Unknown = crate::harvest::DesignVariable;
 
 /// One observed setting and what was observed there.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -332,7 +290,12 @@ fn read_unknowns(v: Option<Value>) -> Result<Vec<Unknown>, ConfigError> {
                 value: values.len() as f64,
                 range: format!("grids of at most {MAX_CANDIDATES} candidates in all"),
             })?;
-        out.push(Unknown { key, values, scale });
+        out.push(Unknown {
+            key,
+            values,
+            scale,
+            integer: false,
+        });
     }
     Ok(out)
 }

@@ -14,7 +14,7 @@
 
 use super::band::{BandMetrics, band_metrics, mean_curve, robust_curve};
 use super::error::HarvestError;
-use super::spec::{InitialState, Objective, SearchSpec, describe_design};
+use super::spec::{InitialState, Objective, SearchSpec, describe_design, design_key, neighbours};
 use crate::config::{ConfigError, Metric, Scene};
 use crate::engine::{Engine, EngineInfo, EnsembleOptions, EnsemblePlan, ProgressUnit};
 use crate::map::run_plan;
@@ -481,15 +481,6 @@ fn mark_pareto(designs: &mut [DesignResult]) {
     }
 }
 
-/// A design's identity for de-duplication (values to 12 significant digits).
-fn design_key(values: &[f64]) -> String {
-    values
-        .iter()
-        .map(|v| format!("{v:.12e}"))
-        .collect::<Vec<_>>()
-        .join(",")
-}
-
 /// The candidates of refinement round `round`: one step along each variable, both ways,
 /// around each of the best `refine.top` designs, within the grid's range, not yet seen.
 fn refinement_candidates(
@@ -500,26 +491,12 @@ fn refinement_candidates(
     seen: &mut HashSet<String>,
 ) -> Vec<Vec<f64>> {
     let shrink = spec.refine.shrink.powi(round as i32);
-    let mut out = Vec::new();
-    for &id in ranking.iter().take(spec.refine.top) {
-        let centre = &designs[id].values;
-        for (i, var) in spec.variables.iter().enumerate() {
-            let step = var.grid_step() * shrink;
-            if step == 0.0 {
-                continue;
-            }
-            for sign in [-1.0, 1.0] {
-                let u = var.to_step_space(centre[i]) + sign * step;
-                let x = var.admissible(var.from_step_space(u));
-                let mut cand = centre.clone();
-                cand[i] = x;
-                if seen.insert(design_key(&cand)) {
-                    out.push(cand);
-                }
-            }
-        }
-    }
-    out
+    ranking
+        .iter()
+        .take(spec.refine.top)
+        .flat_map(|&id| neighbours(&spec.variables, &designs[id].values, shrink))
+        .filter(|c| seen.insert(design_key(c)))
+        .collect()
 }
 
 /// Run a whole search: baseline, grid, refinement, ranking.

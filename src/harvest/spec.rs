@@ -362,6 +362,34 @@ pub fn describe_design(vars: &[DesignVariable], values: &[f64]) -> String {
         .join(", ")
 }
 
+/// A key identifying a design by its values (for "already evaluated" sets).
+pub fn design_key(values: &[f64]) -> String {
+    values
+        .iter()
+        .map(|v| format!("{v:.12e}"))
+        .collect::<Vec<_>>()
+        .join(",")
+}
+
+/// The neighbours of `centre`: one step of the grid spacing × `shrink` along each variable,
+/// both ways, in the variable's step space, clamped to its range (integers rounded).
+pub fn neighbours(vars: &[DesignVariable], centre: &[f64], shrink: f64) -> Vec<Vec<f64>> {
+    let mut out = Vec::new();
+    for (i, var) in vars.iter().enumerate() {
+        let step = var.grid_step() * shrink;
+        if step == 0.0 {
+            continue;
+        }
+        for sign in [-1.0, 1.0] {
+            let u = var.to_step_space(centre[i]) + sign * step;
+            let mut cand = centre.to_vec();
+            cand[i] = var.admissible(var.from_step_space(u));
+            out.push(cand);
+        }
+    }
+    out
+}
+
 /// Set a numeric key in a scene table (integers for integer keys).
 fn set_number(table: &mut Table, key: &str, v: f64, integer: bool) -> Result<(), ConfigError> {
     let value = if integer {
