@@ -1,7 +1,6 @@
 //! `pendulum-atlas calibrate`: which values of the unknowns reproduce the observations.
 
 use super::engine::{EngineArgs, hint};
-use indicatif::{ProgressBar, ProgressStyle};
 use pendulum_atlas::calibrate::{load_calibration, run_calibration, write_calibration};
 use pendulum_atlas::engine::ProgressUnit;
 use pendulum_atlas::output::folder::Product;
@@ -36,17 +35,9 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
     let spec = load_calibration(&a.scene, &a.sets)?;
     let engine = a.engine.open()?;
     super::claim_out(Product::Calibrate, &a.out, a.force)?;
-    let bar = if a.quiet {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(1)
-    };
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{spinner} calibrate [{bar:40}] {pos}/{len} {elapsed_precise}",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
+    let bar = super::progress_bar(
+        a.quiet,
+        "{spinner} calibrate [{bar:40}] {pos}/{len} {elapsed_precise}",
     );
     let progress = |done: u64, total: u64, _unit: ProgressUnit| {
         bar.set_length(total);

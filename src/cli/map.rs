@@ -1,7 +1,6 @@
 //! `pendulum-atlas map`: a chaos/bifurcation map over 1–3 scene keys on the GPU or the CPU.
 
 use super::engine::{EngineArgs, hint};
-use indicatif::{ProgressBar, ProgressStyle};
 use pendulum_atlas::config::load_map;
 use pendulum_atlas::engine::ProgressUnit;
 use pendulum_atlas::map::run_map;
@@ -38,17 +37,9 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
     let spec = load_map(a.scene.as_deref(), &a.sets)?;
     let engine = a.engine.open()?;
     super::claim_out(Product::Map, &a.out, a.force)?;
-    let bar = if a.quiet {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(1)
-    };
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{spinner} {msg} [{bar:40}] {pos}/{len} {elapsed_precise} (eta {eta})",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
+    let bar = super::progress_bar(
+        a.quiet,
+        "{spinner} {msg} [{bar:40}] {pos}/{len} {elapsed_precise} (eta {eta})",
     );
     bar.set_message(format!("map of {} instances", spec.instances()));
     let progress = |done: u64, total: u64, unit: ProgressUnit| {

@@ -85,6 +85,21 @@ fn claim_out(product: Product, out: &Path, force: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// A progress bar in `template` (hidden when `quiet`), for the ensemble commands.
+fn progress_bar(quiet: bool, template: &str) -> indicatif::ProgressBar {
+    let bar = if quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new(1)
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(template)
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar
+}
+
 /// Run the parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {

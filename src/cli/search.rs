@@ -1,7 +1,6 @@
 //! `pendulum-atlas search`: the broadband-harvesting design search over a harvester scene.
 
 use super::engine::EngineArgs;
-use indicatif::{ProgressBar, ProgressStyle};
 use pendulum_atlas::harvest::{load_search, run_search, verify_design, write_search};
 use pendulum_atlas::output::folder::Product;
 use std::path::PathBuf;
@@ -38,17 +37,9 @@ pub fn run(a: SearchArgs) -> anyhow::Result<()> {
     );
     let engine = a.engine.open()?;
     super::claim_out(Product::Search, &a.out, a.force)?;
-    let bar = if a.quiet {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(1)
-    };
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{spinner} {msg} [{bar:40}] {pos}/{len} {elapsed_precise} (eta {eta})",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
+    let bar = super::progress_bar(
+        a.quiet,
+        "{spinner} {msg} [{bar:40}] {pos}/{len} {elapsed_precise} (eta {eta})",
     );
     let progress = |stage: &str, done: u64, total: u64| {
         if bar.message() != stage {
