@@ -29,7 +29,9 @@
 
 use super::observe::Observation;
 use crate::analysis::PhaseConvention;
-use crate::config::{ConfigError, Range, Reader, Scene, read_sweep, set_key, split_section};
+use crate::config::{
+    ConfigError, MAX_INSTANCES, Range, Reader, Scene, read_sweep, set_key, split_section,
+};
 use serde::Serialize;
 use toml::{Table, Value};
 
@@ -183,6 +185,7 @@ pub fn calibration_from_toml(
         },
     };
     r.finish()?;
+    check_size(&spec)?;
     check_scenes(&spec)?;
     Ok(spec)
 }
@@ -444,6 +447,23 @@ fn alpha_range(r: &mut Reader, key: &str) -> Result<Option<Observation>, ConfigE
 
 fn as_f64(v: &Value) -> Option<f64> {
     v.as_float().or_else(|| v.as_integer().map(|i| i as f64))
+}
+
+/// The grid's instances (candidates × cases × initial states) within a map's limit.
+fn check_size(spec: &CalibrationSpec) -> Result<(), ConfigError> {
+    let candidates: usize = spec.unknowns.iter().map(|u| u.values.len()).product();
+    let instances = candidates * spec.cases.len() * spec.initial_states as usize;
+    if instances > MAX_INSTANCES {
+        return Err(ConfigError::Inconsistent {
+            key: "calibrate".into(),
+            reason: format!(
+                "the grid needs {instances} instances ({candidates} candidates × {} cases × {} initial states); at most {MAX_INSTANCES}: use fewer grid values or initial states",
+                spec.cases.len(),
+                spec.initial_states
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// Every case at every unknown's first and last value gives a valid scene.

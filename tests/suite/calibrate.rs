@@ -136,6 +136,24 @@ fn the_spec_reads_every_observation_and_refuses_what_it_cannot_judge() {
             .to_string();
         assert!(e.contains(says), "{case} / {unknown}: {e}");
     }
+    // 10 000 candidates × 7 cases × 64 initial states: 4.48e6 instances, over a map's limit.
+    let mut huge = format!(
+        "{BASE}[calibrate]\ninitial_states = 64\n[[calibrate.unknowns]]\n{}\ncount = 10000\n",
+        "key = \"limiter.contact_arc_m\"\nstart = 0.1\nend = 0.3"
+    );
+    for _ in 0..7 {
+        huge.push_str(&format!(
+            "[[calibrate.cases]]\n{}\nhops = true\n",
+            case_set(8.0, 0.009)
+        ));
+    }
+    let e = calibration_from_toml(&huge, "<t>", &[])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("4480000 instances") && e.contains("at most 4000000"),
+        "{e}"
+    );
     let fixed = format!(
         "{BASE}[calibrate]\n[[calibrate.unknowns]]\n{arc}\n[[calibrate.cases]]\n\
          set = {{ \"limiter.contact_arc_m\" = 0.2 }}\nhops = true\n"

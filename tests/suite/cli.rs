@@ -376,28 +376,22 @@ fn a_run_of_no_step_is_refused() {
     }
 }
 
+/// `simulate` with RK4 at ten times its stable step (N = 3, 2 s): the run blows up.
+fn blown_up_simulate(out: &std::path::Path) -> std::process::Output {
+    bin()
+        .args(["simulate", "--set", "beam.segments=3", "--set"])
+        .args(["integration.method=rk4", "--set", "integration.dt_s=1e-2"])
+        .args(["--set", "integration.duration_s=2", "--out"])
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
 #[test]
 fn a_failed_run_writes_its_files_and_exits_3() {
     // RK4 at ten times its stable step: the run blows up and is flagged.
     let out = out_dir("failed_run");
-    let o = bin()
-        .args([
-            "simulate",
-            "--set",
-            "beam.segments=3",
-            "--set",
-            "integration.method=rk4",
-        ])
-        .args([
-            "--set",
-            "integration.dt_s=1e-2",
-            "--set",
-            "integration.duration_s=2",
-        ])
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = blown_up_simulate(&out);
     assert_eq!(
         o.status.code(),
         Some(3),
@@ -445,25 +439,7 @@ fn simulate_prints_its_warnings_and_every_file_it_wrote() {
     let out = out_dir("feedback");
     std::fs::create_dir_all(&out).unwrap();
     std::fs::write(out.join("notes.txt"), "the user's own file").unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(50));
-    let o = bin()
-        .args([
-            "simulate",
-            "--set",
-            "beam.segments=3",
-            "--set",
-            "integration.method=rk4",
-        ])
-        .args([
-            "--set",
-            "integration.dt_s=1e-2",
-            "--set",
-            "integration.duration_s=2",
-        ])
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = blown_up_simulate(&out);
     assert_eq!(o.status.code(), Some(3));
     let err = String::from_utf8_lossy(&o.stderr);
     let run: serde_json::Value =
