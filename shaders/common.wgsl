@@ -14,7 +14,7 @@ override N_SEG: u32 = 3u;           // rigid segments N (<= MAX_SEG)
 override HAS_CONTACT: bool = true;  // limiter.enabled
 override HAS_PIEZO: bool = false;   // piezo.enabled
 override WANT_STROBE: bool = true;  // K, period or a bifurcation diagram asked for
-override WANT_RSERIES: bool = true; // R asked for
+override WANT_RSERIES: bool = true; // R or the dominant line asked for
 override WANT_K: bool = true;      // K asked for (the period alone skips the 0–1 test)
 override PAPER_CONVENTION: bool = false; // R with Δφ reduced modulo π (paper) or 2π (standard)
 override WG: u32 = 64u;             // workgroup size of the integration and R kernels
@@ -87,7 +87,7 @@ struct Accum {
     power_comp: f32,
     k: f32,
     r: f32,
-    pad1: f32,
+    line: f32,
     pad2: f32,
 }
 

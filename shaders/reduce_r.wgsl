@@ -1,6 +1,7 @@
-// Reductions, part 1: the phase-synchronisation index R of α against the cart (src/analysis/
-// phase.rs), from the uniform α series the integration recorded: a radix-2 FFT Hilbert
-// transform of each signal, then R in the convention asked for.
+// Reductions, part 1, on the uniform α series the integration recorded: its dominant line
+// (src/reduce `line_of`), then the phase-synchronisation index R of α against the cart
+// (src/analysis/phase.rs): a radix-2 FFT Hilbert transform of each signal, then R in the
+// convention asked for.
 
 fn cmul(a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
     return vec2<f32>(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x);
@@ -67,6 +68,75 @@ fn analytic(base: u32, n: u32) {
         }
     }
     fft(base, n, 1.0);
+}
+
+// One-sided amplitude of bin k of an n-point transform at rwork[base ..], up to the common
+// factor 1/Σw: 2|X_k|, but |X_k| at DC and Nyquist (src/analysis/spectrum.rs).
+fn one_sided(base: u32, k: u32, n: u32) -> f32 {
+    let a = length(rwork[base + k]);
+    if k == 0u || k == n / 2u {
+        return a;
+    }
+    return 2.0 * a;
+}
+
+// The dominant line of α over the forcing frequency, as `line_of` in src/reduce: the mean-removed
+// R series times a periodic Hann window, copied into the cart's half of the work space (which
+// r_cart fills afterwards), its FFT, the largest bin above DC (the last of equals), moved between
+// bins by the vertex of a parabola through the log amplitudes of it and its neighbours. Bin k
+// lies at k·(samples per period)/n forcing frequencies.
+@compute @workgroup_size(WG)
+fn line(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let inst = gid.x;
+    if inst >= ctl.n_inst {
+        return;
+    }
+    let nan = bitcast<f32>(0x7fc00000u);
+    if acc[inst].status != STATUS_OK {
+        acc[inst].line = nan;
+        return;
+    }
+    let p = params[inst];
+    let n = p.r_count;
+    let base_a = inst * ctl.rwork_stride;
+    let base_w = base_a + n;
+    var mean = 0.0;
+    for (var j = 0u; j < n; j++) {
+        mean += rwork[base_a + j].x;
+    }
+    mean /= f32(n);
+    for (var j = 0u; j < n; j++) {
+        let w = 0.5 * (1.0 - cos(TAU * f32(j) / f32(n)));
+        rwork[base_w + j] = vec2<f32>((rwork[base_a + j].x - mean) * w, 0.0);
+    }
+    fft(base_w, n, -1.0);
+    let half = n / 2u;
+    var k = 1u;
+    var c = -1.0;
+    for (var j = 1u; j <= half; j++) {
+        let a = one_sided(base_w, j, n);
+        if a >= c {
+            k = j;
+            c = a;
+        }
+    }
+    if !(c > 0.0) {
+        acc[inst].line = nan;
+        return;
+    }
+    var shift = 0.0;
+    if k < half {
+        let l = one_sided(base_w, k - 1u, n);
+        let r = one_sided(base_w, k + 1u, n);
+        if l > 0.0 && r > 0.0 {
+            let curvature = log(l) - 2.0 * log(c) + log(r);
+            if curvature < 0.0 {
+                shift = 0.5 * (log(l) - log(r)) / curvature;
+            }
+        }
+    }
+    let per_period = f32(p.spp / p.r_every);
+    acc[inst].line = (f32(k) + shift) * per_period / f32(n);
 }
 
 // Phase synchronisation R of α against the cart position x0 over the R series, in three

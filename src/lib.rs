@@ -40,3 +40,4 @@ pub mod output;
 pub mod reduce;
 pub mod render;
 pub mod reproduce;
+pub mod shard;

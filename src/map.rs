@@ -7,11 +7,12 @@ use crate::engine::{
     Engine, EngineError, EngineInfo, EngineKind, EnsemblePlan, Progress, Readback,
 };
 use crate::reduce::{InstanceResult, ReduceOptions};
+use crate::shard::Shard;
 use serde::Serialize;
 use std::time::Instant;
 
 /// Wall time of each stage (s).
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Default, Serialize, serde::Deserialize)]
 pub struct MapTimings {
     /// Validating every instance's scene and choosing its step.
     pub plan_s: f64,
@@ -48,6 +49,23 @@ pub struct MapRun {
     /// Stroboscopic tail per instance for the bifurcation diagram (empty unless asked for).
     #[serde(skip)]
     pub strobe_tail: Vec<Vec<f64>>,
+    /// The shards it was merged from (empty for a run in one piece).
+    pub shards: Vec<ShardSummary>,
+}
+
+/// One shard of a merged map, as `map.json` lists it.
+#[derive(Debug, Clone, Serialize)]
+pub struct ShardSummary {
+    /// Which shard.
+    pub shard: Shard,
+    /// Its folder.
+    pub dir: String,
+    /// The device it ran on.
+    pub device: String,
+    /// Its instances.
+    pub instances: usize,
+    /// Its wall time (s).
+    pub total_s: f64,
 }
 
 impl MapRun {
@@ -138,5 +156,36 @@ pub fn run_plan(
         dispatches: run.dispatches,
         stopped_early: run.stopped_early,
         strobe_tail,
+        shards: Vec::new(),
     })
+}
+
+/// Plan the whole map (so that every instance gets the step and method of the unsharded
+/// run), then integrate and reduce only `shard`'s instances; the results are in member order
+/// ([`Shard::members`]).
+pub fn run_map_shard(
+    spec: &MapSpec,
+    shard: Shard,
+    engine: &Engine,
+    progress: Progress,
+) -> Result<MapRun, EngineError> {
+    let t0 = Instant::now();
+    let plan = EnsemblePlan::new(spec)?.select(&shard.members(spec.instances()));
+    if plan.instances.is_empty() {
+        return Err(EngineError::Empty);
+    }
+    let plan_s = t0.elapsed().as_secs_f64();
+    let tail = spec
+        .bifurcation
+        .then_some(spec.bifurcation_samples as usize);
+    let mut run = run_plan(
+        plan,
+        &ReduceOptions::from_spec(spec),
+        tail,
+        engine,
+        progress,
+    )?;
+    run.timings.plan_s = plan_s;
+    run.timings.total_s += plan_s;
+    Ok(run)
 }

@@ -5,7 +5,10 @@
 //!
 //! - K class: `d = 0` on the observed side of `K = 0.5`, else `|K − 0.5| / 0.5 + 1`;
 //! - K or R value `v ± tol`: `d = |x − v| / tol`;
-//! - period `p`: `d = 0` when the stroboscopic period is `p`, else 2;
+//! - period `p`: `d = 0` when the stroboscopic period is `p` (0: none up to the longest
+//!   searched, "not periodic"), else 2;
+//! - dominant line `p/q` of α's spectrum (a multiple of the forcing frequency, e.g. 1/3) with
+//!   relative tolerance `t`: `d = |line − p/q| / (t·p/q)`;
 //! - hops or no hops: `d = 0` when the run hops between the wells as observed, else 2;
 //! - α range `[lo, hi]` (rad): `d = 0` inside, else `1 + gap / (hi − lo)`.
 //!
@@ -40,10 +43,19 @@ pub enum Observation {
         /// Tolerance.
         tol: f64,
     },
-    /// Stroboscopic period in forcing periods.
+    /// Stroboscopic period in forcing periods (0: not periodic).
     Period {
         /// The period.
         period: u32,
+    },
+    /// The dominant line of α's spectrum at `p/q` of the forcing frequency.
+    Line {
+        /// Numerator.
+        p: u32,
+        /// Denominator.
+        q: u32,
+        /// Relative tolerance on `p/q`.
+        rel_tol: f64,
     },
     /// The beam hops between the wells, or stays in one.
     Hops {
@@ -71,7 +83,11 @@ impl Observation {
             }
             Observation::K { value, tol } => format!("K = {value} ± {tol}"),
             Observation::R { value, tol } => format!("R = {value} ± {tol}"),
+            Observation::Period { period: 0 } => "not periodic".into(),
             Observation::Period { period } => format!("period {period}"),
+            Observation::Line { p, q, rel_tol } => {
+                format!("line at {p}/{q} f ± {}%", 100.0 * rel_tol)
+            }
             Observation::Hops { hops } => (if *hops { "hops" } else { "no hops" }).into(),
             Observation::AlphaRange { lo_rad, hi_rad } => {
                 format!("alpha range in [{lo_rad}, {hi_rad}] rad")
@@ -97,6 +113,10 @@ impl Observation {
                 } else {
                     MISS
                 }
+            }
+            Observation::Line { p, q, rel_tol } => {
+                let at = f64::from(p) / f64::from(q);
+                (r.line - at).abs() / (rel_tol * at)
             }
             Observation::Hops { hops } => {
                 if (r.hops > 0.0) == hops {
@@ -173,6 +193,7 @@ mod tests {
             alpha_min_rad: -0.1,
             alpha_max_rad: 0.2,
             power_w: 0.0,
+            line: 0.34,
             status,
             steps: 1,
         }
@@ -219,6 +240,14 @@ mod tests {
         );
         assert_eq!(Observation::Period { period: 3 }.distance(&r), 0.0);
         assert_eq!(Observation::Period { period: 1 }.distance(&r), MISS);
+        assert_eq!(Observation::Period { period: 0 }.distance(&r), MISS);
+        // Line 0.34 against 1/3 ± 5 %: 0.00667 off over 0.01667.
+        let third = Observation::Line {
+            p: 1,
+            q: 3,
+            rel_tol: 0.05,
+        };
+        assert!((third.distance(&r) - 0.4).abs() < 1e-9);
         assert_eq!(Observation::Hops { hops: false }.distance(&r), 0.0);
         // Range 0.3 rad against [0.1, 0.2]: 0.1 beyond, over a width of 0.1.
         let a = Observation::AlphaRange {

@@ -152,6 +152,7 @@ fn options(spec: &CalibrationSpec) -> (EnsembleOptions, ReduceOptions) {
             Metric::Period,
             Metric::Hops,
             Metric::AlphaRange,
+            Metric::Line,
         ],
         keep_strobe: false,
         samples_per_period: spec.samples_per_period,

@@ -22,7 +22,8 @@
 //! k_class = "regular"         # or "chaotic"
 //! k = { value = 0.0, tol = 0.2 }
 //! r = { value = 0.88, tol = 0.1 }
-//! period = 3
+//! period = 3                  # 0: not periodic (no period up to 8)
+//! line = "1/3"                # dominant line of α at f/3, within 5 % (or { fraction = "1/3", tol = 0.05 })
 //! hops = false
 //! alpha_range_rad = [0.1, 0.3]
 //! ```
@@ -32,6 +33,7 @@ use crate::analysis::PhaseConvention;
 use crate::config::{
     ConfigError, MAX_INSTANCES, Range, Reader, Scene, read_sweep, set_key, split_section,
 };
+use crate::reduce::ReduceOptions;
 use serde::Serialize;
 use toml::{Table, Value};
 
@@ -383,8 +385,12 @@ fn read_observations(prefix: &str, t: Table) -> Result<Vec<Observation>, ConfigE
         out.push(Observation::R { value, tol });
     }
     if r.raw(&key("period"))?.is_some() {
-        let period = r.integer(&key("period"), 1, 1, 64)? as u32;
+        let max = i64::from(ReduceOptions::default().period_max);
+        let period = r.integer(&key("period"), 1, 0, max)? as u32;
         out.push(Observation::Period { period });
+    }
+    if let Some(line) = line(&mut r, &key("line"))? {
+        out.push(line);
     }
     if r.raw(&key("hops"))?.is_some() {
         out.push(Observation::Hops {
@@ -398,7 +404,7 @@ fn read_observations(prefix: &str, t: Table) -> Result<Vec<Observation>, ConfigE
     if out.is_empty() {
         return Err(ConfigError::Inconsistent {
             key: prefix.into(),
-            reason: "a case needs at least one observation: k_class, k, r, period, hops or alpha_range_rad".into(),
+            reason: "a case needs at least one observation: k_class, k, r, period, line, hops or alpha_range_rad".into(),
         });
     }
     Ok(out)
@@ -417,6 +423,40 @@ fn value_tol(r: &mut Reader, key: &str, range: Range) -> Result<Option<(f64, f64
             key: key.into(),
             reason: "give both the observed value and its tolerance: { value = 0.9, tol = 0.1 }"
                 .into(),
+        }),
+    }
+}
+
+/// Default relative tolerance of a line observation.
+pub const LINE_REL_TOL: f64 = 0.05;
+
+/// `"p/q"` or `{ fraction = "p/q", tol = t }`: the dominant line at `p/q` of the forcing
+/// frequency within the relative tolerance `t` (default [`LINE_REL_TOL`]).
+fn line(r: &mut Reader, key: &str) -> Result<Option<Observation>, ConfigError> {
+    let Some(v) = r.raw(key)?.cloned() else {
+        return Ok(None);
+    };
+    let (text, rel_tol) = match &v {
+        Value::String(s) => (s.clone(), LINE_REL_TOL),
+        Value::Table(_) => {
+            let f = r
+                .raw(&format!("{key}.fraction"))?
+                .and_then(|f| f.as_str().map(str::to_string));
+            let tol = r.number_opt(&format!("{key}.tol"), Range::Open(0.0, 1.0), "")?;
+            (f.unwrap_or_default(), tol.unwrap_or(LINE_REL_TOL))
+        }
+        _ => (String::new(), LINE_REL_TOL),
+    };
+    let fraction = text.split_once('/').and_then(|(p, q)| {
+        let (p, q) = (p.trim().parse::<u32>().ok()?, q.trim().parse::<u32>().ok()?);
+        (p >= 1 && (1..=64).contains(&q) && p <= 64 * q).then_some((p, q))
+    });
+    match fraction {
+        Some((p, q)) => Ok(Some(Observation::Line { p, q, rel_tol })),
+        None => Err(ConfigError::WrongType {
+            key: key.into(),
+            expected: "a fraction of the forcing frequency \"p/q\" (1 <= q <= 64, e.g. \"1/3\"), or { fraction = \"1/3\", tol = 0.05 }".into(),
+            found: format!("{v}"),
         }),
     }
 }

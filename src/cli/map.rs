@@ -1,12 +1,14 @@
-//! `pendulum-atlas map`: a chaos/bifurcation map over 1–3 scene keys on the GPU or the CPU.
+//! `pendulum-atlas map`: a chaos/bifurcation map over 1–3 scene keys on the GPU or the CPU,
+//! whole or one shard of it; `pendulum-atlas merge`: shards back into one map.
 
 use super::engine::{EngineArgs, hint};
-use pendulum_atlas::config::load_map;
+use pendulum_atlas::config::{DEFAULT_MAP_TOML, MapSpec, map_from_toml, scene_text};
 use pendulum_atlas::engine::ProgressUnit;
-use pendulum_atlas::map::run_map;
+use pendulum_atlas::map::{MapRun, run_map, run_map_shard};
 use pendulum_atlas::model::Status;
 use pendulum_atlas::output::folder::Product;
 use pendulum_atlas::output::map::write_map;
+use pendulum_atlas::shard::{Shard, merge_shards, write_shard};
 use std::path::PathBuf;
 
 /// Arguments of `map`.
@@ -23,6 +25,10 @@ pub struct MapArgs {
     /// Output folder.
     #[arg(long, default_value = "runs/map")]
     pub out: PathBuf,
+    /// Integrate only shard I of N (0-based, e.g. 0/4; instances k with k mod N = I) and write
+    /// its results to --out for `pendulum-atlas merge`.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<Shard>,
     /// Replace an earlier run in --out: delete the files this command writes there first
     /// (other files are left alone). Without it, a folder holding such files is refused.
     #[arg(long)]
@@ -32,24 +38,94 @@ pub struct MapArgs {
     pub quiet: bool,
 }
 
+/// Arguments of `merge`.
+#[derive(Debug, clap::Args)]
+pub struct MergeArgs {
+    /// The shard folders (`map ... --shard I/N --out DIR`), every index exactly once.
+    #[arg(required = true)]
+    pub shards: Vec<PathBuf>,
+    /// Output folder of the merged map.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Replace an earlier map in --out (its files only).
+    #[arg(long)]
+    pub force: bool,
+}
+
 /// Run `map`.
 pub fn run(a: MapArgs) -> anyhow::Result<()> {
-    let spec = load_map(a.scene.as_deref(), &a.sets)?;
+    let (text, origin) = scene_text(
+        a.scene.as_deref(),
+        DEFAULT_MAP_TOML,
+        "configs/maps/default.toml",
+    )?;
+    let spec = map_from_toml(&text, &origin, &a.sets)?;
+    if let Some(s) = a.shard {
+        check_shard(s, &spec)?;
+    }
     let engine = a.engine.open()?;
-    super::claim_out(Product::Map, &a.out, a.force)?;
+    let product = if a.shard.is_some() {
+        Product::Shard
+    } else {
+        Product::Map
+    };
+    super::claim_out(product, &a.out, a.force)?;
     let bar = super::progress_bar(
         a.quiet,
         "{spinner} {msg} [{bar:40}] {pos}/{len} {elapsed_precise} (eta {eta})",
     );
-    bar.set_message(format!("map of {} instances", spec.instances()));
     let progress = |done: u64, total: u64, unit: ProgressUnit| {
         bar.set_length(total);
         bar.set_position(done);
         bar.set_prefix(unit.name());
     };
-    let run = run_map(&spec, &engine, &progress).map_err(hint)?;
+    let (run, files) = match a.shard {
+        Some(s) => {
+            bar.set_message(format!("shard {}/{} of a map", s.index, s.count));
+            let run = run_map_shard(&spec, s, &engine, &progress).map_err(hint)?;
+            let files = write_shard(&a.out, &spec, &text, &a.sets, s, &run)?;
+            (run, files)
+        }
+        None => {
+            bar.set_message(format!("map of {} instances", spec.instances()));
+            let run = run_map(&spec, &engine, &progress).map_err(hint)?;
+            let files = write_map(&a.out, &spec, &run)?;
+            (run, files)
+        }
+    };
     bar.finish_and_clear();
-    let files = write_map(&a.out, &spec, &run)?;
+    report(&run, files.len(), &a.out)
+}
+
+/// A shard index within the grid: no more shards than instances.
+fn check_shard(s: Shard, spec: &MapSpec) -> anyhow::Result<()> {
+    if s.count as usize > spec.instances() {
+        anyhow::bail!(
+            "--shard {}/{}: the map has {} instances; use at most {} shards",
+            s.index,
+            s.count,
+            spec.instances(),
+            spec.instances()
+        );
+    }
+    Ok(())
+}
+
+/// Run `merge`.
+pub fn merge(a: MergeArgs) -> anyhow::Result<()> {
+    super::claim_out(Product::Map, &a.out, a.force)?;
+    let merged = merge_shards(&a.shards)?;
+    let files = write_map(&a.out, &merged.spec, &merged.run)?;
+    println!(
+        "merged {} shards of {} instances",
+        merged.run.shards.len(),
+        merged.spec.instances()
+    );
+    report(&merged.run, files.len(), &a.out)
+}
+
+/// What ran and where it went; exit status 3 when no instance ended ok.
+fn report(run: &MapRun, files: usize, out: &std::path::Path) -> anyhow::Result<()> {
     let ok = run
         .results
         .iter()
@@ -77,7 +153,7 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
         run.plan.dt_range_s.0,
         run.plan.dt_range_s.1
     );
-    println!("wrote {} files to {}", files.len(), a.out.display());
+    println!("wrote {files} files to {}", out.display());
     if ok == 0 {
         return Err(super::RunFailed(format!(
             "no instance of the map ended ok ({} failed; see status_counts in map.json)",

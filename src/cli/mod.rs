@@ -55,6 +55,8 @@ pub struct SceneArgs {
 pub enum Command {
     /// A chaos/bifurcation map over 1–3 scene keys (GPU if present, CPU otherwise).
     Map(map::MapArgs),
+    /// Merge the shard folders of a map (`map --shard I/N`) into the map's files.
+    Merge(map::MergeArgs),
     /// Work-precision study: run time against error for N, dt, precision and backend.
     Bench(bench::BenchArgs),
     /// Integrate one run and write trajectory.csv and run.json.
@@ -104,6 +106,7 @@ fn progress_bar(quiet: bool, template: &str) -> indicatif::ProgressBar {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Map(a) => map::run(a),
+        Command::Merge(a) => map::merge(a),
         Command::Bench(a) => bench::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Modes(a) => modes::run(a),

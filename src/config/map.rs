@@ -51,11 +51,14 @@ pub enum Metric {
     /// Mean harvested power v²/R_L after the transient (needs `piezo.enabled`).
     #[serde(rename = "power")]
     Power,
+    /// Dominant line of α's spectrum as a multiple of the forcing frequency (1/3: a third).
+    #[serde(rename = "line")]
+    Line,
 }
 
 impl Metric {
     /// Every metric, in output order.
-    pub const ALL: [Metric; 7] = [
+    pub const ALL: [Metric; 8] = [
         Metric::K,
         Metric::R,
         Metric::Period,
@@ -63,6 +66,7 @@ impl Metric {
         Metric::ImpactsPerS,
         Metric::AlphaRange,
         Metric::Power,
+        Metric::Line,
     ];
 
     /// The name used in scenes and file names.
@@ -75,6 +79,7 @@ impl Metric {
             Metric::ImpactsPerS => "impacts_per_s",
             Metric::AlphaRange => "alpha_range",
             Metric::Power => "power",
+            Metric::Line => "line",
         }
     }
 

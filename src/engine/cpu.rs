@@ -301,6 +301,7 @@ impl CpuEngine {
                     strobe: &r.strobe,
                     r_alpha: &r.r_alpha,
                     r_cart: &cart,
+                    r_samples_per_period: f64::from(p.spp / p.r_every),
                 };
                 reduce_series(&mut out, series, &plan.metrics, opts);
                 out

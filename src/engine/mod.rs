@@ -38,7 +38,7 @@ pub use single::{
 pub use step_plan::{DtSource, StepPlan};
 
 use crate::reduce::{InstanceResult, ReduceOptions};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
 /// Which engine a user asks for.
@@ -55,7 +55,7 @@ pub enum Backend {
 }
 
 /// Float type of an engine.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Precision {
     /// Single precision, as the GPU integrates.
@@ -75,7 +75,7 @@ impl Precision {
 }
 
 /// Which engine ran.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum EngineKind {
     /// The CPU engine.
@@ -95,7 +95,7 @@ impl EngineKind {
 }
 
 /// What an opened engine is, and why it was chosen.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct EngineInfo {
     /// CPU or GPU.
     pub kind: EngineKind,

@@ -261,6 +261,29 @@ impl EnsemblePlan {
         Ok(plan)
     }
 
+    /// The sub-ensemble of the instances at `members` (indices into this plan, in order), with
+    /// this plan's method, metrics and warnings: a shard integrates exactly what the whole
+    /// ensemble would for those instances.
+    pub fn select(&self, members: &[usize]) -> EnsemblePlan {
+        let instances: Vec<InstancePlan> =
+            members.iter().map(|&i| self.instances[i].clone()).collect();
+        let dts = instances.iter().map(|p| p.dt_s);
+        EnsemblePlan {
+            strobe_stride: instances.iter().map(|p| p.strobe_count).max().unwrap_or(0),
+            r_stride: instances.iter().map(|p| p.r_count).max().unwrap_or(0),
+            dt_range_s: (
+                dts.clone().fold(f64::INFINITY, f64::min),
+                dts.fold(0.0, f64::max),
+            ),
+            total_steps: instances.iter().map(InstancePlan::total_steps).sum(),
+            instances,
+            method_reason: self.method_reason.clone(),
+            metrics: self.metrics.clone(),
+            warnings: self.warnings.clone(),
+            ..*self
+        }
+    }
+
     fn assemble(
         first: &Scene,
         opts: &EnsembleOptions,
@@ -286,7 +309,7 @@ impl EnsemblePlan {
             has_piezo: first.piezo.enabled,
             metrics: opts.metrics.clone(),
             want_strobe,
-            want_rseries: opts.wants(Metric::R),
+            want_rseries: opts.wants(Metric::R) || opts.wants(Metric::Line),
             strobe_stride: instances.iter().map(|p| p.strobe_count).max().unwrap_or(0),
             r_stride: instances.iter().map(|p| p.r_count).max().unwrap_or(0),
             dt_range_s,
@@ -514,10 +537,11 @@ fn plan_instance(
     let r_every = blocks;
     let avail = (total_steps - transient_periods * spp) / r_every + 1;
     let r_count = (1u64 << (63 - avail.leading_zeros())).min(u64::from(opts.r_max_samples));
-    if opts.wants(Metric::R) && r_count < 32 {
-        return Err(short(
-            "too short after the transient for R (needs 32 samples)".into(),
-        ));
+    if (opts.wants(Metric::R) || opts.wants(Metric::Line)) && r_count < 32 {
+        return Err(short(format!(
+            "too short after the transient for R and the dominant line (they need 32 samples at {} per forcing period)",
+            opts.samples_per_period
+        )));
     }
     let r_start = total_steps - (r_count - 1) * r_every;
     Ok(InstancePlan {

@@ -18,8 +18,10 @@ use std::path::{Path, PathBuf};
 pub enum Product {
     /// `simulate`: `trajectory.csv`, `run.json` and the analysis of the run.
     Simulate,
-    /// `map`: `grid.csv`, `.npy` arrays, PNG maps, `map.json`.
+    /// `map` (and `merge`): `grid.csv`, `.npy` arrays, PNG maps, `map.json`.
     Map,
+    /// `map --shard I/N`: the shard's results, its scene, `shard.json`.
+    Shard,
     /// `analyze`: the analysis of a record and `analysis.json`.
     Analyze,
     /// `reproduce`: Table 2, the experiments, figures, `REPORT.md`, `summary.json`.
@@ -38,9 +40,10 @@ pub enum Product {
 
 impl Product {
     /// Every product, for finding whose manifest a folder holds.
-    pub const ALL: [Product; 9] = [
+    pub const ALL: [Product; 10] = [
         Product::Simulate,
         Product::Map,
+        Product::Shard,
         Product::Analyze,
         Product::Reproduce,
         Product::Search,
@@ -55,6 +58,7 @@ impl Product {
         match self {
             Product::Simulate => "simulate",
             Product::Map => "map",
+            Product::Shard => "map --shard",
             Product::Analyze => "analyze",
             Product::Reproduce => "reproduce",
             Product::Search => "search",
@@ -68,6 +72,7 @@ impl Product {
         match self {
             Product::Simulate => "run.json",
             Product::Map => "map.json",
+            Product::Shard => "shard.json",
             Product::Analyze => "analysis.json",
             Product::Reproduce => "summary.json",
             Product::Search => "search.json",
@@ -83,6 +88,7 @@ impl Product {
         match self {
             Product::Simulate => &["trajectory.csv", "spectrum.csv"],
             Product::Map => &["grid.csv"],
+            Product::Shard => &["scene.toml"],
             Product::Analyze => &["spectrum.csv"],
             Product::Reproduce => &[
                 "table2.csv",
@@ -109,6 +115,7 @@ impl Product {
     fn extensions(self) -> &'static [&'static str] {
         match self {
             Product::Simulate | Product::Map | Product::Analyze => &["npy", "png"],
+            Product::Shard => &["npy"],
             Product::Reproduce | Product::Search | Product::Calibrate => &["png"],
             Product::Bench | Product::BenchStiff | Product::BenchStiffMap => &[],
         }

@@ -19,7 +19,7 @@ type Column = (
     fn(&crate::reduce::InstanceResult) -> f64,
 );
 
-const COLUMNS: [Column; 8] = [
+const COLUMNS: [Column; 9] = [
     ("K", Metric::K, |r| r.k),
     ("R", Metric::R, |r| r.r),
     ("period", Metric::Period, |r| r.period),
@@ -28,6 +28,7 @@ const COLUMNS: [Column; 8] = [
     ("alpha_min_rad", Metric::AlphaRange, |r| r.alpha_min_rad),
     ("alpha_max_rad", Metric::AlphaRange, |r| r.alpha_max_rad),
     ("power_w", Metric::Power, |r| r.power_w),
+    ("line_ratio", Metric::Line, |r| r.line),
 ];
 
 /// Write every file of a map into `dir` (created if needed); returns the paths written.
@@ -171,6 +172,7 @@ fn map_json(spec: &MapSpec, run: &MapRun, files: &[String]) -> serde_json::Value
             "period": {"max": spec.period_max, "window": spec.period_window, "tol_rad": spec.period_tol_rad},
         },
         "warnings": run.plan.warnings,
+        "shards": run.shards,
         "scene": spec.scene,
         "files": files,
     })
@@ -206,6 +208,7 @@ fn metric_style(m: Metric, spec: &MapSpec) -> (String, Option<(f64, f64)>) {
         Metric::ImpactsPerS => ("impacts per second (1/s)".into(), None),
         Metric::AlphaRange => ("holder angle range max−min (rad)".into(), None),
         Metric::Power => ("mean harvested power (W)".into(), None),
+        Metric::Line => ("dominant line of α / forcing frequency".into(), None),
     }
 }
 

@@ -8,7 +8,8 @@
 //! accumulators with [`Tally::result`] like the CPU engine does.
 
 use crate::analysis::{
-    K01Method, PhaseConvention, ZeroOneOptions, detect_period, phase_sync, zero_one_test,
+    K01Method, PhaseConvention, ZeroOneOptions, amplitude_spectrum, detect_period, dominant_peak,
+    phase_sync, zero_one_test,
 };
 use crate::config::{MapSpec, Metric};
 use crate::model::Status;
@@ -36,6 +37,9 @@ pub struct InstanceResult {
     pub alpha_max_rad: f64,
     /// Mean harvested power v²/R_L after the transient (W).
     pub power_w: f64,
+    /// Dominant line of α (the R series) over the forcing frequency: 1/3 for a third.
+    #[serde(rename = "line_ratio")]
+    pub line: f64,
     /// How the integration ended.
     pub status: Status,
     /// Steps actually integrated (fewer than planned when the instance failed or stopped
@@ -54,6 +58,7 @@ impl InstanceResult {
             Metric::ImpactsPerS => self.impacts_per_s,
             Metric::AlphaRange => self.alpha_max_rad - self.alpha_min_rad,
             Metric::Power => self.power_w,
+            Metric::Line => self.line,
         }
     }
 }
@@ -145,6 +150,7 @@ impl Tally {
             alpha_min_rad: nan,
             alpha_max_rad: nan,
             power_w: nan,
+            line: nan,
             status: self.status,
             steps: self.steps,
         };
@@ -188,6 +194,18 @@ pub fn period_of(strobe: &[f64], opts: &ReduceOptions) -> f64 {
     ) as f64
 }
 
+/// The dominant line of a uniform α series sampled `samples_per_period` times per forcing
+/// period, as a multiple of the forcing frequency: the largest non-DC peak of the Hann-windowed
+/// amplitude spectrum, located between bins by a parabola through the log amplitudes
+/// ([`dominant_peak`]); with the sample rate in samples per period the peak's frequency is
+/// already `f_line / f`. NaN for a constant series.
+pub fn line_of(alpha: &[f64], samples_per_period: f64) -> f64 {
+    amplitude_spectrum(alpha, samples_per_period)
+        .ok()
+        .and_then(|s| dominant_peak(&s))
+        .map_or(f64::NAN, |p| p.frequency_hz)
+}
+
 /// The series an instance recorded: stroboscopic α, and the R series with its cart reference.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Series<'a> {
@@ -197,6 +215,8 @@ pub struct Series<'a> {
     pub r_alpha: &'a [f64],
     /// Cart positions at the R samples (m).
     pub r_cart: &'a [f64],
+    /// Samples of the R series per forcing period.
+    pub r_samples_per_period: f64,
 }
 
 /// Fill K, period and R of an `ok` result from its recorded series, as far as requested.
@@ -218,5 +238,29 @@ pub fn reduce_series(
     }
     if wants(Metric::R) {
         out.r = r_of(series.r_cart, series.r_alpha, opts);
+    }
+    if wants(Metric::Line) {
+        out.line = line_of(series.r_alpha, series.r_samples_per_period);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_line_of_a_third_subharmonic_is_one_third_of_the_forcing() {
+        // 64 forcing periods at 16 samples each: a strong f/3 under a weaker 1·f, plus a mean.
+        let per_period = 16.0;
+        let x: Vec<f64> = (0..1024)
+            .map(|j| {
+                let t = j as f64 / per_period; // in forcing periods
+                0.2 + 0.3 * (std::f64::consts::TAU * t / 3.0).sin()
+                    + 0.1 * (std::f64::consts::TAU * t).cos()
+            })
+            .collect();
+        let line = line_of(&x, per_period);
+        assert!((line - 1.0 / 3.0).abs() < 2e-3, "line {line}");
+        assert!(line_of(&[0.5; 64], per_period).is_nan());
     }
 }

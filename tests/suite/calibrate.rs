@@ -34,7 +34,7 @@ fn truth(clearance: f64) -> Vec<InstanceResult> {
         })
         .collect();
     let opts = EnsembleOptions {
-        metrics: pendulum_atlas::config::Metric::ALL[..6].to_vec(),
+        metrics: pendulum_atlas::config::Metric::ALL.to_vec(),
         keep_strobe: false,
         samples_per_period: 16,
         strobe_phase: 0.0,
@@ -58,9 +58,11 @@ fn calibration_recovers_a_clearance_from_the_models_own_observations() {
     );
     for (&(f, a), r) in CASES.iter().zip(&observed) {
         let range = r.alpha_max_rad - r.alpha_min_rad;
+        // The dominant line as the nearest 64th of the forcing frequency.
+        let line = format!("{}/64", (r.line * 64.0).round());
         text.push_str(&format!(
             "[[calibrate.cases]]\nname = \"{f} Hz\"\n{}\nk_class = \"{}\"\nhops = {}\n\
-             alpha_range_rad = [{}, {}]\n",
+             alpha_range_rad = [{}, {}]\nline = {{ fraction = \"{line}\", tol = 0.03 }}\n",
             case_set(f, a),
             if r.k > 0.5 { "chaotic" } else { "regular" },
             r.hops > 0.0,
@@ -70,15 +72,15 @@ fn calibration_recovers_a_clearance_from_the_models_own_observations() {
     }
     let spec = calibration_from_toml(&text, "<test>", &[]).unwrap();
     let run = run_calibration(&spec, &Engine::cpu(Precision::F64), &no_progress).unwrap();
-    assert_eq!(run.observations, 6);
+    assert_eq!(run.observations, 8);
     let best = run.best();
-    assert_eq!(best.matched, 6, "{best:?}");
+    assert_eq!(best.matched, 8, "{best:?}");
     assert!((best.values[0] - 15.0).abs() <= 1.25, "{best:?}");
     // The observations discriminate: the grid's ends match fewer.
     for c in run.candidates.iter().filter(|c| c.stage == "grid") {
         if (c.values[0] - 15.0).abs() >= 5.0 {
             assert!(
-                c.matched < 6,
+                c.matched < 8,
                 "clearance {} matches everything",
                 c.values[0]
             );
@@ -100,17 +102,25 @@ fn the_spec_reads_every_observation_and_refuses_what_it_cannot_judge() {
     let spec = calibration_from_toml(
         &with(
             "k_class = \"regular\"\nk = { value = 0.0, tol = 0.2 }\nr = { value = 0.88, tol = 0.1 }\n\
-             period = 3\nhops = false\nalpha_range_rad = [0.1, 0.3]",
+             period = 3\nline = \"1/3\"\nhops = false\nalpha_range_rad = [0.1, 0.3]",
             arc,
         ),
         "<t>",
         &[],
     )
     .unwrap();
-    assert_eq!(spec.cases[0].observations.len(), 6);
+    assert_eq!(spec.cases[0].observations.len(), 7);
     assert_eq!(
         spec.cases[0].observations[3],
         Observation::Period { period: 3 }
+    );
+    assert_eq!(
+        spec.cases[0].observations[4],
+        Observation::Line {
+            p: 1,
+            q: 3,
+            rel_tol: 0.05
+        }
     );
     assert_eq!(spec.unknowns[0].values, vec![0.1, 0.2, 0.3]);
     assert_eq!(spec.angle_offsets_deg(), vec![-1.0, 0.0, 1.0]);
@@ -120,6 +130,15 @@ fn the_spec_reads_every_observation_and_refuses_what_it_cannot_judge() {
         ("k = { value = 0.1 }", arc, "tolerance"),
         ("alpha_range_rad = [0.3, 0.1]", arc, "lo < hi"),
         ("period = 2\nperiod_typo = 3", arc, "period_typo"),
+        ("period = 9", arc, "integers in [0, 8]"),
+        ("line = \"third\"", arc, "\"p/q\""),
+        ("line = \"1/0\"", arc, "1 <= q <= 64"),
+        ("line = { fraction = \"1/3\", tol = 2.0 }", arc, "line.tol"),
+        (
+            "line = { fraction = \"1/3\", tolerance = 0.1 }",
+            arc,
+            "tolerance",
+        ),
         (
             "hops = true",
             "key = \"excitation.frequency_hz\"\nvalues = [5.0]",

@@ -644,8 +644,11 @@ fn calibrate_writes_its_candidates_best_scene_report_and_manifest() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("calibrate.json")).unwrap())
             .unwrap();
-    assert_eq!(json["observations"], 12);
-    assert_eq!(json["instances"], 24);
+    // Table 2: 6 cases × (K class, R) and three lines; the experiments: R and no period each,
+    // and one line.
+    assert_eq!(json["observations"], 6 * 2 + 3 + 3 * 2 + 1);
+    // 2 × 2 candidates × 9 cases × 1 initial state.
+    assert_eq!(json["instances"], 4 * 9);
     let best = json["best"]["values"][0].as_f64().unwrap();
     let best_clearance = json["best"]["values"][1].as_f64().unwrap();
     let csv = std::fs::read_to_string(out.join("candidates.csv")).unwrap();

@@ -16,6 +16,7 @@ mod map;
 mod model;
 mod render;
 mod reproduce;
+mod shard;
 mod single_run;
 
 use pendulum_atlas::config::{PAPER_SCENE_TOML, Scene};

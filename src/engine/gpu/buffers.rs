@@ -41,7 +41,12 @@ impl Sizes {
         let state_len = 2 * plan.segments + 1;
         let strobe_stride = plan.strobe_stride.max(1);
         let n_cut_max = (plan.strobe_stride + 5) / 10;
-        let rwork_stride = (if key.want_r { 2 * plan.r_stride } else { 0 }).max(if key.want_k {
+        let rwork_stride = (if key.want_rseries {
+            2 * plan.r_stride
+        } else {
+            0
+        })
+        .max(if key.want_k {
             plan.strobe_stride + n_cut_max
         } else {
             0
@@ -76,7 +81,7 @@ impl Sizes {
                 bytes("stroboscopic samples", n_inst * strobe_stride as usize, 4),
             )?,
             rwork_bytes: placeholder(
-                key.want_r || key.want_k,
+                key.want_rseries || key.want_k,
                 bytes("reduction work space", n_inst * rwork_stride as usize, 8),
             )?,
             kc_bytes: placeholder(key.want_k, bytes("K_c values", n_inst * key.n_c, 4))?,
@@ -105,9 +110,9 @@ pub fn software_step_budget(
     let n_cut_max = (plan.strobe_stride as usize + 5) / 10;
     let r_n = plan.r_stride as usize;
     let r_loops = 11 * r_n + r_n * (r_n.max(2).ilog2() as usize);
-    if key.want_r && r_loops > SOFTWARE_LOOP_BUDGET {
+    if key.want_rseries && r_loops > SOFTWARE_LOOP_BUDGET {
         return Err(refuse(
-            format!("R on {r_n} samples"),
+            format!("R and the dominant line on {r_n} samples"),
             r_loops,
             "set map.r_max_samples <= 1024, or use the CPU engine",
         ));

@@ -87,8 +87,12 @@ pub struct KernelKey {
     pub has_piezo: bool,
     /// Stroboscopic samples recorded.
     pub want_strobe: bool,
-    /// R series recorded (and R reduced).
+    /// R series recorded (for R or the dominant line).
+    pub want_rseries: bool,
+    /// R reduced.
     pub want_r: bool,
+    /// The dominant line reduced.
+    pub want_line: bool,
     /// The 0–1 test wanted.
     pub want_k: bool,
     /// The K/period kernel is needed (K or the period).
@@ -118,7 +122,7 @@ impl KernelKey {
             ("HAS_CONTACT", flag(self.has_contact)),
             ("HAS_PIEZO", flag(self.has_piezo)),
             ("WANT_STROBE", flag(self.want_strobe)),
-            ("WANT_RSERIES", flag(self.want_r)),
+            ("WANT_RSERIES", flag(self.want_rseries)),
             ("WANT_K", flag(self.want_k)),
             ("PAPER_CONVENTION", flag(self.paper_convention)),
             ("WG", f64::from(WG)),
@@ -134,6 +138,8 @@ impl KernelKey {
 pub struct Kernels {
     /// The integration kernel.
     pub integrate: wgpu::ComputePipeline,
+    /// The dominant line of the R series (before the R kernels overwrite it).
+    pub line: Option<wgpu::ComputePipeline>,
     /// The three R kernels (α's analytic signal, the cart's, then R).
     pub r: Option<[wgpu::ComputePipeline; 3]>,
     /// One pass of the 0–1 test per c value.
@@ -166,6 +172,7 @@ impl Kernels {
         };
         Kernels {
             integrate: pipeline("integrate"),
+            line: key.want_line.then(|| pipeline("line")),
             r: key
                 .want_r
                 .then(|| [pipeline("r_alpha"), pipeline("r_cart"), pipeline("r_phase")]),

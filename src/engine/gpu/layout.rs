@@ -207,8 +207,8 @@ pub struct GpuAccum {
     pub k: f32,
     /// R.
     pub r: f32,
-    /// Padding.
-    pub pad1: f32,
+    /// Dominant line over the forcing frequency.
+    pub line: f32,
     /// Padding.
     pub pad2: f32,
 }
@@ -222,6 +222,7 @@ impl GpuAccum {
             alpha_max: -f32::MAX,
             k: f32::NAN,
             r: f32::NAN,
+            line: f32::NAN,
             ..GpuAccum::zeroed()
         }
     }

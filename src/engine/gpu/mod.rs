@@ -36,7 +36,7 @@ pub const REQUIRE_GPU_ENV: &str = "PENDULUM_ATLAS_REQUIRE_GPU";
 const DISPATCH_TARGET: Duration = Duration::from_millis(100);
 
 /// Wall time of each stage of a GPU run (s).
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Default, Serialize, serde::Deserialize)]
 pub struct GpuTimings {
     /// Looking up (and, the first time, compiling) the kernels.
     pub pipelines_s: f64,
@@ -115,7 +115,9 @@ fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings) -> KernelKey {
         has_contact: plan.has_contact,
         has_piezo: plan.has_piezo,
         want_strobe: plan.want_strobe,
-        want_r: plan.want_rseries,
+        want_rseries: plan.want_rseries,
+        want_r: want(Metric::R),
+        want_line: want(Metric::Line),
         want_k: want(Metric::K),
         run_k_final: want(Metric::K) || want(Metric::Period),
         paper_convention: reduce.paper_convention,
@@ -277,6 +279,10 @@ fn run_reductions(
     control: &mut GpuControl,
 ) -> Result<(), EngineError> {
     let groups = (sizes.n_inst as u32).div_ceil(WG);
+    if let Some(p) = &kernels.line {
+        submit(ctx, p, &bufs.bind, groups);
+        wait(ctx)?;
+    }
     if let Some(r) = &kernels.r {
         for p in r {
             submit(ctx, p, &bufs.bind, groups);
@@ -350,6 +356,9 @@ fn results(plan: &EnsemblePlan, accum: &[GpuAccum]) -> Result<Vec<InstanceResult
                 }
                 if wants(Metric::Period) {
                     out.period = f64::from(a.period);
+                }
+                if wants(Metric::Line) {
+                    out.line = f64::from(a.line);
                 }
             }
             Ok(out)

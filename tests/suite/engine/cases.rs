@@ -15,7 +15,7 @@ use pendulum_atlas::engine::{
 };
 use pendulum_atlas::map::{MapRun, run_map};
 use pendulum_atlas::model::{CartState, Chain, Status, Workspace};
-use pendulum_atlas::reduce::{ReduceOptions, k_of, period_of, r_of};
+use pendulum_atlas::reduce::{ReduceOptions, k_of, line_of, period_of, r_of};
 
 /// A small map scene over (f, A) at N = 3 with the given extra TOML and map section, integrated
 /// with `under`'s method.
@@ -162,6 +162,13 @@ pub fn reductions_equal_the_analysis_library_on_the_engines_own_series(under: Un
             (rr - r.r).abs() < 1e-3,
             "{under:?} {i}: R {} vs library {rr}",
             r.r
+        );
+        let per_period = f64::from(p.spp / p.r_every);
+        let line = line_of(&run.r_series[i], per_period);
+        assert!(
+            (line - r.line).abs() < 2e-3 && line > 0.0,
+            "{under:?} {i}: dominant line {} vs library {line}",
+            r.line
         );
     }
 }
@@ -416,7 +423,7 @@ pub fn metrics_not_requested_are_not_computed(under: Under) {
     assert!(!run.plan.want_strobe && !run.plan.want_rseries, "{under:?}");
     for r in &run.results {
         assert!(
-            r.k.is_nan() && r.r.is_nan() && r.period.is_nan(),
+            r.k.is_nan() && r.r.is_nan() && r.period.is_nan() && r.line.is_nan(),
             "{under:?}"
         );
         assert!(r.metric(Metric::Hops).is_finite());

@@ -71,7 +71,7 @@ fn parameter_structs_have_the_same_layout_in_rust_and_wgsl() {
         &m,
         "Accum",
         offsets!(GpuAccum; step, status, touch, well, hops, impacts, period, pad0, alpha_min,
-            alpha_max, power_sum, power_comp, k, r, pad1, pad2),
+            alpha_max, power_sum, power_comp, k, r, line, pad2),
         size_of::<GpuAccum>(),
     );
     assert_same_layout(

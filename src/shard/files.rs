@@ -1,0 +1,253 @@
+//! A shard's folder: what it integrated, bit for bit, and the manifest that says which map
+//! and which part of it.
+//!
+//! - `shard_results.npy`: float64, one row per member instance, columns [`RESULT_COLUMNS`]
+//!   (the grid index first; status as its code; NaN kept as NaN);
+//! - `shard_strobe.npy`: float64, one row per member, the stroboscopic tail of a bifurcation
+//!   diagram (only when the map draws one);
+//! - `scene.toml`: the map scene as given (the `--set` overrides are in the manifest);
+//! - `shard.json`: the manifest, written last.
+
+use super::spec::{Shard, map_hash};
+use crate::config::MapSpec;
+use crate::engine::EngineInfo;
+use crate::map::{MapRun, MapTimings};
+use crate::model::Status;
+use crate::output::OutputError;
+use crate::output::files::{create_dir, write_bytes, write_json};
+use crate::output::npy::write_npy_f64;
+use crate::reduce::InstanceResult;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Columns of `shard_results.npy`, in order.
+pub const RESULT_COLUMNS: [&str; 12] = [
+    "index",
+    "K",
+    "R",
+    "period",
+    "hops",
+    "impacts_per_s",
+    "alpha_min_rad",
+    "alpha_max_rad",
+    "power_w",
+    "line_ratio",
+    "status",
+    "steps",
+];
+
+/// `shard.json`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ShardManifest {
+    /// The pendulum-atlas version that wrote it.
+    pub version: String,
+    /// SHA-256 of the resolved map ([`map_hash`]).
+    pub map_hash: String,
+    /// Which shard.
+    pub shard: Shard,
+    /// Grid shape.
+    pub shape: Vec<usize>,
+    /// Instances of the whole grid.
+    pub instances: usize,
+    /// Instances of this shard.
+    pub members: usize,
+    /// The `--set` overrides the map was read with.
+    pub sets: Vec<String>,
+    /// The engine that ran it.
+    pub engine: EngineInfo,
+    /// Wall time per stage (s).
+    pub timings_s: MapTimings,
+    /// Integration dispatches (GPU).
+    pub dispatches: u32,
+    /// Instances stopped early.
+    pub stopped_early: usize,
+    /// Stroboscopic samples kept per instance for the bifurcation diagram (0: none).
+    pub strobe_tail: usize,
+}
+
+impl<'de> Deserialize<'de> for Shard {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Shard, D::Error> {
+        #[derive(Deserialize)]
+        struct Raw {
+            index: u32,
+            count: u32,
+        }
+        let r = Raw::deserialize(d)?;
+        format!("{}/{}", r.index, r.count)
+            .parse()
+            .map_err(serde::de::Error::custom)
+    }
+}
+
+/// A shard read back.
+#[derive(Debug, Clone)]
+pub struct ShardData {
+    /// Its folder.
+    pub dir: PathBuf,
+    /// Its manifest.
+    pub manifest: ShardManifest,
+    /// The scene text it was run from.
+    pub scene_text: String,
+    /// Grid index of each result.
+    pub members: Vec<usize>,
+    /// The results, in member order.
+    pub results: Vec<InstanceResult>,
+    /// Stroboscopic tails, in member order (empty without a bifurcation diagram).
+    pub strobe_tail: Vec<Vec<f64>>,
+}
+
+fn row(index: usize, r: &InstanceResult) -> [f64; 12] {
+    [
+        index as f64,
+        r.k,
+        r.r,
+        r.period,
+        r.hops,
+        r.impacts_per_s,
+        r.alpha_min_rad,
+        r.alpha_max_rad,
+        r.power_w,
+        r.line,
+        f64::from(r.status.code()),
+        r.steps as f64,
+    ]
+}
+
+/// Write shard `shard` of `spec` (its results `run`, for the instances `members`) into `dir`;
+/// `shard.json` last. Returns the files written.
+pub fn write_shard(
+    dir: &Path,
+    spec: &MapSpec,
+    scene_text: &str,
+    sets: &[String],
+    shard: Shard,
+    run: &MapRun,
+) -> Result<Vec<PathBuf>, OutputError> {
+    create_dir(dir)?;
+    let members = shard.members(spec.instances());
+    let data: Vec<f64> = members
+        .iter()
+        .zip(&run.results)
+        .flat_map(|(&k, r)| row(k, r))
+        .collect();
+    let mut written = Vec::new();
+    let p = dir.join("shard_results.npy");
+    write_npy_f64(&p, &[members.len(), RESULT_COLUMNS.len()], &data)?;
+    written.push(p);
+    let tail = run.strobe_tail.first().map_or(0, Vec::len);
+    if tail > 0 {
+        let flat: Vec<f64> = run.strobe_tail.iter().flatten().copied().collect();
+        let p = dir.join("shard_strobe.npy");
+        write_npy_f64(&p, &[members.len(), tail], &flat)?;
+        written.push(p);
+    }
+    written.push(write_bytes(&dir.join("scene.toml"), scene_text.as_bytes())?);
+    let manifest = ShardManifest {
+        version: env!("CARGO_PKG_VERSION").into(),
+        map_hash: map_hash(spec),
+        shard,
+        shape: spec.shape(),
+        instances: spec.instances(),
+        members: members.len(),
+        sets: sets.to_vec(),
+        engine: run.engine.clone(),
+        timings_s: run.timings.clone(),
+        dispatches: run.dispatches,
+        stopped_early: run.stopped_early,
+        strobe_tail: tail,
+    };
+    written.push(write_json(&dir.join("shard.json"), &manifest)?);
+    Ok(written)
+}
+
+/// Why a shard folder cannot be read.
+#[derive(Debug, thiserror::Error)]
+#[error("shard folder `{dir}`: {reason}")]
+pub struct ShardReadError {
+    /// The folder.
+    pub dir: String,
+    /// What is wrong.
+    pub reason: String,
+}
+
+/// Read a shard folder written by [`write_shard`].
+pub fn read_shard(dir: &Path) -> Result<ShardData, ShardReadError> {
+    let fail = |reason: String| ShardReadError {
+        dir: dir.display().to_string(),
+        reason,
+    };
+    let text = |name: &str| {
+        std::fs::read_to_string(dir.join(name)).map_err(|e| {
+            fail(format!(
+                "cannot read {name} ({e}); a shard that did not finish has no shard.json: rerun it"
+            ))
+        })
+    };
+    let manifest: ShardManifest = serde_json::from_str(&text("shard.json")?)
+        .map_err(|e| fail(format!("shard.json is not a shard manifest: {e}")))?;
+    let scene_text = text("scene.toml")?;
+    let (shape, rows) = read_npy(&dir.join("shard_results.npy")).map_err(&fail)?;
+    if shape != [manifest.members, RESULT_COLUMNS.len()] {
+        return Err(fail(format!(
+            "shard_results.npy has shape {shape:?}, the manifest says {} rows of {}",
+            manifest.members,
+            RESULT_COLUMNS.len()
+        )));
+    }
+    let mut members = Vec::with_capacity(manifest.members);
+    let mut results = Vec::with_capacity(manifest.members);
+    for r in rows.chunks_exact(RESULT_COLUMNS.len()) {
+        members.push(r[0] as usize);
+        results.push(result_of(r).map_err(&fail)?);
+    }
+    let mut strobe_tail = Vec::new();
+    if manifest.strobe_tail > 0 {
+        let (shape, flat) = read_npy(&dir.join("shard_strobe.npy")).map_err(&fail)?;
+        if shape != [manifest.members, manifest.strobe_tail] {
+            return Err(fail(format!("shard_strobe.npy has shape {shape:?}")));
+        }
+        strobe_tail = flat
+            .chunks_exact(manifest.strobe_tail)
+            .map(<[f64]>::to_vec)
+            .collect();
+    }
+    Ok(ShardData {
+        dir: dir.to_path_buf(),
+        manifest,
+        scene_text,
+        members,
+        results,
+        strobe_tail,
+    })
+}
+
+fn result_of(r: &[f64]) -> Result<InstanceResult, String> {
+    let status = Status::from_code(r[10] as u32)
+        .ok_or_else(|| format!("row of instance {}: unknown status code {}", r[0], r[10]))?;
+    Ok(InstanceResult {
+        k: r[1],
+        r: r[2],
+        period: r[3],
+        hops: r[4],
+        impacts_per_s: r[5],
+        alpha_min_rad: r[6],
+        alpha_max_rad: r[7],
+        power_w: r[8],
+        line: r[9],
+        status,
+        steps: r[11] as u64,
+    })
+}
+
+fn read_npy(path: &Path) -> Result<(Vec<usize>, Vec<f64>), String> {
+    let name = path
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {name}: {e}"))?;
+    let npy = npyz::NpyFile::new(&bytes[..]).map_err(|e| format!("{name}: {e}"))?;
+    let shape = npy.shape().iter().map(|&s| s as usize).collect();
+    let data = npy
+        .into_vec::<f64>()
+        .map_err(|e| format!("{name}: not a float64 array ({e})"))?;
+    Ok((shape, data))
+}

@@ -1,0 +1,237 @@
+//! Shards back into one map: checked to be the parts of one map, each present exactly once,
+//! their results put back in grid order.
+
+use super::files::{ShardData, ShardReadError, read_shard};
+use super::spec::map_hash;
+use crate::config::{ConfigError, MapSpec, map_from_toml};
+use crate::engine::{EngineError, EnsemblePlan};
+use crate::map::{MapRun, MapTimings, ShardSummary};
+use std::path::PathBuf;
+
+/// Why shards do not make one map.
+#[derive(Debug, thiserror::Error)]
+pub enum MergeError {
+    /// No folder given.
+    #[error("no shard folder given")]
+    Empty,
+    /// A folder is not a readable shard.
+    #[error(transparent)]
+    Read(#[from] ShardReadError),
+    /// Shards of different maps (or grids, or shard counts).
+    #[error(
+        "`{dir}` is not a shard of the same map as `{first}`: {what} differs ({theirs} against {ours})"
+    )]
+    Foreign {
+        /// The odd shard.
+        dir: String,
+        /// The first shard.
+        first: String,
+        /// What differs.
+        what: &'static str,
+        /// Its value.
+        theirs: String,
+        /// The first shard's value.
+        ours: String,
+    },
+    /// A shard index given twice.
+    #[error("shard {index} of {count} is given twice: {dirs}")]
+    Duplicate {
+        /// The index.
+        index: u32,
+        /// Number of shards.
+        count: u32,
+        /// The folders holding it.
+        dirs: String,
+    },
+    /// Shards missing.
+    #[error("{n} of {count} shards are missing: {list}; run each with `map ... --shard I/{count}` and merge again", n = missing.len(), list = index_list(missing))]
+    Missing {
+        /// Their indices.
+        missing: Vec<u32>,
+        /// Number of shards.
+        count: u32,
+    },
+    /// The stored scene does not read back.
+    #[error("the scene stored in `{dir}` no longer reads: {source}")]
+    Scene {
+        /// The shard folder.
+        dir: String,
+        /// Why.
+        source: ConfigError,
+    },
+    /// The stored scene reads, but as another map than the one the shards ran.
+    #[error(
+        "the scene stored in `{0}` does not give the map its shards ran (another map hash); was it edited?"
+    )]
+    SceneChanged(String),
+    /// A shard's rows are not the instances its index stands for.
+    #[error(
+        "`{0}`: its rows are not the instances of its shard index (the files were altered); rerun that shard"
+    )]
+    Corrupt(String),
+    /// Re-planning the map failed.
+    #[error(transparent)]
+    Plan(#[from] EngineError),
+}
+
+fn index_list(v: &[u32]) -> String {
+    let shown: Vec<String> = v.iter().take(20).map(u32::to_string).collect();
+    let more = if v.len() > 20 {
+        format!(" and {} more", v.len() - 20)
+    } else {
+        String::new()
+    };
+    format!("{}{more}", shown.join(", "))
+}
+
+/// A merged map: its spec and the run one unsharded run would have given.
+#[derive(Debug, Clone)]
+pub struct Merged {
+    /// The map.
+    pub spec: MapSpec,
+    /// Its results in grid order, with the list of shards.
+    pub run: MapRun,
+}
+
+/// Read and merge the shard folders `dirs` (in any order).
+pub fn merge_shards(dirs: &[PathBuf]) -> Result<Merged, MergeError> {
+    let shards: Vec<ShardData> = dirs
+        .iter()
+        .map(|d| read_shard(d))
+        .collect::<Result<_, _>>()?;
+    let first = shards.first().ok_or(MergeError::Empty)?;
+    for s in &shards[1..] {
+        same_map(first, s)?;
+    }
+    check_coverage(&shards)?;
+    let spec = map_from_toml(
+        &first.scene_text,
+        &first.dir.join("scene.toml").display().to_string(),
+        &first.manifest.sets,
+    )
+    .map_err(|source| MergeError::Scene {
+        dir: first.dir.display().to_string(),
+        source,
+    })?;
+    if map_hash(&spec) != first.manifest.map_hash {
+        return Err(MergeError::SceneChanged(first.dir.display().to_string()));
+    }
+    let plan = EnsemblePlan::new(&spec)?;
+    let run = assemble(&shards, plan);
+    Ok(Merged { spec, run })
+}
+
+/// `b` is a shard of the same map as `a`, from the same engine and version.
+fn same_map(a: &ShardData, b: &ShardData) -> Result<(), MergeError> {
+    let (ma, mb) = (&a.manifest, &b.manifest);
+    let checks: [(&'static str, String, String); 5] = [
+        ("the map hash", mb.map_hash.clone(), ma.map_hash.clone()),
+        (
+            "the grid shape",
+            format!("{:?}", mb.shape),
+            format!("{:?}", ma.shape),
+        ),
+        (
+            "the shard count",
+            mb.shard.count.to_string(),
+            ma.shard.count.to_string(),
+        ),
+        (
+            "the engine",
+            format!("{} {}", mb.engine.kind.name(), mb.engine.precision.name()),
+            format!("{} {}", ma.engine.kind.name(), ma.engine.precision.name()),
+        ),
+        (
+            "the pendulum-atlas version",
+            mb.version.clone(),
+            ma.version.clone(),
+        ),
+    ];
+    for (what, theirs, ours) in checks {
+        if theirs != ours {
+            return Err(MergeError::Foreign {
+                dir: b.dir.display().to_string(),
+                first: a.dir.display().to_string(),
+                what,
+                theirs,
+                ours,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Every shard index exactly once.
+fn check_coverage(shards: &[ShardData]) -> Result<(), MergeError> {
+    let count = shards[0].manifest.shard.count;
+    let mut holders: Vec<Vec<String>> = vec![Vec::new(); count as usize];
+    for s in shards {
+        holders[s.manifest.shard.index as usize].push(s.dir.display().to_string());
+    }
+    if let Some((index, dirs)) = holders.iter().enumerate().find(|(_, d)| d.len() > 1) {
+        return Err(MergeError::Duplicate {
+            index: index as u32,
+            count,
+            dirs: dirs.join(", "),
+        });
+    }
+    let missing: Vec<u32> = (0..count)
+        .filter(|&i| holders[i as usize].is_empty())
+        .collect();
+    if let Some(s) = shards
+        .iter()
+        .find(|s| s.members != s.manifest.shard.members(s.manifest.instances))
+    {
+        return Err(MergeError::Corrupt(s.dir.display().to_string()));
+    }
+    if !missing.is_empty() {
+        return Err(MergeError::Missing { missing, count });
+    }
+    Ok(())
+}
+
+/// The shards' results in grid order, their timings summed, as one run of `plan`.
+fn assemble(shards: &[ShardData], plan: EnsemblePlan) -> MapRun {
+    let n = plan.instances.len();
+    let mut results = vec![None; n];
+    let tail = shards[0].manifest.strobe_tail;
+    let mut strobe_tail = vec![Vec::new(); if tail > 0 { n } else { 0 }];
+    let mut timings = MapTimings::default();
+    let mut summaries = Vec::new();
+    for s in shards {
+        for (j, &k) in s.members.iter().enumerate() {
+            results[k] = Some(s.results[j]);
+            if tail > 0 {
+                strobe_tail[k] = s.strobe_tail[j].clone();
+            }
+        }
+        let t = &s.manifest.timings_s;
+        timings.plan_s += t.plan_s;
+        timings.device_s += t.device_s;
+        timings.integrate_s += t.integrate_s;
+        timings.reduce_s += t.reduce_s;
+        timings.total_s += t.total_s;
+        summaries.push(ShardSummary {
+            shard: s.manifest.shard,
+            dir: s.dir.display().to_string(),
+            device: s.manifest.engine.device.clone(),
+            instances: s.manifest.members,
+            total_s: t.total_s,
+        });
+    }
+    summaries.sort_by_key(|s| s.shard.index);
+    let first = &shards[0].manifest;
+    MapRun {
+        results: results
+            .into_iter()
+            .map(|r| r.expect("coverage checked"))
+            .collect(),
+        plan,
+        engine: first.engine.clone(),
+        timings,
+        dispatches: shards.iter().map(|s| s.manifest.dispatches).sum(),
+        stopped_early: shards.iter().map(|s| s.manifest.stopped_early).sum(),
+        strobe_tail,
+        shards: summaries,
+    }
+}

@@ -1,0 +1,176 @@
+//! Sharded maps: shards run separately and merged give the files of one unsharded run (bit for
+//! bit on the CPU engine), and merge refuses shards that do not make one map.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_pendulum-atlas"))
+}
+
+fn out_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!(
+        "pendulum-atlas-shard-{name}-{}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+/// The bifurcation map at 7 frequencies, short runs: every metric plus the diagram.
+const SETS: [&str; 6] = [
+    "--set",
+    "map.axes=[{key=\"excitation.frequency_hz\",start=5.0,end=11.0,count=7}]",
+    "--set",
+    "integration.duration_s=24.0",
+    "--set",
+    "integration.transient_s=4.0",
+];
+
+fn map(extra: &[&str]) -> std::process::Output {
+    bin()
+        .args([
+            "map",
+            "configs/maps/bifurcation_f.toml",
+            "--backend",
+            "cpu",
+            "--quiet",
+        ])
+        .args(SETS)
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+fn ok(o: &std::process::Output) {
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+fn shard(root: &Path, i: u32, n: u32) -> PathBuf {
+    let d = root.join(format!("shard{i}"));
+    ok(&map(&[
+        "--shard",
+        &format!("{i}/{n}"),
+        "--out",
+        d.to_str().unwrap(),
+    ]));
+    d
+}
+
+fn merge(dirs: &[&Path], out: &Path) -> std::process::Output {
+    bin()
+        .arg("merge")
+        .args(dirs)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
+/// map.json without what may differ between a merged and a whole run.
+fn manifest(dir: &Path) -> serde_json::Value {
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("map.json")).unwrap()).unwrap();
+    let m = v.as_object_mut().unwrap();
+    for k in ["timings_s", "throughput", "shards"] {
+        m.remove(k);
+    }
+    v
+}
+
+#[test]
+fn three_shards_merged_equal_the_unsharded_map_bit_for_bit() {
+    let root = out_dir("three");
+    let whole = root.join("whole");
+    ok(&map(&["--out", whole.to_str().unwrap()]));
+    let shards: Vec<PathBuf> = [2, 0, 1].iter().map(|&i| shard(&root, i, 3)).collect();
+    let merged = root.join("merged");
+    let refs: Vec<&Path> = shards.iter().map(PathBuf::as_path).collect();
+    ok(&merge(&refs, &merged));
+    let mut names: Vec<String> = std::fs::read_dir(&whole)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n != "map.json")
+        .collect();
+    names.sort();
+    assert!(
+        names.iter().any(|n| n == "bifurcation.png") && names.iter().any(|n| n == "line_ratio.npy")
+    );
+    for n in &names {
+        let (a, b) = (
+            std::fs::read(whole.join(n)).unwrap(),
+            std::fs::read(merged.join(n)),
+        );
+        assert!(
+            b.as_ref().is_ok_and(|b| *b == a),
+            "{n} differs or is missing"
+        );
+    }
+    assert_eq!(manifest(&whole), manifest(&merged));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(merged.join("map.json")).unwrap()).unwrap();
+    let listed: Vec<u64> = json["shards"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["shard"]["index"].as_u64().unwrap())
+        .collect();
+    assert_eq!(listed, vec![0, 1, 2]);
+    // Shard 1 of 3 holds instances 1 and 4.
+    let s1 = std::fs::read_to_string(shards[2].join("shard.json")).unwrap();
+    assert!(s1.contains("\"members\": 2"), "{s1}");
+}
+
+#[test]
+fn merge_names_missing_duplicate_and_foreign_shards() {
+    let root = out_dir("refuse");
+    let a = shard(&root, 0, 2);
+    let err = |o: std::process::Output| {
+        assert_eq!(o.status.code(), Some(2));
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let e = err(merge(&[&a], &root.join("m1")));
+    assert!(
+        e.contains("1 of 2 shards are missing: 1") && e.contains("--shard I/2"),
+        "{e}"
+    );
+    let e = err(merge(&[&a, &a], &root.join("m2")));
+    assert!(e.contains("shard 0 of 2 is given twice"), "{e}");
+    // The same shard index of another map (a different amplitude).
+    let other = root.join("other");
+    ok(&map(&[
+        "--set",
+        "excitation.amplitude_m=0.012",
+        "--shard",
+        "1/2",
+        "--out",
+        other.to_str().unwrap(),
+    ]));
+    let e = err(merge(&[&a, &other], &root.join("m3")));
+    assert!(
+        e.contains("not a shard of the same map") && e.contains("map hash"),
+        "{e}"
+    );
+    // A shard that was killed before its manifest.
+    let killed = root.join("killed");
+    std::fs::create_dir_all(&killed).unwrap();
+    let e = err(merge(&[&a, &killed], &root.join("m4")));
+    assert!(e.contains("shard.json") && e.contains("rerun it"), "{e}");
+    // Bad --shard values never start.
+    for bad in ["2/2", "x", "0/0"] {
+        let e = err(map(&[
+            "--shard",
+            bad,
+            "--out",
+            root.join("bad").to_str().unwrap(),
+        ]));
+        assert!(e.contains("0 <= I < N"), "{bad}: {e}");
+    }
+    let e = err(map(&[
+        "--shard",
+        "0/8",
+        "--out",
+        root.join("bad").to_str().unwrap(),
+    ]));
+    assert!(e.contains("7 instances; use at most 7 shards"), "{e}");
+}
