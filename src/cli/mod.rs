@@ -11,6 +11,7 @@ mod report;
 mod reproduce;
 mod search;
 mod simulate;
+mod slurm;
 
 use clap::{Parser, Subcommand};
 
@@ -57,6 +58,8 @@ pub enum Command {
     Map(map::MapArgs),
     /// Merge the shard folders of a map (`map --shard I/N`) into the map's files.
     Merge(map::MergeArgs),
+    /// Slurm job-array scripts for a sharded map and its merge (optionally submitted).
+    Slurm(slurm::SlurmArgs),
     /// Work-precision study: run time against error for N, dt, precision and backend.
     Bench(bench::BenchArgs),
     /// Integrate one run and write trajectory.csv and run.json.
@@ -107,6 +110,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Map(a) => map::run(a),
         Command::Merge(a) => map::merge(a),
+        Command::Slurm(a) => slurm::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Modes(a) => modes::run(a),

@@ -22,6 +22,8 @@ pub enum Product {
     Map,
     /// `map --shard I/N`: the shard's results, its scene, `shard.json`.
     Shard,
+    /// `slurm`: the sbatch scripts, the scene, `slurm.json`.
+    Slurm,
     /// `analyze`: the analysis of a record and `analysis.json`.
     Analyze,
     /// `reproduce`: Table 2, the experiments, figures, `REPORT.md`, `summary.json`.
@@ -40,10 +42,11 @@ pub enum Product {
 
 impl Product {
     /// Every product, for finding whose manifest a folder holds.
-    pub const ALL: [Product; 10] = [
+    pub const ALL: [Product; 11] = [
         Product::Simulate,
         Product::Map,
         Product::Shard,
+        Product::Slurm,
         Product::Analyze,
         Product::Reproduce,
         Product::Search,
@@ -59,6 +62,7 @@ impl Product {
             Product::Simulate => "simulate",
             Product::Map => "map",
             Product::Shard => "map --shard",
+            Product::Slurm => "slurm",
             Product::Analyze => "analyze",
             Product::Reproduce => "reproduce",
             Product::Search => "search",
@@ -73,6 +77,7 @@ impl Product {
             Product::Simulate => "run.json",
             Product::Map => "map.json",
             Product::Shard => "shard.json",
+            Product::Slurm => "slurm.json",
             Product::Analyze => "analysis.json",
             Product::Reproduce => "summary.json",
             Product::Search => "search.json",
@@ -89,6 +94,7 @@ impl Product {
             Product::Simulate => &["trajectory.csv", "spectrum.csv"],
             Product::Map => &["grid.csv"],
             Product::Shard => &["scene.toml"],
+            Product::Slurm => &["array.sbatch", "merge.sbatch", "scene.toml"],
             Product::Analyze => &["spectrum.csv"],
             Product::Reproduce => &[
                 "table2.csv",
@@ -116,6 +122,7 @@ impl Product {
         match self {
             Product::Simulate | Product::Map | Product::Analyze => &["npy", "png"],
             Product::Shard => &["npy"],
+            Product::Slurm => &[],
             Product::Reproduce | Product::Search | Product::Calibrate => &["png"],
             Product::Bench | Product::BenchStiff | Product::BenchStiffMap => &[],
         }

@@ -11,14 +11,17 @@
 //!    manifest `shard.json` (map hash, grid, shard index, engine, timings), written last.
 //! 3. [`merge`]: shard folders checked to belong to one map (same hash and grid), every shard
 //!    present exactly once, the results put back in grid order as one [`crate::map::MapRun`].
+//! 4. [`slurm`]: the sbatch scripts that run the shards as a job array and the merge after it.
 //!
 //! The **map hash** is the SHA-256 of the resolved map (base scene after `--set`, axes, metrics
 //! and sampling), not of the file's text: comments do not matter, any value does.
 
 pub mod files;
 pub mod merge;
+pub mod slurm;
 pub mod spec;
 
 pub use files::{ShardData, read_shard, write_shard};
 pub use merge::{MergeError, merge_shards};
+pub use slurm::{SlurmJob, SlurmSpecError, check_partition, check_time};
 pub use spec::{Shard, ShardSpecError, map_hash};

@@ -18,6 +18,7 @@ mod render;
 mod reproduce;
 mod shard;
 mod single_run;
+mod slurm;
 
 use pendulum_atlas::config::{PAPER_SCENE_TOML, Scene};
 

@@ -4,11 +4,11 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn bin() -> Command {
+pub fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_pendulum-atlas"))
 }
 
-fn out_dir(name: &str) -> PathBuf {
+pub fn out_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!(
         "pendulum-atlas-shard-{name}-{}",
         std::process::id()
@@ -18,7 +18,7 @@ fn out_dir(name: &str) -> PathBuf {
 }
 
 /// The bifurcation map at 7 frequencies, short runs: every metric plus the diagram.
-const SETS: [&str; 6] = [
+pub const SETS: [&str; 6] = [
     "--set",
     "map.axes=[{key=\"excitation.frequency_hz\",start=5.0,end=11.0,count=7}]",
     "--set",
@@ -27,7 +27,7 @@ const SETS: [&str; 6] = [
     "integration.transient_s=4.0",
 ];
 
-fn map(extra: &[&str]) -> std::process::Output {
+pub fn map(extra: &[&str]) -> std::process::Output {
     bin()
         .args([
             "map",
@@ -42,7 +42,7 @@ fn map(extra: &[&str]) -> std::process::Output {
         .unwrap()
 }
 
-fn ok(o: &std::process::Output) {
+pub fn ok(o: &std::process::Output) {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
@@ -87,7 +87,25 @@ fn three_shards_merged_equal_the_unsharded_map_bit_for_bit() {
     let merged = root.join("merged");
     let refs: Vec<&Path> = shards.iter().map(PathBuf::as_path).collect();
     ok(&merge(&refs, &merged));
-    let mut names: Vec<String> = std::fs::read_dir(&whole)
+    assert_same_map(&whole, &merged);
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(merged.join("map.json")).unwrap()).unwrap();
+    let listed: Vec<u64> = json["shards"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["shard"]["index"].as_u64().unwrap())
+        .collect();
+    assert_eq!(listed, vec![0, 1, 2]);
+    // Shard 1 of 3 holds instances 1 and 4.
+    let s1 = std::fs::read_to_string(shards[2].join("shard.json")).unwrap();
+    assert!(s1.contains("\"members\": 2"), "{s1}");
+}
+
+/// Every file of the map in `whole` is in `merged` with the same bytes, `map.json` apart from
+/// its timings and list of shards.
+pub fn assert_same_map(whole: &Path, merged: &Path) {
+    let mut names: Vec<String> = std::fs::read_dir(whole)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .filter(|n| n != "map.json")
@@ -106,19 +124,7 @@ fn three_shards_merged_equal_the_unsharded_map_bit_for_bit() {
             "{n} differs or is missing"
         );
     }
-    assert_eq!(manifest(&whole), manifest(&merged));
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(merged.join("map.json")).unwrap()).unwrap();
-    let listed: Vec<u64> = json["shards"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|s| s["shard"]["index"].as_u64().unwrap())
-        .collect();
-    assert_eq!(listed, vec![0, 1, 2]);
-    // Shard 1 of 3 holds instances 1 and 4.
-    let s1 = std::fs::read_to_string(shards[2].join("shard.json")).unwrap();
-    assert!(s1.contains("\"members\": 2"), "{s1}");
+    assert_eq!(manifest(whole), manifest(merged));
 }
 
 #[test]
@@ -173,4 +179,19 @@ fn merge_names_missing_duplicate_and_foreign_shards() {
         root.join("bad").to_str().unwrap(),
     ]));
     assert!(e.contains("7 instances; use at most 7 shards"), "{e}");
+    let slurm = |extra: &[&str]| {
+        bin()
+            .args(["slurm", "configs/maps/bifurcation_f.toml"])
+            .args(SETS)
+            .args(extra)
+            .arg("--out")
+            .arg(root.join("job"))
+            .output()
+            .unwrap()
+    };
+    let e = err(slurm(&["--shards", "4", "--time", "1h"]));
+    assert!(e.contains("--time `1h`") && e.contains("HH:MM:SS"), "{e}");
+    let e = err(slurm(&["--shards", "9"]));
+    assert!(e.contains("use at most 7 shards"), "{e}");
+    assert!(!root.join("job").exists(), "a refused job wrote its folder");
 }

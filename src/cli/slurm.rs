@@ -1,0 +1,174 @@
+//! `pendulum-atlas slurm`: the sbatch scripts of a sharded map, and optionally their submission.
+
+use super::engine::BackendArg;
+use pendulum_atlas::config::{DEFAULT_MAP_TOML, map_from_toml, scene_text};
+use pendulum_atlas::output::files::{create_dir, write_bytes, write_json};
+use pendulum_atlas::output::folder::Product;
+use pendulum_atlas::shard::{SlurmJob, check_partition, check_time};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// Arguments of `slurm`.
+#[derive(Debug, clap::Args)]
+pub struct SlurmArgs {
+    /// Map scene (as for `map`; omit it for the embedded default map).
+    pub scene: Option<PathBuf>,
+    /// Override a scene or map key, passed on to every shard.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<String>,
+    /// Number of shards: array tasks 0..N-1.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub shards: u32,
+    /// GPUs each array task asks for (`--gres=gpu:G`); 0 for CPU-only tasks.
+    #[arg(long, default_value_t = 0)]
+    pub gpus_per_shard: u32,
+    /// Slurm partition.
+    #[arg(long)]
+    pub partition: Option<String>,
+    /// Time limit of each task (Slurm format, e.g. 1:00:00).
+    #[arg(long)]
+    pub time: Option<String>,
+    /// Engine of every shard (`auto`, `gpu` or `cpu`).
+    #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
+    pub backend: BackendArg,
+    /// Job folder: scripts, logs, shard folders and the merged map (DIR/map).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Submit the array and the merge job (needs `sbatch` on the PATH).
+    #[arg(long)]
+    pub submit: bool,
+    /// Replace the scripts of an earlier `slurm` run in --out.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Run `slurm`.
+pub fn run(a: SlurmArgs) -> anyhow::Result<()> {
+    let (text, origin) = scene_text(
+        a.scene.as_deref(),
+        DEFAULT_MAP_TOML,
+        "configs/maps/default.toml",
+    )?;
+    let spec = map_from_toml(&text, &origin, &a.sets)?;
+    if a.shards as usize > spec.instances() {
+        anyhow::bail!(
+            "--shards {}: the map has {} instances; use at most {} shards",
+            a.shards,
+            spec.instances(),
+            spec.instances()
+        );
+    }
+    if let Some(p) = &a.partition {
+        check_partition(p)?;
+    }
+    if let Some(t) = &a.time {
+        check_time(t)?;
+    }
+    super::claim_out(Product::Slurm, &a.out, a.force)?;
+    let job = job(&a)?;
+    create_dir(&job.dir.join("logs"))?;
+    write_bytes(&job.dir.join("scene.toml"), text.as_bytes())?;
+    write_bytes(&job.dir.join("array.sbatch"), job.array_script().as_bytes())?;
+    write_bytes(&job.dir.join("merge.sbatch"), job.merge_script().as_bytes())?;
+    let submit = job.submit_commands();
+    println!(
+        "{} shards of {} instances; scripts in {}",
+        a.shards,
+        spec.instances(),
+        job.dir.display()
+    );
+    let manifest = |jobs: serde_json::Value| {
+        write_json(
+            &job.dir.join("slurm.json"),
+            &serde_json::json!({
+                "shards": a.shards,
+                "instances": spec.instances(),
+                "submit": submit,
+                "jobs": jobs,
+                "merged_map": job.dir.join("map"),
+            }),
+        )
+    };
+    manifest(serde_json::Value::Null)?;
+    if !a.submit {
+        println!("submit with:\n  {submit}");
+        return Ok(());
+    }
+    let (array, merge) = submit_both(&job).map_err(|e| {
+        e.context(format!(
+            "the scripts are written; submit them by hand with: {submit}"
+        ))
+    })?;
+    manifest(serde_json::json!({"array": array, "merge": merge}))?;
+    Ok(())
+}
+
+fn job(a: &SlurmArgs) -> anyhow::Result<SlurmJob> {
+    let dir = std::path::absolute(&a.out)?;
+    let binary = std::env::current_exe()?;
+    let backend = match a.backend {
+        BackendArg::Auto => "auto",
+        BackendArg::Gpu => "gpu",
+        BackendArg::Cpu => "cpu",
+    };
+    let mut map_args: Vec<String> = a
+        .sets
+        .iter()
+        .flat_map(|s| ["--set".to_string(), s.clone()])
+        .collect();
+    map_args.extend(["--backend".to_string(), backend.to_string()]);
+    Ok(SlurmJob {
+        dir,
+        binary,
+        shards: a.shards,
+        gpus_per_shard: a.gpus_per_shard,
+        partition: a.partition.clone(),
+        time: a.time.clone(),
+        map_args,
+    })
+}
+
+/// `sbatch --parsable` on a script, with extra flags; the job id.
+fn sbatch(flags: &[String], script: &Path) -> anyhow::Result<String> {
+    let out = Command::new("sbatch")
+        .arg("--parsable")
+        .args(flags)
+        .arg(script)
+        .output()
+        .map_err(|e| {
+            anyhow::anyhow!(
+                "cannot run sbatch ({e}); --submit needs Slurm's sbatch on the PATH: run the printed commands on the cluster's login node instead"
+            )
+        })?;
+    if !out.status.success() {
+        anyhow::bail!(
+            "sbatch {} failed: {}",
+            script.display(),
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
+    }
+    let id = String::from_utf8_lossy(&out.stdout)
+        .trim()
+        .split(';')
+        .next()
+        .unwrap_or_default()
+        .to_string();
+    if id.is_empty() || !id.chars().all(|c| c.is_ascii_digit()) {
+        anyhow::bail!("sbatch {} printed no job id: `{id}`", script.display());
+    }
+    Ok(id)
+}
+
+/// Submit the array, then the merge after it; both job ids.
+fn submit_both(job: &SlurmJob) -> anyhow::Result<(String, String)> {
+    let array = sbatch(&[], &job.dir.join("array.sbatch"))?;
+    let merge = sbatch(
+        &[format!("--dependency=afterok:{array}")],
+        &job.dir.join("merge.sbatch"),
+    )?;
+    println!(
+        "submitted: array job {array} ({} tasks), merge job {merge} after it",
+        job.shards
+    );
+    Ok((array, merge))
+}
