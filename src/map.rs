@@ -160,6 +160,127 @@ pub fn run_plan(
     })
 }
 
+/// One separately run part of a map (a shard, or one device's share): its instances' results.
+#[derive(Debug, Clone)]
+pub struct MapPart {
+    /// Which part.
+    pub shard: Shard,
+    /// Where it ran or lies (a shard folder, a device).
+    pub label: String,
+    /// Grid index of each result.
+    pub members: Vec<usize>,
+    /// Results in member order.
+    pub results: Vec<InstanceResult>,
+    /// Stroboscopic tails in member order (empty without a bifurcation diagram).
+    pub strobe_tail: Vec<Vec<f64>>,
+    /// The engine that ran it.
+    pub engine: EngineInfo,
+    /// Its wall times.
+    pub timings: MapTimings,
+    /// Its dispatches.
+    pub dispatches: u32,
+    /// Its instances stopped early.
+    pub stopped_early: usize,
+}
+
+/// The parts' results in grid order, their times summed, as one run of `plan` (the whole map).
+/// The parts must cover the grid exactly once (the callers check it).
+pub fn assemble(plan: EnsemblePlan, parts: Vec<MapPart>) -> MapRun {
+    let n = plan.instances.len();
+    let mut results = vec![None; n];
+    let with_tail = parts.iter().any(|p| !p.strobe_tail.is_empty());
+    let mut strobe_tail = vec![Vec::new(); if with_tail { n } else { 0 }];
+    let mut timings = MapTimings::default();
+    let mut shards = Vec::new();
+    let mut devices: Vec<String> = Vec::new();
+    for p in &parts {
+        for (j, &k) in p.members.iter().enumerate() {
+            results[k] = Some(p.results[j]);
+            if with_tail {
+                strobe_tail[k] = p.strobe_tail[j].clone();
+            }
+        }
+        let t = &p.timings;
+        timings.plan_s += t.plan_s;
+        timings.device_s += t.device_s;
+        timings.integrate_s += t.integrate_s;
+        timings.reduce_s += t.reduce_s;
+        timings.total_s += t.total_s;
+        if !devices.contains(&p.engine.device) {
+            devices.push(p.engine.device.clone());
+        }
+        shards.push(ShardSummary {
+            shard: p.shard,
+            dir: p.label.clone(),
+            device: p.engine.device.clone(),
+            instances: p.members.len(),
+            total_s: t.total_s,
+        });
+    }
+    shards.sort_by_key(|s| s.shard.index);
+    let mut engine = parts[0].engine.clone();
+    engine.device = devices.join(" + ");
+    MapRun {
+        results: results
+            .into_iter()
+            .map(|r| r.expect("the parts cover the grid"))
+            .collect(),
+        plan,
+        engine,
+        timings,
+        dispatches: parts.iter().map(|p| p.dispatches).sum(),
+        stopped_early: parts.iter().map(|p| p.stopped_early).sum(),
+        strobe_tail,
+        shards,
+    }
+}
+
+/// One map split over several opened engines (every GPU of a node), each integrating the
+/// shard `d` of `engines.len()` in its own thread, assembled in grid order. Each device's
+/// share is what `map --shard d/n` would integrate.
+pub fn run_map_on_devices(
+    spec: &MapSpec,
+    engines: &[Engine],
+    progress: Progress,
+) -> Result<MapRun, EngineError> {
+    let n = engines.len() as u32;
+    let t0 = Instant::now();
+    let runs: Vec<Result<MapPart, EngineError>> = std::thread::scope(|s| {
+        let handles: Vec<_> = engines
+            .iter()
+            .enumerate()
+            .map(|(d, engine)| {
+                s.spawn(move || {
+                    let shard = Shard {
+                        index: d as u32,
+                        count: n,
+                    };
+                    let run = run_map_shard(spec, shard, engine, progress)?;
+                    Ok(MapPart {
+                        shard,
+                        label: format!("device {d}"),
+                        members: shard.members(spec.instances()),
+                        results: run.results,
+                        strobe_tail: run.strobe_tail,
+                        engine: run.engine,
+                        timings: run.timings,
+                        dispatches: run.dispatches,
+                        stopped_early: run.stopped_early,
+                    })
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("a device thread panicked"))
+            .collect()
+    });
+    let parts: Vec<MapPart> = runs.into_iter().collect::<Result<_, _>>()?;
+    let mut run = assemble(EnsemblePlan::new(spec)?, parts);
+    run.timings.total_s = t0.elapsed().as_secs_f64();
+    Ok(run)
+}
+
 /// Plan the whole map (so that every instance gets the step and method of the unsharded
 /// run), then integrate and reduce only `shard`'s instances; the results are in member order
 /// ([`Shard::members`]).

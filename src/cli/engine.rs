@@ -52,12 +52,29 @@ pub struct EngineArgs {
     /// Float type (default: f64 on the CPU engine, f32 otherwise; the GPU integrates in f32).
     #[arg(long, value_enum)]
     pub precision: Option<PrecisionArg>,
+    /// Run on this GPU adapter (its index in `pendulum-atlas adapters`); implies the GPU engine.
+    #[arg(long, value_name = "INDEX")]
+    pub adapter: Option<usize>,
 }
 
 impl EngineArgs {
     /// Open the engine once for the whole command.
     pub fn open(&self) -> anyhow::Result<Engine> {
-        Engine::open(self.backend.into(), self.precision.map(Into::into)).map_err(hint)
+        match self.adapter {
+            Some(i) => Self::on_adapter(i, self),
+            None => Engine::open(self.backend.into(), self.precision.map(Into::into)).map_err(hint),
+        }
+    }
+
+    /// The GPU engine on adapter `index`, refusing flags that contradict it.
+    fn on_adapter(index: usize, a: &EngineArgs) -> anyhow::Result<Engine> {
+        if a.backend == BackendArg::Cpu {
+            anyhow::bail!("--adapter picks a GPU adapter; drop --backend cpu or --adapter");
+        }
+        if a.precision == Some(PrecisionArg::F64) {
+            return Err(hint(EngineError::GpuNeedsF32));
+        }
+        Engine::gpu_adapter(index).map_err(hint)
     }
 
     /// The GPU engine (any adapter, lavapipe included).

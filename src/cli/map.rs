@@ -3,8 +3,9 @@
 
 use super::engine::{EngineArgs, hint};
 use pendulum_atlas::config::{DEFAULT_MAP_TOML, MapSpec, map_from_toml, scene_text};
-use pendulum_atlas::engine::ProgressUnit;
-use pendulum_atlas::map::{MapRun, run_map, run_map_shard};
+use pendulum_atlas::engine::gpu::list_adapters;
+use pendulum_atlas::engine::{Engine, ProgressUnit, no_progress};
+use pendulum_atlas::map::{MapRun, run_map, run_map_on_devices, run_map_shard};
 use pendulum_atlas::model::Status;
 use pendulum_atlas::output::folder::Product;
 use pendulum_atlas::output::map::write_map;
@@ -27,8 +28,12 @@ pub struct MapArgs {
     pub out: PathBuf,
     /// Integrate only shard I of N (0-based, e.g. 0/4; instances k with k mod N = I) and write
     /// its results to --out for `pendulum-atlas merge`.
-    #[arg(long, value_name = "I/N")]
+    #[arg(long, value_name = "I/N", conflicts_with = "devices")]
     pub shard: Option<Shard>,
+    /// Split the map over several GPU adapters in this process: `all` (every hardware GPU)
+    /// or indices from `pendulum-atlas adapters`, e.g. `0,1`.
+    #[arg(long, value_name = "all|I,J,...", conflicts_with = "adapter")]
+    pub devices: Option<String>,
     /// Replace an earlier run in --out: delete the files this command writes there first
     /// (other files are left alone). Without it, a folder holding such files is refused.
     #[arg(long)]
@@ -63,6 +68,9 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
     if let Some(s) = a.shard {
         check_shard(s, &spec)?;
     }
+    if let Some(d) = &a.devices {
+        return run_on_devices(&a, d, &spec);
+    }
     let engine = a.engine.open()?;
     let product = if a.shard.is_some() {
         Product::Shard
@@ -95,6 +103,85 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
     };
     bar.finish_and_clear();
     report(&run, files.len(), &a.out)
+}
+
+/// `map --devices`: one process, one engine per adapter, one shard each, assembled.
+fn run_on_devices(a: &MapArgs, devices: &str, spec: &MapSpec) -> anyhow::Result<()> {
+    let indices = device_indices(devices)?;
+    if indices.len() > spec.instances() {
+        anyhow::bail!(
+            "--devices: {} devices for {} instances; use at most {}",
+            indices.len(),
+            spec.instances(),
+            spec.instances()
+        );
+    }
+    let engines: Vec<Engine> = indices
+        .iter()
+        .map(|&i| Engine::gpu_adapter(i).map_err(hint))
+        .collect::<Result<_, _>>()?;
+    super::claim_out(Product::Map, &a.out, a.force)?;
+    if !a.quiet {
+        eprintln!(
+            "map of {} instances over {} devices: {}",
+            spec.instances(),
+            engines.len(),
+            engines
+                .iter()
+                .map(|e| e.info().device.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    let run = run_map_on_devices(spec, &engines, &no_progress).map_err(hint)?;
+    let files = write_map(&a.out, spec, &run)?;
+    report(&run, files.len(), &a.out)
+}
+
+/// `all` (every hardware adapter) or a comma-separated list of adapter indices.
+fn device_indices(devices: &str) -> anyhow::Result<Vec<usize>> {
+    if devices == "all" {
+        let hw: Vec<usize> = list_adapters()
+            .into_iter()
+            .filter(|l| !l.is_software)
+            .map(|l| l.index)
+            .collect();
+        if hw.is_empty() {
+            anyhow::bail!(
+                "--devices all: no hardware GPU adapter here (`pendulum-atlas adapters` lists what there is); use --backend gpu for a software one"
+            );
+        }
+        return Ok(hw);
+    }
+    devices
+        .split(',')
+        .map(|s| {
+            s.trim().parse::<usize>().map_err(|_| {
+                anyhow::anyhow!(
+                    "--devices `{devices}`: give `all` or adapter indices separated by commas, e.g. 0,1"
+                )
+            })
+        })
+        .collect()
+}
+
+/// `pendulum-atlas adapters`: the GPU adapters wgpu finds, with their indices.
+pub fn adapters() -> anyhow::Result<()> {
+    let list = list_adapters();
+    if list.is_empty() {
+        println!("no GPU adapter (install a Vulkan driver, or mesa-vulkan-drivers for lavapipe)");
+    }
+    for l in list {
+        println!(
+            "{}: {} ({}, {}{})",
+            l.index,
+            l.name,
+            l.backend,
+            l.device_type,
+            if l.is_software { ", software" } else { "" }
+        );
+    }
+    Ok(())
 }
 
 /// A shard index within the grid: no more shards than instances.

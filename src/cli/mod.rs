@@ -56,6 +56,8 @@ pub struct SceneArgs {
 pub enum Command {
     /// A chaos/bifurcation map over 1–3 scene keys (GPU if present, CPU otherwise).
     Map(map::MapArgs),
+    /// The GPU adapters this machine has, with the indices `--adapter` and `--devices` take.
+    Adapters,
     /// Merge the shard folders of a map (`map --shard I/N`) into the map's files.
     Merge(map::MergeArgs),
     /// Slurm job-array scripts for a sharded map and its merge (optionally submitted).
@@ -110,6 +112,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Map(a) => map::run(a),
         Command::Merge(a) => map::merge(a),
+        Command::Adapters => map::adapters(),
         Command::Slurm(a) => slurm::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Simulate(a) => simulate::run(a),

@@ -64,6 +64,12 @@ pub fn run(a: SlurmArgs) -> anyhow::Result<()> {
     if let Some(t) = &a.time {
         check_time(t)?;
     }
+    if a.gpus_per_shard > 1 {
+        eprintln!(
+            "warning: --gpus-per-shard {}: a shard runs on one GPU; use more shards to use more GPUs",
+            a.gpus_per_shard
+        );
+    }
     super::claim_out(Product::Slurm, &a.out, a.force)?;
     let job = job(&a)?;
     create_dir(&job.dir.join("logs"))?;

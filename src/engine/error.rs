@@ -9,6 +9,16 @@ pub enum EngineError {
     /// A scene of the ensemble is invalid.
     #[error(transparent)]
     Config(#[from] crate::config::ConfigError),
+    /// `--adapter` or `--devices` beyond the adapters of this machine.
+    #[error(
+        "there is no adapter {index}: this machine has {count} (`pendulum-atlas adapters` lists them)"
+    )]
+    NoSuchAdapter {
+        /// The index asked for.
+        index: usize,
+        /// Adapters present.
+        count: usize,
+    },
     /// An ensemble needs at least one instance.
     #[error("an ensemble needs at least one instance")]
     Empty,

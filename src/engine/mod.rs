@@ -250,6 +250,14 @@ impl Engine {
         }
     }
 
+    /// The GPU engine on adapter `index` of [`gpu::list_adapters`].
+    pub fn gpu_adapter(index: usize) -> Result<Engine, EngineError> {
+        let t0 = Instant::now();
+        let ctx = GpuContext::new(gpu::AdapterChoice::Index(index))?;
+        let why = format!("requested: adapter {index} ({})", ctx.adapter_name);
+        Ok(Engine::gpu(ctx, why, t0.elapsed().as_secs_f64()))
+    }
+
     /// The GPU engine on an opened device.
     pub fn gpu(ctx: GpuContext, reason: String, open_s: f64) -> Engine {
         Engine {

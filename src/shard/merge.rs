@@ -5,7 +5,7 @@ use super::files::{ShardData, ShardReadError, read_shard};
 use super::spec::map_hash;
 use crate::config::{ConfigError, MapSpec, map_from_toml};
 use crate::engine::{EngineError, EnsemblePlan};
-use crate::map::{MapRun, MapTimings, ShardSummary};
+use crate::map::{MapPart, MapRun, assemble};
 use std::path::PathBuf;
 
 /// Why shards do not make one map.
@@ -117,7 +117,7 @@ pub fn merge_shards(dirs: &[PathBuf]) -> Result<Merged, MergeError> {
         return Err(MergeError::SceneChanged(first.dir.display().to_string()));
     }
     let plan = EnsemblePlan::new(&spec)?;
-    let run = assemble(&shards, plan);
+    let run = assemble(plan, shards.iter().map(part).collect());
     Ok(Merged { spec, run })
 }
 
@@ -190,48 +190,17 @@ fn check_coverage(shards: &[ShardData]) -> Result<(), MergeError> {
     Ok(())
 }
 
-/// The shards' results in grid order, their timings summed, as one run of `plan`.
-fn assemble(shards: &[ShardData], plan: EnsemblePlan) -> MapRun {
-    let n = plan.instances.len();
-    let mut results = vec![None; n];
-    let tail = shards[0].manifest.strobe_tail;
-    let mut strobe_tail = vec![Vec::new(); if tail > 0 { n } else { 0 }];
-    let mut timings = MapTimings::default();
-    let mut summaries = Vec::new();
-    for s in shards {
-        for (j, &k) in s.members.iter().enumerate() {
-            results[k] = Some(s.results[j]);
-            if tail > 0 {
-                strobe_tail[k] = s.strobe_tail[j].clone();
-            }
-        }
-        let t = &s.manifest.timings_s;
-        timings.plan_s += t.plan_s;
-        timings.device_s += t.device_s;
-        timings.integrate_s += t.integrate_s;
-        timings.reduce_s += t.reduce_s;
-        timings.total_s += t.total_s;
-        summaries.push(ShardSummary {
-            shard: s.manifest.shard,
-            dir: s.dir.display().to_string(),
-            device: s.manifest.engine.device.clone(),
-            instances: s.manifest.members,
-            total_s: t.total_s,
-        });
-    }
-    summaries.sort_by_key(|s| s.shard.index);
-    let first = &shards[0].manifest;
-    MapRun {
-        results: results
-            .into_iter()
-            .map(|r| r.expect("coverage checked"))
-            .collect(),
-        plan,
-        engine: first.engine.clone(),
-        timings,
-        dispatches: shards.iter().map(|s| s.manifest.dispatches).sum(),
-        stopped_early: shards.iter().map(|s| s.manifest.stopped_early).sum(),
-        strobe_tail,
-        shards: summaries,
+/// A shard read back as a part of its map.
+fn part(s: &ShardData) -> MapPart {
+    MapPart {
+        shard: s.manifest.shard,
+        label: s.dir.display().to_string(),
+        members: s.members.clone(),
+        results: s.results.clone(),
+        strobe_tail: s.strobe_tail.clone(),
+        engine: s.manifest.engine.clone(),
+        timings: s.manifest.timings_s.clone(),
+        dispatches: s.manifest.dispatches,
+        stopped_early: s.manifest.stopped_early,
     }
 }

@@ -67,7 +67,8 @@ fn merge(dirs: &[&Path], out: &Path) -> std::process::Output {
         .unwrap()
 }
 
-/// map.json without what may differ between a merged and a whole run.
+/// map.json without what may differ between a merged and a whole run: timings, throughput,
+/// the list of shards and the GPU's dispatch count.
 fn manifest(dir: &Path) -> serde_json::Value {
     let mut v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("map.json")).unwrap()).unwrap();
@@ -75,6 +76,8 @@ fn manifest(dir: &Path) -> serde_json::Value {
     for k in ["timings_s", "throughput", "shards"] {
         m.remove(k);
     }
+    // GPU dispatches are sized by wall time: a scheduling count, like a timing.
+    m["steps"].as_object_mut().unwrap().remove("dispatches");
     v
 }
 
@@ -194,4 +197,35 @@ fn merge_names_missing_duplicate_and_foreign_shards() {
     let e = err(slurm(&["--shards", "9"]));
     assert!(e.contains("use at most 7 shards"), "{e}");
     assert!(!root.join("job").exists(), "a refused job wrote its folder");
+}
+
+#[test]
+fn a_map_split_over_two_devices_equals_the_map_on_one() {
+    if crate::engine::gpu().is_none() {
+        return;
+    }
+    let root = out_dir("devices");
+    let (one, two) = (root.join("one"), root.join("two"));
+    let gpu = |extra: &[&str], out: &Path| {
+        bin()
+            .args(["map", "configs/maps/bifurcation_f.toml", "--quiet"])
+            .args(SETS)
+            .args(extra)
+            .arg("--out")
+            .arg(out)
+            .output()
+            .unwrap()
+    };
+    ok(&gpu(&["--adapter", "0"], &one));
+    // The same adapter opened twice: two devices, each integrating one interleaved half.
+    ok(&gpu(&["--devices", "0,0"], &two));
+    assert_same_map(&one, &two);
+    let e = gpu(&["--devices", "0,7"], &root.join("bad"));
+    let msg = String::from_utf8_lossy(&e.stderr);
+    assert!(
+        e.status.code() == Some(2) && msg.contains("there is no adapter 7"),
+        "{msg}"
+    );
+    let e = gpu(&["--devices", "0,x"], &root.join("bad"));
+    assert!(String::from_utf8_lossy(&e.stderr).contains("adapter indices separated by commas"));
 }

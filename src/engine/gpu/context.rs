@@ -13,6 +13,49 @@ pub enum AdapterChoice {
     Any,
     /// Only a hardware GPU.
     HardwareOnly,
+    /// The adapter at this index of [`list_adapters`].
+    Index(usize),
+}
+
+/// One adapter wgpu sees, as `pendulum-atlas adapters` lists it.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct AdapterListing {
+    /// Its index (`--adapter INDEX`, `--devices I,J`).
+    pub index: usize,
+    /// Adapter name.
+    pub name: String,
+    /// Backend (Vulkan, Metal, Dx12).
+    pub backend: String,
+    /// Discrete, integrated, virtual, other or CPU (software).
+    pub device_type: String,
+    /// A software adapter running on the CPU (lavapipe).
+    pub is_software: bool,
+}
+
+fn adapters() -> Vec<wgpu::Adapter> {
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+        backends: wgpu::Backends::PRIMARY,
+        ..wgpu::InstanceDescriptor::new_without_display_handle()
+    });
+    pollster::block_on(instance.enumerate_adapters(wgpu::Backends::PRIMARY))
+}
+
+/// Every adapter wgpu finds on this machine, in the order `--adapter` counts them.
+pub fn list_adapters() -> Vec<AdapterListing> {
+    adapters()
+        .iter()
+        .enumerate()
+        .map(|(index, a)| {
+            let info = a.get_info();
+            AdapterListing {
+                index,
+                name: info.name.clone(),
+                backend: format!("{:?}", info.backend),
+                device_type: format!("{:?}", info.device_type),
+                is_software: info.device_type == wgpu::DeviceType::Cpu,
+            }
+        })
+        .collect()
 }
 
 /// A wgpu device ready for the ensemble kernels, and the kernels compiled on it so far.
@@ -112,11 +155,14 @@ impl GpuContext {
 
 /// The adapter of highest rank that `choice` allows.
 fn pick_adapter(choice: AdapterChoice) -> Result<wgpu::Adapter, EngineError> {
-    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
-        backends: wgpu::Backends::PRIMARY,
-        ..wgpu::InstanceDescriptor::new_without_display_handle()
-    });
-    let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::PRIMARY));
+    let adapters = adapters();
+    if let AdapterChoice::Index(i) = choice {
+        let count = adapters.len();
+        return adapters
+            .into_iter()
+            .nth(i)
+            .ok_or(EngineError::NoSuchAdapter { index: i, count });
+    }
     let rank = |t: wgpu::DeviceType| match t {
         wgpu::DeviceType::DiscreteGpu => 0,
         wgpu::DeviceType::IntegratedGpu => 1,

@@ -14,7 +14,7 @@ mod context;
 pub mod kernels;
 pub mod layout;
 
-pub use context::{AdapterChoice, GpuContext};
+pub use context::{AdapterChoice, AdapterListing, GpuContext, list_adapters};
 
 use crate::analysis::PhaseConvention;
 use crate::config::Metric;
