@@ -59,7 +59,7 @@ fn write_conf(dir: &Path) -> PathBuf {
     let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
     let d = dir.display();
     let conf = format!(
-        "ClusterName=pendulumatlas\nSlurmctldHost={host}\nSlurmctldPort={}\nSlurmdPort={}\n\
+        "ClusterName=pendulumatlas\nSlurmctldHost={host}(127.0.0.1)\nSlurmctldPort={}\nSlurmdPort={}\n\
          SlurmUser={user}\nSlurmdUser={user}\nAuthType=auth/munge\n\
          StateSaveLocation={d}/state\nSlurmdSpoolDir={d}/spool\n\
          SlurmctldPidFile={d}/slurmctld.pid\nSlurmdPidFile={d}/slurmd.pid\n\
@@ -68,7 +68,7 @@ fn write_conf(dir: &Path) -> PathBuf {
          AccountingStorageType=accounting_storage/none\nJobCompType=jobcomp/none\n\
          SchedulerType=sched/backfill\nSelectType=select/cons_tres\nSelectTypeParameters=CR_CPU\n\
          ReturnToService=2\nMpiDefault=none\n\
-         NodeName={host} CPUs={cpus} State=UNKNOWN\n\
+         NodeName={host} NodeAddr=127.0.0.1 CPUs={cpus} State=UNKNOWN\n\
          PartitionName=atlas Nodes={host} Default=YES MaxTime=INFINITE State=UP OverSubscribe=YES\n",
         free_port(),
         free_port()
