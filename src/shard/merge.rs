@@ -33,15 +33,13 @@ pub enum MergeError {
         /// The first shard's value.
         ours: String,
     },
-    /// A shard index given twice.
-    #[error("shard {index} of {count} is given twice: {dirs}")]
+    /// Shard indices given more than once.
+    #[error("{} of {count} shards are given more than once: {}; merge one folder per shard", .duplicates.len(), .duplicates.iter().map(|(i, d)| format!("shard {i} in {d}")).collect::<Vec<_>>().join("; "))]
     Duplicate {
-        /// The index.
-        index: u32,
+        /// Each duplicated index with the folders holding it.
+        duplicates: Vec<(u32, String)>,
         /// Number of shards.
         count: u32,
-        /// The folders holding it.
-        dirs: String,
     },
     /// Shards missing.
     #[error("{n} of {count} shards are missing: {list}; run each with `map ... --shard I/{count}` and merge again", n = missing.len(), list = index_list(missing))]
@@ -168,12 +166,14 @@ fn check_coverage(shards: &[ShardData]) -> Result<(), MergeError> {
     for s in shards {
         holders[s.manifest.shard.index as usize].push(s.dir.display().to_string());
     }
-    if let Some((index, dirs)) = holders.iter().enumerate().find(|(_, d)| d.len() > 1) {
-        return Err(MergeError::Duplicate {
-            index: index as u32,
-            count,
-            dirs: dirs.join(", "),
-        });
+    let duplicates: Vec<(u32, String)> = holders
+        .iter()
+        .enumerate()
+        .filter(|(_, d)| d.len() > 1)
+        .map(|(i, d)| (i as u32, d.join(", ")))
+        .collect();
+    if !duplicates.is_empty() {
+        return Err(MergeError::Duplicate { duplicates, count });
     }
     let missing: Vec<u32> = (0..count)
         .filter(|&i| holders[i as usize].is_empty())

@@ -144,7 +144,10 @@ fn merge_names_missing_duplicate_and_foreign_shards() {
         "{e}"
     );
     let e = err(merge(&[&a, &a], &root.join("m2")));
-    assert!(e.contains("shard 0 of 2 is given twice"), "{e}");
+    assert!(
+        e.contains("1 of 2 shards are given more than once: shard 0 in"),
+        "{e}"
+    );
     // The same shard index of another map (a different amplitude).
     let other = root.join("other");
     ok(&map(&[
