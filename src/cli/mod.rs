@@ -74,7 +74,7 @@ pub enum Command {
     Reproduce(reproduce::ReproduceArgs),
     /// Broadband-harvesting design search against the linear clamped cantilever.
     Search(search::SearchArgs),
-    /// Which values of unknown parameters reproduce observed cases (K, R, period, hops, α).
+    /// Which values of unknown parameters reproduce observed cases (K, R, period, lines, hops, α).
     Calibrate(calibrate::CalibrateArgs),
 }
 
