@@ -96,8 +96,25 @@ impl MapRun {
 
 /// Plan, integrate and reduce a map on an opened engine.
 pub fn run_map(spec: &MapSpec, engine: &Engine, progress: Progress) -> Result<MapRun, EngineError> {
+    run_map_part(spec, None, engine, progress)
+}
+
+/// Plan the whole map, keep `shard`'s instances (all without one), integrate and reduce them;
+/// planning time counts in the run's timings.
+fn run_map_part(
+    spec: &MapSpec,
+    shard: Option<Shard>,
+    engine: &Engine,
+    progress: Progress,
+) -> Result<MapRun, EngineError> {
     let t0 = Instant::now();
-    let plan = EnsemblePlan::new(spec)?;
+    let mut plan = EnsemblePlan::new(spec)?;
+    if let Some(s) = shard {
+        plan = plan.select(&s.members(spec.instances()));
+        if plan.instances.is_empty() {
+            return Err(EngineError::Empty);
+        }
+    }
     let plan_s = t0.elapsed().as_secs_f64();
     let tail = spec
         .bifurcation
@@ -290,23 +307,5 @@ pub fn run_map_shard(
     engine: &Engine,
     progress: Progress,
 ) -> Result<MapRun, EngineError> {
-    let t0 = Instant::now();
-    let plan = EnsemblePlan::new(spec)?.select(&shard.members(spec.instances()));
-    if plan.instances.is_empty() {
-        return Err(EngineError::Empty);
-    }
-    let plan_s = t0.elapsed().as_secs_f64();
-    let tail = spec
-        .bifurcation
-        .then_some(spec.bifurcation_samples as usize);
-    let mut run = run_plan(
-        plan,
-        &ReduceOptions::from_spec(spec),
-        tail,
-        engine,
-        progress,
-    )?;
-    run.timings.plan_s = plan_s;
-    run.timings.total_s += plan_s;
-    Ok(run)
+    run_map_part(spec, Some(shard), engine, progress)
 }

@@ -59,14 +59,9 @@ pub struct MergeArgs {
 
 /// Run `map`.
 pub fn run(a: MapArgs) -> anyhow::Result<()> {
-    let (text, origin) = scene_text(
-        a.scene.as_deref(),
-        DEFAULT_MAP_TOML,
-        "configs/maps/default.toml",
-    )?;
-    let spec = map_from_toml(&text, &origin, &a.sets)?;
+    let (text, spec) = read_map(a.scene.as_deref(), &a.sets)?;
     if let Some(s) = a.shard {
-        check_shard(s, &spec)?;
+        check_shard_count("--shard", s.count, &spec)?;
     }
     if let Some(d) = &a.devices {
         return run_on_devices(&a, d, &spec);
@@ -108,14 +103,7 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
 /// `map --devices`: one process, one engine per adapter, one shard each, assembled.
 fn run_on_devices(a: &MapArgs, devices: &str, spec: &MapSpec) -> anyhow::Result<()> {
     let indices = device_indices(devices)?;
-    if indices.len() > spec.instances() {
-        anyhow::bail!(
-            "--devices: {} devices for {} instances; use at most {}",
-            indices.len(),
-            spec.instances(),
-            spec.instances()
-        );
-    }
+    check_shard_count("--devices", indices.len() as u32, spec)?;
     let engines: Vec<Engine> = indices
         .iter()
         .map(|&i| Engine::gpu_adapter(i).map_err(hint))
@@ -184,13 +172,21 @@ pub fn adapters() -> anyhow::Result<()> {
     Ok(())
 }
 
-/// A shard index within the grid: no more shards than instances.
-fn check_shard(s: Shard, spec: &MapSpec) -> anyhow::Result<()> {
-    if s.count as usize > spec.instances() {
+/// The map scene's text (kept by shards and Slurm jobs) and the validated map.
+pub(super) fn read_map(
+    scene: Option<&std::path::Path>,
+    sets: &[String],
+) -> anyhow::Result<(String, MapSpec)> {
+    let (text, origin) = scene_text(scene, DEFAULT_MAP_TOML, "configs/maps/default.toml")?;
+    let spec = map_from_toml(&text, &origin, sets)?;
+    Ok((text, spec))
+}
+
+/// No more shards than instances (`flag` names the option in the message).
+pub(super) fn check_shard_count(flag: &str, count: u32, spec: &MapSpec) -> anyhow::Result<()> {
+    if count as usize > spec.instances() {
         anyhow::bail!(
-            "--shard {}/{}: the map has {} instances; use at most {} shards",
-            s.index,
-            s.count,
+            "{flag}: {count} shards of a map of {} instances; use at most {} shards",
             spec.instances(),
             spec.instances()
         );

@@ -1,7 +1,6 @@
 //! `pendulum-atlas slurm`: the sbatch scripts of a sharded map, and optionally their submission.
 
 use super::engine::BackendArg;
-use pendulum_atlas::config::{DEFAULT_MAP_TOML, map_from_toml, scene_text};
 use pendulum_atlas::output::files::{create_dir, write_bytes, write_json};
 use pendulum_atlas::output::folder::Product;
 use pendulum_atlas::shard::{SlurmJob, check_partition, check_time};
@@ -44,20 +43,8 @@ pub struct SlurmArgs {
 
 /// Run `slurm`.
 pub fn run(a: SlurmArgs) -> anyhow::Result<()> {
-    let (text, origin) = scene_text(
-        a.scene.as_deref(),
-        DEFAULT_MAP_TOML,
-        "configs/maps/default.toml",
-    )?;
-    let spec = map_from_toml(&text, &origin, &a.sets)?;
-    if a.shards as usize > spec.instances() {
-        anyhow::bail!(
-            "--shards {}: the map has {} instances; use at most {} shards",
-            a.shards,
-            spec.instances(),
-            spec.instances()
-        );
-    }
+    let (text, spec) = super::map::read_map(a.scene.as_deref(), &a.sets)?;
+    super::map::check_shard_count("--shards", a.shards, &spec)?;
     if let Some(p) = &a.partition {
         check_partition(p)?;
     }

@@ -184,7 +184,10 @@ fn merge_names_missing_duplicate_and_foreign_shards() {
         "--out",
         root.join("bad").to_str().unwrap(),
     ]));
-    assert!(e.contains("7 instances; use at most 7 shards"), "{e}");
+    assert!(
+        e.contains("8 shards of a map of 7 instances; use at most 7"),
+        "{e}"
+    );
     let slurm = |extra: &[&str]| {
         bin()
             .args(["slurm", "configs/maps/bifurcation_f.toml"])
