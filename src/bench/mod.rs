@@ -519,10 +519,9 @@ pub fn run_bench(opts: &BenchOptions, progress: &dyn Fn(&str)) -> Result<BenchRe
 /// Timed repetitions of each side of the K-only comparison (the median is reported).
 const K_ONLY_REPEATS: usize = 3;
 
-/// Median engine time of `repeats` runs of the map after one untimed run: the first run of a
-/// kernel specialisation compiles its pipelines and, on lavapipe, JIT-compiles them at the
-/// first dispatch, which once made the K-only map (a specialisation not used before) look
-/// 8x slower than all metrics (1.62 s against 0.21 s).
+/// Median engine time of `repeats` runs of the map after one untimed run (no first use of a
+/// kernel specialisation timed): one run of each once showed the K-only map 8x slower than all
+/// metrics (1.62 s against 0.21 s), which later runs never reproduced.
 fn warm_median_s(
     scenes: &[Scene],
     metrics: &[Metric],

@@ -194,8 +194,7 @@ fn metrics_a_scene_does_not_need(s: &mut String, r: &BenchReport) {
         "\n## Metrics a scene does not need\n\nAn 8 x 8 map at N = 3, 20 s (K, R, period, hops, impacts, α range against K alone). \
          A K-only scene records no R series and neither compiles nor runs the R kernels; a scene \
          without K or period records no stroboscopic samples. Both sides are timed warm (one untimed run \
-         first: a kernel specialisation compiles its pipelines on first use, and lavapipe JIT-compiles \
-         them at the first dispatch), median of 3. Integration costs the same for both, so the speed-up \
+         first, so that no first use of a kernel specialisation is timed), median of 3. Integration costs the same for both, so the speed-up \
          is bounded by the share of the reductions K does not need (R, the period search).\n\n| engine | all metrics (s) | K only (s) | speed-up |\n|---|---|---|---|"
     );
     for k in &r.k_only {
