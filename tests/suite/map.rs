@@ -66,7 +66,7 @@ fn check_map_dir(out: &std::path::Path, backend: &str) {
     let mut lines = csv.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "excitation.frequency_hz,limiter.clearance_deg,K,R,period,hops,impacts_per_s,alpha_min_rad,alpha_max_rad,power_w,status"
+        "excitation.frequency_hz,limiter.clearance_deg,K,R,period,hops,impacts_per_s,alpha_min_rad,alpha_max_rad,power_w,line_ratio,status"
     );
     let rows: Vec<&str> = lines.collect();
     assert_eq!(rows.len(), 6);
@@ -82,7 +82,8 @@ fn check_map_dir(out: &std::path::Path, backend: &str) {
         assert!(k.is_finite() && (-0.5..=1.5).contains(&k), "K = {k}");
         assert!((0.0..=1.0).contains(&rr), "R = {rr}");
         assert_eq!(cells[9], "nan", "power without a piezo is NaN");
-        assert_eq!(cells[10], "ok");
+        assert_eq!(cells[10], "nan", "the line was not asked for");
+        assert_eq!(cells[11], "ok");
     }
     for f in ["K", "R", "period", "hops", "impacts_per_s", "alpha_range"] {
         let (w, h) = png_size(&out.join(format!("{f}.png")));
