@@ -216,55 +216,82 @@ fn draw_agreement(
     let n = spec.unknowns.len();
     for i in 0..n {
         for j in i + 1..n {
-            let (ux, uy) = (&spec.unknowns[i], &spec.unknowns[j]);
-            if ux.values.len() < 2 || uy.values.len() < 2 {
-                continue;
+            if spec.unknowns[i].values.len() >= 2 && spec.unknowns[j].values.len() >= 2 {
+                let pair = Pair {
+                    i,
+                    j,
+                    best,
+                    grid: &grid,
+                };
+                out.push(draw_pair(dir, spec, run, &pair)?);
             }
-            let share = |x: f64, y: f64| {
-                grid.iter()
-                    .find(|c| {
-                        c.values.iter().enumerate().all(|(k, &v)| {
-                            v == if k == i {
-                                x
-                            } else if k == j {
-                                y
-                            } else {
-                                best.values[k]
-                            }
-                        })
-                    })
-                    .map_or(f64::NAN, |c| c.matched as f64 / run.observations as f64)
-            };
-            let vals: Vec<f64> = uy
-                .values
-                .iter()
-                .flat_map(|&y| ux.values.iter().map(move |&x| share(x, y)))
-                .collect();
-            let name = |k: &str| k.replace('.', "_");
-            let path = dir.join(format!("agreement_{}_{}.png", name(&ux.key), name(&uy.key)));
-            let (xl, yl) = (axis_label(&ux.key), axis_label(&uy.key));
-            let x = Axis {
-                label: &xl,
-                values: &ux.values,
-            };
-            let y = Axis {
-                label: &yl,
-                values: &uy.values,
-            };
-            let title = "share of observations matched (other unknowns at the best)";
-            out.push(draw(&path, |p| {
-                heatmap(
-                    p,
-                    title,
-                    &x,
-                    &y,
-                    &vals,
-                    "share matched",
-                    &[],
-                    Some((0.0, 1.0)),
-                )
-            })?);
         }
     }
     Ok(out)
+}
+
+/// Unknowns `i` and `j` of the grid, the others held at `best`'s values.
+struct Pair<'a> {
+    i: usize,
+    j: usize,
+    best: &'a Candidate,
+    grid: &'a [&'a Candidate],
+}
+
+impl Pair<'_> {
+    /// Share of observations matched by the grid candidate at (x, y), NaN if none.
+    fn share(&self, x: f64, y: f64, observations: usize) -> f64 {
+        let at = |k: usize| match k {
+            k if k == self.i => x,
+            k if k == self.j => y,
+            k => self.best.values[k],
+        };
+        self.grid
+            .iter()
+            .find(|c| c.values.iter().enumerate().all(|(k, &v)| v == at(k)))
+            .map_or(f64::NAN, |c| c.matched as f64 / observations as f64)
+    }
+}
+
+/// One agreement picture.
+fn draw_pair(
+    dir: &Path,
+    spec: &CalibrationSpec,
+    run: &CalibrationRun,
+    pair: &Pair,
+) -> Result<PathBuf, OutputError> {
+    let (ux, uy) = (&spec.unknowns[pair.i], &spec.unknowns[pair.j]);
+    let vals: Vec<f64> = uy
+        .values
+        .iter()
+        .flat_map(|&y| {
+            ux.values
+                .iter()
+                .map(move |&x| pair.share(x, y, run.observations))
+        })
+        .collect();
+    let name = |k: &str| k.replace('.', "_");
+    let path = dir.join(format!("agreement_{}_{}.png", name(&ux.key), name(&uy.key)));
+    let (xl, yl) = (axis_label(&ux.key), axis_label(&uy.key));
+    let x = Axis {
+        label: &xl,
+        values: &ux.values,
+    };
+    let y = Axis {
+        label: &yl,
+        values: &uy.values,
+    };
+    let title = "share of observations matched (other unknowns at the best)";
+    draw(&path, |p| {
+        heatmap(
+            p,
+            title,
+            &x,
+            &y,
+            &vals,
+            "share matched",
+            &[],
+            Some((0.0, 1.0)),
+        )
+    })
 }
