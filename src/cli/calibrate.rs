@@ -2,7 +2,6 @@
 
 use super::engine::{EngineArgs, hint};
 use pendulum_atlas::calibrate::{load_calibration, run_calibration, write_calibration};
-use pendulum_atlas::engine::ProgressUnit;
 use pendulum_atlas::output::folder::Product;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -39,10 +38,7 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
         a.quiet,
         "{spinner} calibrate [{bar:40}] {pos}/{len} {elapsed_precise}",
     );
-    let progress = |done: u64, total: u64, _unit: ProgressUnit| {
-        bar.set_length(total);
-        bar.set_position(done);
-    };
+    let progress = super::bar_progress(&bar);
     let started = Instant::now();
     let run = run_calibration(&spec, &engine, &progress).map_err(|e| match e {
         pendulum_atlas::calibrate::CalibrateError::Engine(e) => hint(e),

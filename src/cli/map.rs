@@ -4,7 +4,7 @@
 use super::engine::{EngineArgs, hint};
 use pendulum_atlas::config::{DEFAULT_MAP_TOML, MapSpec, map_from_toml, scene_text};
 use pendulum_atlas::engine::gpu::list_adapters;
-use pendulum_atlas::engine::{Engine, ProgressUnit, no_progress};
+use pendulum_atlas::engine::{Engine, no_progress};
 use pendulum_atlas::map::{MapRun, run_map, run_map_on_devices, run_map_shard};
 use pendulum_atlas::model::Status;
 use pendulum_atlas::output::folder::Product;
@@ -77,11 +77,7 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
         a.quiet,
         "{spinner} {msg} [{bar:40}] {pos}/{len} {elapsed_precise} (eta {eta})",
     );
-    let progress = |done: u64, total: u64, unit: ProgressUnit| {
-        bar.set_length(total);
-        bar.set_position(done);
-        bar.set_prefix(unit.name());
-    };
+    let progress = super::bar_progress(&bar);
     let (run, files) = match a.shard {
         Some(s) => {
             bar.set_message(format!("shard {}/{} of a map", s.index, s.count));

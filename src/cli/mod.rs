@@ -107,6 +107,17 @@ fn progress_bar(quiet: bool, template: &str) -> indicatif::ProgressBar {
     bar
 }
 
+/// An engine progress callback that moves `bar` (its prefix names the unit counted).
+fn bar_progress(
+    bar: &indicatif::ProgressBar,
+) -> impl Fn(u64, u64, pendulum_atlas::engine::ProgressUnit) + Sync + '_ {
+    move |done, total, unit| {
+        bar.set_length(total);
+        bar.set_position(done);
+        bar.set_prefix(unit.name());
+    }
+}
+
 /// Run the parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
