@@ -2,8 +2,7 @@
 
 use super::SceneArgs;
 use indicatif::{ProgressBar, ProgressStyle};
-use pendulum_atlas::analysis::{RecordAnalysis, RecordOptions, Sampling, analyze_record};
-use pendulum_atlas::config::ExcitationKind;
+use pendulum_atlas::analysis::{RecordAnalysis, analyze_record};
 use pendulum_atlas::config::{DampingReport, Scene};
 use pendulum_atlas::engine::method::MethodSteps;
 use pendulum_atlas::engine::{
@@ -307,24 +306,7 @@ fn analyse_run(
     let rate = scene.output.sample_rate_hz;
     let alpha: Vec<f64> = rows.iter().map(|r| r.alpha_rad).collect();
     let cart: Vec<f64> = rows.iter().map(|r| r.x0_m).collect();
-    let forcing = match scene.excitation.kind {
-        ExcitationKind::Harmonic { frequency_hz } => Some(frequency_hz),
-        ExcitationKind::Sweep { .. } => None,
-    };
-    let opts = RecordOptions {
-        forcing_hz: forcing,
-        sampling: if forcing.is_some() {
-            Sampling::Stroboscopic
-        } else {
-            Sampling::Extrema
-        },
-        transient_s: scene.integration.transient_s,
-        clearance_rad: scene
-            .limiter
-            .enabled
-            .then(|| scene.limiter.clearance_deg.to_radians()),
-        ..Default::default()
-    };
+    let opts = scene.record_options();
     let r = analyze_record(&alpha, Some(&cart), rate, 0.0, &opts)?;
     super::report::write_analysis(out, &r, &alpha, Some(&cart), rate, 0.0)?;
     time_series_figure(scene, rows, out)?;

@@ -155,6 +155,10 @@ pub struct MapSpec {
     /// The base scene table (after overrides, without `[map]`), from which instances are made.
     #[serde(skip)]
     pub base_table: Table,
+    /// The whole map scene after overrides (`[map]` included): what `scene.toml` of a map
+    /// folder holds, so that the map can be rerun or explored from its folder alone.
+    #[serde(skip)]
+    pub source_table: Table,
     /// The swept keys, 1 to 3; the grid is their Cartesian product, last axis fastest.
     pub axes: Vec<MapAxis>,
     /// The metrics to compute, in output order. Anything else is neither computed nor stored.
@@ -224,13 +228,18 @@ impl MapSpec {
         self.metrics.contains(&m)
     }
 
-    /// The validated scene of instance `k`: the base scene with the axis keys set.
-    pub fn instance_scene(&self, k: usize) -> Result<Scene, ConfigError> {
+    /// The scene table of instance `k`: the base table with the axis keys set.
+    pub fn instance_table(&self, k: usize) -> Result<Table, ConfigError> {
         let mut table = self.base_table.clone();
         for (axis, v) in self.axes.iter().zip(self.values_of(k)) {
             set_number(&mut table, &axis.key, v)?;
         }
-        Scene::from_table(table).map_err(|e| ConfigError::Inconsistent {
+        Ok(table)
+    }
+
+    /// The validated scene of instance `k`: the base scene with the axis keys set.
+    pub fn instance_scene(&self, k: usize) -> Result<Scene, ConfigError> {
+        Scene::from_table(self.instance_table(k)?).map_err(|e| ConfigError::Inconsistent {
             key: "map.axes".into(),
             reason: format!(
                 "grid point {} gives an invalid scene: {e}",
@@ -362,6 +371,8 @@ pub fn map_from_toml(text: &str, origin: &str, sets: &[String]) -> Result<MapSpe
         "a map scene names its axes in [[map.axes]] (see configs/maps/)",
     )?;
     refuse_sets_on_swept(sets, &map, "axes", "an axis of this map")?;
+    let mut source_table = table.clone();
+    source_table.insert("map".into(), Value::Table(map.clone()));
     let scene = Scene::from_table(table.clone())?;
     if !matches!(scene.excitation.kind, ExcitationKind::Harmonic { .. }) {
         return Err(ConfigError::Inconsistent {
@@ -371,10 +382,15 @@ pub fn map_from_toml(text: &str, origin: &str, sets: &[String]) -> Result<MapSpe
                     .into(),
         });
     }
-    read_map(map, scene, table)
+    read_map(map, scene, table, source_table)
 }
 
-fn read_map(mut map: Table, scene: Scene, base_table: Table) -> Result<MapSpec, ConfigError> {
+fn read_map(
+    mut map: Table,
+    scene: Scene,
+    base_table: Table,
+    source_table: Table,
+) -> Result<MapSpec, ConfigError> {
     let axes_value = map.remove("axes");
     let metrics_value = map.remove("metrics");
     let mut wrapped = Table::new();
@@ -412,6 +428,7 @@ fn read_map(mut map: Table, scene: Scene, base_table: Table) -> Result<MapSpec, 
     let spec = MapSpec {
         scene,
         base_table,
+        source_table,
         axes,
         metrics,
         bifurcation,

@@ -3,6 +3,7 @@
 
 use super::error::ConfigError;
 use super::reader::{Range, Reader, apply_override, parse_toml};
+use crate::analysis::{RecordOptions, Sampling};
 use crate::model::Tube;
 pub use crate::model::{ContactDamping, ExcitationKind};
 use serde::Serialize;
@@ -255,6 +256,30 @@ impl Scene {
     /// Total pendulum mass (beam + tip) (kg).
     pub fn total_mass_kg(&self) -> f64 {
         self.beam.mass_kg + self.tip.mass_kg
+    }
+
+    /// How one run of this scene is analysed (`simulate`, and `explore` for a clicked cell):
+    /// holder angle against cart position after the transient, stroboscopic at the forcing
+    /// frequency (at the extrema for a sweep), hops judged against the clearance.
+    pub fn record_options(&self) -> RecordOptions {
+        let forcing = match self.excitation.kind {
+            ExcitationKind::Harmonic { frequency_hz } => Some(frequency_hz),
+            ExcitationKind::Sweep { .. } => None,
+        };
+        RecordOptions {
+            forcing_hz: forcing,
+            sampling: if forcing.is_some() {
+                Sampling::Stroboscopic
+            } else {
+                Sampling::Extrema
+            },
+            transient_s: self.integration.transient_s,
+            clearance_rad: self
+                .limiter
+                .enabled
+                .then(|| self.limiter.clearance_deg.to_radians()),
+            ..Default::default()
+        }
     }
 }
 

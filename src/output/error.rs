@@ -29,6 +29,14 @@ pub enum OutputError {
         /// What is wrong.
         reason: String,
     },
+    /// A TOML document could not be serialised.
+    #[error("cannot write `{path}`: {reason}")]
+    Toml {
+        /// The file.
+        path: String,
+        /// The serialiser's reason.
+        reason: String,
+    },
     /// A JSON document could not be serialised.
     #[error("cannot write `{path}`: {source}")]
     Json {

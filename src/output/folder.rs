@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 pub enum Product {
     /// `simulate`: `trajectory.csv`, `run.json` and the analysis of the run.
     Simulate,
-    /// `map` (and `merge`): `grid.csv`, `.npy` arrays, PNG maps, `map.json`.
+    /// `map` (and `merge`): `grid.csv`, `map_scene.toml`, `.npy` arrays, PNG maps, `map.json`.
     Map,
     /// `map --shard I/N`: the shard's results, its scene, `shard.json`.
     Shard,
@@ -92,7 +92,7 @@ impl Product {
     fn names(self) -> &'static [&'static str] {
         match self {
             Product::Simulate => &["trajectory.csv", "spectrum.csv"],
-            Product::Map => &["grid.csv"],
+            Product::Map => &["grid.csv", "map_scene.toml"],
             Product::Shard => &["scene.toml"],
             Product::Slurm => &["array.sbatch", "merge.sbatch", "scene.toml"],
             Product::Analyze => &["spectrum.csv"],

@@ -1,11 +1,12 @@
-//! The files of a map: `map.json`, `grid.csv`, one `.npy` per metric shaped like the grid,
-//! a PNG per metric (per 2-D slice of a 3-D grid), and `bifurcation.png`.
+//! The files of a map: `map.json`, `grid.csv`, `map_scene.toml` (the map's scene after its
+//! overrides), one `.npy` per metric shaped like the grid, a PNG per metric (per 2-D slice of
+//! a 3-D grid), and `bifurcation.png`.
 
 use crate::config::{MapSpec, Metric};
 use crate::map::MapRun;
 use crate::model::Status;
 use crate::output::OutputError;
-use crate::output::files::{AtomicFile, create_dir, draw, write_json};
+use crate::output::files::{AtomicFile, create_dir, draw, write_bytes, write_json};
 use crate::output::npy::{write_npy_f64, write_npy_u8};
 use crate::render::{Axis, heatmap, scatter};
 use serde_json::json;
@@ -13,13 +14,14 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// The arrays written per metric: (file stem, metric, accessor).
-type Column = (
+pub type Column = (
     &'static str,
     Metric,
     fn(&crate::reduce::InstanceResult) -> f64,
 );
 
-const COLUMNS: [Column; 9] = [
+/// Every stored array of a map, in `grid.csv` order.
+pub const COLUMNS: [Column; 9] = [
     ("K", Metric::K, |r| r.k),
     ("R", Metric::R, |r| r.r),
     ("period", Metric::Period, |r| r.period),
@@ -35,7 +37,10 @@ const COLUMNS: [Column; 9] = [
 /// `map.json` comes last, so that its presence means the map is complete.
 pub fn write_map(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf>, OutputError> {
     create_dir(dir)?;
-    let mut written = vec![write_grid_csv(&dir.join("grid.csv"), spec, run)?];
+    let mut written = vec![
+        write_grid_csv(&dir.join("grid.csv"), spec, run)?,
+        write_scene_toml(&dir.join("map_scene.toml"), spec)?,
+    ];
     written.extend(write_arrays(dir, spec, run)?);
     for m in &spec.metrics {
         written.extend(draw_metric(dir, spec, run, *m)?);
@@ -52,6 +57,20 @@ pub fn write_map(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf
         &map_json(spec, run, &files),
     )?);
     Ok(written)
+}
+
+/// `map_scene.toml`: the whole map scene after its `--set` overrides, so that the folder alone
+/// reruns (`pendulum-atlas map map_scene.toml`) or explores the map.
+fn write_scene_toml(path: &Path, spec: &MapSpec) -> Result<PathBuf, OutputError> {
+    let body = toml::to_string(&spec.source_table).map_err(|e| OutputError::Toml {
+        path: path.display().to_string(),
+        reason: format!("the scene does not write as TOML: {e}"),
+    })?;
+    let text = format!(
+        "# The scene of this map after every --set override.\n\
+         # `pendulum-atlas map map_scene.toml` runs the map again; `pendulum-atlas explore` reads it.\n\n{body}"
+    );
+    write_bytes(path, text.as_bytes())
 }
 
 /// `grid.csv`: a row per instance, the axis values then every column.
@@ -187,7 +206,7 @@ fn fmt(v: f64) -> String {
 }
 
 /// Colour-bar label and fixed range of a metric's picture.
-fn metric_style(m: Metric, spec: &MapSpec) -> (String, Option<(f64, f64)>) {
+pub fn metric_style(m: Metric, spec: &MapSpec) -> (String, Option<(f64, f64)>) {
     match m {
         Metric::K => ("0–1 test K (0 regular, 1 chaotic)".into(), Some((0.0, 1.0))),
         Metric::R => (
@@ -215,7 +234,12 @@ fn metric_style(m: Metric, spec: &MapSpec) -> (String, Option<(f64, f64)>) {
 /// The value drawn for cell `k`: period 0 ("no period found") is drawn as no-data grey, not
 /// as a colour below 1.
 fn drawn_value(run: &MapRun, m: Metric, k: usize) -> f64 {
-    let v = run.results[k].metric(m);
+    shown_value(m, run.results[k].metric(m))
+}
+
+/// A stored value as pictures show it: period 0 ("no period found") becomes NaN (no-data
+/// grey), every other value is itself.
+pub fn shown_value(m: Metric, v: f64) -> f64 {
     if m == Metric::Period && v == 0.0 {
         f64::NAN
     } else {

@@ -73,3 +73,21 @@ pub fn write_npy_i32(
 ) -> Result<(), OutputError> {
     write_npy(path, shape, data_row_major)
 }
+
+/// Reads an `.npy` array of `T` (`f64`, `u8`, ...): its shape and its elements in C order.
+/// The error names the file and says what is wrong with it.
+pub fn read_npy<T: npyz::Deserialize>(path: &Path) -> Result<(Vec<usize>, Vec<T>), String> {
+    let name = path
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {name}: {e}"))?;
+    let npy = npyz::NpyFile::new(&bytes[..]).map_err(|e| format!("{name}: {e}"))?;
+    let shape = npy.shape().iter().map(|&s| s as usize).collect();
+    let data = npy.into_vec::<T>().map_err(|e| {
+        format!(
+            "{name}: not an array of {} ({e})",
+            std::any::type_name::<T>()
+        )
+    })?;
+    Ok((shape, data))
+}

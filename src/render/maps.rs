@@ -20,7 +20,7 @@ const BAR_COL: u32 = 170;
 /// Colour of invalid (diverged) heat-map cells; viridis never reaches it.
 pub const INVALID_COLOR: RGBColor = RGBColor(255, 0, 255);
 /// Colour of non-finite but valid cells ("no data").
-const NODATA_COLOR: RGBColor = RGBColor(190, 190, 190);
+pub const NODATA_COLOR: RGBColor = RGBColor(190, 190, 190);
 /// Dynamic range (octaves) shown by the scalogram below its maximum.
 const SCALOGRAM_OCTAVES: f64 = 16.0;
 
@@ -299,6 +299,32 @@ fn contour(
     out
 }
 
+/// The colour range of a heat map: `range` when given (a metric with fixed bounds), else
+/// the finite values of the valid cells (a single value gets ±0.5 around it; none, 0–1).
+pub fn colour_range(values: &[f64], invalid: &[bool], range: Option<(f64, f64)>) -> (f64, f64) {
+    if let Some((a, b)) = range.filter(|(a, b)| a.is_finite() && b.is_finite() && a < b) {
+        return (a, b);
+    }
+    let bad = |k: usize| invalid.get(k).copied().unwrap_or(false);
+    match finite_min_max((0..values.len()).filter(|&k| !bad(k)).map(|k| values[k])) {
+        Some((a, b)) if b > a => (a, b),
+        Some((a, _)) => (a - 0.5, a + 0.5),
+        None => (0.0, 1.0),
+    }
+}
+
+/// The colour of one heat-map cell: [`INVALID_COLOR`] for a failed instance, grey for no
+/// data (a non-finite value), else viridis of the value's place in `(lo, hi)`.
+pub fn cell_colour(value: f64, invalid: bool, (lo, hi): (f64, f64)) -> RGBColor {
+    if invalid {
+        INVALID_COLOR
+    } else if value.is_finite() {
+        viridis((value - lo) / (hi - lo))
+    } else {
+        NODATA_COLOR
+    }
+}
+
 /// Heat map of `values` (row-major `[iy][ix]`, cells between midpoints of
 /// the possibly non-uniform centres in `x`/`y`), 1000×700 px, viridis over
 /// `range` (default: finite min..max of valid cells; values are clamped)
@@ -328,13 +354,10 @@ pub fn heatmap(
     }
     let bad = |k: usize| invalid.get(k).copied().unwrap_or(false);
     let (lo, hi) = match range {
-        Some((a, b)) if a.is_finite() && b.is_finite() && a < b => (a, b),
-        Some(r) => bad_input!("heatmap: invalid colour range {r:?}"),
-        None => match finite_min_max((0..values.len()).filter(|&k| !bad(k)).map(|k| values[k])) {
-            Some((a, b)) if b > a => (a, b),
-            Some((a, _)) => (a - 0.5, a + 0.5),
-            None => (0.0, 1.0),
-        },
+        Some((a, b)) if !(a.is_finite() && b.is_finite() && a < b) => {
+            bad_input!("heatmap: invalid colour range {:?}", (a, b))
+        }
+        _ => colour_range(values, invalid, range),
     };
     let (xe, ye) = (cell_edges(x.values), cell_edges(y.values));
     let mut xa = AxisSpec::fixed(xe[0], xe[nx], false);
@@ -353,13 +376,7 @@ pub fn heatmap(
     let chart = build_chart(&main, None, &xa, &ya, x.label, y.label, false, 15)?;
     paint_cells(&chart, &xe, &ye, |ix, iy, _, _| {
         let k = iy * nx + ix;
-        if bad(k) {
-            INVALID_COLOR
-        } else if values[k].is_finite() {
-            viridis((values[k] - lo) / (hi - lo))
-        } else {
-            NODATA_COLOR
-        }
+        cell_colour(values[k], bad(k), (lo, hi))
     })?;
     let mut legend = vec![];
     if (0..values.len()).any(bad) {

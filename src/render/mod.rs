@@ -23,7 +23,7 @@ use plotters::style::FontStyle;
 pub use charts::{histogram, line_chart, scatter, stacked_panels, zero_one_figure};
 pub use colormap::viridis;
 pub use error::RenderError;
-pub use maps::{INVALID_COLOR, heatmap, scalogram};
+pub use maps::{INVALID_COLOR, NODATA_COLOR, cell_colour, colour_range, heatmap, scalogram};
 
 /// One named curve: `x[i]`, `y[i]` pairs (both slices must have equal length).
 #[derive(Debug, Clone, Copy)]

@@ -15,7 +15,7 @@ use crate::map::{MapRun, MapTimings};
 use crate::model::Status;
 use crate::output::OutputError;
 use crate::output::files::{create_dir, write_bytes, write_json};
-use crate::output::npy::write_npy_f64;
+use crate::output::npy::{read_npy, write_npy_f64};
 use crate::reduce::InstanceResult;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -237,17 +237,4 @@ fn result_of(r: &[f64]) -> Result<InstanceResult, String> {
         status,
         steps: r[11] as u64,
     })
-}
-
-fn read_npy(path: &Path) -> Result<(Vec<usize>, Vec<f64>), String> {
-    let name = path
-        .file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {name}: {e}"))?;
-    let npy = npyz::NpyFile::new(&bytes[..]).map_err(|e| format!("{name}: {e}"))?;
-    let shape = npy.shape().iter().map(|&s| s as usize).collect();
-    let data = npy
-        .into_vec::<f64>()
-        .map_err(|e| format!("{name}: not a float64 array ({e})"))?;
-    Ok((shape, data))
 }
