@@ -23,8 +23,9 @@
 //! 6. [`output`] and [`render`]: CSV and `.npy` files, PNG pictures.
 //!
 //! Built on these: [`map`] (a parameter map from plan to results), [`harvest`] (the
-//! broadband-harvesting design search), [`reproduce`] (the paper's cases and its report) and
-//! [`bench`] (work-precision and stiff-chain studies). The command-line interface
+//! broadband-harvesting design search), [`reproduce`] (the paper's cases and its report),
+//! [`bench`] (work-precision and stiff-chain studies) and [`explore`] (a finished map in the
+//! browser, a click re-running a cell). The command-line interface
 //! (`src/main.rs`, `src/cli/`) is a thin layer on top.
 #![warn(missing_docs)]
 
@@ -33,6 +34,7 @@ pub mod bench;
 pub mod calibrate;
 pub mod config;
 pub mod engine;
+pub mod explore;
 pub mod harvest;
 pub mod map;
 pub mod model;

@@ -5,6 +5,7 @@ mod analyze;
 mod bench;
 mod calibrate;
 mod engine;
+mod explore;
 mod map;
 mod modes;
 mod report;
@@ -76,6 +77,8 @@ pub enum Command {
     Search(search::SearchArgs),
     /// Which values of unknown parameters reproduce observed cases (K, R, period, lines, hops, α).
     Calibrate(calibrate::CalibrateArgs),
+    /// A finished map in the browser: heat maps, and a click runs a cell and shows its motion.
+    Explore(explore::ExploreArgs),
 }
 
 /// Make `out` the command's output folder before any work (see `output::folder`): refused when
@@ -132,6 +135,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Reproduce(a) => reproduce::run(a),
         Command::Search(a) => search::run(a),
         Command::Calibrate(a) => calibrate::run(a),
+        Command::Explore(a) => explore::run(a),
     }
 }
 

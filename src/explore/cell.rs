@@ -1,0 +1,334 @@
+//! One clicked cell, run again with its motion kept: the cell's scene is the map's scene with
+//! the cell's axis values, the map's integration method and the cell's own step
+//! `dt = 1/(f·spp)` pinned, so that `pendulum-atlas simulate` on the downloaded TOML runs
+//! exactly what the page shows. The run is `simulate`'s: the CPU engine in f64, then
+//! [`analyze_record`] with [`Scene::record_options`].
+
+use super::error::ExploreError;
+use super::folder::RunFolder;
+use crate::analysis::{RecordAnalysis, analyze_record, stroboscopic};
+use crate::config::{Metric, Scene, set_key};
+use crate::engine::{EnsembleOptions, EnsemblePlan, Instance, StepPlan, integrate};
+use crate::model::Status;
+use crate::output::TrajectoryRecorder;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+use toml::{Table, Value};
+
+/// Most points of a curve sent to the page.
+const MAX_POINTS: usize = 4000;
+/// Most time columns and period rows of the scalogram sent to the page.
+const MAX_SCALOGRAM: (usize, usize) = (480, 120);
+/// The spectrum is sent up to this multiple of the forcing frequency (the paper's band).
+const SPECTRUM_MAX_HARMONIC: f64 = 6.0;
+
+/// A cell's scene: validated, and as the TOML `simulate` accepts.
+#[derive(Debug, Clone)]
+pub struct CellScene {
+    /// The validated scene.
+    pub scene: Scene,
+    /// Its text.
+    pub toml: String,
+}
+
+/// The scene of cell `k`, with the map's method and the cell's step pinned.
+pub fn cell_scene(folder: &RunFolder, k: usize) -> Result<CellScene, ExploreError> {
+    let spec = &folder.spec;
+    let fail = |e: String| ExploreError::Cell(format!("cell {k}: {e}"));
+    let mut table = spec.instance_table(k).map_err(|e| fail(e.to_string()))?;
+    let method = folder.manifest["method"].as_str().unwrap_or("auto");
+    set(
+        &mut table,
+        "integration.method",
+        Value::String(method.into()),
+    )?;
+    let scene = Scene::from_table(table.clone()).map_err(|e| fail(e.to_string()))?;
+    let plan = EnsemblePlan::from_scenes(
+        std::slice::from_ref(&scene),
+        &EnsembleOptions::from_spec(spec),
+    )
+    .map_err(|e| fail(e.to_string()))?;
+    let p = &plan.instances[0];
+    // Rows at a whole number of steps, so the record's sample rate is exact.
+    let every = (f64::from(p.spp) * p.frequency_hz / scene.output.sample_rate_hz)
+        .round()
+        .max(1.0);
+    let rate = p.frequency_hz * f64::from(p.spp) / every;
+    set(&mut table, "integration.dt_s", Value::Float(p.dt_s))?;
+    set(&mut table, "output.sample_rate_hz", Value::Float(rate))?;
+    let scene = Scene::from_table(table.clone()).map_err(|e| fail(e.to_string()))?;
+    Ok(CellScene {
+        scene,
+        toml: scene_text(folder, k, &table),
+    })
+}
+
+fn set(table: &mut Table, key: &str, v: Value) -> Result<(), ExploreError> {
+    set_key(table, key, v).map_err(|e| ExploreError::Cell(e.to_string()))
+}
+
+/// The downloadable TOML of cell `k`, with a header saying where it comes from.
+fn scene_text(folder: &RunFolder, k: usize, table: &Table) -> String {
+    let values: Vec<String> = folder
+        .spec
+        .axes
+        .iter()
+        .zip(folder.spec.values_of(k))
+        .map(|(a, v)| format!("{} = {v}", a.key))
+        .collect();
+    format!(
+        "# Cell {k} of the map in {} ({}), with the map's method and this cell's step.\n\
+         # `pendulum-atlas simulate THIS_FILE --out DIR` runs what `explore` showed.\n\n{}",
+        folder.dir.display(),
+        values.join(", "),
+        toml::to_string(table).unwrap_or_default()
+    )
+}
+
+/// A curve: x and y of equal length.
+#[derive(Debug, Serialize, Default)]
+pub struct Curve {
+    /// Abscissae.
+    pub x: Vec<f64>,
+    /// Ordinates.
+    pub y: Vec<f64>,
+}
+
+/// The wavelet power of α, thinned for the page.
+#[derive(Debug, Serialize, Default)]
+pub struct Scalogram {
+    /// Time of each column (s).
+    pub t_s: Vec<f64>,
+    /// Fourier period of each row (s), short to long.
+    pub period_s: Vec<f64>,
+    /// log2 of the power over its maximum, `[row][column]`.
+    pub log2_power: Vec<Vec<f64>>,
+    /// Cone of influence per column (s): longer periods are unreliable there.
+    pub coi_s: Vec<f64>,
+}
+
+/// What the page shows of a clicked cell.
+#[derive(Debug, Serialize)]
+pub struct CellRun {
+    /// Cell index.
+    pub cell: usize,
+    /// The cell's axis values, `[key, value]` in axis order.
+    pub values: Vec<(String, f64)>,
+    /// How the run ended.
+    pub status: Status,
+    /// When it stopped early, the time (s).
+    pub failed_at_s: Option<f64>,
+    /// Segments, method and step.
+    pub segments: usize,
+    /// `rk4` or `imex`.
+    pub method: &'static str,
+    /// The step (s).
+    pub dt_s: f64,
+    /// Wall time of integration and analysis (s).
+    pub wall_s: f64,
+    /// K, R and period of this run, as `simulate` reports them (absent when not computed).
+    pub simulated: BTreeMap<&'static str, Option<f64>>,
+    /// The map's stored values of every metric for this cell.
+    pub map: BTreeMap<&'static str, Option<f64>>,
+    /// α(t) (rad).
+    pub alpha: Curve,
+    /// Cart x0(t) (m).
+    pub cart: Curve,
+    /// α̇ against α after the transient.
+    pub phase: Curve,
+    /// (α, α̇) once per forcing period after the transient.
+    pub strobe: Curve,
+    /// Amplitude spectrum of α after the transient, up to six times the forcing.
+    pub spectrum: Curve,
+    /// Wavelet power of α.
+    pub scalogram: Scalogram,
+    /// Time from which the analysis runs (s).
+    pub transient_s: f64,
+    /// Forcing frequency (Hz).
+    pub forcing_hz: f64,
+    /// Anything the user should know (plan and analysis warnings).
+    pub warnings: Vec<String>,
+}
+
+/// Integrate and analyse cell `k` as `simulate` would; `progress` goes from 0 to 1000.
+pub fn run_cell(
+    folder: &RunFolder,
+    k: usize,
+    progress: &Arc<AtomicU64>,
+) -> Result<CellRun, ExploreError> {
+    let started = Instant::now();
+    let cs = cell_scene(folder, k)?;
+    let scene = &cs.scene;
+    let plan = StepPlan::for_scene(scene);
+    let mut rec = TrajectoryRecorder {
+        load_ohm: scene.piezo_params().map(|z| z.load_ohm),
+        ..Default::default()
+    };
+    let (p, total) = (progress.clone(), plan.steps.max(1));
+    rec.on_row = Some(Box::new(move |step| {
+        p.store(step.min(total) * 1000 / total, Ordering::Relaxed);
+    }));
+    let outcome = integrate(&Instance::<f64>::from_scene(scene), &plan, &mut rec);
+    let mut warnings = plan.warnings.clone();
+    let t: Vec<f64> = rec.rows.iter().map(|r| r.t_s).collect();
+    let alpha: Vec<f64> = rec.rows.iter().map(|r| r.alpha_rad).collect();
+    let cart: Vec<f64> = rec.rows.iter().map(|r| r.x0_m).collect();
+    let analysis = if outcome.status == Status::Ok {
+        analyze_record(
+            &alpha,
+            Some(&cart),
+            scene.output.sample_rate_hz,
+            0.0,
+            &scene.record_options(),
+        )
+        .map_err(|e| warnings.push(format!("analysis skipped: {e}")))
+        .ok()
+    } else {
+        warnings.push(format!("the run stopped with status `{}`", outcome.status));
+        None
+    };
+    if let Some(a) = &analysis {
+        warnings.extend(a.warnings.iter().cloned());
+    }
+    let forcing_hz = scene.excitation.reference_frequency_hz();
+    let rows = &rec.rows;
+    let skip = rows.partition_point(|r| r.t_s < scene.integration.transient_s);
+    let alpha_dot: Vec<f64> = rows.iter().map(|r| r.alpha_dot_rad_s).collect();
+    Ok(CellRun {
+        cell: k,
+        values: folder
+            .spec
+            .axes
+            .iter()
+            .zip(folder.spec.values_of(k))
+            .map(|(a, v)| (a.key.clone(), v))
+            .collect(),
+        status: outcome.status,
+        failed_at_s: outcome.failed_at_s,
+        segments: scene.beam.segments,
+        method: plan.method.name(),
+        dt_s: plan.dt_s,
+        wall_s: started.elapsed().as_secs_f64(),
+        simulated: simulated_values(analysis.as_ref()),
+        map: map_values(folder, k),
+        alpha: thin(&t, &alpha),
+        cart: thin(&t, &cart),
+        phase: thin(&alpha[skip..], &alpha_dot[skip..]),
+        strobe: strobe_section(&t, &alpha, &alpha_dot, forcing_hz, folder, scene),
+        spectrum: analysis
+            .as_ref()
+            .map_or_else(Curve::default, |a| spectrum(a, forcing_hz)),
+        scalogram: analysis.as_ref().map_or_else(Scalogram::default, scalogram),
+        transient_s: scene.integration.transient_s,
+        forcing_hz,
+        warnings,
+    })
+}
+
+/// K, R and period as `simulate` writes them in `run.json` (`analysis`).
+fn simulated_values(a: Option<&RecordAnalysis>) -> BTreeMap<&'static str, Option<f64>> {
+    BTreeMap::from([
+        ("K", a.and_then(|a| a.zero_one.as_ref().map(|z| z.k))),
+        ("R", a.and_then(|a| a.phase_sync.as_ref().map(|p| p.r))),
+        (
+            "period",
+            a.and_then(|a| a.statistics.period.map(|p| p as f64)),
+        ),
+        ("hops", a.and_then(|a| a.statistics.hops.map(|h| h as f64))),
+        ("line_ratio", a.and_then(|a| a.spectrum.ratio_to_forcing)),
+    ])
+}
+
+/// Every metric the map stored for cell `k` (`null` where not finite).
+fn map_values(folder: &RunFolder, k: usize) -> BTreeMap<&'static str, Option<f64>> {
+    folder
+        .metrics()
+        .iter()
+        .map(|&m: &Metric| {
+            let v = folder.value(m, k);
+            (m.name(), v.is_finite().then_some(v))
+        })
+        .collect()
+}
+
+/// At most [`MAX_POINTS`] of `(x, y)`, evenly thinned.
+fn thin(x: &[f64], y: &[f64]) -> Curve {
+    let every = x.len().div_ceil(MAX_POINTS).max(1);
+    Curve {
+        x: x.iter().step_by(every).copied().collect(),
+        y: y.iter().step_by(every).copied().collect(),
+    }
+}
+
+/// (α, α̇) at the map's stroboscopic phase, once per forcing period after the transient.
+fn strobe_section(
+    t: &[f64],
+    alpha: &[f64],
+    alpha_dot: &[f64],
+    forcing_hz: f64,
+    folder: &RunFolder,
+    scene: &Scene,
+) -> Curve {
+    let phase = std::f64::consts::TAU * folder.spec.strobe_phase;
+    let tr = scene.integration.transient_s;
+    let at = |x: &[f64]| stroboscopic(t, x, forcing_hz, phase, tr).unwrap_or_default();
+    let (x, y) = (at(alpha), at(alpha_dot));
+    let n = x.len().min(y.len());
+    Curve {
+        x: x[..n].to_vec(),
+        y: y[..n].to_vec(),
+    }
+}
+
+/// The amplitude spectrum of α up to [`SPECTRUM_MAX_HARMONIC`] times the forcing.
+fn spectrum(a: &RecordAnalysis, forcing_hz: f64) -> Curve {
+    let s = &a.spectrum_full;
+    let keep = s
+        .frequency_hz
+        .iter()
+        .take_while(|&&f| f <= SPECTRUM_MAX_HARMONIC * forcing_hz)
+        .count();
+    thin(&s.frequency_hz[..keep], &s.amplitude[..keep])
+}
+
+/// The wavelet power of α, thinned to at most [`MAX_SCALOGRAM`], as log2 of power over its
+/// maximum.
+fn scalogram(a: &RecordAnalysis) -> Scalogram {
+    let w = &a.wavelet_full;
+    let cols = w.power.first().map_or(0, Vec::len);
+    if cols == 0 {
+        return Scalogram::default();
+    }
+    let ce = cols.div_ceil(MAX_SCALOGRAM.0).max(1);
+    let re = w.power.len().div_ceil(MAX_SCALOGRAM.1).max(1);
+    let max = w
+        .power
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(f64::MIN_POSITIVE, f64::max);
+    let t0 = a.analysed_from_s;
+    Scalogram {
+        t_s: (0..cols)
+            .step_by(ce)
+            .map(|j| t0 + j as f64 * w.dt_s)
+            .collect(),
+        period_s: w.period_s.iter().step_by(re).copied().collect(),
+        log2_power: w
+            .power
+            .iter()
+            .step_by(re)
+            .map(|row| {
+                row.iter()
+                    .step_by(ce)
+                    .map(|&p| (p.max(max * 1e-12) / max).log2())
+                    .collect()
+            })
+            .collect(),
+        coi_s: w.coi_s.iter().step_by(ce).copied().collect(),
+    }
+}

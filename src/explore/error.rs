@@ -1,0 +1,58 @@
+//! What can go wrong while exploring: a folder that is not a complete map, and requests the
+//! server refuses (each maps to one HTTP status in `server`).
+
+/// An error of `explore`, naming the file or the request and what is accepted.
+#[derive(Debug, thiserror::Error)]
+pub enum ExploreError {
+    /// The folder lacks a file a map folder has.
+    #[error("`{path}` is missing: {hint}")]
+    MissingFile {
+        /// The file looked for.
+        path: String,
+        /// What the folder is instead, or how to make the file.
+        hint: String,
+    },
+    /// A file of the folder cannot be read or disagrees with `map.json`.
+    #[error("`{path}`: {reason}")]
+    BadFile {
+        /// The file.
+        path: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A metric the map does not hold.
+    #[error("unknown metric `{name}`: this map holds {accepted}")]
+    UnknownMetric {
+        /// The name asked for.
+        name: String,
+        /// The metrics of the map, comma-separated.
+        accepted: String,
+    },
+    /// A cell or slice index outside the grid, or not a whole number.
+    #[error("{what} `{given}` is out of range: give a whole number from 0 to {last}")]
+    OutOfRange {
+        /// `cell`, `slice` or `job`.
+        what: &'static str,
+        /// The index as given.
+        given: String,
+        /// The largest index accepted.
+        last: usize,
+    },
+    /// No job with that id (never made, or forgotten to make room).
+    #[error("no job {0}: click the cell again to run it")]
+    UnknownJob(u64),
+    /// The queue of cell simulations is full.
+    #[error(
+        "{waiting} cell runs are waiting already (the most this server queues): try again when one has finished"
+    )]
+    QueueFull {
+        /// Jobs waiting.
+        waiting: usize,
+    },
+    /// A file of the folder that is not served (not listed in `map.json`, or not a picture).
+    #[error("`{0}` is not a picture of this map")]
+    NotServed(String),
+    /// The cell's scene could not be rebuilt, integrated or analysed.
+    #[error("{0}")]
+    Cell(String),
+}

@@ -1,0 +1,66 @@
+//! `explore`: a finished map in the browser. Every metric as a heat map with its colour bar,
+//! and a click on a cell runs that cell again with its motion kept (α(t) and the cart, the
+//! phase portrait, the stroboscopic section, the spectrum and the scalogram).
+//!
+//! Stages, in the order a request flows through them:
+//! 1. [`RunFolder::open`] (`folder`): `map.json`, `map_scene.toml` and the arrays, read and
+//!    checked once at start;
+//! 2. [`field`] (`field`): one metric over one slice, coloured by the PNG heat maps' own rule;
+//! 3. [`cell_scene`] / [`run_cell`] (`cell`): a cell's scene with the map's method and step
+//!    pinned, integrated and analysed exactly as `simulate` does;
+//! 4. [`Jobs`] (`jobs`): a bounded queue of cell runs on a fixed set of worker threads;
+//! 5. [`serve`] (`server`): the embedded page and the JSON API on a local port.
+//!
+//! Errors are [`ExploreError`]s; the server answers each with one HTTP status and a JSON
+//! `{"error": ...}` that names the problem and what is accepted.
+
+mod cell;
+mod error;
+mod field;
+mod folder;
+mod jobs;
+mod server;
+
+pub use cell::{CellRun, CellScene, cell_scene, run_cell};
+pub use error::ExploreError;
+pub use field::{Field, field};
+pub use folder::{Column, RunFolder};
+pub use jobs::{JobView, Jobs};
+
+use std::net::{IpAddr, SocketAddr};
+use std::sync::Arc;
+
+/// How the server runs.
+#[derive(Debug, Clone)]
+pub struct ServeOptions {
+    /// Address to bind (127.0.0.1 unless told otherwise).
+    pub bind: IpAddr,
+    /// Port (0: any free port).
+    pub port: u16,
+    /// Cells integrated at once.
+    pub workers: usize,
+    /// Cell runs allowed to wait.
+    pub queue: usize,
+}
+
+/// Serve `folder` until the process is stopped; `ready` is called with the bound address
+/// once the server accepts connections.
+pub fn serve(
+    folder: RunFolder,
+    opts: &ServeOptions,
+    ready: impl FnOnce(SocketAddr),
+) -> std::io::Result<()> {
+    let folder = Arc::new(folder);
+    let jobs = Jobs::start(folder.clone(), opts.workers, opts.queue);
+    let app = Arc::new(server::App { folder, jobs });
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_io()
+        .enable_time()
+        .build()?;
+    rt.block_on(async move {
+        let listener = tokio::net::TcpListener::bind(SocketAddr::new(opts.bind, opts.port)).await?;
+        ready(listener.local_addr()?);
+        axum::serve(listener, server::router(app)).await
+    })
+}

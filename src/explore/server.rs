@@ -1,0 +1,215 @@
+//! The HTTP side: the embedded page and a small JSON API over one map folder.
+//!
+//! | request                        | answer                                               |
+//! |--------------------------------|------------------------------------------------------|
+//! | `GET /`, `/app.js`, `/style.css` | the page (embedded in the binary)                  |
+//! | `GET /api/map`                 | axes, units, metrics, shape, how the map was run     |
+//! | `GET /api/field?metric=M&slice=Z` | metric M over slice Z: values and colours         |
+//! | `GET /api/cell/K`              | cell K's axis values, status and every stored metric |
+//! | `GET /api/cell/K/scene.toml`   | cell K's scene, as `simulate` accepts it             |
+//! | `POST /api/cell/K/run`         | queue a run of cell K; its job                       |
+//! | `GET /api/job/J`               | where job J stands, its result when done             |
+//! | `GET /files/NAME`              | a PNG that `map.json` lists (`bifurcation.png`, ...) |
+//!
+//! Every index is checked (`400` with the accepted range), an unknown metric is `404` with
+//! the metrics there are, a full queue is `503`. Only files listed in `map.json` with a `.png`
+//! name are served, looked up by name, so no path reaches outside the folder.
+
+use super::cell::cell_scene;
+use super::error::ExploreError;
+use super::field::{field, page_shape, slice_index, status_name};
+use super::folder::RunFolder;
+use super::jobs::Jobs;
+use axum::Router;
+use axum::extract::{Path, Query, State};
+use axum::http::{StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{get, post};
+use serde_json::json;
+use std::collections::HashMap;
+use std::sync::Arc;
+
+const INDEX_HTML: &str = include_str!("assets/index.html");
+const APP_JS: &str = include_str!("assets/app.js");
+const STYLE_CSS: &str = include_str!("assets/style.css");
+
+/// What every handler shares.
+pub struct App {
+    /// The map folder.
+    pub folder: Arc<RunFolder>,
+    /// The queue of cell runs.
+    pub jobs: Arc<Jobs>,
+}
+
+type Shared = State<Arc<App>>;
+
+impl IntoResponse for ExploreError {
+    fn into_response(self) -> Response {
+        let status = match &self {
+            ExploreError::UnknownMetric { .. }
+            | ExploreError::UnknownJob(_)
+            | ExploreError::NotServed(_) => StatusCode::NOT_FOUND,
+            ExploreError::OutOfRange { .. } => StatusCode::BAD_REQUEST,
+            ExploreError::QueueFull { .. } => StatusCode::SERVICE_UNAVAILABLE,
+            ExploreError::Cell(_) => StatusCode::UNPROCESSABLE_ENTITY,
+            ExploreError::MissingFile { .. } | ExploreError::BadFile { .. } => {
+                StatusCode::INTERNAL_SERVER_ERROR
+            }
+        };
+        (status, axum::Json(json!({ "error": self.to_string() }))).into_response()
+    }
+}
+
+/// The router of the page and the API.
+pub fn router(app: Arc<App>) -> Router {
+    Router::new()
+        .route("/", get(|| async { asset("text/html; charset=utf-8", INDEX_HTML) }))
+        .route("/app.js", get(|| async { asset("text/javascript; charset=utf-8", APP_JS) }))
+        .route("/style.css", get(|| async { asset("text/css; charset=utf-8", STYLE_CSS) }))
+        .route("/api/map", get(map_info))
+        .route("/api/field", get(field_of))
+        .route("/api/cell/{k}", get(cell_info))
+        .route("/api/cell/{k}/scene.toml", get(cell_toml))
+        .route("/api/cell/{k}/run", post(cell_run))
+        .route("/api/job/{j}", get(job))
+        .route("/files/{name}", get(file))
+        .fallback(|| async {
+            (
+                StatusCode::NOT_FOUND,
+                axum::Json(json!({ "error": "no such page: the API is under /api (see `explore`'s help)" })),
+            )
+        })
+        .with_state(app)
+}
+
+fn asset(kind: &'static str, body: &'static str) -> Response {
+    ([(header::CONTENT_TYPE, kind)], body).into_response()
+}
+
+async fn map_info(State(app): Shared) -> Response {
+    let f = &app.folder;
+    let m = &f.manifest;
+    let (nx, ny, nz) = page_shape(f);
+    let axes: Vec<_> = f
+        .spec
+        .axes
+        .iter()
+        .map(|a| json!({ "key": a.key, "label": a.label(), "values": a.values, "scale": a.scale }))
+        .collect();
+    let metrics: Vec<_> = f
+        .metrics()
+        .iter()
+        .map(|&x| json!({ "name": x.name(), "label": crate::output::map::metric_style(x, &f.spec).0 }))
+        .collect();
+    let pictures: Vec<&String> = f.files.iter().filter(|n| n.ends_with(".png")).collect();
+    axum::Json(json!({
+        "folder": f.dir.display().to_string(),
+        "axes": axes,
+        "shape": f.spec.shape(),
+        "page": { "nx": nx, "ny": ny, "nz": nz },
+        "metrics": metrics,
+        "cells": f.cells(),
+        "segments": m["segments"],
+        "method": m["method"],
+        "backend": m["backend"],
+        "adapter": m["adapter"],
+        "precision": m["precision"],
+        "status_counts": m["status_counts"],
+        "bifurcation": pictures.iter().any(|n| n.as_str() == "bifurcation.png"),
+        "pictures": pictures,
+    }))
+    .into_response()
+}
+
+async fn field_of(
+    State(app): Shared,
+    Query(q): Query<HashMap<String, String>>,
+) -> Result<Response, ExploreError> {
+    let f = &app.folder;
+    let name = q.get("metric").map_or_else(
+        || f.metrics()[0].name().to_string(),
+        std::string::ToString::to_string,
+    );
+    let m = f.metric(&name)?;
+    let iz = slice_index(f, q.get("slice").map(String::as_str))?;
+    Ok(axum::Json(field(f, m, iz)).into_response())
+}
+
+async fn cell_info(State(app): Shared, Path(k): Path<String>) -> Result<Response, ExploreError> {
+    let f = &app.folder;
+    let k = f.cell(&k)?;
+    let values: Vec<(&str, f64)> = f
+        .spec
+        .axes
+        .iter()
+        .zip(f.spec.values_of(k))
+        .map(|(a, v)| (a.key.as_str(), v))
+        .collect();
+    let stored: serde_json::Map<String, serde_json::Value> = f
+        .columns
+        .iter()
+        .map(|c| {
+            let v = c.values[k];
+            (
+                c.stem.to_string(),
+                if v.is_finite() { json!(v) } else { json!(null) },
+            )
+        })
+        .collect();
+    Ok(axum::Json(json!({
+        "cell": k,
+        "index": f.spec.index_of(k),
+        "values": values,
+        "status": status_name(f.status[k]),
+        "stored": stored,
+    }))
+    .into_response())
+}
+
+async fn cell_toml(State(app): Shared, Path(k): Path<String>) -> Result<Response, ExploreError> {
+    let f = app.folder.clone();
+    let k = f.cell(&k)?;
+    let cs = tokio::task::spawn_blocking(move || cell_scene(&f, k))
+        .await
+        .map_err(|e| ExploreError::Cell(e.to_string()))??;
+    let disposition = format!("attachment; filename=\"cell_{k}.toml\"");
+    Ok((
+        [
+            (
+                header::CONTENT_TYPE,
+                "application/toml; charset=utf-8".to_string(),
+            ),
+            (header::CONTENT_DISPOSITION, disposition),
+        ],
+        cs.toml,
+    )
+        .into_response())
+}
+
+async fn cell_run(State(app): Shared, Path(k): Path<String>) -> Result<Response, ExploreError> {
+    let k = app.folder.cell(&k)?;
+    Ok((StatusCode::ACCEPTED, axum::Json(app.jobs.submit(k)?)).into_response())
+}
+
+async fn job(State(app): Shared, Path(j): Path<String>) -> Result<Response, ExploreError> {
+    let id = j.parse::<u64>().map_err(|_| ExploreError::OutOfRange {
+        what: "job",
+        given: j.clone(),
+        last: u64::MAX as usize,
+    })?;
+    Ok(axum::Json(app.jobs.get(id)?).into_response())
+}
+
+async fn file(State(app): Shared, Path(name): Path<String>) -> Result<Response, ExploreError> {
+    let f = &app.folder;
+    if !name.ends_with(".png") || !f.files.contains(&name) {
+        return Err(ExploreError::NotServed(name));
+    }
+    let path = f.dir.join(&name);
+    let bytes = tokio::task::spawn_blocking(move || std::fs::read(path))
+        .await
+        .ok()
+        .and_then(Result::ok)
+        .ok_or(ExploreError::NotServed(name))?;
+    Ok(([(header::CONTENT_TYPE, "image/png")], bytes).into_response())
+}
