@@ -10,6 +10,7 @@ mod cli;
 mod config;
 mod contact;
 mod engine;
+mod explore;
 mod harvest;
 mod imex;
 mod map;

@@ -1,0 +1,280 @@
+//! The API: every answer checked against the map's own files, every bad request answered with
+//! its status and a message naming the accepted range, and bad folders refused at start.
+
+use super::{Server, bin, fetch, json, npy, request, scratch, simulate, small_map, wait_job};
+use pendulum_atlas::render::{cell_colour, colour_range};
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+#[test]
+fn the_map_and_its_fields_are_the_files_of_the_folder() {
+    let dir = small_map();
+    let s = Server::start(dir, &[]);
+    let m = json(&s, "GET", "/api/map", 200);
+    assert_eq!(m["shape"], serde_json::json!([6, 4]));
+    assert_eq!(m["cells"], 24);
+    assert_eq!(m["axes"][0]["key"], "excitation.frequency_hz");
+    let names: Vec<&str> = m["metrics"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        ["K", "R", "period", "hops", "impacts_per_s", "alpha_range"]
+    );
+
+    let k = npy(dir, "K");
+    let f = json(&s, "GET", "/api/field?metric=K", 200);
+    assert_eq!((f["nx"].as_u64(), f["ny"].as_u64()), (Some(6), Some(4)));
+    let cells: Vec<usize> = serde_json::from_value(f["cells"].clone()).unwrap();
+    // Page cell (ix, iy) at iy*nx + ix is grid cell ix*ny + iy (C order, 2-D).
+    for iy in 0..4 {
+        for ix in 0..6 {
+            let at = iy * 6 + ix;
+            assert_eq!(cells[at], ix * 4 + iy);
+            assert_eq!(f["values"][at].as_f64(), Some(k[cells[at]]), "cell {at}");
+            let c = cell_colour(k[cells[at]], false, (0.0, 1.0));
+            let hex = format!("#{:02x}{:02x}{:02x}", c.0, c.1, c.2);
+            assert_eq!(f["colours"][at], hex.as_str(), "colour of cell {at}");
+        }
+    }
+    // A metric without fixed range is coloured over its own values, as its PNG is.
+    let hops = npy(dir, "hops");
+    let h = json(&s, "GET", "/api/field?metric=hops", 200);
+    let (lo, hi) = colour_range(&hops, &[], None);
+    assert_eq!(h["range"], serde_json::json!([lo, hi]));
+    // alpha_range is the difference of two stored arrays.
+    let (amin, amax) = (npy(dir, "alpha_min_rad"), npy(dir, "alpha_max_rad"));
+    let a = json(&s, "GET", "/api/field?metric=alpha_range", 200);
+    assert_eq!(a["values"][0].as_f64(), Some(amax[0] - amin[0]));
+
+    let c = json(&s, "GET", "/api/cell/5", 200);
+    // Cell 5 = (ix 1, iy 1): the second value of each axis, in axis order.
+    let second = |i: usize| m["axes"][i]["values"][1].clone();
+    assert_eq!(
+        c["values"],
+        serde_json::json!([
+            ["excitation.frequency_hz", second(0)],
+            ["excitation.amplitude_m", second(1)]
+        ])
+    );
+    assert_eq!(second(0), 6.0);
+    assert_eq!(c["stored"]["K"].as_f64(), Some(k[5]));
+    assert_eq!(c["status"], "ok");
+    let (status, png) = fetch(&s, "GET", "/files/K.png");
+    assert_eq!(status, 200);
+    assert_eq!(
+        png,
+        std::fs::read(dir.join("K.png")).unwrap(),
+        "K.png served whole"
+    );
+    let (status, page) = request(&s, "GET", "/");
+    assert_eq!(status, 200);
+    assert!(page.contains("<canvas id=\"map\""), "{page}");
+}
+
+#[test]
+fn bad_requests_get_their_status_and_the_accepted_range() {
+    let s = Server::start(small_map(), &[]);
+    let err = |method: &str, path: &str, want: u16| {
+        json(&s, method, path, want)["error"]
+            .as_str()
+            .unwrap()
+            .to_string()
+    };
+    let e = err("GET", "/api/field?metric=lyapunov", 404);
+    assert!(e.contains("lyapunov") && e.contains("K, R, period"), "{e}");
+    let e = err("GET", "/api/field?metric=K&slice=1", 400);
+    assert!(e.contains("slice") && e.contains("0 to 0"), "{e}");
+    for bad in ["24", "-1", "abc", "1e3", "99999999999999999999999"] {
+        let e = err("GET", &format!("/api/cell/{bad}"), 400);
+        assert!(e.contains("0 to 23"), "{bad}: {e}");
+        let e = err("POST", &format!("/api/cell/{bad}/run"), 400);
+        assert!(e.contains("0 to 23"), "{bad}: {e}");
+        err("GET", &format!("/api/cell/{bad}/scene.toml"), 400);
+    }
+    let e = err("GET", "/api/job/4242", 404);
+    assert!(e.contains("4242"), "{e}");
+    err("GET", "/api/job/x", 400);
+    // Only the map's pictures are served, looked up by name.
+    for bad in [
+        "..%2Fmap.json",
+        "map.json",
+        "grid.csv",
+        "map_scene.toml",
+        "..%2F..%2Fetc%2Fpasswd",
+        "nope.png",
+    ] {
+        let e = err("GET", &format!("/files/{bad}"), 404);
+        assert!(e.contains("not a picture of this map"), "{bad}: {e}");
+    }
+    err("GET", "/etc/passwd", 404);
+    err("GET", "/files/../../etc/passwd", 404);
+}
+
+#[test]
+fn a_cell_run_is_what_simulate_gives_on_the_cell_scene() {
+    let dir = small_map();
+    let s = Server::start(dir, &[]);
+    let cell = 9;
+    let job = json(&s, "POST", &format!("/api/cell/{cell}/run"), 202);
+    let again = json(&s, "POST", &format!("/api/cell/{cell}/run"), 202);
+    assert_eq!(job["job"], again["job"], "a cell asked twice is one job");
+    let done = wait_job(&s, job["job"].as_u64().unwrap());
+    assert_eq!(done["state"], "done", "{done}");
+    let r = &done["result"];
+    assert_eq!(r["status"], "ok");
+    assert_eq!(r["map"]["K"].as_f64(), Some(npy(dir, "K")[cell]));
+    for curve in ["alpha", "cart", "phase", "strobe", "spectrum"] {
+        let n = r[curve]["x"].as_array().unwrap().len();
+        assert!(n > 10, "{curve}: {n} points");
+        assert_eq!(n, r[curve]["y"].as_array().unwrap().len(), "{curve}");
+    }
+    assert!(!r["scalogram"]["log2_power"].as_array().unwrap().is_empty());
+
+    let (status, toml) = request(&s, "GET", &format!("/api/cell/{cell}/scene.toml"));
+    assert_eq!(status, 200);
+    let work = scratch("cell-run");
+    std::fs::create_dir_all(&work).unwrap();
+    let scene = work.join("cell.toml");
+    std::fs::write(&scene, toml).unwrap();
+    let (k, rr, period) = simulate(&scene, &work.join("sim"));
+    assert_eq!(r["simulated"]["K"].as_f64(), Some(k));
+    assert_eq!(r["simulated"]["R"].as_f64(), Some(rr));
+    assert_eq!(r["simulated"]["period"].as_f64(), Some(period));
+    // The cell's scene has the map's step: the map's K within the spread of K itself.
+    assert!(
+        (k - npy(dir, "K")[cell]).abs() < 0.2,
+        "K {k} vs map {}",
+        npy(dir, "K")[cell]
+    );
+}
+
+#[test]
+fn a_full_queue_refuses_more_cells_and_the_server_keeps_answering() {
+    let s = Server::start(small_map(), &["--workers", "1", "--queue", "2"]);
+    let answers: Vec<(u16, String)> = (0..12)
+        .map(|k| request(&s, "POST", &format!("/api/cell/{k}/run")))
+        .collect();
+    let refused: Vec<&String> = answers
+        .iter()
+        .filter(|a| a.0 == 503)
+        .map(|a| &a.1)
+        .collect();
+    assert!(
+        !refused.is_empty(),
+        "12 clicks on a queue of 2 must be refused in part"
+    );
+    assert!(refused[0].contains("try again"), "{}", refused[0]);
+    let accepted: Vec<u64> = answers
+        .iter()
+        .filter(|a| a.0 == 202)
+        .map(|a| {
+            serde_json::from_str::<serde_json::Value>(&a.1).unwrap()["job"]
+                .as_u64()
+                .unwrap()
+        })
+        .collect();
+    assert!(
+        accepted.len() <= 3,
+        "1 running + 2 waiting at most, got {}",
+        accepted.len()
+    );
+    json(&s, "GET", "/api/map", 200);
+    for id in accepted {
+        assert_eq!(wait_job(&s, id)["state"], "done");
+    }
+    // Room again once the queue has drained.
+    json(&s, "POST", "/api/cell/20/run", 202);
+}
+
+/// `explore` on `dir` must exit with status 2 and a message containing `want`.
+fn refused(dir: &Path, extra: &[&str], want: &str) {
+    let mut child = bin()
+        .arg("explore")
+        .arg(dir)
+        .args(["--port", "0"])
+        .args(extra)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    let status = loop {
+        if let Some(st) = child.try_wait().unwrap() {
+            break st;
+        }
+        if started.elapsed() > Duration::from_secs(30) {
+            let _ = child.kill();
+            panic!(
+                "explore {} {extra:?} served instead of refusing",
+                dir.display()
+            );
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+    assert_eq!(status.code(), Some(2), "{err}");
+    assert!(err.contains(want), "wanted `{want}` in: {err}");
+}
+
+fn copy_without(name: &str, missing: &str) -> std::path::PathBuf {
+    let d = scratch(name);
+    std::fs::create_dir_all(&d).unwrap();
+    for e in std::fs::read_dir(small_map()).unwrap() {
+        let e = e.unwrap();
+        if e.file_name() != missing {
+            std::fs::copy(e.path(), d.join(e.file_name())).unwrap();
+        }
+    }
+    d
+}
+
+#[test]
+fn a_folder_that_is_not_a_complete_map_is_refused_at_start() {
+    refused(&copy_without("no-status", "status.npy"), &[], "status.npy");
+    refused(&copy_without("no-k", "K.npy"), &[], "K.npy");
+    refused(
+        &copy_without("no-scene", "map_scene.toml"),
+        &[],
+        "map_scene.toml",
+    );
+    refused(
+        &copy_without("no-manifest", "map.json"),
+        &[],
+        "not a finished map folder",
+    );
+    let other = copy_without("other-shape", "");
+    let text = std::fs::read_to_string(other.join("map_scene.toml")).unwrap();
+    std::fs::write(
+        other.join("map_scene.toml"),
+        text.replace("count = 4", "count = 5"),
+    )
+    .unwrap();
+    refused(&other, &[], "different maps");
+    refused(&scratch("nowhere"), &[], "finished `pendulum-atlas map`");
+    refused(small_map(), &["--workers", "0"], "--workers 0: give 1 to");
+    refused(small_map(), &["--queue", "0"], "--queue 0: give 1 to 1000");
+}
+
+#[test]
+fn the_folder_of_another_command_is_named() {
+    let d = scratch("simulate");
+    let o = bin()
+        .args([
+            "simulate",
+            "--set",
+            "integration.duration_s=2",
+            "--set",
+            "integration.transient_s=1",
+            "--out",
+        ])
+        .arg(&d)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    refused(&d, &[], "`pendulum-atlas simulate`");
+}
