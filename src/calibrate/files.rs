@@ -1,4 +1,5 @@
-//! What a calibration writes: `candidates.csv`, `best_scene.toml`, `REPORT.md` and, last,
+//! What a calibration writes: `candidates.csv`, `best_scene.toml`, `REPORT.md`,
+//! `calibrate_scene.toml` (the calibration's scene after its overrides) and, last,
 //! `calibrate.json` (its presence means the folder is complete).
 
 use super::run::{CalibrationRun, Candidate};
@@ -6,7 +7,9 @@ use super::spec::CalibrationSpec;
 use crate::config::axis_label;
 use crate::config::set_key;
 use crate::output::OutputError;
-use crate::output::files::{commit_csv, create_csv, csv_error, draw, write_bytes, write_json};
+use crate::output::files::{
+    commit_csv, create_csv, csv_error, draw, write_bytes, write_json, write_toml,
+};
 use crate::render::{Axis, heatmap};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -26,6 +29,12 @@ pub fn write_calibration(
             best_scene(spec, run.best()).as_bytes(),
         )?,
         write_bytes(&dir.join("REPORT.md"), report(spec, run).as_bytes())?,
+        write_toml(
+            &dir.join("calibrate_scene.toml"),
+            &spec.source_table,
+            "The scene of this calibration after every --set override.\n\
+             `pendulum-atlas calibrate calibrate_scene.toml` runs it again; `pendulum-atlas explore` reads it.",
+        )?,
     ];
     files.extend(draw_agreement(dir, spec, run)?);
     let names: Vec<String> = files

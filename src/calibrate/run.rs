@@ -144,7 +144,7 @@ fn refinement(
 }
 
 /// The ensemble's settings: what the observations need, on the whole run.
-fn options(spec: &CalibrationSpec) -> (EnsembleOptions, ReduceOptions) {
+pub fn options(spec: &CalibrationSpec) -> (EnsembleOptions, ReduceOptions) {
     let ens = EnsembleOptions {
         metrics: vec![
             Metric::K,

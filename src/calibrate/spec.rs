@@ -71,6 +71,9 @@ pub struct Refine {
 pub struct CalibrationSpec {
     /// The scene with the `[calibrate]` section removed.
     pub base_table: Table,
+    /// The whole calibration scene after overrides (`[calibrate]` included), as
+    /// `calibrate_scene.toml` keeps it.
+    pub source_table: Table,
     /// The unknowns.
     pub unknowns: Vec<Unknown>,
     /// The cases.
@@ -109,6 +112,16 @@ impl CalibrationSpec {
         values: &[f64],
         offset_deg: f64,
     ) -> Result<Scene, ConfigError> {
+        Scene::from_table(self.scene_table(case, values, offset_deg)?)
+    }
+
+    /// The scene table of [`CalibrationSpec::scene`].
+    pub fn scene_table(
+        &self,
+        case: &Case,
+        values: &[f64],
+        offset_deg: f64,
+    ) -> Result<Table, ConfigError> {
         let mut table = self.base_table.clone();
         for (k, v) in &case.set {
             set_key(&mut table, k, v.clone())?;
@@ -118,7 +131,7 @@ impl CalibrationSpec {
         }
         let angle = Scene::from_table(table.clone())?.initial.angle_deg + offset_deg;
         set_key(&mut table, "initial.angle_deg", Value::Float(angle))?;
-        Scene::from_table(table)
+        Ok(table)
     }
 }
 
@@ -148,11 +161,14 @@ pub fn calibration_from_toml(
         "a calibration lists its [[calibrate.cases]] and [[calibrate.unknowns]]",
     )?;
     Scene::from_table(base_table.clone())?;
+    let mut source_table = base_table.clone();
+    source_table.insert("calibrate".into(), Value::Table(section.clone()));
     let unknowns = read_unknowns(section.remove("unknowns"))?;
     let cases = read_cases(section.remove("cases"), &unknowns)?;
     let mut r = Reader::new(wrap("calibrate", section));
     let spec = CalibrationSpec {
         base_table,
+        source_table,
         unknowns,
         cases,
         initial_states: r.integer("calibrate.initial_states", 3, 1, 64)? as u32,

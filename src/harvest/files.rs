@@ -1,5 +1,6 @@
 //! The files of a search: `designs.csv`, `instances.csv`, `best.md`, `best_design.toml`,
-//! `pareto.png`, `power_vs_frequency.png` and `search.json`.
+//! `search_scene.toml` (the search's scene after its overrides), `pareto.png`,
+//! `power_vs_frequency.png` and `search.json`.
 
 use super::error::HarvestError;
 use super::figures::{pareto_figure, power_figure};
@@ -7,7 +8,7 @@ use super::search::{DesignResult, SearchRun};
 use super::spec::{BaseExcitation, SearchSpec};
 use super::verify::Verification;
 use crate::output::OutputError;
-use crate::output::files::{AtomicFile, create_dir, draw, write_bytes, write_json};
+use crate::output::files::{AtomicFile, create_dir, draw, write_bytes, write_json, write_toml};
 use serde_json::json;
 use std::fmt::Write as _;
 use std::io::Write;
@@ -76,6 +77,12 @@ pub fn write_search(
         write_designs_csv(&dir.join("designs.csv"), spec, run)?,
         write_instances_csv(&dir.join("instances.csv"), spec, run)?,
         write_bytes(&dir.join("best_design.toml"), toml.as_bytes())?,
+        write_toml(
+            &dir.join("search_scene.toml"),
+            &spec.source_table,
+            "The scene of this search after every --set override.\n\
+             `pendulum-atlas search search_scene.toml` runs it again; `pendulum-atlas explore` reads it.",
+        )?,
     ];
     if let Some(v) = verification {
         written.push(write_verification_csv(&dir.join("verification.csv"), v)?);

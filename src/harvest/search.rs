@@ -157,7 +157,7 @@ pub fn period_test_possible(spec: &SearchSpec) -> bool {
 /// Power with the accumulators that tell the regime (hops, impacts) and, when the runs are
 /// long enough, the period of the stroboscopic section (regular or not); neither K nor R is
 /// computed.
-fn ensemble_options(spec: &SearchSpec) -> EnsembleOptions {
+pub fn ensemble_options(spec: &SearchSpec) -> EnsembleOptions {
     let mut metrics = vec![Metric::Hops, Metric::ImpactsPerS, Metric::Power];
     if period_test_possible(spec) {
         metrics.push(Metric::Period);

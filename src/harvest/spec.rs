@@ -252,6 +252,10 @@ pub struct SearchSpec {
     /// The base scene table (after overrides, without `[search]`).
     #[serde(skip)]
     pub base_table: Table,
+    /// The whole search scene after overrides (`[search]` included), as `search_scene.toml`
+    /// keeps it.
+    #[serde(skip)]
+    pub source_table: Table,
     /// The design variables; the initial grid is their Cartesian product (last fastest).
     pub variables: Vec<DesignVariable>,
     /// The band and its excitation.
@@ -318,6 +322,17 @@ impl SearchSpec {
         state: &InitialState,
         f_hz: f64,
     ) -> Result<Scene, ConfigError> {
+        Scene::from_table(self.instance_table(design_table, clearance_deg, state, f_hz)?)
+    }
+
+    /// The scene table of [`SearchSpec::instance_scene`].
+    pub fn instance_table(
+        &self,
+        design_table: &Table,
+        clearance_deg: f64,
+        state: &InitialState,
+        f_hz: f64,
+    ) -> Result<Table, ConfigError> {
         let mut t = design_table.clone();
         set_number(&mut t, "excitation.frequency_hz", f_hz, false)?;
         set_number(
@@ -334,7 +349,7 @@ impl SearchSpec {
         )?;
         set_number(&mut t, "initial.rate_deg_s", state.rate_deg_s, false)?;
         set_number(&mut t, "initial.voltage_v", state.voltage_v, false)?;
-        Scene::from_table(t)
+        Ok(t)
     }
 
     /// The linear baseline's table: the base scene clamped, without bumpers, at rest.
@@ -436,6 +451,8 @@ pub fn search_from_toml(
         "variables",
         "a design variable of this search",
     )?;
+    let mut source_table = table.clone();
+    source_table.insert("search".into(), Value::Table(search.clone()));
     let scene = Scene::from_table(table.clone())?;
     if !scene.piezo.enabled {
         return Err(ConfigError::Inconsistent {
@@ -449,7 +466,9 @@ pub fn search_from_toml(
             reason: "a search shakes the cart harmonically at each frequency of the band".into(),
         });
     }
-    read_search(search, scene, table)
+    let mut spec = read_search(search, scene, table)?;
+    spec.source_table = source_table;
+    Ok(spec)
 }
 
 /// Read the `[search]` table (variables and initial states already taken out) and check
@@ -500,6 +519,7 @@ fn read_search(
     let spec = SearchSpec {
         scene,
         base_table,
+        source_table: Table::new(),
         variables,
         band,
         threshold,

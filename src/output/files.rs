@@ -88,6 +88,16 @@ pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<PathBuf, OutputError> {
     f.commit()
 }
 
+/// Writes a TOML table under a comment `header` (each of its lines gets `# `).
+pub fn write_toml(path: &Path, table: &toml::Table, header: &str) -> Result<PathBuf, OutputError> {
+    let body = toml::to_string(table).map_err(|e| OutputError::Toml {
+        path: path.display().to_string(),
+        reason: e.to_string(),
+    })?;
+    let comment: String = header.lines().map(|l| format!("# {l}\n")).collect();
+    write_bytes(path, format!("{comment}\n{body}").as_bytes())
+}
+
 /// Write a value as pretty-printed JSON.
 pub fn write_json<T: serde::Serialize + ?Sized>(
     path: &Path,

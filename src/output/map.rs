@@ -6,7 +6,7 @@ use crate::config::{MapSpec, Metric};
 use crate::map::MapRun;
 use crate::model::Status;
 use crate::output::OutputError;
-use crate::output::files::{AtomicFile, create_dir, draw, write_bytes, write_json};
+use crate::output::files::{AtomicFile, create_dir, draw, write_json, write_toml};
 use crate::output::npy::{write_npy_f64, write_npy_u8};
 use crate::render::{Axis, heatmap, scatter};
 use serde_json::json;
@@ -62,15 +62,12 @@ pub fn write_map(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf
 /// `map_scene.toml`: the whole map scene after its `--set` overrides, so that the folder alone
 /// reruns (`pendulum-atlas map map_scene.toml`) or explores the map.
 fn write_scene_toml(path: &Path, spec: &MapSpec) -> Result<PathBuf, OutputError> {
-    let body = toml::to_string(&spec.source_table).map_err(|e| OutputError::Toml {
-        path: path.display().to_string(),
-        reason: format!("the scene does not write as TOML: {e}"),
-    })?;
-    let text = format!(
-        "# The scene of this map after every --set override.\n\
-         # `pendulum-atlas map map_scene.toml` runs the map again; `pendulum-atlas explore` reads it.\n\n{body}"
-    );
-    write_bytes(path, text.as_bytes())
+    write_toml(
+        path,
+        &spec.source_table,
+        "The scene of this map after every --set override.\n\
+         `pendulum-atlas map map_scene.toml` runs the map again; `pendulum-atlas explore` reads it.",
+    )
 }
 
 /// `grid.csv`: a row per instance, the axis values then every column.
