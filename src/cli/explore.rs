@@ -1,4 +1,5 @@
-//! `pendulum-atlas explore`: serve a finished map folder as an interactive page.
+//! `pendulum-atlas explore`: serve a finished map, calibration or search folder as an
+//! interactive page.
 
 use pendulum_atlas::explore::{RunFolder, ServeOptions, serve};
 use std::io::Write;
@@ -11,7 +12,7 @@ const MAX_QUEUE: usize = 1000;
 /// Arguments of `explore`.
 #[derive(Debug, clap::Args)]
 pub struct ExploreArgs {
-    /// A finished map folder (`pendulum-atlas map --out DIR`, or `merge`).
+    /// A finished run folder: `pendulum-atlas map --out DIR` (or `merge`), `calibrate` or `search`.
     pub run_dir: PathBuf,
     /// Port to listen on (0: any free port, printed at start).
     #[arg(long, default_value_t = 8765)]

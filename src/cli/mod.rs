@@ -77,7 +77,8 @@ pub enum Command {
     Search(search::SearchArgs),
     /// Which values of unknown parameters reproduce observed cases (K, R, period, lines, hops, α).
     Calibrate(calibrate::CalibrateArgs),
-    /// A finished map in the browser: heat maps, and a click runs a cell and shows its motion.
+    /// A finished map, calibration or search in the browser: heat maps, and a click runs a
+    /// cell and shows its motion.
     Explore(explore::ExploreArgs),
 }
 

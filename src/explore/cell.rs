@@ -1,14 +1,16 @@
-//! One clicked cell, run again with its motion kept: the cell's scene is the map's scene with
-//! the cell's axis values, the map's integration method and the cell's own step
-//! `dt = 1/(f·spp)` pinned, so that `pendulum-atlas simulate` on the downloaded TOML runs
-//! exactly what the page shows. The run is `simulate`'s: the CPU engine in f64, then
+//! One clicked cell, run again with its motion kept: the cell's scene is the run's scene with
+//! the cell's axis values (and, for a calibration or a search, the chosen case or frequency
+//! and initial state), with the integration method and the step `dt = 1/(f·spp)` its command
+//! took pinned, so that `pendulum-atlas simulate` on the downloaded TOML runs exactly what the
+//! page shows. The run is `simulate`'s: the CPU engine in f64, then
 //! [`analyze_record`] with [`Scene::record_options`].
 
 use super::error::ExploreError;
-use super::folder::RunFolder;
+use super::folder::{RunFolder, Source};
+use super::search_folder::split_variant;
 use crate::analysis::{RecordAnalysis, analyze_record, stroboscopic};
-use crate::config::{Metric, Scene, set_key};
-use crate::engine::{EnsembleOptions, EnsemblePlan, Instance, StepPlan, integrate};
+use crate::config::{Scene, set_key};
+use crate::engine::{EnsembleOptions, EnsemblePlan, Instance, Outcome, StepPlan, integrate};
 use crate::model::Status;
 use crate::output::TrajectoryRecorder;
 use serde::Serialize;
@@ -34,35 +36,62 @@ pub struct CellScene {
     pub toml: String,
 }
 
-/// The scene of cell `k`, with the map's method and the cell's step pinned.
-pub fn cell_scene(folder: &RunFolder, k: usize) -> Result<CellScene, ExploreError> {
-    let spec = &folder.spec;
+/// The scene of cell `k` run as variant `v` (a case, or a frequency and initial state; 0 for
+/// a map), with the method and the step its command took pinned.
+pub fn cell_scene(folder: &RunFolder, k: usize, v: usize) -> Result<CellScene, ExploreError> {
     let fail = |e: String| ExploreError::Cell(format!("cell {k}: {e}"));
-    let mut table = spec.instance_table(k).map_err(|e| fail(e.to_string()))?;
-    let method = folder.manifest["method"].as_str().unwrap_or("auto");
-    set(
-        &mut table,
-        "integration.method",
-        Value::String(method.into()),
-    )?;
+    let values = folder.values_of(k);
+    let (mut table, opts) = match &folder.source {
+        Source::Map(spec) => {
+            let mut t = spec.instance_table(k).map_err(|e| fail(e.to_string()))?;
+            let method = folder.manifest["method"].as_str().unwrap_or("auto");
+            set(&mut t, "integration.method", Value::String(method.into()))?;
+            (t, EnsembleOptions::from_spec(spec))
+        }
+        Source::Calibrate(c) => {
+            let t = c
+                .spec
+                .scene_table(&c.spec.cases[v], &values, 0.0)
+                .map_err(|e| fail(e.to_string()))?;
+            (t, crate::calibrate::run::options(&c.spec).0)
+        }
+        Source::Search(s) => {
+            let spec = &s.spec;
+            let (design, scene) = spec
+                .design_table(&values)
+                .map_err(|e| fail(e.to_string()))?;
+            let (state, j) = split_variant(spec, v);
+            let t = spec
+                .instance_table(
+                    &design,
+                    scene.limiter.clearance_deg,
+                    &spec.initial_states[state],
+                    spec.band.frequencies_hz[j],
+                )
+                .map_err(|e| fail(e.to_string()))?;
+            (t, crate::harvest::search::ensemble_options(spec))
+        }
+    };
     let scene = Scene::from_table(table.clone()).map_err(|e| fail(e.to_string()))?;
-    let plan = EnsemblePlan::from_scenes(
-        std::slice::from_ref(&scene),
-        &EnsembleOptions::from_spec(spec),
-    )
-    .map_err(|e| fail(e.to_string()))?;
+    let plan = EnsemblePlan::from_scenes(std::slice::from_ref(&scene), &opts)
+        .map_err(|e| fail(e.to_string()))?;
     let p = &plan.instances[0];
     // Rows at a whole number of steps, so the record's sample rate is exact.
     let every = (f64::from(p.spp) * p.frequency_hz / scene.output.sample_rate_hz)
         .round()
         .max(1.0);
     let rate = p.frequency_hz * f64::from(p.spp) / every;
+    set(
+        &mut table,
+        "integration.method",
+        Value::String(plan.method.name().into()),
+    )?;
     set(&mut table, "integration.dt_s", Value::Float(p.dt_s))?;
     set(&mut table, "output.sample_rate_hz", Value::Float(rate))?;
     let scene = Scene::from_table(table.clone()).map_err(|e| fail(e.to_string()))?;
     Ok(CellScene {
         scene,
-        toml: scene_text(folder, k, &table),
+        toml: scene_text(folder, k, v, &table),
     })
 }
 
@@ -70,18 +99,22 @@ fn set(table: &mut Table, key: &str, v: Value) -> Result<(), ExploreError> {
     set_key(table, key, v).map_err(|e| ExploreError::Cell(e.to_string()))
 }
 
-/// The downloadable TOML of cell `k`, with a header saying where it comes from.
-fn scene_text(folder: &RunFolder, k: usize, table: &Table) -> String {
+/// The downloadable TOML of cell `k` (variant `v`), with a header saying where it comes from.
+fn scene_text(folder: &RunFolder, k: usize, v: usize, table: &Table) -> String {
     let values: Vec<String> = folder
-        .spec
         .axes
         .iter()
-        .zip(folder.spec.values_of(k))
-        .map(|(a, v)| format!("{} = {v}", a.key))
+        .zip(folder.values_of(k))
+        .map(|(a, x)| format!("{} = {x}", a.key))
         .collect();
+    let variant = folder
+        .variants
+        .get(v)
+        .map_or_else(String::new, |n| format!(", run as `{n}`"));
     format!(
-        "# Cell {k} of the map in {} ({}), with the map's method and this cell's step.\n\
+        "# Cell {k} of the `{}` run in {} ({}){variant}, with the method and step it took.\n\
          # `pendulum-atlas simulate THIS_FILE --out DIR` runs what `explore` showed.\n\n{}",
+        folder.product.command(),
         folder.dir.display(),
         values.join(", "),
         toml::to_string(table).unwrap_or_default()
@@ -131,8 +164,13 @@ pub struct CellRun {
     pub wall_s: f64,
     /// K, R and period of this run, as `simulate` reports them (absent when not computed).
     pub simulated: BTreeMap<&'static str, Option<f64>>,
-    /// The map's stored values of every metric for this cell.
-    pub map: BTreeMap<&'static str, Option<f64>>,
+    /// The map's stored values of every metric for this cell (empty for other folders).
+    pub map: BTreeMap<String, Option<f64>>,
+    /// What the folder says of this cell and variant, in words (a calibration's judgements,
+    /// a search's power there).
+    pub notes: Vec<String>,
+    /// The variant run (`null` for a map).
+    pub variant: Option<String>,
     /// α(t) (rad).
     pub alpha: Curve,
     /// Cart x0(t) (m).
@@ -153,46 +191,24 @@ pub struct CellRun {
     pub warnings: Vec<String>,
 }
 
-/// Integrate and analyse cell `k` as `simulate` would; `progress` goes from 0 to 1000.
+/// Integrate and analyse cell `k` (variant `v`) as `simulate` would; `progress` goes from 0
+/// to 1000.
 pub fn run_cell(
     folder: &RunFolder,
     k: usize,
+    v: usize,
     progress: &Arc<AtomicU64>,
 ) -> Result<CellRun, ExploreError> {
     let started = Instant::now();
-    let cs = cell_scene(folder, k)?;
+    let cs = cell_scene(folder, k, v)?;
     let scene = &cs.scene;
     let plan = StepPlan::for_scene(scene);
-    let mut rec = TrajectoryRecorder {
-        load_ohm: scene.piezo_params().map(|z| z.load_ohm),
-        ..Default::default()
-    };
-    let (p, total) = (progress.clone(), plan.steps.max(1));
-    rec.on_row = Some(Box::new(move |step| {
-        p.store(step.min(total) * 1000 / total, Ordering::Relaxed);
-    }));
-    let outcome = integrate(&Instance::<f64>::from_scene(scene), &plan, &mut rec);
-    let mut warnings = plan.warnings.clone();
+    let (rec, outcome) = record(scene, &plan, progress);
     let t: Vec<f64> = rec.rows.iter().map(|r| r.t_s).collect();
     let alpha: Vec<f64> = rec.rows.iter().map(|r| r.alpha_rad).collect();
     let cart: Vec<f64> = rec.rows.iter().map(|r| r.x0_m).collect();
-    let analysis = if outcome.status == Status::Ok {
-        analyze_record(
-            &alpha,
-            Some(&cart),
-            scene.output.sample_rate_hz,
-            0.0,
-            &scene.record_options(),
-        )
-        .map_err(|e| warnings.push(format!("analysis skipped: {e}")))
-        .ok()
-    } else {
-        warnings.push(format!("the run stopped with status `{}`", outcome.status));
-        None
-    };
-    if let Some(a) = &analysis {
-        warnings.extend(a.warnings.iter().cloned());
-    }
+    let mut warnings = plan.warnings.clone();
+    let analysis = analyse(scene, &outcome, &alpha, &cart, &mut warnings);
     let forcing_hz = scene.excitation.reference_frequency_hz();
     let rows = &rec.rows;
     let skip = rows.partition_point(|r| r.t_s < scene.integration.transient_s);
@@ -200,11 +216,10 @@ pub fn run_cell(
     Ok(CellRun {
         cell: k,
         values: folder
-            .spec
             .axes
             .iter()
-            .zip(folder.spec.values_of(k))
-            .map(|(a, v)| (a.key.clone(), v))
+            .zip(folder.values_of(k))
+            .map(|(a, x)| (a.key.clone(), x))
             .collect(),
         status: outcome.status,
         failed_at_s: outcome.failed_at_s,
@@ -214,6 +229,8 @@ pub fn run_cell(
         wall_s: started.elapsed().as_secs_f64(),
         simulated: simulated_values(analysis.as_ref()),
         map: map_values(folder, k),
+        notes: notes(folder, k, v),
+        variant: folder.variants.get(v).cloned(),
         alpha: thin(&t, &alpha),
         cart: thin(&t, &cart),
         phase: thin(&alpha[skip..], &alpha_dot[skip..]),
@@ -226,6 +243,49 @@ pub fn run_cell(
         forcing_hz,
         warnings,
     })
+}
+
+/// Integrate `scene` with every output row kept, moving `progress` from 0 to 1000.
+fn record(
+    scene: &Scene,
+    plan: &StepPlan,
+    progress: &Arc<AtomicU64>,
+) -> (TrajectoryRecorder, Outcome) {
+    let mut rec = TrajectoryRecorder {
+        load_ohm: scene.piezo_params().map(|z| z.load_ohm),
+        ..Default::default()
+    };
+    let (p, total) = (progress.clone(), plan.steps.max(1));
+    rec.on_row = Some(Box::new(move |step| {
+        p.store(step.min(total) * 1000 / total, Ordering::Relaxed);
+    }));
+    let outcome = integrate(&Instance::<f64>::from_scene(scene), plan, &mut rec);
+    (rec, outcome)
+}
+
+/// `simulate`'s analysis of a run that ended ok; why not, in `warnings`, otherwise.
+fn analyse(
+    scene: &Scene,
+    outcome: &Outcome,
+    alpha: &[f64],
+    cart: &[f64],
+    warnings: &mut Vec<String>,
+) -> Option<RecordAnalysis> {
+    if outcome.status != Status::Ok {
+        warnings.push(format!("the run stopped with status `{}`", outcome.status));
+        return None;
+    }
+    let rate = scene.output.sample_rate_hz;
+    match analyze_record(alpha, Some(cart), rate, 0.0, &scene.record_options()) {
+        Ok(a) => {
+            warnings.extend(a.warnings.iter().cloned());
+            Some(a)
+        }
+        Err(e) => {
+            warnings.push(format!("analysis skipped: {e}"));
+            None
+        }
+    }
 }
 
 /// K, R and period as `simulate` writes them in `run.json` (`analysis`).
@@ -242,16 +302,63 @@ fn simulated_values(a: Option<&RecordAnalysis>) -> BTreeMap<&'static str, Option
     ])
 }
 
-/// Every metric the map stored for cell `k` (`null` where not finite).
-fn map_values(folder: &RunFolder, k: usize) -> BTreeMap<&'static str, Option<f64>> {
+/// Every metric the map stored for cell `k` (`null` where not finite); none for a folder
+/// that is not a map.
+fn map_values(folder: &RunFolder, k: usize) -> BTreeMap<String, Option<f64>> {
+    if folder.source.map().is_none() {
+        return BTreeMap::new();
+    }
     folder
-        .metrics()
+        .columns
         .iter()
-        .map(|&m: &Metric| {
-            let v = folder.value(m, k);
-            (m.name(), v.is_finite().then_some(v))
+        .map(|c| {
+            (
+                c.name.clone(),
+                c.values[k].is_finite().then_some(c.values[k]),
+            )
         })
         .collect()
+}
+
+/// What a calibration or a search found for cell `k` run as variant `v`.
+fn notes(folder: &RunFolder, k: usize, v: usize) -> Vec<String> {
+    match &folder.source {
+        Source::Map(_) => Vec::new(),
+        Source::Calibrate(c) => c.judged[k]
+            .get(v)
+            .map(|obs| {
+                obs.iter()
+                    .map(|j| {
+                        format!(
+                            "{}: {} (share of initial states {}, distance {:.3})",
+                            j.observation,
+                            if j.matched > 0.5 {
+                                "matched"
+                            } else {
+                                "not matched"
+                            },
+                            j.share,
+                            j.distance
+                        )
+                    })
+                    .collect()
+            })
+            .unwrap_or_default(),
+        Source::Search(s) => {
+            let (state, j) = split_variant(&s.spec, v);
+            let name = &s.spec.initial_states[state].name;
+            s.design[k]
+                .as_ref()
+                .and_then(|d| s.instances.get(&(d.clone(), name.clone(), j)))
+                .map(|found| {
+                    vec![format!(
+                        "the search at {} Hz from `{name}`: power {:.4e} W, {} hops, period {}",
+                        s.spec.band.frequencies_hz[j], found.power_w, found.hops, found.period
+                    )]
+                })
+                .unwrap_or_default()
+        }
+    }
 }
 
 /// At most [`MAX_POINTS`] of `(x, y)`, evenly thinned.
@@ -272,7 +379,7 @@ fn strobe_section(
     folder: &RunFolder,
     scene: &Scene,
 ) -> Curve {
-    let phase = std::f64::consts::TAU * folder.spec.strobe_phase;
+    let phase = std::f64::consts::TAU * folder.source.map().map_or(0.0, |m| m.strobe_phase);
     let tr = scene.integration.transient_s;
     let at = |x: &[f64]| stroboscopic(t, x, forcing_hz, phase, tr).unwrap_or_default();
     let (x, y) = (at(alpha), at(alpha_dot));

@@ -38,6 +38,16 @@ pub enum ExploreError {
         /// The largest index accepted.
         last: usize,
     },
+    /// A slice that does not give one index per axis beyond the second.
+    #[error(
+        "slice `{given}`: give one index per axis beyond the second, separated by commas (this grid has {axes} such axes)"
+    )]
+    BadSlice {
+        /// The slice as given.
+        given: String,
+        /// How many indices the grid needs.
+        axes: usize,
+    },
     /// No job with that id (never made, or forgotten to make room).
     #[error("no job {0}: click the cell again to run it")]
     UnknownJob(u64),

@@ -1,17 +1,15 @@
-//! One metric over one 2-D slice of the grid, as the page paints it: the values, and each
+//! One quantity over one 2-D slice of the grid, as the page paints it: the values, and each
 //! cell's colour by the very rule of the PNG heat maps (`render::cell_colour` over
-//! `render::colour_range`, with `output::map::metric_style`'s fixed ranges), so the page and
+//! `render::colour_range`, with the quantity's fixed range when it has one), so the page and
 //! the pictures cannot disagree.
 //!
-//! The page's x axis is the map's first axis, y its second (a 1-D map is one row), and a
-//! 3-D map is shown one slice of its third axis at a time. Cell `k` of slice `iz` at
-//! `(ix, iy)` is `k = (ix·n_y + iy)·n_z + iz` (C order, last axis fastest).
+//! The page's x axis is the grid's first axis, y its second (a 1-D grid is one row); every
+//! further axis is held at one index (the slice). Cell `k` is the C-order index of
+//! `(ix, iy, i2, i3, ...)` (the last axis fastest).
 
 use super::error::ExploreError;
-use super::folder::RunFolder;
-use crate::config::Metric;
+use super::folder::{RunFolder, parse_index};
 use crate::model::Status;
-use crate::output::map::{metric_style, shown_value};
 use crate::render::{INVALID_COLOR, NODATA_COLOR, cell_colour, colour_range, viridis};
 use plotters::style::RGBColor;
 use serde::Serialize;
@@ -22,8 +20,8 @@ const BAR_STOPS: usize = 64;
 /// A metric over one slice, ready to paint.
 #[derive(Debug, Serialize)]
 pub struct Field {
-    /// Metric name.
-    pub metric: &'static str,
+    /// Quantity name.
+    pub metric: String,
     /// Colour-bar label, with units.
     pub label: String,
     /// Values at the low and high end of the colour bar.
@@ -32,8 +30,8 @@ pub struct Field {
     pub nx: usize,
     /// Cells along y (second axis; 1 for a 1-D map).
     pub ny: usize,
-    /// The slice of the third axis shown (0 for 1-D and 2-D maps).
-    pub slice: usize,
+    /// The index held on each axis beyond the second (empty for 1-D and 2-D grids).
+    pub slice: Vec<usize>,
     /// Cell index `k` of page cell `(ix, iy)`, at `iy·nx + ix`.
     pub cells: Vec<usize>,
     /// The value shown in each page cell (`null`: no data, e.g. no period found).
@@ -50,54 +48,63 @@ pub struct Field {
     pub nodata_colour: String,
 }
 
-/// Cells along (x, y, z) of the page: `(n0, n1 or 1, n2 or 1)`.
-pub fn page_shape(folder: &RunFolder) -> (usize, usize, usize) {
-    let s = folder.spec.shape();
-    (
-        s[0],
-        s.get(1).copied().unwrap_or(1),
-        s.get(2).copied().unwrap_or(1),
-    )
+/// Cells along x and y of the page: `(n0, n1 or 1)`.
+pub fn page_shape(folder: &RunFolder) -> (usize, usize) {
+    let s = folder.shape();
+    (s[0], s.get(1).copied().unwrap_or(1))
 }
 
-/// Slice index `given` (text from a request), checked against the third axis.
-pub fn slice_index(folder: &RunFolder, given: Option<&str>) -> Result<usize, ExploreError> {
-    let nz = page_shape(folder).2;
-    let Some(given) = given else { return Ok(0) };
-    given
-        .parse::<usize>()
-        .ok()
-        .filter(|&iz| iz < nz)
-        .ok_or_else(|| ExploreError::OutOfRange {
-            what: "slice",
+/// The slice (text from a request: indices of the axes beyond the second, comma-separated;
+/// none: all 0), each checked against its axis.
+pub fn slice_index(folder: &RunFolder, given: Option<&str>) -> Result<Vec<usize>, ExploreError> {
+    let extra = &folder.shape()[folder.shape().len().min(2)..];
+    let Some(given) = given.filter(|g| !g.is_empty()) else {
+        return Ok(vec![0; extra.len()]);
+    };
+    let parts: Vec<&str> = given.split(',').collect();
+    if parts.len() != extra.len() {
+        return Err(ExploreError::BadSlice {
             given: given.into(),
-            last: nz - 1,
-        })
+            axes: extra.len(),
+        });
+    }
+    parts
+        .iter()
+        .zip(extra)
+        .map(|(p, &n)| parse_index(p.trim(), n, "slice"))
+        .collect()
 }
 
-/// Metric `m` over slice `iz`.
-pub fn field(folder: &RunFolder, m: Metric, iz: usize) -> Field {
-    let (nx, ny, nz) = page_shape(folder);
+/// Quantity `name` over `slice`.
+pub fn field(folder: &RunFolder, name: &str, slice: &[usize]) -> Result<Field, ExploreError> {
+    let col = folder.column(name)?;
+    let shape = folder.shape();
+    let (nx, ny) = page_shape(folder);
+    let cell = |ix: usize, iy: usize| {
+        let idx: Vec<usize> = [ix, iy]
+            .into_iter()
+            .take(shape.len())
+            .chain(slice.iter().copied())
+            .collect();
+        idx.iter().zip(&shape).fold(0, |k, (&i, &n)| k * n + i)
+    };
     let cells: Vec<usize> = (0..ny)
-        .flat_map(|iy| (0..nx).map(move |ix| (ix * ny + iy) * nz + iz))
+        .flat_map(|iy| (0..nx).map(move |ix| (ix, iy)))
+        .map(|(ix, iy)| cell(ix, iy))
         .collect();
-    let shown: Vec<f64> = cells
-        .iter()
-        .map(|&k| shown_value(m, folder.value(m, k)))
-        .collect();
+    let shown: Vec<f64> = cells.iter().map(|&k| col.values[k]).collect();
     let invalid: Vec<bool> = cells
         .iter()
         .map(|&k| folder.status[k] != Status::Ok.code())
         .collect();
-    let (label, fixed) = metric_style(m, &folder.spec);
-    let range = colour_range(&shown, &invalid, fixed);
-    Field {
-        metric: m.name(),
-        label,
+    let range = colour_range(&shown, &invalid, col.range);
+    Ok(Field {
+        metric: col.name.clone(),
+        label: col.label.clone(),
         range,
         nx,
         ny,
-        slice: iz,
+        slice: slice.to_vec(),
         colours: shown
             .iter()
             .zip(&invalid)
@@ -114,7 +121,7 @@ pub fn field(folder: &RunFolder, m: Metric, iz: usize) -> Field {
             .collect(),
         invalid_colour: hex(INVALID_COLOR),
         nodata_colour: hex(NODATA_COLOR),
-    }
+    })
 }
 
 /// The status name of a stored code (`unknown` for a code no status has).

@@ -1,72 +1,123 @@
-//! A finished map folder, read and checked once when the server starts: `map.json` (the
-//! manifest, written last), `map_scene.toml` (the map's scene, from which every cell's scene is
-//! rebuilt), `status.npy` and one `.npy` per metric array, each shaped like the grid.
+//! A finished run folder, read and checked once when the server starts, as one grid of cells:
+//! its axes, the quantities stored per cell ([`Column`]s), a status per cell, and what a
+//! cell's scene is made of ([`Source`]). Three kinds of folder are grids:
+//!
+//! - a `map` (or `merge`) folder: the map's axes and metrics (`map_folder`);
+//! - a `calibrate` folder: the grid of the unknowns, how many observations each candidate
+//!   matched, and the cases a candidate is run in (`calibrate_folder`);
+//! - a `search` folder: the grid of the design variables, each design's bandwidth and power,
+//!   and the band frequencies and initial states a design is run at (`search_folder`).
+//!
+//! Each kind keeps its scene after overrides (`map_scene.toml`, `calibrate_scene.toml`,
+//! `search_scene.toml`), from which every cell's scene is rebuilt by the command's own code.
 
 use super::error::ExploreError;
-use crate::config::{MapSpec, Metric, map_from_toml};
+use super::{calibrate_folder, map_folder, search_folder};
+use crate::calibrate::CalibrationSpec;
+use crate::config::MapSpec;
+use crate::harvest::spec::SearchSpec;
 use crate::output::folder::Product;
-use crate::output::map::COLUMNS;
-use crate::output::npy::read_npy;
 use std::path::{Path, PathBuf};
 
-/// One stored array of the map (`K.npy`, `alpha_min_rad.npy`, ...), in C order.
+/// One axis of the grid.
 #[derive(Debug, Clone)]
-pub struct Column {
-    /// File stem and `grid.csv` column.
-    pub stem: &'static str,
-    /// The metric it belongs to.
-    pub metric: Metric,
-    /// One value per cell.
+pub struct Axis {
+    /// The scene key it sets.
+    pub key: String,
+    /// Label with unit.
+    pub label: String,
+    /// Its values, in grid order.
     pub values: Vec<f64>,
 }
 
-/// A complete map folder.
+/// One quantity stored per cell, as the page shows it.
+#[derive(Debug, Clone)]
+pub struct Column {
+    /// Name in the API (`K`, `matched`, `bandwidth_robust_hz`, ...).
+    pub name: String,
+    /// Colour-bar label, with units.
+    pub label: String,
+    /// Fixed colour range, if the quantity has one.
+    pub range: Option<(f64, f64)>,
+    /// The value per cell as shown (NaN: no data, drawn grey).
+    pub values: Vec<f64>,
+}
+
+/// What a cell's scene is built from.
+#[derive(Debug)]
+pub enum Source {
+    /// A map: the cell's axis values set in the map's scene.
+    Map(Box<MapSpec>),
+    /// A calibration: a candidate's unknowns in one of the cases.
+    Calibrate(Box<calibrate_folder::Calibration>),
+    /// A search: a design at one frequency of the band from one initial state.
+    Search(Box<search_folder::Search>),
+}
+
+/// A complete run folder as a grid.
 #[derive(Debug)]
 pub struct RunFolder {
     /// The folder.
     pub dir: PathBuf,
-    /// The map, rebuilt from `map_scene.toml`.
-    pub spec: MapSpec,
-    /// `map.json` as written.
+    /// Which command wrote it.
+    pub product: Product,
+    /// Its manifest as written.
     pub manifest: serde_json::Value,
-    /// Every stored metric array.
+    /// The grid's axes (C order: the last varies fastest).
+    pub axes: Vec<Axis>,
+    /// The quantities per cell, the first shown first.
     pub columns: Vec<Column>,
     /// Status code per cell (`model::Status::code`).
     pub status: Vec<u8>,
-    /// The files `map.json` lists.
+    /// The files the manifest lists.
     pub files: Vec<String>,
+    /// The ways a cell can be run (cases, or frequency and initial state); none for a map.
+    pub variants: Vec<String>,
+    /// How to build a cell's scene.
+    pub source: Source,
+    /// Segments N of the base scene.
+    pub segments: usize,
 }
 
 impl RunFolder {
-    /// Read `dir`, refusing a folder that is not a complete map with the reason.
+    /// Read `dir`, refusing a folder that is not a complete map, calibration or search.
     pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         if !dir.is_dir() {
             return Err(ExploreError::MissingFile {
                 path: dir.display().to_string(),
-                hint: "give the --out folder of a finished `pendulum-atlas map`".into(),
+                hint: "give the --out folder of a finished `pendulum-atlas map`, `calibrate` \
+                       or `search`"
+                    .into(),
             });
         }
-        let manifest = read_manifest(dir)?;
-        let spec = read_scene(dir)?;
-        check_shape(dir, &spec, &manifest)?;
-        let columns = read_columns(dir, &spec)?;
-        let status = read_array::<u8>(dir, "status.npy", &spec)?;
-        let files = manifest["files"]
-            .as_array()
-            .map(|a| {
-                a.iter()
-                    .filter_map(|f| f.as_str().map(String::from))
-                    .collect()
-            })
-            .unwrap_or_default();
-        Ok(RunFolder {
-            dir: dir.to_path_buf(),
-            spec,
-            manifest,
-            columns,
-            status,
-            files,
-        })
+        match Product::ALL
+            .into_iter()
+            .find(|p| dir.join(p.manifest()).is_file())
+        {
+            Some(Product::Map) => map_folder::open(dir),
+            Some(Product::Calibrate) => calibrate_folder::open(dir),
+            Some(Product::Search) => search_folder::open(dir),
+            Some(p) => Err(ExploreError::MissingFile {
+                path: dir.join("map.json").display().to_string(),
+                hint: format!(
+                    "this is the folder of `pendulum-atlas {}` ({} is there); explore reads \
+                     the folder of a finished `map` (or `merge`), `calibrate` or `search`",
+                    p.command(),
+                    p.manifest()
+                ),
+            }),
+            None => Err(ExploreError::MissingFile {
+                path: dir.join("map.json").display().to_string(),
+                hint: "not a finished map folder (nor calibrate.json or search.json): each \
+                       command writes its manifest last, so a run that was stopped has none"
+                    .into(),
+            }),
+        }
+    }
+
+    /// Shape of the grid.
+    pub fn shape(&self) -> Vec<usize> {
+        self.axes.iter().map(|a| a.values.len()).collect()
     }
 
     /// Number of cells.
@@ -74,172 +125,163 @@ impl RunFolder {
         self.status.len()
     }
 
-    /// The metrics the map holds, in output order.
-    pub fn metrics(&self) -> &[Metric] {
-        &self.spec.metrics
+    /// Axis indices of cell `k` (C order).
+    pub fn index_of(&self, mut k: usize) -> Vec<usize> {
+        let shape = self.shape();
+        let mut idx = vec![0; shape.len()];
+        for (d, &n) in shape.iter().enumerate().rev() {
+            idx[d] = k % n;
+            k /= n;
+        }
+        idx
     }
 
-    /// The metric called `name` (`K`, `alpha_range`, ...), or the error listing the others.
-    pub fn metric(&self, name: &str) -> Result<Metric, ExploreError> {
-        self.metrics()
+    /// Axis values of cell `k`.
+    pub fn values_of(&self, k: usize) -> Vec<f64> {
+        self.index_of(k)
             .iter()
-            .copied()
-            .find(|m| m.name() == name)
+            .zip(&self.axes)
+            .map(|(&i, a)| a.values[i])
+            .collect()
+    }
+
+    /// The column called `name`, or the error listing the others.
+    pub fn column(&self, name: &str) -> Result<&Column, ExploreError> {
+        self.columns
+            .iter()
+            .find(|c| c.name == name)
             .ok_or_else(|| ExploreError::UnknownMetric {
                 name: name.into(),
                 accepted: self
-                    .metrics()
+                    .columns
                     .iter()
-                    .map(|m| m.name())
+                    .map(|c| c.name.as_str())
                     .collect::<Vec<_>>()
                     .join(", "),
             })
     }
 
-    /// The value of metric `m` in cell `k` as stored (the range for `alpha_range`).
-    pub fn value(&self, m: Metric, k: usize) -> f64 {
-        let of = |stem: &str| {
-            self.columns
-                .iter()
-                .find(|c| c.stem == stem)
-                .map_or(f64::NAN, |c| c.values[k])
-        };
-        match m {
-            Metric::AlphaRange => of("alpha_max_rad") - of("alpha_min_rad"),
-            _ => self
-                .columns
-                .iter()
-                .find(|c| c.metric == m)
-                .map_or(f64::NAN, |c| c.values[k]),
-        }
-    }
-
     /// Cell index `given` (text from a request), checked against the grid.
     pub fn cell(&self, given: &str) -> Result<usize, ExploreError> {
-        given
-            .parse::<usize>()
-            .ok()
-            .filter(|&k| k < self.cells())
-            .ok_or_else(|| ExploreError::OutOfRange {
-                what: "cell",
-                given: given.into(),
-                last: self.cells() - 1,
-            })
+        parse_index(given, self.cells(), "cell")
     }
-}
 
-/// `map.json`, which `map` writes last: without it the map is missing or unfinished.
-fn read_manifest(dir: &Path) -> Result<serde_json::Value, ExploreError> {
-    let path = dir.join(Product::Map.manifest());
-    if !path.is_file() {
-        let hint = match other_manifest(dir) {
-            Some(p) => format!(
-                "this is the folder of `pendulum-atlas {}` ({} is there); explore reads the \
-                 folder of a finished `pendulum-atlas map` (or `merge`)",
-                p.command(),
-                p.manifest()
-            ),
-            None => "not a finished map folder: `pendulum-atlas map --out DIR` writes map.json \
-                     last, so a map that was stopped has none"
-                .into(),
-        };
-        return Err(ExploreError::MissingFile {
-            path: path.display().to_string(),
-            hint,
-        });
-    }
-    let text = std::fs::read_to_string(&path).map_err(|e| bad(&path, e.to_string()))?;
-    serde_json::from_str(&text).map_err(|e| bad(&path, format!("not JSON: {e}")))
-}
-
-/// The product whose manifest the folder holds instead of a map's.
-fn other_manifest(dir: &Path) -> Option<Product> {
-    Product::ALL
-        .into_iter()
-        .find(|p| *p != Product::Map && dir.join(p.manifest()).is_file())
-}
-
-/// `map_scene.toml`: the map's scene after its overrides.
-fn read_scene(dir: &Path) -> Result<MapSpec, ExploreError> {
-    let path = dir.join("map_scene.toml");
-    let text = std::fs::read_to_string(&path).map_err(|_| ExploreError::MissingFile {
-        path: path.display().to_string(),
-        hint: "the map's scene is needed to rerun a cell; maps written before map_scene.toml was \
-               added have none: run the map again"
-            .into(),
-    })?;
-    map_from_toml(&text, &path.display().to_string(), &[]).map_err(|e| bad(&path, e.to_string()))
-}
-
-/// The grid of `map_scene.toml` is the grid of `map.json`.
-fn check_shape(
-    dir: &Path,
-    spec: &MapSpec,
-    manifest: &serde_json::Value,
-) -> Result<(), ExploreError> {
-    let stated: Option<Vec<usize>> = manifest["shape"].as_array().map(|a| {
-        a.iter()
-            .filter_map(|v| v.as_u64().map(|n| n as usize))
-            .collect()
-    });
-    if stated.as_deref() != Some(&spec.shape()[..]) {
-        return Err(bad(
-            &dir.join("map.json"),
-            format!(
-                "its shape {stated:?} is not the grid of map_scene.toml {:?}: the files are from different maps",
-                spec.shape()
-            ),
-        ));
-    }
-    Ok(())
-}
-
-/// Every metric array the map's metrics call for.
-fn read_columns(dir: &Path, spec: &MapSpec) -> Result<Vec<Column>, ExploreError> {
-    COLUMNS
-        .iter()
-        .filter(|(_, m, _)| spec.wants(*m))
-        .map(|&(stem, metric, _)| {
-            Ok(Column {
-                stem,
-                metric,
-                values: read_array::<f64>(dir, &format!("{stem}.npy"), spec)?,
-            })
+    /// Variant index `given` (text from a request; none: the first), checked. A map has
+    /// one way to run a cell: variant 0.
+    pub fn variant(&self, given: Option<&str>) -> Result<usize, ExploreError> {
+        given.map_or(Ok(0), |g| {
+            parse_index(g, self.variants.len().max(1), "variant")
         })
-        .collect()
+    }
 }
 
-/// An array shaped like the grid.
-fn read_array<T: npyz::Deserialize>(
-    dir: &Path,
-    name: &str,
-    spec: &MapSpec,
-) -> Result<Vec<T>, ExploreError> {
+/// A whole number below `count`, or the error naming the range.
+pub fn parse_index(given: &str, count: usize, what: &'static str) -> Result<usize, ExploreError> {
+    given
+        .parse::<usize>()
+        .ok()
+        .filter(|&k| k < count)
+        .ok_or_else(|| ExploreError::OutOfRange {
+            what,
+            given: given.into(),
+            last: count.saturating_sub(1),
+        })
+}
+
+/// The manifest of `dir` as JSON.
+pub fn read_json(path: &Path) -> Result<serde_json::Value, ExploreError> {
+    let text = std::fs::read_to_string(path).map_err(|e| bad(path, e.to_string()))?;
+    serde_json::from_str(&text).map_err(|e| bad(path, format!("not JSON: {e}")))
+}
+
+/// The text of a file the folder must hold; `hint` says why it may be missing.
+pub fn read_text(dir: &Path, name: &str, hint: &str) -> Result<String, ExploreError> {
     let path = dir.join(name);
-    if !path.is_file() {
-        return Err(ExploreError::MissingFile {
-            path: path.display().to_string(),
-            hint:
-                "map.json lists it: the folder is incomplete (copied in part?); run the map again"
-                    .into(),
-        });
-    }
-    let (shape, data) = read_npy::<T>(&path).map_err(|e| bad(&path, e))?;
-    if shape != spec.shape() {
-        return Err(bad(
-            &path,
-            format!(
-                "shape {shape:?}, the grid is {:?}: the files are from different maps",
-                spec.shape()
-            ),
-        ));
-    }
-    Ok(data)
+    std::fs::read_to_string(&path).map_err(|_| ExploreError::MissingFile {
+        path: path.display().to_string(),
+        hint: hint.into(),
+    })
 }
 
-fn bad(path: &Path, reason: impl Into<String>) -> ExploreError {
+/// The file names a manifest lists under `files`.
+pub fn listed_files(manifest: &serde_json::Value) -> Vec<String> {
+    manifest["files"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|f| f.as_str().map(String::from))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Rows of a CSV file the folder must hold: the header and the records.
+pub fn read_csv(dir: &Path, name: &str) -> Result<(Vec<String>, Vec<Vec<String>>), ExploreError> {
+    let path = dir.join(name);
+    let mut r = csv::Reader::from_path(&path).map_err(|_| ExploreError::MissingFile {
+        path: path.display().to_string(),
+        hint: "the manifest lists it: the folder is incomplete (copied in part?)".into(),
+    })?;
+    let header: Vec<String> = r
+        .headers()
+        .map_err(|e| bad(&path, e.to_string()))?
+        .iter()
+        .map(String::from)
+        .collect();
+    let rows = r
+        .records()
+        .map(|rec| {
+            rec.map(|r| r.iter().map(String::from).collect())
+                .map_err(|e| bad(&path, e.to_string()))
+        })
+        .collect::<Result<_, _>>()?;
+    Ok((header, rows))
+}
+
+/// The grid cell whose axis values are `values` (equal within 1e-9 relative), if any.
+pub fn grid_cell(axes: &[Axis], values: &[f64]) -> Option<usize> {
+    let mut k = 0;
+    for (a, &v) in axes.iter().zip(values) {
+        let i = a
+            .values
+            .iter()
+            .position(|&x| (x - v).abs() <= 1e-9 * x.abs().max(v.abs()).max(1e-300))?;
+        k = k * a.values.len() + i;
+    }
+    Some(k)
+}
+
+/// A file that cannot be read as expected.
+pub fn bad(path: &Path, reason: impl Into<String>) -> ExploreError {
     ExploreError::BadFile {
         path: path.display().to_string(),
         reason: reason.into(),
+    }
+}
+
+/// The spec of a map source, for the map's own rules (colours, strobe phase).
+impl Source {
+    /// The map's spec, when the folder is a map.
+    pub fn map(&self) -> Option<&MapSpec> {
+        match self {
+            Source::Map(m) => Some(m),
+            _ => None,
+        }
+    }
+
+    /// The calibration's spec, when the folder is one.
+    pub fn calibration(&self) -> Option<&CalibrationSpec> {
+        match self {
+            Source::Calibrate(c) => Some(&c.spec),
+            _ => None,
+        }
+    }
+
+    /// The search's spec, when the folder is one.
+    pub fn search(&self) -> Option<&SearchSpec> {
+        match self {
+            Source::Search(s) => Some(&s.spec),
+            _ => None,
+        }
     }
 }

@@ -1,6 +1,6 @@
 //! The queue of cell runs. A fixed number of worker threads run cells one at a time each; at
-//! most `capacity` more wait. A cell asked for again gets its earlier job (done, running or
-//! waiting), so a burst of clicks on the same cells costs one run each, and a burst on many
+//! most `capacity` more wait. A cell (and variant) asked for again gets its earlier job (done,
+//! running or waiting), so a burst of clicks on the same cells costs one run each, and a burst on many
 //! cells is refused once the queue is full instead of starting threads without bound.
 //! Finished runs are kept (the newest [`KEEP_DONE`]) to answer repeated clicks at once.
 
@@ -65,11 +65,14 @@ enum Stage {
     Failed(String),
 }
 
+/// A cell and the variant it runs as.
+type Cell = (usize, usize);
+
 #[derive(Debug, Default)]
 struct State {
     next_id: u64,
-    stages: HashMap<u64, (usize, Stage)>,
-    by_cell: HashMap<usize, u64>,
+    stages: HashMap<u64, (Cell, Stage)>,
+    by_cell: HashMap<Cell, u64>,
     queue: VecDeque<u64>,
     finished: VecDeque<u64>,
 }
@@ -101,8 +104,10 @@ impl Jobs {
         self.state.lock().unwrap_or_else(|p| p.into_inner())
     }
 
-    /// The job of `cell`: the existing one, or a new one at the end of the queue.
-    pub fn submit(&self, cell: usize) -> Result<JobView, ExploreError> {
+    /// The job of `cell` run as `variant`: the existing one, or a new one at the end of the
+    /// queue.
+    pub fn submit(&self, cell: usize, variant: usize) -> Result<JobView, ExploreError> {
+        let cell = (cell, variant);
         let mut s = self.lock();
         if let Some(&id) = s.by_cell.get(&cell) {
             return Ok(view(&s, id).expect("indexed jobs exist"));
@@ -143,11 +148,12 @@ impl Jobs {
                 (id, entry.0, progress)
             };
             let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                run_cell(folder, cell, &progress)
+                run_cell(folder, cell.0, cell.1, &progress)
             }))
             .unwrap_or_else(|_| {
                 Err(ExploreError::Cell(format!(
-                    "the run of cell {cell} panicked (a bug: please report it with the map)"
+                    "the run of cell {} panicked (a bug: please report it with the folder)",
+                    cell.0
                 )))
             });
             self.finish(id, cell, outcome);
@@ -155,7 +161,7 @@ impl Jobs {
     }
 
     /// Record a finished job, forgetting the oldest beyond [`KEEP_DONE`].
-    fn finish(&self, id: u64, cell: usize, outcome: Result<CellRun, ExploreError>) {
+    fn finish(&self, id: u64, cell: Cell, outcome: Result<CellRun, ExploreError>) {
         let mut s = self.lock();
         let stage = match outcome {
             Ok(run) => Stage::Done(Arc::new(run)),
@@ -174,7 +180,7 @@ impl Jobs {
 
 fn view(s: &State, id: u64) -> Option<JobView> {
     let (cell, stage) = s.stages.get(&id)?;
-    let (job, cell) = (id, *cell);
+    let (job, cell) = (id, cell.0);
     Some(match stage {
         Stage::Queued => JobView::Queued {
             job,

@@ -1,30 +1,34 @@
-//! `explore`: a finished map in the browser. Every metric as a heat map with its colour bar,
-//! and a click on a cell runs that cell again with its motion kept (α(t) and the cart, the
-//! phase portrait, the stroboscopic section, the spectrum and the scalogram).
+//! `explore`: a finished map, calibration or search in the browser. Every quantity of the
+//! grid as a heat map with its colour bar, and a click on a cell runs that cell again with its
+//! motion kept (α(t) and the cart, the phase portrait, the stroboscopic section, the spectrum
+//! and the scalogram).
 //!
 //! Stages, in the order a request flows through them:
-//! 1. [`RunFolder::open`] (`folder`): `map.json`, `map_scene.toml` and the arrays, read and
-//!    checked once at start;
-//! 2. [`field`] (`field`): one metric over one slice, coloured by the PNG heat maps' own rule;
-//! 3. [`cell_scene`] / [`run_cell`] (`cell`): a cell's scene with the map's method and step
-//!    pinned, integrated and analysed exactly as `simulate` does;
+//! 1. [`RunFolder::open`] (`folder`, with `map_folder`, `calibrate_folder`, `search_folder`):
+//!    the manifest, the run's scene and its per-cell files, read and checked once at start;
+//! 2. [`field`] (`field`): one quantity over one slice, coloured by the PNG heat maps' rule;
+//! 3. [`cell_scene`] / [`run_cell`] (`cell`): a cell's scene with its command's method and
+//!    step pinned, integrated and analysed exactly as `simulate` does;
 //! 4. [`Jobs`] (`jobs`): a bounded queue of cell runs on a fixed set of worker threads;
 //! 5. [`serve`] (`server`): the embedded page and the JSON API on a local port.
 //!
 //! Errors are [`ExploreError`]s; the server answers each with one HTTP status and a JSON
 //! `{"error": ...}` that names the problem and what is accepted.
 
+mod calibrate_folder;
 mod cell;
 mod error;
 mod field;
 mod folder;
 mod jobs;
+mod map_folder;
+mod search_folder;
 mod server;
 
 pub use cell::{CellRun, CellScene, cell_scene, run_cell};
 pub use error::ExploreError;
 pub use field::{Field, field};
-pub use folder::{Column, RunFolder};
+pub use folder::{Axis, Column, RunFolder, Source};
 pub use jobs::{JobView, Jobs};
 
 use std::net::{IpAddr, SocketAddr};

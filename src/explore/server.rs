@@ -3,22 +3,23 @@
 //! | request                        | answer                                               |
 //! |--------------------------------|------------------------------------------------------|
 //! | `GET /`, `/app.js`, `/style.css` | the page (embedded in the binary)                  |
-//! | `GET /api/map`                 | axes, units, metrics, shape, how the map was run     |
-//! | `GET /api/field?metric=M&slice=Z` | metric M over slice Z: values and colours         |
-//! | `GET /api/cell/K`              | cell K's axis values, status and every stored metric |
-//! | `GET /api/cell/K/scene.toml`   | cell K's scene, as `simulate` accepts it             |
-//! | `POST /api/cell/K/run`         | queue a run of cell K; its job                       |
+//! | `GET /api/map`                 | axes, units, quantities, variants, how it was run     |
+//! | `GET /api/field?metric=M&slice=I,J` | quantity M over a slice: values and colours      |
+//! | `GET /api/cell/K`              | cell K's axis values, status and every quantity      |
+//! | `GET /api/cell/K/scene.toml?variant=V` | cell K's scene run as V, as `simulate` takes it |
+//! | `POST /api/cell/K/run?variant=V` | queue a run of cell K as V; its job                |
 //! | `GET /api/job/J`               | where job J stands, its result when done             |
-//! | `GET /files/NAME`              | a PNG that `map.json` lists (`bifurcation.png`, ...) |
+//! | `GET /files/NAME`              | a PNG the manifest lists (`bifurcation.png`, ...)    |
 //!
-//! Every index is checked (`400` with the accepted range), an unknown metric is `404` with
-//! the metrics there are, a full queue is `503`. Only files listed in `map.json` with a `.png`
+//! Every index is checked (`400` with the accepted range), an unknown quantity is `404` with
+//! the ones there are, a full queue is `503`. Only files listed in the manifest with a `.png`
 //! name are served, looked up by name, so no path reaches outside the folder.
 
 use super::cell::cell_scene;
 use super::error::ExploreError;
 use super::field::{field, page_shape, slice_index, status_name};
 use super::folder::RunFolder;
+use super::folder::Source;
 use super::jobs::Jobs;
 use axum::Router;
 use axum::extract::{Path, Query, State};
@@ -49,7 +50,9 @@ impl IntoResponse for ExploreError {
             ExploreError::UnknownMetric { .. }
             | ExploreError::UnknownJob(_)
             | ExploreError::NotServed(_) => StatusCode::NOT_FOUND,
-            ExploreError::OutOfRange { .. } => StatusCode::BAD_REQUEST,
+            ExploreError::OutOfRange { .. } | ExploreError::BadSlice { .. } => {
+                StatusCode::BAD_REQUEST
+            }
             ExploreError::QueueFull { .. } => StatusCode::SERVICE_UNAVAILABLE,
             ExploreError::Cell(_) => StatusCode::UNPROCESSABLE_ENTITY,
             ExploreError::MissingFile { .. } | ExploreError::BadFile { .. } => {
@@ -73,6 +76,12 @@ pub fn router(app: Arc<App>) -> Router {
         .route("/api/cell/{k}/run", post(cell_run))
         .route("/api/job/{j}", get(job))
         .route("/files/{name}", get(file))
+        .method_not_allowed_fallback(|| async {
+            (
+                StatusCode::METHOD_NOT_ALLOWED,
+                axum::Json(json!({ "error": "wrong method: runs are started with POST, everything else is GET" })),
+            )
+        })
         .fallback(|| async {
             (
                 StatusCode::NOT_FOUND,
@@ -89,31 +98,40 @@ fn asset(kind: &'static str, body: &'static str) -> Response {
 async fn map_info(State(app): Shared) -> Response {
     let f = &app.folder;
     let m = &f.manifest;
-    let (nx, ny, nz) = page_shape(f);
+    let (nx, ny) = page_shape(f);
     let axes: Vec<_> = f
-        .spec
         .axes
         .iter()
-        .map(|a| json!({ "key": a.key, "label": a.label(), "values": a.values, "scale": a.scale }))
+        .map(|a| json!({ "key": a.key, "label": a.label, "values": a.values }))
         .collect();
     let metrics: Vec<_> = f
-        .metrics()
+        .columns
         .iter()
-        .map(|&x| json!({ "name": x.name(), "label": crate::output::map::metric_style(x, &f.spec).0 }))
+        .map(|c| json!({ "name": c.name, "label": c.label }))
         .collect();
     let pictures: Vec<&String> = f.files.iter().filter(|n| n.ends_with(".png")).collect();
+    let run = match &f.source {
+        Source::Map(_) => json!({
+            "segments": f.segments, "method": m["method"], "backend": m["backend"],
+            "adapter": m["adapter"], "precision": m["precision"],
+        }),
+        Source::Calibrate(_) | Source::Search(_) => json!({
+            "segments": f.segments,
+            "backend": m["about"]["engine"]["kind"],
+            "adapter": m["about"]["engine"]["device"],
+            "precision": m["about"]["engine"]["precision"],
+        }),
+    };
     axum::Json(json!({
+        "kind": f.product.command(),
         "folder": f.dir.display().to_string(),
         "axes": axes,
-        "shape": f.spec.shape(),
-        "page": { "nx": nx, "ny": ny, "nz": nz },
+        "shape": f.shape(),
+        "page": { "nx": nx, "ny": ny },
         "metrics": metrics,
+        "variants": f.variants,
         "cells": f.cells(),
-        "segments": m["segments"],
-        "method": m["method"],
-        "backend": m["backend"],
-        "adapter": m["adapter"],
-        "precision": m["precision"],
+        "run": run,
         "status_counts": m["status_counts"],
         "bifurcation": pictures.iter().any(|n| n.as_str() == "bifurcation.png"),
         "pictures": pictures,
@@ -126,50 +144,52 @@ async fn field_of(
     Query(q): Query<HashMap<String, String>>,
 ) -> Result<Response, ExploreError> {
     let f = &app.folder;
-    let name = q.get("metric").map_or_else(
-        || f.metrics()[0].name().to_string(),
-        std::string::ToString::to_string,
-    );
-    let m = f.metric(&name)?;
-    let iz = slice_index(f, q.get("slice").map(String::as_str))?;
-    Ok(axum::Json(field(f, m, iz)).into_response())
+    let name = q
+        .get("metric")
+        .map_or_else(|| f.columns[0].name.clone(), Clone::clone);
+    let slice = slice_index(f, q.get("slice").map(String::as_str))?;
+    Ok(axum::Json(field(f, &name, &slice)?).into_response())
 }
 
 async fn cell_info(State(app): Shared, Path(k): Path<String>) -> Result<Response, ExploreError> {
     let f = &app.folder;
     let k = f.cell(&k)?;
     let values: Vec<(&str, f64)> = f
-        .spec
         .axes
         .iter()
-        .zip(f.spec.values_of(k))
+        .zip(f.values_of(k))
         .map(|(a, v)| (a.key.as_str(), v))
         .collect();
-    let stored: serde_json::Map<String, serde_json::Value> = f
+    let columns: serde_json::Map<String, serde_json::Value> = f
         .columns
         .iter()
         .map(|c| {
             let v = c.values[k];
             (
-                c.stem.to_string(),
+                c.name.clone(),
                 if v.is_finite() { json!(v) } else { json!(null) },
             )
         })
         .collect();
     Ok(axum::Json(json!({
         "cell": k,
-        "index": f.spec.index_of(k),
+        "index": f.index_of(k),
         "values": values,
         "status": status_name(f.status[k]),
-        "stored": stored,
+        "columns": columns,
     }))
     .into_response())
 }
 
-async fn cell_toml(State(app): Shared, Path(k): Path<String>) -> Result<Response, ExploreError> {
+async fn cell_toml(
+    State(app): Shared,
+    Path(k): Path<String>,
+    Query(q): Query<HashMap<String, String>>,
+) -> Result<Response, ExploreError> {
     let f = app.folder.clone();
     let k = f.cell(&k)?;
-    let cs = tokio::task::spawn_blocking(move || cell_scene(&f, k))
+    let v = f.variant(q.get("variant").map(String::as_str))?;
+    let cs = tokio::task::spawn_blocking(move || cell_scene(&f, k, v))
         .await
         .map_err(|e| ExploreError::Cell(e.to_string()))??;
     let disposition = format!("attachment; filename=\"cell_{k}.toml\"");
@@ -186,9 +206,14 @@ async fn cell_toml(State(app): Shared, Path(k): Path<String>) -> Result<Response
         .into_response())
 }
 
-async fn cell_run(State(app): Shared, Path(k): Path<String>) -> Result<Response, ExploreError> {
+async fn cell_run(
+    State(app): Shared,
+    Path(k): Path<String>,
+    Query(q): Query<HashMap<String, String>>,
+) -> Result<Response, ExploreError> {
     let k = app.folder.cell(&k)?;
-    Ok((StatusCode::ACCEPTED, axum::Json(app.jobs.submit(k)?)).into_response())
+    let v = app.folder.variant(q.get("variant").map(String::as_str))?;
+    Ok((StatusCode::ACCEPTED, axum::Json(app.jobs.submit(k, v)?)).into_response())
 }
 
 async fn job(State(app): Shared, Path(j): Path<String>) -> Result<Response, ExploreError> {

@@ -98,7 +98,8 @@ function drawMap() {
     g.textAlign = "center"; g.fillText(ya.label, 0, 0); g.restore();
   }
   let title = f.label;
-  if (m.axes.length > 2) title += `  at ${m.axes[2].key} = ${fmt(m.axes[2].values[f.slice], 4)}`;
+  const held = f.slice.map((i, d) => `${m.axes[d + 2].key} = ${fmt(m.axes[d + 2].values[i], 4)}`);
+  if (held.length) title += `  at ${held.join(", ")}`;
   g.textAlign = "left"; g.textBaseline = "top"; g.font = "bold 13px sans-serif";
   g.fillText(title, a.x, 8);
   drawBar(g, a);
@@ -136,7 +137,8 @@ function drawLegend() {
 }
 
 async function loadField() {
-  const metric = $("metric").value, slice = $("slice").value || 0;
+  const metric = $("metric").value;
+  const slice = [...document.querySelectorAll("#slices select")].map((s) => s.value).join(",");
   state.field = await api(`/api/field?metric=${encodeURIComponent(metric)}&slice=${slice}`);
   drawMap();
   $("map").dataset.metric = metric;
@@ -156,7 +158,7 @@ async function onHover(ev) {
   const info = await cellInfo(p.k);
   const lines = info.values.map(([k, v]) => `${k} = ${fmt(v, 6)}`);
   lines.push(`status: ${info.status}`);
-  for (const [k, v] of Object.entries(info.stored)) lines.push(`${k}: ${k === "period" && v === 0 ? "none" : fmt(v)}`);
+  for (const [k, v] of Object.entries(info.columns)) lines.push(`${k}: ${fmt(v)}`);
   tip.textContent = `cell ${p.k}\n` + lines.join("\n");
   tip.style.left = `${ev.offsetX + 14}px`;
   tip.style.top = `${ev.offsetY + 10}px`;
@@ -190,7 +192,8 @@ async function runCell(k) {
   $("cellTitle").textContent = `Cell ${k}: ` +
     info.values.map(([key, v]) => `${key} = ${fmt(v, 6)}`).join(", ");
   setCellState("queued", "Queued…");
-  let job = await api(`/api/cell/${k}/run`, { method: "POST" });
+  const variant = $("variant").value || 0;
+  let job = await api(`/api/cell/${k}/run?variant=${variant}`, { method: "POST" });
   const bar = $("cellProgress");
   bar.hidden = false;
   while (job.state === "queued" || job.state === "running") {
@@ -198,7 +201,7 @@ async function runCell(k) {
     else setCellState("running", `Integrating… ${Math.round(job.progress * 100)} %`);
     bar.value = job.state === "running" ? job.progress : 0;
     await new Promise((res) => { state.poll = setTimeout(res, 250); });
-    if (state.selected !== k) return;
+    if (state.selected !== k || ($("variant").value || 0) !== variant) return;
     job = await api(`/api/job/${job.job}`);
   }
   bar.hidden = true;
@@ -226,10 +229,14 @@ function showCell(r) {
     }
     tb.append(tr);
   }
-  $("runInfo").textContent = `status ${r.status}, N = ${r.segments}, ${r.method}, dt = ${fmt(r.dt_s, 4)} s, ` +
+  $("runInfo").textContent = (r.variant ? `run as ${r.variant}: ` : "") + `status ${r.status}, N = ${r.segments}, ${r.method}, dt = ${fmt(r.dt_s, 4)} s, ` +
     `${fmt(r.wall_s, 3)} s on this server` + (r.failed_at_s !== null ? `, stopped at t = ${fmt(r.failed_at_s)} s` : "");
-  $("download").href = `/api/cell/${r.cell}/scene.toml`;
+  $("download").href = `/api/cell/${r.cell}/scene.toml?variant=${$("variant").value || 0}`;
   $("download").setAttribute("download", `cell_${r.cell}.toml`);
+  const isMap = Object.keys(r.map).length > 0;
+  for (const el of document.querySelectorAll("#cellValues th:nth-child(3), #cellValues td:nth-child(3)")) el.hidden = !isMap;
+  const n = $("notes"); n.innerHTML = "";
+  for (const t of r.notes) { const li = document.createElement("li"); li.textContent = t; n.append(li); }
   const w = $("warnings"); w.innerHTML = "";
   for (const t of r.warnings) { const li = document.createElement("li"); li.textContent = t; w.append(li); }
   $("cellResult").hidden = false;
@@ -334,22 +341,34 @@ async function start() {
   const m = await api("/api/map");
   state.map = m;
   if (m.axes.length === 1) $("map").height = 200;  // one row of cells
-  $("about").textContent = `${m.folder}: ${m.cells} cells, N = ${m.segments}, ${m.method}, ` +
-    `${m.backend} (${m.adapter}), ${m.precision}`;
+  const r = m.run;
+  $("about").textContent = `${m.kind}: ${m.folder}: ${m.cells} cells, N = ${r.segments}` +
+    (r.method ? `, ${r.method}` : "") + (r.backend ? `, ${r.backend} (${r.adapter}), ${r.precision}` : "");
   for (const x of m.metrics) {
     const o = document.createElement("option"); o.value = x.name; o.textContent = `${x.name} — ${x.label}`;
     $("metric").append(o);
   }
-  if (m.axes.length > 2) {
-    m.axes[2].values.forEach((v, i) => {
-      const o = document.createElement("option"); o.value = i; o.textContent = `${m.axes[2].key} = ${fmt(v, 6)}`;
-      $("slice").append(o);
+  m.axes.slice(2).forEach((axis) => {
+    const label = document.createElement("label"), sel = document.createElement("select");
+    label.append(`${axis.key} `, sel);
+    axis.values.forEach((v, i) => {
+      const o = document.createElement("option"); o.value = i; o.textContent = fmt(v, 6); sel.append(o);
     });
-    $("sliceLabel").hidden = false;
+    sel.addEventListener("change", () => loadField().catch((e) => showError($("error"), e)));
+    $("slices").append(label);
+  });
+  if (m.variants.length) {
+    m.variants.forEach((name, i) => {
+      const o = document.createElement("option"); o.value = i; o.textContent = name; $("variant").append(o);
+    });
+    $("variantName").textContent = m.kind === "calibrate" ? "run in case" : "run at";
+    $("variantRow").hidden = false;
+    $("variant").addEventListener("change", () => {
+      if (state.selected !== null) runCell(state.selected).catch((e) => failCell(e));
+    });
   }
   if (m.bifurcation) { $("bifurcation").src = "/files/bifurcation.png"; $("bifurcationFigure").hidden = false; }
   $("metric").addEventListener("change", () => loadField().catch((e) => showError($("error"), e)));
-  $("slice").addEventListener("change", () => loadField().catch((e) => showError($("error"), e)));
   $("map").addEventListener("mousemove", (e) => onHover(e).catch(() => {}));
   $("map").addEventListener("mouseleave", () => { $("tip").hidden = true; });
   $("map").addEventListener("click", onClick);

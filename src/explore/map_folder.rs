@@ -1,0 +1,137 @@
+//! A map folder: `map.json`, `map_scene.toml`, `status.npy` and one `.npy` per metric array,
+//! each shaped like the grid.
+
+use super::error::ExploreError;
+use super::folder::{Axis, Column, RunFolder, Source, bad, listed_files, read_json, read_text};
+use crate::config::{MapSpec, Metric, map_from_toml};
+use crate::output::folder::Product;
+use crate::output::map::{COLUMNS, metric_style, shown_value};
+use crate::output::npy::read_npy;
+use std::path::Path;
+
+/// Read a map folder.
+pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
+    let manifest = read_json(&dir.join("map.json"))?;
+    let text = read_text(
+        dir,
+        "map_scene.toml",
+        "the map's scene is needed to rerun a cell; maps written before map_scene.toml was \
+         added have none: run the map again",
+    )?;
+    let path = dir.join("map_scene.toml");
+    let spec = map_from_toml(&text, &path.display().to_string(), &[])
+        .map_err(|e| bad(&path, e.to_string()))?;
+    check_shape(dir, &spec, &manifest)?;
+    let stored: Vec<(&str, Metric, Vec<f64>)> = COLUMNS
+        .iter()
+        .filter(|(_, m, _)| spec.wants(*m))
+        .map(|&(stem, m, _)| {
+            Ok((
+                stem,
+                m,
+                read_array::<f64>(dir, &format!("{stem}.npy"), &spec)?,
+            ))
+        })
+        .collect::<Result<_, ExploreError>>()?;
+    let columns = spec
+        .metrics
+        .iter()
+        .map(|&m| metric_column(&spec, m, &stored))
+        .collect();
+    let status = read_array::<u8>(dir, "status.npy", &spec)?;
+    Ok(RunFolder {
+        dir: dir.to_path_buf(),
+        product: Product::Map,
+        files: listed_files(&manifest),
+        manifest,
+        axes: spec
+            .axes
+            .iter()
+            .map(|a| Axis {
+                key: a.key.clone(),
+                label: a.label(),
+                values: a.values.clone(),
+            })
+            .collect(),
+        columns,
+        status,
+        variants: Vec::new(),
+        segments: spec.scene.beam.segments,
+        source: Source::Map(Box::new(spec)),
+    })
+}
+
+/// Metric `m` as shown: its label and range from the PNGs' rule, `alpha_range` as the
+/// difference of its two arrays, period 0 as no data.
+fn metric_column(spec: &MapSpec, m: Metric, stored: &[(&str, Metric, Vec<f64>)]) -> Column {
+    let of = |stem: &str| stored.iter().find(|s| s.0 == stem).map(|s| &s.2);
+    let raw: Vec<f64> = match m {
+        Metric::AlphaRange => match (of("alpha_max_rad"), of("alpha_min_rad")) {
+            (Some(hi), Some(lo)) => hi.iter().zip(lo).map(|(a, b)| a - b).collect(),
+            _ => Vec::new(),
+        },
+        _ => stored
+            .iter()
+            .find(|s| s.1 == m)
+            .map(|s| s.2.clone())
+            .unwrap_or_default(),
+    };
+    let (label, range) = metric_style(m, spec);
+    Column {
+        name: m.name().into(),
+        label,
+        range,
+        values: raw.iter().map(|&v| shown_value(m, v)).collect(),
+    }
+}
+
+/// The grid of `map_scene.toml` is the grid of `map.json`.
+fn check_shape(
+    dir: &Path,
+    spec: &MapSpec,
+    manifest: &serde_json::Value,
+) -> Result<(), ExploreError> {
+    let stated: Option<Vec<usize>> = manifest["shape"].as_array().map(|a| {
+        a.iter()
+            .filter_map(|v| v.as_u64().map(|n| n as usize))
+            .collect()
+    });
+    if stated.as_deref() != Some(&spec.shape()[..]) {
+        return Err(bad(
+            &dir.join("map.json"),
+            format!(
+                "its shape {stated:?} is not the grid of map_scene.toml {:?}: the files are from different maps",
+                spec.shape()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// An array shaped like the grid.
+fn read_array<T: npyz::Deserialize>(
+    dir: &Path,
+    name: &str,
+    spec: &MapSpec,
+) -> Result<Vec<T>, ExploreError> {
+    let path = dir.join(name);
+    if !path.is_file() {
+        return Err(ExploreError::MissingFile {
+            path: path.display().to_string(),
+            hint:
+                "map.json lists it: the folder is incomplete (copied in part?); run the map again"
+                    .into(),
+        });
+    }
+    let (shape, data) = read_npy::<T>(&path).map_err(|e| bad(&path, e))?;
+    if shape != spec.shape() {
+        return Err(bad(
+            &path,
+            format!(
+                "shape {shape:?}, the grid is {:?}: the files are from different maps",
+                spec.shape()
+            ),
+        ));
+    }
+    Ok(data)
+}
