@@ -235,7 +235,7 @@ async fn drive(c: &Client, server: &Server, dir: &Path) {
     std::fs::write(work.join("cell.toml"), toml).unwrap();
     let (sk, sr, sp) = simulate(&work.join("cell.toml"), &work.join("sim"));
     assert_eq!(
-        (pk, pr, pp),
+        (Some(pk), Some(pr), Some(pp)),
         (sk, sr, sp),
         "page vs simulate on the downloaded scene"
     );

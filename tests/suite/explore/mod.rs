@@ -1,8 +1,9 @@
-//! `explore`: the API on a small map (every request checked), and the page driven in a real
-//! browser through WebDriver.
+//! `explore`: the API on a small map (every request checked), on calibration and search
+//! folders, and the page driven in a real browser through WebDriver.
 
 mod api;
 mod browser;
+mod folders;
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -127,8 +128,9 @@ pub fn wait_job(server: &Server, id: u64) -> serde_json::Value {
     panic!("job {id} did not finish in 120 s");
 }
 
-/// K, R and period of `simulate` on a scene file (its run.json's analysis).
-pub fn simulate(scene: &Path, out: &Path) -> (f64, f64, f64) {
+/// K, R and period of `simulate` on a scene file (its run.json's analysis; `None` where it
+/// skipped one).
+pub fn simulate(scene: &Path, out: &Path) -> (Option<f64>, Option<f64>, Option<f64>) {
     let o = bin()
         .arg("simulate")
         .arg(scene)
@@ -142,9 +144,9 @@ pub fn simulate(scene: &Path, out: &Path) -> (f64, f64, f64) {
         serde_json::from_str(&std::fs::read_to_string(out.join("run.json")).unwrap()).unwrap();
     let a = &run["analysis"];
     (
-        a["zero_one"]["K"].as_f64().unwrap(),
-        a["phase_sync"]["R"].as_f64().unwrap(),
-        a["statistics"]["period"].as_f64().unwrap(),
+        a["zero_one"]["K"].as_f64(),
+        a["phase_sync"]["R"].as_f64(),
+        a["statistics"]["period"].as_f64(),
     )
 }
 
