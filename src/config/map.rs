@@ -204,14 +204,8 @@ impl MapSpec {
     }
 
     /// Axis indices of instance `k` (C order: the last axis varies fastest).
-    pub fn index_of(&self, mut k: usize) -> Vec<usize> {
-        let shape = self.shape();
-        let mut idx = vec![0; shape.len()];
-        for (d, &n) in shape.iter().enumerate().rev() {
-            idx[d] = k % n;
-            k /= n;
-        }
-        idx
+    pub fn index_of(&self, k: usize) -> Vec<usize> {
+        c_order_index(&self.shape(), k)
     }
 
     /// Axis values of instance `k`.
@@ -252,6 +246,17 @@ impl MapSpec {
             ),
         })
     }
+}
+
+/// The indices along each axis of flat index `k` of a grid of `shape` in C order (the last
+/// axis varies fastest), as NumPy's `unravel_index`.
+pub fn c_order_index(shape: &[usize], mut k: usize) -> Vec<usize> {
+    let mut idx = vec![0; shape.len()];
+    for (d, &n) in shape.iter().enumerate().rev() {
+        idx[d] = k % n;
+        k /= n;
+    }
+    idx
 }
 
 /// Set a numeric key in a scene table, keeping integer keys integer.

@@ -5,7 +5,7 @@
 
 use super::error::ExploreError;
 use super::folder::{
-    Axis, Column, RunFolder, Source, bad, grid_cell, listed_files, read_csv, read_json, read_text,
+    Axis, Column, Csv, RunFolder, Source, bad, grid_cell, listed_files, num, read_json, read_text,
 };
 use crate::calibrate::{CalibrationSpec, calibration_from_toml};
 use crate::config::{Scene, axis_label};
@@ -88,35 +88,27 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
 /// The grid candidates of `candidates.csv`, placed on the grid of the unknowns.
 fn read_grid(dir: &Path, spec: &CalibrationSpec, axes: &[Axis]) -> Result<Grid, ExploreError> {
     let cells: usize = axes.iter().map(|a| a.values.len()).product();
-    let path = dir.join("candidates.csv");
-    let (header, rows) = read_csv(dir, "candidates.csv")?;
-    let col = |name: &str| {
-        header
-            .iter()
-            .position(|h| h == name)
-            .ok_or_else(|| bad(&path, format!("no column `{name}`")))
-    };
-    let (stage, matched, distance) = (col("stage")?, col("matched")?, col("distance")?);
+    let csv = Csv::read(dir, "candidates.csv")?;
+    let (stage, matched, distance) = (csv.col("stage")?, csv.col("matched")?, csv.col("distance")?);
     let unknown_cols: Vec<usize> = spec
         .unknowns
         .iter()
-        .map(|u| col(&u.key))
+        .map(|u| csv.col(&u.key))
         .collect::<Result<_, _>>()?;
-    let num = |s: &str| s.parse::<f64>().unwrap_or(f64::NAN);
     let mut grid = Grid {
         total: vec![f64::NAN; cells],
         distance: vec![f64::NAN; cells],
         judged: vec![vec![Vec::new(); spec.cases.len()]; cells],
     };
-    for row in rows.iter().filter(|r| r[stage] == "grid") {
+    for row in csv.rows.iter().filter(|r| r[stage] == "grid") {
         let values: Vec<f64> = unknown_cols.iter().map(|&c| num(&row[c])).collect();
         let k = grid_cell(axes, &values).ok_or_else(|| {
-            bad(&path, format!("a grid candidate at {values:?} is not on the grid of calibrate_scene.toml: the files are from different calibrations"))
+            bad(&csv.path, format!("a grid candidate at {values:?} is not on the grid of calibrate_scene.toml: the files are from different calibrations"))
         })?;
         grid.total[k] = num(&row[matched]);
         grid.distance[k] = num(&row[distance]);
         for (c, case) in spec.cases.iter().enumerate() {
-            grid.judged[k][c] = case_judgements(&header, row, &case.name);
+            grid.judged[k][c] = case_judgements(&csv.header, row, &case.name);
         }
     }
     Ok(grid)
@@ -169,7 +161,7 @@ fn columns(spec: &CalibrationSpec, grid: &Grid) -> Vec<Column> {
 /// columns.
 fn case_judgements(header: &[String], row: &[String], name: &str) -> Vec<Judged> {
     let prefix = format!("{name}: ");
-    let num = |i: usize| row.get(i).and_then(|s| s.parse().ok()).unwrap_or(f64::NAN);
+    let at = |i: usize| row.get(i).map_or(f64::NAN, |s| num(s));
     header
         .iter()
         .enumerate()
@@ -177,9 +169,9 @@ fn case_judgements(header: &[String], row: &[String], name: &str) -> Vec<Judged>
             let obs = h.strip_prefix(&prefix)?.strip_suffix(" | match")?;
             Some(Judged {
                 observation: obs.to_string(),
-                matched: num(i),
-                share: num(i + 1),
-                distance: num(i + 2),
+                matched: at(i),
+                share: at(i + 1),
+                distance: at(i + 2),
             })
         })
         .collect()

@@ -14,7 +14,7 @@
 use super::error::ExploreError;
 use super::{calibrate_folder, map_folder, search_folder};
 use crate::calibrate::CalibrationSpec;
-use crate::config::MapSpec;
+use crate::config::{MapSpec, c_order_index};
 use crate::harvest::spec::SearchSpec;
 use crate::output::folder::Product;
 use std::path::{Path, PathBuf};
@@ -126,14 +126,8 @@ impl RunFolder {
     }
 
     /// Axis indices of cell `k` (C order).
-    pub fn index_of(&self, mut k: usize) -> Vec<usize> {
-        let shape = self.shape();
-        let mut idx = vec![0; shape.len()];
-        for (d, &n) in shape.iter().enumerate().rev() {
-            idx[d] = k % n;
-            k /= n;
-        }
-        idx
+    pub fn index_of(&self, k: usize) -> Vec<usize> {
+        c_order_index(&self.shape(), k)
     }
 
     /// Axis values of cell `k`.
@@ -215,27 +209,52 @@ pub fn listed_files(manifest: &serde_json::Value) -> Vec<String> {
         .unwrap_or_default()
 }
 
-/// Rows of a CSV file the folder must hold: the header and the records.
-pub fn read_csv(dir: &Path, name: &str) -> Result<(Vec<String>, Vec<Vec<String>>), ExploreError> {
-    let path = dir.join(name);
-    let mut r = csv::Reader::from_path(&path).map_err(|_| ExploreError::MissingFile {
-        path: path.display().to_string(),
-        hint: "the manifest lists it: the folder is incomplete (copied in part?)".into(),
-    })?;
-    let header: Vec<String> = r
-        .headers()
-        .map_err(|e| bad(&path, e.to_string()))?
-        .iter()
-        .map(String::from)
-        .collect();
-    let rows = r
-        .records()
-        .map(|rec| {
-            rec.map(|r| r.iter().map(String::from).collect())
-                .map_err(|e| bad(&path, e.to_string()))
-        })
-        .collect::<Result<_, _>>()?;
-    Ok((header, rows))
+/// A CSV file of the folder: its header and records.
+pub struct Csv {
+    /// The file.
+    pub path: PathBuf,
+    /// Column names.
+    pub header: Vec<String>,
+    /// Records, as text.
+    pub rows: Vec<Vec<String>>,
+}
+
+impl Csv {
+    /// Read a CSV file the folder must hold.
+    pub fn read(dir: &Path, name: &str) -> Result<Csv, ExploreError> {
+        let path = dir.join(name);
+        let mut r = csv::Reader::from_path(&path).map_err(|_| ExploreError::MissingFile {
+            path: path.display().to_string(),
+            hint: "the manifest lists it: the folder is incomplete (copied in part?)".into(),
+        })?;
+        let header: Vec<String> = r
+            .headers()
+            .map_err(|e| bad(&path, e.to_string()))?
+            .iter()
+            .map(String::from)
+            .collect();
+        let rows = r
+            .records()
+            .map(|rec| {
+                rec.map(|r| r.iter().map(String::from).collect())
+                    .map_err(|e| bad(&path, e.to_string()))
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(Csv { path, header, rows })
+    }
+
+    /// The index of column `name`, or the error naming the file.
+    pub fn col(&self, name: &str) -> Result<usize, ExploreError> {
+        self.header
+            .iter()
+            .position(|h| h == name)
+            .ok_or_else(|| bad(&self.path, format!("no column `{name}`")))
+    }
+}
+
+/// A number of a CSV cell (`nan` and anything unreadable: NaN).
+pub fn num(s: &str) -> f64 {
+    s.parse().unwrap_or(f64::NAN)
 }
 
 /// The grid cell whose axis values are `values` (equal within 1e-9 relative), if any.

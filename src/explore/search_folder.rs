@@ -5,7 +5,7 @@
 
 use super::error::ExploreError;
 use super::folder::{
-    Axis, Column, RunFolder, Source, bad, grid_cell, listed_files, read_csv, read_json, read_text,
+    Axis, Column, Csv, RunFolder, Source, bad, grid_cell, listed_files, num, read_json, read_text,
 };
 use crate::config::axis_label;
 use crate::harvest::spec::{SearchSpec, search_from_toml};
@@ -124,14 +124,8 @@ fn read_designs(
     axes: &[Axis],
 ) -> Result<(Vec<Column>, Vec<Option<String>>), ExploreError> {
     let cells: usize = axes.iter().map(|a| a.values.len()).product();
-    let (header, rows) = read_csv(dir, "designs.csv")?;
-    let path = dir.join("designs.csv");
-    let col = |name: &str| {
-        header
-            .iter()
-            .position(|h| h == name)
-            .ok_or_else(|| bad(&path, format!("no column `{name}`")))
-    };
+    let csv = Csv::read(dir, "designs.csv")?;
+    let col = |name: &str| csv.col(name);
     let (id, stage) = (col("id")?, col("stage")?);
     let var_cols: Vec<usize> = spec
         .variables
@@ -142,7 +136,6 @@ fn read_designs(
         .iter()
         .map(|(n, _)| col(n))
         .collect::<Result<_, _>>()?;
-    let num = |s: &str| s.parse::<f64>().unwrap_or(f64::NAN);
     let mut columns: Vec<Column> = DESIGN_COLUMNS
         .iter()
         .map(|(name, label)| Column {
@@ -153,10 +146,10 @@ fn read_designs(
         })
         .collect();
     let mut design = vec![None; cells];
-    for row in rows.iter().filter(|r| r[stage] == "grid") {
+    for row in csv.rows.iter().filter(|r| r[stage] == "grid") {
         let values: Vec<f64> = var_cols.iter().map(|&c| num(&row[c])).collect();
         let k = grid_cell(axes, &values).ok_or_else(|| {
-            bad(&path, format!("a grid design at {values:?} is not on the grid of search_scene.toml: the files are from different searches"))
+            bad(&csv.path, format!("a grid design at {values:?} is not on the grid of search_scene.toml: the files are from different searches"))
         })?;
         design[k] = Some(row[id].clone());
         for (c, &i) in columns.iter_mut().zip(&data_cols) {
@@ -171,19 +164,13 @@ fn read_instances(
     dir: &Path,
     spec: &SearchSpec,
 ) -> Result<HashMap<InstanceKey, Found>, ExploreError> {
-    let (header, rows) = read_csv(dir, "instances.csv")?;
-    let path = dir.join("instances.csv");
-    let col = |name: &str| {
-        header
-            .iter()
-            .position(|h| h == name)
-            .ok_or_else(|| bad(&path, format!("no column `{name}`")))
-    };
+    let csv = Csv::read(dir, "instances.csv")?;
+    let col = |name: &str| csv.col(name);
     let (d, s, f) = (col("design")?, col("initial_state")?, col("frequency_hz")?);
     let (p, h, per) = (col("power_w")?, col("hops")?, col("period")?);
-    let num = |x: &str| x.parse::<f64>().unwrap_or(f64::NAN);
     let freqs = &spec.band.frequencies_hz;
-    Ok(rows
+    Ok(csv
+        .rows
         .iter()
         .filter_map(|r| {
             let fx = num(&r[f]);
