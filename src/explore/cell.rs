@@ -91,7 +91,7 @@ pub fn cell_scene(folder: &RunFolder, k: usize, v: usize) -> Result<CellScene, E
     let scene = Scene::from_table(table.clone()).map_err(|e| fail(e.to_string()))?;
     Ok(CellScene {
         scene,
-        toml: scene_text(folder, k, v, &table),
+        toml: scene_text(folder, k, v, &table)?,
     })
 }
 
@@ -100,7 +100,12 @@ fn set(table: &mut Table, key: &str, v: Value) -> Result<(), ExploreError> {
 }
 
 /// The downloadable TOML of cell `k` (variant `v`), with a header saying where it comes from.
-fn scene_text(folder: &RunFolder, k: usize, v: usize, table: &Table) -> String {
+fn scene_text(
+    folder: &RunFolder,
+    k: usize,
+    v: usize,
+    table: &Table,
+) -> Result<String, ExploreError> {
     let values: Vec<String> = folder
         .axes
         .iter()
@@ -111,14 +116,16 @@ fn scene_text(folder: &RunFolder, k: usize, v: usize, table: &Table) -> String {
         .variants
         .get(v)
         .map_or_else(String::new, |n| format!(", run as `{n}`"));
-    format!(
+    let body = toml::to_string(table).map_err(|e| {
+        ExploreError::Cell(format!("cell {k}: its scene does not write as TOML: {e}"))
+    })?;
+    Ok(format!(
         "# Cell {k} of the `{}` run in {} ({}){variant}, with the method and step it took.\n\
-         # `pendulum-atlas simulate THIS_FILE --out DIR` runs what `explore` showed.\n\n{}",
+         # `pendulum-atlas simulate THIS_FILE --out DIR` runs what `explore` showed.\n\n{body}",
         folder.product.command(),
         folder.dir.display(),
         values.join(", "),
-        toml::to_string(table).unwrap_or_default()
-    )
+    ))
 }
 
 /// A curve: x and y of equal length.
