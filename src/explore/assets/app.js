@@ -158,7 +158,9 @@ async function onHover(ev) {
   const info = await cellInfo(p.k);
   const lines = info.values.map(([k, v]) => `${k} = ${fmt(v, 6)}`);
   lines.push(`status: ${info.status}`);
-  for (const [k, v] of Object.entries(info.columns)) lines.push(`${k}: ${fmt(v)}`);
+  for (const [k, v] of Object.entries(info.columns)) {
+    lines.push(`${k}: ${k === "period" && v === null && info.status === "ok" ? "none" : fmt(v)}`);
+  }
   tip.textContent = `cell ${p.k}\n` + lines.join("\n");
   tip.style.left = `${ev.offsetX + 14}px`;
   tip.style.top = `${ev.offsetY + 10}px`;
@@ -224,7 +226,9 @@ function showCell(r) {
       const td = document.createElement("td");
       td.id = `${who}-${simKey}`;
       td.dataset.value = v === null || v === undefined ? "" : String(v);
-      td.textContent = simKey === "period" && v === 0 ? "none" : fmt(v);
+      // A period of 0 (simulate) or none stored (a map's no-data grey) means none was found.
+      const none = simKey === "period" && (v === 0 || (who === "map" && v === null && r.status === "ok"));
+      td.textContent = none ? "none" : fmt(v);
       tr.append(td);
     }
     tb.append(tr);
