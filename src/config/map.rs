@@ -210,11 +210,7 @@ impl MapSpec {
 
     /// Axis values of instance `k`.
     pub fn values_of(&self, k: usize) -> Vec<f64> {
-        self.index_of(k)
-            .iter()
-            .zip(&self.axes)
-            .map(|(&i, a)| a.values[i])
-            .collect()
+        grid_point(self.axes.iter().map(|a| a.values.as_slice()), k)
     }
 
     /// Whether a metric was asked for.
@@ -257,6 +253,16 @@ pub fn c_order_index(shape: &[usize], mut k: usize) -> Vec<usize> {
         k /= n;
     }
     idx
+}
+
+/// The values at flat index `k` (C order) of the grid spanned by `axes`.
+pub fn grid_point<'a>(axes: impl Iterator<Item = &'a [f64]> + Clone, k: usize) -> Vec<f64> {
+    let shape: Vec<usize> = axes.clone().map(<[f64]>::len).collect();
+    c_order_index(&shape, k)
+        .into_iter()
+        .zip(axes)
+        .map(|(i, a)| a[i])
+        .collect()
 }
 
 /// Set a numeric key in a scene table, keeping integer keys integer.

@@ -14,7 +14,7 @@
 use super::error::ExploreError;
 use super::{calibrate_folder, map_folder, search_folder};
 use crate::calibrate::CalibrationSpec;
-use crate::config::{MapSpec, c_order_index};
+use crate::config::{MapSpec, c_order_index, grid_point};
 use crate::harvest::spec::SearchSpec;
 use crate::output::folder::Product;
 use std::path::{Path, PathBuf};
@@ -132,11 +132,7 @@ impl RunFolder {
 
     /// Axis values of cell `k`.
     pub fn values_of(&self, k: usize) -> Vec<f64> {
-        self.index_of(k)
-            .iter()
-            .zip(&self.axes)
-            .map(|(&i, a)| a.values[i])
-            .collect()
+        grid_point(self.axes.iter().map(|a| a.values.as_slice()), k)
     }
 
     /// The column called `name`, or the error listing the others.
