@@ -26,7 +26,7 @@
 
 use crate::engine::stepper::{CartClock, Stepper, compensated_add};
 use crate::model::linear::spring_pattern;
-use crate::model::{Chain, ContactLaw, ModelParams, Real, Workspace, dense};
+use crate::model::{Chain, ContactLaw, Lane, ModelParams, Real, Workspace, dense};
 use nalgebra::DMatrix;
 use std::sync::Arc;
 
@@ -153,11 +153,11 @@ fn row_major(m: &DMatrix<f64>) -> Vec<f64> {
 
 /// `out = A x` for a row-major N × N matrix.
 #[inline]
-fn mat_vec<T: Real>(a: &[T], x: &[T], out: &mut [T]) {
+fn mat_vec<T: Lane>(a: &[T], x: &[T], out: &mut [T]) {
     let n = x.len();
     for (i, o) in out.iter_mut().enumerate() {
         let row = &a[i * n..(i + 1) * n];
-        let mut s = T::zero();
+        let mut s = T::splat(0.0);
         for (&aij, &xj) in row.iter().zip(x) {
             s += aij * xj;
         }
@@ -174,15 +174,15 @@ struct Joints<T> {
     b0: T,
 }
 
-impl<T: Real> Joints<T> {
+impl<T: Lane> Joints<T> {
     /// `q = −(K θ + C ω)`: the joint and root couples (the dampers only when `omega` is given).
     #[inline]
     fn couples(&self, theta: &[T], omega: Option<&[T]>, q: &mut [T]) {
         let n = theta.len();
-        let rate = |i: usize| omega.map_or(T::zero(), |w| w[i]);
+        let rate = |i: usize| omega.map_or(T::splat(0.0), |w| w[i]);
         q[0] = -self.k0 * theta[0] - self.b0 * rate(0);
         for qi in q.iter_mut().skip(1) {
-            *qi = T::zero();
+            *qi = T::splat(0.0);
         }
         for i in 1..n {
             let tau = -self.k * (theta[i] - theta[i - 1]) - self.b * (rate(i) - rate(i - 1));
@@ -219,21 +219,21 @@ pub struct Imex<T> {
     comp: Vec<T>,
 }
 
-impl<T: Real> Imex<T> {
+impl<T: Lane> Imex<T> {
     /// The stepper of matrices `m` for a state of length `dim`.
     pub fn new(m: &Arc<ImexMatrices>, dim: usize) -> Self {
         let n = m.segments;
-        let t = |v: &[f64]| v.iter().map(|&x| T::of(x)).collect::<Vec<T>>();
-        let zd = vec![T::zero(); dim];
-        let zn = vec![T::zero(); n];
+        let t = |v: &[f64]| v.iter().map(|&x| T::splat(x)).collect::<Vec<T>>();
+        let zd = vec![T::splat(0.0); dim];
+        let zn = vec![T::splat(0.0); n];
         Imex {
             n,
-            h: T::of(m.dt_s),
-            hg: T::of(m.dt_s * GAMMA),
-            k: T::of(m.joints.k),
-            b: T::of(m.joints.b),
-            k0: T::of(m.joints.k0),
-            b0: T::of(m.joints.b0),
+            h: T::splat(m.dt_s),
+            hg: T::splat(m.dt_s * GAMMA),
+            k: T::splat(m.joints.k),
+            b: T::splat(m.joints.b),
+            k0: T::splat(m.joints.k0),
+            b0: T::splat(m.joints.b0),
             m0_inv: t(&m.m0_inv),
             s_inv: t(&m.s_inv),
             m0: t(&m.m0),
@@ -272,7 +272,7 @@ impl<T: Real> Imex<T> {
         let h = self.h;
         self.u.copy_from_slice(y);
         for j in 0..i {
-            let (ae, ai) = (T::of(AE[i][j]), T::of(AI[i][j]));
+            let (ae, ai) = (T::splat(AE[i][j]), T::splat(AI[i][j]));
             for s in 0..n {
                 // θ-part: N has none, L's is U_ω = f's θ-part.
                 self.u[s] += h * ai * self.f[j][s];
@@ -297,6 +297,39 @@ impl<T: Real> Imex<T> {
     }
 }
 
+impl<T: Lane> Imex<T> {
+    /// One step of `y`, the cart acceleration at stage `i` (time `C[i]`·h) given by `acc(i)`.
+    #[inline]
+    pub fn step_with(
+        &mut self,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        y: &mut [T],
+        acc: impl Fn(usize) -> T,
+    ) {
+        self.u.copy_from_slice(y);
+        chain.rates(ws, acc(0), y, &mut self.f[0], ContactLaw::Exact);
+        self.linear_part(0);
+        for i in 1..C.len() {
+            self.implicit_stage(y, i);
+            let u = std::mem::take(&mut self.u);
+            chain.rates(ws, acc(i), &u, &mut self.f[i], ContactLaw::Exact);
+            self.u = u;
+            if i < 3 {
+                self.linear_part(i);
+            }
+        }
+        let h = self.h;
+        for (s, (ys, cs)) in y.iter_mut().zip(&mut self.comp).enumerate() {
+            let mut inc = T::splat(0.0);
+            for (f, &b) in self.f.iter().zip(&B) {
+                inc += T::splat(b) * f[s];
+            }
+            compensated_add(ys, cs, h * inc);
+        }
+    }
+}
+
 impl<T: Real> Stepper<T> for Imex<T> {
     fn step<CL: CartClock>(
         &mut self,
@@ -306,26 +339,6 @@ impl<T: Real> Stepper<T> for Imex<T> {
         step: u64,
         clock: &CL,
     ) {
-        let acc = |c: f64| T::of(clock.acceleration(step, c));
-        self.u.copy_from_slice(y);
-        chain.derivative(ws, acc(C[0]), y, &mut self.f[0], ContactLaw::Exact);
-        self.linear_part(0);
-        for (i, &c) in C.iter().enumerate().skip(1) {
-            self.implicit_stage(y, i);
-            let u = std::mem::take(&mut self.u);
-            chain.derivative(ws, acc(c), &u, &mut self.f[i], ContactLaw::Exact);
-            self.u = u;
-            if i < 3 {
-                self.linear_part(i);
-            }
-        }
-        let h = self.h;
-        for (s, (ys, cs)) in y.iter_mut().zip(&mut self.comp).enumerate() {
-            let mut inc = T::zero();
-            for (f, &b) in self.f.iter().zip(&B) {
-                inc += T::of(b) * f[s];
-            }
-            compensated_add(ys, cs, h * inc);
-        }
+        self.step_with(chain, ws, y, |i| T::of(clock.acceleration(step, C[i])));
     }
 }

@@ -3,7 +3,7 @@
 //! the linearised chain (`docs/model.md`, "Time step").
 
 use crate::engine::stepper::{CartClock, Stepper, compensated_add};
-use crate::model::{Chain, ContactLaw, Real, Workspace};
+use crate::model::{Chain, ContactLaw, Lane, Real, Workspace};
 
 /// Scratch of one RK4 step: the four stage derivatives and a stage state; and the state's
 /// summation compensation, carried from step to step ([`compensated_add`]).
@@ -14,10 +14,10 @@ pub struct Rk4Scratch<T> {
     comp: Vec<T>,
 }
 
-impl<T: Real> Rk4Scratch<T> {
+impl<T: Lane> Rk4Scratch<T> {
     /// Scratch for a state of length `dim`.
     pub fn new(dim: usize) -> Self {
-        let z = vec![T::zero(); dim];
+        let z = vec![T::splat(0.0); dim];
         Rk4Scratch {
             k: [z.clone(), z.clone(), z.clone(), z.clone()],
             tmp: z.clone(),
@@ -29,7 +29,7 @@ impl<T: Real> Rk4Scratch<T> {
 /// One classical RK4 step of `y` by `dt`, with the cart acceleration at the start, middle
 /// and end of the step.
 #[inline]
-pub fn rk4_step<T: Real>(
+pub fn rk4_step<T: Lane>(
     chain: &Chain<T>,
     ws: &mut Workspace<T>,
     y: &mut [T],
@@ -37,25 +37,25 @@ pub fn rk4_step<T: Real>(
     dt: T,
     cart_acc: [T; 3],
 ) {
-    let half = T::of(0.5);
-    let sixth = T::of(1.0 / 6.0);
+    let half = T::splat(0.5);
+    let sixth = T::splat(1.0 / 6.0);
     let [a0, a_mid, a1] = cart_acc;
     let (k, tmp, comp) = (&mut s.k, &mut s.tmp, &mut s.comp);
-    chain.derivative(ws, a0, y, &mut k[0], ContactLaw::Exact);
+    chain.rates(ws, a0, y, &mut k[0], ContactLaw::Exact);
     stage(tmp, y, &k[0], dt * half);
-    chain.derivative(ws, a_mid, tmp, &mut k[1], ContactLaw::Exact);
+    chain.rates(ws, a_mid, tmp, &mut k[1], ContactLaw::Exact);
     stage(tmp, y, &k[1], dt * half);
-    chain.derivative(ws, a_mid, tmp, &mut k[2], ContactLaw::Exact);
+    chain.rates(ws, a_mid, tmp, &mut k[2], ContactLaw::Exact);
     stage(tmp, y, &k[2], dt);
-    chain.derivative(ws, a1, tmp, &mut k[3], ContactLaw::Exact);
+    chain.rates(ws, a1, tmp, &mut k[3], ContactLaw::Exact);
     for i in 0..y.len() {
-        let inc = dt * sixth * (k[0][i] + T::of(2.0) * (k[1][i] + k[2][i]) + k[3][i]);
+        let inc = dt * sixth * (k[0][i] + T::splat(2.0) * (k[1][i] + k[2][i]) + k[3][i]);
         compensated_add(&mut y[i], &mut comp[i], inc);
     }
 }
 
 #[inline]
-fn stage<T: Real>(out: &mut [T], y: &[T], k: &[T], h: T) {
+fn stage<T: Lane>(out: &mut [T], y: &[T], k: &[T], h: T) {
     for ((o, &yi), &ki) in out.iter_mut().zip(y).zip(k) {
         *o = yi + h * ki;
     }

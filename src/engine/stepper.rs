@@ -6,7 +6,7 @@
 //! ([`health_due`], [`Guard::check`]) and hands every step to a [`StepHook`], which records what
 //! its caller needs and may end the run early.
 
-use crate::model::{Chain, Guard, Real, Status, Workspace, health_due};
+use crate::model::{Chain, Guard, Lane, Real, Status, Workspace, health_due};
 use std::ops::ControlFlow;
 
 /// Where the cart is at each step of a run.
@@ -38,7 +38,7 @@ pub trait Stepper<T: Real> {
 /// (a chaotic cell computed as regular). The compensation carries the rounded-away part into
 /// the next step, so the sum is accurate to a few roundings whatever the step count.
 #[inline]
-pub fn compensated_add<T: Real>(y: &mut T, comp: &mut T, inc: T) {
+pub fn compensated_add<T: Lane>(y: &mut T, comp: &mut T, inc: T) {
     let corrected = inc - *comp;
     let sum = *y + corrected;
     *comp = (sum - *y) - corrected;

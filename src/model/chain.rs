@@ -8,7 +8,8 @@
 //! is exactly how they appear in the Lagrange equations. [`crate::model::dense`] builds the
 //! dense M and Q term by term for the cross-check in tests.
 
-use crate::model::params::{ContactDamping, ModelParams};
+use crate::model::lane::Lane;
+use crate::model::params::{ContactDamping, ContactParams, ModelParams, PiezoParams};
 use crate::model::real::Real;
 
 /// Which branch of the force law a bumper is on.
@@ -56,17 +57,43 @@ pub fn bumper_mode<T: Real>(law: ContactDamping, kc: T, cc: T, delta: T, rate: T
 
 /// The force (N) of a bumper on `mode`'s branch.
 #[inline]
-pub fn bumper_force<T: Real>(mode: BumperMode, kc: T, cc: T, delta: T, rate: T) -> T {
+pub fn bumper_force<T: Lane>(mode: BumperMode, kc: T, cc: T, delta: T, rate: T) -> T {
     match mode {
-        BumperMode::Free => T::zero(),
+        BumperMode::Free => T::splat(0.0),
         BumperMode::Spring => kc * delta,
         BumperMode::SpringDamper => kc * delta + cc * rate,
     }
 }
 
-/// The chain's coefficients in the engine's float type, plus scratch space for one instance.
+/// The force (N) of a bumper by the exact law, without branches (one value per lane): with
+/// penetration δ > 0, loading-only damping F = k_c δ + c_c max(δ̇, 0), Kelvin–Voigt
+/// F = max(0, k_c δ + c_c δ̇); F = 0 for δ ≤ 0. Equal to [`bumper_force`] on the branch
+/// [`bumper_mode`] picks (adding c_c · 0 and taking max(·, 0) are exact).
+#[inline]
+pub fn exact_bumper_force<T: Lane>(law: ContactDamping, kc: T, cc: T, delta: T, rate: T) -> T {
+    let zero = T::splat(0.0);
+    let pushing = match law {
+        ContactDamping::Loading => kc * delta + cc * rate.v_max(zero),
+        ContactDamping::KelvinVoigt => (kc * delta + cc * rate).v_max(zero),
+    };
+    T::if_positive(delta, pushing, zero)
+}
+
+/// The bumpers at one state: penetrations and the horizontal force on the beam.
+#[derive(Debug, Clone, Copy)]
+pub struct BumperLoad<T> {
+    /// Horizontal force of the bumpers on the beam (N): negative when the +x bumper pushes.
+    pub force_x_n: T,
+    /// Penetration δ of the +x bumper (m; negative when apart).
+    pub right_m: T,
+    /// Penetration δ of the −x bumper (m; negative when apart).
+    pub left_m: T,
+}
+
+/// The chain's coefficients in the engine's number type: one instance (`f64`, `f32`) or one
+/// per lane of a vector ([`Lane`]; every lane with the same structure).
 #[derive(Debug, Clone)]
-pub struct Chain<T: Real> {
+pub struct Chain<T: Lane> {
     n: usize,
     l: T,
     m: T,
@@ -143,36 +170,60 @@ impl Energy {
     }
 }
 
-impl<T: Real> Chain<T> {
-    /// Convert the parameter struct to this float type.
+impl<T: Lane> Chain<T> {
+    /// Convert the parameter struct to this number type (every lane the same instance).
     pub fn new(p: &ModelParams) -> Self {
-        let t = T::of;
+        Chain::from_lanes(std::slice::from_ref(p))
+    }
+
+    /// One instance per lane: lane i holds `ps[i % ps.len()]`. The instances must share the
+    /// structure (segments, bumper lever count and law, piezo span): [`Chain::same_structure`].
+    pub fn from_lanes(ps: &[ModelParams]) -> Self {
+        let p = &ps[0];
+        debug_assert!(ps.iter().all(|q| Self::same_structure(p, q)));
+        let t = |f: &dyn Fn(&ModelParams) -> f64| T::gather(|i| f(&ps[i % ps.len()]));
+        let bumper = |f: &dyn Fn(&ContactParams) -> f64| {
+            t(&|q: &ModelParams| f(q.contact.as_ref().expect("same structure")))
+        };
+        let piezo = |f: &dyn Fn(&PiezoParams) -> f64| {
+            t(&|q: &ModelParams| f(q.piezo.as_ref().expect("same structure")))
+        };
         Chain {
             n: p.segments,
-            l: t(p.seg_length_m),
-            m: t(p.seg_mass_kg),
-            j: t(p.seg_inertia_kgm2),
-            tip: t(p.tip_mass_kg),
-            jh: t(p.holder_inertia_kgm2),
-            g: t(p.g_m_s2),
-            k: t(p.joint_stiffness_nm),
-            k0: t(p.root_stiffness_nm),
-            b: t(p.joint_damping_nms),
-            b0: t(p.root_damping_nms),
+            l: t(&|q| q.seg_length_m),
+            m: t(&|q| q.seg_mass_kg),
+            j: t(&|q| q.seg_inertia_kgm2),
+            tip: t(&|q| q.tip_mass_kg),
+            jh: t(&|q| q.holder_inertia_kgm2),
+            g: t(&|q| q.g_m_s2),
+            k: t(&|q| q.joint_stiffness_nm),
+            k0: t(&|q| q.root_stiffness_nm),
+            b: t(&|q| q.joint_damping_nms),
+            b0: t(&|q| q.root_damping_nms),
             contact: p.contact.as_ref().map(|c| ChainContact {
-                levers: c.levers_m.iter().map(|&x| t(x)).collect(),
-                gap: t(c.gap_m),
-                kc: t(c.stiffness_n_per_m),
-                cc: t(c.damping_ns_per_m),
+                levers: (0..c.levers_m.len())
+                    .map(|i| bumper(&|b| b.levers_m[i]))
+                    .collect(),
+                gap: bumper(&|b| b.gap_m),
+                kc: bumper(&|b| b.stiffness_n_per_m),
+                cc: bumper(&|b| b.damping_ns_per_m),
                 law: c.law,
             }),
             piezo: p.piezo.as_ref().map(|z| ChainPiezo {
                 last: z.last_segment,
-                inv_c: t(1.0 / z.capacitance_f),
-                inv_r: t(1.0 / z.load_ohm),
-                theta: t(z.coupling_nm_per_v),
+                inv_c: piezo(&|z| 1.0 / z.capacitance_f),
+                inv_r: piezo(&|z| 1.0 / z.load_ohm),
+                theta: piezo(&|z| z.coupling_nm_per_v),
             }),
         }
+    }
+
+    /// Whether two instances can share a vector: the same segments, bumper levers and law,
+    /// and piezo span.
+    pub fn same_structure(a: &ModelParams, b: &ModelParams) -> bool {
+        let bumpers = |p: &ModelParams| p.contact.as_ref().map(|c| (c.levers_m.len(), c.law));
+        let piezo = |p: &ModelParams| p.piezo.as_ref().map(|z| z.last_segment);
+        a.segments == b.segments && bumpers(a) == bumpers(b) && piezo(a) == piezo(b)
     }
 
     /// Number of segments.
@@ -180,9 +231,20 @@ impl<T: Real> Chain<T> {
         self.n
     }
 
+    /// Bumper penetrations (δ_right, δ_left) (m) at state `y` (`None` without bumpers):
+    /// a bumper is touched while its δ > 0, which is what counts impacts.
+    pub fn penetrations(&self, y: &[T]) -> Option<(T, T)> {
+        let c = self.contact.as_ref()?;
+        let mut x = T::splat(0.0);
+        for (i, &lam) in c.levers.iter().enumerate() {
+            x += lam * y[i].v_sin_cos().0;
+        }
+        Some((x - c.gap, -x - c.gap))
+    }
+
     /// Scratch space sized for this chain.
     pub fn workspace(&self) -> Workspace<T> {
-        let z = T::zero();
+        let z = T::splat(0.0);
         Workspace {
             sin: vec![z; self.n],
             cos: vec![z; self.n],
@@ -196,8 +258,8 @@ impl<T: Real> Chain<T> {
     /// Bumper penetrations: (δ_right, δ̇_right); the left one is (−x − g_c, −ẋ).
     #[inline]
     fn contact_kinematics(&self, c: &ChainContact<T>, ws: &Workspace<T>, omega: &[T]) -> (T, T) {
-        let mut x = T::zero();
-        let mut xd = T::zero();
+        let mut x = T::splat(0.0);
+        let mut xd = T::splat(0.0);
         for (i, &lam) in c.levers.iter().enumerate() {
             x += lam * ws.sin[i];
             xd += lam * ws.cos[i] * omega[i];
@@ -214,9 +276,9 @@ impl<T: Real> Chain<T> {
         omega: &[T],
         volt: T,
         law: ContactLaw,
-    ) -> ContactReport<T> {
+    ) -> Option<BumperLoad<T>> {
         let n = self.n;
-        ws.q.fill(T::zero());
+        ws.q.fill(T::splat(0.0));
         // Root spring/damper (clamped k0, β k0, bearing b0) on the holder.
         ws.q[0] = -self.k0 * theta[0] - self.b0 * omega[0];
         // Joint springs and dampers between segments i−1 and i.
@@ -225,75 +287,76 @@ impl<T: Real> Chain<T> {
             ws.q[i] += tau;
             ws.q[i - 1] -= tau;
         }
-        let mut report = ContactReport::default();
-        if let Some(c) = &self.contact {
+        let load = self.contact.as_ref().map(|c| {
             let (x, xd) = self.contact_kinematics(c, ws, omega);
             // Penetrations and their rates: (δ, δ̇) of the +x and −x bumpers.
             let (right, left) = ((x - c.gap, xd), (-x - c.gap, -xd));
-            report.right_touch = right.0 > T::zero();
-            report.left_touch = left.0 > T::zero();
-            let (mr, ml) = match law {
-                ContactLaw::Exact => (
-                    bumper_mode(c.law, c.kc, c.cc, right.0, right.1),
-                    bumper_mode(c.law, c.kc, c.cc, left.0, left.1),
-                ),
-                ContactLaw::Frozen { right, left } => (right, left),
+            let force = |(delta, rate): (T, T), mode: Option<BumperMode>| match mode {
+                None => exact_bumper_force(c.law, c.kc, c.cc, delta, rate),
+                Some(m) => bumper_force(m, c.kc, c.cc, delta, rate),
             };
-            let fr = bumper_force(mr, c.kc, c.cc, right.0, right.1);
-            let fl = bumper_force(ml, c.kc, c.cc, left.0, left.1);
+            let (mr, ml) = match law {
+                ContactLaw::Exact => (None, None),
+                ContactLaw::Frozen { right, left } => (Some(right), Some(left)),
+            };
             // The bumpers push towards the centre: horizontal force fl − fr on the beam.
-            let fx = fl - fr;
+            let fx = force(left, ml) - force(right, mr);
             for (i, &lam) in c.levers.iter().enumerate() {
                 ws.q[i] += fx * lam * ws.cos[i];
             }
-            report.force_x_n = fx;
-        }
+            BumperLoad {
+                force_x_n: fx,
+                right_m: right.0,
+                left_m: left.0,
+            }
+        });
         if let Some(z) = &self.piezo {
             ws.q[0] += z.theta * volt;
             ws.q[z.last] -= z.theta * volt;
         }
-        report
+        load
     }
 
-    /// Time derivative of the state `y = [θ; θ̇; v]` given the cart acceleration (m/s²).
-    /// Returns the contact report at this state.
-    pub fn derivative(
+    /// Time derivative of the state `y = [θ; θ̇; v]` given the cart acceleration (m/s²), in
+    /// every lane; returns the bumpers' load at this state (`None` without bumpers).
+    pub fn rates(
         &self,
         ws: &mut Workspace<T>,
         cart_acc: T,
         y: &[T],
         dy: &mut [T],
         law: ContactLaw,
-    ) -> ContactReport<T> {
+    ) -> Option<BumperLoad<T>> {
         let n = self.n;
         let (theta, rest) = y.split_at(n);
         let (omega, volt) = rest.split_at(n);
         let volt = volt[0];
         for ((th, s), c) in theta.iter().zip(&mut ws.sin).zip(&mut ws.cos) {
-            (*s, *c) = th.sin_cos();
+            (*s, *c) = th.v_sin_cos();
         }
-        let report = self.generalised_forces(ws, theta, omega, volt, law);
+        let load = self.generalised_forces(ws, theta, omega, volt, law);
         let (dtheta, drest) = dy.split_at_mut(n);
         let (domega, dvolt) = drest.split_at_mut(n);
         dtheta.copy_from_slice(omega);
         self.solve_accelerations(ws, omega, cart_acc, domega);
         dvolt[0] = match &self.piezo {
             Some(z) => (z.theta * (omega[z.last] - omega[0]) - volt * z.inv_r) * z.inv_c,
-            None => T::zero(),
+            None => T::splat(0.0),
         };
-        report
+        load
     }
 
     /// The O(N) articulated-body recursion: θ̈ from sin/cos, rates, Q (in `ws`) and ẍ0.
     fn solve_accelerations(&self, ws: &mut Workspace<T>, omega: &[T], cart_acc: T, out: &mut [T]) {
         let (l, m) = (self.l, self.m);
-        let half = T::of(0.5);
-        let two = T::of(2.0);
+        let half = T::splat(0.5);
+        let two = T::splat(2.0);
         let hml = half * m * l; // mℓ/2
-        let base_d = self.j + m * l * l * T::of(0.25);
+        let base_d = self.j + m * l * l * T::splat(0.25);
         // Articulated inertia of the tip mass and its bias (−M g⃗ = (0, M g)).
-        let (mut kxx, mut kxy, mut kyy) = (self.tip, T::zero(), self.tip);
-        let (mut px, mut py) = (T::zero(), self.tip * self.g);
+        let zero = T::splat(0.0);
+        let (mut kxx, mut kxy, mut kyy) = (self.tip, zero, self.tip);
+        let (mut px, mut py) = (zero, self.tip * self.g);
         for i in (0..self.n).rev() {
             let (s, c) = (ws.sin[i], ws.cos[i]);
             // u = (s, c) along the segment, nvec = (c, −s) = ∂u/∂θ.
@@ -315,7 +378,7 @@ impl<T: Real> Chain<T> {
             let b2x = -(hml * s + two * l * kux) * w2 + two * px;
             let b2y = -(hml * c + two * l * kuy) * w2 + two * py + m * self.g;
             let beta = -half * l * (nx * b2x + ny * b2y) + ws.q[i];
-            let inv_d = T::one() / d;
+            let inv_d = T::splat(1.0) / d;
             kxx = m + kxx - hx * hx * inv_d;
             kxy -= hx * hy * inv_d;
             kyy = m + kyy - hy * hy * inv_d;
@@ -325,7 +388,7 @@ impl<T: Real> Chain<T> {
             ws.d[i] = d;
             ws.beta[i] = beta;
         }
-        let (mut ax, mut ay) = (cart_acc, T::zero());
+        let (mut ax, mut ay) = (cart_acc, zero);
         for i in 0..self.n {
             let [hx, hy] = ws.h[i];
             let acc = (ws.beta[i] - hx * ax - hy * ay) / ws.d[i];
@@ -336,6 +399,31 @@ impl<T: Real> Chain<T> {
             ay += l * (-s * acc - c * w2);
         }
     }
+}
+
+impl<T: Real> ContactReport<T> {
+    fn of(load: Option<BumperLoad<T>>) -> Self {
+        load.map_or_else(ContactReport::default, |b| ContactReport {
+            force_x_n: b.force_x_n,
+            right_touch: b.right_m > T::zero(),
+            left_touch: b.left_m > T::zero(),
+        })
+    }
+}
+
+impl<T: Real> Chain<T> {
+    /// Time derivative of the state `y = [θ; θ̇; v]` of one instance given the cart
+    /// acceleration (m/s²), with the contact report at this state ([`Chain::rates`]).
+    pub fn derivative(
+        &self,
+        ws: &mut Workspace<T>,
+        cart_acc: T,
+        y: &[T],
+        dy: &mut [T],
+        law: ContactLaw,
+    ) -> ContactReport<T> {
+        ContactReport::of(self.rates(ws, cart_acc, y, dy, law))
+    }
 
     /// The bumper report (force and touch flags) at a state, with the exact law.
     pub fn contact_report(&self, ws: &mut Workspace<T>, y: &[T]) -> ContactReport<T> {
@@ -343,7 +431,8 @@ impl<T: Real> Chain<T> {
         for ((th, s), c) in y[..n].iter().zip(&mut ws.sin).zip(&mut ws.cos) {
             (*s, *c) = th.sin_cos();
         }
-        self.generalised_forces(ws, &y[..n], &y[n..2 * n], y[2 * n], ContactLaw::Exact)
+        let load = self.generalised_forces(ws, &y[..n], &y[n..2 * n], y[2 * n], ContactLaw::Exact);
+        ContactReport::of(load)
     }
 
     /// Which bumpers are penetrated (δ > 0): the contact flags used to count impacts.

@@ -14,15 +14,18 @@ mod chain;
 pub mod dense;
 mod excitation;
 mod health;
+mod lane;
 pub mod linear;
 mod params;
 mod real;
 
 pub use chain::{
-    BumperMode, Chain, ContactLaw, ContactReport, Energy, Workspace, bumper_force, bumper_mode,
+    BumperLoad, BumperMode, Chain, ContactLaw, ContactReport, Energy, Workspace, bumper_force,
+    bumper_mode, exact_bumper_force,
 };
 pub use excitation::{CartMotion, CartState, ExcitationKind, HarmonicAmplitudes};
 pub use health::{CHECK_EVERY, Guard, Status, health_due};
+pub use lane::{F32x8, F64x4, Lane};
 pub use linear::{Modes, modes};
 pub use params::{
     BumperDesign, ChainDesign, ContactDamping, ContactParams, ModelParams, PiezoParams, Tube,

@@ -3,7 +3,8 @@
 
 /// A floating-point scalar usable by the chain solve and the RK4 engine.
 pub trait Real:
-    num_traits::Float
+    crate::model::lane::Lane<Scalar = Self>
+    + num_traits::Float
     + num_traits::FloatConst
     + Default
     + Send

@@ -1,0 +1,127 @@
+//! Lanes: the number type the chain solve and the fixed-step integrators are written over, so
+//! that one source serves a single instance (`f64`, `f32`) and a vector of instances
+//! integrated side by side ([`F64x4`]: 4 instances in `f64`, [`F32x8`]: 8 in `f32`, one AVX
+//! register each; the `wide` crate maps them onto SSE2 pairs where AVX is not compiled in).
+//!
+//! Every operation is lane-wise and the same IEEE operation as the scalar code, in the same
+//! order, so a lane of a vector computes what the scalar engine computes, except for `sin` and
+//! `cos`: the vectors use `wide`'s polynomial (Agner Fog's vector class library, within a few
+//! ulp), the scalars the platform's libm. Branches of the physics (a bumper pushing or not)
+//! become lane selects ([`Lane::if_positive`]).
+
+use crate::model::real::Real;
+use std::fmt::Debug;
+use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
+use wide::CmpGt;
+
+/// 4 `f64` lanes.
+pub type F64x4 = wide::f64x4;
+/// 8 `f32` lanes.
+pub type F32x8 = wide::f32x8;
+
+/// A number, or a vector of numbers of independent instances, that the chain solve runs on.
+pub trait Lane:
+    Copy
+    + Send
+    + Sync
+    + Debug
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+    + AddAssign
+    + SubAssign
+    + MulAssign
+    + 'static
+{
+    /// The float type of one lane.
+    type Scalar: Real;
+    /// Instances per value.
+    const LANES: usize;
+    /// Every lane `x` (rounded to the lane type).
+    fn splat(x: f64) -> Self;
+    /// Lane `i` is `f(i)` (rounded to the lane type).
+    fn gather(f: impl FnMut(usize) -> f64) -> Self;
+    /// Lane `i`.
+    fn lane(self, i: usize) -> Self::Scalar;
+    /// Lane-wise (sin x, cos x).
+    fn v_sin_cos(self) -> (Self, Self);
+    /// Lane-wise max(x, y); a NaN lane of `y` gives x, as `f64::max`.
+    fn v_max(self, y: Self) -> Self;
+    /// Lane-wise `if cond > 0 { a } else { b }`.
+    fn if_positive(cond: Self, a: Self, b: Self) -> Self;
+}
+
+macro_rules! scalar_lane {
+    ($t:ty) => {
+        impl Lane for $t {
+            type Scalar = $t;
+            const LANES: usize = 1;
+            #[inline(always)]
+            fn splat(x: f64) -> Self {
+                x as $t
+            }
+            #[inline(always)]
+            fn gather(mut f: impl FnMut(usize) -> f64) -> Self {
+                f(0) as $t
+            }
+            #[inline(always)]
+            fn lane(self, _: usize) -> $t {
+                self
+            }
+            #[inline(always)]
+            fn v_sin_cos(self) -> (Self, Self) {
+                self.sin_cos()
+            }
+            #[inline(always)]
+            fn v_max(self, y: Self) -> Self {
+                self.max(y)
+            }
+            #[inline(always)]
+            fn if_positive(cond: Self, a: Self, b: Self) -> Self {
+                if cond > 0.0 { a } else { b }
+            }
+        }
+    };
+}
+
+scalar_lane!(f64);
+scalar_lane!(f32);
+
+macro_rules! vector_lane {
+    ($v:ty, $t:ty, $n:expr) => {
+        impl Lane for $v {
+            type Scalar = $t;
+            const LANES: usize = $n;
+            #[inline(always)]
+            fn splat(x: f64) -> Self {
+                <$v>::splat(x as $t)
+            }
+            #[inline(always)]
+            fn gather(mut f: impl FnMut(usize) -> f64) -> Self {
+                <$v>::new(std::array::from_fn(|i| f(i) as $t))
+            }
+            #[inline(always)]
+            fn lane(self, i: usize) -> $t {
+                self.as_array_ref()[i]
+            }
+            #[inline(always)]
+            fn v_sin_cos(self) -> (Self, Self) {
+                self.sin_cos()
+            }
+            #[inline(always)]
+            fn v_max(self, y: Self) -> Self {
+                // `wide`'s max picks the other operand where one is NaN, as f64::max does.
+                self.max(y)
+            }
+            #[inline(always)]
+            fn if_positive(cond: Self, a: Self, b: Self) -> Self {
+                cond.cmp_gt(<$v>::splat(0.0)).blend(a, b)
+            }
+        }
+    };
+}
+
+vector_lane!(F64x4, f64, 4);
+vector_lane!(F32x8, f32, 8);
