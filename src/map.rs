@@ -29,6 +29,34 @@ pub struct MapTimings {
     pub gpu: Option<GpuTimings>,
 }
 
+impl MapTimings {
+    /// The share of the wall time (of `total_s`) each stage took: planning, opening the
+    /// engine, integration and host reductions (on the GPU backend the device's reductions
+    /// are inside `integrate`, see [`GpuTimings`]).
+    pub fn wall_share(&self) -> WallShare {
+        let of = |t: f64| t / self.total_s.max(1e-12);
+        WallShare {
+            plan: of(self.plan_s),
+            device: of(self.device_s),
+            integrate: of(self.integrate_s),
+            reduce: of(self.reduce_s),
+        }
+    }
+}
+
+/// Fractions of a map's wall time, stage by stage (see [`MapTimings::wall_share`]).
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct WallShare {
+    /// Planning.
+    pub plan: f64,
+    /// Opening the engine.
+    pub device: f64,
+    /// Integration.
+    pub integrate: f64,
+    /// Host reductions (K, R, period, spectra of the CPU engine).
+    pub reduce: f64,
+}
+
 /// A finished map.
 #[derive(Debug, Clone, Serialize)]
 pub struct MapRun {

@@ -1,7 +1,7 @@
 //! The engine flags shared by `map`, `search`, `bench`: the CLI's spelling of
 //! [`Backend`] and [`Precision`], and opening the engine once per command.
 
-use pendulum_atlas::engine::{Backend, Engine, EngineError, Precision};
+use pendulum_atlas::engine::{Backend, CpuLoop, Engine, EngineError, Precision};
 
 /// CLI spelling of [`Backend`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -42,7 +42,25 @@ impl From<PrecisionArg> for Precision {
     }
 }
 
-/// `--backend` and `--precision`.
+/// CLI spelling of [`CpuLoop`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum CpuLoopArg {
+    /// One instance per thread task, scalar arithmetic (the SIMD loop's reference).
+    Scalar,
+    /// Instances side by side in vector lanes (4 in f64, 8 in f32).
+    Simd,
+}
+
+impl From<CpuLoopArg> for CpuLoop {
+    fn from(l: CpuLoopArg) -> CpuLoop {
+        match l {
+            CpuLoopArg::Scalar => CpuLoop::Scalar,
+            CpuLoopArg::Simd => CpuLoop::Simd,
+        }
+    }
+}
+
+/// `--backend`, `--precision`, `--adapter` and `--cpu-loop`.
 #[derive(Debug, clap::Args)]
 pub struct EngineArgs {
     /// Engine: `auto` (a hardware GPU, else the software adapter lavapipe, else the CPU),
@@ -55,15 +73,31 @@ pub struct EngineArgs {
     /// Run on this GPU adapter (its index in `pendulum-atlas adapters`); implies the GPU engine.
     #[arg(long, value_name = "INDEX")]
     pub adapter: Option<usize>,
+    /// The CPU engine's loop: `simd` (default: instances in vector lanes) or `scalar` (one
+    /// instance at a time, the reference of the SIMD loop). Only for the CPU engine.
+    #[arg(long, value_enum)]
+    pub cpu_loop: Option<CpuLoopArg>,
 }
 
 impl EngineArgs {
     /// Open the engine once for the whole command.
     pub fn open(&self) -> anyhow::Result<Engine> {
-        match self.adapter {
-            Some(i) => Self::on_adapter(i, self),
-            None => Engine::open(self.backend.into(), self.precision.map(Into::into)).map_err(hint),
+        let mut engine = match self.adapter {
+            Some(i) => Self::on_adapter(i, self)?,
+            None => {
+                Engine::open(self.backend.into(), self.precision.map(Into::into)).map_err(hint)?
+            }
+        };
+        if let Some(l) = self.cpu_loop {
+            if engine.info().cpu_loop.is_none() {
+                anyhow::bail!(
+                    "--cpu-loop applies to the CPU engine, but this command runs on the GPU ({}) [add --backend cpu]",
+                    engine.info().device
+                );
+            }
+            engine.set_cpu_loop(l.into());
         }
+        Ok(engine)
     }
 
     /// The GPU engine on adapter `index`, refusing flags that contradict it.

@@ -15,6 +15,7 @@
 //! The health rules, status codes, check interval and cart motion are defined once in
 //! [`crate::model`]; the physics is written down in `docs/model.md`.
 
+mod auto;
 pub mod cpu;
 mod error;
 pub mod gpu;
@@ -27,7 +28,7 @@ mod single;
 mod step_plan;
 pub mod stepper;
 
-pub use cpu::CpuEngine;
+pub use cpu::{CpuEngine, CpuLoop};
 pub use error::EngineError;
 pub use gpu::{GpuContext, GpuEngine};
 pub use plan::{EARLY_STOP_METRICS, EarlyStop, EnsembleOptions, EnsemblePlan, InstancePlan};
@@ -45,8 +46,8 @@ use std::time::Instant;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Backend {
-    /// A hardware GPU if present, else the software adapter lavapipe (measured about 3x faster
-    /// than the CPU engine on the same cores; see the README), else the CPU engine.
+    /// A hardware GPU if present; else the faster of the software adapter lavapipe and the
+    /// CPU engine, measured by a probe when the engine is opened; else the CPU engine.
     Auto,
     /// The GPU engine (wgpu): a hardware adapter, or lavapipe when that is all there is.
     Gpu,
@@ -107,6 +108,9 @@ pub struct EngineInfo {
     pub reason: String,
     /// Wall time of opening it (the GPU device; 0 for the CPU) (s).
     pub open_s: f64,
+    /// The CPU engine's loop (scalar or SIMD lanes); `None` on the GPU.
+    #[serde(default)]
+    pub cpu_loop: Option<CpuLoop>,
 }
 
 /// What counts as one unit of progress.
@@ -232,21 +236,54 @@ enum EngineImpl {
 }
 
 impl Engine {
-    /// The CPU engine in `precision`.
+    /// The CPU engine in `precision` (SIMD lanes).
     pub fn cpu(precision: Precision) -> Engine {
         Engine::cpu_because(precision, "requested: the CPU engine".into())
     }
 
+    /// The CPU engine in `precision` with the loop `simd`.
+    pub fn cpu_with(precision: Precision, simd: CpuLoop) -> Engine {
+        let mut e = Engine::cpu(precision);
+        e.set_cpu_loop(simd);
+        e
+    }
+
     fn cpu_because(precision: Precision, reason: String) -> Engine {
-        Engine {
+        let mut e = Engine {
             info: EngineInfo {
                 kind: EngineKind::Cpu,
                 precision,
-                device: format!("CPU, {} rayon threads", rayon::current_num_threads()),
+                device: String::new(),
                 reason,
                 open_s: 0.0,
+                cpu_loop: None,
             },
-            inner: EngineImpl::Cpu(CpuEngine { precision }),
+            inner: EngineImpl::Cpu(CpuEngine {
+                precision,
+                simd: CpuLoop::Simd,
+            }),
+        };
+        e.set_cpu_loop(CpuLoop::Simd);
+        e
+    }
+
+    /// Use the loop `simd` if this is the CPU engine (the GPU engine has none).
+    pub fn set_cpu_loop(&mut self, simd: CpuLoop) {
+        if let EngineImpl::Cpu(c) = &mut self.inner {
+            c.simd = simd;
+            self.info.cpu_loop = Some(simd);
+            self.info.device = format!(
+                "CPU, {} rayon threads, {} loop ({} {} lane{})",
+                rayon::current_num_threads(),
+                simd.name(),
+                simd.lanes(c.precision),
+                c.precision.name(),
+                if simd.lanes(c.precision) == 1 {
+                    ""
+                } else {
+                    "s"
+                },
+            );
         }
     }
 
@@ -267,13 +304,14 @@ impl Engine {
                 device: ctx.adapter_name.clone(),
                 reason,
                 open_s,
+                cpu_loop: None,
             },
             inner: EngineImpl::Gpu(Box::new(GpuEngine::new(ctx))),
         }
     }
 
     /// Open the engine a user asked for. `precision` defaults to `f64` on the CPU and `f32`
-    /// otherwise (an `auto` request that finds no adapter runs the CPU engine in `f32`).
+    /// on a GPU; `auto` on a software adapter measures which is faster (see [`auto`]).
     pub fn open(backend: Backend, precision: Option<Precision>) -> Result<Engine, EngineError> {
         let t0 = Instant::now();
         match (backend, precision) {
@@ -288,25 +326,25 @@ impl Engine {
                 Precision::F64,
                 "auto: f64 runs on the CPU engine".into(),
             )),
-            (Backend::Auto, _) => Ok(Engine::auto(t0)),
+            (Backend::Auto, p) => Ok(Engine::auto(t0, p)),
         }
     }
 
-    fn auto(t0: Instant) -> Engine {
+    fn auto(t0: Instant, precision: Option<Precision>) -> Engine {
         match GpuContext::new(gpu::AdapterChoice::Any) {
+            Ok(ctx) if ctx.is_software => {
+                let why = format!("auto: software adapter `{}`", ctx.adapter_name);
+                let gpu = Engine::gpu(ctx, why, t0.elapsed().as_secs_f64());
+                let mut chosen = auto::faster_of(gpu, precision);
+                chosen.info.open_s = t0.elapsed().as_secs_f64();
+                chosen
+            }
             Ok(ctx) => {
-                let why = if ctx.is_software {
-                    format!(
-                        "auto: no hardware GPU; the software adapter `{}` runs maps about 3x faster than the CPU engine on the same cores (README, Backends)",
-                        ctx.adapter_name
-                    )
-                } else {
-                    format!("auto: hardware GPU `{}`", ctx.adapter_name)
-                };
+                let why = format!("auto: hardware GPU `{}`", ctx.adapter_name);
                 Engine::gpu(ctx, why, t0.elapsed().as_secs_f64())
             }
             Err(_) => Engine::cpu_because(
-                Precision::F32,
+                precision.unwrap_or(Precision::F64),
                 "auto: no GPU adapter at all (not even lavapipe): CPU engine".into(),
             ),
         }

@@ -171,6 +171,7 @@ fn map_json(spec: &MapSpec, run: &MapRun, files: &[String]) -> serde_json::Value
             "dispatches": run.dispatches,
         },
         "timings_s": run.timings,
+        "wall_share": run.timings.wall_share(),
         "throughput": {
             "instance_steps_per_s": run.instance_steps_per_s(),
             "segment_steps_per_s": run.segment_steps_per_s(),

@@ -1,0 +1,266 @@
+//! The SIMD loop of the CPU engine: instances integrated side by side in the lanes of a vector
+//! ([`Lane`]: 4 in `f64`, 8 in `f32`), structure of arrays, rayon over lane groups.
+//!
+//! Stages of [`integrate_lanes`]:
+//! 1. [`lane_groups`]: instances of the same structure (and IMEX matrices) are sorted by their
+//!    step count and cut into groups of `LANES`, the last one padded by repeating its last
+//!    instance; the grouping depends on the plan alone, so results do not depend on the
+//!    thread count;
+//! 2. [`run_group`]: one step of the whole vector ([`rk4_step`] or [`Imex::step_with`], the
+//!    very functions the scalar loop runs), then per lane, in the scalar loop's order: bumper
+//!    onsets, the health check when due ([`health_due`], [`crate::model::Guard::check`] on
+//!    that lane), the bookkeeping of [`EnsembleHook::record`]. A lane that has failed, stopped
+//!    early or run all its steps is masked: its arithmetic goes on, its results are frozen;
+//!    the group ends when every lane has;
+//! 3. the cart's acceleration at each stage comes from a per-lane table of one forcing period
+//!    ([`CartTable`]), filled by the same `cart_at` the scalar loop calls.
+
+use super::hook::{EnsembleHook, LaneView, RawInstance, StateView};
+use crate::engine::imex::{C as IMEX_C, Imex};
+use crate::engine::plan::{EnsemblePlan, InstancePlan};
+use crate::engine::rk4::{Rk4Scratch, rk4_step};
+use crate::engine::{Progress, ProgressUnit};
+use crate::model::{Chain, Lane, ModelParams, Real, Status, Workspace, health_due};
+use rayon::prelude::*;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Stage fractions of a step at which RK4 takes the cart (start, middle, end).
+const RK4_STAGES: [f64; 3] = [0.0, 0.5, 1.0];
+
+/// Integrate every instance of `plan` in lanes of `V`; results in plan order.
+pub(super) fn integrate_lanes<V: Lane>(plan: &EnsemblePlan, progress: Progress) -> Vec<RawInstance>
+where
+    V::Scalar: Real,
+{
+    let groups = lane_groups(plan, V::LANES);
+    let done = AtomicU64::new(0);
+    let total = plan.instances.len() as u64;
+    let runs: Vec<Vec<RawInstance>> = groups
+        .par_iter()
+        .map(|g| {
+            let raw = run_group::<V>(plan, g);
+            let n = done.fetch_add(g.len() as u64, Ordering::Relaxed) + g.len() as u64;
+            progress(n, total, ProgressUnit::Instances);
+            raw
+        })
+        .collect();
+    let mut out: Vec<Option<RawInstance>> = vec![None; plan.instances.len()];
+    for (g, raws) in groups.iter().zip(runs) {
+        for (&i, r) in g.iter().zip(raws) {
+            out[i] = Some(r);
+        }
+    }
+    out.into_iter()
+        .map(|r| r.expect("every instance is in one group"))
+        .collect()
+}
+
+/// Instance indices in groups of at most `lanes` that can share a vector: the same structure
+/// ([`Chain::same_structure`]) and IMEX matrices, sorted by step count within a class.
+fn lane_groups(plan: &EnsemblePlan, lanes: usize) -> Vec<Vec<usize>> {
+    let key = |p: &InstancePlan| p.imex.as_ref().map(|m| Arc::as_ptr(m) as usize);
+    let mut classes: Vec<Vec<usize>> = Vec::new();
+    for (i, p) in plan.instances.iter().enumerate() {
+        let same = |c: &Vec<usize>| {
+            let q = &plan.instances[c[0]];
+            key(q) == key(p) && Chain::<f64>::same_structure(&q.params, &p.params)
+        };
+        match classes.iter_mut().find(|c| same(c)) {
+            Some(c) => c.push(i),
+            None => classes.push(vec![i]),
+        }
+    }
+    let mut groups = Vec::new();
+    for mut c in classes {
+        c.sort_by_key(|&i| plan.instances[i].total_steps());
+        groups.extend(c.chunks(lanes).map(<[usize]>::to_vec));
+    }
+    groups
+}
+
+/// The cart's acceleration (m/s²) of each lane at every step of a forcing period and stage
+/// fraction: `table[lane][(step mod spp) · stages + j]`, exactly `cart_at(step, c_j)`; with
+/// each lane's current `step mod spp`, advanced step by step.
+struct CartTable {
+    stages: usize,
+    spp: Vec<usize>,
+    table: Vec<Vec<f64>>,
+    phase: Vec<usize>,
+}
+
+impl CartTable {
+    fn new(plans: &[&InstancePlan], fracs: &[f64]) -> CartTable {
+        let table = plans
+            .iter()
+            .map(|p| {
+                (0..u64::from(p.spp))
+                    .flat_map(|k| fracs.iter().map(move |&c| p.cart_at(k, c).a_m_s2))
+                    .collect()
+            })
+            .collect();
+        CartTable {
+            stages: fracs.len(),
+            spp: plans.iter().map(|p| p.spp as usize).collect(),
+            table,
+            phase: vec![0; plans.len()],
+        }
+    }
+
+    /// The acceleration of every lane at stage `j` of the current step.
+    #[inline]
+    fn at<V: Lane>(&self, j: usize) -> V {
+        V::gather(|i| {
+            let l = i % self.spp.len();
+            self.table[l][self.phase[l] * self.stages + j]
+        })
+    }
+
+    /// On to the next step.
+    #[inline]
+    fn advance(&mut self) {
+        for (ph, &spp) in self.phase.iter_mut().zip(&self.spp) {
+            *ph += 1;
+            if *ph == spp {
+                *ph = 0;
+            }
+        }
+    }
+}
+
+/// The integrator of a lane group.
+enum LaneStepper<V: Lane> {
+    Rk4 { dt: V, scratch: Rk4Scratch<V> },
+    Imex(Box<Imex<V>>),
+}
+
+impl<V: Lane> LaneStepper<V> {
+    fn new(plans: &[&InstancePlan], dim: usize) -> (LaneStepper<V>, Vec<f64>) {
+        match &plans[0].imex {
+            None => {
+                let dt = V::gather(|i| plans[i % plans.len()].dt_s);
+                let scratch = Rk4Scratch::new(dim);
+                (LaneStepper::Rk4 { dt, scratch }, RK4_STAGES.to_vec())
+            }
+            Some(m) => (
+                LaneStepper::Imex(Box::new(Imex::new(m, dim))),
+                IMEX_C.to_vec(),
+            ),
+        }
+    }
+
+    #[inline]
+    fn step(&mut self, chain: &Chain<V>, ws: &mut Workspace<V>, y: &mut [V], cart: &CartTable) {
+        match self {
+            LaneStepper::Rk4 { dt, scratch } => {
+                let acc = [0, 1, 2].map(|j| cart.at::<V>(j));
+                rk4_step(chain, ws, y, scratch, *dt, acc);
+            }
+            LaneStepper::Imex(imex) => imex.step_with(chain, ws, y, |j| cart.at::<V>(j)),
+        }
+    }
+}
+
+/// One lane of a group: its instance, a scalar chain for the health check, the bookkeeping.
+struct LaneState<'a, T: Real> {
+    plan: &'a InstancePlan,
+    chain: Chain<T>,
+    hook: EnsembleHook<'a, T>,
+    touching: (bool, bool),
+    /// `Some` once the lane has ended: its status and steps.
+    end: Option<(Status, u64)>,
+}
+
+impl<T: Real> LaneState<'_, T> {
+    /// The scalar loop's work after step `step` for this lane.
+    fn after_step(
+        &mut self,
+        step: u64,
+        y: &LaneView<'_, impl Lane<Scalar = T>>,
+        now: (bool, bool),
+    ) {
+        let onsets = u32::from(now.0 && !self.touching.0) + u32::from(now.1 && !self.touching.1);
+        self.touching = now;
+        let total = self.plan.total_steps();
+        if health_due(step, total, false) {
+            let state: Vec<T> = (0..y.len()).map(|k| y.at(k)).collect();
+            let v = self.plan.cart_at(step, 0.0).v_m_s;
+            let status = self.plan.guard.check(&self.chain, &state, v);
+            if status != Status::Ok {
+                self.end = Some((status, step));
+                return;
+            }
+        }
+        if self.hook.record(step, y, onsets).is_break() || step == total {
+            self.end = Some((Status::Ok, step));
+        }
+    }
+}
+
+/// Integrate the instances `members` of `plan` side by side in the lanes of `V`.
+fn run_group<V: Lane>(plan: &EnsemblePlan, members: &[usize]) -> Vec<RawInstance>
+where
+    V::Scalar: Real,
+{
+    let plans: Vec<&InstancePlan> = members.iter().map(|&i| &plan.instances[i]).collect();
+    let params: Vec<ModelParams> = plans.iter().map(|p| p.params.clone()).collect();
+    let chain: Chain<V> = Chain::from_lanes(&params);
+    let mut ws = chain.workspace();
+    let dim = plans[0].y0.len();
+    let mut y: Vec<V> = (0..dim)
+        .map(|k| V::gather(|i| plans[i % plans.len()].y0[k]))
+        .collect();
+    let (mut stepper, fracs) = LaneStepper::<V>::new(&plans, dim);
+    let mut cart = CartTable::new(&plans, &fracs);
+    let touching = touching_lanes(&chain, &y);
+    let mut lanes: Vec<LaneState<V::Scalar>> = plans
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| LaneState {
+            plan: p,
+            chain: Chain::new(&p.params),
+            hook: EnsembleHook::new(p, plan.want_strobe, plan.want_rseries, plan.early_stop),
+            touching: touching(i),
+            end: None,
+        })
+        .collect();
+    let longest = plans.iter().map(|p| p.total_steps()).max().unwrap_or(0);
+    for n in 0..longest {
+        stepper.step(&chain, &mut ws, &mut y, &cart);
+        cart.advance();
+        let now = touching_lanes(&chain, &y);
+        let mut running = false;
+        for (i, lane) in lanes
+            .iter_mut()
+            .enumerate()
+            .filter(|(_, l)| l.end.is_none())
+        {
+            lane.after_step(n + 1, &LaneView { y: &y, lane: i }, now(i));
+            running |= lane.end.is_none();
+        }
+        if !running {
+            break;
+        }
+    }
+    lanes
+        .into_iter()
+        .map(|l| {
+            let (status, steps) = l.end.unwrap_or((Status::Ok, l.plan.total_steps()));
+            let mut raw = l.hook.raw;
+            raw.tally.status = status;
+            raw.tally.steps = steps;
+            raw
+        })
+        .collect()
+}
+
+/// Which bumpers each lane touches (δ > 0), as a function of the lane.
+fn touching_lanes<V: Lane>(chain: &Chain<V>, y: &[V]) -> impl Fn(usize) -> (bool, bool) + use<V> {
+    let pen = chain.penetrations(y);
+    let zero = <V::Scalar as num_traits::Zero>::zero();
+    move |i| {
+        pen.map_or((false, false), |(r, l)| {
+            (r.lane(i) > zero, l.lane(i) > zero)
+        })
+    }
+}
