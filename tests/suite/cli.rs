@@ -671,3 +671,50 @@ fn calibrate_writes_its_candidates_best_scene_report_and_manifest() {
         "{report}"
     );
 }
+
+#[test]
+fn cpu_loop_is_recorded_and_refused_on_the_gpu() {
+    let out = out_dir("cpu-loop");
+    std::fs::create_dir_all(&out).unwrap();
+    let tiny = out.join("tiny.toml");
+    std::fs::write(
+        &tiny,
+        "[beam]\nsegments = 3\n[integration]\nduration_s = 3.0\ntransient_s = 1.0\n[map]\nmetrics = [\"hops\"]\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [6.0, 8.0, 10.0]\n",
+    )
+    .unwrap();
+    let st = bin()
+        .args(["map", "--backend", "cpu", "--cpu-loop", "scalar"])
+        .arg(&tiny)
+        .arg("--out")
+        .arg(out.join("run"))
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("run").join("map.json")).unwrap())
+            .unwrap();
+    assert!(
+        json["adapter"].as_str().unwrap().contains("scalar loop"),
+        "{}",
+        json["adapter"]
+    );
+    let share = &json["wall_share"];
+    let sum: f64 = ["plan", "device", "integrate", "reduce"]
+        .iter()
+        .map(|k| share[k].as_f64().unwrap())
+        .sum();
+    assert!(sum > 0.5 && sum <= 1.0 + 1e-9, "{share}");
+    let refused = bin()
+        .args(["map", "--backend", "gpu", "--cpu-loop", "simd"])
+        .arg(&tiny)
+        .arg("--out")
+        .arg(out_dir("cpu-loop-gpu"))
+        .output()
+        .unwrap();
+    assert!(!refused.status.success());
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        err.contains("--cpu-loop applies to the CPU engine") || err.contains("no GPU adapter"),
+        "{err}"
+    );
+}

@@ -73,7 +73,7 @@ fn manifest(dir: &Path) -> serde_json::Value {
     let mut v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("map.json")).unwrap()).unwrap();
     let m = v.as_object_mut().unwrap();
-    for k in ["timings_s", "throughput", "shards"] {
+    for k in ["timings_s", "wall_share", "throughput", "shards"] {
         m.remove(k);
     }
     // GPU dispatches are sized by wall time: a scheduling count, like a timing.

@@ -1,25 +1,30 @@
 //! One suite for every engine and method: the same test bodies ([`cases`]) run on the CPU
-//! engine in f64 and in f32 and on the GPU engine, each with RK4 and with the IMEX method, so
-//! parity is a property of the suite, not a special test.
+//! engine's scalar loop in f64 (the reference), its SIMD loop in f64 and in f32, and on the GPU
+//! engine, each with RK4 and with the IMEX method, so parity is a property of the suite, not a
+//! special test. [`lanes`] adds what only the SIMD loop has to show (lane-for-lane agreement
+//! with the scalar loop, results independent of the thread count).
 //!
 //! The GPU needs a wgpu adapter (lavapipe is enough). Without one its tests print a skip
 //! message, unless PENDULUM_ATLAS_REQUIRE_GPU=1 (as `.ci/run` sets), which makes them fail.
 
 mod cases;
+mod lanes;
 mod layout;
 
 use pendulum_atlas::engine::gpu::REQUIRE_GPU_ENV;
 use pendulum_atlas::engine::method::Method;
-use pendulum_atlas::engine::{Backend, Engine, Precision};
+use pendulum_atlas::engine::{Backend, CpuLoop, Engine, Precision};
 use std::sync::OnceLock;
 
 /// The engines the suite runs on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Eng {
-    /// The CPU engine in f64: the reference of the others.
+    /// The CPU engine's scalar loop in f64: the reference of the others.
     CpuF64,
-    /// The CPU engine in f32.
-    CpuF32,
+    /// The CPU engine's SIMD loop in f64 (4 lanes).
+    SimdF64,
+    /// The CPU engine's SIMD loop in f32 (8 lanes).
+    SimdF32,
     /// The GPU engine (f32).
     Gpu,
 }
@@ -37,17 +42,21 @@ impl Under {
     /// The engine, or `None` (skip) for the GPU when there is no adapter and none is required.
     pub fn engine(self) -> Option<&'static Engine> {
         static CPU64: OnceLock<Engine> = OnceLock::new();
-        static CPU32: OnceLock<Engine> = OnceLock::new();
+        static SIMD64: OnceLock<Engine> = OnceLock::new();
+        static SIMD32: OnceLock<Engine> = OnceLock::new();
         match self.eng {
-            Eng::CpuF64 => Some(CPU64.get_or_init(|| Engine::cpu(Precision::F64))),
-            Eng::CpuF32 => Some(CPU32.get_or_init(|| Engine::cpu(Precision::F32))),
+            Eng::CpuF64 => {
+                Some(CPU64.get_or_init(|| Engine::cpu_with(Precision::F64, CpuLoop::Scalar)))
+            }
+            Eng::SimdF64 => Some(SIMD64.get_or_init(|| Engine::cpu(Precision::F64))),
+            Eng::SimdF32 => Some(SIMD32.get_or_init(|| Engine::cpu(Precision::F32))),
             Eng::Gpu => gpu(),
         }
     }
 
     /// Single precision: the looser parity tolerances apply.
     pub fn is_f32(self) -> bool {
-        self.eng != Eng::CpuF64
+        matches!(self.eng, Eng::SimdF32 | Eng::Gpu)
     }
 
     /// The CPU engine in f64 with the same method: the reference of the comparisons.
@@ -100,10 +109,12 @@ macro_rules! engine_method {
 macro_rules! engine_suite {
     ($($case:ident),* $(,)?) => {
         engine_method!(cpu_f64_rk4, CpuF64, Rk4, [$($case),*]);
-        engine_method!(cpu_f32_rk4, CpuF32, Rk4, [$($case),*]);
+        engine_method!(simd_f64_rk4, SimdF64, Rk4, [$($case),*]);
+        engine_method!(simd_f32_rk4, SimdF32, Rk4, [$($case),*]);
         engine_method!(gpu_rk4, Gpu, Rk4, [$($case),*]);
         engine_method!(cpu_f64_imex, CpuF64, Imex, [$($case),*]);
-        engine_method!(cpu_f32_imex, CpuF32, Imex, [$($case),*]);
+        engine_method!(simd_f64_imex, SimdF64, Imex, [$($case),*]);
+        engine_method!(simd_f32_imex, SimdF32, Imex, [$($case),*]);
         engine_method!(gpu_imex, Gpu, Imex, [$($case),*]);
     };
 }
