@@ -11,6 +11,10 @@
 //! Stages of [`run_bench`]: the reference trajectory, the reference map, one
 //! [`ConfigResult`] per configuration ([`measure_config`]), [`scaling`], [`k_only`].
 
+pub mod cpu_report;
+pub mod cpu_throughput;
+pub mod flops;
+pub mod peer_case;
 pub mod report;
 pub mod stiff;
 pub mod stiff_map;
@@ -189,7 +193,7 @@ fn bench_scene(n: usize, edit: impl FnOnce(&mut Scene)) -> Scene {
 }
 
 /// The machine a study ran on, in words.
-fn machine(gpu: Option<&Engine>) -> String {
+pub(crate) fn machine(gpu: Option<&Engine>) -> String {
     format!(
         "{} CPU threads (rayon){}",
         rayon::current_num_threads(),

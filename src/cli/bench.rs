@@ -1,6 +1,8 @@
 //! `pendulum-atlas bench`: the work-precision study and scaling measurements.
 
 use super::engine::BackendArg;
+use pendulum_atlas::bench::cpu_report::write_cpu_throughput;
+use pendulum_atlas::bench::cpu_throughput::{CpuThroughputOptions, run_cpu_throughput};
 use pendulum_atlas::bench::stiff::{StiffOptions, run_stiff};
 use pendulum_atlas::bench::stiff_map::{StiffMapOptions, run_stiff_map};
 use pendulum_atlas::bench::stiff_map_report::write_stiff_map;
@@ -29,6 +31,16 @@ pub struct BenchArgs {
     /// 2 cores, `--quick` minutes).
     #[arg(long, conflicts_with = "stiff")]
     pub stiff_map: bool,
+    /// The CPU throughput study instead: scalar and SIMD loop, f32 and f64, one thread and
+    /// all, N = 3, 9, 17, against the machine's flop ceiling; the default map on each engine;
+    /// the peers' results from --peers (writes CPU.md, cpu_throughput.json and the peers'
+    /// cases peer_case_N*.json; minutes on 2 cores, `--quick` about one).
+    #[arg(long, conflicts_with_all = ["stiff", "stiff_map"])]
+    pub cpu_throughput: bool,
+    /// A folder of peer results (`jax_*.json`, see benches/peers/README.md) to compare with
+    /// (only with --cpu-throughput).
+    #[arg(long, requires = "cpu_throughput")]
+    pub peers: Option<PathBuf>,
     /// Output folder.
     #[arg(long, default_value = "runs/bench")]
     pub out: PathBuf,
@@ -40,7 +52,9 @@ pub struct BenchArgs {
 
 /// The study asked for, as the files it writes.
 fn study(a: &BenchArgs) -> Product {
-    if a.stiff_map {
+    if a.cpu_throughput {
+        Product::BenchCpu
+    } else if a.stiff_map {
         Product::BenchStiffMap
     } else if a.stiff {
         Product::BenchStiff
@@ -58,6 +72,9 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
         BackendArg::Gpu => Some(super::engine::EngineArgs::gpu_engine()?),
         BackendArg::Auto => super::engine::EngineArgs::gpu_engine().ok(),
     };
+    if a.cpu_throughput {
+        return cpu_throughput(&a, gpu.as_ref());
+    }
     if a.stiff_map {
         let report = run_stiff_map(
             &StiffMapOptions {
@@ -103,6 +120,29 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
     println!(
         "bench: {} configurations in {:.0} s",
         report.configs.len(),
+        report.total_s
+    );
+    println!("wrote {} files to {}", files.len(), a.out.display());
+    Ok(())
+}
+
+/// `bench --cpu-throughput`.
+fn cpu_throughput(
+    a: &BenchArgs,
+    gpu: Option<&pendulum_atlas::engine::Engine>,
+) -> anyhow::Result<()> {
+    let report = run_cpu_throughput(
+        &CpuThroughputOptions {
+            quick: a.quick,
+            peers: a.peers.clone(),
+            gpu,
+        },
+        &|line| eprintln!("{line}"),
+    )?;
+    let files = write_cpu_throughput(&a.out, &report)?;
+    println!(
+        "bench --cpu-throughput: {} configurations in {:.0} s",
+        report.rows.len(),
         report.total_s
     );
     println!("wrote {} files to {}", files.len(), a.out.display());

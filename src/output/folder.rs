@@ -38,11 +38,13 @@ pub enum Product {
     BenchStiff,
     /// `bench --stiff-map`: `STIFF_MAP.md`, `stiff_map.csv`, `stiff_map.json`.
     BenchStiffMap,
+    /// `bench --cpu-throughput`: `CPU.md`, `cpu_throughput.json`, `peer_case_N*.json`.
+    BenchCpu,
 }
 
 impl Product {
     /// Every product, for finding whose manifest a folder holds.
-    pub const ALL: [Product; 11] = [
+    pub const ALL: [Product; 12] = [
         Product::Simulate,
         Product::Map,
         Product::Shard,
@@ -54,6 +56,7 @@ impl Product {
         Product::Bench,
         Product::BenchStiff,
         Product::BenchStiffMap,
+        Product::BenchCpu,
     ];
 
     /// The command that writes it (the bench studies share one and may share a folder).
@@ -67,7 +70,9 @@ impl Product {
             Product::Reproduce => "reproduce",
             Product::Search => "search",
             Product::Calibrate => "calibrate",
-            Product::Bench | Product::BenchStiff | Product::BenchStiffMap => "bench",
+            Product::Bench | Product::BenchStiff | Product::BenchStiffMap | Product::BenchCpu => {
+                "bench"
+            }
         }
     }
 
@@ -85,6 +90,7 @@ impl Product {
             Product::Bench => "bench.json",
             Product::BenchStiff => "stiff.json",
             Product::BenchStiffMap => "stiff_map.json",
+            Product::BenchCpu => "cpu_throughput.json",
         }
     }
 
@@ -120,6 +126,12 @@ impl Product {
             Product::Bench => &["BENCHMARKS.md", "work_precision.png", "map_error.png"],
             Product::BenchStiff => &["STIFF.md", "stiff_work_precision.png"],
             Product::BenchStiffMap => &["STIFF_MAP.md", "stiff_map.csv"],
+            Product::BenchCpu => &[
+                "CPU.md",
+                "peer_case_N3.json",
+                "peer_case_N9.json",
+                "peer_case_N17.json",
+            ],
         }
     }
 
@@ -130,7 +142,9 @@ impl Product {
             Product::Shard => &["npy"],
             Product::Slurm => &[],
             Product::Reproduce | Product::Search | Product::Calibrate => &["png"],
-            Product::Bench | Product::BenchStiff | Product::BenchStiffMap => &[],
+            Product::Bench | Product::BenchStiff | Product::BenchStiffMap | Product::BenchCpu => {
+                &[]
+            }
         }
     }
 
