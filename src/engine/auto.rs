@@ -2,8 +2,8 @@
 //! same CPU cores as the CPU engine): the faster of the two, measured on this machine at
 //! open time, not assumed.
 //!
-//! The probe is a slice of the embedded default map ([`probe_plan`]: 512 of its instances over
-//! 3 s, hops and α range) timed end to end on each engine after one warm-up run; the CPU
+//! The probe is a slice of the embedded default map ([`probe_plan`]: 128 of its instances at
+//! 11–12 Hz over 10 s, every metric) timed end to end on each engine after one warm-up run; the CPU
 //! engine is tried in `f64` first (the more accurate, kept when it is at least as fast), then
 //! in `f32` unless `f64` was asked for. A hardware GPU is taken without a probe.
 
@@ -13,17 +13,18 @@ use crate::reduce::ReduceOptions;
 use std::time::Instant;
 
 /// Instances of the probe.
-const PROBE_INSTANCES: usize = 512;
+const PROBE_INSTANCES: usize = 128;
 
-/// The probe: 512 instances spread over the default map's forcing plane, 3 s each (1 s
-/// transient), hops and α range.
+/// The probe: 128 instances of the default map with every one of its metrics (lavapipe's cost
+/// is mostly its reductions), on the plane's fast end (11–12 Hz) so that 10 s give K its 95
+/// stroboscopic samples.
 fn probe_plan() -> Option<EnsemblePlan> {
+    let text = DEFAULT_MAP_TOML.replace("start = 4.0", "start = 11.0");
     let sets = [
-        "integration.duration_s=3.0".to_string(),
-        "integration.transient_s=1.0".to_string(),
-        "map.metrics=[\"hops\",\"alpha_range\"]".to_string(),
+        "integration.duration_s=10.0".to_string(),
+        "integration.transient_s=0.5".to_string(),
     ];
-    let spec = map_from_toml(DEFAULT_MAP_TOML, "configs/maps/default.toml", &sets).ok()?;
+    let spec = map_from_toml(&text, "configs/maps/default.toml", &sets).ok()?;
     let plan = EnsemblePlan::new(&spec).ok()?;
     let total = plan.instances.len();
     let members: Vec<usize> = (0..PROBE_INSTANCES.min(total))
@@ -46,6 +47,11 @@ fn probe_s(engine: &Engine, plan: &EnsemblePlan) -> Option<f64> {
 /// else `f32`, unless `precision` fixes it), with the measured times in its reason.
 pub(super) fn faster_of(gpu: Engine, precision: Option<Precision>) -> Engine {
     let Some(plan) = probe_plan() else {
+        let mut gpu = gpu;
+        gpu.info.reason = format!(
+            "auto: software adapter `{}` (the probe against the CPU engine could not be planned)",
+            gpu.info.device
+        );
         return gpu;
     };
     let Some(gpu_s) = probe_s(&gpu, &plan) else {
