@@ -109,16 +109,23 @@ struct Control {
 @group(0) @binding(2) var<storage, read_write> acc: array<Accum>;
 // The IMEX method's matrices (M0⁻¹, S⁻¹, M0; N × N each, row-major) per structure and step.
 @group(0) @binding(8) var<storage, read> imex_mats: array<f32>;
-// Stroboscopic samples of α, `strobe_stride` per instance.
+// Stroboscopic samples of α, sample-major: sample j of instance i at [at(i, j)].
 @group(0) @binding(3) var<storage, read_write> strobe: array<f32>;
 // Work space of the reductions: the uniform α series (then its analytic signal and the
-// cart's), or the (p, q) sums of the 0–1 test; `rwork_stride` per instance.
+// cart's), or the (p, q) sums of the 0–1 test; sample-major like `strobe`.
 @group(0) @binding(4) var<storage, read_write> rwork: array<vec2<f32>>;
 // c / 2π of the 0–1 test as 32-bit fixed-point fractions of a turn (exact phase arithmetic).
 @group(0) @binding(5) var<storage, read> cturns: array<u32>;
 @group(0) @binding(6) var<uniform> ctl: Control;
-// K_c of every instance and c value, N_C per instance.
+// K_c of every instance and c value: value c of instance i at [at(i, c)].
 @group(0) @binding(7) var<storage, read_write> kc: array<f32>;
+
+// Word j of instance `inst` in the per-instance series (strobe, rwork, kc): sample-major, as
+// the state is, so that neighbouring invocations read and write neighbouring words (coalesced
+// on a GPU, one cache line per vector of invocations on lavapipe).
+fn at(inst: u32, j: u32) -> u32 {
+    return j * ctl.n_inst + inst;
+}
 
 // ---- per-invocation state of the integrator ---------------------------------------------
 var<private> P: InstanceParams;

@@ -339,13 +339,13 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
         if WANT_STROBE && s >= transient && s % P.spp == P.strobe_offset {
             let k = (s - P.strobe_offset) / P.spp - P.transient_periods;
             if k < P.strobe_count {
-                strobe[inst * ctl.strobe_stride + k] = alpha;
+                strobe[at(inst, k)] = alpha;
             }
         }
         if WANT_RSERIES && s >= P.r_start && (s - P.r_start) % P.r_every == 0u {
             let j = (s - P.r_start) / P.r_every;
             if j < P.r_count {
-                rwork[inst * ctl.rwork_stride + j] = vec2<f32>(alpha, 0.0);
+                rwork[at(inst, j)] = vec2<f32>(alpha, 0.0);
             }
         }
         if s % CHECK_EVERY == 0u || s == total {

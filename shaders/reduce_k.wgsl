@@ -18,14 +18,12 @@ fn k_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let n = params[inst].strobe_count;
-    let sb = inst * ctl.strobe_stride;
-    let wb = inst * ctl.rwork_stride;
     let n_cut = (n + 5u) / 10u;
-    var lo = strobe[sb];
-    var hi = strobe[sb];
+    var lo = strobe[at(inst, 0u)];
+    var hi = strobe[at(inst, 0u)];
     var mean = 0.0;
     for (var j = 0u; j < n; j++) {
-        let v = strobe[sb + j];
+        let v = strobe[at(inst, j)];
         lo = min(lo, v);
         hi = max(hi, v);
         mean += v;
@@ -38,11 +36,11 @@ fn k_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
         var sp = 0.0;
         var sq = 0.0;
         for (var j = 0u; j < n; j++) {
-            let v = strobe[sb + j];
+            let v = strobe[at(inst, j)];
             let e = turn_cos_sin(j + 1u, turns);
             sp += v * e.x;
             sq += v * e.y;
-            rwork[wb + j] = vec2<f32>(sp, sq);
+            rwork[at(inst, j)] = vec2<f32>(sp, sq);
         }
         let mean_sq = mean * mean;
         let one_minus_cos_c = 1.0 - turn_cos_sin(1u, turns).x;
@@ -51,12 +49,12 @@ fn k_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
         for (var lag = 1u; lag <= n_cut; lag++) {
             var sum = 0.0;
             for (var j = 0u; j + lag < n; j++) {
-                let d = rwork[wb + j + lag] - rwork[wb + j];
+                let d = rwork[at(inst, j + lag)] - rwork[at(inst, j)];
                 sum += dot(d, d);
             }
             let m = sum / f32(n - lag);
             let dv = m - mean_sq * (1.0 - turn_cos_sin(lag, turns).x) / one_minus_cos_c;
-            rwork[wb + n + lag - 1u] = vec2<f32>(dv, 0.0);
+            rwork[at(inst, n + lag - 1u)] = vec2<f32>(dv, 0.0);
             d_sum += dv;
         }
         let d_mean = d_sum / f32(n_cut);
@@ -65,7 +63,7 @@ fn k_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
         var sxx = 0.0;
         var syy = 0.0;
         for (var lag = 1u; lag <= n_cut; lag++) {
-            let dy = rwork[wb + n + lag - 1u].x - d_mean;
+            let dy = rwork[at(inst, n + lag - 1u)].x - d_mean;
             let dx = f32(lag) - xi_mean;
             sxy += dx * dy;
             sxx += dx * dx;
@@ -75,7 +73,7 @@ fn k_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
             k_c = sxy / sqrt(sxx * syy);
         }
     }
-    kc[inst * N_C + ctl.c_index] = k_c;
+    kc[at(inst, ctl.c_index)] = k_c;
 }
 
 // Sorting space of k_final: one row of N_C values per invocation, sized by overrides.
@@ -97,7 +95,7 @@ fn k_final(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocat
     if WANT_K {
         let row = lid * N_C;
         for (var i = 0u; i < N_C; i++) {
-            let v = kc[inst * N_C + i];
+            let v = kc[at(inst, i)];
             var j = i;
             loop {
                 if j == 0u || kc_rows[row + j - 1u] <= v {
@@ -115,18 +113,18 @@ fn k_final(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocat
         }
     }
     acc[inst].k = kval;
-    acc[inst].period = detect_period(inst * ctl.strobe_stride, params[inst].strobe_count);
+    acc[inst].period = detect_period(inst, params[inst].strobe_count);
 }
 // analysis::detect_period on the stroboscopic samples: the smallest p ≤ period_max with the
 // last `period_window` samples repeating within tol · max(1, max|x|); 0 when none.
-fn detect_period(sb: u32, n: u32) -> u32 {
+fn detect_period(inst: u32, n: u32) -> u32 {
     let m = ctl.period_window;
     if m == 0u || m > n {
         return 0u;
     }
     var scale = 0.0;
     for (var k = n - m; k < n; k++) {
-        scale = max(scale, abs(strobe[sb + k]));
+        scale = max(scale, abs(strobe[at(inst, k)]));
     }
     let bound = ctl.period_tol * max(scale, 1.0);
     for (var p = 1u; p <= ctl.period_max; p++) {
@@ -135,7 +133,7 @@ fn detect_period(sb: u32, n: u32) -> u32 {
         }
         var fits = true;
         for (var k = n - m; k < n; k++) {
-            if !(abs(strobe[sb + k] - strobe[sb + k - p]) <= bound) {
+            if !(abs(strobe[at(inst, k)] - strobe[at(inst, k - p)]) <= bound) {
                 fits = false;
                 break;
             }

@@ -7,9 +7,10 @@ fn cmul(a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
     return vec2<f32>(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x);
 }
 
-// In-place iterative radix-2 FFT of rwork[base .. base + n] (n a power of two); `sign` is
+// In-place iterative radix-2 FFT of words off .. off + n of instance `inst` in rwork (n a power
+// of two); `sign` is
 // −1 for the forward transform and +1 for the (unscaled) inverse.
-fn fft(base: u32, n: u32, sign: f32) {
+fn fft(inst: u32, off: u32, n: u32, sign: f32) {
     var j = 0u;
     for (var i = 1u; i < n; i++) {
         var bit = n >> 1u;
@@ -22,9 +23,9 @@ fn fft(base: u32, n: u32, sign: f32) {
         }
         j ^= bit;
         if i < j {
-            let t = rwork[base + i];
-            rwork[base + i] = rwork[base + j];
-            rwork[base + j] = t;
+            let t = rwork[at(inst, off + i)];
+            rwork[at(inst, off + i)] = rwork[at(inst, off + j)];
+            rwork[at(inst, off + j)] = t;
         }
     }
     var len = 2u;
@@ -37,43 +38,43 @@ fn fft(base: u32, n: u32, sign: f32) {
             for (var k = 0u; k < half; k++) {
                 let ang = sign * TAU * f32(k) / f32(len);
                 let w = vec2<f32>(cos(ang), sin(ang));
-                let u = rwork[base + start + k];
-                let v = cmul(rwork[base + start + k + half], w);
-                rwork[base + start + k] = u + v;
-                rwork[base + start + k + half] = u - v;
+                let u = rwork[at(inst, off + start + k)];
+                let v = cmul(rwork[at(inst, off + start + k + half)], w);
+                rwork[at(inst, off + start + k)] = u + v;
+                rwork[at(inst, off + start + k + half)] = u - v;
             }
         }
         len <<= 1u;
     }
 }
 
-// Analytic signal of the real parts of rwork[base .. base + n] (mean removed), in place:
+// Analytic signal of the real parts of words off .. off + n of `inst` (mean removed), in place:
 // FFT, weights h (1 at DC and Nyquist, 2 for positive, 0 for negative frequencies), inverse.
-fn analytic(base: u32, n: u32) {
+fn analytic(inst: u32, off: u32, n: u32) {
     var mean = 0.0;
     for (var j = 0u; j < n; j++) {
-        mean += rwork[base + j].x;
+        mean += rwork[at(inst, off + j)].x;
     }
     mean /= f32(n);
     for (var j = 0u; j < n; j++) {
-        rwork[base + j] = vec2<f32>(rwork[base + j].x - mean, 0.0);
+        rwork[at(inst, off + j)] = vec2<f32>(rwork[at(inst, off + j)].x - mean, 0.0);
     }
-    fft(base, n, -1.0);
+    fft(inst, off, n, -1.0);
     let half = n / 2u;
     for (var k = 1u; k < n; k++) {
         if k < half {
-            rwork[base + k] *= 2.0;
+            rwork[at(inst, off + k)] *= 2.0;
         } else if k > half {
-            rwork[base + k] = vec2<f32>(0.0, 0.0);
+            rwork[at(inst, off + k)] = vec2<f32>(0.0, 0.0);
         }
     }
-    fft(base, n, 1.0);
+    fft(inst, off, n, 1.0);
 }
 
-// One-sided amplitude of bin k of an n-point transform at rwork[base ..], up to the common
+// One-sided amplitude of bin k of an n-point transform at word off of `inst`, up to the common
 // factor 1/Σw: 2|X_k|, but |X_k| at DC and Nyquist (src/analysis/spectrum.rs).
-fn one_sided(base: u32, k: u32, n: u32) -> f32 {
-    let a = length(rwork[base + k]);
+fn one_sided(inst: u32, off: u32, k: u32, n: u32) -> f32 {
+    let a = length(rwork[at(inst, off + k)]);
     if k == 0u || k == n / 2u {
         return a;
     }
@@ -98,23 +99,21 @@ fn line(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let p = params[inst];
     let n = p.r_count;
-    let base_a = inst * ctl.rwork_stride;
-    let base_w = base_a + n;
     var mean = 0.0;
     for (var j = 0u; j < n; j++) {
-        mean += rwork[base_a + j].x;
+        mean += rwork[at(inst, j)].x;
     }
     mean /= f32(n);
     for (var j = 0u; j < n; j++) {
         let w = 0.5 * (1.0 - cos(TAU * f32(j) / f32(n)));
-        rwork[base_w + j] = vec2<f32>((rwork[base_a + j].x - mean) * w, 0.0);
+        rwork[at(inst, n + j)] = vec2<f32>((rwork[at(inst, j)].x - mean) * w, 0.0);
     }
-    fft(base_w, n, -1.0);
+    fft(inst, n, n, -1.0);
     let half = n / 2u;
     var k = 1u;
     var c = -1.0;
     for (var j = 1u; j <= half; j++) {
-        let a = one_sided(base_w, j, n);
+        let a = one_sided(inst, n, j, n);
         if a >= c {
             k = j;
             c = a;
@@ -126,8 +125,8 @@ fn line(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     var shift = 0.0;
     if k < half {
-        let l = one_sided(base_w, k - 1u, n);
-        let r = one_sided(base_w, k + 1u, n);
+        let l = one_sided(inst, n, k - 1u, n);
+        let r = one_sided(inst, n, k + 1u, n);
         if l > 0.0 && r > 0.0 {
             let curvature = log(l) - 2.0 * log(c) + log(r);
             if curvature < 0.0 {
@@ -148,7 +147,7 @@ fn r_alpha(@builtin(global_invocation_id) gid: vec3<u32>) {
     if inst >= ctl.n_inst || acc[inst].status != STATUS_OK {
         return;
     }
-    analytic(inst * ctl.rwork_stride, params[inst].r_count);
+    analytic(inst, 0u, params[inst].r_count);
 }
 
 @compute @workgroup_size(WG)
@@ -159,13 +158,12 @@ fn r_cart(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let p = params[inst];
     let n = p.r_count;
-    let base_c = inst * ctl.rwork_stride + n;
     for (var j = 0u; j < n; j++) {
         let s = p.r_start + j * p.r_every;
         let ph = f32(s % p.spp) / f32(p.spp);
-        rwork[base_c + j] = vec2<f32>(p.pos_amp * sin(TAU * ph), 0.0);
+        rwork[at(inst, n + j)] = vec2<f32>(p.pos_amp * sin(TAU * ph), 0.0);
     }
-    analytic(base_c, n);
+    analytic(inst, n, n);
 }
 
 @compute @workgroup_size(WG)
@@ -179,13 +177,11 @@ fn r_phase(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let n = params[inst].r_count;
-    let base_a = inst * ctl.rwork_stride;
-    let base_c = base_a + n;
     var sum_c = 0.0;
     var sum_s = 0.0;
     for (var j = 0u; j < n; j++) {
-        let za = rwork[base_a + j];
-        let zc = rwork[base_c + j];
+        let za = rwork[at(inst, j)];
+        let zc = rwork[at(inst, n + j)];
         var d = atan2(za.y, za.x) - atan2(zc.y, zc.x);
         if PAPER_CONVENTION {
             d = d - PI * floor((d + 0.5 * PI) / PI);

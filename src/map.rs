@@ -1,6 +1,8 @@
 //! A map from start to finish: plan the instances of a [`MapSpec`], run them on an opened
 //! [`Engine`], keep what the pictures need. [`crate::output::map`] writes the files.
 
+pub mod hardware_default;
+
 use crate::config::MapSpec;
 use crate::engine::gpu::GpuTimings;
 use crate::engine::{

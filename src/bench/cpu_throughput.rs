@@ -360,7 +360,7 @@ fn ceiling(cores: usize) -> Ceiling {
 }
 
 /// The clock of the first core in `/proc/cpuinfo` (GHz).
-fn cpu_ghz() -> Option<f64> {
+pub(crate) fn cpu_ghz() -> Option<f64> {
     let text = std::fs::read_to_string("/proc/cpuinfo").ok()?;
     let line = text.lines().find(|l| l.starts_with("cpu MHz"))?;
     let mhz: f64 = line.split(':').nth(1)?.trim().parse().ok()?;
@@ -369,25 +369,31 @@ fn cpu_ghz() -> Option<f64> {
 
 /// Every `jax_*.json` in `dir`.
 fn read_peers(dir: &std::path::Path) -> Result<Vec<PeerRow>, CpuThroughputError> {
-    let err = |path: &std::path::Path, reason: String| CpuThroughputError::Peer {
-        path: path.to_path_buf(),
-        reason,
-    };
-    let entries = std::fs::read_dir(dir).map_err(|e| err(dir, e.to_string()))?;
+    read_peer_files(dir, |n| n.starts_with("jax_"))
+        .map_err(|(path, reason)| CpuThroughputError::Peer { path, reason })
+}
+
+/// The JSON files in `dir` whose names `accept` takes, parsed, sorted by name; the file and
+/// the reason on failure.
+pub(crate) fn read_peer_files<T: serde::de::DeserializeOwned>(
+    dir: &std::path::Path,
+    accept: impl Fn(&str) -> bool,
+) -> Result<Vec<T>, (PathBuf, String)> {
+    let entries = std::fs::read_dir(dir).map_err(|e| (dir.to_path_buf(), e.to_string()))?;
     let mut paths: Vec<PathBuf> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| {
             p.file_name()
                 .and_then(|n| n.to_str())
-                .is_some_and(|n| n.starts_with("jax_") && n.ends_with(".json"))
+                .is_some_and(|n| accept(n) && n.ends_with(".json"))
         })
         .collect();
     paths.sort();
     paths
         .iter()
         .map(|p| {
-            let text = std::fs::read_to_string(p).map_err(|e| err(p, e.to_string()))?;
-            serde_json::from_str(&text).map_err(|e| err(p, e.to_string()))
+            let text = std::fs::read_to_string(p).map_err(|e| (p.clone(), e.to_string()))?;
+            serde_json::from_str(&text).map_err(|e| (p.clone(), e.to_string()))
         })
         .collect()
 }

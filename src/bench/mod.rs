@@ -14,6 +14,8 @@
 pub mod cpu_report;
 pub mod cpu_throughput;
 pub mod flops;
+pub mod gpu_report;
+pub mod gpu_throughput;
 pub mod peer_case;
 pub mod report;
 pub mod stiff;

@@ -3,6 +3,8 @@
 use super::engine::BackendArg;
 use pendulum_atlas::bench::cpu_report::write_cpu_throughput;
 use pendulum_atlas::bench::cpu_throughput::{CpuThroughputOptions, run_cpu_throughput};
+use pendulum_atlas::bench::gpu_report::write_throughput;
+use pendulum_atlas::bench::gpu_throughput::{SEGMENTS, ThroughputOptions, run_throughput};
 use pendulum_atlas::bench::stiff::{StiffOptions, run_stiff};
 use pendulum_atlas::bench::stiff_map::{StiffMapOptions, run_stiff_map};
 use pendulum_atlas::bench::stiff_map_report::write_stiff_map;
@@ -37,9 +39,34 @@ pub struct BenchArgs {
     /// cases peer_case_N*.json; minutes on 2 cores, `--quick` about one).
     #[arg(long, conflicts_with_all = ["stiff", "stiff_map"])]
     pub cpu_throughput: bool,
-    /// A folder of peer results (`jax_*.json`, see benches/peers/README.md) to compare with
-    /// (only with --cpu-throughput).
-    #[arg(long, requires = "cpu_throughput")]
+    /// The GPU throughput study instead: the ensemble engine at N = 3, 9, 17 on the default
+    /// and paper scenes, RK4 and IMEX, 1e3 to 1e6 instances (each rung within --row-budget-s),
+    /// against the adapter's FP32 peak, with the CPU engine beside it; K only against all
+    /// metrics; the peers' results from --peers (writes GPU.md and gpu_throughput.json).
+    #[arg(long, conflicts_with_all = ["stiff", "stiff_map", "cpu_throughput"])]
+    pub throughput: bool,
+    /// The largest rung of the --throughput ladder (instances, 1000 to 1000000).
+    #[arg(long, default_value_t = 1_000_000, requires = "throughput",
+          value_parser = clap::value_parser!(u64).range(1000..=1_000_000))]
+    pub max_instances: u64,
+    /// The longest a --throughput row may take, estimated from the rate measured so far
+    /// (seconds, 0.1 to 3600); longer rungs are listed as skipped.
+    #[arg(long, default_value_t = 20.0, requires = "throughput", value_parser = budget_s)]
+    pub row_budget_s: f64,
+    /// The GPU adapter's FP32 peak (TFLOP/s, above 0 and at most 10000) where the built-in
+    /// table does not know the adapter (only with --throughput).
+    #[arg(long, requires = "throughput", value_parser = peak_tflops)]
+    pub peak_tflops: Option<f64>,
+    /// Segment counts of the --throughput study (default 3,9,17; each 1 to 64).
+    #[arg(long, value_delimiter = ',', requires = "throughput",
+          value_parser = clap::value_parser!(u64).range(1..=64))]
+    pub segments: Vec<u64>,
+    /// Leave the CPU engine out of the --throughput study.
+    #[arg(long, requires = "throughput")]
+    pub no_cpu: bool,
+    /// A folder of peer results to compare with: `jax_*.json` for --cpu-throughput,
+    /// `jax_gpu_*.json` and `cuda_*.json` for --throughput (see benches/peers/README.md).
+    #[arg(long)]
     pub peers: Option<PathBuf>,
     /// Output folder.
     #[arg(long, default_value = "runs/bench")]
@@ -52,7 +79,9 @@ pub struct BenchArgs {
 
 /// The study asked for, as the files it writes.
 fn study(a: &BenchArgs) -> Product {
-    if a.cpu_throughput {
+    if a.throughput {
+        Product::BenchGpu
+    } else if a.cpu_throughput {
         Product::BenchCpu
     } else if a.stiff_map {
         Product::BenchStiffMap
@@ -65,6 +94,9 @@ fn study(a: &BenchArgs) -> Product {
 
 /// Run `bench`.
 pub fn run(a: BenchArgs) -> anyhow::Result<()> {
+    if a.peers.is_some() && !(a.cpu_throughput || a.throughput) {
+        anyhow::bail!("--peers needs --cpu-throughput or --throughput");
+    }
     super::claim_out(study(&a), &a.out, a.force)?;
     // The GPU device is opened once here and reused by every configuration.
     let gpu = match a.backend {
@@ -74,6 +106,9 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
     };
     if a.cpu_throughput {
         return cpu_throughput(&a, gpu.as_ref());
+    }
+    if a.throughput {
+        return throughput(&a, gpu.as_ref());
     }
     if a.stiff_map {
         let report = run_stiff_map(
@@ -142,6 +177,63 @@ fn cpu_throughput(
     let files = write_cpu_throughput(&a.out, &report)?;
     println!(
         "bench --cpu-throughput: {} configurations in {:.0} s",
+        report.rows.len(),
+        report.total_s
+    );
+    println!("wrote {} files to {}", files.len(), a.out.display());
+    Ok(())
+}
+
+/// A row budget in seconds, 0.1 to 3600.
+fn budget_s(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number of seconds"))?;
+    if (0.1..=3600.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("{v} s is outside the accepted 0.1 to 3600 s"))
+    }
+}
+
+/// A peak in TFLOP/s, above 0 and at most 10000.
+fn peak_tflops(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number of TFLOP/s"))?;
+    if v > 0.0 && v <= 1e4 {
+        Ok(v)
+    } else {
+        Err(format!("{v} TFLOP/s is outside the accepted (0, 10000]"))
+    }
+}
+
+/// `bench --throughput`.
+fn throughput(a: &BenchArgs, gpu: Option<&pendulum_atlas::engine::Engine>) -> anyhow::Result<()> {
+    if gpu.is_none() && a.no_cpu {
+        anyhow::bail!("bench --throughput --no-cpu needs a GPU adapter, and none was found");
+    }
+    let segments = if a.segments.is_empty() {
+        SEGMENTS.to_vec()
+    } else {
+        a.segments.iter().map(|&n| n as usize).collect()
+    };
+    let report = run_throughput(
+        &ThroughputOptions {
+            gpu,
+            cpu: !a.no_cpu,
+            max_instances: a.max_instances as usize,
+            row_budget_s: a.row_budget_s,
+            peak_flop_per_s: a.peak_tflops.map(|t| t * 1e12),
+            peers: a.peers.clone(),
+            segments,
+        },
+        &|line| eprintln!("{line}"),
+    )?;
+    let files = write_throughput(&a.out, &report)?;
+    let measured = report.rows.iter().filter(|r| r.skipped.is_none()).count();
+    println!(
+        "bench --throughput: {measured} of {} rows measured in {:.0} s",
         report.rows.len(),
         report.total_s
     );

@@ -5,6 +5,7 @@ use super::engine::{EngineArgs, hint};
 use pendulum_atlas::config::{DEFAULT_MAP_TOML, MapSpec, map_from_toml, scene_text};
 use pendulum_atlas::engine::gpu::list_adapters;
 use pendulum_atlas::engine::{Engine, no_progress};
+use pendulum_atlas::map::hardware_default::hardware_default;
 use pendulum_atlas::map::{MapRun, run_map, run_map_on_devices, run_map_shard};
 use pendulum_atlas::model::Status;
 use pendulum_atlas::output::folder::Product;
@@ -59,7 +60,7 @@ pub struct MergeArgs {
 
 /// Run `map`.
 pub fn run(a: MapArgs) -> anyhow::Result<()> {
-    let (text, spec) = read_map(a.scene.as_deref(), &a.sets)?;
+    let (text, mut spec) = read_map(a.scene.as_deref(), &a.sets)?;
     if let Some(s) = a.shard {
         check_shard_count("--shard", s.count, &spec)?;
     }
@@ -67,6 +68,16 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
         return run_on_devices(&a, d, &spec);
     }
     let engine = a.engine.open()?;
+    let hardware = a.scene.is_none() && a.shard.is_none() && engine.is_hardware_gpu();
+    if let Some(choice) = hardware
+        .then(|| hardware_default(&engine, &a.sets))
+        .transpose()?
+        .flatten()
+    {
+        eprintln!("{}", choice.reason);
+        let sets = [a.sets.clone(), choice.sets].concat();
+        spec = read_map(None, &sets)?.1;
+    }
     let product = if a.shard.is_some() {
         Product::Shard
     } else {

@@ -355,6 +355,11 @@ impl Engine {
         &self.info
     }
 
+    /// Whether this is the GPU engine on a hardware adapter (not a software one like lavapipe).
+    pub fn is_hardware_gpu(&self) -> bool {
+        self.gpu_context().is_some_and(|c| !c.is_software)
+    }
+
     /// The GPU context, when this is the GPU engine.
     pub fn gpu_context(&self) -> Option<&GpuContext> {
         match &self.inner {

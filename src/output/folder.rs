@@ -40,11 +40,13 @@ pub enum Product {
     BenchStiffMap,
     /// `bench --cpu-throughput`: `CPU.md`, `cpu_throughput.json`, `peer_case_N*.json`.
     BenchCpu,
+    /// `bench --throughput`: `GPU.md`, `gpu_throughput.json`.
+    BenchGpu,
 }
 
 impl Product {
     /// Every product, for finding whose manifest a folder holds.
-    pub const ALL: [Product; 12] = [
+    pub const ALL: [Product; 13] = [
         Product::Simulate,
         Product::Map,
         Product::Shard,
@@ -57,6 +59,7 @@ impl Product {
         Product::BenchStiff,
         Product::BenchStiffMap,
         Product::BenchCpu,
+        Product::BenchGpu,
     ];
 
     /// The command that writes it (the bench studies share one and may share a folder).
@@ -70,9 +73,11 @@ impl Product {
             Product::Reproduce => "reproduce",
             Product::Search => "search",
             Product::Calibrate => "calibrate",
-            Product::Bench | Product::BenchStiff | Product::BenchStiffMap | Product::BenchCpu => {
-                "bench"
-            }
+            Product::Bench
+            | Product::BenchStiff
+            | Product::BenchStiffMap
+            | Product::BenchCpu
+            | Product::BenchGpu => "bench",
         }
     }
 
@@ -91,6 +96,7 @@ impl Product {
             Product::BenchStiff => "stiff.json",
             Product::BenchStiffMap => "stiff_map.json",
             Product::BenchCpu => "cpu_throughput.json",
+            Product::BenchGpu => "gpu_throughput.json",
         }
     }
 
@@ -132,6 +138,7 @@ impl Product {
                 "peer_case_N9.json",
                 "peer_case_N17.json",
             ],
+            Product::BenchGpu => &["GPU.md"],
         }
     }
 
@@ -142,9 +149,11 @@ impl Product {
             Product::Shard => &["npy"],
             Product::Slurm => &[],
             Product::Reproduce | Product::Search | Product::Calibrate => &["png"],
-            Product::Bench | Product::BenchStiff | Product::BenchStiffMap | Product::BenchCpu => {
-                &[]
-            }
+            Product::Bench
+            | Product::BenchStiff
+            | Product::BenchStiffMap
+            | Product::BenchCpu
+            | Product::BenchGpu => &[],
         }
     }
 

@@ -20,6 +20,7 @@ mod reproduce;
 mod shard;
 mod single_run;
 mod slurm;
+mod throughput;
 
 use pendulum_atlas::config::{PAPER_SCENE_TOML, Scene};
 

@@ -31,6 +31,19 @@ pub struct Sizes {
 }
 
 impl Sizes {
+    /// Bytes of the per-instance buffers: parameters, state, accumulators, the series, the
+    /// work space and the K_c values (the rest is a few kilobytes).
+    pub fn device_bytes(&self) -> u64 {
+        let n = self.n_inst as u64;
+        n * (size_of::<GpuInstanceParams>() as u64 + 4 * self.state_len as u64)
+            + self.accum_bytes
+            + self.strobe_bytes
+            + self.rwork_bytes
+            + self.kc_bytes
+    }
+}
+
+impl Sizes {
     /// The sizes of `plan`, each checked against the adapter's buffer limits.
     pub fn new(
         ctx: &GpuContext,

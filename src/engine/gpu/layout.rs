@@ -236,9 +236,10 @@ pub struct GpuControl {
     pub n_inst: u32,
     /// Steps each instance advances per dispatch.
     pub steps_per_dispatch: u32,
-    /// Stroboscopic samples per instance in the strobe buffer.
+    /// Stroboscopic samples per instance in the strobe buffer (its capacity; the buffer is
+    /// sample-major, `n_inst` words per sample).
     pub strobe_stride: u32,
-    /// Work-space entries (vec2) per instance.
+    /// Work-space entries (vec2) per instance (sample-major like the strobe buffer).
     pub rwork_stride: u32,
     /// Longest period searched.
     pub period_max: u32,

@@ -48,6 +48,9 @@ pub struct GpuTimings {
     pub reduce_s: f64,
     /// Copy back to the host.
     pub readback_s: f64,
+    /// Device memory of the run's per-instance buffers (parameters, state, accumulators,
+    /// series, work space, K_c values; bytes).
+    pub device_bytes: u64,
 }
 
 /// The reduction settings in the form the kernels take.
@@ -148,7 +151,10 @@ pub fn run_gpu(
     let key = kernel_key(plan, &reduce);
     let sizes = Sizes::new(ctx, plan, &key)?;
     let budget = software_step_budget(ctx, plan, &key, &reduce)?;
-    let mut timings = GpuTimings::default();
+    let mut timings = GpuTimings {
+        device_bytes: sizes.device_bytes(),
+        ..GpuTimings::default()
+    };
     let t0 = Instant::now();
     let kernels = ctx.kernels(&key);
     timings.pipelines_s = t0.elapsed().as_secs_f64();
@@ -228,6 +234,13 @@ fn integrate(
     Ok(dispatches)
 }
 
+/// Index of sample `j` of instance `i` in the series buffers (strobe, rwork, kc), which are
+/// sample-major like the state (the shaders' `at`): neighbouring invocations touch neighbouring
+/// words.
+fn sample_major(sizes: &Sizes, i: usize, j: usize) -> usize {
+    j * sizes.n_inst + i
+}
+
 /// Per-instance series read back from the GPU: (stroboscopic α, R series).
 type SeriesReadback = (Vec<Vec<f64>>, Vec<Vec<f64>>);
 
@@ -239,18 +252,16 @@ fn read_series(
     sizes: &Sizes,
     readback: Readback,
 ) -> Result<SeriesReadback, EngineError> {
-    let widen = |s: &[f32]| s.iter().map(|&v| f64::from(v)).collect::<Vec<f64>>();
     let mut r_series = Vec::new();
     if readback.r_series && plan.want_rseries {
         let raw: Vec<[f32; 2]> = read_buffer(ctx, &bufs.rwork, sizes.rwork_bytes)?;
-        let stride = sizes.rwork_stride as usize;
         r_series = plan
             .instances
             .iter()
             .enumerate()
             .map(|(i, p)| {
                 (0..p.r_count as usize)
-                    .map(|j| f64::from(raw[i * stride + j][0]))
+                    .map(|j| f64::from(raw[sample_major(sizes, i, j)][0]))
                     .collect()
             })
             .collect();
@@ -258,12 +269,15 @@ fn read_series(
     let mut strobe = Vec::new();
     if readback.strobe && plan.want_strobe {
         let raw: Vec<f32> = read_buffer(ctx, &bufs.strobe, sizes.strobe_bytes)?;
-        let stride = sizes.strobe_stride as usize;
         strobe = plan
             .instances
             .iter()
             .enumerate()
-            .map(|(i, p)| widen(&raw[i * stride..i * stride + p.strobe_count as usize]))
+            .map(|(i, p)| {
+                (0..p.strobe_count as usize)
+                    .map(|j| f64::from(raw[sample_major(sizes, i, j)]))
+                    .collect()
+            })
             .collect();
     }
     Ok((strobe, r_series))

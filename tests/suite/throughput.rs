@@ -1,0 +1,112 @@
+//! `bench --throughput`: the ladder, the counted flop, the K-only rows and the report, on a
+//! small grid (N = 3, 1000 instances); the command's refusals.
+
+use crate::engine::gpu;
+use pendulum_atlas::bench::flops::{imex_flops, rk4_flops};
+use pendulum_atlas::bench::gpu_report::write_throughput;
+use pendulum_atlas::bench::gpu_throughput::{
+    ThroughputOptions, ThroughputScene, run_throughput, workload,
+};
+use pendulum_atlas::engine::EngineKind;
+use pendulum_atlas::engine::method::Method;
+use std::process::Command;
+
+#[test]
+fn the_ladder_measures_or_skips_every_rung_and_the_report_shows_it() {
+    let gpu = gpu();
+    let opts = ThroughputOptions {
+        gpu,
+        cpu: true,
+        max_instances: 1000,
+        row_budget_s: 5.0,
+        peak_flop_per_s: None,
+        peers: None,
+        segments: vec![3],
+    };
+    let r = run_throughput(&opts, &|_| {}).unwrap();
+    let engines = 1 + usize::from(gpu.is_some());
+    // 2 methods × 2 scenes × one rung per engine.
+    assert_eq!(r.rows.len(), 4 * engines);
+    let plan = workload(ThroughputScene::Default, 3, Method::Rk4, 1).unwrap();
+    let (p, dt) = (&plan.instances[0].params, plan.instances[0].dt_s);
+    for row in &r.rows {
+        let counted = match row.method {
+            Method::Rk4 => rk4_flops(p, dt),
+            Method::Imex => imex_flops(p, dt),
+        };
+        assert_eq!(row.flop_per_step, counted.flop_per_step);
+        match &row.skipped {
+            Some(why) => assert!(why.contains("row budget"), "{why}"),
+            None => {
+                let rate = row.instance_steps_per_s.unwrap();
+                let t = row.integrate_s.unwrap();
+                assert!((rate * t - row.instance_steps as f64).abs() < 1e-6 * rate * t);
+                let flop = row.flop_per_s.unwrap();
+                assert!((flop - rate * row.flop_per_step as f64).abs() < 1e-6 * flop);
+                assert_eq!(row.segment_steps_per_s, Some(rate * 3.0));
+                // One forcing period at 11-12 Hz (default) or 7.5-8.5 Hz (paper) per instance.
+                assert!(row.steps_per_instance > 50.0, "{}", row.steps_per_instance);
+                if row.kind == EngineKind::Gpu {
+                    // 1000 instances: at least the state (7 f32) and parameters of each.
+                    assert!(row.device_bytes.unwrap() > 1000 * 28);
+                } else {
+                    assert!(row.device_bytes.is_none() && row.share_of_peak.is_none());
+                }
+            }
+        }
+    }
+    assert_eq!(r.metrics.len(), engines);
+    for m in &r.metrics {
+        match (&m.all, &m.k_only, &m.skipped) {
+            (Some(a), Some(k), None) => {
+                assert!(a.integrate_s > 0.0 && k.integrate_s > 0.0);
+                assert!(a.total_s() > 0.0 && k.total_s() > 0.0);
+            }
+            (None, None, Some(why)) => assert!(why.contains("row budget"), "{why}"),
+            other => panic!("a metric row is half measured: {other:?}"),
+        }
+    }
+    let dir = std::env::temp_dir().join(format!("pa-throughput-{}", std::process::id()));
+    let files = write_throughput(&dir, &r).unwrap();
+    assert_eq!(files.len(), 2);
+    let md = std::fs::read_to_string(dir.join("GPU.md")).unwrap();
+    for heading in [
+        "## Counted work per step",
+        "## Integration throughput",
+        "## Metrics a scene does not need",
+        "## Peers on the same device",
+    ] {
+        assert!(md.contains(heading), "GPU.md lacks {heading}");
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("gpu_throughput.json")).unwrap())
+            .unwrap();
+    assert_eq!(json["rows"].as_array().unwrap().len(), r.rows.len());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn throughput_refuses_bad_options_with_the_accepted_range() {
+    let bin = env!("CARGO_BIN_EXE_pendulum-atlas");
+    let cases: [(&[&str], &str); 4] = [
+        (&["--throughput", "--max-instances", "10"], "1000..=1000000"),
+        (&["--throughput", "--row-budget-s", "0"], "0.1 to 3600"),
+        (&["--throughput", "--peak-tflops=-1"], "(0, 10000]"),
+        (
+            &["--peers", "/tmp"],
+            "--peers needs --cpu-throughput or --throughput",
+        ),
+    ];
+    for (args, expect) in cases {
+        let out = Command::new(bin)
+            .arg("bench")
+            .args(args)
+            .args(["--out", "/nonexistent/never-written"])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} was accepted");
+        assert!(err.contains(expect), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
