@@ -129,6 +129,9 @@ fn at(inst: u32, j: u32) -> u32 {
 
 // ---- per-invocation state of the integrator ---------------------------------------------
 var<private> P: InstanceParams;
+// Contact levers λ_i (n_levers ≤ N), copied out of P so that the loops over them index an
+// array of N, not P's 64 words (which then go unread and are dropped by the driver).
+var<private> lev: array<f32, MAX_SEG>;
 var<private> th: array<f32, MAX_SEG>;     // θ at the start of the step
 var<private> om: array<f32, MAX_SEG>;     // θ̇ at the start of the step
 var<private> th_acc: array<f32, MAX_SEG>; // Σ w_s k_s for θ

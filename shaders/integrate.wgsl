@@ -18,7 +18,7 @@ fn contact_force() -> f32 {
     var x = 0.0;
     var xd = 0.0;
     for (var i = 0u; i < P.n_levers; i++) {
-        let lam = P.levers[i];
+        let lam = lev[i];
         x += lam * sin(sth[i]);
         xd += lam * cos(sth[i]) * som[i];
     }
@@ -75,7 +75,7 @@ fn derivative(cart_a: f32) {
             q -= joint_torque(i + 1u);
         }
         if HAS_CONTACT && i < P.n_levers {
-            q += fx * P.levers[i] * c;
+            q += fx * lev[i] * c;
         }
         if HAS_PIEZO {
             if i == 0u {
@@ -213,7 +213,7 @@ fn energy(cart_v: f32) -> f32 {
     if HAS_CONTACT {
         var x = 0.0;
         for (var i = 0u; i < P.n_levers; i++) {
-            x += P.levers[i] * sin(th[i]);
+            x += lev[i] * sin(th[i]);
         }
         let delta = abs(x) - P.gap;
         if delta > 0.0 {
@@ -260,7 +260,7 @@ fn touch_flags() -> u32 {
     }
     var x = 0.0;
     for (var i = 0u; i < P.n_levers; i++) {
-        x += P.levers[i] * sin(th[i]);
+        x += lev[i] * sin(th[i]);
     }
     var f = 0u;
     if x - P.gap > 0.0 {
@@ -282,6 +282,9 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     var a = acc[inst];
     P = params[inst];
+    for (var i = 0u; i < N_SEG; i++) {
+        lev[i] = params[inst].levers[i];
+    }
     let total = P.total_periods * P.spp;
     if a.status != STATUS_OK || a.step >= total {
         return;
