@@ -107,6 +107,19 @@ pub enum EngineError {
         /// The adapter's limit.
         limit: u64,
     },
+    /// A single instance needs more of a buffer than the adapter allows (larger plans are
+    /// split into batches, which cannot help here).
+    #[error(
+        "one instance needs a {bytes}-byte GPU buffer ({what}), more than the adapter allows ({limit} bytes): use a shorter run, fewer c values or fewer R samples"
+    )]
+    InstanceTooLarge {
+        /// Which buffer.
+        what: &'static str,
+        /// Bytes one instance needs.
+        bytes: u64,
+        /// The adapter's limit.
+        limit: u64,
+    },
     /// The DOP853 reference integrator failed.
     #[error("the reference integration (DOP853) failed: {0}")]
     Reference(String),

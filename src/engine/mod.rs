@@ -193,6 +193,23 @@ impl EngineRun {
         }
     }
 
+    /// This run followed by `next` (a later batch of the same plan): results and series in
+    /// order, times and dispatches added, the device memory of the larger batch.
+    pub fn joined(mut self, next: EngineRun) -> EngineRun {
+        self.results.extend(next.results);
+        self.strobe.extend(next.strobe);
+        self.r_series.extend(next.r_series);
+        self.timings.integrate_s += next.timings.integrate_s;
+        self.timings.reduce_s += next.timings.reduce_s;
+        self.timings.gpu = match (self.timings.gpu, next.timings.gpu) {
+            (Some(a), Some(b)) => Some(a.joined(&b)),
+            (a, b) => a.or(b),
+        };
+        self.dispatches += next.dispatches;
+        self.stopped_early += next.stopped_early;
+        self
+    }
+
     /// Instance-steps per second of the integration.
     pub fn instance_steps_per_s(&self) -> f64 {
         let steps: u64 = self.results.iter().map(|r| r.steps).sum();
@@ -284,6 +301,14 @@ impl Engine {
                     "s"
                 },
             );
+        }
+    }
+
+    /// On the GPU engine, run at most `max` instances at a time (`None`: as many as the
+    /// adapter's buffer and dispatch limits allow; larger plans are always split to fit).
+    pub fn set_gpu_max_batch(&mut self, max: Option<usize>) {
+        if let EngineImpl::Gpu(g) = &mut self.inner {
+            g.set_max_batch(max);
         }
     }
 

@@ -180,29 +180,10 @@ fn reduce_options() -> ReduceOptions {
     ReduceOptions::default()
 }
 
-/// Bytes of GPU buffers an ensemble may use per buffer; adapters allow at least 128 MiB per
-/// storage buffer (lavapipe: exactly that), so batches are cut into chunks well below it.
-const CHUNK_BUFFER_BYTES: f64 = 64.0 * 1024.0 * 1024.0;
-
-/// Instances per chunk: at most `max`, and few enough for the largest per-instance buffer,
-/// the stroboscopic record (4 bytes per forcing period after the transient, for the period
-/// test).
-fn chunk_len(scenes: &[Scene], max: usize) -> usize {
-    let strobe = scenes
-        .iter()
-        .map(|s| {
-            let i = &s.integration;
-            ((i.duration_s - i.transient_s).max(0.0) * s.excitation.reference_frequency_hz()).ceil()
-                + 2.0
-        })
-        .fold(1.0, f64::max);
-    let per_instance = 4.0 * strobe + 1024.0;
-    ((CHUNK_BUFFER_BYTES / per_instance) as usize).clamp(1, max.max(1))
-}
-
 impl Batches<'_> {
-    /// Integrate a list of scenes: one ensemble, or several chunks of one when the batch
-    /// is too large for one set of GPU buffers. Results keep the order of `scenes`.
+    /// Integrate a list of scenes: one ensemble, or chunks of `search.max_batch_instances`
+    /// (the GPU engine itself splits whatever exceeds the adapter's buffers). Results keep the
+    /// order of `scenes`.
     fn run(
         &mut self,
         spec: &SearchSpec,
@@ -212,7 +193,7 @@ impl Batches<'_> {
         started: Instant,
     ) -> Result<(Vec<InstanceResult>, StageReport), HarvestError> {
         let instances = scenes.len();
-        let chunk = chunk_len(&scenes, spec.max_batch_instances);
+        let chunk = spec.max_batch_instances.max(1);
         let n_chunks = instances.div_ceil(chunk);
         let mut results = Vec::with_capacity(instances);
         let mut report = StageReport {

@@ -4,7 +4,7 @@
 use crate::engine::error::EngineError;
 use crate::engine::gpu::ReduceSettings;
 use crate::engine::gpu::context::GpuContext;
-use crate::engine::gpu::kernels::KernelKey;
+use crate::engine::gpu::kernels::{KernelKey, WG};
 use crate::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams};
 use crate::engine::imex::ImexMatrices;
 use crate::engine::method::Method;
@@ -51,6 +51,51 @@ impl Sizes {
         key: &KernelKey,
     ) -> Result<Sizes, EngineError> {
         let n_inst = plan.instances.len();
+        let limit = buffer_limit(ctx);
+        let f = Footprint::of(plan, key);
+        let bytes = |(what, per): (&'static str, u64)| -> Result<u64, EngineError> {
+            let b = (n_inst as u64).saturating_mul(per);
+            if b > limit {
+                return Err(EngineError::BufferTooLarge {
+                    what,
+                    bytes: b,
+                    limit,
+                });
+            }
+            Ok(b.max(16))
+        };
+        bytes(f.params)?;
+        bytes(f.state)?;
+        Ok(Sizes {
+            n_inst,
+            state_len: f.state_len,
+            n_c: key.n_c,
+            strobe_stride: f.strobe_stride,
+            rwork_stride: f.rwork_stride,
+            accum_bytes: bytes(f.accum)?,
+            strobe_bytes: bytes(f.strobe)?,
+            rwork_bytes: bytes(f.rwork)?,
+            kc_bytes: bytes(f.kc)?,
+        })
+    }
+}
+
+/// What one instance of a plan takes in each per-instance buffer: (buffer, bytes); 0 for a
+/// series no metric needs (bound as a 16-byte placeholder).
+struct Footprint {
+    state_len: usize,
+    strobe_stride: u32,
+    rwork_stride: u32,
+    params: (&'static str, u64),
+    state: (&'static str, u64),
+    accum: (&'static str, u64),
+    strobe: (&'static str, u64),
+    rwork: (&'static str, u64),
+    kc: (&'static str, u64),
+}
+
+impl Footprint {
+    fn of(plan: &EnsemblePlan, key: &KernelKey) -> Footprint {
         let state_len = 2 * plan.segments + 1;
         let strobe_stride = plan.strobe_stride.max(1);
         let n_cut_max = (plan.strobe_stride + 5) / 10;
@@ -64,42 +109,70 @@ impl Sizes {
         } else {
             0
         });
-        let limit = ctx
-            .limits
-            .max_storage_buffer_binding_size
-            .min(ctx.limits.max_buffer_size);
-        let bytes = |what: &'static str, count: usize, size: usize| -> Result<u64, EngineError> {
-            let b = (count as u64).saturating_mul(size as u64);
-            if b > limit {
-                return Err(EngineError::BufferTooLarge {
-                    what,
-                    bytes: b,
-                    limit,
-                });
-            }
-            Ok(b.max(16))
-        };
-        let placeholder = |on: bool, b: Result<u64, EngineError>| if on { b } else { Ok(16) };
-        bytes("parameters", n_inst, size_of::<GpuInstanceParams>())?;
-        bytes("state", n_inst * state_len, 4)?;
-        Ok(Sizes {
-            n_inst,
+        let on = |wanted: bool, bytes: u64| if wanted { bytes } else { 0 };
+        Footprint {
             state_len,
-            n_c: key.n_c,
             strobe_stride,
             rwork_stride,
-            accum_bytes: bytes("accumulators", n_inst, size_of::<GpuAccum>())?,
-            strobe_bytes: placeholder(
-                key.want_strobe,
-                bytes("stroboscopic samples", n_inst * strobe_stride as usize, 4),
-            )?,
-            rwork_bytes: placeholder(
-                key.want_rseries || key.want_k,
-                bytes("reduction work space", n_inst * rwork_stride as usize, 8),
-            )?,
-            kc_bytes: placeholder(key.want_k, bytes("K_c values", n_inst * key.n_c, 4))?,
-        })
+            params: ("parameters", size_of::<GpuInstanceParams>() as u64),
+            state: ("state", 4 * state_len as u64),
+            accum: ("accumulators", size_of::<GpuAccum>() as u64),
+            strobe: (
+                "stroboscopic samples",
+                on(key.want_strobe, 4 * u64::from(strobe_stride)),
+            ),
+            rwork: (
+                "reduction work space",
+                on(key.want_rseries || key.want_k, 8 * u64::from(rwork_stride)),
+            ),
+            kc: ("K_c values", on(key.want_k, 4 * key.n_c as u64)),
+        }
     }
+
+    fn buffers(&self) -> [(&'static str, u64); 6] {
+        [
+            self.params,
+            self.state,
+            self.accum,
+            self.strobe,
+            self.rwork,
+            self.kc,
+        ]
+    }
+}
+
+/// The largest buffer the adapter binds (bytes).
+fn buffer_limit(ctx: &GpuContext) -> u64 {
+    ctx.limits
+        .max_storage_buffer_binding_size
+        .min(ctx.limits.max_buffer_size)
+}
+
+/// The most instances of `plan` one run on the adapter can hold: every per-instance buffer
+/// within the binding limit, and every dispatch within the workgroup-count limit. A larger
+/// plan is run in batches of at most this many; an error names the buffer when a single
+/// instance is already too large.
+pub fn batch_capacity(
+    ctx: &GpuContext,
+    plan: &EnsemblePlan,
+    key: &KernelKey,
+) -> Result<usize, EngineError> {
+    let limit = buffer_limit(ctx);
+    let groups = ctx.limits.max_compute_workgroups_per_dimension as usize;
+    let mut cap = groups.saturating_mul(WG.min(key.wg_k()) as usize);
+    for (what, per) in Footprint::of(plan, key).buffers() {
+        if per > limit {
+            return Err(EngineError::InstanceTooLarge {
+                what,
+                bytes: per,
+                limit,
+            });
+        }
+        if let Some(fits) = limit.checked_div(per) {
+            cap = cap.min(fits as usize);
+        }
+    }
+    Ok(cap.max(1))
 }
 
 /// Integration steps one invocation may take per dispatch on a software adapter (`None` on

@@ -23,7 +23,7 @@ use crate::engine::plan::EnsemblePlan;
 use crate::engine::{EngineRun, EngineTimings, EnsembleEngine, Progress, ProgressUnit, Readback};
 use crate::model::Status;
 use crate::reduce::{InstanceResult, ReduceOptions, Span, Tally};
-use buffers::{Buffers, Sizes, software_step_budget};
+use buffers::{Buffers, Sizes, batch_capacity, software_step_budget};
 use kernels::{KernelKey, Kernels, WG};
 use layout::{GPU_MAX_SEGMENTS, GpuAccum, GpuControl};
 use serde::Serialize;
@@ -51,6 +51,20 @@ pub struct GpuTimings {
     /// Device memory of the run's per-instance buffers (parameters, state, accumulators,
     /// series, work space, K_c values; bytes).
     pub device_bytes: u64,
+}
+
+impl GpuTimings {
+    /// The stages of two consecutive batches: times added, the larger device memory.
+    pub fn joined(&self, next: &GpuTimings) -> GpuTimings {
+        GpuTimings {
+            pipelines_s: self.pipelines_s + next.pipelines_s,
+            upload_s: self.upload_s + next.upload_s,
+            integrate_s: self.integrate_s + next.integrate_s,
+            reduce_s: self.reduce_s + next.reduce_s,
+            readback_s: self.readback_s + next.readback_s,
+            device_bytes: self.device_bytes.max(next.device_bytes),
+        }
+    }
 }
 
 /// The reduction settings in the form the kernels take.
@@ -84,12 +98,22 @@ impl ReduceSettings {
 /// The GPU engine on an opened device.
 pub struct GpuEngine {
     ctx: GpuContext,
+    max_batch: Option<usize>,
 }
 
 impl GpuEngine {
     /// The engine of an opened device.
     pub fn new(ctx: GpuContext) -> GpuEngine {
-        GpuEngine { ctx }
+        GpuEngine {
+            ctx,
+            max_batch: None,
+        }
+    }
+
+    /// Run at most `max` instances at a time (`None`: as many as the adapter's limits allow),
+    /// to bound the device memory a run takes.
+    pub fn set_max_batch(&mut self, max: Option<usize>) {
+        self.max_batch = max.map(|m| m.max(1));
     }
 
     /// The device and its compiled kernels.
@@ -106,7 +130,7 @@ impl EnsembleEngine for GpuEngine {
         readback: Readback,
         progress: Progress,
     ) -> Result<EngineRun, EngineError> {
-        run_gpu(&self.ctx, plan, reduce, readback, progress)
+        run_gpu(&self.ctx, plan, reduce, readback, self.max_batch, progress)
     }
 }
 
@@ -129,12 +153,15 @@ fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings) -> KernelKey {
     }
 }
 
-/// Integrate and reduce every instance of `plan` on the GPU of `ctx`.
+/// Integrate and reduce every instance of `plan` on the GPU of `ctx`: in one run when the
+/// plan fits the adapter's limits (and `max_batch`), else in consecutive batches of the most
+/// instances that fit ([`buffers::batch_capacity`]), their results joined in plan order.
 pub fn run_gpu(
     ctx: &GpuContext,
     plan: &EnsemblePlan,
     opts: &ReduceOptions,
     readback: Readback,
+    max_batch: Option<usize>,
     progress: Progress,
 ) -> Result<EngineRun, EngineError> {
     if plan.segments > GPU_MAX_SEGMENTS {
@@ -146,17 +173,48 @@ pub fn run_gpu(
     if plan.instances.is_empty() {
         return Err(EngineError::Empty);
     }
-    let t_all = Instant::now();
     let reduce = ReduceSettings::from_options(opts);
     let key = kernel_key(plan, &reduce);
-    let sizes = Sizes::new(ctx, plan, &key)?;
-    let budget = software_step_budget(ctx, plan, &key, &reduce)?;
+    let n = plan.instances.len();
+    let cap = batch_capacity(ctx, plan, &key)?.min(max_batch.unwrap_or(usize::MAX));
+    if n <= cap {
+        return run_batch(ctx, plan, &reduce, &key, readback, progress);
+    }
+    let members: Vec<usize> = (0..n).collect();
+    let batches = n.div_ceil(cap) as u64;
+    let mut joined: Option<EngineRun> = None;
+    for (b, chunk) in members.chunks(cap).enumerate() {
+        let part = plan.select(chunk);
+        let b = b as u64;
+        let batch_progress =
+            |done: u64, total: u64, unit| progress(b * total + done, batches * total, unit);
+        let run = run_batch(ctx, &part, &reduce, &key, readback, &batch_progress)?;
+        joined = Some(match joined {
+            None => run,
+            Some(all) => all.joined(run),
+        });
+    }
+    Ok(joined.expect("a non-empty plan has a batch"))
+}
+
+/// One run of `plan`, which fits the adapter.
+fn run_batch(
+    ctx: &GpuContext,
+    plan: &EnsemblePlan,
+    reduce: &ReduceSettings,
+    key: &KernelKey,
+    readback: Readback,
+    progress: Progress,
+) -> Result<EngineRun, EngineError> {
+    let t_all = Instant::now();
+    let sizes = Sizes::new(ctx, plan, key)?;
+    let budget = software_step_budget(ctx, plan, key, reduce)?;
     let mut timings = GpuTimings {
         device_bytes: sizes.device_bytes(),
         ..GpuTimings::default()
     };
     let t0 = Instant::now();
-    let kernels = ctx.kernels(&key);
+    let kernels = ctx.kernels(key);
     timings.pipelines_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
     let mut control = GpuControl {
@@ -169,7 +227,7 @@ pub fn run_gpu(
         period_tol: reduce.period_tol_rad as f32,
         c_index: 0,
     };
-    let bufs = Buffers::upload(ctx, plan, &reduce, &sizes, &control);
+    let bufs = Buffers::upload(ctx, plan, reduce, &sizes, &control);
     timings.upload_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
     let dispatches = integrate(ctx, &kernels, &bufs, plan, &mut control, budget, progress)?;
@@ -178,7 +236,7 @@ pub fn run_gpu(
     let (strobe, r_series) = read_series(ctx, &bufs, plan, &sizes, readback)?;
     timings.readback_s += t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
-    run_reductions(ctx, &kernels, &bufs, &key, &sizes, &mut control)?;
+    run_reductions(ctx, &kernels, &bufs, key, &sizes, &mut control)?;
     timings.reduce_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
     let accum: Vec<GpuAccum> = read_buffer(ctx, &bufs.accum, sizes.accum_bytes)?;

@@ -7,6 +7,7 @@
 //! The GPU needs a wgpu adapter (lavapipe is enough). Without one its tests print a skip
 //! message, unless PENDULUM_ATLAS_REQUIRE_GPU=1 (as `.ci/run` sets), which makes them fail.
 
+mod batches;
 mod cases;
 mod lanes;
 mod layout;
