@@ -61,6 +61,7 @@ fn a_plan_run_in_batches_equals_one_run_bit_for_bit() {
                 r.impacts_per_s,
                 r.alpha_min_rad,
                 r.alpha_max_rad,
+                r.power_w,
                 r.line,
             ]
             .map(f64::to_bits)
