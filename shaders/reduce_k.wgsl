@@ -45,17 +45,35 @@ fn k_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
         let mean_sq = mean * mean;
         let one_minus_cos_c = 1.0 - turn_cos_sin(1u, turns).x;
         // D_c(lag) = M_c(lag) − (Eφ)² (1 − cos(lag c))/(1 − cos c), kept after the (p, q) sums.
+        // Four lags per pass over j: each (p, q)(j) is read once for all four, and each lag's
+        // sum still runs over j in order (the same sums, bit for bit, as one lag at a time).
         var d_sum = 0.0;
-        for (var lag = 1u; lag <= n_cut; lag++) {
-            var sum = 0.0;
-            for (var j = 0u; j + lag < n; j++) {
-                let d = rwork[at(inst, j + lag)] - rwork[at(inst, j)];
-                sum += dot(d, d);
+        for (var lag0 = 1u; lag0 <= n_cut; lag0 += 4u) {
+            var sum = vec4<f32>(0.0);
+            for (var j = 0u; j + lag0 < n; j++) {
+                let pj = rwork[at(inst, j)];
+                let d0 = rwork[at(inst, j + lag0)] - pj;
+                sum.x += dot(d0, d0);
+                if j + lag0 + 1u < n {
+                    let d1 = rwork[at(inst, j + lag0 + 1u)] - pj;
+                    sum.y += dot(d1, d1);
+                }
+                if j + lag0 + 2u < n {
+                    let d2 = rwork[at(inst, j + lag0 + 2u)] - pj;
+                    sum.z += dot(d2, d2);
+                }
+                if j + lag0 + 3u < n {
+                    let d3 = rwork[at(inst, j + lag0 + 3u)] - pj;
+                    sum.w += dot(d3, d3);
+                }
             }
-            let m = sum / f32(n - lag);
-            let dv = m - mean_sq * (1.0 - turn_cos_sin(lag, turns).x) / one_minus_cos_c;
-            rwork[at(inst, n + lag - 1u)] = vec2<f32>(dv, 0.0);
-            d_sum += dv;
+            for (var k = 0u; k < 4u && lag0 + k <= n_cut; k++) {
+                let lag = lag0 + k;
+                let m = sum[k] / f32(n - lag);
+                let dv = m - mean_sq * (1.0 - turn_cos_sin(lag, turns).x) / one_minus_cos_c;
+                rwork[at(inst, n + lag - 1u)] = vec2<f32>(dv, 0.0);
+                d_sum += dv;
+            }
         }
         let d_mean = d_sum / f32(n_cut);
         let xi_mean = (f32(n_cut) + 1.0) * 0.5;
