@@ -1,16 +1,31 @@
-//! Per-instance results of an ensemble: the running accumulators of either engine and the
-//! reductions of the recorded series (`docs/analysis.md`).
+//! Per-instance results of an ensemble (`docs/analysis.md`, §6 and §9): what either engine's
+//! integration leaves of an instance, reduced to the numbers a map shows.
 //!
-//! The CPU engine records raw series and reduces them here with the analysis library: the 0–1
-//! test on the stroboscopic samples ([`k_of`]), R from the uniform series against the cart
-//! ([`r_of`]), the period of the stroboscopic section ([`period_of`]). The GPU engine reduces
-//! on the device with the same definitions (`shaders/reduce_*.wgsl`) and converts its
-//! accumulators with [`Tally::result`] like the CPU engine does.
+//! Stages, in the order an instance goes through them:
+//! 1. [`Tally`] (`tally`): the running accumulators after the transient (α range, hops, impacts,
+//!    power), turned into results by [`Tally::result`];
+//! 2. the recorded series (`series`): K ([`k_of`]), R ([`r_of`]), the period ([`period_of`])
+//!    and the dominant line ([`line_of`]) with the analysis library, by [`reduce_series`];
+//! 3. λ1 ([`lyapunov`]): the twin trajectory's log-growths ([`LyapunovSums`]) into the
+//!    largest Lyapunov exponent and its standard error;
+//! 4. the verdict ([`regime`]): one [`Regime`] per cell from λ1, the period and K, with its
+//!    confidence ([`verdict`]).
+//!
+//! The CPU engine runs every stage here; the GPU engine reduces on the device with the same
+//! definitions (`shaders/reduce_*.wgsl`, the twin in `shaders/integrate.wgsl`) and converts
+//! its accumulators with [`Tally::result`] like the CPU engine does.
 
-use crate::analysis::{
-    K01Method, PhaseConvention, ZeroOneOptions, amplitude_spectrum, detect_period, dominant_peak,
-    phase_sync, zero_one_test,
-};
+pub mod lyapunov;
+pub mod regime;
+mod series;
+mod tally;
+
+pub use lyapunov::{Lyapunov, LyapunovSums, TwinPlan};
+pub use regime::{Evidence, Regime, Verdict, verdict};
+pub use series::{Series, k_of, line_of, period_of, r_of, reduce_series};
+pub use tally::{Span, Tally};
+
+use crate::analysis::{K01Method, PhaseConvention, ZeroOneOptions};
 use crate::config::{MapSpec, Metric};
 use crate::model::Status;
 use serde::Serialize;
@@ -40,6 +55,14 @@ pub struct InstanceResult {
     /// Dominant line of α (the R series) over the forcing frequency: 1/3 for a third.
     #[serde(rename = "line_ratio")]
     pub line: f64,
+    /// Largest Lyapunov exponent λ1 (1/s).
+    pub lyapunov_per_s: f64,
+    /// Standard error of λ1 (1/s).
+    pub lyapunov_se_per_s: f64,
+    /// The cell's verdict ([`Regime::Undecided`] when not asked for).
+    pub regime: Regime,
+    /// Confidence of the verdict (NaN when undecided, failed or not asked for).
+    pub regime_confidence: f64,
     /// How the integration ended.
     pub status: Status,
     /// Steps actually integrated (fewer than planned when the instance failed or stopped
@@ -48,6 +71,54 @@ pub struct InstanceResult {
 }
 
 impl InstanceResult {
+    /// A result with every metric NaN (not yet reduced), of `status` after `steps` steps.
+    pub fn unset(status: Status, steps: u64) -> InstanceResult {
+        let nan = f64::NAN;
+        InstanceResult {
+            k: nan,
+            r: nan,
+            period: nan,
+            hops: nan,
+            impacts_per_s: nan,
+            alpha_min_rad: nan,
+            alpha_max_rad: nan,
+            power_w: nan,
+            line: nan,
+            lyapunov_per_s: nan,
+            lyapunov_se_per_s: nan,
+            regime: if status.is_ok() {
+                Regime::Undecided
+            } else {
+                Regime::Failed
+            },
+            regime_confidence: nan,
+            status,
+            steps,
+        }
+    }
+
+    /// Set the verdict and its confidence from this result's λ1, period and K
+    /// ([`verdict`]); `period_s` is the forcing period, `k_samples` the stroboscopic samples
+    /// K comes from.
+    pub fn decide(&mut self, period_s: f64, k_samples: u32) {
+        let v = verdict(&self.evidence(period_s, k_samples));
+        self.regime = v.regime;
+        self.regime_confidence = v.confidence;
+    }
+
+    /// What the verdict of this result is formed from.
+    pub fn evidence(&self, period_s: f64, k_samples: u32) -> Evidence {
+        Evidence {
+            ok: self.status.is_ok(),
+            lyapunov_per_s: self.lyapunov_per_s,
+            lyapunov_se_per_s: self.lyapunov_se_per_s,
+            period_s,
+            period: self.period,
+            k: self.k,
+            k_samples,
+        }
+    }
+
     /// The value shown on the map of `m` (α range: max − min).
     pub fn metric(&self, m: Metric) -> f64 {
         match m {
@@ -59,6 +130,8 @@ impl InstanceResult {
             Metric::AlphaRange => self.alpha_max_rad - self.alpha_min_rad,
             Metric::Power => self.power_w,
             Metric::Line => self.line,
+            Metric::Lyapunov => self.lyapunov_per_s,
+            Metric::Regime => f64::from(self.regime.code()),
         }
     }
 }
@@ -107,160 +180,5 @@ impl ReduceOptions {
             period_window: spec.period_window,
             period_tol_rad: spec.period_tol_rad,
         }
-    }
-}
-
-/// The running accumulators of one instance after the transient, as either engine keeps them.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Tally {
-    /// How the integration ended.
-    pub status: Status,
-    /// Steps taken.
-    pub steps: u64,
-    /// Smallest and largest α (rad).
-    pub alpha_range_rad: (f64, f64),
-    /// Hops between the wells.
-    pub hops: u32,
-    /// Bumper contact onsets.
-    pub impacts: u32,
-    /// Σ v²/R_L over the steps (W).
-    pub power_sum_w: f64,
-}
-
-/// What a tally was accumulated over: the time and steps after the transient.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Span {
-    /// Simulated time after the transient (s).
-    pub seconds: f64,
-    /// Steps after the transient.
-    pub steps: u64,
-}
-
-impl Tally {
-    /// The accumulator-based metrics (everything but K, R and period), NaN when not requested
-    /// or when the instance failed; K, R and period NaN until [`reduce_series`] fills them.
-    pub fn result(&self, span: Span, metrics: &[Metric]) -> InstanceResult {
-        let nan = f64::NAN;
-        let mut out = InstanceResult {
-            k: nan,
-            r: nan,
-            period: nan,
-            hops: nan,
-            impacts_per_s: nan,
-            alpha_min_rad: nan,
-            alpha_max_rad: nan,
-            power_w: nan,
-            line: nan,
-            status: self.status,
-            steps: self.steps,
-        };
-        if self.status != Status::Ok {
-            return out;
-        }
-        let wants = |m: Metric| metrics.contains(&m);
-        if wants(Metric::Hops) {
-            out.hops = f64::from(self.hops);
-        }
-        if wants(Metric::ImpactsPerS) {
-            out.impacts_per_s = f64::from(self.impacts) / span.seconds;
-        }
-        if wants(Metric::AlphaRange) {
-            (out.alpha_min_rad, out.alpha_max_rad) = self.alpha_range_rad;
-        }
-        if wants(Metric::Power) {
-            out.power_w = self.power_sum_w / span.steps as f64;
-        }
-        out
-    }
-}
-
-/// K of a stroboscopic series as the map computes it (NaN if the test refuses the series).
-pub fn k_of(strobe: &[f64], opts: &ReduceOptions) -> f64 {
-    zero_one_test(strobe, &opts.zero_one).map_or(f64::NAN, |r| r.k)
-}
-
-/// R of an α series against the cart positions at the same instants.
-pub fn r_of(cart: &[f64], alpha: &[f64], opts: &ReduceOptions) -> f64 {
-    phase_sync(cart, alpha, opts.convention).map_or(f64::NAN, |r| r.r)
-}
-
-/// The period of a stroboscopic series in forcing periods (0: none up to `period_max`).
-pub fn period_of(strobe: &[f64], opts: &ReduceOptions) -> f64 {
-    detect_period(
-        strobe,
-        opts.period_max as usize,
-        opts.period_window as usize,
-        opts.period_tol_rad,
-    ) as f64
-}
-
-/// The dominant line of a uniform α series sampled `samples_per_period` times per forcing
-/// period, as a multiple of the forcing frequency: the largest non-DC peak of the Hann-windowed
-/// amplitude spectrum, located between bins by a parabola through the log amplitudes
-/// ([`dominant_peak`]); with the sample rate in samples per period the peak's frequency is
-/// already `f_line / f`. NaN for a constant series.
-pub fn line_of(alpha: &[f64], samples_per_period: f64) -> f64 {
-    amplitude_spectrum(alpha, samples_per_period)
-        .ok()
-        .and_then(|s| dominant_peak(&s))
-        .map_or(f64::NAN, |p| p.frequency_hz)
-}
-
-/// The series an instance recorded: stroboscopic α, and the R series with its cart reference.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Series<'a> {
-    /// Stroboscopic α after the transient (rad).
-    pub strobe: &'a [f64],
-    /// Uniform α for R (rad).
-    pub r_alpha: &'a [f64],
-    /// Cart positions at the R samples (m).
-    pub r_cart: &'a [f64],
-    /// Samples of the R series per forcing period.
-    pub r_samples_per_period: f64,
-}
-
-/// Fill K, period and R of an `ok` result from its recorded series, as far as requested.
-pub fn reduce_series(
-    out: &mut InstanceResult,
-    series: Series,
-    metrics: &[Metric],
-    opts: &ReduceOptions,
-) {
-    if out.status != Status::Ok {
-        return;
-    }
-    let wants = |m: Metric| metrics.contains(&m);
-    if wants(Metric::K) {
-        out.k = k_of(series.strobe, opts);
-    }
-    if wants(Metric::Period) {
-        out.period = period_of(series.strobe, opts);
-    }
-    if wants(Metric::R) {
-        out.r = r_of(series.r_cart, series.r_alpha, opts);
-    }
-    if wants(Metric::Line) {
-        out.line = line_of(series.r_alpha, series.r_samples_per_period);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_line_of_a_third_subharmonic_is_one_third_of_the_forcing() {
-        // 64 forcing periods at 16 samples each: a strong f/3 under a weaker 1·f, plus a mean.
-        let per_period = 16.0;
-        let x: Vec<f64> = (0..1024)
-            .map(|j| {
-                let t = j as f64 / per_period; // in forcing periods
-                0.2 + 0.3 * (std::f64::consts::TAU * t / 3.0).sin()
-                    + 0.1 * (std::f64::consts::TAU * t).cos()
-            })
-            .collect();
-        let line = line_of(&x, per_period);
-        assert!((line - 1.0 / 3.0).abs() < 2e-3, "line {line}");
-        assert!(line_of(&[0.5; 64], per_period).is_nan());
     }
 }

@@ -1,0 +1,286 @@
+//! Stage 4 of the reductions: one verdict per cell from λ1, the period detector and K
+//! (`docs/analysis.md`, "Regime").
+//!
+//! λ1 is read per forcing period, `Λ = λ1 T` with its standard error `σ = SE(λ1) T`, and
+//! placed in one of three classes, each only when its whole interval `Λ ± zσ` lies inside:
+//!
+//! ```text
+//! growing     Λ − zσ >  ε            (separations grow: chaos)
+//! flat        |Λ| + zσ ≤ ε           (neither: a torus, or a bifurcation point)
+//! shrinking   Λ + zσ < −ε            (every separation dies: a stable orbit)
+//! ```
+//!
+//! K is firm when it comes from at least [`ZERO_ONE_COMFORTABLE_SAMPLES`] stroboscopic samples;
+//! on fewer, a periodic orbit can read K ≥ 0.5 and a chaotic one K ≈ 0 (`docs/analysis.md`, §2),
+//! so a K that is not firm cannot contradict λ1. The verdict (first rule that applies):
+//!
+//! | status | period p | λ1 class | K | verdict |
+//! |---|---|---|---|---|
+//! | not ok | | | | failed |
+//! | ok | p > 0 | shrinking | any | periodic |
+//! | ok | p = 0 | growing | ≥ K_chaos, or not firm | chaotic |
+//! | ok | p = 0 | shrinking | any | regular (an orbit longer than `period_max`, or still settling) |
+//! | ok | p = 0 | flat | < K_chaos, or not firm | regular (quasi-periodic) |
+//! | ok | anything else | | | undecided |
+//!
+//! "Anything else" is where the indicators disagree beyond their uncertainty (a period with a
+//! growing or flat λ1; growth with a firm low K; a flat λ1 with a firm high K) or λ1 itself is
+//! not resolved (its interval straddles ±ε). A cell is never periodic and chaotic at once: the
+//! period and λ1's class decide both.
+//!
+//! **Confidence** of a decided cell: `Φ(m/σ)`, the probability under a normal error of λ1 that
+//! Λ lies on the verdict's side of its class boundary, `m` the distance of Λ from that boundary
+//! (`Λ − ε` growing, `−ε − Λ` shrinking, `ε − |Λ|` flat); 1 when σ is 0 (a settled orbit
+//! repeats its growth exactly). Undecided and failed cells have none (NaN).
+
+use crate::analysis::ZERO_ONE_COMFORTABLE_SAMPLES;
+use serde::Serialize;
+
+/// z of the class intervals `Λ ± zσ`.
+pub const REGIME_Z: f64 = 2.0;
+
+/// ε: the largest |λ1 T| (per forcing period) read as zero.
+pub const REGIME_FLAT_PER_PERIOD: f64 = 0.01;
+
+/// The K from which a growing λ1 is confirmed as chaos (and a flat one is not a torus).
+pub const REGIME_K_CHAOS: f64 = 0.5;
+
+/// One cell's verdict, with the fixed codes of `regime.npy`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Regime {
+    /// The run failed (diverged, non-finite, escaped): code −1.
+    Failed,
+    /// The indicators disagree beyond their uncertainty, or λ1 is unresolved: code 0.
+    Undecided,
+    /// A stable orbit of a period ≤ `period_max` forcing periods: code 1.
+    Periodic,
+    /// Regular without a period up to the detector's limit (quasi-periodic, or a longer
+    /// period): code 2.
+    Regular,
+    /// Chaotic: λ1 > 0 and K high: code 3.
+    Chaotic,
+}
+
+impl Regime {
+    /// Every regime, in code order.
+    pub const ALL: [Regime; 5] = [
+        Regime::Failed,
+        Regime::Undecided,
+        Regime::Periodic,
+        Regime::Regular,
+        Regime::Chaotic,
+    ];
+
+    /// The code of `regime.npy` (and of the GPU kernel).
+    pub fn code(self) -> i8 {
+        match self {
+            Regime::Failed => -1,
+            Regime::Undecided => 0,
+            Regime::Periodic => 1,
+            Regime::Regular => 2,
+            Regime::Chaotic => 3,
+        }
+    }
+
+    /// The regime of a code (`None` for an unknown one).
+    pub fn from_code(code: i64) -> Option<Regime> {
+        Regime::ALL
+            .into_iter()
+            .find(|r| i64::from(r.code()) == code)
+    }
+
+    /// The name of CSV and JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Regime::Failed => "failed",
+            Regime::Undecided => "undecided",
+            Regime::Periodic => "periodic",
+            Regime::Regular => "regular",
+            Regime::Chaotic => "chaotic",
+        }
+    }
+
+    /// The name of the WGSL constant that holds its code.
+    pub fn wgsl_name(self) -> &'static str {
+        match self {
+            Regime::Failed => "REGIME_FAILED",
+            Regime::Undecided => "REGIME_UNDECIDED",
+            Regime::Periodic => "REGIME_PERIODIC",
+            Regime::Regular => "REGIME_REGULAR",
+            Regime::Chaotic => "REGIME_CHAOTIC",
+        }
+    }
+}
+
+impl std::fmt::Display for Regime {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// What the verdict is formed from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Evidence {
+    /// The run ended `ok`.
+    pub ok: bool,
+    /// λ1 (1/s; NaN when not formed).
+    pub lyapunov_per_s: f64,
+    /// Its standard error (1/s).
+    pub lyapunov_se_per_s: f64,
+    /// The forcing period T (s).
+    pub period_s: f64,
+    /// Period of the stroboscopic section (0: none up to the detector's limit).
+    pub period: f64,
+    /// 0–1 test K.
+    pub k: f64,
+    /// Stroboscopic samples K comes from.
+    pub k_samples: u32,
+}
+
+/// A cell's verdict and its confidence (NaN when failed or undecided).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Verdict {
+    /// The regime.
+    pub regime: Regime,
+    /// Φ(m/σ), see the module doc.
+    pub confidence: f64,
+}
+
+/// The class of λ1 per period, Λ with standard error σ (see the module doc).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Class {
+    Growing,
+    Flat,
+    Shrinking,
+    Unresolved,
+}
+
+fn class(lambda: f64, sigma: f64) -> Class {
+    let (eps, z) = (REGIME_FLAT_PER_PERIOD, REGIME_Z);
+    if !(lambda.is_finite() && sigma.is_finite()) {
+        Class::Unresolved
+    } else if lambda - z * sigma > eps {
+        Class::Growing
+    } else if lambda + z * sigma < -eps {
+        Class::Shrinking
+    } else if lambda.abs() + z * sigma <= eps {
+        Class::Flat
+    } else {
+        Class::Unresolved
+    }
+}
+
+/// The verdict of one cell (see the module doc).
+pub fn verdict(e: &Evidence) -> Verdict {
+    let regime = regime_of(e);
+    Verdict {
+        regime,
+        confidence: confidence(regime, e),
+    }
+}
+
+/// The regime of one cell (see the module doc).
+pub fn regime_of(e: &Evidence) -> Regime {
+    if !e.ok {
+        return Regime::Failed;
+    }
+    let periodic = e.period > 0.0;
+    let firm = e.k_samples >= ZERO_ONE_COMFORTABLE_SAMPLES as u32 && e.k.is_finite();
+    let (high_k, low_k) = (e.k >= REGIME_K_CHAOS, e.k < REGIME_K_CHAOS);
+    match class(
+        e.lyapunov_per_s * e.period_s,
+        e.lyapunov_se_per_s * e.period_s,
+    ) {
+        Class::Shrinking if periodic => Regime::Periodic,
+        Class::Shrinking => Regime::Regular,
+        Class::Growing if !periodic && (high_k || !firm) => Regime::Chaotic,
+        Class::Flat if !periodic && (low_k || !firm) => Regime::Regular,
+        _ => Regime::Undecided,
+    }
+}
+
+/// The confidence of `regime` for a cell with evidence `e`: Φ(m/σ), `m` the margin of Λ inside
+/// the λ1 class the regime rests on (1 when σ = 0); NaN for failed and undecided cells.
+pub fn confidence(regime: Regime, e: &Evidence) -> f64 {
+    let (lambda, sigma) = (
+        e.lyapunov_per_s * e.period_s,
+        e.lyapunov_se_per_s * e.period_s,
+    );
+    let eps = REGIME_FLAT_PER_PERIOD;
+    let margin = match (regime, class(lambda, sigma)) {
+        (Regime::Chaotic, _) => lambda - eps,
+        (Regime::Periodic, _) | (Regime::Regular, Class::Shrinking) => -eps - lambda,
+        (Regime::Regular, _) => eps - lambda.abs(),
+        (Regime::Failed | Regime::Undecided, _) => return f64::NAN,
+    };
+    if sigma > 0.0 {
+        normal_cdf(margin / sigma)
+    } else {
+        1.0
+    }
+}
+
+/// Φ(x), the standard normal distribution function, from the complementary error function
+/// of `libm` (the Rust port of musl's): Φ(x) = erfc(−x/√2)/2; Φ(+∞) = 1.
+pub fn normal_cdf(x: f64) -> f64 {
+    0.5 * libm::erfc(-x / std::f64::consts::SQRT_2)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cell(lambda: f64, se: f64, period: f64, k: f64, k_samples: u32) -> Regime {
+        verdict(&Evidence {
+            ok: true,
+            lyapunov_per_s: lambda,
+            lyapunov_se_per_s: se,
+            period_s: 0.125,
+            period,
+            k,
+            k_samples,
+        })
+        .regime
+    }
+
+    #[test]
+    fn the_table_of_the_rule() {
+        let firm = ZERO_ONE_COMFORTABLE_SAMPLES as u32;
+        let short = firm - 1;
+        assert_eq!(cell(-8.0, 0.0, 3.0, 0.9, firm), Regime::Periodic);
+        assert_eq!(cell(-8.0, 0.0, 0.0, 0.9, firm), Regime::Regular);
+        assert_eq!(cell(4.0, 0.3, 0.0, 0.95, firm), Regime::Chaotic);
+        assert_eq!(cell(4.0, 0.3, 0.0, 0.2, firm), Regime::Undecided);
+        assert_eq!(cell(4.0, 0.3, 0.0, 0.2, short), Regime::Chaotic);
+        assert_eq!(cell(4.0, 0.3, 2.0, 0.95, firm), Regime::Undecided);
+        assert_eq!(cell(0.0, 0.01, 0.0, 0.1, firm), Regime::Regular);
+        assert_eq!(cell(0.0, 0.01, 0.0, 0.9, firm), Regime::Undecided);
+        assert_eq!(cell(0.0, 0.01, 0.0, 0.9, short), Regime::Regular);
+        assert_eq!(cell(0.0, 0.01, 2.0, 0.1, firm), Regime::Undecided);
+        assert_eq!(cell(0.1, 1.0, 0.0, 0.9, firm), Regime::Undecided);
+        assert_eq!(cell(f64::NAN, 0.0, 1.0, 0.0, firm), Regime::Undecided);
+        let failed = verdict(&Evidence {
+            ok: false,
+            lyapunov_per_s: f64::NAN,
+            lyapunov_se_per_s: f64::NAN,
+            period_s: 0.125,
+            period: f64::NAN,
+            k: f64::NAN,
+            k_samples: firm,
+        });
+        assert_eq!(failed.regime, Regime::Failed);
+        assert!(failed.confidence.is_nan());
+    }
+
+    #[test]
+    fn codes_round_trip_and_phi_matches_known_values() {
+        for r in Regime::ALL {
+            assert_eq!(Regime::from_code(i64::from(r.code())), Some(r));
+        }
+        assert_eq!(normal_cdf(0.0), 0.5);
+        assert!((normal_cdf(1.959963985) - 0.975).abs() < 1e-9);
+        assert!((normal_cdf(-1.0) - 0.158655253931457).abs() < 1e-12);
+        assert_eq!(normal_cdf(f64::INFINITY), 1.0);
+    }
+}
