@@ -54,11 +54,18 @@ pub enum Metric {
     /// Dominant line of α's spectrum as a multiple of the forcing frequency (1/3: a third).
     #[serde(rename = "line")]
     Line,
+    /// Largest Lyapunov exponent λ1 (1/s) with its standard error, from a twin trajectory.
+    #[serde(rename = "lyapunov")]
+    Lyapunov,
+    /// One verdict per cell (periodic, regular, chaotic, undecided, failed) from λ1, the
+    /// period and K, which it brings in.
+    #[serde(rename = "regime")]
+    Regime,
 }
 
 impl Metric {
     /// Every metric, in output order.
-    pub const ALL: [Metric; 8] = [
+    pub const ALL: [Metric; 10] = [
         Metric::K,
         Metric::R,
         Metric::Period,
@@ -67,7 +74,17 @@ impl Metric {
         Metric::AlphaRange,
         Metric::Power,
         Metric::Line,
+        Metric::Lyapunov,
+        Metric::Regime,
     ];
+
+    /// The metrics this one is formed from (the verdict needs K, the period and λ1).
+    pub fn needs(self) -> &'static [Metric] {
+        match self {
+            Metric::Regime => &[Metric::K, Metric::Period, Metric::Lyapunov],
+            _ => &[],
+        }
+    }
 
     /// The name used in scenes and file names.
     pub fn name(self) -> &'static str {
@@ -80,6 +97,8 @@ impl Metric {
             Metric::AlphaRange => "alpha_range",
             Metric::Power => "power",
             Metric::Line => "line",
+            Metric::Lyapunov => "lyapunov",
+            Metric::Regime => "regime",
         }
     }
 
@@ -190,6 +209,40 @@ pub struct MapSpec {
     pub early_stop: bool,
     /// Relative tolerance of the early-stop confirmation.
     pub early_stop_tol: f64,
+    /// How λ1's twin runs (used when `lyapunov` is among the metrics).
+    pub lyapunov: LyapunovSettings,
+}
+
+/// The size of the twin's separation, `d0` in the weighted state norm (`docs/analysis.md`, §9).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Perturbation {
+    /// The measured default of the engine's float type.
+    Auto,
+    /// This `d0`.
+    Given(f64),
+}
+
+/// `map.lyapunov_*`: how the twin trajectory of λ1 runs.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct LyapunovSettings {
+    /// λ1 averaged over the last this many seconds of the run (`None`: every forcing period
+    /// after the transient and the alignment).
+    pub window_s: Option<f64>,
+    /// Renormalisations (forcing periods) before the window that align the separation.
+    pub align_periods: u32,
+    /// The separation d0.
+    pub perturbation: Perturbation,
+}
+
+impl Default for LyapunovSettings {
+    fn default() -> Self {
+        LyapunovSettings {
+            window_s: None,
+            align_periods: 8,
+            perturbation: Perturbation::Auto,
+        }
+    }
 }
 
 impl MapSpec {
@@ -434,6 +487,7 @@ fn read_map(
     let bifurcation_samples = r.integer("map.bifurcation_samples", 64, 1, 4096)? as u32;
     let early_stop = r.boolean("map.early_stop", false)?;
     let early_stop_tol = r.number("map.early_stop_tol", 1e-5, Range::Open(0.0, 0.1), "")?;
+    let lyapunov = read_lyapunov(&mut r)?;
     r.finish()?;
 
     let spec = MapSpec {
@@ -455,6 +509,7 @@ fn read_map(
         bifurcation_samples,
         early_stop,
         early_stop_tol,
+        lyapunov,
     };
     // Every axis key must be a scene key that takes this kind of value: check the first point.
     spec.instance_scene(0)?;
@@ -473,6 +528,38 @@ fn read_r_max_samples(r: &mut Reader) -> Result<u32, ConfigError> {
         });
     }
     Ok(r_max_samples)
+}
+
+/// `map.lyapunov_window_s`, `map.lyapunov_align_periods`, `map.lyapunov_perturbation`.
+fn read_lyapunov(r: &mut Reader) -> Result<LyapunovSettings, ConfigError> {
+    let window_s = r.number_opt("map.lyapunov_window_s", Range::Positive, "s")?;
+    let align_periods = r.integer("map.lyapunov_align_periods", 8, 1, 10_000)? as u32;
+    let key = "map.lyapunov_perturbation";
+    let perturbation = match r.raw(key)? {
+        None => Perturbation::Auto,
+        Some(Value::String(s)) if s == "auto" => Perturbation::Auto,
+        Some(Value::String(s)) => {
+            return Err(ConfigError::BadChoice {
+                key: key.into(),
+                value: s.clone(),
+                choices: format!(
+                    "\"auto\" or a number in (0, {}]",
+                    crate::reduce::lyapunov::SEPARATION_MAX
+                ),
+            });
+        }
+        Some(_) => Perturbation::Given(r.number(
+            key,
+            0.0,
+            Range::OpenClosed(0.0, crate::reduce::lyapunov::SEPARATION_MAX),
+            "",
+        )?),
+    };
+    Ok(LyapunovSettings {
+        window_s,
+        align_periods,
+        perturbation,
+    })
 }
 
 /// `map.phase_convention`: `standard` (the default) or the paper's.
@@ -532,6 +619,12 @@ fn read_metrics(v: Option<Value>, scene: &Scene) -> Result<Vec<Metric>, ConfigEr
             key: "map.metrics".into(),
             reason: "the list is empty: name at least one metric".into(),
         });
+    }
+    let needed: Vec<Metric> = out.iter().flat_map(|m| m.needs().iter().copied()).collect();
+    for m in needed {
+        if !out.contains(&m) {
+            out.push(m);
+        }
     }
     out.sort();
     Ok(out)
