@@ -19,6 +19,20 @@ pub enum EngineError {
         /// Adapters present.
         count: usize,
     },
+    /// λ1's twin separation is too small for the engine's float type.
+    #[error(
+        "map.lyapunov_perturbation = {given:e} is below what {precision} resolves for lambda1's twin (at least {min:e}: smaller separations drown in the rounding of the state); set map.lyapunov_perturbation to {min:e} or more, \"auto\" ({auto:e} in {precision}), or use f64"
+    )]
+    TwinSeparation {
+        /// The d0 asked for.
+        given: f64,
+        /// The engine's float type.
+        precision: &'static str,
+        /// The smallest d0 accepted in it.
+        min: f64,
+        /// The default in it.
+        auto: f64,
+    },
     /// An ensemble needs at least one instance.
     #[error("an ensemble needs at least one instance")]
     Empty,

@@ -26,7 +26,9 @@
 
 use crate::engine::stepper::{CartClock, Stepper, compensated_add};
 use crate::model::linear::spring_pattern;
-use crate::model::{Chain, ContactLaw, Lane, ModelParams, Real, Workspace, dense};
+use crate::model::{
+    Branches, BumperLoad, Chain, ContactLaw, Lane, ModelParams, Real, Workspace, dense,
+};
 use nalgebra::DMatrix;
 use std::sync::Arc;
 
@@ -298,6 +300,20 @@ impl<T: Lane> Imex<T> {
 }
 
 impl<T: Lane> Imex<T> {
+    /// Forget the summation compensation of lane `i` (a twin starting there).
+    pub fn zero_compensation_lane(&mut self, i: usize) {
+        for c in &mut self.comp {
+            *c = c.with_lane(i, <T::Scalar as num_traits::Zero>::zero());
+        }
+    }
+
+    /// The same matrices and step with nothing carried over (a twin trajectory's stepper).
+    pub fn fresh_lanes(&self) -> Self {
+        let mut s = self.clone();
+        s.comp.fill(T::splat(0.0));
+        s
+    }
+
     /// One step of `y`, the cart acceleration at stage `i` (time `C[i]`·h) given by `acc(i)`.
     #[inline]
     pub fn step_with(
@@ -307,18 +323,66 @@ impl<T: Lane> Imex<T> {
         y: &mut [T],
         acc: impl Fn(usize) -> T,
     ) {
-        self.u.copy_from_slice(y);
-        chain.rates(ws, acc(0), y, &mut self.f[0], ContactLaw::Exact);
-        self.linear_part(0);
-        for i in 1..C.len() {
-            self.implicit_stage(y, i);
-            let u = std::mem::take(&mut self.u);
-            chain.rates(ws, acc(i), &u, &mut self.f[i], ContactLaw::Exact);
-            self.u = u;
-            if i < 3 {
-                self.linear_part(i);
+        self.step_pair(chain, ws, y, &acc, None);
+    }
+
+    /// One step of `y` and of λ1's twin beside it (with its own stepper `twin.0`): every stage
+    /// of the twin evaluated with the bumpers on the branches of the main stage
+    /// ([`Chain::rates_on`], `crate::engine::twin`).
+    #[inline]
+    pub fn step_pair(
+        &mut self,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        y: &mut [T],
+        acc: &impl Fn(usize) -> T,
+        mut twin: Option<(&mut Imex<T>, &mut [T])>,
+    ) {
+        for i in 0..C.len() {
+            let load = self.stage(chain, ws, y, i, acc(i), None);
+            if let Some((ts, ty)) = &mut twin {
+                let b = load.map_or_else(Branches::free, |l| l.branches);
+                ts.stage(chain, ws, ty, i, acc(i), Some(b));
             }
         }
+        self.finish(y);
+        if let Some((ts, ty)) = twin {
+            ts.finish(ty);
+        }
+    }
+
+    /// Stage `i`: its state (the implicit solve for `i > 0`), the derivative there by the exact
+    /// law or on the given branches, and L's part when later stages need it; the bumpers' load.
+    #[inline]
+    fn stage(
+        &mut self,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        y: &[T],
+        i: usize,
+        acc: T,
+        branches: Option<Branches<T>>,
+    ) -> Option<BumperLoad<T>> {
+        if i == 0 {
+            self.u.copy_from_slice(y);
+        } else {
+            self.implicit_stage(y, i);
+        }
+        let u = std::mem::take(&mut self.u);
+        let load = match branches {
+            None => chain.rates(ws, acc, &u, &mut self.f[i], ContactLaw::Exact),
+            Some(b) => chain.rates_on(ws, acc, &u, &mut self.f[i], b),
+        };
+        self.u = u;
+        if i < 3 {
+            self.linear_part(i);
+        }
+        load
+    }
+
+    /// `y += h Σ b_i f_i` with the state's compensation.
+    #[inline]
+    fn finish(&mut self, y: &mut [T]) {
         let h = self.h;
         for (s, (ys, cs)) in y.iter_mut().zip(&mut self.comp).enumerate() {
             let mut inc = T::splat(0.0);
@@ -331,6 +395,23 @@ impl<T: Lane> Imex<T> {
 }
 
 impl<T: Real> Stepper<T> for Imex<T> {
+    fn fresh(&self) -> Self {
+        self.fresh_lanes()
+    }
+
+    fn step_twin<CL: CartClock>(
+        &mut self,
+        twin_stepper: &mut Self,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        (y, twin): (&mut [T], &mut [T]),
+        step: u64,
+        clock: &CL,
+    ) {
+        let acc = |i: usize| T::of(clock.acceleration(step, C[i]));
+        self.step_pair(chain, ws, y, &acc, Some((twin_stepper, twin)));
+    }
+
     fn step<CL: CartClock>(
         &mut self,
         chain: &Chain<T>,

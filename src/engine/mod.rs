@@ -27,6 +27,7 @@ pub mod rk4;
 mod single;
 mod step_plan;
 pub mod stepper;
+pub mod twin;
 
 pub use cpu::{CpuEngine, CpuLoop};
 pub use error::EngineError;
@@ -34,7 +35,8 @@ pub use gpu::{GpuContext, GpuEngine};
 pub use plan::{EARLY_STOP_METRICS, EarlyStop, EnsembleOptions, EnsemblePlan, InstancePlan};
 pub use reference::{ReferenceOptions, integrate_reference};
 pub use single::{
-    Instance, NoObserver, Observer, Outcome, integrate, integrate_batch, integrate_with,
+    Instance, NoObserver, Observer, Outcome, SingleTwin, integrate, integrate_batch,
+    integrate_with, integrate_with_twin,
 };
 pub use step_plan::{DtSource, StepPlan};
 
@@ -237,7 +239,7 @@ impl EnsembleEngine for CpuEngine {
         readback: Readback,
         progress: Progress,
     ) -> Result<EngineRun, EngineError> {
-        Ok(CpuEngine::run(self, plan, reduce, readback, progress))
+        CpuEngine::run(self, plan, reduce, readback, progress)
     }
 }
 

@@ -10,12 +10,17 @@
 //! need: the stroboscopic α (K, period, bifurcation) and a power-of-two uniform α series at
 //! `samples_per_period` per period (R). Trajectories are never stored.
 
-use crate::config::{MapSpec, MethodChoice, Metric, Scene, TimeStep};
+use crate::config::{
+    LyapunovSettings, MapSpec, MethodChoice, Metric, Perturbation, Scene, TimeStep,
+};
+use crate::engine::Precision;
 use crate::engine::error::EngineError;
 use crate::engine::imex::ImexMatrices;
 use crate::engine::method::{Method, MethodSteps};
 use crate::engine::step_plan::given_step_warning;
 use crate::model::{CartState, ExcitationKind, Guard, ModelParams};
+use crate::reduce::TwinPlan;
+use crate::reduce::lyapunov::LYAPUNOV_MIN_WINDOW;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::HashMap;
@@ -60,6 +65,8 @@ pub struct InstancePlan {
     /// The IMEX method's matrices for this structure and step (shared between instances).
     #[serde(skip)]
     pub imex: Option<Arc<ImexMatrices>>,
+    /// The twin of λ1, when λ1 is asked for.
+    pub twin: Option<TwinPlan>,
 }
 
 impl InstancePlan {
@@ -133,6 +140,9 @@ pub struct EnsemblePlan {
     pub warnings: Vec<String>,
     /// Early termination, when asked for and allowed by the metrics.
     pub early_stop: Option<EarlyStop>,
+    /// The twins' separation d0, when λ1 is asked for (resolved per float type by the engine:
+    /// [`EnsemblePlan::twin_separation`]).
+    pub perturbation: Option<Perturbation>,
 }
 
 /// How the instances of an ensemble are sampled, and what they record.
@@ -151,6 +161,8 @@ pub struct EnsembleOptions {
     /// Stop an instance once its periodic orbit is confirmed (only honoured when every
     /// requested metric allows it: see [`EarlyStop`]).
     pub early_stop: Option<EarlyStop>,
+    /// How λ1's twin runs (used when [`Metric::Lyapunov`] is asked for).
+    pub lyapunov: LyapunovSettings,
 }
 
 /// Early termination of instances whose periodic orbit is confirmed.
@@ -188,6 +200,7 @@ impl EnsembleOptions {
                 window: spec.period_window,
                 tol: spec.early_stop_tol,
             }),
+            lyapunov: spec.lyapunov,
         }
     }
 
@@ -261,6 +274,30 @@ impl EnsemblePlan {
         Ok(plan)
     }
 
+    /// The twins' separation d0 for an engine in `precision` (`None` without λ1): the given
+    /// one, or the measured default of the float type ([`crate::reduce::lyapunov`]); refused
+    /// when smaller than the float type resolves.
+    pub fn twin_separation(&self, precision: Precision) -> Result<Option<f64>, EngineError> {
+        use crate::reduce::lyapunov::{
+            SEPARATION_F32, SEPARATION_F32_MIN, SEPARATION_F64, SEPARATION_F64_MIN,
+        };
+        let (auto, min) = match precision {
+            Precision::F32 => (SEPARATION_F32, SEPARATION_F32_MIN),
+            Precision::F64 => (SEPARATION_F64, SEPARATION_F64_MIN),
+        };
+        match self.perturbation {
+            None => Ok(None),
+            Some(Perturbation::Auto) => Ok(Some(auto)),
+            Some(Perturbation::Given(d0)) if d0 >= min => Ok(Some(d0)),
+            Some(Perturbation::Given(given)) => Err(EngineError::TwinSeparation {
+                given,
+                precision: precision.name(),
+                min,
+                auto,
+            }),
+        }
+    }
+
     /// The sub-ensemble of the instances at `members` (indices into this plan, in order), with
     /// this plan's method, metrics and warnings: a shard integrates exactly what the whole
     /// ensemble would for those instances.
@@ -316,6 +353,9 @@ impl EnsemblePlan {
             total_steps: instances.iter().map(InstancePlan::total_steps).sum(),
             warnings,
             early_stop,
+            perturbation: opts
+                .wants(Metric::Lyapunov)
+                .then_some(opts.lyapunov.perturbation),
             instances,
         }
     }
@@ -544,6 +584,11 @@ fn plan_instance(
         )));
     }
     let r_start = total_steps - (r_count - 1) * r_every;
+    let twin = if opts.wants(Metric::Lyapunov) {
+        Some(twin_plan(&opts.lyapunov, scene, strobe_count as u32).map_err(short)?)
+    } else {
+        None
+    };
     Ok(InstancePlan {
         frequency_hz: f,
         amplitude_m: scene.excitation.amplitude_m,
@@ -561,5 +606,47 @@ fn plan_instance(
         guard: Guard::for_params(&params),
         params,
         imex: None,
+        twin,
+    })
+}
+
+/// The twin of λ1 of an instance with `strobe_count` stroboscopic samples after the transient:
+/// it ends at the last one, after `align` renormalisations and a window of `window_s` (or of
+/// every remaining forcing period); refused, with the duration to add, when the run is too
+/// short for [`LYAPUNOV_MIN_WINDOW`] renormalisations in the window.
+fn twin_plan(s: &LyapunovSettings, scene: &Scene, strobe_count: u32) -> Result<TwinPlan, String> {
+    let f = scene.excitation.reference_frequency_hz();
+    let align = s.align_periods;
+    let room = strobe_count.saturating_sub(1 + align);
+    let window = match s.window_s {
+        Some(w) => (w * f).round().max(1.0) as u32,
+        None => room,
+    };
+    if window < LYAPUNOV_MIN_WINDOW || window > room {
+        let need = window.max(LYAPUNOV_MIN_WINDOW) + align + 1;
+        let more_s = f64::from(need.saturating_sub(strobe_count)) / f;
+        let asked = match s.window_s {
+            Some(w) => format!("map.lyapunov_window_s = {w} s gives {window} forcing periods"),
+            None => format!("{room} forcing periods are left for its window"),
+        };
+        return Err(format!(
+            "lambda1 needs at least {LYAPUNOV_MIN_WINDOW} renormalisations (forcing periods) in its window after {align} to align (map.lyapunov_align_periods): {asked}, and the run has {strobe_count} stroboscopic samples after the transient; lengthen integration.duration_s by {more_s:.1} s, shorten the transient, or ask for a window of {LYAPUNOV_MIN_WINDOW} to {} periods",
+            room.max(LYAPUNOV_MIN_WINDOW)
+        ));
+    }
+    let omega = std::f64::consts::TAU * f;
+    let volt_weight = match &scene.piezo {
+        p if p.enabled && p.coupling_nm_per_v != 0.0 => {
+            (p.capacitance_f / p.coupling_nm_per_v).powi(2)
+        }
+        _ => 0.0,
+    };
+    Ok(TwinPlan {
+        start_sample: strobe_count - 1 - align - window,
+        align,
+        window,
+        rate_weight: 1.0 / (omega * omega),
+        volt_weight,
+        period_s: 1.0 / f,
     })
 }

@@ -9,7 +9,10 @@ use crate::engine::method::Method;
 use crate::engine::rk4::Rk4;
 use crate::engine::step_plan::StepPlan;
 use crate::engine::stepper::{CartClock, StepHook, Stepper, run_steps};
+use crate::engine::twin::TwinTracker;
 use crate::model::{CartMotion, CartState, Chain, Guard, ModelParams, Real, Status, Workspace};
+use crate::reduce::lyapunov::LYAPUNOV_MIN_WINDOW;
+use crate::reduce::{Lyapunov, TwinPlan};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::ops::ControlFlow;
@@ -107,15 +110,82 @@ impl CartClock for TimeClock<'_> {
     }
 }
 
-/// Samples the rows of a single run and counts every contact onset.
-struct Rows<'a, O> {
+/// Samples the rows of a single run, counts every contact onset, and keeps λ1's twin.
+struct Rows<'a, T, O> {
     obs: &'a mut O,
     cart: &'a CartMotion,
     plan: &'a StepPlan,
     impacts: u64,
+    twin: Option<RunTwin<T>>,
 }
 
-impl<T: Real, O: Observer<T>> StepHook<T> for Rows<'_, O> {
+/// λ1's twin of a single run: its schedule, bookkeeping and state.
+struct RunTwin<T> {
+    schedule: SingleTwin,
+    tracker: TwinTracker,
+    state: Vec<T>,
+}
+
+/// λ1's twin of a single run. A single run's step need not divide the forcing period, so the
+/// twin is renormalised every `every` steps, the whole number of steps nearest to one period
+/// of the (reference) forcing frequency, from the first step after the transient; its plan's
+/// `period_s` is that interval (`every · dt`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SingleTwin {
+    /// When the twin starts, aligns and measures, and its norm.
+    pub plan: TwinPlan,
+    /// Steps between renormalisations.
+    pub every: u64,
+    /// The step of renormalisation instant 0 (the first after the transient).
+    pub first_step: u64,
+    /// The separation d0.
+    pub d0: f64,
+}
+
+impl SingleTwin {
+    /// The twin of a run of `scene` over `plan` at separation `d0`, aligned over `align`
+    /// renormalisations; `Err` says why the run is too short for one.
+    pub fn for_run(
+        scene: &Scene,
+        plan: &StepPlan,
+        d0: f64,
+        align: u32,
+    ) -> Result<SingleTwin, String> {
+        let f = scene.excitation.reference_frequency_hz();
+        let every = ((1.0 / (f * plan.dt_s)).round() as u64).max(1);
+        let first_step = (scene.integration.transient_s / plan.dt_s).ceil().max(1.0) as u64;
+        let instants = plan.steps.saturating_sub(first_step) / every + 1;
+        let window = instants.saturating_sub(1 + u64::from(align));
+        if plan.steps < first_step || window < u64::from(LYAPUNOV_MIN_WINDOW) {
+            return Err(format!(
+                "lambda1 needs {} renormalisations (forcing periods) after the transient and {align} to align; this run has {instants}: lengthen integration.duration_s",
+                LYAPUNOV_MIN_WINDOW + align + 1
+            ));
+        }
+        let omega = std::f64::consts::TAU * f;
+        let volt_weight = match &scene.piezo {
+            p if p.enabled && p.coupling_nm_per_v != 0.0 => {
+                (p.capacitance_f / p.coupling_nm_per_v).powi(2)
+            }
+            _ => 0.0,
+        };
+        Ok(SingleTwin {
+            plan: TwinPlan {
+                start_sample: 0,
+                align,
+                window: window as u32,
+                rate_weight: 1.0 / (omega * omega),
+                volt_weight,
+                period_s: every as f64 * plan.dt_s,
+            },
+            every,
+            first_step,
+            d0,
+        })
+    }
+}
+
+impl<T: Real, O: Observer<T>> StepHook<T> for Rows<'_, T, O> {
     fn records(&self, step: u64) -> bool {
         step.is_multiple_of(self.plan.sample_every)
     }
@@ -134,7 +204,24 @@ impl<T: Real, O: Observer<T>> StepHook<T> for Rows<'_, O> {
             let cart = self.cart.at_step(step, 0.0, self.plan.dt_s);
             self.obs.sample(step, t, &cart, y, chain, ws);
         }
+        if let Some(tw) = &mut self.twin {
+            let sch = tw.schedule;
+            if step >= sch.first_step && (step - sch.first_step).is_multiple_of(sch.every) {
+                if tw.state.is_empty() {
+                    tw.state = y.to_vec();
+                }
+                let j = ((step - sch.first_step) / sch.every) as u32;
+                tw.tracker.at_sample(j, y, &mut tw.state[..]);
+            }
+        }
         ControlFlow::Continue(())
+    }
+
+    fn twin(&mut self) -> Option<&mut [T]> {
+        self.twin
+            .as_mut()
+            .filter(|t| t.tracker.running())
+            .map(|t| &mut t.state[..])
     }
 }
 
@@ -145,12 +232,23 @@ pub fn integrate<T: Real, O: Observer<T>>(
     plan: &StepPlan,
     obs: &mut O,
 ) -> Outcome {
+    integrate_with_twin(inst, plan, None, obs).0
+}
+
+/// [`integrate`] with λ1's twin when `twin` is given: the outcome, and λ1 once the run
+/// ended `ok` with every renormalisation of the window done.
+pub fn integrate_with_twin<T: Real, O: Observer<T>>(
+    inst: &Instance<T>,
+    plan: &StepPlan,
+    twin: Option<SingleTwin>,
+    obs: &mut O,
+) -> (Outcome, Option<Lyapunov>) {
     let dim = inst.y0.len();
     match plan.method {
-        Method::Rk4 => integrate_with(inst, plan, &mut Rk4::new(plan.dt_s, dim), obs),
+        Method::Rk4 => run_single(inst, plan, &mut Rk4::new(plan.dt_s, dim), twin, obs),
         Method::Imex => {
             let m = Arc::new(ImexMatrices::new(&inst.params, plan.dt_s));
-            integrate_with(inst, plan, &mut Imex::new(&m, dim), obs)
+            run_single(inst, plan, &mut Imex::new(&m, dim), twin, obs)
         }
     }
 }
@@ -163,6 +261,17 @@ pub fn integrate_with<T: Real, S: Stepper<T>, O: Observer<T>>(
     stepper: &mut S,
     obs: &mut O,
 ) -> Outcome {
+    run_single(inst, plan, stepper, None, obs).0
+}
+
+/// One run with `stepper` over the plan, the observer at every row, λ1's twin when given.
+fn run_single<T: Real, S: Stepper<T>, O: Observer<T>>(
+    inst: &Instance<T>,
+    plan: &StepPlan,
+    stepper: &mut S,
+    twin: Option<SingleTwin>,
+    obs: &mut O,
+) -> (Outcome, Option<Lyapunov>) {
     let chain = &inst.chain;
     let mut y: Vec<T> = inst.y0.iter().map(|&v| T::of(v)).collect();
     let mut ws = chain.workspace();
@@ -177,6 +286,16 @@ pub fn integrate_with<T: Real, S: Stepper<T>, O: Observer<T>>(
         cart: &inst.cart,
         plan,
         impacts: 0,
+        twin: twin.map(|schedule| RunTwin {
+            tracker: TwinTracker::new(
+                schedule.plan,
+                schedule.d0,
+                inst.params.segments,
+                inst.y0.len(),
+            ),
+            schedule,
+            state: Vec::new(),
+        }),
     };
     let end = run_steps(
         chain,
@@ -187,12 +306,18 @@ pub fn integrate_with<T: Real, S: Stepper<T>, O: Observer<T>>(
         &clock,
         &mut rows,
     );
-    Outcome {
+    let lyapunov = rows.twin.filter(|_| end.status.is_ok()).and_then(|t| {
+        t.tracker
+            .sums
+            .estimate(t.schedule.plan.window, t.schedule.plan.period_s)
+    });
+    let outcome = Outcome {
         status: end.status,
         steps_done: end.steps_done,
         impacts: rows.impacts,
         failed_at_s: (!end.status.is_ok()).then_some(end.steps_done as f64 * plan.dt_s),
-    }
+    };
+    (outcome, lyapunov)
 }
 
 /// Integrate a batch of independent instances in parallel (rayon), one observer each.

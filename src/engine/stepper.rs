@@ -6,6 +6,7 @@
 //! ([`health_due`], [`Guard::check`]) and hands every step to a [`StepHook`], which records what
 //! its caller needs and may end the run early.
 
+use crate::engine::twin::{onset_saltation, onsets_of};
 use crate::model::{Chain, Guard, Lane, Real, Status, Workspace, health_due};
 use std::ops::ControlFlow;
 
@@ -17,8 +18,50 @@ pub trait CartClock {
     fn velocity(&self, step: u64) -> f64;
 }
 
+/// A state the bookkeeping reads: one instance's slice `[θ; θ̇; v]`, or one lane of a state
+/// of vectors.
+pub trait StateView<T> {
+    /// Component `k`.
+    fn at(&self, k: usize) -> T;
+    /// Components.
+    fn len(&self) -> usize;
+    /// No components.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// A state the bookkeeping also writes (the twin of λ1, renormalised).
+pub trait StateViewMut<T>: StateView<T> {
+    /// Set component `k`.
+    fn set(&mut self, k: usize, v: T);
+}
+
+impl<T: Copy> StateView<T> for [T] {
+    #[inline]
+    fn at(&self, k: usize) -> T {
+        self[k]
+    }
+    fn len(&self) -> usize {
+        <[T]>::len(self)
+    }
+}
+
+impl<T: Copy> StateViewMut<T> for [T] {
+    #[inline]
+    fn set(&mut self, k: usize, v: T) {
+        self[k] = v;
+    }
+}
+
 /// A fixed-step integration method: advances the state by one step.
 pub trait Stepper<T: Real> {
+    /// The same method at the same step with nothing carried over (no summation
+    /// compensation): the stepper of a twin trajectory.
+    fn fresh(&self) -> Self
+    where
+        Self: Sized;
+
     /// Advance `y = [θ; θ̇; v]` by one step from step index `step`.
     fn step<C: CartClock>(
         &mut self,
@@ -28,6 +71,19 @@ pub trait Stepper<T: Real> {
         step: u64,
         clock: &C,
     );
+
+    /// Advance `y` and λ1's twin beside it (with its own stepper) by one step, the twin's
+    /// bumpers on the branches of the main stages (`crate::engine::twin`).
+    fn step_twin<C: CartClock>(
+        &mut self,
+        twin_stepper: &mut Self,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        y_and_twin: (&mut [T], &mut [T]),
+        step: u64,
+        clock: &C,
+    ) where
+        Self: Sized;
 }
 
 /// `y += inc` with Kahan's compensation `comp` (one per state component, zero at the start).
@@ -60,6 +116,12 @@ pub trait StepHook<T: Real> {
         chain: &Chain<T>,
         ws: &mut Workspace<T>,
     ) -> ControlFlow<()>;
+
+    /// The state of the twin trajectory the loop advances beside the main one with the same
+    /// step (λ1), while the hook runs one.
+    fn twin(&mut self) -> Option<&mut [T]> {
+        None
+    }
 }
 
 /// How a step loop ended.
@@ -83,9 +145,21 @@ pub fn run_steps<T: Real, S: Stepper<T>, C: CartClock, H: StepHook<T>>(
 ) -> LoopEnd {
     let mut ws = chain.workspace();
     let mut touching = chain.touching(y);
+    let mut twin_stepper: Option<S> = None;
     for n in 0..steps {
-        stepper.step(chain, &mut ws, y, n, clock);
-        let now = chain.touching(y);
+        let now = match hook.twin() {
+            None => {
+                stepper.step(chain, &mut ws, y, n, clock);
+                chain.touching(y)
+            }
+            Some(twin) => {
+                let ts = twin_stepper.get_or_insert_with(|| stepper.fresh());
+                stepper.step_twin(ts, chain, &mut ws, (&mut *y, &mut *twin), n, clock);
+                let now = chain.touching(y);
+                onset_saltation(chain, &mut ws, y, twin, onsets_of(touching, now));
+                now
+            }
+        };
         let onsets = u32::from(now.0 && !touching.0) + u32::from(now.1 && !touching.1);
         touching = now;
         let step = n + 1;

@@ -88,6 +88,62 @@ pub struct BumperLoad<T> {
     pub right_m: T,
     /// Penetration δ of the −x bumper (m; negative when apart).
     pub left_m: T,
+    /// The branches of the exact law the two bumpers are on at this state.
+    pub branches: Branches<T>,
+}
+
+/// The branch of each bumper's force law, lane by lane, as 0/1 values: whether it pushes
+/// (`on`) and whether its damper takes part (`damped`). On a branch the force is
+/// `on · (k_c δ + damped · c_c δ̇)` for any δ, δ̇: the smooth piece of the law, which the twin
+/// of λ1 follows along its main trajectory (`crate::engine::twin`).
+#[derive(Debug, Clone, Copy)]
+pub struct Branches<T> {
+    /// The +x bumper: (on, damped).
+    pub right: (T, T),
+    /// The −x bumper: (on, damped).
+    pub left: (T, T),
+}
+
+impl<T: Lane> Branches<T> {
+    /// Both bumpers free.
+    pub fn free() -> Self {
+        let z = T::splat(0.0);
+        Branches {
+            right: (z, z),
+            left: (z, z),
+        }
+    }
+}
+
+/// The branch of the exact law of a bumper with penetration `delta` and rate `rate`, lane by
+/// lane: loading-only damping pushes while δ > 0 and damps while also δ̇ > 0; Kelvin–Voigt
+/// pushes (damped) while δ > 0 and k_c δ + c_c δ̇ > 0.
+#[inline]
+fn branch_of<T: Lane>(law: ContactDamping, kc: T, cc: T, delta: T, rate: T) -> (T, T) {
+    let (one, zero) = (T::splat(1.0), T::splat(0.0));
+    match law {
+        ContactDamping::Loading => {
+            let on = T::if_positive(delta, one, zero);
+            (
+                on,
+                T::if_positive(delta, T::if_positive(rate, one, zero), zero),
+            )
+        }
+        ContactDamping::KelvinVoigt => {
+            let pushing = T::if_positive(kc * delta + cc * rate, one, zero);
+            let on = T::if_positive(delta, pushing, zero);
+            (on, on)
+        }
+    }
+}
+
+/// How [`Chain::generalised_forces`] evaluates the bumpers.
+#[derive(Debug, Clone, Copy)]
+enum BumperLaw<T> {
+    /// The law itself, or each bumper frozen on a branch ([`ContactLaw`]).
+    Law(ContactLaw),
+    /// Each bumper on the given branch, lane by lane.
+    On(Branches<T>),
 }
 
 /// The chain's coefficients in the engine's number type: one instance (`f64`, `f32`) or one
@@ -275,7 +331,7 @@ impl<T: Lane> Chain<T> {
         theta: &[T],
         omega: &[T],
         volt: T,
-        law: ContactLaw,
+        law: BumperLaw<T>,
     ) -> Option<BumperLoad<T>> {
         let n = self.n;
         ws.q.fill(T::splat(0.0));
@@ -291,23 +347,33 @@ impl<T: Lane> Chain<T> {
             let (x, xd) = self.contact_kinematics(c, ws, omega);
             // Penetrations and their rates: (δ, δ̇) of the +x and −x bumpers.
             let (right, left) = ((x - c.gap, xd), (-x - c.gap, -xd));
-            let force = |(delta, rate): (T, T), mode: Option<BumperMode>| match mode {
-                None => exact_bumper_force(c.law, c.kc, c.cc, delta, rate),
-                Some(m) => bumper_force(m, c.kc, c.cc, delta, rate),
-            };
-            let (mr, ml) = match law {
-                ContactLaw::Exact => (None, None),
-                ContactLaw::Frozen { right, left } => (Some(right), Some(left)),
+            let force = |(delta, rate): (T, T), which: usize| match law {
+                BumperLaw::Law(ContactLaw::Exact) => {
+                    exact_bumper_force(c.law, c.kc, c.cc, delta, rate)
+                }
+                BumperLaw::Law(ContactLaw::Frozen { right, left }) => {
+                    let m = if which == 0 { right } else { left };
+                    bumper_force(m, c.kc, c.cc, delta, rate)
+                }
+                BumperLaw::On(b) => {
+                    let (on, damped) = if which == 0 { b.right } else { b.left };
+                    on * (c.kc * delta + damped * (c.cc * rate))
+                }
             };
             // The bumpers push towards the centre: horizontal force fl − fr on the beam.
-            let fx = force(left, ml) - force(right, mr);
+            let fx = force(left, 1) - force(right, 0);
             for (i, &lam) in c.levers.iter().enumerate() {
                 ws.q[i] += fx * lam * ws.cos[i];
             }
+            let branch = |(delta, rate): (T, T)| branch_of(c.law, c.kc, c.cc, delta, rate);
             BumperLoad {
                 force_x_n: fx,
                 right_m: right.0,
                 left_m: left.0,
+                branches: Branches {
+                    right: branch(right),
+                    left: branch(left),
+                },
             }
         });
         if let Some(z) = &self.piezo {
@@ -326,6 +392,30 @@ impl<T: Lane> Chain<T> {
         y: &[T],
         dy: &mut [T],
         law: ContactLaw,
+    ) -> Option<BumperLoad<T>> {
+        self.rates_by(ws, cart_acc, y, dy, BumperLaw::Law(law))
+    }
+
+    /// [`Chain::rates`] with each bumper on the given branch of its law (lane by lane): the
+    /// twin of λ1 evaluated on its main trajectory's branches.
+    pub fn rates_on(
+        &self,
+        ws: &mut Workspace<T>,
+        cart_acc: T,
+        y: &[T],
+        dy: &mut [T],
+        branches: Branches<T>,
+    ) -> Option<BumperLoad<T>> {
+        self.rates_by(ws, cart_acc, y, dy, BumperLaw::On(branches))
+    }
+
+    fn rates_by(
+        &self,
+        ws: &mut Workspace<T>,
+        cart_acc: T,
+        y: &[T],
+        dy: &mut [T],
+        law: BumperLaw<T>,
     ) -> Option<BumperLoad<T>> {
         let n = self.n;
         let (theta, rest) = y.split_at(n);
@@ -348,6 +438,18 @@ impl<T: Lane> Chain<T> {
 
     /// The O(N) articulated-body recursion: θ̈ from sin/cos, rates, Q (in `ws`) and ẍ0.
     fn solve_accelerations(&self, ws: &mut Workspace<T>, omega: &[T], cart_acc: T, out: &mut [T]) {
+        self.solve_with_gravity(ws, omega, cart_acc, self.g, out);
+    }
+
+    /// [`Chain::solve_accelerations`] with gravity `g` (0 for the response to Q alone).
+    fn solve_with_gravity(
+        &self,
+        ws: &mut Workspace<T>,
+        omega: &[T],
+        cart_acc: T,
+        g: T,
+        out: &mut [T],
+    ) {
         let (l, m) = (self.l, self.m);
         let half = T::splat(0.5);
         let two = T::splat(2.0);
@@ -356,7 +458,7 @@ impl<T: Lane> Chain<T> {
         // Articulated inertia of the tip mass and its bias (−M g⃗ = (0, M g)).
         let zero = T::splat(0.0);
         let (mut kxx, mut kxy, mut kyy) = (self.tip, zero, self.tip);
-        let (mut px, mut py) = (zero, self.tip * self.g);
+        let (mut px, mut py) = (zero, self.tip * g);
         for i in (0..self.n).rev() {
             let (s, c) = (ws.sin[i], ws.cos[i]);
             // u = (s, c) along the segment, nvec = (c, −s) = ∂u/∂θ.
@@ -374,9 +476,9 @@ impl<T: Lane> Chain<T> {
             }
             // e: bias of the force at the lower node; bias2: of the sum of both node forces.
             let ex = -(hml * s + l * kux) * w2 + px;
-            let ey = -(hml * c + l * kuy) * w2 + py + m * self.g;
+            let ey = -(hml * c + l * kuy) * w2 + py + m * g;
             let b2x = -(hml * s + two * l * kux) * w2 + two * px;
-            let b2y = -(hml * c + two * l * kuy) * w2 + two * py + m * self.g;
+            let b2y = -(hml * c + two * l * kuy) * w2 + two * py + m * g;
             let beta = -half * l * (nx * b2x + ny * b2y) + ws.q[i];
             let inv_d = T::splat(1.0) / d;
             kxx = m + kxx - hx * hx * inv_d;
@@ -398,6 +500,33 @@ impl<T: Lane> Chain<T> {
             ax += l * (c * acc - s * w2);
             ay += l * (-s * acc - c * w2);
         }
+    }
+}
+
+impl<T: Lane> Chain<T> {
+    /// The angular accelerations `M(θ)⁻¹ (λ_i cos θ_i)` (1/(s² N)) of a unit horizontal force
+    /// at the bumpers' contact point, at the angles of `y`, into `out` (length N); false without
+    /// bumpers. The response to an impulse there: what a contact's jump in force does.
+    pub fn lever_response(&self, ws: &mut Workspace<T>, y: &[T], out: &mut [T]) -> bool {
+        let Some(c) = &self.contact else {
+            return false;
+        };
+        let n = self.n;
+        for ((th, s), co) in y[..n].iter().zip(&mut ws.sin).zip(&mut ws.cos) {
+            (*s, *co) = th.v_sin_cos();
+        }
+        ws.q.fill(T::splat(0.0));
+        for (i, &lam) in c.levers.iter().enumerate() {
+            ws.q[i] = lam * ws.cos[i];
+        }
+        let zero = vec![T::splat(0.0); n];
+        self.solve_with_gravity(ws, &zero, T::splat(0.0), T::splat(0.0), out);
+        true
+    }
+
+    /// The bumpers' damping c_c (N s/m), `None` without bumpers.
+    pub fn contact_damping(&self) -> Option<T> {
+        self.contact.as_ref().map(|c| c.cc)
     }
 }
 
@@ -431,7 +560,8 @@ impl<T: Real> Chain<T> {
         for ((th, s), c) in y[..n].iter().zip(&mut ws.sin).zip(&mut ws.cos) {
             (*s, *c) = th.sin_cos();
         }
-        let load = self.generalised_forces(ws, &y[..n], &y[n..2 * n], y[2 * n], ContactLaw::Exact);
+        let law = BumperLaw::Law(ContactLaw::Exact);
+        let load = self.generalised_forces(ws, &y[..n], &y[n..2 * n], y[2 * n], law);
         ContactReport::of(load)
     }
 

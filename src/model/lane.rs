@@ -45,6 +45,8 @@ pub trait Lane:
     fn gather(f: impl FnMut(usize) -> f64) -> Self;
     /// Lane `i`.
     fn lane(self, i: usize) -> Self::Scalar;
+    /// This value with lane `i` replaced by `v`.
+    fn with_lane(self, i: usize, v: Self::Scalar) -> Self;
     /// Lane-wise (sin x, cos x).
     fn v_sin_cos(self) -> (Self, Self);
     /// Lane-wise max(x, y); a NaN lane of `y` gives x, as `f64::max`.
@@ -69,6 +71,10 @@ macro_rules! scalar_lane {
             #[inline(always)]
             fn lane(self, _: usize) -> $t {
                 self
+            }
+            #[inline(always)]
+            fn with_lane(self, _: usize, v: $t) -> Self {
+                v
             }
             #[inline(always)]
             fn v_sin_cos(self) -> (Self, Self) {
@@ -105,6 +111,12 @@ macro_rules! vector_lane {
             #[inline(always)]
             fn lane(self, i: usize) -> $t {
                 self.as_array_ref()[i]
+            }
+            #[inline]
+            fn with_lane(self, i: usize, v: $t) -> Self {
+                let mut a = self.to_array();
+                a[i] = v;
+                <$v>::new(a)
             }
             #[inline(always)]
             fn v_sin_cos(self) -> (Self, Self) {

@@ -20,8 +20,8 @@ mod params;
 mod real;
 
 pub use chain::{
-    BumperLoad, BumperMode, Chain, ContactLaw, ContactReport, Energy, Workspace, bumper_force,
-    bumper_mode, exact_bumper_force,
+    Branches, BumperLoad, BumperMode, Chain, ContactLaw, ContactReport, Energy, Workspace,
+    bumper_force, bumper_mode, exact_bumper_force,
 };
 pub use excitation::{CartMotion, CartState, ExcitationKind, HarmonicAmplitudes};
 pub use health::{CHECK_EVERY, Guard, Status, health_due};

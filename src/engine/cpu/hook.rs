@@ -3,29 +3,12 @@
 //! samples, and the early stop on a confirmed periodic orbit ([`EarlyStop`]).
 
 use crate::engine::plan::{EarlyStop, InstancePlan};
-use crate::engine::stepper::{CartClock, StepHook};
+use crate::engine::stepper::{CartClock, StateView, StateViewMut, StepHook};
+use crate::engine::twin::TwinTracker;
 use crate::model::{Chain, Lane, Real, Status, Workspace};
+use crate::reduce::LyapunovSums;
 use crate::reduce::Tally;
 use std::ops::ControlFlow;
-
-/// A state the bookkeeping reads: one instance's slice `[θ; θ̇; v]`, or one lane of a state
-/// of vectors.
-pub(super) trait StateView<T> {
-    /// Component `k`.
-    fn at(&self, k: usize) -> T;
-    /// Components.
-    fn len(&self) -> usize;
-}
-
-impl<T: Copy> StateView<T> for [T] {
-    #[inline]
-    fn at(&self, k: usize) -> T {
-        self[k]
-    }
-    fn len(&self) -> usize {
-        <[T]>::len(self)
-    }
-}
 
 /// Lane `lane` of a state of vectors.
 pub(super) struct LaneView<'a, V> {
@@ -43,6 +26,29 @@ impl<V: Lane> StateView<V::Scalar> for LaneView<'_, V> {
     }
 }
 
+/// Lane `lane` of a state of vectors, written (the twin of λ1).
+pub(super) struct LaneViewMut<'a, V> {
+    pub(super) y: &'a mut [V],
+    pub(super) lane: usize,
+}
+
+impl<V: Lane> StateView<V::Scalar> for LaneViewMut<'_, V> {
+    #[inline]
+    fn at(&self, k: usize) -> V::Scalar {
+        self.y[k].lane(self.lane)
+    }
+    fn len(&self) -> usize {
+        self.y.len()
+    }
+}
+
+impl<V: Lane> StateViewMut<V::Scalar> for LaneViewMut<'_, V> {
+    #[inline]
+    fn set(&mut self, k: usize, v: V::Scalar) {
+        self.y[k] = self.y[k].with_lane(self.lane, v);
+    }
+}
+
 /// What one instance's integration leaves behind: accumulators and the recorded series.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RawInstance {
@@ -54,6 +60,8 @@ pub struct RawInstance {
     pub r_alpha: Vec<f64>,
     /// Orbit period (forcing periods) at which the instance stopped early, if it did.
     pub stopped_early: Option<u32>,
+    /// The log-growths of λ1's twin, when it ran.
+    pub twin: Option<LyapunovSums>,
 }
 
 /// The cart of an ensemble instance: exact phase `(step mod spp + c)/spp`.
@@ -82,6 +90,10 @@ pub(super) struct EnsembleHook<'a, T> {
     /// division per step.
     next_strobe: u64,
     next_r: u64,
+    /// λ1's twin, when asked for.
+    twin: Option<TwinTracker>,
+    /// The twin's state on the scalar loop (the lane loop keeps its twins in a vector).
+    twin_state: Vec<T>,
 }
 
 impl<'a, T: Real> EnsembleHook<'a, T> {
@@ -90,6 +102,7 @@ impl<'a, T: Real> EnsembleHook<'a, T> {
         want_strobe: bool,
         want_r: bool,
         early: Option<EarlyStop>,
+        separation: Option<f64>,
     ) -> Self {
         let nan_series = |want: bool, n: u32| {
             if want {
@@ -112,13 +125,30 @@ impl<'a, T: Real> EnsembleHook<'a, T> {
                 strobe: nan_series(want_strobe, plan.strobe_count),
                 r_alpha: nan_series(want_r, plan.r_count),
                 stopped_early: None,
+                twin: None,
             },
             well: 0,
             early,
             ring: vec![Vec::new(); early.map_or(0, |e| e.p_max as usize + 1)],
             next_strobe: first_strobe_step(plan),
             next_r: u64::from(plan.r_start),
+            twin: plan
+                .twin
+                .zip(separation)
+                .map(|(t, d0)| TwinTracker::new(t, d0, plan.params.segments, plan.y0.len())),
+            twin_state: Vec::new(),
         }
+    }
+
+    /// Whether λ1's twin is running (the loop must advance it).
+    pub(super) fn twin_running(&self) -> bool {
+        self.twin.as_ref().is_some_and(TwinTracker::running)
+    }
+
+    /// The bookkeeping is over: the raw results, with the twin's log-growths.
+    pub(super) fn finish(mut self) -> RawInstance {
+        self.raw.twin = self.twin.map(|t| t.sums);
+        self.raw
     }
 
     /// Accumulators over the steps after the transient: α range, hops, impacts, power.
@@ -154,9 +184,7 @@ impl<'a, T: Real> EnsembleHook<'a, T> {
         alpha: f64,
         y: &(impl StateView<T> + ?Sized),
     ) -> ControlFlow<()> {
-        let p = self.plan;
-        let idx =
-            (step - u64::from(p.strobe_offset)) / u64::from(p.spp) - u64::from(p.transient_periods);
+        let idx = u64::from(strobe_index(self.plan, step));
         if let Some(slot) = self.raw.strobe.get_mut(idx as usize) {
             *slot = alpha;
         }
@@ -202,6 +230,7 @@ impl<T: Real> EnsembleHook<'_, T> {
         step: u64,
         y: &(impl StateView<T> + ?Sized),
         onsets: u32,
+        twin: &mut (impl StateViewMut<T> + ?Sized),
     ) -> ControlFlow<()> {
         let p = self.plan;
         let alpha = y.at(0).wide();
@@ -212,6 +241,9 @@ impl<T: Real> EnsembleHook<'_, T> {
         let want_strobe = !self.raw.strobe.is_empty() || self.early.is_some();
         if step == self.next_strobe {
             self.next_strobe += u64::from(p.spp);
+            if let Some(t) = &mut self.twin {
+                t.at_sample(strobe_index(p, step), y, twin);
+            }
             if want_strobe && self.strobe_sample(step, alpha, y).is_break() {
                 return ControlFlow::Break(());
             }
@@ -236,8 +268,27 @@ impl<T: Real> StepHook<T> for EnsembleHook<'_, T> {
         _chain: &Chain<T>,
         _ws: &mut Workspace<T>,
     ) -> ControlFlow<()> {
-        self.record(step, y, onsets)
+        if self.twin.is_some() && self.twin_state.is_empty() {
+            self.twin_state = y.to_vec();
+        }
+        let mut twin = std::mem::take(&mut self.twin_state);
+        let flow = self.record(step, y, onsets, &mut twin[..]);
+        self.twin_state = twin;
+        flow
     }
+
+    fn twin(&mut self) -> Option<&mut [T]> {
+        if self.twin_running() {
+            Some(&mut self.twin_state)
+        } else {
+            None
+        }
+    }
+}
+
+/// The index after the transient of the stroboscopic sample taken at `step`.
+fn strobe_index(p: &InstancePlan, step: u64) -> u32 {
+    ((step - u64::from(p.strobe_offset)) / u64::from(p.spp) - u64::from(p.transient_periods)) as u32
 }
 
 /// The smallest p ≤ p_max for which the stroboscopic samples up to `k` and the full state at

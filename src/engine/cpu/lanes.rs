@@ -7,18 +7,21 @@
 //!    instance; the grouping depends on the plan alone, so results do not depend on the
 //!    thread count;
 //! 2. [`run_group`]: one step of the whole vector ([`rk4_step`] or [`Imex::step_with`], the
-//!    very functions the scalar loop runs), then per lane, in the scalar loop's order: bumper
-//!    onsets, the health check when due ([`health_due`], [`crate::model::Guard::check`] on
-//!    that lane), the bookkeeping of [`EnsembleHook::record`]. A lane that has failed, stopped
-//!    early or run all its steps is masked: its arithmetic goes on, its results are frozen;
-//!    the group ends when every lane has;
+//!    very functions the scalar loop runs), and of the vector of λ1's twins while any lane's
+//!    twin runs, then per lane, in the scalar loop's order: bumper onsets, the health check
+//!    when due ([`health_due`], [`crate::model::Guard::check`] on that lane), the bookkeeping
+//!    of [`EnsembleHook::record`] (which starts and renormalises that lane's twin). A lane that
+//!    has failed, stopped early or run all its steps is masked: its arithmetic goes on, its
+//!    results are frozen; the group ends when every lane has;
 //! 3. the cart's acceleration at each stage comes from a per-lane table of one forcing period
 //!    ([`CartTable`]), filled by the same `cart_at` the scalar loop calls.
 
-use super::hook::{EnsembleHook, LaneView, RawInstance, StateView};
+use super::hook::{EnsembleHook, LaneView, LaneViewMut, RawInstance};
 use crate::engine::imex::{C as IMEX_C, Imex};
 use crate::engine::plan::{EnsemblePlan, InstancePlan};
-use crate::engine::rk4::{Rk4Scratch, rk4_step};
+use crate::engine::rk4::{Rk4Scratch, rk4_step, rk4_step_twin};
+use crate::engine::stepper::StateView;
+use crate::engine::twin::{onset_saltation, onsets_of};
 use crate::engine::{Progress, ProgressUnit};
 use crate::model::{Chain, Lane, ModelParams, Real, Status, Workspace, health_due};
 use rayon::prelude::*;
@@ -28,8 +31,13 @@ use std::sync::atomic::{AtomicU64, Ordering};
 /// Stage fractions of a step at which RK4 takes the cart (start, middle, end).
 const RK4_STAGES: [f64; 3] = [0.0, 0.5, 1.0];
 
-/// Integrate every instance of `plan` in lanes of `V`; results in plan order.
-pub(super) fn integrate_lanes<V: Lane>(plan: &EnsemblePlan, progress: Progress) -> Vec<RawInstance>
+/// Integrate every instance of `plan` in lanes of `V` (λ1's twins at separation `d0`); results
+/// in plan order.
+pub(super) fn integrate_lanes<V: Lane>(
+    plan: &EnsemblePlan,
+    d0: Option<f64>,
+    progress: Progress,
+) -> Vec<RawInstance>
 where
     V::Scalar: Real,
 {
@@ -39,7 +47,7 @@ where
     let runs: Vec<Vec<RawInstance>> = groups
         .par_iter()
         .map(|g| {
-            let raw = run_group::<V>(plan, g);
+            let raw = run_group::<V>(plan, g, d0);
             let n = done.fetch_add(g.len() as u64, Ordering::Relaxed) + g.len() as u64;
             progress(n, total, ProgressUnit::Instances);
             raw
@@ -129,6 +137,7 @@ impl CartTable {
 }
 
 /// The integrator of a lane group.
+#[derive(Clone)]
 enum LaneStepper<V: Lane> {
     Rk4 { dt: V, scratch: Rk4Scratch<V> },
     Imex(Box<Imex<V>>),
@@ -146,6 +155,49 @@ impl<V: Lane> LaneStepper<V> {
                 LaneStepper::Imex(Box::new(Imex::new(m, dim))),
                 IMEX_C.to_vec(),
             ),
+        }
+    }
+
+    /// The same integrator with nothing carried over (the stepper of the twins).
+    fn fresh(&self, dim: usize) -> LaneStepper<V> {
+        match self {
+            LaneStepper::Rk4 { dt, .. } => LaneStepper::Rk4 {
+                dt: *dt,
+                scratch: Rk4Scratch::new(dim),
+            },
+            LaneStepper::Imex(imex) => LaneStepper::Imex(Box::new(imex.fresh_lanes())),
+        }
+    }
+
+    /// Forget the summation compensation of lane `i`: a twin starts there, and what the lane
+    /// carried from its placeholder state must not leak into it.
+    fn zero_compensation_lane(&mut self, i: usize) {
+        match self {
+            LaneStepper::Rk4 { scratch, .. } => scratch.zero_compensation_lane(i),
+            LaneStepper::Imex(imex) => imex.zero_compensation_lane(i),
+        }
+    }
+
+    /// One step of `y` and of the twins' state `ty` beside it (their stepper `twin`), the
+    /// twins on the branches of the main stages.
+    #[inline]
+    fn step_twin(
+        &mut self,
+        twin: &mut LaneStepper<V>,
+        chain: &Chain<V>,
+        ws: &mut Workspace<V>,
+        (y, ty): (&mut [V], &mut [V]),
+        cart: &CartTable,
+    ) {
+        match (self, twin) {
+            (LaneStepper::Rk4 { dt, scratch }, LaneStepper::Rk4 { scratch: ts, .. }) => {
+                let acc = [0, 1, 2].map(|j| cart.at::<V>(j));
+                rk4_step_twin(chain, ws, y, scratch, *dt, acc, (ty, ts));
+            }
+            (LaneStepper::Imex(main), LaneStepper::Imex(tw)) => {
+                main.step_pair(chain, ws, y, &|j| cart.at::<V>(j), Some((tw.as_mut(), ty)));
+            }
+            _ => unreachable!("a twin's stepper is its main stepper, fresh"),
         }
     }
 
@@ -172,12 +224,13 @@ struct LaneState<'a, T: Real> {
 }
 
 impl<T: Real> LaneState<'_, T> {
-    /// The scalar loop's work after step `step` for this lane.
-    fn after_step(
+    /// The scalar loop's work after step `step` for this lane (`twin`: its lane of the twins).
+    fn after_step<V: Lane<Scalar = T>>(
         &mut self,
         step: u64,
-        y: &LaneView<'_, impl Lane<Scalar = T>>,
+        y: &LaneView<'_, V>,
         now: (bool, bool),
+        twin: &mut LaneViewMut<'_, V>,
     ) {
         let onsets = u32::from(now.0 && !self.touching.0) + u32::from(now.1 && !self.touching.1);
         self.touching = now;
@@ -191,14 +244,15 @@ impl<T: Real> LaneState<'_, T> {
                 return;
             }
         }
-        if self.hook.record(step, y, onsets).is_break() || step == total {
+        if self.hook.record(step, y, onsets, twin).is_break() || step == total {
             self.end = Some((Status::Ok, step));
         }
     }
 }
 
-/// Integrate the instances `members` of `plan` side by side in the lanes of `V`.
-fn run_group<V: Lane>(plan: &EnsemblePlan, members: &[usize]) -> Vec<RawInstance>
+/// Integrate the instances `members` of `plan` side by side in the lanes of `V`, with λ1's
+/// twins at separation `d0` in a second vector.
+fn run_group<V: Lane>(plan: &EnsemblePlan, members: &[usize], d0: Option<f64>) -> Vec<RawInstance>
 where
     V::Scalar: Real,
 {
@@ -219,39 +273,85 @@ where
         .map(|(i, &p)| LaneState {
             plan: p,
             chain: Chain::new(&p.params),
-            hook: EnsembleHook::new(p, plan.want_strobe, plan.want_rseries, plan.early_stop),
+            hook: EnsembleHook::new(p, plan.want_strobe, plan.want_rseries, plan.early_stop, d0),
             touching: touching(i),
             end: None,
         })
         .collect();
     let longest = plans.iter().map(|p| p.total_steps()).max().unwrap_or(0);
+    let mut twin_y = y.clone();
+    let mut twin_stepper = stepper.fresh(dim);
+    let mut twins_running = false;
     for n in 0..longest {
-        stepper.step(&chain, &mut ws, &mut y, &cart);
-        cart.advance();
+        if twins_running {
+            let pair = (&mut y[..], &mut twin_y[..]);
+            stepper.step_twin(&mut twin_stepper, &chain, &mut ws, pair, &cart);
+        } else {
+            stepper.step(&chain, &mut ws, &mut y, &cart);
+        }
         let now = touching_lanes(&chain, &y);
+        if twins_running {
+            for (i, lane) in lanes.iter().enumerate() {
+                let onsets = onsets_of(lane.touching, now(i));
+                if lane.end.is_none() && lane.hook.twin_running() && (onsets.0 || onsets.1) {
+                    lane_saltation(lane, &y, &mut twin_y, i, onsets);
+                }
+            }
+        }
+        cart.advance();
         let mut running = false;
         for (i, lane) in lanes
             .iter_mut()
             .enumerate()
             .filter(|(_, l)| l.end.is_none())
         {
-            lane.after_step(n + 1, &LaneView { y: &y, lane: i }, now(i));
+            let mut twin = LaneViewMut {
+                y: &mut twin_y,
+                lane: i,
+            };
+            let was = lane.hook.twin_running();
+            lane.after_step(n + 1, &LaneView { y: &y, lane: i }, now(i), &mut twin);
+            if !was && lane.hook.twin_running() {
+                twin_stepper.zero_compensation_lane(i);
+            }
             running |= lane.end.is_none();
         }
         if !running {
             break;
         }
+        twins_running = lanes
+            .iter()
+            .any(|l| l.end.is_none() && l.hook.twin_running());
     }
     lanes
         .into_iter()
         .map(|l| {
             let (status, steps) = l.end.unwrap_or((Status::Ok, l.plan.total_steps()));
-            let mut raw = l.hook.raw;
+            let mut raw = l.hook.finish();
             raw.tally.status = status;
             raw.tally.steps = steps;
             raw
         })
         .collect()
+}
+
+/// [`onset_saltation`] of lane `i` (its scalar chain, its lanes of the main and twin states).
+fn lane_saltation<V: Lane>(
+    lane: &LaneState<'_, V::Scalar>,
+    y: &[V],
+    twin: &mut [V],
+    i: usize,
+    onsets: (bool, bool),
+) where
+    V::Scalar: Real,
+{
+    let main: Vec<V::Scalar> = y.iter().map(|v| v.lane(i)).collect();
+    let mut tw: Vec<V::Scalar> = twin.iter().map(|v| v.lane(i)).collect();
+    let mut ws = lane.chain.workspace();
+    onset_saltation(&lane.chain, &mut ws, &main, &mut tw, onsets);
+    for (t, &v) in twin.iter_mut().zip(&tw) {
+        *t = t.with_lane(i, v);
+    }
 }
 
 /// Which bumpers each lane touches (δ > 0), as a function of the lane.

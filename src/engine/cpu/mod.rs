@@ -14,7 +14,9 @@ use crate::engine::imex::Imex;
 use crate::engine::plan::{EarlyStop, EnsemblePlan, InstancePlan};
 use crate::engine::rk4::Rk4;
 use crate::engine::stepper::{StepHook, run_steps};
-use crate::engine::{EngineRun, EngineTimings, Precision, Progress, ProgressUnit, Readback};
+use crate::engine::{
+    EngineError, EngineRun, EngineTimings, Precision, Progress, ProgressUnit, Readback,
+};
 use crate::model::{Chain, F32x8, F64x4, Lane, Real, Workspace};
 use crate::reduce::{ReduceOptions, Series, Span, reduce_series};
 use hook::{EnsembleHook, PhaseClock};
@@ -31,19 +33,21 @@ pub fn run_instance<T: Real>(
     want_strobe: bool,
     want_rseries: bool,
 ) -> RawInstance {
-    run_instance_with::<T>(plan, want_strobe, want_rseries, None)
+    run_instance_with::<T>(plan, want_strobe, want_rseries, None, None)
 }
 
-/// [`run_instance`], stopping early once a periodic orbit is confirmed when `early` is given.
+/// [`run_instance`], stopping early once a periodic orbit is confirmed when `early` is given,
+/// with λ1's twin at separation `separation` when the plan has one.
 pub fn run_instance_with<T: Real>(
     plan: &InstancePlan,
     want_strobe: bool,
     want_rseries: bool,
     early: Option<EarlyStop>,
+    separation: Option<f64>,
 ) -> RawInstance {
     let chain: Chain<T> = Chain::new(&plan.params);
     let mut y: Vec<T> = plan.y0.iter().map(|&v| T::of(v)).collect();
-    let mut hook = EnsembleHook::<T>::new(plan, want_strobe, want_rseries, early);
+    let mut hook = EnsembleHook::<T>::new(plan, want_strobe, want_rseries, early, separation);
     let (steps, clock) = (plan.total_steps(), PhaseClock(plan));
     let end = match &plan.imex {
         None => {
@@ -71,7 +75,7 @@ pub fn run_instance_with<T: Real>(
             )
         }
     };
-    let mut raw = hook.raw;
+    let mut raw = hook.finish();
     raw.tally.status = end.status;
     raw.tally.steps = end.steps_done;
     raw
@@ -156,20 +160,22 @@ pub struct CpuEngine {
 }
 
 impl CpuEngine {
-    /// Integrate and reduce every instance of `plan` (rayon).
+    /// Integrate and reduce every instance of `plan` (rayon); refused before any work when
+    /// λ1's twin separation is below what the float type resolves.
     pub fn run(
         &self,
         plan: &EnsemblePlan,
         opts: &ReduceOptions,
         readback: Readback,
         progress: Progress,
-    ) -> EngineRun {
+    ) -> Result<EngineRun, EngineError> {
+        let d0 = plan.twin_separation(self.precision)?;
         let t0 = Instant::now();
         let raw = match (self.simd, self.precision) {
-            (CpuLoop::Scalar, Precision::F64) => integrate_all::<f64>(plan, progress),
-            (CpuLoop::Scalar, Precision::F32) => integrate_all::<f32>(plan, progress),
-            (CpuLoop::Simd, Precision::F64) => lanes::integrate_lanes::<F64x4>(plan, progress),
-            (CpuLoop::Simd, Precision::F32) => lanes::integrate_lanes::<F32x8>(plan, progress),
+            (CpuLoop::Scalar, Precision::F64) => integrate_all::<f64>(plan, d0, progress),
+            (CpuLoop::Scalar, Precision::F32) => integrate_all::<f32>(plan, d0, progress),
+            (CpuLoop::Simd, Precision::F64) => lanes::integrate_lanes::<F64x4>(plan, d0, progress),
+            (CpuLoop::Simd, Precision::F32) => lanes::integrate_lanes::<F32x8>(plan, d0, progress),
         };
         let integrate_s = t0.elapsed().as_secs_f64();
         let t0 = Instant::now();
@@ -193,6 +199,7 @@ impl CpuEngine {
                     r_alpha: &r.r_alpha,
                     r_cart: &cart,
                     r_samples_per_period: f64::from(p.spp / p.r_every),
+                    twin: r.twin.as_ref().zip(p.twin.as_ref()),
                 };
                 reduce_series(&mut out, series, &plan.metrics, opts);
                 out
@@ -207,7 +214,7 @@ impl CpuEngine {
                 Vec::new()
             }
         };
-        EngineRun {
+        Ok(EngineRun {
             results,
             strobe: keep(readback.strobe && plan.want_strobe, |r| &r.strobe),
             r_series: keep(readback.r_series && plan.want_rseries, |r| &r.r_alpha),
@@ -218,18 +225,24 @@ impl CpuEngine {
             },
             dispatches: 0,
             stopped_early,
-        }
+        })
     }
 }
 
-/// Integrate every instance on the CPU; progress counts finished instances.
-fn integrate_all<T: Real>(plan: &EnsemblePlan, progress: Progress) -> Vec<RawInstance> {
+/// Integrate every instance on the CPU (λ1's twins at separation `d0`); progress counts
+/// finished instances.
+fn integrate_all<T: Real>(
+    plan: &EnsemblePlan,
+    d0: Option<f64>,
+    progress: Progress,
+) -> Vec<RawInstance> {
     let done = AtomicU64::new(0);
     let total = plan.instances.len() as u64;
     plan.instances
         .par_iter()
         .map(|p| {
-            let r = run_instance_with::<T>(p, plan.want_strobe, plan.want_rseries, plan.early_stop);
+            let r =
+                run_instance_with::<T>(p, plan.want_strobe, plan.want_rseries, plan.early_stop, d0);
             progress(
                 done.fetch_add(1, Ordering::Relaxed) + 1,
                 total,
