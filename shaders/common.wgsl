@@ -21,6 +21,7 @@ override WG: u32 = 64u;             // workgroup size of the integration and R k
 override WG_K: u32 = 32u;           // workgroup size of the 0–1 test kernel
 override N_C: u32 = 100u;           // number of c values of the 0–1 test
 override METHOD_IMEX: bool = false; // integrate with the IMEX method (else classical RK4)
+override WANT_TWIN: bool = false;   // λ1 asked for: a twin trajectory rides along
 
 const TAU: f32 = 6.2831853071795864;
 const PI: f32 = 3.1415926535897932;
@@ -68,6 +69,13 @@ struct InstanceParams {
     r_start: u32,
     imex_offset: u32,
     contact_law: u32,
+    twin_start: u32,
+    twin_align: u32,
+    twin_window: u32,
+    twin_d0: f32,
+    twin_rate_w: f32,
+    twin_volt_w: f32,
+    period_s: f32,
     levers: array<f32, 64>,
 }
 
@@ -89,6 +97,13 @@ struct Accum {
     r: f32,
     line: f32,
     pad2: f32,
+    lyap_sums: array<f32, LYAPUNOV_BLOCKS>,
+    lyap_n: u32,
+    twin_flags: u32,
+    lyap: f32,
+    lyap_se: f32,
+    regime: i32,
+    pad3: array<u32, 3>,
 }
 
 // Mirrors `GpuControl`.
@@ -105,6 +120,7 @@ struct Control {
 
 @group(0) @binding(0) var<storage, read> params: array<InstanceParams>;
 // State, structure of arrays: component j of instance i at [j * n_inst + i], j < 2N + 1.
+// With λ1, the twin's state follows: its component j at [(2N + 1 + j) * n_inst + i].
 @group(0) @binding(1) var<storage, read_write> state: array<f32>;
 @group(0) @binding(2) var<storage, read_write> acc: array<Accum>;
 // The IMEX method's matrices (M0⁻¹, S⁻¹, M0; N × N each, row-major) per structure and step.
@@ -154,6 +170,19 @@ var<private> svolt: f32;
 var<private> th_c: array<f32, MAX_SEG>;
 var<private> om_c: array<f32, MAX_SEG>;
 var<private> volt_c: f32;
+// λ1's twin (src/engine/twin.rs): its state and compensation, swapped with the main ones
+// while it is stepped (`swap_twin`); while `twin_mode` is set, each stage's bumpers take the
+// branches the main step recorded in `branch_bits` (4 bits per stage: +x on, +x damped,
+// −x on, −x damped; `stage_n` counts the stages of a step).
+var<private> tw_th: array<f32, MAX_SEG>;
+var<private> tw_om: array<f32, MAX_SEG>;
+var<private> tw_volt: f32;
+var<private> tw_th_c: array<f32, MAX_SEG>;
+var<private> tw_om_c: array<f32, MAX_SEG>;
+var<private> tw_volt_c: f32;
+var<private> twin_mode: bool;
+var<private> stage_n: u32;
+var<private> branch_bits: u32;
 
 // y + inc with compensation c: (new y, new c).
 fn comp_add(y: f32, c: f32, inc: f32) -> vec2<f32> {

@@ -10,7 +10,9 @@ fn cart_acc(phase_steps: u32, frac: f32) -> f32 {
     return -P.acc_amp * sin(TAU * ph);
 }
 
-// Bumper forces at the stage state: the horizontal force fl − fr on the beam.
+// Bumper forces at the stage state: the horizontal force fl − fr on the beam. On the main
+// state, by the scene's law, recording each bumper's branch; on the twin (`twin_mode`), on
+// the branches the main stage recorded (Chain::rates_on of src/model/chain.rs).
 fn contact_force() -> f32 {
     if !HAS_CONTACT {
         return 0.0;
@@ -21,6 +23,15 @@ fn contact_force() -> f32 {
         let lam = lev[i];
         x += lam * sin(sth[i]);
         xd += lam * cos(sth[i]) * som[i];
+    }
+    let shift = 4u * stage_n;
+    stage_n += 1u;
+    if twin_mode {
+        let b = branch_bits >> shift;
+        return branch_force(b >> 2u, -x - P.gap, -xd) - branch_force(b, x - P.gap, xd);
+    }
+    if WANT_TWIN {
+        branch_bits |= (branch_of(x - P.gap, xd) | (branch_of(-x - P.gap, -xd) << 2u)) << shift;
     }
     return bumper_force(-x - P.gap, -xd) - bumper_force(x - P.gap, xd);
 }
@@ -37,6 +48,25 @@ fn bumper_force(delta: f32, rate: f32) -> f32 {
     return max(P.kc * delta + P.cc * rate, 0.0);
 }
 
+// The branch of the scene's law a bumper is on (branch_of of src/model/chain.rs): bit 0 it
+// pushes, bit 1 its damper takes part.
+fn branch_of(delta: f32, rate: f32) -> u32 {
+    if !(delta > 0.0) {
+        return 0u;
+    }
+    if P.contact_law == CONTACT_LOADING {
+        return select(1u, 3u, rate > 0.0);
+    }
+    return select(0u, 3u, P.kc * delta + P.cc * rate > 0.0);
+}
+
+// The force of a bumper on branch `b` (its low two bits): on · (k_c δ + damped · c_c δ̇).
+fn branch_force(b: u32, delta: f32, rate: f32) -> f32 {
+    let on = f32(b & 1u);
+    let damped = f32((b >> 1u) & 1u);
+    return on * (P.kc * delta + damped * (P.cc * rate));
+}
+
 // Relative-joint torque on segment i from joint (i−1, i); the root spring for i = 0.
 fn joint_torque(i: u32) -> f32 {
     if i == 0u {
@@ -48,11 +78,27 @@ fn joint_torque(i: u32) -> f32 {
 // The derivative at the stage state (sth, som, svolt): θ̈ into acc_out, v̇ into dvolt_out.
 // The O(N) articulated-body recursion of src/model/chain.rs, with Q_i formed on the fly.
 fn derivative(cart_a: f32) {
+    solve_chain(cart_a, false);
+}
+
+// M(θ)⁻¹ (λ_i cos θ_i) at the angles sth into acc_out: the response to a unit horizontal
+// force at the contact point (Chain::lever_response of src/model/chain.rs).
+fn lever_response() {
+    solve_chain(0.0, true);
+}
+
+// The recursion of `derivative`; with `unit`, for the generalised force λ_i cos θ_i alone
+// (no springs, dampers, bumpers, piezo, gravity, rates or cart).
+fn solve_chain(cart_a: f32, unit: bool) {
     let l = P.seg_len;
     let m = P.seg_mass;
     let hml = 0.5 * m * l;
     let base_d = P.seg_inertia + m * l * l * 0.25;
-    let fx = contact_force();
+    let g = select(P.g, 0.0, unit);
+    var fx = 0.0;
+    if !unit {
+        fx = contact_force();
+    }
     var couple = 0.0;
     dvolt_out = 0.0;
     if HAS_PIEZO {
@@ -63,31 +109,38 @@ fn derivative(cart_a: f32) {
     var kxy = 0.0;
     var kyy = P.tip_mass;
     var px = 0.0;
-    var py = P.tip_mass * P.g;
+    var py = P.tip_mass * g;
     for (var ii = 0u; ii < N_SEG; ii++) {
         let i = N_SEG - 1u - ii;
         let s = sin(sth[i]);
         let c = cos(sth[i]);
         sn[i] = s;
         cs[i] = c;
-        var q = joint_torque(i);
-        if i + 1u < N_SEG {
-            q -= joint_torque(i + 1u);
-        }
-        if HAS_CONTACT && i < P.n_levers {
-            q += fx * lev[i] * c;
-        }
-        if HAS_PIEZO {
-            if i == 0u {
-                q += couple;
+        var q = 0.0;
+        if unit {
+            if HAS_CONTACT && i < P.n_levers {
+                q = lev[i] * c;
             }
-            if i == P.piezo_last {
-                q -= couple;
+        } else {
+            q = joint_torque(i);
+            if i + 1u < N_SEG {
+                q -= joint_torque(i + 1u);
+            }
+            if HAS_CONTACT && i < P.n_levers {
+                q += fx * lev[i] * c;
+            }
+            if HAS_PIEZO {
+                if i == 0u {
+                    q += couple;
+                }
+                if i == P.piezo_last {
+                    q -= couple;
+                }
             }
         }
         let nx = c;
         let ny = -s;
-        let w2 = som[i] * som[i];
+        let w2 = select(som[i] * som[i], 0.0, unit);
         let knx = kxx * nx + kxy * ny;
         let kny = kxy * nx + kyy * ny;
         let kux = kxx * s + kxy * c;
@@ -99,9 +152,9 @@ fn derivative(cart_a: f32) {
             d += P.holder_inertia;
         }
         let ex = -(hml * s + l * kux) * w2 + px;
-        let ey = -(hml * c + l * kuy) * w2 + py + m * P.g;
+        let ey = -(hml * c + l * kuy) * w2 + py + m * g;
         let b2x = -(hml * s + 2.0 * l * kux) * w2 + 2.0 * px;
-        let b2y = -(hml * c + 2.0 * l * kuy) * w2 + 2.0 * py + m * P.g;
+        let b2y = -(hml * c + 2.0 * l * kuy) * w2 + 2.0 * py + m * g;
         let bt = -0.5 * l * (nx * b2x + ny * b2y) + q;
         let inv_d = 1.0 / d;
         kxx = m + kxx - h_x * h_x * inv_d;
@@ -120,7 +173,7 @@ fn derivative(cart_a: f32) {
         let accel = (beta[i] - hx[i] * ax - hy[i] * ay) * dinv[i];
         let s = sn[i];
         let c = cs[i];
-        let w2 = som[i] * som[i];
+        let w2 = select(som[i] * som[i], 0.0, unit);
         ax += l * (c * accel - s * w2);
         ay += l * (-s * accel - c * w2);
         acc_out[i] = accel;
@@ -272,6 +325,134 @@ fn touch_flags() -> u32 {
     return f;
 }
 
+// One step of whichever state is in (th, om, volt): the main one (recording its stages'
+// bumper branches), or the twin's when swapped in (on those branches).
+fn step_state(ph: u32, dt: f32) {
+    stage_n = 0u;
+    if !twin_mode {
+        branch_bits = 0u;
+    }
+    if METHOD_IMEX {
+        imex_step(ph, dt);
+    } else {
+        rk4_step(ph, dt);
+    }
+}
+
+// Exchange the main state (and its compensation) with the twin's.
+fn swap_twin() {
+    for (var i = 0u; i < N_SEG; i++) {
+        let t = th[i];
+        th[i] = tw_th[i];
+        tw_th[i] = t;
+        let o = om[i];
+        om[i] = tw_om[i];
+        tw_om[i] = o;
+        let tc = th_c[i];
+        th_c[i] = tw_th_c[i];
+        tw_th_c[i] = tc;
+        let oc = om_c[i];
+        om_c[i] = tw_om_c[i];
+        tw_om_c[i] = oc;
+    }
+    let v = volt;
+    volt = tw_volt;
+    tw_volt = v;
+    let vc = volt_c;
+    volt_c = tw_volt_c;
+    tw_volt_c = vc;
+}
+
+// The twin's step beside the main one just taken from phase `ph` (step_twin of
+// src/engine/stepper.rs).
+fn twin_step(ph: u32, dt: f32) {
+    swap_twin();
+    twin_mode = true;
+    step_state(ph, dt);
+    twin_mode = false;
+    swap_twin();
+}
+
+// onset_saltation of src/engine/twin.rs: after a step in which the main state began touching
+// a bumper (`onsets`: bit 0 the +x one, bit 1 the −x one), the twin's rates take the impulse
+// ∓c_c (δ_twin − δ_main) M(θ)⁻¹(λ_i cos θ_i) that the fixed step cannot place.
+fn twin_saltation(onsets: u32) {
+    var x = 0.0;
+    var xt = 0.0;
+    for (var i = 0u; i < P.n_levers; i++) {
+        x += lev[i] * sin(th[i]);
+        xt += lev[i] * sin(tw_th[i]);
+    }
+    // δ_twin − δ_main is xt − x at the +x bumper, x − xt at the −x one.
+    var k = 0.0;
+    if (onsets & 1u) != 0u {
+        k -= P.cc * (xt - x);
+    }
+    if (onsets & 2u) != 0u {
+        k += P.cc * (x - xt);
+    }
+    for (var i = 0u; i < N_SEG; i++) {
+        sth[i] = th[i];
+        som[i] = 0.0;
+    }
+    lever_response();
+    for (var i = 0u; i < N_SEG; i++) {
+        tw_om[i] += k * acc_out[i];
+    }
+}
+
+// TwinTracker::at_sample of src/engine/twin.rs at stroboscopic sample `j`: start the twin at
+// y + d0·u, or add g = ln(d/d0) to its block and pull it back to distance d0.
+fn twin_sample(j: u32, a: ptr<function, Accum>) {
+    let start = P.twin_start;
+    let m = f32(2u * N_SEG) + select(0.0, 1.0, P.twin_volt_w > 0.0);
+    if j == start {
+        let u_th = P.twin_d0 / sqrt(m);
+        let u_om = P.twin_d0 / sqrt(P.twin_rate_w * m);
+        for (var i = 0u; i < N_SEG; i++) {
+            tw_th[i] = th[i] + u_th;
+            tw_om[i] = om[i] + u_om;
+        }
+        tw_volt = volt;
+        if P.twin_volt_w > 0.0 {
+            tw_volt = volt + P.twin_d0 / sqrt(P.twin_volt_w * m);
+        }
+        (*a).twin_flags = TWIN_RUNNING;
+        return;
+    }
+    if ((*a).twin_flags & TWIN_RUNNING) == 0u || j <= start {
+        return;
+    }
+    var d2 = 0.0;
+    for (var i = 0u; i < N_SEG; i++) {
+        let dth = tw_th[i] - th[i];
+        let dom = tw_om[i] - om[i];
+        d2 += dth * dth + P.twin_rate_w * dom * dom;
+    }
+    let dv = tw_volt - volt;
+    d2 += P.twin_volt_w * dv * dv;
+    let d = sqrt(d2);
+    if !(d > 0.0) || not_finite(d) {
+        (*a).twin_flags = TWIN_BROKEN;
+        return;
+    }
+    let r = j - start;
+    if r > P.twin_align {
+        let b = min((r - P.twin_align - 1u) * LYAPUNOV_BLOCKS / P.twin_window, LYAPUNOV_BLOCKS - 1u);
+        (*a).lyap_sums[b] += log(d / P.twin_d0);
+        (*a).lyap_n += 1u;
+    }
+    let scale = P.twin_d0 / d;
+    for (var i = 0u; i < N_SEG; i++) {
+        tw_th[i] = th[i] + scale * (tw_th[i] - th[i]);
+        tw_om[i] = om[i] + scale * (tw_om[i] - om[i]);
+    }
+    tw_volt = volt + scale * (tw_volt - volt);
+    if j >= start + P.twin_align + P.twin_window {
+        (*a).twin_flags = 0u;
+    }
+}
+
 // Advance every unfinished instance by up to `ctl.steps_per_dispatch` steps.
 @compute @workgroup_size(WG)
 fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -297,23 +478,37 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     volt = state[2u * N_SEG * n_inst + inst];
     volt_c = 0.0;
+    let tw = 2u * N_SEG + 1u;
+    if WANT_TWIN {
+        for (var i = 0u; i < N_SEG; i++) {
+            tw_th[i] = state[(tw + i) * n_inst + inst];
+            tw_om[i] = state[(tw + N_SEG + i) * n_inst + inst];
+            tw_th_c[i] = 0.0;
+            tw_om_c[i] = 0.0;
+        }
+        tw_volt = state[(tw + 2u * N_SEG) * n_inst + inst];
+        tw_volt_c = 0.0;
+    }
     let transient = P.transient_periods * P.spp;
     let end = min(total, a.step + min(ctl.steps_per_dispatch, total - a.step));
     let dt = P.dt;
     var s = a.step;
+    twin_mode = false;
     loop {
         if s >= end {
             break;
         }
-        let ph = s % P.spp;
-        if METHOD_IMEX {
-            imex_step(ph, dt);
-        } else {
-            rk4_step(ph, dt);
+        step_state(s % P.spp, dt);
+        let twin_on = WANT_TWIN && (a.twin_flags & TWIN_RUNNING) != 0u;
+        if twin_on {
+            twin_step(s % P.spp, dt);
         }
         s += 1u;
         let alpha = th[0];
         let now = touch_flags();
+        if twin_on && HAS_CONTACT && (now & ~a.touch) != 0u {
+            twin_saltation(now & ~a.touch);
+        }
         if s > transient {
             a.impacts += countOneBits(now & ~a.touch);
             a.alpha_min = min(a.alpha_min, alpha);
@@ -345,6 +540,9 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
                 strobe[at(inst, k)] = alpha;
             }
         }
+        if WANT_TWIN && s >= transient && s % P.spp == P.strobe_offset {
+            twin_sample((s - P.strobe_offset) / P.spp - P.transient_periods, &a);
+        }
         if WANT_RSERIES && s >= P.r_start && (s - P.r_start) % P.r_every == 0u {
             let j = (s - P.r_start) / P.r_every;
             if j < P.r_count {
@@ -365,5 +563,12 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
         state[(N_SEG + i) * n_inst + inst] = om[i];
     }
     state[2u * N_SEG * n_inst + inst] = volt;
+    if WANT_TWIN && (a.twin_flags & TWIN_RUNNING) != 0u && a.status == STATUS_OK {
+        for (var i = 0u; i < N_SEG; i++) {
+            state[(tw + i) * n_inst + inst] = tw_th[i];
+            state[(tw + N_SEG + i) * n_inst + inst] = tw_om[i];
+        }
+        state[(tw + 2u * N_SEG) * n_inst + inst] = tw_volt;
+    }
     acc[inst] = a;
 }

@@ -96,7 +96,8 @@ struct Footprint {
 
 impl Footprint {
     fn of(plan: &EnsemblePlan, key: &KernelKey) -> Footprint {
-        let state_len = 2 * plan.segments + 1;
+        // λ1's twin keeps a second state beside the main one.
+        let state_len = (2 * plan.segments + 1) * if key.want_twin { 2 } else { 1 };
         let strobe_stride = plan.strobe_stride.max(1);
         let n_cut_max = (plan.strobe_stride + 5) / 10;
         let rwork_stride = (if key.want_rseries {
@@ -228,18 +229,32 @@ pub fn software_step_budget(
         .map(|p| p.params.contact.as_ref().map_or(0, |c| c.levers_m.len()))
         .max()
         .unwrap_or(0);
-    Ok(Some(steps_within_loop_budget(key.method, n_seg, max_lever)))
+    Ok(Some(steps_within_loop_budget(
+        key.method,
+        n_seg,
+        max_lever,
+        key.want_twin,
+    )))
 }
 
 /// Steps per dispatch whose loop iterations, health checks included (one every
 /// [`CHECK_EVERY`] steps, one at the end and one at a dispatch's start at most), stay within
 /// [`SOFTWARE_LOOP_BUDGET`]. lavapipe counts every loop iteration of an invocation against
 /// one limit, and silently ends the loop when it is reached: an undercount here left
-/// instances short of their last step (caught by the GPU results' check).
-fn steps_within_loop_budget(method: Method, n: usize, levers: usize) -> u64 {
-    let per_step = loops_per_step(method, n, levers) as f64;
-    let health = (3 * n + levers) as f64;
-    let spare = SOFTWARE_LOOP_BUDGET as f64 - 2.0 * health;
+/// instances short of their last step (caught by the GPU results' check). λ1's twin takes
+/// every step again with a swap in and out (`twin_step`: one step and `2 N`), and at most once
+/// per step a saltation (`twin_saltation`: at most `5 N`) and a sample (`twin_sample`: `2 N`);
+/// per dispatch it is loaded and stored (`2 N`).
+fn steps_within_loop_budget(method: Method, n: usize, levers: usize, twin: bool) -> u64 {
+    let one = loops_per_step(method, n, levers) as f64;
+    let n = n as f64;
+    let (per_step, fixed) = if twin {
+        (2.0 * one + 9.0 * n, 2.0 * n)
+    } else {
+        (one, 0.0)
+    };
+    let health = 3.0 * n + levers as f64;
+    let spare = SOFTWARE_LOOP_BUDGET as f64 - 2.0 * health - fixed;
     ((spare / (per_step + health / CHECK_EVERY as f64)) as u64).max(1)
 }
 
@@ -269,13 +284,14 @@ pub struct Buffers {
 }
 
 impl Buffers {
-    /// Create and fill every buffer of `plan`.
+    /// Create and fill every buffer of `plan` (λ1's twins at separation `twin_d0`).
     pub fn upload(
         ctx: &GpuContext,
         plan: &EnsemblePlan,
         reduce: &ReduceSettings,
         sizes: &Sizes,
         control: &GpuControl,
+        twin_d0: f64,
     ) -> Buffers {
         let dev = &ctx.device;
         let sto = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
@@ -299,7 +315,7 @@ impl Buffers {
             .instances
             .iter()
             .zip(&offsets)
-            .map(|(p, &off)| GpuInstanceParams::from_plan(p, off))
+            .map(|(p, &off)| GpuInstanceParams::from_plan(p, off, twin_d0))
             .collect();
         let (state, accum) = initial_state(plan, sizes);
         let params = init("params", bytemuck::cast_slice(&params), sto);

@@ -2,18 +2,24 @@
 //! behind a header generated from the Rust definitions, and their specialisation.
 //!
 //! The header holds the status codes ([`Status::code`]), the health-check interval
-//! ([`CHECK_EVERY`]), the IMEX method's tableaux ([`crate::engine::imex`]) and the bound of the
+//! ([`CHECK_EVERY`]), the IMEX method's tableaux ([`crate::engine::imex`]), the regime codes and
+//! thresholds ([`crate::reduce::regime`]), λ1's block count and twin flags, and the bound of the
 //! per-invocation arrays, the scene's N (so no private array is larger than the scene needs):
 //! the shader never carries its own copy of a rule or coefficient defined in Rust.
 
+use crate::engine::gpu::layout::{TWIN_BROKEN, TWIN_RUNNING};
 use crate::engine::imex::{AE, AI, B, C, GAMMA};
 use crate::engine::method::Method;
 use crate::model::{CHECK_EVERY, ContactDamping, Status};
+use crate::reduce::Regime;
+use crate::reduce::lyapunov::LYAPUNOV_BLOCKS;
+use crate::reduce::regime::{REGIME_FLAT_PER_PERIOD, REGIME_K_CHAOS, REGIME_Z};
 use std::fmt::Write;
 
 /// The stage files of the ensemble kernels, in assembly order: common definitions,
-/// integration (RK4), the IMEX method, the R reduction, the 0–1 test and period.
-pub const SHADER_STAGES: [(&str, &str); 5] = [
+/// integration (RK4, λ1's twin), the IMEX method, the R reduction, the 0–1 test and period,
+/// λ1 and the regime.
+pub const SHADER_STAGES: [(&str, &str); 6] = [
     ("common.wgsl", include_str!("../../../shaders/common.wgsl")),
     (
         "integrate.wgsl",
@@ -28,6 +34,10 @@ pub const SHADER_STAGES: [(&str, &str); 5] = [
         "reduce_k.wgsl",
         include_str!("../../../shaders/reduce_k.wgsl"),
     ),
+    (
+        "verdict.wgsl",
+        include_str!("../../../shaders/verdict.wgsl"),
+    ),
 ];
 
 /// The stage files concatenated (assembled at build time).
@@ -37,6 +47,7 @@ pub const SHADER_BODY: &str = concat!(
     include_str!("../../../shaders/imex.wgsl"),
     include_str!("../../../shaders/reduce_r.wgsl"),
     include_str!("../../../shaders/reduce_k.wgsl"),
+    include_str!("../../../shaders/verdict.wgsl"),
 );
 
 /// A WGSL array constant of f32 values.
@@ -60,6 +71,20 @@ pub fn shader_header(segments: usize) -> String {
         let _ = writeln!(h, "const {}: u32 = {}u;", law.wgsl_name(), law.gpu_code());
     }
     let _ = writeln!(h, "const CHECK_EVERY: u32 = {CHECK_EVERY}u;");
+    for r in Regime::ALL {
+        let _ = writeln!(h, "const {}: i32 = {}i;", r.wgsl_name(), r.code());
+    }
+    let _ = writeln!(h, "const REGIME_Z: f32 = {REGIME_Z:e};");
+    let _ = writeln!(h, "const REGIME_FLAT: f32 = {REGIME_FLAT_PER_PERIOD:e};");
+    let _ = writeln!(h, "const REGIME_K_CHAOS: f32 = {REGIME_K_CHAOS:e};");
+    let _ = writeln!(
+        h,
+        "const K_FIRM_SAMPLES: u32 = {}u;",
+        crate::analysis::ZERO_ONE_COMFORTABLE_SAMPLES
+    );
+    let _ = writeln!(h, "const LYAPUNOV_BLOCKS: u32 = {LYAPUNOV_BLOCKS}u;");
+    let _ = writeln!(h, "const TWIN_RUNNING: u32 = {TWIN_RUNNING}u;");
+    let _ = writeln!(h, "const TWIN_BROKEN: u32 = {TWIN_BROKEN}u;");
     let _ = writeln!(h, "const MAX_SEG: u32 = {}u;", segments.max(1));
     let _ = writeln!(h, "const IMEX_GAMMA: f32 = {GAMMA:e};");
     h.push_str(&wgsl_array("IMEX_C", &C));
@@ -103,6 +128,8 @@ pub struct KernelKey {
     pub n_c: usize,
     /// Integration method.
     pub method: Method,
+    /// λ1's twin rides along (and the λ1 and regime kernel runs).
+    pub want_twin: bool,
 }
 
 /// Workgroup size of the integration and R kernels.
@@ -129,6 +156,7 @@ impl KernelKey {
             ("WG_K", f64::from(self.wg_k())),
             ("N_C", self.n_c as f64),
             ("METHOD_IMEX", flag(self.method == Method::Imex)),
+            ("WANT_TWIN", flag(self.want_twin)),
         ]
     }
 }
@@ -146,6 +174,8 @@ pub struct Kernels {
     pub k_pass: Option<wgpu::ComputePipeline>,
     /// The median over c and the period.
     pub k_final: Option<wgpu::ComputePipeline>,
+    /// λ1 from the twin's growths, and the regime.
+    pub verdict: Option<wgpu::ComputePipeline>,
 }
 
 impl Kernels {
@@ -178,6 +208,7 @@ impl Kernels {
                 .then(|| [pipeline("r_alpha"), pipeline("r_cart"), pipeline("r_phase")]),
             k_pass: key.want_k.then(|| pipeline("k_pass")),
             k_final: key.run_k_final.then(|| pipeline("k_final")),
+            verdict: key.want_twin.then(|| pipeline("verdict")),
         }
     }
 }

@@ -5,6 +5,8 @@
 //! instance's step plan: no physical coefficient is derived anywhere else.
 
 use crate::engine::plan::InstancePlan;
+use crate::reduce::TwinPlan;
+use crate::reduce::lyapunov::LYAPUNOV_BLOCKS;
 use bytemuck::{Pod, Zeroable};
 
 /// Largest segment count the GPU kernel's per-invocation arrays hold.
@@ -94,14 +96,29 @@ pub struct GpuInstanceParams {
     pub imex_offset: u32,
     /// The contact damping law ([`crate::model::ContactDamping::gpu_code`]).
     pub contact_law: u32,
+    /// λ1's twin: the stroboscopic sample it starts at ([`TwinPlan::start_sample`]).
+    pub twin_start: u32,
+    /// Renormalisations that align the twin.
+    pub twin_align: u32,
+    /// Renormalisations averaged into λ1 (0: no twin).
+    pub twin_window: u32,
+    /// The twin's separation d0.
+    pub twin_d0: f32,
+    /// Weight of the rates in the twin's norm, 1/Ω² (s²).
+    pub twin_rate_w: f32,
+    /// Weight of the voltage in the twin's norm (rad²/V²).
+    pub twin_volt_w: f32,
+    /// The forcing period T = 1/f (s).
+    pub period_s: f32,
     /// Contact levers λ_i (m).
     pub levers: [f32; GPU_MAX_SEGMENTS],
 }
 
 impl GpuInstanceParams {
     /// From an instance plan (its [`ModelParams`] and step plan), its IMEX matrices at
-    /// `imex_offset` of the matrix buffer.
-    pub fn from_plan(p: &InstancePlan, imex_offset: u32) -> GpuInstanceParams {
+    /// `imex_offset` of the matrix buffer, λ1's twin (when the plan has one) at separation
+    /// `twin_d0`.
+    pub fn from_plan(p: &InstancePlan, imex_offset: u32, twin_d0: f64) -> GpuInstanceParams {
         let m = &p.params;
         let mut levers = [0f32; GPU_MAX_SEGMENTS];
         let (n_levers, gap, kc, cc) = match &m.contact {
@@ -129,6 +146,14 @@ impl GpuInstanceParams {
         };
         let n = m.segments;
         let w = std::f64::consts::TAU * p.frequency_hz;
+        let twin = p.twin.unwrap_or(TwinPlan {
+            start_sample: 0,
+            align: 0,
+            window: 0,
+            rate_weight: 0.0,
+            volt_weight: 0.0,
+            period_s: 1.0 / p.frequency_hz,
+        });
         GpuInstanceParams {
             seg_len: m.seg_length_m as f32,
             seg_mass: m.seg_mass_kg as f32,
@@ -170,6 +195,13 @@ impl GpuInstanceParams {
             r_start: p.r_start,
             imex_offset,
             contact_law: m.contact.as_ref().map_or(0, |c| c.law.gpu_code()),
+            twin_start: twin.start_sample,
+            twin_align: twin.align,
+            twin_window: twin.window,
+            twin_d0: twin_d0 as f32,
+            twin_rate_w: twin.rate_weight as f32,
+            twin_volt_w: twin.volt_weight as f32,
+            period_s: (1.0 / p.frequency_hz) as f32,
             levers,
         }
     }
@@ -211,7 +243,26 @@ pub struct GpuAccum {
     pub line: f32,
     /// Padding.
     pub pad2: f32,
+    /// λ1's twin: Σ ln(d/d0) per block of the window.
+    pub lyap_sums: [f32; LYAPUNOV_BLOCKS],
+    /// Growths summed so far.
+    pub lyap_n: u32,
+    /// The twin's state: [`TWIN_RUNNING`], [`TWIN_BROKEN`] bits.
+    pub twin_flags: u32,
+    /// λ1 (1/s).
+    pub lyap: f32,
+    /// Its standard error (1/s).
+    pub lyap_se: f32,
+    /// The regime's code ([`crate::reduce::Regime::code`]).
+    pub regime: i32,
+    /// Padding.
+    pub pad3: [u32; 3],
 }
+
+/// `GpuAccum::twin_flags`: the twin runs (the kernel advances it).
+pub const TWIN_RUNNING: u32 = 1;
+/// `GpuAccum::twin_flags`: a separation was zero or not finite.
+pub const TWIN_BROKEN: u32 = 2;
 
 impl GpuAccum {
     /// The state before the first step.
@@ -223,6 +274,8 @@ impl GpuAccum {
             k: f32::NAN,
             r: f32::NAN,
             line: f32::NAN,
+            lyap: f32::NAN,
+            lyap_se: f32::NAN,
             ..GpuAccum::zeroed()
         }
     }

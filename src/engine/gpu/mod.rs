@@ -22,7 +22,8 @@ use crate::engine::error::EngineError;
 use crate::engine::plan::EnsemblePlan;
 use crate::engine::{EngineRun, EngineTimings, EnsembleEngine, Progress, ProgressUnit, Readback};
 use crate::model::Status;
-use crate::reduce::{InstanceResult, ReduceOptions, Span, Tally};
+use crate::reduce::regime::confidence;
+use crate::reduce::{InstanceResult, ReduceOptions, Regime, Span, Tally};
 use buffers::{Buffers, Sizes, batch_capacity, software_step_budget};
 use kernels::{KernelKey, Kernels, WG};
 use layout::{GPU_MAX_SEGMENTS, GpuAccum, GpuControl};
@@ -150,6 +151,7 @@ fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings) -> KernelKey {
         paper_convention: reduce.paper_convention,
         n_c: reduce.c_values.len().max(1),
         method: plan.method,
+        want_twin: want(Metric::Lyapunov),
     }
 }
 
@@ -173,12 +175,19 @@ pub fn run_gpu(
     if plan.instances.is_empty() {
         return Err(EngineError::Empty);
     }
+    let twin_d0 = plan.twin_separation(crate::engine::Precision::F32)?;
     let reduce = ReduceSettings::from_options(opts);
     let key = kernel_key(plan, &reduce);
     let n = plan.instances.len();
     let cap = batch_capacity(ctx, plan, &key)?.min(max_batch.unwrap_or(usize::MAX));
+    let batch = Batch {
+        reduce: &reduce,
+        key: &key,
+        twin_d0: twin_d0.unwrap_or(0.0),
+        readback,
+    };
     if n <= cap {
-        return run_batch(ctx, plan, &reduce, &key, readback, progress);
+        return run_batch(ctx, plan, &batch, progress);
     }
     let members: Vec<usize> = (0..n).collect();
     let batches = n.div_ceil(cap) as u64;
@@ -188,7 +197,7 @@ pub fn run_gpu(
         let b = b as u64;
         let batch_progress =
             |done: u64, total: u64, unit| progress(b * total + done, batches * total, unit);
-        let run = run_batch(ctx, &part, &reduce, &key, readback, &batch_progress)?;
+        let run = run_batch(ctx, &part, &batch, &batch_progress)?;
         joined = Some(match joined {
             None => run,
             Some(all) => all.joined(run),
@@ -197,15 +206,23 @@ pub fn run_gpu(
     Ok(joined.expect("a non-empty plan has a batch"))
 }
 
+/// What every batch of a run shares.
+struct Batch<'a> {
+    reduce: &'a ReduceSettings,
+    key: &'a KernelKey,
+    /// λ1's twin separation (0 without λ1).
+    twin_d0: f64,
+    readback: Readback,
+}
+
 /// One run of `plan`, which fits the adapter.
 fn run_batch(
     ctx: &GpuContext,
     plan: &EnsemblePlan,
-    reduce: &ReduceSettings,
-    key: &KernelKey,
-    readback: Readback,
+    batch: &Batch,
     progress: Progress,
 ) -> Result<EngineRun, EngineError> {
+    let (reduce, key, readback) = (batch.reduce, batch.key, batch.readback);
     let t_all = Instant::now();
     let sizes = Sizes::new(ctx, plan, key)?;
     let budget = software_step_budget(ctx, plan, key, reduce)?;
@@ -227,7 +244,7 @@ fn run_batch(
         period_tol: reduce.period_tol_rad as f32,
         c_index: 0,
     };
-    let bufs = Buffers::upload(ctx, plan, reduce, &sizes, &control);
+    let bufs = Buffers::upload(ctx, plan, reduce, &sizes, &control, batch.twin_d0);
     timings.upload_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
     let dispatches = integrate(ctx, &kernels, &bufs, plan, &mut control, budget, progress)?;
@@ -341,7 +358,8 @@ fn read_series(
     Ok((strobe, r_series))
 }
 
-/// R (three kernels), then the 0–1 test (one pass per c value) and the median and period.
+/// R (three kernels), then the 0–1 test (one pass per c value) and the median and period,
+/// then λ1 and the regime.
 fn run_reductions(
     ctx: &GpuContext,
     kernels: &Kernels,
@@ -377,6 +395,10 @@ fn run_reductions(
             &bufs.bind,
             (sizes.n_inst as u32).div_ceil(key.wg_k()),
         );
+        wait(ctx)?;
+    }
+    if let Some(p) = &kernels.verdict {
+        submit(ctx, p, &bufs.bind, groups);
         wait(ctx)?;
     }
     Ok(())
@@ -432,6 +454,21 @@ fn results(plan: &EnsemblePlan, accum: &[GpuAccum]) -> Result<Vec<InstanceResult
                 if wants(Metric::Line) {
                     out.line = f64::from(a.line);
                 }
+                if wants(Metric::Lyapunov) {
+                    out.lyapunov_per_s = f64::from(a.lyap);
+                    out.lyapunov_se_per_s = f64::from(a.lyap_se);
+                }
+            }
+            if wants(Metric::Regime) {
+                let regime = Regime::from_code(i64::from(a.regime)).ok_or_else(|| {
+                    EngineError::GpuInconsistent {
+                        index,
+                        what: format!("unknown regime code {}", a.regime),
+                    }
+                })?;
+                out.regime = regime;
+                out.regime_confidence =
+                    confidence(regime, &out.evidence(1.0 / p.frequency_hz, p.strobe_count));
             }
             Ok(out)
         })

@@ -1,0 +1,77 @@
+// Reductions, part 3: λ1 and its standard error from the twin's block sums
+// (LyapunovSums::estimate of src/reduce/lyapunov.rs), then the cell's regime from λ1, the
+// period and K (regime_of of src/reduce/regime.rs). Runs after k_final, which leaves K and
+// the period in the accumulators. The thresholds and codes come from the generated header.
+
+// Growths in block b of a window of w: k with ⌊k·B/w⌋ = b, i.e. ⌈b·w/B⌉ ≤ k < ⌈(b+1)·w/B⌉.
+fn block_count(b: u32, w: u32) -> u32 {
+    let hi = ((b + 1u) * w + LYAPUNOV_BLOCKS - 1u) / LYAPUNOV_BLOCKS;
+    let lo = (b * w + LYAPUNOV_BLOCKS - 1u) / LYAPUNOV_BLOCKS;
+    return hi - lo;
+}
+
+// The regime of a cell whose run ended ok: λ1 per period `lambda` with standard error
+// `sigma` (`valid`: λ1 was formed), the period (0: none) and K from `k_samples` samples.
+fn regime_of(valid: bool, lambda: f32, sigma: f32, period: u32, k: f32, k_samples: u32) -> i32 {
+    if !valid {
+        return REGIME_UNDECIDED;
+    }
+    let periodic = period > 0u;
+    let firm = k_samples >= K_FIRM_SAMPLES;
+    let high_k = k >= REGIME_K_CHAOS;
+    let growing = lambda - REGIME_Z * sigma > REGIME_FLAT;
+    let shrinking = lambda + REGIME_Z * sigma < -REGIME_FLAT;
+    let flat = !growing && !shrinking && abs(lambda) + REGIME_Z * sigma <= REGIME_FLAT;
+    if shrinking && periodic {
+        return REGIME_PERIODIC;
+    }
+    if shrinking {
+        return REGIME_REGULAR;
+    }
+    if growing && !periodic && (high_k || !firm) {
+        return REGIME_CHAOTIC;
+    }
+    if flat && !periodic && (!high_k || !firm) {
+        return REGIME_REGULAR;
+    }
+    return REGIME_UNDECIDED;
+}
+
+@compute @workgroup_size(WG)
+fn verdict(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let inst = gid.x;
+    if inst >= ctl.n_inst {
+        return;
+    }
+    var a = acc[inst];
+    if a.status != STATUS_OK {
+        a.regime = REGIME_FAILED;
+        acc[inst] = a;
+        return;
+    }
+    let w = params[inst].twin_window;
+    let t = params[inst].period_s;
+    let valid = (a.twin_flags & TWIN_BROKEN) == 0u && a.lyap_n == w && w >= LYAPUNOV_BLOCKS;
+    var lambda = 0.0;
+    var sigma = 0.0;
+    if valid {
+        var total = 0.0;
+        var mean = 0.0;
+        for (var b = 0u; b < LYAPUNOV_BLOCKS; b++) {
+            total += a.lyap_sums[b];
+            mean += a.lyap_sums[b] / (f32(block_count(b, w)) * t);
+        }
+        mean /= f32(LYAPUNOV_BLOCKS);
+        var ss = 0.0;
+        for (var b = 0u; b < LYAPUNOV_BLOCKS; b++) {
+            let dev = a.lyap_sums[b] / (f32(block_count(b, w)) * t) - mean;
+            ss += dev * dev;
+        }
+        a.lyap = total / (f32(w) * t);
+        a.lyap_se = sqrt(ss / f32(LYAPUNOV_BLOCKS * (LYAPUNOV_BLOCKS - 1u)));
+        lambda = a.lyap * t;
+        sigma = a.lyap_se * t;
+    }
+    a.regime = regime_of(valid, lambda, sigma, a.period, a.k, params[inst].strobe_count);
+    acc[inst] = a;
+}
