@@ -89,6 +89,9 @@ impl Lane for Counted {
     fn lane(self, _: usize) -> f64 {
         self.0
     }
+    fn with_lane(self, _: usize, v: f64) -> Self {
+        Counted(v)
+    }
     fn v_sin_cos(self) -> (Self, Self) {
         count(SIN_COS);
         let (s, c) = self.0.sin_cos();

@@ -235,6 +235,7 @@ fn options(metrics: Vec<Metric>) -> EnsembleOptions {
         strobe_phase: 0.0,
         r_max_samples: 1024,
         early_stop: None,
+        lyapunov: Default::default(),
     }
 }
 

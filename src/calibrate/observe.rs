@@ -194,8 +194,7 @@ mod tests {
             alpha_max_rad: 0.2,
             power_w: 0.0,
             line: 0.34,
-            status,
-            steps: 1,
+            ..InstanceResult::unset(status, 1)
         }
     }
 

@@ -159,6 +159,7 @@ pub fn options(spec: &CalibrationSpec) -> (EnsembleOptions, ReduceOptions) {
         strobe_phase: 0.0,
         r_max_samples: 1024,
         early_stop: None,
+        lyapunov: Default::default(),
     };
     let red = ReduceOptions {
         convention: spec.convention,

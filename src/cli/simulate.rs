@@ -3,10 +3,12 @@
 use super::SceneArgs;
 use indicatif::{ProgressBar, ProgressStyle};
 use pendulum_atlas::analysis::{RecordAnalysis, analyze_record};
+use pendulum_atlas::config::LyapunovSettings;
 use pendulum_atlas::config::{DampingReport, Scene};
 use pendulum_atlas::engine::method::MethodSteps;
 use pendulum_atlas::engine::{
-    DtSource, Instance, Outcome, ReferenceOptions, StepPlan, integrate, integrate_reference,
+    DtSource, Instance, Outcome, ReferenceOptions, SingleTwin, StepPlan, integrate_reference,
+    integrate_with_twin,
 };
 use pendulum_atlas::model::{Modes, Status};
 use pendulum_atlas::output::Row;
@@ -15,6 +17,7 @@ use pendulum_atlas::output::files::write_json;
 use pendulum_atlas::output::folder::Product;
 use pendulum_atlas::output::{BASE_COLUMNS, PIEZO_COLUMNS};
 use pendulum_atlas::output::{TrajectoryRecorder, write_trajectory_csv};
+use pendulum_atlas::reduce::lyapunov::{SEPARATION_F32, SEPARATION_F64};
 use pendulum_atlas::render::{self, Panel, Series};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -84,6 +87,27 @@ struct RunJson<'a> {
     modes: &'a Modes,
     warnings: &'a [String],
     analysis: Option<&'a RecordAnalysis>,
+    lyapunov: LyapunovJson,
+}
+
+/// `run.json`'s `lyapunov`: λ1 of the run from its twin, or why there is none.
+#[derive(Debug, Clone, Serialize)]
+#[serde(untagged)]
+enum LyapunovJson {
+    /// λ1 and how it was measured.
+    Measured {
+        /// λ1 (1/s).
+        per_s: f64,
+        /// Its standard error from the block means (1/s).
+        se_per_s: f64,
+        /// The twin's schedule and separation.
+        twin: SingleTwin,
+    },
+    /// Why the run has no λ1.
+    Skipped {
+        /// The reason.
+        skipped: String,
+    },
 }
 
 /// Run one simulation and write its files.
@@ -100,7 +124,8 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     let size = run_size(&scene, &plan, piezo.is_some(), &a.out)?;
     super::claim_out(Product::Simulate, &a.out, a.force)?;
     announce(&plan, a.integrator, &size);
-    let (rec, outcome, precision, wall) = integrate_with_progress(&a, &scene, &plan, &m)?;
+    let (rec, (outcome, lyapunov), precision, wall) =
+        integrate_with_progress(&a, &scene, &plan, &m)?;
     let csv_path = a.out.join("trajectory.csv");
     write_trajectory_csv(&csv_path, &rec.rows, piezo.is_some())?;
     let mut warnings = plan.warnings.clone();
@@ -141,9 +166,18 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
         modes: &m,
         warnings: &warnings,
         analysis: analysis.as_ref(),
+        lyapunov,
     };
     // The manifest last: its presence means the folder is complete.
     write_json(&a.out.join("run.json"), &json)?;
+    if let LyapunovJson::Measured {
+        per_s, se_per_s, ..
+    } = &json.lyapunov
+    {
+        eprintln!(
+            "largest Lyapunov exponent lambda1 = {per_s:.4} ± {se_per_s:.4} 1/s (twin trajectory)"
+        );
+    }
     finish(&a.out, &plan, &outcome, wall, &warnings, analysis.is_some())
 }
 
@@ -185,14 +219,19 @@ fn finish(
     Ok(())
 }
 
-/// Integrate with a progress bar: the recorded rows, the outcome, the precision's name and the
-/// wall time (s).
+/// Integrate with a progress bar: the recorded rows, the outcome with λ1, the precision's
+/// name and the wall time (s).
 fn integrate_with_progress(
     a: &SimulateArgs,
     scene: &Scene,
     plan: &StepPlan,
     m: &Modes,
-) -> anyhow::Result<(TrajectoryRecorder, Outcome, &'static str, f64)> {
+) -> anyhow::Result<(
+    TrajectoryRecorder,
+    (Outcome, LyapunovJson),
+    &'static str,
+    f64,
+)> {
     let mut rec = TrajectoryRecorder {
         load_ohm: scene.piezo_params().map(|z| z.load_ohm),
         ..Default::default()
@@ -254,29 +293,64 @@ fn announce(plan: &StepPlan, integrator: IntegratorChoice, size: &RunSize) {
     }
 }
 
-/// Integrate the run with the chosen integrator and precision; the precision's name.
+/// Integrate the run with the chosen integrator and precision: the outcome with λ1 (from the
+/// engine's twin), and the precision's name.
 fn integrate_run(
     scene: &Scene,
     plan: &StepPlan,
     m: &Modes,
     (integrator, precision): (IntegratorChoice, Precision),
     rec: &mut TrajectoryRecorder,
-) -> anyhow::Result<(Outcome, &'static str)> {
+) -> anyhow::Result<((Outcome, LyapunovJson), &'static str)> {
+    let twin =
+        |d0: f64| SingleTwin::for_run(scene, plan, d0, LyapunovSettings::default().align_periods);
     Ok(match (integrator, precision) {
         (IntegratorChoice::Reference, _) => {
             let inst = Instance::<f64>::from_scene(scene);
             let opts = ReferenceOptions::for_stiffness(m.spectral_radius_per_s);
-            (integrate_reference(&inst, plan, &opts, rec)?, "f64")
+            let skipped = LyapunovJson::Skipped {
+                skipped: "the DOP853 reference takes adaptive steps; lambda1 comes from the fixed-step engine's twin trajectory (--integrator engine)".into(),
+            };
+            (
+                (integrate_reference(&inst, plan, &opts, rec)?, skipped),
+                "f64",
+            )
         }
         (IntegratorChoice::Engine, Precision::F64) => (
-            integrate(&Instance::<f64>::from_scene(scene), plan, rec),
+            engine_run::<f64>(scene, plan, twin(SEPARATION_F64), rec),
             "f64",
         ),
         (IntegratorChoice::Engine, Precision::F32) => (
-            integrate(&Instance::<f32>::from_scene(scene), plan, rec),
+            engine_run::<f32>(scene, plan, twin(SEPARATION_F32), rec),
             "f32",
         ),
     })
+}
+
+/// A run of the fixed-step engine in `T`, with λ1's twin when the run is long enough.
+fn engine_run<T: pendulum_atlas::model::Real>(
+    scene: &Scene,
+    plan: &StepPlan,
+    twin: Result<SingleTwin, String>,
+    rec: &mut TrajectoryRecorder,
+) -> (Outcome, LyapunovJson) {
+    let inst = Instance::<T>::from_scene(scene);
+    let (outcome, lyapunov) = integrate_with_twin(&inst, plan, twin.clone().ok(), rec);
+    let json = match (twin, lyapunov) {
+        (Err(skipped), _) => LyapunovJson::Skipped { skipped },
+        (Ok(twin), Some(l)) => LyapunovJson::Measured {
+            per_s: l.per_s,
+            se_per_s: l.se_per_s,
+            twin,
+        },
+        (Ok(_), None) => LyapunovJson::Skipped {
+            skipped: format!(
+                "the twin trajectory broke off (status {}, or a separation that was zero or not finite)",
+                outcome.status
+            ),
+        },
+    };
+    (outcome, json)
 }
 
 /// A progress bar for runs expected to take more than a second or two.

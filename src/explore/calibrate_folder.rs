@@ -10,6 +10,7 @@ use super::folder::{
 use crate::calibrate::{CalibrationSpec, calibration_from_toml};
 use crate::config::{Scene, axis_label};
 use crate::output::folder::Product;
+use crate::render::Palette;
 use std::path::Path;
 
 /// How a candidate fared on one observation, as `candidates.csv` says.
@@ -125,13 +126,13 @@ fn columns(spec: &CalibrationSpec, grid: &Grid) -> Vec<Column> {
         Column {
             name: "matched".into(),
             label: format!("observations matched (of {observations})"),
-            range: Some((0.0, observations as f64)),
+            palette: Palette::Sequential(Some((0.0, observations as f64))),
             values: grid.total.clone(),
         },
         Column {
             name: "distance".into(),
             label: "distance to the observations (the tie-break; lower is closer)".into(),
-            range: None,
+            palette: Palette::Sequential(None),
             values: grid.distance.clone(),
         },
     ];
@@ -140,7 +141,7 @@ fn columns(spec: &CalibrationSpec, grid: &Grid) -> Vec<Column> {
         columns.push(Column {
             name: format!("matched: {}", case.name),
             label: format!("observations of `{}` matched (of {n})", case.name),
-            range: Some((0.0, n as f64)),
+            palette: Palette::Sequential(Some((0.0, n as f64))),
             values: grid
                 .judged
                 .iter()

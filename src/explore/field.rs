@@ -1,7 +1,7 @@
 //! One quantity over one 2-D slice of the grid, as the page paints it: the values, and each
-//! cell's colour by the very rule of the PNG heat maps (`render::cell_colour` over
-//! `render::colour_range`, with the quantity's fixed range when it has one), so the page and
-//! the pictures cannot disagree.
+//! cell's colour by the very rule of the PNG heat maps (the quantity's `render::Palette`:
+//! its range, colours, colour bar or legend of categories), so the page and the pictures
+//! cannot disagree.
 //!
 //! The page's x axis is the grid's first axis, y its second (a 1-D grid is one row); every
 //! further axis is held at one index (the slice). Cell `k` is the C-order index of
@@ -10,11 +10,11 @@
 use super::error::ExploreError;
 use super::folder::{RunFolder, parse_index};
 use crate::model::Status;
-use crate::render::{INVALID_COLOR, NODATA_COLOR, cell_colour, colour_range, viridis};
+use crate::render::{INVALID_COLOR, NODATA_COLOR};
 use plotters::style::RGBColor;
 use serde::Serialize;
 
-/// Colour-bar stops sent with a field (viridis from the low to the high end).
+/// Colour-bar stops sent with a field (from the low to the high end).
 const BAR_STOPS: usize = 64;
 
 /// A metric over one slice, ready to paint.
@@ -40,8 +40,11 @@ pub struct Field {
     pub colours: Vec<String>,
     /// Each page cell's status (`ok`, `diverged`, ...).
     pub status: Vec<&'static str>,
-    /// The colour bar, low to high, `#rrggbb`.
+    /// The colour bar, low to high, `#rrggbb` (empty for categories: see `categories`).
     pub bar: Vec<String>,
+    /// The categories present in the slice, `(#rrggbb, name)`, for a categorical quantity
+    /// (the regime).
+    pub categories: Vec<(String, String)>,
     /// Colour of failed cells.
     pub invalid_colour: String,
     /// Colour of cells without a value.
@@ -97,7 +100,8 @@ pub fn field(folder: &RunFolder, name: &str, slice: &[usize]) -> Result<Field, E
         .iter()
         .map(|&k| folder.status[k] != Status::Ok.code())
         .collect();
-    let range = colour_range(&shown, &invalid, col.range);
+    let palette = &col.palette;
+    let range = palette.range(&shown, &invalid);
     Ok(Field {
         metric: col.name.clone(),
         label: col.label.clone(),
@@ -108,7 +112,7 @@ pub fn field(folder: &RunFolder, name: &str, slice: &[usize]) -> Result<Field, E
         colours: shown
             .iter()
             .zip(&invalid)
-            .map(|(&v, &bad)| hex(cell_colour(v, bad, range)))
+            .map(|(&v, &bad)| hex(palette.colour(v, bad, range)))
             .collect(),
         values: shown.iter().map(|v| v.is_finite().then_some(*v)).collect(),
         status: cells
@@ -116,8 +120,11 @@ pub fn field(folder: &RunFolder, name: &str, slice: &[usize]) -> Result<Field, E
             .map(|&k| status_name(folder.status[k]))
             .collect(),
         cells,
-        bar: (0..BAR_STOPS)
-            .map(|i| hex(viridis(i as f64 / (BAR_STOPS - 1) as f64)))
+        bar: palette.bar(BAR_STOPS).into_iter().map(hex).collect(),
+        categories: palette
+            .present(&shown, &invalid)
+            .into_iter()
+            .map(|c| (hex(c.colour), c.label))
             .collect(),
         invalid_colour: hex(INVALID_COLOR),
         nodata_colour: hex(NODATA_COLOR),

@@ -17,6 +17,7 @@ use crate::calibrate::CalibrationSpec;
 use crate::config::{MapSpec, c_order_index, grid_point};
 use crate::harvest::spec::SearchSpec;
 use crate::output::folder::Product;
+use crate::render::Palette;
 use std::path::{Path, PathBuf};
 
 /// One axis of the grid.
@@ -37,8 +38,8 @@ pub struct Column {
     pub name: String,
     /// Colour-bar label, with units.
     pub label: String,
-    /// Fixed colour range, if the quantity has one.
-    pub range: Option<(f64, f64)>,
+    /// How its values are coloured (the PNGs' rule).
+    pub palette: Palette,
     /// The value per cell as shown (NaN: no data, drawn grey).
     pub values: Vec<f64>,
 }

@@ -5,7 +5,7 @@ use super::error::ExploreError;
 use super::folder::{Axis, Column, RunFolder, Source, bad, listed_files, read_json, read_text};
 use crate::config::{MapSpec, Metric, map_from_toml};
 use crate::output::folder::Product;
-use crate::output::map::{COLUMNS, metric_style, shown_value};
+use crate::output::map::{COLUMNS, metric_style, regime_shade, shown_value};
 use crate::output::npy::read_npy;
 use std::path::Path;
 
@@ -33,10 +33,15 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
             ))
         })
         .collect::<Result<_, ExploreError>>()?;
+    let regime = if spec.wants(Metric::Regime) {
+        read_array::<i8>(dir, "regime.npy", &spec)?
+    } else {
+        Vec::new()
+    };
     let columns = spec
         .metrics
         .iter()
-        .map(|&m| metric_column(&spec, m, &stored))
+        .map(|&m| metric_column(&spec, m, &stored, &regime))
         .collect();
     let status = read_array::<u8>(dir, "status.npy", &spec)?;
     Ok(RunFolder {
@@ -61,14 +66,28 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
     })
 }
 
-/// Metric `m` as shown: its label and range from the PNGs' rule, `alpha_range` as the
-/// difference of its two arrays, period 0 as no data.
-fn metric_column(spec: &MapSpec, m: Metric, stored: &[(&str, Metric, Vec<f64>)]) -> Column {
+/// Metric `m` as shown: its label and palette from the PNGs' rule, `alpha_range` as the
+/// difference of its two arrays, period 0 as no data, the regime (codes of `regime.npy`) in
+/// its shades.
+fn metric_column(
+    spec: &MapSpec,
+    m: Metric,
+    stored: &[(&str, Metric, Vec<f64>)],
+    regime: &[i8],
+) -> Column {
     let of = |stem: &str| stored.iter().find(|s| s.0 == stem).map(|s| &s.2);
     let raw: Vec<f64> = match m {
         Metric::AlphaRange => match (of("alpha_max_rad"), of("alpha_min_rad")) {
             (Some(hi), Some(lo)) => hi.iter().zip(lo).map(|(a, b)| a - b).collect(),
             _ => Vec::new(),
+        },
+        Metric::Regime => match of("period") {
+            Some(period) => regime
+                .iter()
+                .zip(period)
+                .map(|(&c, &p)| regime_shade(f64::from(c), p))
+                .collect(),
+            None => Vec::new(),
         },
         _ => stored
             .iter()
@@ -76,11 +95,11 @@ fn metric_column(spec: &MapSpec, m: Metric, stored: &[(&str, Metric, Vec<f64>)])
             .map(|s| s.2.clone())
             .unwrap_or_default(),
     };
-    let (label, range) = metric_style(m, spec);
+    let style = metric_style(m, spec);
     Column {
         name: m.name().into(),
-        label,
-        range,
+        label: style.label,
+        palette: style.palette,
         values: raw.iter().map(|&v| shown_value(m, v)).collect(),
     }
 }

@@ -10,6 +10,7 @@ use super::folder::{
 use crate::config::axis_label;
 use crate::harvest::spec::{SearchSpec, search_from_toml};
 use crate::output::folder::Product;
+use crate::render::Palette;
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -141,7 +142,7 @@ fn read_designs(
         .map(|(name, label)| Column {
             name: (*name).into(),
             label: (*label).into(),
-            range: (*name == "periodic_fraction").then_some((0.0, 1.0)),
+            palette: Palette::Sequential((*name == "periodic_fraction").then_some((0.0, 1.0))),
             values: vec![f64::NAN; cells],
         })
         .collect();

@@ -135,8 +135,18 @@ async fn map_info(State(app): Shared) -> Response {
         "status_counts": m["status_counts"],
         "bifurcation": pictures.iter().any(|n| n.as_str() == "bifurcation.png"),
         "pictures": pictures,
+        "scalogram_bar": sequential_bar(),
     }))
     .into_response()
+}
+
+/// The colour stops of a cell's scalogram (viridis, as its PNG), whatever the map shows.
+fn sequential_bar() -> Vec<String> {
+    crate::render::Palette::Sequential(None)
+        .bar(64)
+        .into_iter()
+        .map(super::field::hex)
+        .collect()
 }
 
 async fn field_of(

@@ -172,6 +172,7 @@ pub fn ensemble_options(spec: &SearchSpec) -> EnsembleOptions {
         r_max_samples: 32,
         // Power needs the whole run.
         early_stop: None,
+        lyapunov: Default::default(),
     }
 }
 

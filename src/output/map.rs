@@ -7,8 +7,9 @@ use crate::map::MapRun;
 use crate::model::Status;
 use crate::output::OutputError;
 use crate::output::files::{AtomicFile, create_dir, draw, write_json, write_toml};
-use crate::output::npy::{write_npy_f64, write_npy_u8};
-use crate::render::{Axis, heatmap, scatter};
+use crate::output::npy::{write_npy_f64, write_npy_i8, write_npy_u8};
+use crate::reduce::Regime;
+use crate::render::{Axis, Category, Palette, RGBColor, heatmap, scatter};
 use serde_json::json;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -21,7 +22,7 @@ pub type Column = (
 );
 
 /// Every stored array of a map, in `grid.csv` order.
-pub const COLUMNS: [Column; 9] = [
+pub const COLUMNS: [Column; 12] = [
     ("K", Metric::K, |r| r.k),
     ("R", Metric::R, |r| r.r),
     ("period", Metric::Period, |r| r.period),
@@ -31,6 +32,9 @@ pub const COLUMNS: [Column; 9] = [
     ("alpha_max_rad", Metric::AlphaRange, |r| r.alpha_max_rad),
     ("power_w", Metric::Power, |r| r.power_w),
     ("line_ratio", Metric::Line, |r| r.line),
+    ("lyapunov", Metric::Lyapunov, |r| r.lyapunov_per_s),
+    ("lyapunov_se", Metric::Lyapunov, |r| r.lyapunov_se_per_s),
+    ("regime_confidence", Metric::Regime, |r| r.regime_confidence),
 ];
 
 /// Write every file of a map into `dir` (created if needed); returns the paths written.
@@ -76,11 +80,17 @@ fn write_grid_csv(path: &Path, spec: &MapSpec, run: &MapRun) -> Result<PathBuf, 
     let mut w = AtomicFile::create(path)?;
     let mut header: Vec<&str> = spec.axes.iter().map(|a| a.key.as_str()).collect();
     header.extend(COLUMNS.iter().map(|c| c.0));
+    header.push("regime");
     header.push("status");
     writeln!(w, "{}", header.join(",")).map_err(io)?;
     for (k, r) in run.results.iter().enumerate() {
         let mut row: Vec<String> = spec.values_of(k).iter().map(|v| format!("{v}")).collect();
         row.extend(COLUMNS.iter().map(|(_, _, get)| fmt(get(r))));
+        row.push(if spec.wants(Metric::Regime) {
+            r.regime.name().to_string()
+        } else {
+            "nan".into()
+        });
         row.push(r.status.as_str().to_string());
         writeln!(w, "{}", row.join(",")).map_err(io)?;
     }
@@ -98,6 +108,12 @@ fn write_arrays(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf>
         let data: Vec<f64> = run.results.iter().map(get).collect();
         let p = dir.join(format!("{stem}.npy"));
         write_npy_f64(&p, &shape, &data)?;
+        written.push(p);
+    }
+    if spec.wants(Metric::Regime) {
+        let codes: Vec<i8> = run.results.iter().map(|r| r.regime.code()).collect();
+        let p = dir.join("regime.npy");
+        write_npy_i8(&p, &shape, &codes)?;
         written.push(p);
     }
     let status: Vec<u8> = run.results.iter().map(|r| r.status.code()).collect();
@@ -180,6 +196,8 @@ fn map_json(spec: &MapSpec, run: &MapRun, files: &[String]) -> serde_json::Value
             .iter()
             .map(|&s| (s.as_str().to_string(), json!(counts(s))))
             .collect::<serde_json::Map<String, serde_json::Value>>(),
+        "regime": regime_json(spec, run),
+        "lyapunov": lyapunov_json(spec, run),
         "sampling": {
             "samples_per_period": spec.samples_per_period,
             "strobe_phase": spec.strobe_phase,
@@ -195,6 +213,55 @@ fn map_json(spec: &MapSpec, run: &MapRun, files: &[String]) -> serde_json::Value
     })
 }
 
+/// `map.json`'s `regime`: the cells of each verdict and the rule's thresholds (`null` when
+/// the regime was not asked for).
+fn regime_json(spec: &MapSpec, run: &MapRun) -> serde_json::Value {
+    use crate::reduce::regime::{REGIME_FLAT_PER_PERIOD, REGIME_K_CHAOS, REGIME_Z};
+    if !spec.wants(Metric::Regime) {
+        return serde_json::Value::Null;
+    }
+    let counts: serde_json::Map<String, serde_json::Value> = Regime::ALL
+        .iter()
+        .map(|&g| {
+            let n = run.results.iter().filter(|r| r.regime == g).count();
+            (g.name().to_string(), json!(n))
+        })
+        .collect();
+    json!({
+        "counts": counts,
+        "codes": Regime::ALL.iter().map(|g| (g.name().to_string(), json!(g.code()))).collect::<serde_json::Map<_, _>>(),
+        "rule": {
+            "z": REGIME_Z,
+            "flat_per_period": REGIME_FLAT_PER_PERIOD,
+            "k_chaos": REGIME_K_CHAOS,
+            "k_firm_samples": crate::analysis::ZERO_ONE_COMFORTABLE_SAMPLES,
+            "doc": "docs/analysis.md, section 10",
+        },
+    })
+}
+
+/// `map.json`'s `lyapunov`: how the twins ran (`null` without λ1).
+fn lyapunov_json(spec: &MapSpec, run: &MapRun) -> serde_json::Value {
+    if !spec.wants(Metric::Lyapunov) {
+        return serde_json::Value::Null;
+    }
+    let windows = run
+        .plan
+        .instances
+        .iter()
+        .filter_map(|p| p.twin.map(|t| t.window));
+    json!({
+        "separation": run.plan.twin_separation(run.engine.precision).ok().flatten(),
+        "precision": run.engine.precision,
+        "window_s": spec.lyapunov.window_s,
+        "window_periods": {"min": windows.clone().min(), "max": windows.max()},
+        "align_periods": spec.lyapunov.align_periods,
+        "blocks": crate::reduce::lyapunov::LYAPUNOV_BLOCKS,
+        "renormalised": "every forcing period, at the stroboscopic phase",
+        "unit": "1/s",
+    })
+}
+
 fn fmt(v: f64) -> String {
     if v.is_finite() {
         format!("{v}")
@@ -203,11 +270,25 @@ fn fmt(v: f64) -> String {
     }
 }
 
-/// Colour-bar label and fixed range of a metric's picture.
-pub fn metric_style(m: Metric, spec: &MapSpec) -> (String, Option<(f64, f64)>) {
+/// How a metric's picture is labelled and coloured.
+#[derive(Debug, Clone)]
+pub struct Style {
+    /// Colour-bar (or legend) label, with units.
+    pub label: String,
+    /// The colour rule.
+    pub palette: Palette,
+}
+
+/// The picture style of a metric: viridis over a fixed or the data's range, blue-white-red
+/// about 0 for λ1, categories for the regime.
+pub fn metric_style(m: Metric, spec: &MapSpec) -> Style {
+    let seq = |label: String, range| Style {
+        label,
+        palette: Palette::Sequential(range),
+    };
     match m {
-        Metric::K => ("0–1 test K (0 regular, 1 chaotic)".into(), Some((0.0, 1.0))),
-        Metric::R => (
+        Metric::K => seq("0–1 test K (0 regular, 1 chaotic)".into(), Some((0.0, 1.0))),
+        Metric::R => seq(
             format!(
                 "phase synchronisation R ({} convention)",
                 match spec.phase_convention {
@@ -217,22 +298,82 @@ pub fn metric_style(m: Metric, spec: &MapSpec) -> (String, Option<(f64, f64)>) {
             ),
             Some((0.0, 1.0)),
         ),
-        Metric::Period => (
+        Metric::Period => seq(
             format!("period (forcing periods; grey: none ≤ {})", spec.period_max),
             Some((1.0, f64::from(spec.period_max.max(2)))),
         ),
-        Metric::Hops => ("hops between wells".into(), None),
-        Metric::ImpactsPerS => ("impacts per second (1/s)".into(), None),
-        Metric::AlphaRange => ("holder angle range max−min (rad)".into(), None),
-        Metric::Power => ("mean harvested power (W)".into(), None),
-        Metric::Line => ("dominant line of α / forcing frequency".into(), None),
+        Metric::Hops => seq("hops between wells".into(), None),
+        Metric::ImpactsPerS => seq("impacts per second (1/s)".into(), None),
+        Metric::AlphaRange => seq("holder angle range max−min (rad)".into(), None),
+        Metric::Power => seq("mean harvested power (W)".into(), None),
+        Metric::Line => seq("dominant line of α / forcing frequency".into(), None),
+        Metric::Lyapunov => Style {
+            label: "largest Lyapunov exponent λ1 (1/s)".into(),
+            palette: Palette::Diverging(None),
+        },
+        Metric::Regime => Style {
+            label: "regime".into(),
+            palette: regime_palette(spec.period_max),
+        },
     }
 }
 
+/// The value a regime picture shows for a cell of regime code `code` and period `period`:
+/// the code, except a periodic cell's, which is 10 + its period (a shade per period).
+pub fn regime_shade(code: f64, period: f64) -> f64 {
+    if code == f64::from(Regime::Periodic.code()) && period > 0.0 {
+        10.0 + period
+    } else {
+        code
+    }
+}
+
+/// The regime legend: periodic cells in shades of blue by period (light for period 1, dark
+/// for `period_max`), regular green, chaotic vermillion, undecided yellow (Okabe–Ito hues);
+/// failed cells take every map's magenta.
+fn regime_palette(period_max: u32) -> Palette {
+    let pm = period_max.max(1);
+    let mut c: Vec<Category> = (1..=pm)
+        .map(|p| {
+            let t = if pm == 1 {
+                0.5
+            } else {
+                f64::from(p - 1) / f64::from(pm - 1)
+            };
+            let mix = |a: f64, b: f64| (a + t * (b - a)).round() as u8;
+            Category {
+                value: 10.0 + f64::from(p),
+                label: format!("periodic, period {p}"),
+                colour: RGBColor(mix(158.0, 8.0), mix(202.0, 48.0), mix(225.0, 107.0)),
+            }
+        })
+        .collect();
+    c.push(Category {
+        value: f64::from(Regime::Regular.code()),
+        label: format!("regular, no period ≤ {pm}"),
+        colour: RGBColor(0, 158, 115),
+    });
+    c.push(Category {
+        value: f64::from(Regime::Chaotic.code()),
+        label: "chaotic".into(),
+        colour: RGBColor(213, 94, 0),
+    });
+    c.push(Category {
+        value: f64::from(Regime::Undecided.code()),
+        label: "undecided".into(),
+        colour: RGBColor(240, 228, 66),
+    });
+    Palette::Categorical(c)
+}
+
 /// The value drawn for cell `k`: period 0 ("no period found") is drawn as no-data grey, not
-/// as a colour below 1.
+/// as a colour below 1; the regime as its shade ([`regime_shade`]).
 fn drawn_value(run: &MapRun, m: Metric, k: usize) -> f64 {
-    shown_value(m, run.results[k].metric(m))
+    let r = &run.results[k];
+    match m {
+        Metric::Regime => regime_shade(f64::from(r.regime.code()), r.period),
+        _ => shown_value(m, r.metric(m)),
+    }
 }
 
 /// A stored value as pictures show it: period 0 ("no period found") becomes NaN (no-data
@@ -268,7 +409,7 @@ fn draw_curve(
     run: &MapRun,
     m: Metric,
 ) -> Result<Option<PathBuf>, OutputError> {
-    let (label, _) = metric_style(m, spec);
+    let label = metric_style(m, spec).label;
     let axis = &spec.axes[0];
     let bad = |k: usize| run.results[k].status != Status::Ok;
     let (xs, ys): (Vec<f64>, Vec<f64>) = (0..axis.values.len())
@@ -299,7 +440,7 @@ fn draw_slice(
     m: Metric,
     iz: usize,
 ) -> Result<PathBuf, OutputError> {
-    let (label, range) = metric_style(m, spec);
+    let Style { label, palette } = metric_style(m, spec);
     let shape = spec.shape();
     let (nx, ny) = (shape[0], shape[1]);
     let nz = shape.get(2).copied().unwrap_or(1);
@@ -326,6 +467,6 @@ fn draw_slice(
         values: &spec.axes[1].values,
     };
     draw(&p, |t| {
-        heatmap(t, &title, &x, &y, &vals, &label, &invalid, range)
+        heatmap(t, &title, &x, &y, &vals, &label, &invalid, &palette)
     })
 }

@@ -65,6 +65,15 @@ pub fn write_npy_u8(
     write_npy(path, shape, data_row_major)
 }
 
+/// Writes an int8 array (e.g. category codes) of the given `shape` to `path`.
+pub fn write_npy_i8(
+    path: &Path,
+    shape: &[usize],
+    data_row_major: &[i8],
+) -> Result<(), OutputError> {
+    write_npy(path, shape, data_row_major)
+}
+
 /// Writes an int32 array (e.g. labels/counts) of the given `shape` to `path`.
 pub fn write_npy_i32(
     path: &Path,

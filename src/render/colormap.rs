@@ -1,5 +1,5 @@
-//! Perceptually ordered colour map (matplotlib's viridis, 11 stops,
-//! linearly interpolated).
+//! Perceptually ordered colour maps: matplotlib's viridis (11 stops, linearly interpolated),
+//! and the interpolation every stop table of [`super::palette`] shares.
 
 use plotters::style::RGBColor;
 
@@ -20,11 +20,17 @@ const VIRIDIS: [(u8, u8, u8); 11] = [
 
 /// Viridis colour for `t` in [0, 1] (clamped; NaN maps to the low end).
 pub fn viridis(t: f64) -> RGBColor {
+    lerp_stops(&VIRIDIS, t)
+}
+
+/// The colour at `t` in [0, 1] (clamped; NaN maps to the low end) of evenly spaced `stops`,
+/// linearly interpolated.
+pub(crate) fn lerp_stops(stops: &[(u8, u8, u8)], t: f64) -> RGBColor {
     let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
-    let s = t * (VIRIDIS.len() - 1) as f64;
-    let i = (s.floor() as usize).min(VIRIDIS.len() - 2);
+    let s = t * (stops.len() - 1) as f64;
+    let i = (s.floor() as usize).min(stops.len() - 2);
     let f = s - i as f64;
-    let (a, b) = (VIRIDIS[i], VIRIDIS[i + 1]);
+    let (a, b) = (stops[i], stops[i + 1]);
     let mix = |p: u8, q: u8| (p as f64 + f * (q as f64 - p as f64)).round() as u8;
     RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
 }

@@ -8,6 +8,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::colormap::{blend, viridis};
+use super::palette::{INVALID_COLOR, NODATA_COLOR, Palette};
 use super::{
     Area, Axis, AxisSpec, Chart, LABEL_PX, TICK_PX, build_chart, canvas, finite_min_max, font,
     nice_ticks, titled,
@@ -17,10 +18,6 @@ use super::{
 const SIZE: (u32, u32) = (1000, 700);
 /// Width of the colour-bar column (px).
 const BAR_COL: u32 = 170;
-/// Colour of invalid (diverged) heat-map cells; viridis never reaches it.
-pub const INVALID_COLOR: RGBColor = RGBColor(255, 0, 255);
-/// Colour of non-finite but valid cells ("no data").
-pub const NODATA_COLOR: RGBColor = RGBColor(190, 190, 190);
 /// Dynamic range (octaves) shown by the scalogram below its maximum.
 const SCALOGRAM_OCTAVES: f64 = 16.0;
 
@@ -87,9 +84,15 @@ fn paint_cells(
     Ok(())
 }
 
-/// Vertical colour bar with ticks and a label in `area`, plus optional
-/// legend swatches (e.g. "diverged") underneath.
-fn colorbar(area: &Area, lo: f64, hi: f64, label: &str, legend: &[(&str, RGBColor)]) -> Result<()> {
+/// Vertical colour bar of `stops` (low to high) with ticks and a label in `area`, plus
+/// optional legend swatches (e.g. "diverged") underneath.
+fn colorbar(
+    area: &Area,
+    (lo, hi): (f64, f64),
+    stops: &[RGBColor],
+    label: &str,
+    legend: &[(&str, RGBColor)],
+) -> Result<()> {
     let xa = AxisSpec::fixed(0.0, 1.0, false);
     let mut ya = AxisSpec::fixed(lo, hi, false);
     ya.ticks = nice_ticks(lo, hi, 8);
@@ -109,11 +112,11 @@ fn colorbar(area: &Area, lo: f64, hi: f64, label: &str, legend: &[(&str, RGBColo
         .label_style(font(TICK_PX))
         .axis_desc_style(font(LABEL_PX))
         .draw()?;
-    let n = 256;
-    chart.draw_series((0..n).map(|k| {
+    let n = stops.len().max(1);
+    chart.draw_series(stops.iter().enumerate().map(|(k, c)| {
         let (a, b) = (k as f64 / n as f64, (k + 1) as f64 / n as f64);
         let (y0, y1) = (lo + a * (hi - lo), lo + b * (hi - lo));
-        Rectangle::new([(0.0, y0), (1.0, y1)], viridis(0.5 * (a + b)).filled())
+        Rectangle::new([(0.0, y0), (1.0, y1)], c.filled())
     }))?;
     chart.draw_series(std::iter::once(Rectangle::new(
         [(0.0, lo), (1.0, hi)],
@@ -202,7 +205,10 @@ pub fn scalogram(
                 .map(|s| PathElement::new(s.to_vec(), BLACK.stroke_width(2))),
         )?;
     }
-    colorbar(&bar, lo, hi, "log2 power (normalised)", &[])?;
+    let stops: Vec<RGBColor> = (0..256)
+        .map(|k| viridis((k as f64 + 0.5) / 256.0))
+        .collect();
+    colorbar(&bar, (lo, hi), &stops, "log2 power (normalised)", &[])?;
     root.present()?;
     Ok(())
 }
@@ -299,38 +305,36 @@ fn contour(
     out
 }
 
-/// The colour range of a heat map: `range` when given (a metric with fixed bounds), else
-/// the finite values of the valid cells (a single value gets ±0.5 around it; none, 0–1).
+/// The colour range of a viridis heat map: `range` when given (a metric with fixed bounds),
+/// else the finite values of the valid cells ([`Palette::range`] of a sequential palette).
 pub fn colour_range(values: &[f64], invalid: &[bool], range: Option<(f64, f64)>) -> (f64, f64) {
-    if let Some((a, b)) = range.filter(|(a, b)| a.is_finite() && b.is_finite() && a < b) {
-        return (a, b);
-    }
-    let bad = |k: usize| invalid.get(k).copied().unwrap_or(false);
-    match finite_min_max((0..values.len()).filter(|&k| !bad(k)).map(|k| values[k])) {
-        Some((a, b)) if b > a => (a, b),
-        Some((a, _)) => (a - 0.5, a + 0.5),
-        None => (0.0, 1.0),
-    }
+    Palette::Sequential(range).range(values, invalid)
 }
 
-/// The colour of one heat-map cell: [`INVALID_COLOR`] for a failed instance, grey for no
-/// data (a non-finite value), else viridis of the value's place in `(lo, hi)`.
-pub fn cell_colour(value: f64, invalid: bool, (lo, hi): (f64, f64)) -> RGBColor {
-    if invalid {
-        INVALID_COLOR
-    } else if value.is_finite() {
-        viridis((value - lo) / (hi - lo))
-    } else {
-        NODATA_COLOR
+/// The colour of one viridis heat-map cell ([`Palette::colour`] of a sequential palette).
+pub fn cell_colour(value: f64, invalid: bool, range: (f64, f64)) -> RGBColor {
+    Palette::Sequential(None).colour(value, invalid, range)
+}
+
+/// A categorical legend in `area`: a swatch and a name per entry, the label above them.
+fn legend_box(area: &Area, label: &str, entries: &[(&str, RGBColor)]) -> Result<()> {
+    area.draw(&Text::new(label.to_string(), (10, 30), font(LABEL_PX)))?;
+    for (k, (name, c)) in entries.iter().enumerate() {
+        let y = 64 + 26 * k as i32;
+        area.draw(&Rectangle::new([(10, y), (28, y + 18)], c.filled()))?;
+        area.draw(&Rectangle::new([(10, y), (28, y + 18)], BLACK))?;
+        area.draw(&Text::new(name.to_string(), (34, y), font(TICK_PX)))?;
     }
+    Ok(())
 }
 
 /// Heat map of `values` (row-major `[iy][ix]`, cells between midpoints of
-/// the possibly non-uniform centres in `x`/`y`), 1000×700 px, viridis over
-/// `range` (default: finite min..max of valid cells; values are clamped)
-/// with a labelled colour bar. Cells with `invalid[k]` are drawn in magenta
-/// with a "diverged" legend entry (`invalid` may be empty = none invalid);
-/// non-finite valid cells are grey ("no data"). 1×N and N×1 grids work.
+/// the possibly non-uniform centres in `x`/`y`), 1000×700 px, coloured by `palette`: a
+/// labelled colour bar for a sequential or diverging palette (its range from
+/// [`Palette::range`]; values beyond are clamped), a legend of the categories present for a
+/// categorical one. Cells with `invalid[k]` are drawn in magenta with a "diverged" legend
+/// entry (`invalid` may be empty = none invalid); valid cells without a value are grey
+/// ("no data"). 1×N and N×1 grids work.
 #[allow(clippy::too_many_arguments)]
 pub fn heatmap(
     path: &Path,
@@ -340,7 +344,7 @@ pub fn heatmap(
     values: &[f64],
     colorbar_label: &str,
     invalid: &[bool],
-    range: Option<(f64, f64)>,
+    palette: &Palette,
 ) -> Result<()> {
     check_axis("heatmap x", x.values)?;
     check_axis("heatmap y", y.values)?;
@@ -352,13 +356,13 @@ pub fn heatmap(
             invalid.len()
         );
     }
+    if let Palette::Sequential(Some((a, b))) = palette
+        && !(a.is_finite() && b.is_finite() && a < b)
+    {
+        bad_input!("heatmap: invalid colour range {:?}", (a, b));
+    }
     let bad = |k: usize| invalid.get(k).copied().unwrap_or(false);
-    let (lo, hi) = match range {
-        Some((a, b)) if !(a.is_finite() && b.is_finite() && a < b) => {
-            bad_input!("heatmap: invalid colour range {:?}", (a, b))
-        }
-        _ => colour_range(values, invalid, range),
-    };
+    let range = palette.range(values, invalid);
     let (xe, ye) = (cell_edges(x.values), cell_edges(y.values));
     let mut xa = AxisSpec::fixed(xe[0], xe[nx], false);
     let mut ya = AxisSpec::fixed(ye[0], ye[ny], false);
@@ -376,16 +380,24 @@ pub fn heatmap(
     let chart = build_chart(&main, None, &xa, &ya, x.label, y.label, false, 15)?;
     paint_cells(&chart, &xe, &ye, |ix, iy, _, _| {
         let k = iy * nx + ix;
-        cell_colour(values[k], bad(k), (lo, hi))
+        palette.colour(values[k], bad(k), range)
     })?;
-    let mut legend = vec![];
+    let present = palette.present(values, invalid);
+    let mut legend: Vec<(&str, RGBColor)> = present
+        .iter()
+        .map(|c| (c.label.as_str(), c.colour))
+        .collect();
     if (0..values.len()).any(bad) {
         legend.push(("diverged", INVALID_COLOR));
     }
-    if (0..values.len()).any(|k| !bad(k) && !values[k].is_finite()) {
+    if (0..values.len()).any(|k| !bad(k) && palette.colour(values[k], false, range) == NODATA_COLOR)
+    {
         legend.push(("no data", NODATA_COLOR));
     }
-    colorbar(&bar, lo, hi, colorbar_label, &legend)?;
+    match palette {
+        Palette::Categorical(_) => legend_box(&bar, colorbar_label, &legend)?,
+        _ => colorbar(&bar, range, &palette.bar(256), colorbar_label, &legend)?,
+    }
     root.present()?;
     Ok(())
 }

@@ -12,6 +12,7 @@ mod charts;
 mod colormap;
 mod error;
 mod maps;
+mod palette;
 
 use std::sync::Once;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -23,7 +24,9 @@ use plotters::style::FontStyle;
 pub use charts::{histogram, line_chart, scatter, stacked_panels, zero_one_figure};
 pub use colormap::viridis;
 pub use error::RenderError;
-pub use maps::{INVALID_COLOR, NODATA_COLOR, cell_colour, colour_range, heatmap, scalogram};
+pub use maps::{cell_colour, colour_range, heatmap, scalogram};
+pub use palette::{Category, INVALID_COLOR, NODATA_COLOR, Palette};
+pub use plotters::style::RGBColor;
 
 /// One named curve: `x[i]`, `y[i]` pairs (both slices must have equal length).
 #[derive(Debug, Clone, Copy)]

@@ -16,12 +16,12 @@ use crate::model::Status;
 use crate::output::OutputError;
 use crate::output::files::{create_dir, write_bytes, write_json};
 use crate::output::npy::{read_npy, write_npy_f64};
-use crate::reduce::InstanceResult;
+use crate::reduce::{InstanceResult, Regime};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// Columns of `shard_results.npy`, in order.
-pub const RESULT_COLUMNS: [&str; 12] = [
+pub const RESULT_COLUMNS: [&str; 16] = [
     "index",
     "K",
     "R",
@@ -34,6 +34,10 @@ pub const RESULT_COLUMNS: [&str; 12] = [
     "line_ratio",
     "status",
     "steps",
+    "lyapunov_per_s",
+    "lyapunov_se_per_s",
+    "regime",
+    "regime_confidence",
 ];
 
 /// `shard.json`.
@@ -96,7 +100,7 @@ pub struct ShardData {
     pub strobe_tail: Vec<Vec<f64>>,
 }
 
-fn row(index: usize, r: &InstanceResult) -> [f64; 12] {
+fn row(index: usize, r: &InstanceResult) -> [f64; 16] {
     [
         index as f64,
         r.k,
@@ -110,6 +114,10 @@ fn row(index: usize, r: &InstanceResult) -> [f64; 12] {
         r.line,
         f64::from(r.status.code()),
         r.steps as f64,
+        r.lyapunov_per_s,
+        r.lyapunov_se_per_s,
+        f64::from(r.regime.code()),
+        r.regime_confidence,
     ]
 }
 
@@ -224,6 +232,8 @@ pub fn read_shard(dir: &Path) -> Result<ShardData, ShardReadError> {
 fn result_of(r: &[f64]) -> Result<InstanceResult, String> {
     let status = Status::from_code(r[10] as u32)
         .ok_or_else(|| format!("row of instance {}: unknown status code {}", r[0], r[10]))?;
+    let regime = Regime::from_code(r[14] as i64)
+        .ok_or_else(|| format!("row of instance {}: unknown regime code {}", r[0], r[14]))?;
     Ok(InstanceResult {
         k: r[1],
         r: r[2],
@@ -234,6 +244,10 @@ fn result_of(r: &[f64]) -> Result<InstanceResult, String> {
         alpha_max_rad: r[7],
         power_w: r[8],
         line: r[9],
+        lyapunov_per_s: r[12],
+        lyapunov_se_per_s: r[13],
+        regime,
+        regime_confidence: r[15],
         status,
         steps: r[11] as u64,
     })

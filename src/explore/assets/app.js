@@ -109,6 +109,7 @@ function drawMap() {
 function drawBar(g, a) {
   const f = state.field, x = a.x + a.w + 16, w = 18;
   const n = f.bar.length;
+  if (n === 0) return;  // categories: named in the legend below the map
   for (let i = 0; i < n; i++) {
     const y0 = a.y + a.h - (i + 1) * a.h / n;
     g.fillStyle = f.bar[i];
@@ -130,6 +131,7 @@ function drawLegend() {
     const s = document.createElement("span"); s.className = "sw"; s.style.background = colour;
     el.append(s, text);
   };
+  for (const [colour, name] of f.categories) add(colour, name);
   if (f.status.some((s) => s !== "ok")) add(f.invalid_colour, "failed (diverged, non-finite or escaped)");
   if (f.values.some((v, i) => v === null && f.status[i] === "ok")) {
     add(f.nodata_colour, f.metric === "period" ? "no period found" : "no data");
@@ -320,7 +322,7 @@ function scalogram(c, s) {
   const xr = [s.t_s[0], s.t_s[s.t_s.length - 1]];
   const yr = [Math.log10(s.period_s[0]), Math.log10(s.period_s[s.period_s.length - 1])];
   const a = frame(g, c, xr, yr, "time (s)", "period (s)", "scalogram of α (log2 power)", true);
-  const bar = state.field ? state.field.bar : ["#000", "#fff"];
+  const bar = state.map.scalogram_bar;
   const nr = s.period_s.length, nc = s.t_s.length;
   for (let i = 0; i < nr; i++) {
     for (let j = 0; j < nc; j++) {
