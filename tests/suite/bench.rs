@@ -165,6 +165,7 @@ fn every_map_of_the_study_gives_k_enough_samples() {
             strobe_phase: 0.0,
             r_max_samples: 1024,
             early_stop: None,
+            lyapunov: Default::default(),
         };
         for s in pendulum_atlas::bench::study_scenes(quick) {
             EnsemblePlan::from_scenes(std::slice::from_ref(&s), &opts)

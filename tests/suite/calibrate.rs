@@ -40,6 +40,7 @@ fn truth(clearance: f64) -> Vec<InstanceResult> {
         strobe_phase: 0.0,
         r_max_samples: 1024,
         early_stop: None,
+        lyapunov: Default::default(),
     };
     let plan = EnsemblePlan::from_scenes(&scenes, &opts).unwrap();
     let engine = Engine::cpu(Precision::F64);

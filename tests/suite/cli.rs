@@ -62,6 +62,72 @@ fn simulate_writes_trajectory_and_run_json() {
     let beta = run["damping"]["damping_time_s"].as_f64().unwrap();
     assert!((beta - 6.86e-4).abs() < 0.01e-4, "β = {beta}");
     assert!(run["damping"]["joint_damping_nms"].as_f64().unwrap() > 0.0);
+    // Half a second leaves no forcing period for λ1's twin: said, not an error.
+    assert!(
+        run["lyapunov"]["skipped"]
+            .as_str()
+            .unwrap()
+            .contains("lengthen integration.duration_s"),
+        "{}",
+        run["lyapunov"]
+    );
+}
+
+#[test]
+fn simulate_reports_lambda1_of_an_engine_run_and_says_why_the_reference_has_none() {
+    let out = out_dir("lambda1");
+    let o = bin()
+        .args(["simulate", "--set", "beam.segments=3"])
+        .args([
+            "--set",
+            "excitation.frequency_hz=4.0",
+            "--set",
+            "excitation.amplitude_m=0.004",
+        ])
+        .args([
+            "--set",
+            "integration.duration_s=40.0",
+            "--set",
+            "integration.transient_s=20.0",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("lambda1 = "));
+    let run: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("run.json")).unwrap()).unwrap();
+    let l = &run["lyapunov"];
+    // The impacting period-2 orbit of the engine suite: its Floquet exponent is −3.30 1/s.
+    let lambda = l["per_s"].as_f64().unwrap();
+    assert!((lambda + 3.3).abs() < 0.33, "{l}");
+    assert!(l["se_per_s"].as_f64().unwrap() >= 0.0);
+    assert_eq!(l["twin"]["plan"]["period_s"].as_f64().unwrap(), 0.25);
+    assert_eq!(l["twin"]["d0"].as_f64().unwrap(), 1e-8);
+    let out = out_dir("lambda1-ref");
+    let o = bin()
+        .args([
+            "simulate",
+            "--integrator",
+            "reference",
+            "--set",
+            "beam.segments=3",
+        ])
+        .args(["--set", "integration.duration_s=0.3"])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let run: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("run.json")).unwrap()).unwrap();
+    assert!(
+        run["lyapunov"]["skipped"]
+            .as_str()
+            .unwrap()
+            .contains("--integrator engine")
+    );
 }
 
 #[test]

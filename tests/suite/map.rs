@@ -66,7 +66,7 @@ fn check_map_dir(out: &std::path::Path, backend: &str) {
     let mut lines = csv.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "excitation.frequency_hz,limiter.clearance_deg,K,R,period,hops,impacts_per_s,alpha_min_rad,alpha_max_rad,power_w,line_ratio,status"
+        "excitation.frequency_hz,limiter.clearance_deg,K,R,period,hops,impacts_per_s,alpha_min_rad,alpha_max_rad,power_w,line_ratio,lyapunov,lyapunov_se,regime_confidence,regime,status"
     );
     let rows: Vec<&str> = lines.collect();
     assert_eq!(rows.len(), 6);
@@ -83,19 +83,71 @@ fn check_map_dir(out: &std::path::Path, backend: &str) {
         assert!((0.0..=1.0).contains(&rr), "R = {rr}");
         assert_eq!(cells[9], "nan", "power without a piezo is NaN");
         assert_eq!(cells[10], "nan", "the line was not asked for");
-        assert_eq!(cells[11], "ok");
+        let (lambda, se): (f64, f64) = (cells[11].parse().unwrap(), cells[12].parse().unwrap());
+        assert!(lambda.is_finite() && se.is_finite() && se >= 0.0, "{r}");
+        let regime = cells[14];
+        assert!(
+            ["periodic", "regular", "chaotic", "undecided"].contains(&regime),
+            "{r}"
+        );
+        let confidence: f64 = cells[13].parse().unwrap_or(f64::NAN);
+        assert_eq!(
+            regime == "undecided",
+            confidence.is_nan(),
+            "a decided cell has a confidence, an undecided one none: {r}"
+        );
+        assert!(
+            confidence.is_nan() || (0.5..=1.0).contains(&confidence),
+            "{r}"
+        );
+        assert_eq!(cells[15], "ok");
     }
-    for f in ["K", "R", "period", "hops", "impacts_per_s", "alpha_range"] {
+    for f in [
+        "K",
+        "R",
+        "period",
+        "hops",
+        "impacts_per_s",
+        "alpha_range",
+        "lyapunov",
+        "regime",
+    ] {
         let (w, h) = png_size(&out.join(format!("{f}.png")));
         assert!(w >= 600 && h >= 400, "{f}.png is {w}x{h}");
     }
-    for f in ["K.npy", "R.npy", "status.npy", "axis0.npy", "axis1.npy"] {
+    for f in [
+        "K.npy",
+        "R.npy",
+        "status.npy",
+        "axis0.npy",
+        "axis1.npy",
+        "lyapunov.npy",
+        "lyapunov_se.npy",
+        "regime_confidence.npy",
+        "regime.npy",
+    ] {
         let bytes = std::fs::read(out.join(f)).unwrap();
         assert_eq!(&bytes[..6], b"\x93NUMPY", "{f}");
     }
     let header =
         String::from_utf8_lossy(&std::fs::read(out.join("K.npy")).unwrap()[..128]).into_owned();
     assert!(header.contains("'shape': (3, 2"), "K.npy header {header}");
+    // regime.npy: int8 codes −1…3 shaped like the grid, the names of grid.csv.
+    let (shape, codes) =
+        pendulum_atlas::output::npy::read_npy::<i8>(&out.join("regime.npy")).unwrap();
+    assert_eq!(shape, vec![3, 2]);
+    let names: Vec<&str> = rows.iter().map(|r| r.split(',').nth(14).unwrap()).collect();
+    for (c, n) in codes.iter().zip(&names) {
+        let r = pendulum_atlas::reduce::Regime::from_code(i64::from(*c)).expect("a code");
+        assert_eq!(r.name(), *n);
+    }
+    let counts = &json["regime"]["counts"];
+    let total: u64 = ["failed", "undecided", "periodic", "regular", "chaotic"]
+        .iter()
+        .map(|k| counts[k].as_u64().unwrap())
+        .sum();
+    assert_eq!(total, 6, "{counts}");
+    assert!(json["lyapunov"]["separation"].as_f64().unwrap() > 0.0);
 }
 
 #[test]
@@ -192,6 +244,50 @@ fn map_error(sets: &[&str]) -> String {
 }
 
 #[test]
+fn lambda1_settings_that_cannot_work_are_refused_before_any_work() {
+    // The default map runs 34 s with a 10 s transient: at 12 Hz 288 periods, at 4 Hz 96.
+    let e = map_error(&["map.lyapunov_window_s=30"]);
+    assert!(
+        e.contains("lambda1")
+            && e.contains("map.lyapunov_window_s = 30")
+            && e.contains("lengthen integration.duration_s by"),
+        "{e}"
+    );
+    let e = map_error(&["map.lyapunov_align_periods=90"]);
+    assert!(e.contains("lambda1") && e.contains("90 to align"), "{e}");
+    let e = map_error(&["map.lyapunov_window_s=2"]);
+    assert!(e.contains("at least 16 renormalisations"), "{e}");
+    let e = map_error(&["map.lyapunov_perturbation=0.5"]);
+    assert!(
+        e.contains("map.lyapunov_perturbation") && e.contains("0.001"),
+        "{e}"
+    );
+    let e = map_error(&["map.lyapunov_perturbation=\"small\""]);
+    assert!(e.contains("\"auto\""), "{e}");
+}
+
+#[test]
+fn an_f32_engine_refuses_a_separation_below_its_rounding() {
+    let out = out_dir("f32sep");
+    let o = bin()
+        .args(["map", "--backend", "cpu", "--precision", "f32", "--quiet"])
+        .args(TINY)
+        .args(["--set", "map.lyapunov_perturbation=1e-6", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("map.lyapunov_perturbation = 1e-6")
+            && err.contains("f32")
+            && err.contains("1e-4"),
+        "{err}"
+    );
+    assert!(!out.join("map.json").exists());
+}
+
+#[test]
 fn bad_map_scenes_are_refused_with_the_key_named() {
     let e = map_error(&["map.axes=[{key=\"excitation.frequncy_hz\",start=1.0,end=2.0,count=2}]"]);
     assert!(
@@ -209,8 +305,8 @@ fn bad_map_scenes_are_refused_with_the_key_named() {
         e.contains("tip.mass_kg") && e.contains("out of range"),
         "{e}"
     );
-    let e = map_error(&["map.metrics=[\"K\", \"lyapunov\"]"]);
-    assert!(e.contains("lyapunov"), "{e}");
+    let e = map_error(&["map.metrics=[\"K\", \"lyapunv\"]"]);
+    assert!(e.contains("lyapunv") && e.contains("\"lyapunov\""), "{e}");
     let e = map_error(&["map.metrics=[\"power\"]"]);
     assert!(e.contains("piezo.enabled"), "{e}");
     let e = map_error(&["map.axes=[{key=\"beam.segments\",start=3,end=5,count=3}]"]);

@@ -7,8 +7,8 @@ use std::path::PathBuf;
 
 use pendulum_atlas::output::npy::{write_npy_f32, write_npy_f64, write_npy_i32, write_npy_u8};
 use pendulum_atlas::render::{
-    Axis, Panel, Series, heatmap, histogram, line_chart, scalogram, scatter, stacked_panels,
-    zero_one_figure,
+    Axis, Category, Palette, Panel, RGBColor, Series, heatmap, histogram, line_chart, scalogram,
+    scatter, stacked_panels, zero_one_figure,
 };
 
 fn out(name: &str) -> PathBuf {
@@ -321,7 +321,7 @@ fn heatmap_invalid_cells_and_shapes() {
         &vals,
         "λ (1/s)",
         &inv,
-        None,
+        &Palette::Sequential(None),
     )
     .unwrap();
     assert!(assert_not_blank(&p, 1000, 700, 30).contains(&MAGENTA));
@@ -335,7 +335,7 @@ fn heatmap_invalid_cells_and_shapes() {
         &vals,
         "λ (1/s)",
         &vec![false; vals.len()],
-        Some((-1.0, 1.0)),
+        &Palette::Sequential(Some((-1.0, 1.0))),
     )
     .unwrap();
     assert!(!assert_not_blank(&p, 1000, 700, 30).contains(&MAGENTA));
@@ -354,7 +354,7 @@ fn heatmap_invalid_cells_and_shapes() {
         &vals[..20],
         "v",
         &[],
-        None,
+        &Palette::Sequential(None),
     )
     .unwrap();
     let x1 = Axis {
@@ -362,7 +362,17 @@ fn heatmap_invalid_cells_and_shapes() {
         values: &one,
     };
     let p = out("heatmap_col.png");
-    heatmap(&p, "Column", &x1, &y, &vals[..15], "v", &[], None).unwrap();
+    heatmap(
+        &p,
+        "Column",
+        &x1,
+        &y,
+        &vals[..15],
+        "v",
+        &[],
+        &Palette::Sequential(None),
+    )
+    .unwrap();
     assert!(!colours(&p, 1000, 700).contains(&MAGENTA));
     heatmap(
         &out("heatmap_1x1.png"),
@@ -372,7 +382,7 @@ fn heatmap_invalid_cells_and_shapes() {
         &[f64::NAN],
         "v",
         &[],
-        None,
+        &Palette::Sequential(None),
     )
     .unwrap();
     heatmap(
@@ -383,7 +393,7 @@ fn heatmap_invalid_cells_and_shapes() {
         &[3.0; 15],
         "v",
         &[],
-        None,
+        &Palette::Sequential(None),
     )
     .unwrap();
 
@@ -396,7 +406,7 @@ fn heatmap_invalid_cells_and_shapes() {
             &vals[..5],
             "v",
             &[],
-            None
+            &Palette::Sequential(None)
         )
         .is_err()
     );
@@ -414,7 +424,7 @@ fn heatmap_invalid_cells_and_shapes() {
             &[1.0, 2.0],
             "v",
             &[],
-            None
+            &Palette::Sequential(None)
         )
         .is_err()
     );
@@ -427,7 +437,7 @@ fn heatmap_invalid_cells_and_shapes() {
             &[1.0],
             "v",
             &[],
-            Some((1.0, 1.0))
+            &Palette::Sequential(Some((1.0, 1.0)))
         )
         .is_err()
     );
@@ -598,4 +608,90 @@ fn npy_roundtrip() {
         "numpy check failed: {}",
         String::from_utf8_lossy(&o.stderr)
     );
+}
+
+#[test]
+fn palettes_colour_like_their_kind_and_draw_a_bar_or_a_legend() {
+    // Diverging: symmetric about 0 from the largest |value| of the valid cells, white at 0,
+    // blue below, red above; failed cells magenta and missing values grey under every palette.
+    let d = Palette::Diverging(None);
+    let vals = [-2.0, 0.0, 5.0, f64::NAN];
+    let range = d.range(&vals, &[false, false, false, false]);
+    assert_eq!(range, (-5.0, 5.0));
+    assert_eq!(d.range(&vals, &[false, false, true, false]), (-2.0, 2.0));
+    let white = d.colour(0.0, false, range);
+    assert!(white.0 > 240 && white.1 > 240 && white.2 > 240, "{white:?}");
+    let blue = d.colour(-5.0, false, range);
+    let red = d.colour(5.0, false, range);
+    assert!(blue.2 > blue.0 && red.0 > red.2, "{blue:?} {red:?}");
+    assert_eq!(
+        d.colour(f64::NAN, false, range),
+        pendulum_atlas::render::NODATA_COLOR
+    );
+    assert_eq!(
+        d.colour(1.0, true, range),
+        pendulum_atlas::render::INVALID_COLOR
+    );
+    assert_eq!(d.bar(64).len(), 64);
+    // Categorical: a colour per listed value, anything else no data; the legend lists the
+    // categories present among the valid cells.
+    let cats = Palette::Categorical(vec![
+        Category {
+            value: 1.0,
+            label: "one".into(),
+            colour: RGBColor(1, 2, 3),
+        },
+        Category {
+            value: 3.0,
+            label: "three".into(),
+            colour: RGBColor(4, 5, 6),
+        },
+    ]);
+    let range = cats.range(&[1.0, 3.0], &[]);
+    assert_eq!(cats.colour(3.0, false, range), RGBColor(4, 5, 6));
+    assert_eq!(
+        cats.colour(2.0, false, range),
+        pendulum_atlas::render::NODATA_COLOR
+    );
+    assert!(cats.bar(64).is_empty());
+    let present = cats.present(&[3.0, 3.0, 1.0], &[false, false, true]);
+    assert_eq!(present.len(), 1);
+    assert_eq!(present[0].label, "three");
+    let xs = [1.0, 2.0];
+    let ys = [1.0, 2.0, 3.0];
+    let x = Axis {
+        label: "x",
+        values: &xs,
+    };
+    let y = Axis {
+        label: "y",
+        values: &ys,
+    };
+    let p = out("heatmap_categories.png");
+    heatmap(
+        &p,
+        "Categories",
+        &x,
+        &y,
+        &[1.0, 3.0, 3.0, 1.0, 2.0, 1.0],
+        "regime",
+        &[],
+        &cats,
+    )
+    .unwrap();
+    let seen = colours(&p, 1000, 700);
+    assert!(seen.contains(&[1, 2, 3]) && seen.contains(&[4, 5, 6]));
+    let p = out("heatmap_diverging.png");
+    heatmap(
+        &p,
+        "λ1",
+        &x,
+        &y,
+        &[-1.0, 0.0, 2.0, 1.0, -3.0, 0.5],
+        "λ1 (1/s)",
+        &[],
+        &d,
+    )
+    .unwrap();
+    assert_not_blank(&p, 1000, 700, 30);
 }

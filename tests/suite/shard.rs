@@ -114,9 +114,15 @@ pub fn assert_same_map(whole: &Path, merged: &Path) {
         .filter(|n| n != "map.json")
         .collect();
     names.sort();
-    assert!(
-        names.iter().any(|n| n == "bifurcation.png") && names.iter().any(|n| n == "line_ratio.npy")
-    );
+    for must in [
+        "bifurcation.png",
+        "line_ratio.npy",
+        "lyapunov.npy",
+        "regime.npy",
+        "regime.png",
+    ] {
+        assert!(names.iter().any(|n| n == must), "{must} missing");
+    }
     for n in &names {
         let (a, b) = (
             std::fs::read(whole.join(n)).unwrap(),

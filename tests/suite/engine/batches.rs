@@ -26,6 +26,7 @@ fn plan() -> EnsemblePlan {
         strobe_phase: 0.0,
         r_max_samples: 256,
         early_stop: None,
+        lyapunov: Default::default(),
     };
     EnsemblePlan::from_scenes(&scenes, &opts).unwrap()
 }

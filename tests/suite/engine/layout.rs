@@ -64,14 +64,16 @@ fn parameter_structs_have_the_same_layout_in_rust_and_wgsl() {
             k, k0, b, b0, gap, kc, cc, piezo_inv_c, piezo_inv_r, piezo_theta, pos_amp, vel_amp,
             acc_amp, dt, guard_energy, guard_bend, theta0, omega0, volt0, half_clearance,
             guard_holder, pad1, n_levers, piezo_last, spp, transient_periods, total_periods, strobe_offset,
-            strobe_count, r_every, r_count, r_start, imex_offset, contact_law, levers),
+            strobe_count, r_every, r_count, r_start, imex_offset, contact_law, twin_start,
+            twin_align, twin_window, twin_d0, twin_rate_w, twin_volt_w, period_s, levers),
         size_of::<GpuInstanceParams>(),
     );
     assert_same_layout(
         &m,
         "Accum",
         offsets!(GpuAccum; step, status, touch, well, hops, impacts, period, pad0, alpha_min,
-            alpha_max, power_sum, power_comp, k, r, line, pad2),
+            alpha_max, power_sum, power_comp, k, r, line, pad2, lyap_sums, lyap_n, twin_flags,
+            lyap, lyap_se, regime, pad3),
         size_of::<GpuAccum>(),
     );
     assert_same_layout(
@@ -142,6 +144,62 @@ fn the_shader_takes_status_codes_and_the_check_interval_from_rust() {
         );
     }
     assert!(shader_header(17).contains("const MAX_SEG: u32 = 17u;"));
+}
+
+/// The literal of a `const NAME` of the assembled shader, as naga evaluates it.
+fn wgsl_literal(module: &naga::Module, name: &str) -> naga::Literal {
+    let (_, c) = module
+        .constants
+        .iter()
+        .find(|(_, c)| c.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("no const {name} in the shader"));
+    match module.global_expressions[c.init] {
+        naga::Expression::Literal(l) => l,
+        ref other => panic!("{name} = {other:?}"),
+    }
+}
+
+#[test]
+fn the_shader_takes_regime_codes_thresholds_and_twin_flags_from_rust() {
+    use pendulum_atlas::engine::gpu::layout::{TWIN_BROKEN, TWIN_RUNNING};
+    use pendulum_atlas::reduce::Regime;
+    use pendulum_atlas::reduce::lyapunov::LYAPUNOV_BLOCKS;
+    use pendulum_atlas::reduce::regime::{REGIME_FLAT_PER_PERIOD, REGIME_K_CHAOS, REGIME_Z};
+    let m = module();
+    for r in Regime::ALL {
+        assert_eq!(
+            wgsl_literal(&m, r.wgsl_name()),
+            naga::Literal::I32(i32::from(r.code())),
+            "{r}"
+        );
+    }
+    for (name, v) in [
+        ("REGIME_Z", REGIME_Z),
+        ("REGIME_FLAT", REGIME_FLAT_PER_PERIOD),
+        ("REGIME_K_CHAOS", REGIME_K_CHAOS),
+    ] {
+        assert_eq!(
+            wgsl_literal(&m, name),
+            naga::Literal::F32(v as f32),
+            "{name}"
+        );
+    }
+    assert_eq!(
+        wgsl_const(&m, "K_FIRM_SAMPLES") as usize,
+        pendulum_atlas::analysis::ZERO_ONE_COMFORTABLE_SAMPLES
+    );
+    assert_eq!(wgsl_const(&m, "LYAPUNOV_BLOCKS") as usize, LYAPUNOV_BLOCKS);
+    assert_eq!(wgsl_const(&m, "TWIN_RUNNING"), TWIN_RUNNING);
+    assert_eq!(wgsl_const(&m, "TWIN_BROKEN"), TWIN_BROKEN);
+    for (name, text) in SHADER_STAGES {
+        for r in Regime::ALL {
+            assert!(
+                !text.contains(&format!("const {}", r.wgsl_name())),
+                "{name} defines {r}"
+            );
+        }
+        assert!(!text.contains("const REGIME_Z"), "{name} defines REGIME_Z");
+    }
 }
 
 #[test]

@@ -11,6 +11,7 @@ mod batches;
 mod cases;
 mod lanes;
 mod layout;
+mod verdict;
 
 use pendulum_atlas::engine::gpu::REQUIRE_GPU_ENV;
 use pendulum_atlas::engine::method::Method;
@@ -94,33 +95,47 @@ pub fn gpu() -> Option<&'static Engine> {
     e.as_ref()
 }
 
-/// The same tests for one engine and one method.
+/// The same tests of `cases` (a module of this suite) for one engine and one method.
 macro_rules! engine_method {
-    ($module:ident, $eng:ident, $method:ident, [$($case:ident),*]) => {
+    ($cases:ident, $module:ident, $eng:ident, $method:ident, [$($case:ident),*]) => {
         mod $module {
             use super::{Eng, Under};
             use pendulum_atlas::engine::method::Method;
             const UNDER: Under = Under { eng: Eng::$eng, method: Method::$method };
-            $(#[test] fn $case() { super::cases::$case(UNDER) })*
+            $(#[test] fn $case() { super::$cases::$case(UNDER) })*
         }
     };
 }
 
-/// The same tests, one module per engine and method.
+/// The same tests of `cases`, one module per engine and method.
 macro_rules! engine_suite {
-    ($($case:ident),* $(,)?) => {
-        engine_method!(cpu_f64_rk4, CpuF64, Rk4, [$($case),*]);
-        engine_method!(simd_f64_rk4, SimdF64, Rk4, [$($case),*]);
-        engine_method!(simd_f32_rk4, SimdF32, Rk4, [$($case),*]);
-        engine_method!(gpu_rk4, Gpu, Rk4, [$($case),*]);
-        engine_method!(cpu_f64_imex, CpuF64, Imex, [$($case),*]);
-        engine_method!(simd_f64_imex, SimdF64, Imex, [$($case),*]);
-        engine_method!(simd_f32_imex, SimdF32, Imex, [$($case),*]);
-        engine_method!(gpu_imex, Gpu, Imex, [$($case),*]);
+    ($cases:ident: $($case:ident),* $(,)?) => {
+        engine_method!($cases, cpu_f64_rk4, CpuF64, Rk4, [$($case),*]);
+        engine_method!($cases, simd_f64_rk4, SimdF64, Rk4, [$($case),*]);
+        engine_method!($cases, simd_f32_rk4, SimdF32, Rk4, [$($case),*]);
+        engine_method!($cases, gpu_rk4, Gpu, Rk4, [$($case),*]);
+        engine_method!($cases, cpu_f64_imex, CpuF64, Imex, [$($case),*]);
+        engine_method!($cases, simd_f64_imex, SimdF64, Imex, [$($case),*]);
+        engine_method!($cases, simd_f32_imex, SimdF32, Imex, [$($case),*]);
+        engine_method!($cases, gpu_imex, Gpu, Imex, [$($case),*]);
     };
 }
 
-engine_suite!(
+/// The λ1 and verdict cases, in modules of their own beside the general cases.
+mod verdict_suite {
+    use super::verdict;
+    use super::{Eng, Under};
+    engine_suite!(verdict:
+        lyapunov_of_a_linear_response_is_the_least_damped_eigenvalue,
+        lyapunov_of_an_impacting_periodic_orbit_is_its_floquet_exponent,
+        lyapunov_of_a_chaotic_cell_is_positive_and_keeps_when_the_run_doubles,
+        lyapunov_agrees_with_the_f64_cpu_engine,
+        lyapunov_does_not_depend_on_the_separation_across_decades,
+        the_verdict_follows_the_rule_on_the_engines_own_numbers,
+    );
+}
+
+engine_suite!(cases:
     holder_angle_over_a_short_horizon_matches_the_reference_integrator,
     reductions_equal_the_analysis_library_on_the_engines_own_series,
     maps_agree_with_the_f64_cpu_engine_on_classes_r_and_statuses,

@@ -2,7 +2,7 @@
 //! its status and a message naming the accepted range, and bad folders refused at start.
 
 use super::{Server, bin, fetch, json, npy, request, scratch, simulate, small_map, wait_job};
-use pendulum_atlas::render::{cell_colour, colour_range};
+use pendulum_atlas::render::{Palette, cell_colour, colour_range};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -22,7 +22,16 @@ fn the_map_and_its_fields_are_the_files_of_the_folder() {
         .collect();
     assert_eq!(
         names,
-        ["K", "R", "period", "hops", "impacts_per_s", "alpha_range"]
+        [
+            "K",
+            "R",
+            "period",
+            "hops",
+            "impacts_per_s",
+            "alpha_range",
+            "lyapunov",
+            "regime"
+        ]
     );
 
     let k = npy(dir, "K");
@@ -49,6 +58,44 @@ fn the_map_and_its_fields_are_the_files_of_the_folder() {
     let (amin, amax) = (npy(dir, "alpha_min_rad"), npy(dir, "alpha_max_rad"));
     let a = json(&s, "GET", "/api/field?metric=alpha_range", 200);
     assert_eq!(a["values"][0].as_f64(), Some(amax[0] - amin[0]));
+
+    // λ1 on blue-white-red symmetric about 0, as lyapunov.png.
+    let lambda = npy(dir, "lyapunov");
+    let l = json(&s, "GET", "/api/field?metric=lyapunov", 200);
+    let diverging = Palette::Diverging(None);
+    let range = diverging.range(&lambda, &[]);
+    assert_eq!(l["range"], serde_json::json!([range.0, range.1]));
+    assert_eq!(range.0, -range.1);
+    let at = 7;
+    let c = diverging.colour(lambda[cells[at]], false, range);
+    assert_eq!(
+        l["colours"][at],
+        format!("#{:02x}{:02x}{:02x}", c.0, c.1, c.2)
+    );
+    // The regime in categories named in the legend (no colour bar), periodic cells in the
+    // shade of their period, and the codes of regime.npy.
+    let r = json(&s, "GET", "/api/field?metric=regime", 200);
+    assert_eq!(r["bar"], serde_json::json!([]));
+    let (_, codes) = pendulum_atlas::output::npy::read_npy::<i8>(&dir.join("regime.npy")).unwrap();
+    let period = npy(dir, "period");
+    let names: Vec<String> = r["categories"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c[1].as_str().unwrap().to_string())
+        .collect();
+    assert!(!names.is_empty());
+    for at in 0..24 {
+        let k = cells[at];
+        let want = match codes[k] {
+            1 => 10.0 + period[k],
+            c => f64::from(c),
+        };
+        assert_eq!(r["values"][at].as_f64(), Some(want), "cell {k}");
+    }
+    if codes.contains(&3) {
+        assert!(names.contains(&"chaotic".to_string()), "{names:?}");
+    }
 
     let c = json(&s, "GET", "/api/cell/5", 200);
     // Cell 5 = (ix 1, iy 1): the second value of each axis, in axis order.
