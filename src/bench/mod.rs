@@ -22,6 +22,8 @@ pub mod stiff;
 pub mod stiff_map;
 pub mod stiff_map_report;
 pub mod stiff_report;
+pub mod verdict;
+pub mod verdict_report;
 
 use crate::config::{Metric, Scene, TimeStep};
 use crate::engine::{

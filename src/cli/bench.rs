@@ -9,6 +9,8 @@ use pendulum_atlas::bench::stiff::{StiffOptions, run_stiff};
 use pendulum_atlas::bench::stiff_map::{StiffMapOptions, run_stiff_map};
 use pendulum_atlas::bench::stiff_map_report::write_stiff_map;
 use pendulum_atlas::bench::stiff_report::write_stiff;
+use pendulum_atlas::bench::verdict::{VerdictOptions, run_verdict};
+use pendulum_atlas::bench::verdict_report::write_verdict;
 use pendulum_atlas::bench::{BenchOptions, report::write_bench, run_bench};
 use pendulum_atlas::output::folder::Product;
 use std::path::PathBuf;
@@ -45,6 +47,13 @@ pub struct BenchArgs {
     /// metrics; the peers' results from --peers (writes GPU.md and gpu_throughput.json).
     #[arg(long, conflicts_with_all = ["stiff", "stiff_map", "cpu_throughput"])]
     pub throughput: bool,
+    /// The map's accuracy instead: a converged reference of a 192-cell subgrid of the default
+    /// map (CPU f64, 2000 s and 4000 s), then the default map's settings (duration, λ1 window,
+    /// float type, engine, which indicators decide) scored against it, and the whole map's
+    /// cost with and without the verdict (writes VERDICT.md and verdict.json; about half an
+    /// hour on 2 cores, `--quick` a minute).
+    #[arg(long, conflicts_with_all = ["stiff", "stiff_map", "cpu_throughput", "throughput"])]
+    pub verdict: bool,
     /// The largest rung of the --throughput ladder (instances, 1000 to 1000000).
     #[arg(long, default_value_t = 1_000_000, requires = "throughput",
           value_parser = clap::value_parser!(u64).range(1000..=1_000_000))]
@@ -79,7 +88,9 @@ pub struct BenchArgs {
 
 /// The study asked for, as the files it writes.
 fn study(a: &BenchArgs) -> Product {
-    if a.throughput {
+    if a.verdict {
+        Product::BenchVerdict
+    } else if a.throughput {
         Product::BenchGpu
     } else if a.cpu_throughput {
         Product::BenchCpu
@@ -109,6 +120,9 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
     }
     if a.throughput {
         return throughput(&a, gpu.as_ref());
+    }
+    if a.verdict {
+        return verdict(&a, gpu.as_ref());
     }
     if a.stiff_map {
         let report = run_stiff_map(
@@ -178,6 +192,25 @@ fn cpu_throughput(
     println!(
         "bench --cpu-throughput: {} configurations in {:.0} s",
         report.rows.len(),
+        report.total_s
+    );
+    println!("wrote {} files to {}", files.len(), a.out.display());
+    Ok(())
+}
+
+/// `bench --verdict`.
+fn verdict(a: &BenchArgs, gpu: Option<&pendulum_atlas::engine::Engine>) -> anyhow::Result<()> {
+    let report = run_verdict(
+        &VerdictOptions {
+            quick: a.quick,
+            gpu,
+        },
+        &|line| eprintln!("{line}"),
+    )?;
+    let files = write_verdict(&a.out, &report)?;
+    println!(
+        "bench --verdict: {} candidates in {:.0} s",
+        report.scores.len(),
         report.total_s
     );
     println!("wrote {} files to {}", files.len(), a.out.display());

@@ -42,11 +42,13 @@ pub enum Product {
     BenchCpu,
     /// `bench --throughput`: `GPU.md`, `gpu_throughput.json`.
     BenchGpu,
+    /// `bench --verdict`: `VERDICT.md`, `verdict.json`.
+    BenchVerdict,
 }
 
 impl Product {
     /// Every product, for finding whose manifest a folder holds.
-    pub const ALL: [Product; 13] = [
+    pub const ALL: [Product; 14] = [
         Product::Simulate,
         Product::Map,
         Product::Shard,
@@ -60,6 +62,7 @@ impl Product {
         Product::BenchStiffMap,
         Product::BenchCpu,
         Product::BenchGpu,
+        Product::BenchVerdict,
     ];
 
     /// The command that writes it (the bench studies share one and may share a folder).
@@ -77,7 +80,8 @@ impl Product {
             | Product::BenchStiff
             | Product::BenchStiffMap
             | Product::BenchCpu
-            | Product::BenchGpu => "bench",
+            | Product::BenchGpu
+            | Product::BenchVerdict => "bench",
         }
     }
 
@@ -97,6 +101,7 @@ impl Product {
             Product::BenchStiffMap => "stiff_map.json",
             Product::BenchCpu => "cpu_throughput.json",
             Product::BenchGpu => "gpu_throughput.json",
+            Product::BenchVerdict => "verdict.json",
         }
     }
 
@@ -139,6 +144,7 @@ impl Product {
                 "peer_case_N17.json",
             ],
             Product::BenchGpu => &["GPU.md"],
+            Product::BenchVerdict => &["VERDICT.md"],
         }
     }
 
@@ -153,7 +159,8 @@ impl Product {
             | Product::BenchStiff
             | Product::BenchStiffMap
             | Product::BenchCpu
-            | Product::BenchGpu => &[],
+            | Product::BenchGpu
+            | Product::BenchVerdict => &[],
         }
     }
 

@@ -131,8 +131,11 @@ fn bad_requests_get_their_status_and_the_accepted_range() {
             .unwrap()
             .to_string()
     };
-    let e = err("GET", "/api/field?metric=lyapunov", 404);
-    assert!(e.contains("lyapunov") && e.contains("K, R, period"), "{e}");
+    let e = err("GET", "/api/field?metric=lyapunov_exponent", 404);
+    assert!(
+        e.contains("lyapunov_exponent") && e.contains("K, R, period"),
+        "{e}"
+    );
     let e = err("GET", "/api/field?metric=K&slice=1", 400);
     assert!(e.contains("slice") && e.contains("has 0 such axes"), "{e}");
     let e = err("POST", "/api/cell/3/run?variant=1", 400);

@@ -1,0 +1,419 @@
+//! The map's accuracy, `pendulum-atlas bench --verdict`: how often the default map's verdict
+//! per cell is the one a converged run gives, and at what wall time.
+//!
+//! Stages of [`run_verdict`]:
+//! 1. **Subgrid**: the embedded default map (`configs/maps/default.toml`) thinned to every
+//!    [`THIN`]th frequency and amplitude (16 × 12 = 192 cells), same scene and start.
+//! 2. **Reference**: the subgrid on the CPU engine in f64 for [`REFERENCE_S`] seconds and for
+//!    twice that (transient half the run), every indicator of the verdict at its strictest
+//!    useful setting (period window [`REFERENCE_PERIOD_WINDOW`], tolerance
+//!    [`REFERENCE_PERIOD_TOL_RAD`] rad). The share of cells whose verdict changes on doubling
+//!    shows that the reference has converged; the longer run's verdict is the reference, and a
+//!    cell is **settled** where both runs reach the same decided verdict.
+//! 3. **Candidates**: the subgrid under the settings a map could use — duration, the λ1
+//!    window, float type, engine, and which indicators decide ([`Decider`]) — each scored on
+//!    the settled cells: the share with the reference's verdict, the share of its periodic cells
+//!    whose period is the reference's, and the share of cells it leaves undecided.
+//! 4. **Cost**: the whole default map with today's metrics (no λ1) against the same map with
+//!    the verdict, on the engine the study runs on.
+
+use crate::config::{DEFAULT_MAP_TOML, MapSpec, map_from_toml};
+use crate::engine::{Engine, EngineError, EngineKind, Precision, no_progress};
+use crate::map::{MapRun, run_map};
+use crate::reduce::Regime;
+use serde::Serialize;
+use std::time::Instant;
+
+/// Every this-many-th frequency and amplitude of the default map's grid.
+pub const THIN: usize = 4;
+
+/// The reference's shorter run (s); the longer is twice this.
+pub const REFERENCE_S: f64 = 2000.0;
+
+/// The reference's period window (stroboscopic samples that must repeat).
+pub const REFERENCE_PERIOD_WINDOW: u32 = 64;
+
+/// The reference's period tolerance (rad): tight enough that no chaotic band passes for an
+/// orbit over 64 returns, loose enough for the fixed step's chatter of 1e-5 rad on orbits
+/// whose λ1 is −1 to −3 1/s.
+pub const REFERENCE_PERIOD_TOL_RAD: f64 = 1e-4;
+
+/// Which indicators decide a cell's verdict.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Decider {
+    /// The regime rule (`src/reduce/regime.rs`): λ1, the period and K together.
+    Rule,
+    /// Before λ1: K ≥ 0.5 is chaotic, else periodic with a period, else regular.
+    KAndPeriod,
+}
+
+impl Decider {
+    /// The label of the report.
+    pub fn name(self) -> &'static str {
+        match self {
+            Decider::Rule => "λ1 + period + K (rule)",
+            Decider::KAndPeriod => "K + period",
+        }
+    }
+}
+
+/// One setting of a candidate map.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Candidate {
+    /// Run length (s).
+    pub duration_s: f64,
+    /// Transient (s).
+    pub transient_s: f64,
+    /// λ1's window (s; `None`: the whole run after the transient).
+    pub window_s: Option<f64>,
+    /// Float type.
+    pub precision: Precision,
+    /// Engine.
+    pub backend: EngineKind,
+    /// Which indicators decide.
+    pub decider: Decider,
+}
+
+/// How a candidate fared against the reference.
+#[derive(Debug, Clone, Serialize)]
+pub struct Score {
+    /// The setting.
+    pub candidate: Candidate,
+    /// Wall time of the subgrid run (s).
+    pub wall_s: f64,
+    /// Settled cells of the reference.
+    pub settled: usize,
+    /// Of those, cells with the reference's verdict.
+    pub agree: usize,
+    /// Cells the candidate calls periodic.
+    pub periodic: usize,
+    /// Of those, cells the reference calls periodic with the same period.
+    pub period_right: usize,
+    /// Cells the candidate leaves undecided (of all cells).
+    pub undecided: usize,
+    /// Cells in the subgrid.
+    pub cells: usize,
+}
+
+impl Score {
+    /// Share of settled cells with the reference's verdict (%).
+    pub fn agree_pct(&self) -> f64 {
+        pct(self.agree, self.settled)
+    }
+    /// Share of periodic cells with the right period (%).
+    pub fn period_pct(&self) -> f64 {
+        pct(self.period_right, self.periodic)
+    }
+    /// Share of undecided cells (%).
+    pub fn undecided_pct(&self) -> f64 {
+        pct(self.undecided, self.cells)
+    }
+}
+
+fn pct(a: usize, b: usize) -> f64 {
+    if b == 0 {
+        f64::NAN
+    } else {
+        100.0 * a as f64 / b as f64
+    }
+}
+
+/// The converged reference.
+#[derive(Debug, Clone, Serialize)]
+pub struct Reference {
+    /// The two run lengths (s).
+    pub durations_s: [f64; 2],
+    /// Wall time of both (s).
+    pub wall_s: f64,
+    /// Cells whose verdict changes when the run doubles.
+    pub changed: usize,
+    /// Cells decided alike by both runs.
+    pub settled: usize,
+    /// Cells.
+    pub cells: usize,
+    /// The longer run's verdict per cell (code of `regime.npy`).
+    pub regime: Vec<i8>,
+    /// The longer run's period per cell.
+    pub period: Vec<f64>,
+    /// Whether a cell is settled.
+    #[serde(skip)]
+    pub is_settled: Vec<bool>,
+    /// Verdict counts of the longer run, in code order (failed … chaotic).
+    pub counts: [usize; 5],
+}
+
+/// The whole default map's wall time with and without the verdict.
+#[derive(Debug, Clone, Serialize)]
+pub struct Cost {
+    /// Engine and float type.
+    pub engine: String,
+    /// Cells.
+    pub cells: usize,
+    /// Wall time with today's metrics, no λ1 (s).
+    pub baseline_s: f64,
+    /// Wall time of the default map as shipped (s).
+    pub verdict_s: f64,
+}
+
+/// Everything the study measured.
+#[derive(Debug, Clone, Serialize)]
+pub struct VerdictReport {
+    /// Subgrid shape (frequencies, amplitudes).
+    pub shape: [usize; 2],
+    /// The reference.
+    pub reference: Reference,
+    /// One score per candidate.
+    pub scores: Vec<Score>,
+    /// The whole map's cost (not in `--quick`).
+    pub cost: Option<Cost>,
+    /// Wall time of the study (s).
+    pub total_s: f64,
+}
+
+/// Options of [`run_verdict`].
+pub struct VerdictOptions<'a> {
+    /// A tenth of the reference and a quarter of the grid (a test of the study, not a result).
+    pub quick: bool,
+    /// The GPU engine, when one is open: its candidates join the CPU's.
+    pub gpu: Option<&'a Engine>,
+}
+
+/// The default map with `sets` applied, thinned to every `thin`th value of each axis.
+fn subgrid(sets: &[String], thin: usize) -> Result<MapSpec, EngineError> {
+    let mut spec = map_from_toml(DEFAULT_MAP_TOML, "the default map", sets)?;
+    for axis in &mut spec.axes {
+        axis.values = axis.values.iter().step_by(thin).copied().collect();
+    }
+    Ok(spec)
+}
+
+/// The `--set` overrides of a run of `duration` s with transient `transient`.
+fn timing_sets(duration: f64, transient: f64, metrics: &str) -> Vec<String> {
+    vec![
+        format!("integration.duration_s={duration}"),
+        format!("integration.transient_s={transient}"),
+        format!("map.metrics={metrics}"),
+    ]
+}
+
+fn timed(spec: &MapSpec, engine: &Engine) -> Result<(MapRun, f64), EngineError> {
+    let t0 = Instant::now();
+    let run = run_map(spec, engine, &no_progress)?;
+    Ok((run, t0.elapsed().as_secs_f64()))
+}
+
+/// Stage 2: the reference runs and their agreement.
+fn reference(quick: bool, thin: usize) -> Result<Reference, EngineError> {
+    let short = if quick {
+        REFERENCE_S / 10.0
+    } else {
+        REFERENCE_S
+    };
+    let engine = Engine::cpu(Precision::F64);
+    let mut runs = Vec::new();
+    let mut wall = 0.0;
+    for d in [short, 2.0 * short] {
+        let mut sets = timing_sets(d, d / 2.0, "[\"K\", \"period\", \"regime\"]");
+        sets.push(format!("map.period_window={REFERENCE_PERIOD_WINDOW}"));
+        sets.push(format!("map.period_tol_rad={REFERENCE_PERIOD_TOL_RAD}"));
+        let (run, s) = timed(&subgrid(&sets, thin)?, &engine)?;
+        wall += s;
+        runs.push(run);
+    }
+    let (a, b) = (&runs[0].results, &runs[1].results);
+    let decided = |r: Regime| matches!(r, Regime::Periodic | Regime::Regular | Regime::Chaotic);
+    let is_settled: Vec<bool> = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| decided(y.regime) && x.regime == y.regime)
+        .collect();
+    let mut counts = [0usize; 5];
+    for r in b {
+        counts[(r.regime.code() + 1) as usize] += 1;
+    }
+    Ok(Reference {
+        durations_s: [short, 2.0 * short],
+        wall_s: wall,
+        changed: a
+            .iter()
+            .zip(b)
+            .filter(|(x, y)| x.regime != y.regime)
+            .count(),
+        settled: is_settled.iter().filter(|s| **s).count(),
+        cells: b.len(),
+        regime: b.iter().map(|r| r.regime.code()).collect(),
+        period: b.iter().map(|r| r.period).collect(),
+        is_settled,
+        counts,
+    })
+}
+
+/// The verdict of a cell under `decider`.
+fn verdict(r: &crate::reduce::InstanceResult, decider: Decider) -> Regime {
+    match decider {
+        Decider::Rule => r.regime,
+        Decider::KAndPeriod if r.status != crate::model::Status::Ok => Regime::Failed,
+        Decider::KAndPeriod if r.k >= 0.5 => Regime::Chaotic,
+        Decider::KAndPeriod if r.period > 0.0 => Regime::Periodic,
+        Decider::KAndPeriod => Regime::Regular,
+    }
+}
+
+/// Stage 3: one candidate on the subgrid, scored against `reference`.
+fn score(
+    c: Candidate,
+    engine: &Engine,
+    reference: &Reference,
+    thin: usize,
+) -> Result<Score, EngineError> {
+    let metrics = match c.decider {
+        Decider::Rule => "[\"K\", \"period\", \"regime\"]",
+        Decider::KAndPeriod => "[\"K\", \"period\"]",
+    };
+    let mut sets = timing_sets(c.duration_s, c.transient_s, metrics);
+    if let Some(w) = c.window_s {
+        sets.push(format!("map.lyapunov_window_s={w}"));
+    }
+    let (run, wall_s) = timed(&subgrid(&sets, thin)?, engine)?;
+    let got: Vec<Regime> = run.results.iter().map(|r| verdict(r, c.decider)).collect();
+    let settled: Vec<usize> = (0..got.len())
+        .filter(|&k| reference.is_settled[k])
+        .collect();
+    let periodic: Vec<usize> = (0..got.len())
+        .filter(|&k| got[k] == Regime::Periodic)
+        .collect();
+    Ok(Score {
+        candidate: c,
+        wall_s,
+        settled: settled.len(),
+        agree: settled
+            .iter()
+            .filter(|&&k| got[k].code() == reference.regime[k])
+            .count(),
+        periodic: periodic.len(),
+        period_right: periodic
+            .iter()
+            .filter(|&&k| {
+                reference.regime[k] == Regime::Periodic.code()
+                    && reference.period[k] == run.results[k].period
+            })
+            .count(),
+        undecided: got.iter().filter(|r| **r == Regime::Undecided).count(),
+        cells: got.len(),
+    })
+}
+
+/// The candidates of the study on one engine.
+fn candidates(quick: bool, backend: EngineKind) -> Vec<Candidate> {
+    let c = |duration_s, transient_s, window_s, precision, decider| Candidate {
+        duration_s,
+        transient_s,
+        window_s,
+        precision,
+        backend,
+        decider,
+    };
+    use Decider::{KAndPeriod, Rule};
+    use Precision::{F32, F64};
+    if backend == EngineKind::Gpu {
+        return vec![
+            c(34.0, 10.0, None, F32, Rule),
+            c(68.0, 20.0, None, F32, Rule),
+        ];
+    }
+    let mut v = vec![
+        c(34.0, 10.0, None, F64, KAndPeriod),
+        c(34.0, 10.0, None, F64, Rule),
+        c(34.0, 10.0, Some(12.0), F64, Rule),
+        c(34.0, 10.0, Some(6.0), F64, Rule),
+        c(34.0, 10.0, None, F32, Rule),
+    ];
+    if !quick {
+        v.extend([
+            c(68.0, 20.0, None, F64, KAndPeriod),
+            c(68.0, 20.0, None, F64, Rule),
+            c(68.0, 20.0, Some(12.0), F64, Rule),
+            c(136.0, 40.0, None, F64, KAndPeriod),
+            c(136.0, 40.0, None, F64, Rule),
+            c(272.0, 80.0, None, F64, Rule),
+            c(544.0, 160.0, None, F64, Rule),
+        ]);
+    }
+    v
+}
+
+/// Stage 4: the whole default map without and with the verdict.
+fn cost(engine: &Engine) -> Result<Cost, EngineError> {
+    let baseline = subgrid(
+        &[
+            "map.metrics=[\"K\", \"R\", \"period\", \"hops\", \"impacts_per_s\", \"alpha_range\"]"
+                .into(),
+        ],
+        1,
+    )?;
+    let shipped = subgrid(&[], 1)?;
+    let (run, baseline_s) = timed(&baseline, engine)?;
+    let (_, verdict_s) = timed(&shipped, engine)?;
+    let info = engine.info();
+    Ok(Cost {
+        engine: format!("{} {}", info.kind.name(), info.precision.name()),
+        cells: run.results.len(),
+        baseline_s,
+        verdict_s,
+    })
+}
+
+/// Run the study, reporting each stage through `progress`.
+pub fn run_verdict(
+    opts: &VerdictOptions,
+    progress: &dyn Fn(&str),
+) -> Result<VerdictReport, EngineError> {
+    let t0 = Instant::now();
+    let thin = if opts.quick { 2 * THIN } else { THIN };
+    let reference = reference(opts.quick, thin)?;
+    progress(&format!(
+        "reference: {} of {} cells change on doubling, {} settled ({:.0} s)",
+        reference.changed, reference.cells, reference.settled, reference.wall_s
+    ));
+    let mut scores = Vec::new();
+    let mut engines: Vec<(EngineKind, Option<&Engine>)> = vec![(EngineKind::Cpu, None)];
+    if let Some(g) = opts.gpu {
+        engines.push((EngineKind::Gpu, Some(g)));
+    }
+    for (kind, gpu) in engines {
+        for c in candidates(opts.quick, kind) {
+            let cpu = Engine::cpu(c.precision);
+            let s = score(c, gpu.unwrap_or(&cpu), &reference, thin)?;
+            progress(&format!(
+                "{} {} {} s, window {:?} s, {}: {:.1} % agree, {:.1} % periods right, {:.1} % undecided ({:.1} s)",
+                kind.name(),
+                c.precision.name(),
+                c.duration_s,
+                c.window_s,
+                c.decider.name(),
+                s.agree_pct(),
+                s.period_pct(),
+                s.undecided_pct(),
+                s.wall_s
+            ));
+            scores.push(s);
+        }
+    }
+    let cost = if opts.quick {
+        None
+    } else {
+        Some(cost(&Engine::cpu(Precision::F64))?)
+    };
+    let shape = {
+        let spec = subgrid(&[], thin)?;
+        [spec.axes[0].values.len(), spec.axes[1].values.len()]
+    };
+    Ok(VerdictReport {
+        shape,
+        reference,
+        scores,
+        cost,
+        total_s: t0.elapsed().as_secs_f64(),
+    })
+}

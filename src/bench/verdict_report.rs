@@ -1,0 +1,118 @@
+//! Files of `bench --verdict`: `verdict.json` and `VERDICT.md`.
+
+use super::verdict::{
+    REFERENCE_PERIOD_TOL_RAD, REFERENCE_PERIOD_WINDOW, Score, THIN, VerdictReport,
+};
+use crate::output::OutputError;
+use crate::output::files::{create_dir, write_bytes, write_json};
+use crate::reduce::Regime;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Write the study's files into `dir`.
+pub fn write_verdict(dir: &Path, r: &VerdictReport) -> Result<Vec<PathBuf>, OutputError> {
+    create_dir(dir)?;
+    Ok(vec![
+        write_bytes(&dir.join("VERDICT.md"), markdown(r).as_bytes())?,
+        write_json(&dir.join("verdict.json"), r)?,
+    ])
+}
+
+fn window(s: &Score) -> String {
+    match s.candidate.window_s {
+        Some(w) => format!("{w} s"),
+        None => "whole run".into(),
+    }
+}
+
+fn score_rows(out: &mut String, r: &VerdictReport) {
+    let base = r.scores.first().map_or(f64::NAN, |s| s.wall_s);
+    let _ = writeln!(
+        out,
+        "| engine | float | run / transient (s) | λ1 window | decided by | verdict = reference | periods right | undecided | wall (s) | × first row |\n|---|---|---|---|---|---|---|---|---|---|"
+    );
+    for s in &r.scores {
+        let c = &s.candidate;
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} / {} | {} | {} | {}/{} ({:.1} %) | {}/{} ({:.1} %) | {}/{} ({:.1} %) | {:.2} | {:.2} |",
+            c.backend.name(),
+            c.precision.name(),
+            c.duration_s,
+            c.transient_s,
+            window(s),
+            c.decider.name(),
+            s.agree,
+            s.settled,
+            s.agree_pct(),
+            s.period_right,
+            s.periodic,
+            s.period_pct(),
+            s.undecided,
+            s.cells,
+            s.undecided_pct(),
+            s.wall_s,
+            s.wall_s / base
+        );
+    }
+}
+
+fn markdown(r: &VerdictReport) -> String {
+    let mut s = String::new();
+    let f = &r.reference;
+    let _ = writeln!(
+        s,
+        "# The map's accuracy: verdicts against a converged reference\n\n\
+         Written by `pendulum-atlas bench --verdict` (`src/bench/verdict.rs`). The embedded \
+         default map's grid thinned to every {}th frequency and amplitude: {} × {} = {} cells, \
+         N = 3, same scene and start.\n",
+        if r.shape[0] > 16 { THIN } else { 2 * THIN },
+        r.shape[0],
+        r.shape[1],
+        f.cells
+    );
+    let _ = writeln!(
+        s,
+        "## Reference\n\nCPU f64, runs of {} s and {} s (transient half the run), period window \
+         {} samples at {} rad. Doubling the run changes the verdict of **{} of {} cells ({:.1} %)**; \
+         {} cells are settled (both runs reach the same decided verdict). Verdicts of the longer \
+         run: {}. Wall time {:.0} s.\n",
+        f.durations_s[0],
+        f.durations_s[1],
+        REFERENCE_PERIOD_WINDOW,
+        REFERENCE_PERIOD_TOL_RAD,
+        f.changed,
+        f.cells,
+        100.0 * f.changed as f64 / f.cells as f64,
+        f.settled,
+        Regime::ALL
+            .iter()
+            .zip(f.counts)
+            .map(|(g, n)| format!("{} {n}", g.name()))
+            .collect::<Vec<_>>()
+            .join(", "),
+        f.wall_s
+    );
+    let _ = writeln!(
+        s,
+        "## Candidates\n\n\"verdict = reference\" is over the settled cells; \"periods right\" \
+         over the cells the candidate calls periodic (the reference periodic with the same \
+         period); \"undecided\" over all cells. Wall time of the subgrid alone, noisy at a few \
+         seconds; the whole map's cost is below.\n"
+    );
+    score_rows(&mut s, r);
+    if let Some(c) = &r.cost {
+        let _ = writeln!(
+            s,
+            "\n## Cost of the whole default map\n\n{} cells on {}: today's metrics (K, R, period, \
+             hops, impacts, α range) {:.1} s; as shipped (with the verdict) {:.1} s, **{:.2}×**.\n",
+            c.cells,
+            c.engine,
+            c.baseline_s,
+            c.verdict_s,
+            c.verdict_s / c.baseline_s
+        );
+    }
+    let _ = writeln!(s, "\nStudy wall time {:.0} s.", r.total_s);
+    s
+}
