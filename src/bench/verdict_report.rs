@@ -1,8 +1,6 @@
 //! Files of `bench --verdict`: `verdict.json` and `VERDICT.md`.
 
-use super::verdict::{
-    REFERENCE_PERIOD_TOL_RAD, REFERENCE_PERIOD_WINDOW, Score, THIN, VerdictReport,
-};
+use super::verdict::{REFERENCE_PERIOD_TOL_RAD, REFERENCE_PERIOD_WINDOW, Score, VerdictReport};
 use crate::output::OutputError;
 use crate::output::files::{create_dir, write_bytes, write_json};
 use crate::reduce::Regime;
@@ -66,10 +64,7 @@ fn markdown(r: &VerdictReport) -> String {
          Written by `pendulum-atlas bench --verdict` (`src/bench/verdict.rs`). The embedded \
          default map's grid thinned to every {}th frequency and amplitude: {} × {} = {} cells, \
          N = 3, same scene and start.\n",
-        if r.shape[0] > 16 { THIN } else { 2 * THIN },
-        r.shape[0],
-        r.shape[1],
-        f.cells
+        r.thin, r.shape[0], r.shape[1], f.cells
     );
     let _ = writeln!(
         s,

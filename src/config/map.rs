@@ -532,7 +532,19 @@ fn read_r_max_samples(r: &mut Reader) -> Result<u32, ConfigError> {
 
 /// `map.lyapunov_window_s`, `map.lyapunov_align_periods`, `map.lyapunov_perturbation`.
 fn read_lyapunov(r: &mut Reader) -> Result<LyapunovSettings, ConfigError> {
-    let window_s = r.number_opt("map.lyapunov_window_s", Range::Positive, "s")?;
+    let key = "map.lyapunov_window_s";
+    let window_s = match r.raw(key)? {
+        Some(Value::String(s)) if s == "whole" => None,
+        Some(Value::String(s)) => {
+            return Err(ConfigError::BadChoice {
+                key: key.into(),
+                value: s.clone(),
+                choices: "\"whole\" (the run after the transient) or a number of seconds above 0"
+                    .into(),
+            });
+        }
+        _ => r.number_opt(key, Range::Positive, "s")?,
+    };
     let align_periods = r.integer("map.lyapunov_align_periods", 8, 1, 10_000)? as u32;
     let key = "map.lyapunov_perturbation";
     let perturbation = match r.raw(key)? {

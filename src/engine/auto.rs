@@ -23,6 +23,8 @@ fn probe_plan() -> Option<EnsemblePlan> {
     let sets = [
         "integration.duration_s=10.0".to_string(),
         "integration.transient_s=0.5".to_string(),
+        // λ1 over the probe's whole run: the default map's 12 s window does not fit in 10 s.
+        "map.lyapunov_window_s=\"whole\"".to_string(),
     ];
     let spec = map_from_toml(&text, "configs/maps/default.toml", &sets).ok()?;
     let plan = EnsemblePlan::new(&spec).ok()?;

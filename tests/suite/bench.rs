@@ -173,3 +173,50 @@ fn every_map_of_the_study_gives_k_enough_samples() {
         }
     }
 }
+
+#[test]
+fn the_verdict_study_scores_candidates_on_the_settled_cells_of_its_reference() {
+    use pendulum_atlas::bench::verdict::{Decider, VerdictOptions, run_verdict};
+    use pendulum_atlas::bench::verdict_report::write_verdict;
+    let r = run_verdict(
+        &VerdictOptions {
+            quick: true,
+            gpu: None,
+        },
+        &|_| {},
+    )
+    .expect("study");
+    let f = &r.reference;
+    // The default map's 64 x 48 grid at every 8th value.
+    assert_eq!((r.shape, f.cells), ([8, 6], 48));
+    assert_eq!(f.regime.len(), 48);
+    assert_eq!(f.counts.iter().sum::<usize>(), 48);
+    assert_eq!(f.settled, f.is_settled.iter().filter(|s| **s).count());
+    assert!(f.settled + f.changed <= 48, "{f:?}");
+    for s in &r.scores {
+        assert_eq!((s.settled, s.cells), (f.settled, 48));
+        assert!(
+            s.agree <= s.settled && s.period_right <= s.periodic,
+            "{s:?}"
+        );
+    }
+    // K and the period alone always decide; the rule may leave cells undecided.
+    let k = &r.scores[0];
+    assert_eq!(k.candidate.decider, Decider::KAndPeriod);
+    assert_eq!(k.undecided, 0);
+    assert!(
+        r.scores
+            .iter()
+            .any(|s| s.candidate.decider == Decider::Rule)
+    );
+    let dir = std::env::temp_dir().join(format!("pendulum-atlas-verdict-{}", std::process::id()));
+    let files = write_verdict(&dir, &r).expect("files");
+    let page = std::fs::read_to_string(dir.join("VERDICT.md")).unwrap();
+    assert!(
+        page.contains("change the verdict") || page.contains("changes the verdict"),
+        "{page}"
+    );
+    assert!(page.contains("λ1 + period + K (rule)"), "{page}");
+    assert_eq!(files.len(), 2);
+    std::fs::remove_dir_all(&dir).ok();
+}

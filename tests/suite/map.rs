@@ -264,6 +264,11 @@ fn lambda1_settings_that_cannot_work_are_refused_before_any_work() {
     );
     let e = map_error(&["map.lyapunov_perturbation=\"small\""]);
     assert!(e.contains("\"auto\""), "{e}");
+    let e = map_error(&["map.lyapunov_window_s=\"half\""]);
+    assert!(
+        e.contains("map.lyapunov_window_s") && e.contains("\"whole\""),
+        "{e}"
+    );
 }
 
 #[test]
