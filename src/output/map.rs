@@ -350,7 +350,7 @@ fn regime_palette(period_max: u32) -> Palette {
         .collect();
     c.push(Category {
         value: f64::from(Regime::Regular.code()),
-        label: format!("regular, no period ≤ {pm}"),
+        label: "regular, no period".into(),
         colour: RGBColor(0, 158, 115),
     });
     c.push(Category {
