@@ -22,6 +22,7 @@ override WG_K: u32 = 32u;           // workgroup size of the 0–1 test kernel
 override N_C: u32 = 100u;           // number of c values of the 0–1 test
 override METHOD_IMEX: bool = false; // integrate with the IMEX method (else classical RK4)
 override WANT_TWIN: bool = false;   // λ1 asked for: a twin trajectory rides along
+override WANT_EARLY: bool = false;  // the early stop of confirmed orbits (shaders/early.wgsl)
 
 const TAU: f32 = 6.2831853071795864;
 const PI: f32 = 3.1415926535897932;
@@ -103,7 +104,20 @@ struct Accum {
     lyap: f32,
     lyap_se: f32,
     regime: i32,
-    pad3: array<u32, 3>,
+    tw_start: u32,
+    tw_window: u32,
+    p_hops: u32,
+    p_impacts: u32,
+    p_power: f32,
+    p_amin: f32,
+    p_amax: f32,
+    e_phase: u32,
+    e_p: u32,
+    e_until: u32,
+    e_seen: u32,
+    e_last: u32,
+    stopped: u32,
+    pad3: array<u32, 2>,
 }
 
 // Mirrors `GpuControl`.
@@ -116,6 +130,14 @@ struct Control {
     period_window: u32,
     period_tol: f32,
     c_index: u32,
+    n_active: u32,
+    e_p_max: u32,
+    e_window: u32,
+    e_tol: f32,
+    e_alpha_off: u32,
+    e_period_off: u32,
+    e_r_off: u32,
+    e_r_len: u32,
 }
 
 @group(0) @binding(0) var<storage, read> params: array<InstanceParams>;
@@ -135,6 +157,15 @@ struct Control {
 @group(0) @binding(6) var<uniform> ctl: Control;
 // K_c of every instance and c value: value c of instance i at [at(i, c)].
 @group(0) @binding(7) var<storage, read_write> kc: array<f32>;
+// The early stop's rings (shaders/early.wgsl), word w of instance i at [at(i, w)]: the states
+// at the last p_max + 1 stroboscopic instants, then α at the last window + p_max
+// (ctl.e_alpha_off), the tallies of the last p_max periods (ctl.e_period_off, 5 words each),
+// α at the R instants of the last p_max periods (ctl.e_r_off, ctl.e_r_len words).
+@group(0) @binding(9) var<storage, read_write> early: array<f32>;
+// The instances still integrating, `live` (compacted by the host between dispatches: ctl.n_active).
+@group(0) @binding(10) var<storage, read> live: array<u32>;
+// 1 once an instance has finished (failed, stopped early, or run all its steps).
+@group(0) @binding(11) var<storage, read_write> done: array<u32>;
 
 // Word j of instance `inst` in the per-instance series (strobe, rwork, kc): sample-major, as
 // the state is, so that neighbouring invocations read and write neighbouring words (coalesced

@@ -401,10 +401,13 @@ fn twin_saltation(onsets: u32) {
     }
 }
 
-// TwinTracker::at_sample of src/engine/twin.rs at stroboscopic sample `j`: start the twin at
-// y + d0·u, or add g = ln(d/d0) to its block and pull it back to distance d0.
+// TwinTracker::at_sample of src/engine/twin.rs at stroboscopic instant `j` (absolute, the
+// transient included): start the twin at y + d0·u, or add g = ln(d/d0) to its block and pull
+// it back to distance d0. Its first instant and window are the accumulators' (the early stop
+// may restart it on a confirmed orbit).
 fn twin_sample(j: u32, a: ptr<function, Accum>) {
-    let start = P.twin_start;
+    let start = (*a).tw_start;
+    let window = (*a).tw_window;
     let m = f32(2u * N_SEG) + select(0.0, 1.0, P.twin_volt_w > 0.0);
     if j == start {
         let u_th = P.twin_d0 / sqrt(m);
@@ -438,7 +441,7 @@ fn twin_sample(j: u32, a: ptr<function, Accum>) {
     }
     let r = j - start;
     if r > P.twin_align {
-        let b = min((r - P.twin_align - 1u) * LYAPUNOV_BLOCKS / P.twin_window, LYAPUNOV_BLOCKS - 1u);
+        let b = min((r - P.twin_align - 1u) * LYAPUNOV_BLOCKS / window, LYAPUNOV_BLOCKS - 1u);
         (*a).lyap_sums[b] += log(d / P.twin_d0);
         (*a).lyap_n += 1u;
     }
@@ -448,26 +451,101 @@ fn twin_sample(j: u32, a: ptr<function, Accum>) {
         tw_om[i] = om[i] + scale * (tw_om[i] - om[i]);
     }
     tw_volt = volt + scale * (tw_volt - volt);
-    if j >= start + P.twin_align + P.twin_window {
+    if j >= start + P.twin_align + window {
         (*a).twin_flags = 0u;
     }
 }
 
-// Advance every unfinished instance by up to `ctl.steps_per_dispatch` steps.
+// The accumulators of the current period after a step to angle `alpha` with bumper flags
+// `now`: onsets, α range, hops (the well last visited is kept through the transient), power.
+fn accumulate(alpha: f32, now: u32, a: ptr<function, Accum>) {
+    (*a).p_impacts += countOneBits(now & ~(*a).touch);
+    (*a).p_amin = min((*a).p_amin, alpha);
+    (*a).p_amax = max((*a).p_amax, alpha);
+    var well = 0i;
+    if alpha > P.half_clearance {
+        well = 1i;
+    } else if alpha < -P.half_clearance {
+        well = -1i;
+    }
+    if well != 0i {
+        if (*a).well != 0i && (*a).well != well {
+            (*a).p_hops += 1u;
+        }
+        (*a).well = well;
+    }
+    if HAS_PIEZO {
+        (*a).p_power += volt * volt * P.piezo_inv_r;
+    }
+    (*a).touch = now;
+}
+
+// The end of forcing period `q`: its tally into the run's after the transient, into the early
+// stop's ring; true when a closing orbit stops here (its rest continued).
+fn period_end(inst: u32, q: u32, a: ptr<function, Accum>) -> bool {
+    if q >= P.transient_periods {
+        add_period(a, (*a).p_hops, (*a).p_impacts, (*a).p_power, (*a).p_amin, (*a).p_amax);
+    }
+    var stop = false;
+    if WANT_EARLY {
+        early_keep_period(inst, q, a);
+        if (*a).e_phase == EARLY_CLOSING {
+            early_continue(inst, q + 1u, a);
+            (*a).stopped = (*a).e_p;
+            stop = true;
+        }
+    }
+    (*a).p_hops = 0u;
+    (*a).p_impacts = 0u;
+    (*a).p_power = 0.0;
+    (*a).p_amin = 3.4028235e38;
+    (*a).p_amax = -3.4028235e38;
+    return stop;
+}
+
+// A stroboscopic instant after step `s`: the recorded α after the transient, the early stop's
+// watch, λ1's twin.
+fn strobe_instant(inst: u32, s: u32, alpha: f32, a: ptr<function, Accum>) {
+    let abs = (s - P.strobe_offset) / P.spp;
+    if WANT_STROBE && abs >= P.transient_periods {
+        let k = abs - P.transient_periods;
+        if k < P.strobe_count {
+            strobe[at(inst, k)] = alpha;
+        }
+    }
+    if WANT_EARLY {
+        early_watch(inst, abs, a);
+    }
+    if WANT_TWIN {
+        twin_sample(abs, a);
+    }
+    if WANT_EARLY {
+        early_measured(abs, a);
+    }
+}
+
+// Whether an instance has nothing left to integrate.
+fn finished(a: Accum, total: u32) -> bool {
+    return a.status != STATUS_OK || a.step >= total || a.stopped != 0u;
+}
+
+// Advance every instance still integrating (those `live` lists) by up to
+// `ctl.steps_per_dispatch` steps.
 @compute @workgroup_size(WG)
 fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let inst = gid.x;
-    let n_inst = ctl.n_inst;
-    if inst >= n_inst {
+    if gid.x >= ctl.n_active {
         return;
     }
+    let inst = live[gid.x];
+    let n_inst = ctl.n_inst;
     var a = acc[inst];
     P = params[inst];
     for (var i = 0u; i < N_SEG; i++) {
         lev[i] = params[inst].levers[i];
     }
     let total = P.total_periods * P.spp;
-    if a.status != STATUS_OK || a.step >= total {
+    if finished(a, total) {
+        done[inst] = 1u;
         return;
     }
     for (var i = 0u; i < N_SEG; i++) {
@@ -509,39 +587,9 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
         if twin_on && HAS_CONTACT && (now & ~a.touch) != 0u {
             twin_saltation(now & ~a.touch);
         }
-        if s > transient {
-            a.impacts += countOneBits(now & ~a.touch);
-            a.alpha_min = min(a.alpha_min, alpha);
-            a.alpha_max = max(a.alpha_max, alpha);
-            var well = 0i;
-            if alpha > P.half_clearance {
-                well = 1i;
-            } else if alpha < -P.half_clearance {
-                well = -1i;
-            }
-            if well != 0i {
-                if a.well != 0i && a.well != well {
-                    a.hops += 1u;
-                }
-                a.well = well;
-            }
-            if HAS_PIEZO {
-                // Kahan-compensated Σ v²/R_L.
-                let y = volt * volt * P.piezo_inv_r - a.power_comp;
-                let t = a.power_sum + y;
-                a.power_comp = (t - a.power_sum) - y;
-                a.power_sum = t;
-            }
-        }
-        a.touch = now;
-        if WANT_STROBE && s >= transient && s % P.spp == P.strobe_offset {
-            let k = (s - P.strobe_offset) / P.spp - P.transient_periods;
-            if k < P.strobe_count {
-                strobe[at(inst, k)] = alpha;
-            }
-        }
-        if WANT_TWIN && s >= transient && s % P.spp == P.strobe_offset {
-            twin_sample((s - P.strobe_offset) / P.spp - P.transient_periods, &a);
+        accumulate(alpha, now, &a);
+        if (WANT_EARLY || s >= transient) && s % P.spp == P.strobe_offset {
+            strobe_instant(inst, s, alpha, &a);
         }
         if WANT_RSERIES && s >= P.r_start && (s - P.r_start) % P.r_every == 0u {
             let j = (s - P.r_start) / P.r_every;
@@ -549,12 +597,18 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
                 rwork[at(inst, j)] = vec2<f32>(alpha, 0.0);
             }
         }
+        if WANT_EARLY && WANT_RSERIES && s % P.r_every == 0u {
+            early[at(inst, ctl.e_r_off + (s / P.r_every) % ctl.e_r_len)] = alpha;
+        }
         if s % CHECK_EVERY == 0u || s == total {
             let h = health(s % P.spp);
             if h != STATUS_OK {
                 a.status = h;
                 break;
             }
+        }
+        if s % P.spp == 0u && period_end(inst, s / P.spp - 1u, &a) {
+            break;
         }
     }
     a.step = s;
@@ -569,6 +623,9 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
             state[(tw + N_SEG + i) * n_inst + inst] = tw_om[i];
         }
         state[(tw + 2u * N_SEG) * n_inst + inst] = tw_volt;
+    }
+    if finished(a, total) {
+        done[inst] = 1u;
     }
     acc[inst] = a;
 }

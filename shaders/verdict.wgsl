@@ -37,6 +37,29 @@ fn regime_of(valid: bool, lambda: f32, sigma: f32, period: u32, k: f32, k_sample
     return REGIME_UNDECIDED;
 }
 
+// λ1 and its standard error (1/s) from the twin's block sums of a window of `w` growths with
+// forcing period `t` (LyapunovSums::estimate): (λ1, SE, 1) once all `w` growths are in and
+// the twin never broke, else (0, 0, 0).
+fn lyap_estimate(a: ptr<function, Accum>, w: u32, t: f32) -> vec3<f32> {
+    if ((*a).twin_flags & TWIN_BROKEN) != 0u || (*a).lyap_n != w || w < LYAPUNOV_BLOCKS {
+        return vec3<f32>(0.0, 0.0, 0.0);
+    }
+    var total = 0.0;
+    var mean = 0.0;
+    for (var b = 0u; b < LYAPUNOV_BLOCKS; b++) {
+        total += (*a).lyap_sums[b];
+        mean += (*a).lyap_sums[b] / (f32(block_count(b, w)) * t);
+    }
+    mean /= f32(LYAPUNOV_BLOCKS);
+    var ss = 0.0;
+    for (var b = 0u; b < LYAPUNOV_BLOCKS; b++) {
+        let dev = (*a).lyap_sums[b] / (f32(block_count(b, w)) * t) - mean;
+        ss += dev * dev;
+    }
+    let se = sqrt(ss / f32(LYAPUNOV_BLOCKS * (LYAPUNOV_BLOCKS - 1u)));
+    return vec3<f32>(total / (f32(w) * t), se, 1.0);
+}
+
 @compute @workgroup_size(WG)
 fn verdict(@builtin(global_invocation_id) gid: vec3<u32>) {
     let inst = gid.x;
@@ -49,29 +72,15 @@ fn verdict(@builtin(global_invocation_id) gid: vec3<u32>) {
         acc[inst] = a;
         return;
     }
-    let w = params[inst].twin_window;
     let t = params[inst].period_s;
-    let valid = (a.twin_flags & TWIN_BROKEN) == 0u && a.lyap_n == w && w >= LYAPUNOV_BLOCKS;
-    var lambda = 0.0;
-    var sigma = 0.0;
+    let l = lyap_estimate(&a, a.tw_window, t);
+    let valid = l.z > 0.5;
     if valid {
-        var total = 0.0;
-        var mean = 0.0;
-        for (var b = 0u; b < LYAPUNOV_BLOCKS; b++) {
-            total += a.lyap_sums[b];
-            mean += a.lyap_sums[b] / (f32(block_count(b, w)) * t);
-        }
-        mean /= f32(LYAPUNOV_BLOCKS);
-        var ss = 0.0;
-        for (var b = 0u; b < LYAPUNOV_BLOCKS; b++) {
-            let dev = a.lyap_sums[b] / (f32(block_count(b, w)) * t) - mean;
-            ss += dev * dev;
-        }
-        a.lyap = total / (f32(w) * t);
-        a.lyap_se = sqrt(ss / f32(LYAPUNOV_BLOCKS * (LYAPUNOV_BLOCKS - 1u)));
-        lambda = a.lyap * t;
-        sigma = a.lyap_se * t;
+        a.lyap = l.x;
+        a.lyap_se = l.y;
     }
+    let lambda = l.x * t;
+    let sigma = l.y * t;
     a.regime = regime_of(valid, lambda, sigma, a.period, a.k, params[inst].strobe_count);
     acc[inst] = a;
 }

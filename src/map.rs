@@ -2,12 +2,11 @@
 //! [`Engine`], keep what the pictures need. [`crate::output::map`] writes the files.
 
 pub mod hardware_default;
+pub mod refine;
 
 use crate::config::MapSpec;
 use crate::engine::gpu::GpuTimings;
-use crate::engine::{
-    Engine, EngineError, EngineInfo, EngineKind, EnsemblePlan, Progress, Readback,
-};
+use crate::engine::{Engine, EngineError, EngineInfo, EnsemblePlan, Progress, Readback};
 use crate::reduce::{InstanceResult, ReduceOptions};
 use crate::shard::Shard;
 use serde::Serialize;
@@ -81,6 +80,12 @@ pub struct MapRun {
     pub strobe_tail: Vec<Vec<f64>>,
     /// The shards it was merged from (empty for a run in one piece).
     pub shards: Vec<ShardSummary>,
+    /// Per grid point, whether it was filled from its block by refinement (empty without
+    /// refinement).
+    #[serde(skip)]
+    pub inferred: Vec<bool>,
+    /// What refinement did, when it ran.
+    pub refine: Option<refine::RefineReport>,
 }
 
 /// One shard of a merged map, as `map.json` lists it.
@@ -139,6 +144,13 @@ fn run_map_part(
 ) -> Result<MapRun, EngineError> {
     let t0 = Instant::now();
     let mut plan = EnsemblePlan::new(spec)?;
+    if let (Some(rs), None) = (&spec.refine, shard) {
+        let plan_s = t0.elapsed().as_secs_f64();
+        let mut run = run_refined(plan, rs, spec, engine, progress)?;
+        run.timings.plan_s = plan_s;
+        run.timings.total_s += plan_s;
+        return Ok(run);
+    }
     if let Some(s) = shard {
         plan = plan.select(&s.members(spec.instances()));
         if plan.instances.is_empty() {
@@ -161,21 +173,65 @@ fn run_map_part(
     Ok(run)
 }
 
+/// A map by adaptive refinement ([`refine`]): each stage integrates and reduces its cells on
+/// `engine`; times, dispatches and early stops add up over the stages.
+fn run_refined(
+    plan: EnsemblePlan,
+    rs: &crate::config::RefineSpec,
+    spec: &MapSpec,
+    engine: &Engine,
+    progress: Progress,
+) -> Result<MapRun, EngineError> {
+    let t_all = Instant::now();
+    let opts = ReduceOptions::from_spec(spec);
+    let mut timings = MapTimings::default();
+    let (mut dispatches, mut stopped_early) = (0u32, 0usize);
+    let mut warnings: Vec<String> = Vec::new();
+    let refined = refine::refine(spec, rs, |members| {
+        let run = run_plan(plan.select(members), &opts, None, engine, progress)?;
+        timings.integrate_s += run.timings.integrate_s;
+        timings.reduce_s += run.timings.reduce_s;
+        timings.gpu = match (timings.gpu.take(), run.timings.gpu) {
+            (Some(a), Some(b)) => Some(a.joined(&b)),
+            (a, b) => a.or(b),
+        };
+        dispatches += run.dispatches;
+        stopped_early += run.stopped_early;
+        for w in run.plan.warnings {
+            if !warnings.contains(&w) {
+                warnings.push(w);
+            }
+        }
+        Ok(run.results)
+    })?;
+    timings.device_s = engine.info().open_s;
+    timings.total_s = t_all.elapsed().as_secs_f64();
+    let mut plan = plan;
+    plan.warnings = warnings;
+    Ok(MapRun {
+        results: refined.results,
+        plan,
+        engine: engine.info().clone(),
+        timings,
+        dispatches,
+        stopped_early,
+        strobe_tail: Vec::new(),
+        shards: Vec::new(),
+        inferred: refined.inferred,
+        refine: Some(refined.report),
+    })
+}
+
 /// Integrate and reduce an already planned ensemble (see [`EnsemblePlan::from_scenes`]) on an
 /// opened engine. `strobe_tail` keeps that many trailing stroboscopic samples per instance.
 pub fn run_plan(
-    mut plan: EnsemblePlan,
+    plan: EnsemblePlan,
     opts: &ReduceOptions,
     strobe_tail: Option<usize>,
     engine: &Engine,
     progress: Progress,
 ) -> Result<MapRun, EngineError> {
     let t_all = Instant::now();
-    if engine.info().kind == EngineKind::Gpu && plan.early_stop.take().is_some() {
-        plan.warnings.push(
-            "map.early_stop is ignored on the GPU backend: a stopped invocation idles until its whole workgroup finishes, so the saving there is small; runs go to the end".into(),
-        );
-    }
     let readback = Readback {
         strobe: strobe_tail.is_some(),
         r_series: false,
@@ -204,6 +260,8 @@ pub fn run_plan(
         stopped_early: run.stopped_early,
         strobe_tail,
         shards: Vec::new(),
+        inferred: Vec::new(),
+        refine: None,
     })
 }
 
@@ -279,6 +337,8 @@ pub fn assemble(plan: EnsemblePlan, parts: Vec<MapPart>) -> MapRun {
         stopped_early: parts.iter().map(|p| p.stopped_early).sum(),
         strobe_tail,
         shards,
+        inferred: Vec::new(),
+        refine: None,
     }
 }
 

@@ -17,6 +17,7 @@ pub mod flops;
 pub mod gpu_report;
 pub mod gpu_throughput;
 pub mod peer_case;
+pub mod refine;
 pub mod report;
 pub mod stiff;
 pub mod stiff_map;

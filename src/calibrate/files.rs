@@ -10,7 +10,7 @@ use crate::output::OutputError;
 use crate::output::files::{
     commit_csv, create_csv, csv_error, draw, write_bytes, write_json, write_toml,
 };
-use crate::render::{Axis, Palette, heatmap};
+use crate::render::{Axis, CellMarks, Palette, heatmap};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use toml::Value;
@@ -299,7 +299,7 @@ fn draw_pair(
             &y,
             &vals,
             "share matched",
-            &[],
+            &CellMarks::default(),
             &Palette::Sequential(Some((0.0, 1.0))),
         )
     })

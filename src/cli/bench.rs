@@ -54,6 +54,12 @@ pub struct BenchArgs {
     /// hour on 2 cores, `--quick` a minute).
     #[arg(long, conflicts_with_all = ["stiff", "stiff_map", "cpu_throughput", "throughput"])]
     pub verdict: bool,
+    /// What the early stop and adaptive refinement skip instead: the default map's scene on a
+    /// 257 × 193 grid in full, with the early stop, and with both, on the CPU engine and (when
+    /// open) the GPU engine: instance-steps, wall time, equal regimes (writes REFINE.md and
+    /// refine.json; about 15 minutes on 2 cores, `--quick` half a minute).
+    #[arg(long, conflicts_with_all = ["stiff", "stiff_map", "cpu_throughput", "throughput", "verdict"])]
+    pub refine: bool,
     /// The largest rung of the --throughput ladder (instances, 1000 to 1000000).
     #[arg(long, default_value_t = 1_000_000, requires = "throughput",
           value_parser = clap::value_parser!(u64).range(1000..=1_000_000))]
@@ -90,6 +96,8 @@ pub struct BenchArgs {
 fn study(a: &BenchArgs) -> Product {
     if a.verdict {
         Product::BenchVerdict
+    } else if a.refine {
+        Product::BenchRefine
     } else if a.throughput {
         Product::BenchGpu
     } else if a.cpu_throughput {
@@ -123,6 +131,9 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
     }
     if a.verdict {
         return verdict(&a, gpu.as_ref());
+    }
+    if a.refine {
+        return refine(&a, gpu.as_ref());
     }
     if a.stiff_map {
         let report = run_stiff_map(
@@ -191,6 +202,26 @@ fn cpu_throughput(
     let files = write_cpu_throughput(&a.out, &report)?;
     println!(
         "bench --cpu-throughput: {} configurations in {:.0} s",
+        report.rows.len(),
+        report.total_s
+    );
+    println!("wrote {} files to {}", files.len(), a.out.display());
+    Ok(())
+}
+
+/// `bench --refine`.
+fn refine(a: &BenchArgs, gpu: Option<&pendulum_atlas::engine::Engine>) -> anyhow::Result<()> {
+    use pendulum_atlas::bench::refine::{RefineOptions, run_refine, write_refine};
+    let report = run_refine(
+        &RefineOptions {
+            quick: a.quick,
+            gpu,
+        },
+        &|line| eprintln!("{line}"),
+    )?;
+    let files = write_refine(&a.out, &report)?;
+    println!(
+        "bench --refine: {} maps in {:.0} s",
         report.rows.len(),
         report.total_s
     );

@@ -205,12 +205,47 @@ pub struct MapSpec {
     pub period_tol_rad: f64,
     /// Number of stroboscopic samples per instance kept for the bifurcation diagram.
     pub bifurcation_samples: u32,
-    /// Stop instances whose periodic orbit is confirmed (when the metrics allow it).
+    /// Stop instances whose periodic orbit is confirmed, their indicators continued.
     pub early_stop: bool,
-    /// Relative tolerance of the early-stop confirmation.
-    pub early_stop_tol: f64,
+    /// Relative tolerance of the early-stop confirmation (`None`: by the float type).
+    pub early_stop_tol: Option<f64>,
     /// How λ1's twin runs (used when `lyapunov` is among the metrics).
     pub lyapunov: LyapunovSettings,
+    /// Adaptive refinement (`map.refine`), when asked for.
+    pub refine: Option<RefineSpec>,
+}
+
+/// What refinement compares between neighbouring cells.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RefineFollow {
+    /// The regime, and the period of periodic cells.
+    Regime,
+    /// One metric: neighbours differ when their values differ by more than `threshold` (or
+    /// one is NaN and the other not).
+    Metric {
+        /// The metric.
+        metric: Metric,
+        /// Largest absolute difference read as equal (the metric's unit).
+        threshold: f64,
+    },
+}
+
+/// `map.refine_*`: the coarse lattice, what is followed, and the audit
+/// (`docs/analysis.md`, "Adaptive refinement").
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RefineSpec {
+    /// Cells between neighbouring points of the coarse lattice (a power of two dividing every
+    /// axis's count − 1).
+    pub spacing: u32,
+    /// What neighbouring cells are compared by.
+    pub follow: RefineFollow,
+    /// Share of the inferred cells computed to check them, in (0, 1].
+    pub audit_share: f64,
+    /// Agreement of the audit below which the blocks of its disagreeing cells are computed.
+    pub audit_min: f64,
+    /// Seed of the audit's draw.
+    pub audit_seed: u64,
 }
 
 /// The size of the twin's separation, `d0` in the weighted state norm (`docs/analysis.md`, §9).
@@ -485,9 +520,10 @@ fn read_map(
     let period_window = r.integer("map.period_window", 16, 1, 4096)? as u32;
     let period_tol_rad = r.number("map.period_tol_rad", 1e-3, Range::Positive, "rad")?;
     let bifurcation_samples = r.integer("map.bifurcation_samples", 64, 1, 4096)? as u32;
-    let early_stop = r.boolean("map.early_stop", false)?;
-    let early_stop_tol = r.number("map.early_stop_tol", 1e-5, Range::Open(0.0, 0.1), "")?;
+    let early_stop = r.boolean("map.early_stop", true)?;
+    let early_stop_tol = read_early_stop_tol(&mut r)?;
     let lyapunov = read_lyapunov(&mut r)?;
+    let refine = read_refine(&mut r, &axes, &metrics, bifurcation)?;
     r.finish()?;
 
     let spec = MapSpec {
@@ -510,10 +546,127 @@ fn read_map(
         early_stop,
         early_stop_tol,
         lyapunov,
+        refine,
     };
     // Every axis key must be a scene key that takes this kind of value: check the first point.
     spec.instance_scene(0)?;
     Ok(spec)
+}
+
+/// `map.refine` and its keys: refused before any work when there is nothing to follow, the
+/// spacing does not divide the grid, or the audit share is outside (0, 1].
+fn read_refine(
+    r: &mut Reader,
+    axes: &[MapAxis],
+    metrics: &[Metric],
+    bifurcation: bool,
+) -> Result<Option<RefineSpec>, ConfigError> {
+    let on = r.boolean("map.refine", false)?;
+    let spacing = r.integer("map.refine_spacing", 8, 2, 1024)? as u32;
+    let follow = r.choice("map.refine_follow", "regime", &REFINE_FOLLOW)?;
+    let threshold = r.number("map.refine_threshold", 0.1, Range::NonNegative, "")?;
+    let audit_share = r.number("map.refine_audit", 0.02, Range::OpenClosed(0.0, 1.0), "")?;
+    let audit_min = r.number("map.refine_audit_min", 0.98, Range::Closed(0.0, 1.0), "")?;
+    let audit_seed = r.integer("map.refine_seed", 0, 0, i64::MAX)? as u64;
+    if !on {
+        return Ok(None);
+    }
+    let refused = |key: &str, reason: String| {
+        Err(ConfigError::Inconsistent {
+            key: key.into(),
+            reason,
+        })
+    };
+    if bifurcation {
+        return refused(
+            "map.refine",
+            "a bifurcation diagram needs every cell's samples: set map.refine = false".into(),
+        );
+    }
+    let follow = match follow.as_str() {
+        "regime" if !metrics.contains(&Metric::Regime) => {
+            return refused(
+                "map.refine_follow",
+                "refinement follows the regime, which this map does not compute: add \"regime\" to map.metrics, or follow one of its metrics (map.refine_follow)".into(),
+            );
+        }
+        "regime" => RefineFollow::Regime,
+        name => {
+            let metric = Metric::parse(name).expect("a listed choice");
+            if !metrics.contains(&metric) {
+                return refused(
+                    "map.refine_follow",
+                    format!("refinement follows {name}, which is not among map.metrics"),
+                );
+            }
+            RefineFollow::Metric { metric, threshold }
+        }
+    };
+    if !spacing.is_power_of_two() {
+        return Err(ConfigError::OutOfRange {
+            key: "map.refine_spacing".into(),
+            value: f64::from(spacing),
+            range: "powers of two from 2 to 1024".into(),
+        });
+    }
+    for a in axes.iter().filter(|a| a.values.len() > 1) {
+        let cells = a.values.len() - 1;
+        if cells % spacing as usize != 0 {
+            let fits: Vec<String> = (1..=10)
+                .map(|k| 1usize << k)
+                .filter(|s| cells % s == 0)
+                .map(|s| s.to_string())
+                .collect();
+            return refused(
+                "map.refine_spacing",
+                format!(
+                    "spacing {spacing} does not divide the {cells} intervals of axis {} ({} values); it accepts {}, or give the axis a count of k·{spacing} + 1 values",
+                    a.key,
+                    a.values.len(),
+                    if fits.is_empty() {
+                        "no power of two".into()
+                    } else {
+                        fits.join(", ")
+                    }
+                ),
+            );
+        }
+    }
+    Ok(Some(RefineSpec {
+        spacing,
+        follow,
+        audit_share,
+        audit_min,
+        audit_seed,
+    }))
+}
+
+/// What `map.refine_follow` accepts: the regime, or a metric with one value per cell.
+const REFINE_FOLLOW: [&str; 10] = [
+    "regime",
+    "K",
+    "R",
+    "period",
+    "hops",
+    "impacts_per_s",
+    "power",
+    "line",
+    "lyapunov",
+    "alpha_range",
+];
+
+/// `map.early_stop_tol`: `"auto"` (1e-5 in f64, 1e-4 in f32) or a number in (0, 0.1).
+fn read_early_stop_tol(r: &mut Reader) -> Result<Option<f64>, ConfigError> {
+    let key = "map.early_stop_tol";
+    match r.raw(key)? {
+        Some(Value::String(s)) if s == "auto" => Ok(None),
+        Some(Value::String(s)) => Err(ConfigError::BadChoice {
+            key: key.into(),
+            value: s.clone(),
+            choices: "\"auto\" or a number in (0, 0.1)".into(),
+        }),
+        _ => r.number_opt(key, Range::Open(0.0, 0.1), ""),
+    }
 }
 
 /// `map.r_max_samples`: the longest series R is computed from, 1024 by default; a power of

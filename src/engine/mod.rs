@@ -17,6 +17,7 @@
 
 mod auto;
 pub mod cpu;
+pub mod early;
 mod error;
 pub mod gpu;
 pub mod imex;
@@ -30,9 +31,10 @@ pub mod stepper;
 pub mod twin;
 
 pub use cpu::{CpuEngine, CpuLoop};
+pub use early::EarlyStop;
 pub use error::EngineError;
 pub use gpu::{GpuContext, GpuEngine};
-pub use plan::{EARLY_STOP_METRICS, EarlyStop, EnsembleOptions, EnsemblePlan, InstancePlan};
+pub use plan::{EnsembleOptions, EnsemblePlan, InstancePlan};
 pub use reference::{ReferenceOptions, integrate_reference};
 pub use single::{
     Instance, NoObserver, Observer, Outcome, SingleTwin, integrate, integrate_batch,

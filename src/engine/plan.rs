@@ -14,6 +14,7 @@ use crate::config::{
     LyapunovSettings, MapSpec, MethodChoice, Metric, Perturbation, Scene, TimeStep,
 };
 use crate::engine::Precision;
+use crate::engine::early::EarlyStop;
 use crate::engine::error::EngineError;
 use crate::engine::imex::ImexMatrices;
 use crate::engine::method::{Method, MethodSteps};
@@ -158,33 +159,12 @@ pub struct EnsembleOptions {
     pub strobe_phase: f64,
     /// Longest R series (a power of two).
     pub r_max_samples: u32,
-    /// Stop an instance once its periodic orbit is confirmed (only honoured when every
-    /// requested metric allows it: see [`EarlyStop`]).
+    /// Stop an instance once its periodic orbit is confirmed, its indicators continued
+    /// ([`EarlyStop`]).
     pub early_stop: Option<EarlyStop>,
     /// How λ1's twin runs (used when [`Metric::Lyapunov`] is asked for).
     pub lyapunov: LyapunovSettings,
 }
-
-/// Early termination of instances whose periodic orbit is confirmed.
-///
-/// At each stroboscopic sample, an instance stops when, for some p ≤ `p_max` forcing periods,
-/// (a) its last `window` stroboscopic angles each equal the one p samples earlier and (b) its
-/// whole state (every angle, rate and the voltage) equals the state p samples earlier, both
-/// within `tol · max(1, |x|)`. The rest of the run would repeat that orbit, so the remaining
-/// stroboscopic samples are filled by periodic continuation. Only K, the period and the α
-/// range are exactly preserved by that; with any other metric the option is ignored.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct EarlyStop {
-    /// Longest orbit period tried (forcing periods).
-    pub p_max: u32,
-    /// Trailing stroboscopic samples that must repeat.
-    pub window: u32,
-    /// Relative tolerance of the repetition.
-    pub tol: f64,
-}
-
-/// The metrics whose values a periodic continuation preserves exactly.
-pub const EARLY_STOP_METRICS: [Metric; 3] = [Metric::K, Metric::Period, Metric::AlphaRange];
 
 impl EnsembleOptions {
     /// The options of a map scene.
@@ -266,7 +246,7 @@ impl EnsemblePlan {
         if opts.wants(Metric::K) {
             warnings.extend(short_k_warning(&instances));
         }
-        let early_stop = allowed_early_stop(opts, &mut warnings);
+        let early_stop = opts.early_stop;
         let mut plan = EnsemblePlan::assemble(first, opts, instances, warnings, early_stop);
         plan.method = method;
         plan.method_reason = method_reason;
@@ -328,10 +308,7 @@ impl EnsemblePlan {
         warnings: Vec<String>,
         early_stop: Option<EarlyStop>,
     ) -> EnsemblePlan {
-        let want_strobe = opts.wants(Metric::K)
-            || opts.wants(Metric::Period)
-            || opts.keep_strobe
-            || early_stop.is_some();
+        let want_strobe = opts.wants(Metric::K) || opts.wants(Metric::Period) || opts.keep_strobe;
         let dts = instances.iter().map(|p| p.dt_s);
         let dt_range_s = (
             dts.clone().fold(f64::INFINITY, f64::min),
@@ -491,25 +468,6 @@ fn attach_imex_matrices(instances: &mut [InstancePlan]) -> usize {
         p.imex = Some(built[&key(p)].clone());
     }
     built.len()
-}
-
-/// The early stop of the options, unless a requested metric needs the whole run.
-fn allowed_early_stop(opts: &EnsembleOptions, warnings: &mut Vec<String>) -> Option<EarlyStop> {
-    let e = opts.early_stop?;
-    let blocking: Vec<&str> = opts
-        .metrics
-        .iter()
-        .filter(|m| !EARLY_STOP_METRICS.contains(m))
-        .map(|m| m.name())
-        .collect();
-    if blocking.is_empty() {
-        return Some(e);
-    }
-    warnings.push(format!(
-        "map.early_stop ignored: metric(s) {} need the whole run (only K, period and alpha_range survive a periodic continuation)",
-        blocking.join(", ")
-    ));
-    None
 }
 
 /// Steps per forcing period: a multiple of `samples_per_period` near the method's automatic

@@ -292,6 +292,7 @@ fn run_single<T: Real, S: Stepper<T>, O: Observer<T>>(
                 schedule.d0,
                 inst.params.segments,
                 inst.y0.len(),
+                0,
             ),
             schedule,
             state: Vec::new(),

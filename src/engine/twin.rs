@@ -83,16 +83,28 @@ pub struct TwinTracker {
     dir: Vec<f64>,
     segments: usize,
     running: bool,
+    /// The stroboscopic instant (absolute index, transient included) at which it starts.
+    start_abs: u32,
+    /// The start and window it was made with.
+    original: (u32, u32),
     /// The log-growths of the window.
     pub sums: LyapunovSums,
 }
 
 impl TwinTracker {
     /// The tracker of `plan` with separation `d0` for a chain of `segments` and a state of
-    /// `dim` components.
-    pub fn new(plan: TwinPlan, d0: f64, segments: usize, dim: usize) -> TwinTracker {
+    /// `dim` components, in a run whose transient lasts `transient_periods`.
+    pub fn new(
+        plan: TwinPlan,
+        d0: f64,
+        segments: usize,
+        dim: usize,
+        transient_periods: u32,
+    ) -> TwinTracker {
         TwinTracker {
             dir: plan.direction(segments, dim),
+            start_abs: plan.start_sample + transient_periods,
+            original: (plan.start_sample + transient_periods, plan.window),
             plan,
             d0,
             segments,
@@ -101,34 +113,66 @@ impl TwinTracker {
         }
     }
 
+    /// The plan it runs (its window changed by [`TwinTracker::restart`]).
+    pub fn plan(&self) -> &TwinPlan {
+        &self.plan
+    }
+
+    /// Whether the twin has started by instant `abs` (it starts at its first instant).
+    pub fn started_by(&self, abs: u32) -> bool {
+        abs >= self.start_abs
+    }
+
+    /// The last instant it renormalises at (absolute index).
+    pub fn last_abs(&self) -> u32 {
+        self.start_abs + self.plan.align + self.plan.window
+    }
+
+    /// Back to the plan it was made with (after a [`TwinTracker::restart`]).
+    pub fn reset(&mut self) {
+        self.start_abs = self.original.0;
+        self.plan.window = self.original.1;
+        self.running = false;
+        self.sums = LyapunovSums::default();
+    }
+
+    /// Start over at instant `abs` with a window of `window` renormalisations (λ1 of a
+    /// confirmed orbit: [`crate::engine::early`]).
+    pub fn restart(&mut self, abs: u32, window: u32) {
+        self.start_abs = abs;
+        self.plan.window = window;
+        self.running = false;
+        self.sums = LyapunovSums::default();
+    }
+
     /// Whether the loop must advance the twin with the next step.
     pub fn running(&self) -> bool {
         self.running
     }
 
-    /// At stroboscopic sample `j` (index after the transient), with the main state `y` and the
-    /// twin's state `twin`: start the twin at `y + d0·u`, or measure `g = ln(d/d0)` and pull the
-    /// twin back to distance `d0` along its separation.
+    /// At stroboscopic instant `j` (absolute index, transient included), with the main state
+    /// `y` and the twin's state `twin`: start the twin at `y + d0·u`, or measure `g = ln(d/d0)`
+    /// and pull the twin back to distance `d0` along its separation.
     pub fn at_sample<T: Real>(
         &mut self,
         j: u32,
         y: &(impl StateView<T> + ?Sized),
         twin: &mut (impl StateViewMut<T> + ?Sized),
     ) {
-        let p = self.plan;
-        if j == p.start_sample {
+        let (p, start) = (self.plan, self.start_abs);
+        if j == start {
             for (k, &u) in self.dir.iter().enumerate() {
                 twin.set(k, y.at(k) + T::of(self.d0 * u));
             }
             self.running = true;
             return;
         }
-        if !self.running || j <= p.start_sample {
+        if !self.running || j <= start {
             return;
         }
         let dim = self.dir.len();
         let d = p.distance(self.segments, dim, |k| (twin.at(k) - y.at(k)).wide());
-        let r = j - p.start_sample;
+        let r = j - start;
         let g = (d / self.d0).ln();
         if r > p.align {
             self.sums.add(r - p.align - 1, p.window, g);
@@ -143,7 +187,7 @@ impl TwinTracker {
             let (yk, tk) = (y.at(k), twin.at(k));
             twin.set(k, yk + scale * (tk - yk));
         }
-        if j >= p.last_sample() {
+        if j >= self.last_abs() {
             self.running = false;
         }
     }

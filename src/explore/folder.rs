@@ -70,6 +70,8 @@ pub struct RunFolder {
     pub columns: Vec<Column>,
     /// Status code per cell (`model::Status::code`).
     pub status: Vec<u8>,
+    /// Per cell, whether refinement filled it from its block (empty: none was).
+    pub inferred: Vec<bool>,
     /// The files the manifest lists.
     pub files: Vec<String>,
     /// The ways a cell can be run (cases, or frequency and initial state); none for a map.

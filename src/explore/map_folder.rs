@@ -44,6 +44,14 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         .map(|&m| metric_column(&spec, m, &stored, &regime))
         .collect();
     let status = read_array::<u8>(dir, "status.npy", &spec)?;
+    let inferred = if listed_files(&manifest).iter().any(|f| f == "inferred.npy") {
+        read_array::<u8>(dir, "inferred.npy", &spec)?
+            .into_iter()
+            .map(|f| f == 1)
+            .collect()
+    } else {
+        Vec::new()
+    };
     Ok(RunFolder {
         dir: dir.to_path_buf(),
         product: Product::Map,
@@ -60,6 +68,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
             .collect(),
         columns,
         status,
+        inferred,
         variants: Vec::new(),
         segments: spec.scene.beam.segments,
         source: Source::Map(Box::new(spec)),

@@ -107,6 +107,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         axes,
         columns,
         status: vec![0; cells],
+        inferred: Vec::new(),
         variants,
         segments: spec.scene.beam.segments,
         source: Source::Search(Box::new(Search {

@@ -186,6 +186,7 @@ async fn cell_info(State(app): Shared, Path(k): Path<String>) -> Result<Response
         "index": f.index_of(k),
         "values": values,
         "status": status_name(f.status[k]),
+        "inferred": f.inferred.get(k).copied().unwrap_or(false),
         "columns": columns,
     }))
     .into_response())

@@ -44,11 +44,13 @@ pub enum Product {
     BenchGpu,
     /// `bench --verdict`: `VERDICT.md`, `verdict.json`.
     BenchVerdict,
+    /// `bench --refine`: `REFINE.md`, `refine.json`.
+    BenchRefine,
 }
 
 impl Product {
     /// Every product, for finding whose manifest a folder holds.
-    pub const ALL: [Product; 14] = [
+    pub const ALL: [Product; 15] = [
         Product::Simulate,
         Product::Map,
         Product::Shard,
@@ -63,6 +65,7 @@ impl Product {
         Product::BenchCpu,
         Product::BenchGpu,
         Product::BenchVerdict,
+        Product::BenchRefine,
     ];
 
     /// The command that writes it (the bench studies share one and may share a folder).
@@ -81,7 +84,8 @@ impl Product {
             | Product::BenchStiffMap
             | Product::BenchCpu
             | Product::BenchGpu
-            | Product::BenchVerdict => "bench",
+            | Product::BenchVerdict
+            | Product::BenchRefine => "bench",
         }
     }
 
@@ -102,6 +106,7 @@ impl Product {
             Product::BenchCpu => "cpu_throughput.json",
             Product::BenchGpu => "gpu_throughput.json",
             Product::BenchVerdict => "verdict.json",
+            Product::BenchRefine => "refine.json",
         }
     }
 
@@ -145,6 +150,7 @@ impl Product {
             ],
             Product::BenchGpu => &["GPU.md"],
             Product::BenchVerdict => &["VERDICT.md"],
+            Product::BenchRefine => &["REFINE.md"],
         }
     }
 
@@ -160,7 +166,8 @@ impl Product {
             | Product::BenchStiffMap
             | Product::BenchCpu
             | Product::BenchGpu
-            | Product::BenchVerdict => &[],
+            | Product::BenchVerdict
+            | Product::BenchRefine => &[],
         }
     }
 

@@ -9,7 +9,7 @@ use crate::output::OutputError;
 use crate::output::files::{AtomicFile, create_dir, draw, write_json, write_toml};
 use crate::output::npy::{write_npy_f64, write_npy_i8, write_npy_u8};
 use crate::reduce::Regime;
-use crate::render::{Axis, Category, Palette, RGBColor, heatmap, scatter};
+use crate::render::{Axis, Category, CellMarks, Palette, RGBColor, heatmap, scatter};
 use serde_json::json;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -82,6 +82,7 @@ fn write_grid_csv(path: &Path, spec: &MapSpec, run: &MapRun) -> Result<PathBuf, 
     header.extend(COLUMNS.iter().map(|c| c.0));
     header.push("regime");
     header.push("status");
+    header.push("inferred");
     writeln!(w, "{}", header.join(",")).map_err(io)?;
     for (k, r) in run.results.iter().enumerate() {
         let mut row: Vec<String> = spec.values_of(k).iter().map(|v| format!("{v}")).collect();
@@ -92,6 +93,7 @@ fn write_grid_csv(path: &Path, spec: &MapSpec, run: &MapRun) -> Result<PathBuf, 
             "nan".into()
         });
         row.push(r.status.as_str().to_string());
+        row.push(u8::from(run.inferred.get(k).copied().unwrap_or(false)).to_string());
         writeln!(w, "{}", row.join(",")).map_err(io)?;
     }
     w.commit()
@@ -120,6 +122,12 @@ fn write_arrays(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf>
     let p = dir.join("status.npy");
     write_npy_u8(&p, &shape, &status)?;
     written.push(p);
+    if !run.inferred.is_empty() {
+        let flags: Vec<u8> = run.inferred.iter().map(|&i| u8::from(i)).collect();
+        let p = dir.join("inferred.npy");
+        write_npy_u8(&p, &shape, &flags)?;
+        written.push(p);
+    }
     for (i, a) in spec.axes.iter().enumerate() {
         let p = dir.join(format!("axis{i}.npy"));
         write_npy_f64(&p, &[a.values.len()], &a.values)?;
@@ -179,13 +187,7 @@ fn map_json(spec: &MapSpec, run: &MapRun, files: &[String]) -> serde_json::Value
         "method_steps_of_base_scene": crate::engine::method::MethodSteps::of_scene(&spec.scene),
         "damping_of_base_scene": spec.scene.damping_report(),
         "dt_s": {"min": run.plan.dt_range_s.0, "max": run.plan.dt_range_s.1},
-        "steps": {
-            "total_instance_steps": run.plan.total_steps,
-            "integrated_instance_steps": run.results.iter().map(|r| r.steps).sum::<u64>(),
-            "stopped_early": run.stopped_early,
-            "per_instance_max": run.plan.instances.iter().map(|p| p.total_steps()).max(),
-            "dispatches": run.dispatches,
-        },
+        "steps": steps_json(run),
         "timings_s": run.timings,
         "wall_share": run.timings.wall_share(),
         "throughput": {
@@ -206,10 +208,38 @@ fn map_json(spec: &MapSpec, run: &MapRun, files: &[String]) -> serde_json::Value
             "zero_one": {"method": "correlation", "n_c": spec.k_n_c, "seed": spec.k_seed},
             "period": {"max": spec.period_max, "window": spec.period_window, "tol_rad": spec.period_tol_rad},
         },
+        "refine": run.refine,
         "warnings": run.plan.warnings,
         "shards": run.shards,
         "scene": spec.scene,
         "files": files,
+    })
+}
+
+/// `map.json`'s `steps`: what the grid would take in full, what was integrated, and what the
+/// early stop and refinement saved.
+fn steps_json(run: &MapRun) -> serde_json::Value {
+    let inferred = |k: usize| run.inferred.get(k).copied().unwrap_or(false);
+    let planned = |k: usize| run.plan.instances[k].total_steps();
+    let integrated: u64 = run.results.iter().map(|r| r.steps).sum();
+    let by_refinement: u64 = (0..run.results.len())
+        .filter(|&k| inferred(k))
+        .map(planned)
+        .sum();
+    let by_early_stop: u64 = (0..run.results.len())
+        .filter(|&k| !inferred(k) && run.results[k].status == Status::Ok)
+        .map(|k| planned(k) - run.results[k].steps.min(planned(k)))
+        .sum();
+    json!({
+        "total_instance_steps": run.plan.total_steps,
+        "integrated_instance_steps": integrated,
+        "saved_instance_steps": run.plan.total_steps.saturating_sub(integrated),
+        "saved_by_early_stop": by_early_stop,
+        "saved_by_refinement": by_refinement,
+        "stopped_early": run.stopped_early,
+        "inferred": run.inferred.iter().filter(|&&i| i).count(),
+        "per_instance_max": run.plan.instances.iter().map(|p| p.total_steps()).max(),
+        "dispatches": run.dispatches,
     })
 }
 
@@ -447,7 +477,13 @@ fn draw_slice(
     // heatmap wants rows of x for each y: cell (ix, iy) of slice iz.
     let cells = (0..ny).flat_map(|iy| (0..nx).map(move |ix| (ix * ny + iy) * nz + iz));
     let vals: Vec<f64> = cells.clone().map(|k| drawn_value(run, m, k)).collect();
-    let invalid: Vec<bool> = cells.map(|k| run.results[k].status != Status::Ok).collect();
+    let invalid: Vec<bool> = cells
+        .clone()
+        .map(|k| run.results[k].status != Status::Ok)
+        .collect();
+    let inferred: Vec<bool> = cells
+        .map(|k| run.inferred.get(k).copied().unwrap_or(false))
+        .collect();
     let (p, title) = if nz == 1 {
         (dir.join(format!("{}.png", m.name())), label.clone())
     } else {
@@ -467,6 +503,10 @@ fn draw_slice(
         values: &spec.axes[1].values,
     };
     draw(&p, |t| {
-        heatmap(t, &title, &x, &y, &vals, &label, &invalid, &palette)
+        let marks = CellMarks {
+            invalid: &invalid,
+            inferred: &inferred,
+        };
+        heatmap(t, &title, &x, &y, &vals, &label, &marks, &palette)
     })
 }

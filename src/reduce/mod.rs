@@ -20,7 +20,7 @@ pub mod regime;
 mod series;
 mod tally;
 
-pub use lyapunov::{Lyapunov, LyapunovSums, TwinPlan};
+pub use lyapunov::{LYAPUNOV_BLOCKS, Lyapunov, LyapunovSums, TwinPlan};
 pub use regime::{Evidence, Regime, Verdict, verdict};
 pub use series::{Series, k_of, line_of, period_of, r_of, reduce_series};
 pub use tally::{Span, Tally};

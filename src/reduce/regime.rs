@@ -171,6 +171,12 @@ fn class(lambda: f64, sigma: f64) -> Class {
     }
 }
 
+/// Whether λ1 (1/s, standard error `se`, forcing period `period_s`) is in the class of a
+/// stable orbit, *shrinking*: `λ1 T + zσ < −ε` (the early stop's test of a confirmed orbit).
+pub fn shrinking(lyapunov_per_s: f64, se_per_s: f64, period_s: f64) -> bool {
+    class(lyapunov_per_s * period_s, se_per_s * period_s) == Class::Shrinking
+}
+
 /// The verdict of one cell (see the module doc).
 pub fn verdict(e: &Evidence) -> Verdict {
     let regime = regime_of(e);

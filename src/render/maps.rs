@@ -57,7 +57,7 @@ fn paint_cells(
     chart: &Chart,
     xe: &[f64],
     ye: &[f64],
-    color: impl Fn(usize, usize, f64, f64) -> RGBColor,
+    color: impl Fn(usize, usize, f64, f64, (i32, i32)) -> RGBColor,
 ) -> Result<()> {
     let (xa, ya) = (
         chart.as_coord_spec().get_x_range(),
@@ -77,7 +77,7 @@ fn paint_cells(
         for i in px.clone() {
             let x = fx(i);
             if let Some(ix) = cell_of(xe, x) {
-                screen.draw_pixel((i, j), &color(ix, iy, x, y))?;
+                screen.draw_pixel((i, j), &color(ix, iy, x, y, (i, j)))?;
             }
         }
     }
@@ -176,7 +176,7 @@ pub fn scalogram(
     let (main, bar) = body.split_horizontally(SIZE.0 - BAR_COL);
     let mut chart = build_chart(&main, None, &xa, &ya, time_label, "Period (s)", false, 15)?;
     let coi_at = |t: f64| coi_log2_at(times_s, coi_s, t);
-    paint_cells(&chart, &xe, &ye, |ix, iy, x, y| {
+    paint_cells(&chart, &xe, &ye, |ix, iy, x, y, _| {
         let v = lp[iy][ix];
         let c = if v.is_finite() {
             viridis((v - lo) / (hi - lo))
@@ -328,12 +328,33 @@ fn legend_box(area: &Area, label: &str, entries: &[(&str, RGBColor)]) -> Result<
     Ok(())
 }
 
+/// Per-cell marks of a heat map (row-major like its values; an empty slice marks none).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct CellMarks<'a> {
+    /// The run failed: drawn magenta, "diverged" in the legend.
+    pub invalid: &'a [bool],
+    /// Filled from its block by refinement: a diagonal hatch every [`HATCH_PX`] pixels.
+    pub inferred: &'a [bool],
+}
+
+/// Pixels between the hatch lines of inferred cells.
+pub const HATCH_PX: i32 = 5;
+
+/// The colour of a hatch line over a cell of colour `c`: halfway to white, or to black on a
+/// light cell.
+fn hatch(c: RGBColor) -> RGBColor {
+    let light = 0.299 * f64::from(c.0) + 0.587 * f64::from(c.1) + 0.114 * f64::from(c.2) > 160.0;
+    let to = if light { 0.0 } else { 255.0 };
+    let mix = |v: u8| (0.5 * f64::from(v) + 0.5 * to).round() as u8;
+    RGBColor(mix(c.0), mix(c.1), mix(c.2))
+}
+
 /// Heat map of `values` (row-major `[iy][ix]`, cells between midpoints of
 /// the possibly non-uniform centres in `x`/`y`), 1000×700 px, coloured by `palette`: a
 /// labelled colour bar for a sequential or diverging palette (its range from
 /// [`Palette::range`]; values beyond are clamped), a legend of the categories present for a
-/// categorical one. Cells with `invalid[k]` are drawn in magenta with a "diverged" legend
-/// entry (`invalid` may be empty = none invalid); valid cells without a value are grey
+/// categorical one. Cells marked invalid are drawn in magenta with a "diverged" legend
+/// entry, inferred ones hatched ([`CellMarks`]); valid cells without a value are grey
 /// ("no data"). 1×N and N×1 grids work.
 #[allow(clippy::too_many_arguments)]
 pub fn heatmap(
@@ -343,9 +364,10 @@ pub fn heatmap(
     y: &Axis,
     values: &[f64],
     colorbar_label: &str,
-    invalid: &[bool],
+    marks: &CellMarks,
     palette: &Palette,
 ) -> Result<()> {
+    let (invalid, marked) = (marks.invalid, marks.inferred);
     check_axis("heatmap x", x.values)?;
     check_axis("heatmap y", y.values)?;
     let (nx, ny) = (x.values.len(), y.values.len());
@@ -362,6 +384,7 @@ pub fn heatmap(
         bad_input!("heatmap: invalid colour range {:?}", (a, b));
     }
     let bad = |k: usize| invalid.get(k).copied().unwrap_or(false);
+    let inferred = |k: usize| marked.get(k).copied().unwrap_or(false);
     let range = palette.range(values, invalid);
     let (xe, ye) = (cell_edges(x.values), cell_edges(y.values));
     let mut xa = AxisSpec::fixed(xe[0], xe[nx], false);
@@ -378,9 +401,14 @@ pub fn heatmap(
     let body = titled(&root, title)?;
     let (main, bar) = body.split_horizontally(SIZE.0 - BAR_COL);
     let chart = build_chart(&main, None, &xa, &ya, x.label, y.label, false, 15)?;
-    paint_cells(&chart, &xe, &ye, |ix, iy, _, _| {
+    paint_cells(&chart, &xe, &ye, |ix, iy, _, _, (i, j)| {
         let k = iy * nx + ix;
-        palette.colour(values[k], bad(k), range)
+        let c = palette.colour(values[k], bad(k), range);
+        if inferred(k) && (i + j).rem_euclid(HATCH_PX) == 0 {
+            hatch(c)
+        } else {
+            c
+        }
     })?;
     let present = palette.present(values, invalid);
     let mut legend: Vec<(&str, RGBColor)> = present
@@ -389,6 +417,9 @@ pub fn heatmap(
         .collect();
     if (0..values.len()).any(bad) {
         legend.push(("diverged", INVALID_COLOR));
+    }
+    if (0..values.len()).any(inferred) {
+        legend.push(("hatched: inferred", hatch(NODATA_COLOR)));
     }
     if (0..values.len()).any(|k| !bad(k) && palette.colour(values[k], false, range) == NODATA_COLOR)
     {

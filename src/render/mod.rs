@@ -24,7 +24,7 @@ use plotters::style::FontStyle;
 pub use charts::{histogram, line_chart, scatter, stacked_panels, zero_one_figure};
 pub use colormap::viridis;
 pub use error::RenderError;
-pub use maps::{cell_colour, colour_range, heatmap, scalogram};
+pub use maps::{CellMarks, HATCH_PX, cell_colour, colour_range, heatmap, scalogram};
 pub use palette::{Category, INVALID_COLOR, NODATA_COLOR, Palette};
 pub use plotters::style::RGBColor;
 

@@ -66,7 +66,7 @@ fn check_map_dir(out: &std::path::Path, backend: &str) {
     let mut lines = csv.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "excitation.frequency_hz,limiter.clearance_deg,K,R,period,hops,impacts_per_s,alpha_min_rad,alpha_max_rad,power_w,line_ratio,lyapunov,lyapunov_se,regime_confidence,regime,status"
+        "excitation.frequency_hz,limiter.clearance_deg,K,R,period,hops,impacts_per_s,alpha_min_rad,alpha_max_rad,power_w,line_ratio,lyapunov,lyapunov_se,regime_confidence,regime,status,inferred"
     );
     let rows: Vec<&str> = lines.collect();
     assert_eq!(rows.len(), 6);
@@ -326,51 +326,122 @@ fn bad_map_scenes_are_refused_with_the_key_named() {
 }
 
 #[test]
-fn early_stop_ends_confirmed_periodic_orbits_and_keeps_their_metrics() {
-    use pendulum_atlas::config::map_from_toml;
-    use pendulum_atlas::engine::{Engine, Precision, no_progress};
-    use pendulum_atlas::map::run_map;
-    let cpu = Engine::cpu(Precision::F64);
-    let text = |early: bool| {
-        format!(
-            "[beam]\nsegments = 1\ndamping_ratio = 0.05\n[pivot]\nmode = \"clamped\"\n[limiter]\nenabled = false\n\
-             [excitation]\namplitude_m = 0.001\n[integration]\nduration_s = 60.0\ntransient_s = 20.0\n\
-             [map]\nmetrics = [\"K\", \"period\", \"alpha_range\"]\nearly_stop = {early}\n\
-             [[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [5.0, 10.0]\n"
-        )
-    };
-    let full = map_from_toml(&text(false), "<t>", &[]).unwrap();
-    let early = map_from_toml(&text(true), "<t>", &[]).unwrap();
-    let a = run_map(&full, &cpu, &no_progress).unwrap();
-    let b = run_map(&early, &cpu, &no_progress).unwrap();
-    assert_eq!(
-        b.stopped_early, 2,
-        "both forced linear responses settle on period 1"
-    );
-    for (x, y) in a.results.iter().zip(&b.results) {
-        assert!(
-            y.steps < x.steps / 2,
-            "stopped at {} of {} steps",
-            y.steps,
-            x.steps
-        );
-        assert_eq!(x.period, y.period);
-        assert!((x.k - y.k).abs() < 0.05, "K {} vs {}", x.k, y.k);
-        assert!((x.alpha_max_rad - y.alpha_max_rad).abs() < 1e-6);
-    }
-    // A metric that needs the whole run switches it off, with a warning.
-    let spec = map_from_toml(
-        &text(true).replace("\"alpha_range\"]", "\"alpha_range\", \"hops\"]"),
-        "<t>",
-        &[],
-    )
-    .unwrap();
-    let c = run_map(&spec, &cpu, &no_progress).unwrap();
-    assert_eq!(c.stopped_early, 0);
+fn refinement_that_cannot_work_is_refused_before_any_work() {
+    let grid = "map.axes=[{key=\"excitation.frequency_hz\",start=4.0,end=12.0,count=9},{key=\"excitation.amplitude_m\",start=0.004,end=0.025,count=5}]";
+    let e = map_error(&[grid, "map.refine=true", "map.metrics=[\"K\"]"]);
     assert!(
-        c.plan
-            .warnings
+        e.contains("map.refine_follow") && e.contains("regime"),
+        "{e}"
+    );
+    let e = map_error(&[grid, "map.refine=true", "map.refine_follow=\"power\""]);
+    assert!(e.contains("not among map.metrics"), "{e}");
+    let e = map_error(&[grid, "map.refine=true", "map.refine_spacing=8"]);
+    assert!(e.contains("does not divide") && e.contains("2, 4"), "{e}");
+    let e = map_error(&[grid, "map.refine=true", "map.refine_spacing=3"]);
+    assert!(e.contains("powers of two"), "{e}");
+    for share in ["0", "1.5", "-0.1"] {
+        let e = map_error(&[
+            grid,
+            "map.refine=true",
+            &format!("map.refine_audit={share}"),
+        ]);
+        assert!(
+            e.contains("map.refine_audit") && e.contains("(0, 1]"),
+            "{e}"
+        );
+    }
+    let e = map_error(&[
+        grid,
+        "map.refine=true",
+        "map.refine_spacing=4",
+        "map.bifurcation=true",
+    ]);
+    assert!(
+        e.contains("map.bifurcation") || e.contains("bifurcation"),
+        "{e}"
+    );
+    let mut c = bin();
+    let o = c
+        .args([
+            "map",
+            "--backend",
+            "cpu",
+            "--quiet",
+            "--shard",
+            "0/2",
+            "--out",
+        ])
+        .arg(out_dir("refine-shard"))
+        .args([
+            "--set",
+            grid,
+            "--set",
+            "map.refine=true",
+            "--set",
+            "map.refine_spacing=4",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("cannot be split"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_refined_map_marks_its_inferred_cells_in_every_file() {
+    let out = out_dir("refined");
+    let o = bin()
+        .args(["map", "--backend", "cpu", "--quiet", "--out"])
+        .arg(&out)
+        .args([
+            "--set",
+            "map.axes=[{key=\"excitation.frequency_hz\",start=4.0,end=12.0,count=17},{key=\"excitation.amplitude_m\",start=0.004,end=0.025,count=9}]",
+            "--set",
+            "map.refine=true",
+            "--set",
+            "map.refine_spacing=4",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("map.json")).unwrap()).unwrap();
+    let inferred = json["refine"]["inferred"].as_u64().unwrap();
+    assert!(inferred > 0, "{}", json["refine"]);
+    assert_eq!(json["steps"]["inferred"].as_u64().unwrap(), inferred);
+    assert!(json["refine"]["audit"]["checked"].as_u64().unwrap() >= 1);
+    let saved = json["steps"]["saved_by_refinement"].as_u64().unwrap();
+    let total = json["steps"]["total_instance_steps"].as_u64().unwrap();
+    let done = json["steps"]["integrated_instance_steps"].as_u64().unwrap();
+    assert!(saved > 0 && done < total);
+    assert_eq!(
+        json["steps"]["saved_instance_steps"].as_u64().unwrap(),
+        total - done
+    );
+    let flags: npyz::NpyFile<_> =
+        npyz::NpyFile::new(std::fs::File::open(out.join("inferred.npy")).unwrap()).unwrap();
+    assert_eq!(flags.shape(), &[17, 9]);
+    let flags: Vec<u8> = flags.into_vec().unwrap();
+    assert_eq!(flags.iter().filter(|&&f| f == 1).count() as u64, inferred);
+    let csv = std::fs::read_to_string(out.join("grid.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = header
+        .iter()
+        .position(|h| *h == "inferred")
+        .expect("inferred column");
+    let marked = csv
+        .lines()
+        .skip(1)
+        .filter(|l| l.split(',').nth(col) == Some("1"))
+        .count();
+    assert_eq!(marked as u64, inferred);
+    assert!(
+        json["files"]
+            .as_array()
+            .unwrap()
             .iter()
-            .any(|w| w.contains("early_stop ignored"))
+            .any(|f| f == "inferred.npy")
     );
 }

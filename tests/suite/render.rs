@@ -7,8 +7,8 @@ use std::path::PathBuf;
 
 use pendulum_atlas::output::npy::{write_npy_f32, write_npy_f64, write_npy_i32, write_npy_u8};
 use pendulum_atlas::render::{
-    Axis, Category, Palette, Panel, RGBColor, Series, heatmap, histogram, line_chart, scalogram,
-    scatter, stacked_panels, zero_one_figure,
+    Axis, Category, CellMarks, Palette, Panel, RGBColor, Series, heatmap, histogram, line_chart,
+    scalogram, scatter, stacked_panels, zero_one_figure,
 };
 
 fn out(name: &str) -> PathBuf {
@@ -320,7 +320,10 @@ fn heatmap_invalid_cells_and_shapes() {
         &y,
         &vals,
         "λ (1/s)",
-        &inv,
+        &CellMarks {
+            invalid: &inv,
+            inferred: &[],
+        },
         &Palette::Sequential(None),
     )
     .unwrap();
@@ -334,7 +337,10 @@ fn heatmap_invalid_cells_and_shapes() {
         &y,
         &vals,
         "λ (1/s)",
-        &vec![false; vals.len()],
+        &CellMarks {
+            invalid: &vec![false; vals.len()],
+            inferred: &[],
+        },
         &Palette::Sequential(Some((-1.0, 1.0))),
     )
     .unwrap();
@@ -353,7 +359,7 @@ fn heatmap_invalid_cells_and_shapes() {
         &y1,
         &vals[..20],
         "v",
-        &[],
+        &CellMarks::default(),
         &Palette::Sequential(None),
     )
     .unwrap();
@@ -369,7 +375,7 @@ fn heatmap_invalid_cells_and_shapes() {
         &y,
         &vals[..15],
         "v",
-        &[],
+        &CellMarks::default(),
         &Palette::Sequential(None),
     )
     .unwrap();
@@ -381,7 +387,7 @@ fn heatmap_invalid_cells_and_shapes() {
         &y1,
         &[f64::NAN],
         "v",
-        &[],
+        &CellMarks::default(),
         &Palette::Sequential(None),
     )
     .unwrap();
@@ -392,7 +398,7 @@ fn heatmap_invalid_cells_and_shapes() {
         &y,
         &[3.0; 15],
         "v",
-        &[],
+        &CellMarks::default(),
         &Palette::Sequential(None),
     )
     .unwrap();
@@ -405,7 +411,7 @@ fn heatmap_invalid_cells_and_shapes() {
             &y,
             &vals[..5],
             "v",
-            &[],
+            &CellMarks::default(),
             &Palette::Sequential(None)
         )
         .is_err()
@@ -423,7 +429,7 @@ fn heatmap_invalid_cells_and_shapes() {
             &y1,
             &[1.0, 2.0],
             "v",
-            &[],
+            &CellMarks::default(),
             &Palette::Sequential(None)
         )
         .is_err()
@@ -436,7 +442,7 @@ fn heatmap_invalid_cells_and_shapes() {
             &y1,
             &[1.0],
             "v",
-            &[],
+            &CellMarks::default(),
             &Palette::Sequential(Some((1.0, 1.0)))
         )
         .is_err()
@@ -675,7 +681,7 @@ fn palettes_colour_like_their_kind_and_draw_a_bar_or_a_legend() {
         &y,
         &[1.0, 3.0, 3.0, 1.0, 2.0, 1.0],
         "regime",
-        &[],
+        &CellMarks::default(),
         &cats,
     )
     .unwrap();
@@ -689,7 +695,7 @@ fn palettes_colour_like_their_kind_and_draw_a_bar_or_a_legend() {
         &y,
         &[-1.0, 0.0, 2.0, 1.0, -3.0, 0.5],
         "λ1 (1/s)",
-        &[],
+        &CellMarks::default(),
         &d,
     )
     .unwrap();

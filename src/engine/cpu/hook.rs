@@ -1,13 +1,15 @@
 //! The per-step bookkeeping of an ensemble instance, shared by the scalar and the lane loops:
-//! accumulators after the transient (α range, hops, impacts, power), the stroboscopic and R
-//! samples, and the early stop on a confirmed periodic orbit ([`EarlyStop`]).
+//! accumulators per forcing period, added up after the transient (α range, hops, impacts,
+//! power), the stroboscopic and R samples, λ1's twin, and the early stop on a confirmed
+//! periodic orbit ([`crate::engine::early`]).
 
-use crate::engine::plan::{EarlyStop, InstancePlan};
+use crate::engine::early::{EarlyStop, EarlyTracker, PeriodTally, early_twin_window};
+use crate::engine::plan::InstancePlan;
 use crate::engine::stepper::{CartClock, StateView, StateViewMut, StepHook};
 use crate::engine::twin::TwinTracker;
 use crate::model::{Chain, Lane, Real, Status, Workspace};
-use crate::reduce::LyapunovSums;
-use crate::reduce::Tally;
+use crate::reduce::regime::shrinking;
+use crate::reduce::{LyapunovSums, Tally, TwinPlan};
 use std::ops::ControlFlow;
 
 /// Lane `lane` of a state of vectors.
@@ -62,6 +64,8 @@ pub struct RawInstance {
     pub stopped_early: Option<u32>,
     /// The log-growths of λ1's twin, when it ran.
     pub twin: Option<LyapunovSums>,
+    /// The plan the twin ran (a confirmed orbit measures a shorter window).
+    pub twin_plan: Option<TwinPlan>,
 }
 
 /// The cart of an ensemble instance: exact phase `(step mod spp + c)/spp`.
@@ -77,16 +81,32 @@ impl CartClock for PhaseClock<'_> {
     }
 }
 
+/// Where an instance's early stop stands ([`crate::engine::early`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum EarlyPhase {
+    /// Looking for a confirmed orbit at every stroboscopic instant.
+    Watching,
+    /// Orbit of period `p` confirmed; λ1's twin measures it until instant `until` (before
+    /// the map's own λ1 window begins).
+    Measuring { p: u32, until: u64 },
+    /// Orbit of period `p` confirmed (and stable): stop at the next period boundary.
+    Closing { p: u32 },
+    /// No early stop (none asked for, λ1 not shrinking, or the map's λ1 window too near).
+    Off,
+}
+
 /// The per-step bookkeeping of an ensemble instance.
 pub(super) struct EnsembleHook<'a, T> {
     plan: &'a InstancePlan,
     pub(super) raw: RawInstance,
+    /// The accumulators of the current forcing period, and the well last visited (kept
+    /// through the transient).
+    period: PeriodTally,
     well: i32,
-    early: Option<EarlyStop>,
-    /// States at the last p_max + 1 stroboscopic samples (ring), for early termination.
-    ring: Vec<Vec<T>>,
-    /// The next step that is a stroboscopic instant after the transient (`step mod spp` =
-    /// the strobe offset), and the next instant of the R series: counters instead of a
+    early: Option<EarlyTracker<T>>,
+    phase: EarlyPhase,
+    /// The next stroboscopic instant (from the first step when the early stop watches, else
+    /// from the transient), and the next instant of the R series: counters instead of a
     /// division per step.
     next_strobe: u64,
     next_r: u64,
@@ -111,6 +131,9 @@ impl<'a, T: Real> EnsembleHook<'a, T> {
                 Vec::new()
             }
         };
+        let dim = plan.y0.len();
+        let segments = plan.params.segments;
+        let tp = plan.transient_periods;
         EnsembleHook {
             plan,
             raw: RawInstance {
@@ -126,16 +149,22 @@ impl<'a, T: Real> EnsembleHook<'a, T> {
                 r_alpha: nan_series(want_r, plan.r_count),
                 stopped_early: None,
                 twin: None,
+                twin_plan: None,
             },
+            period: PeriodTally::default(),
             well: 0,
-            early,
-            ring: vec![Vec::new(); early.map_or(0, |e| e.p_max as usize + 1)],
-            next_strobe: first_strobe_step(plan),
+            phase: if early.is_some() {
+                EarlyPhase::Watching
+            } else {
+                EarlyPhase::Off
+            },
+            next_strobe: first_strobe_step(plan, early.is_some()),
+            early: early.map(|e| EarlyTracker::new(e, plan, want_r)),
             next_r: u64::from(plan.r_start),
             twin: plan
                 .twin
                 .zip(separation)
-                .map(|(t, d0)| TwinTracker::new(t, d0, plan.params.segments, plan.y0.len())),
+                .map(|(t, d0)| TwinTracker::new(t, d0, segments, dim, tp)),
             twin_state: Vec::new(),
         }
     }
@@ -145,18 +174,21 @@ impl<'a, T: Real> EnsembleHook<'a, T> {
         self.twin.as_ref().is_some_and(TwinTracker::running)
     }
 
-    /// The bookkeeping is over: the raw results, with the twin's log-growths.
+    /// The bookkeeping is over: the raw results, with the twin's log-growths and plan.
     pub(super) fn finish(mut self) -> RawInstance {
-        self.raw.twin = self.twin.map(|t| t.sums);
+        if let Some(t) = self.twin {
+            self.raw.twin_plan = Some(*t.plan());
+            self.raw.twin = Some(t.sums);
+        }
         self.raw
     }
 
-    /// Accumulators over the steps after the transient: α range, hops, impacts, power.
+    /// The current period's accumulators: α range, hops, impacts, power.
     fn accumulate(&mut self, alpha: f64, onsets: u32, y: &(impl StateView<T> + ?Sized)) {
-        let t = &mut self.raw.tally;
+        let t = &mut self.period;
         t.impacts += onsets;
-        t.alpha_range_rad.0 = t.alpha_range_rad.0.min(alpha);
-        t.alpha_range_rad.1 = t.alpha_range_rad.1.max(alpha);
+        t.alpha_min = t.alpha_min.min(alpha);
+        t.alpha_max = t.alpha_max.max(alpha);
         let h = self.plan.half_clearance_rad;
         let w = if alpha > h {
             1
@@ -177,44 +209,118 @@ impl<'a, T: Real> EnsembleHook<'a, T> {
         }
     }
 
-    /// Record a stroboscopic sample; `Break` when the early stop confirms a periodic orbit.
-    fn strobe_sample(
+    /// The stroboscopic instant `step`: λ1's twin, the recorded α after the transient, the
+    /// early stop's watch.
+    fn strobe_instant(
         &mut self,
         step: u64,
         alpha: f64,
         y: &(impl StateView<T> + ?Sized),
-    ) -> ControlFlow<()> {
-        let idx = u64::from(strobe_index(self.plan, step));
-        if let Some(slot) = self.raw.strobe.get_mut(idx as usize) {
+        twin: &mut (impl StateViewMut<T> + ?Sized),
+    ) {
+        let p = self.plan;
+        let abs = (step - u64::from(p.strobe_offset)) / u64::from(p.spp);
+        if let Some(j) = abs.checked_sub(u64::from(p.transient_periods))
+            && let Some(slot) = self.raw.strobe.get_mut(j as usize)
+        {
             *slot = alpha;
         }
-        let Some(e) = self.early else {
+        self.watch(abs, y);
+        if let Some(t) = &mut self.twin {
+            t.at_sample(abs as u32, y, twin);
+        }
+        self.measured(abs);
+    }
+
+    /// The early stop's detection at instant `abs` (before the twin's sample, which a
+    /// confirmed orbit may restart).
+    fn watch(&mut self, abs: u64, y: &(impl StateView<T> + ?Sized)) {
+        let Some(e) = &mut self.early else {
+            return;
+        };
+        let confirmed = e.at_strobe(abs, y);
+        let (EarlyPhase::Watching, Some(p)) = (self.phase, confirmed) else {
+            return;
+        };
+        self.phase = match &mut self.twin {
+            None => EarlyPhase::Closing { p },
+            Some(t) => {
+                let window = early_twin_window(p);
+                let until = abs + u64::from(t.plan().align + window);
+                if t.started_by(until as u32) {
+                    EarlyPhase::Off
+                } else {
+                    t.restart(abs as u32, window);
+                    EarlyPhase::Measuring { p, until }
+                }
+            }
+        };
+    }
+
+    /// After the twin's sample at `abs`: a measuring orbit whose λ1 is complete closes when
+    /// λ1 shrinks; else the twin goes back to the map's own window (still ahead) and the run
+    /// goes on.
+    fn measured(&mut self, abs: u64) {
+        let (EarlyPhase::Measuring { p, until }, Some(t)) = (self.phase, &mut self.twin) else {
+            return;
+        };
+        if abs < until {
+            return;
+        }
+        let plan = *t.plan();
+        let stable = t
+            .sums
+            .estimate(plan.window, plan.period_s)
+            .is_some_and(|l| shrinking(l.per_s, l.se_per_s, plan.period_s));
+        self.phase = if stable {
+            EarlyPhase::Closing { p }
+        } else {
+            t.reset();
+            EarlyPhase::Off
+        };
+    }
+
+    /// The end of forcing period `q` (0-based): its tally into the run's after the transient,
+    /// into the early stop's ring; `Break` when a closing orbit stops here.
+    fn period_end(&mut self, q: u64) -> ControlFlow<()> {
+        let done = std::mem::take(&mut self.period);
+        if q >= u64::from(self.plan.transient_periods) {
+            done.add_to(&mut self.raw.tally);
+        }
+        let Some(e) = &mut self.early else {
             return ControlFlow::Continue(());
         };
-        let k = idx as usize;
-        let ring_len = self.ring.len();
-        let slot = &mut self.ring[k % ring_len];
-        slot.clear();
-        slot.extend((0..y.len()).map(|k| y.at(k)));
-        match confirmed_period(&self.raw.strobe, &self.ring, k, &e) {
-            Some(period) => {
-                for j in k + 1..self.raw.strobe.len() {
-                    self.raw.strobe[j] = self.raw.strobe[j - period];
-                }
-                self.raw.stopped_early = Some(period as u32);
-                ControlFlow::Break(())
-            }
-            None => ControlFlow::Continue(()),
-        }
+        e.end_period(q, done);
+        let EarlyPhase::Closing { p } = self.phase else {
+            return ControlFlow::Continue(());
+        };
+        let raw = &mut self.raw;
+        e.continue_orbit(
+            p,
+            q + 1,
+            self.plan,
+            &mut raw.tally,
+            &mut raw.strobe,
+            &mut raw.r_alpha,
+        );
+        raw.stopped_early = Some(p);
+        ControlFlow::Break(())
     }
 
     /// Record a sample of the R series when `step` is one of its instants (`r_start` +
-    /// a multiple of `r_every`; steps come one by one).
+    /// a multiple of `r_every`; steps come one by one), and keep α for the early stop.
     fn r_sample(&mut self, step: u64, alpha: f64) {
+        let every = u64::from(self.plan.r_every);
+        if let Some(e) = &mut self.early
+            && e.wants_r()
+            && step.is_multiple_of(every)
+        {
+            e.r_sample(step, every, alpha);
+        }
         if step != self.next_r {
             return;
         }
-        let (start, every) = (u64::from(self.plan.r_start), u64::from(self.plan.r_every));
+        let start = u64::from(self.plan.r_start);
         self.next_r += every;
         if let Some(slot) = self.raw.r_alpha.get_mut(((step - start) / every) as usize) {
             *slot = alpha;
@@ -224,7 +330,7 @@ impl<'a, T: Real> EnsembleHook<'a, T> {
 
 impl<T: Real> EnsembleHook<'_, T> {
     /// The bookkeeping after `step` steps (1-based) with state `y`, `onsets` bumper contacts
-    /// begun at this step; `Break` when the early stop confirms a periodic orbit.
+    /// begun at this step; `Break` when the early stop ends the run here.
     pub(super) fn record(
         &mut self,
         step: u64,
@@ -232,24 +338,18 @@ impl<T: Real> EnsembleHook<'_, T> {
         onsets: u32,
         twin: &mut (impl StateViewMut<T> + ?Sized),
     ) -> ControlFlow<()> {
-        let p = self.plan;
         let alpha = y.at(0).wide();
-        let transient = p.transient_steps();
-        if step > transient {
-            self.accumulate(alpha, onsets, y);
-        }
-        let want_strobe = !self.raw.strobe.is_empty() || self.early.is_some();
+        self.accumulate(alpha, onsets, y);
+        let spp = u64::from(self.plan.spp);
         if step == self.next_strobe {
-            self.next_strobe += u64::from(p.spp);
-            if let Some(t) = &mut self.twin {
-                t.at_sample(strobe_index(p, step), y, twin);
-            }
-            if want_strobe && self.strobe_sample(step, alpha, y).is_break() {
-                return ControlFlow::Break(());
-            }
+            self.next_strobe += spp;
+            self.strobe_instant(step, alpha, y, twin);
         }
         if !self.raw.r_alpha.is_empty() {
             self.r_sample(step, alpha);
+        }
+        if step.is_multiple_of(spp) {
+            return self.period_end(step / spp - 1);
         }
         ControlFlow::Continue(())
     }
@@ -286,33 +386,14 @@ impl<T: Real> StepHook<T> for EnsembleHook<'_, T> {
     }
 }
 
-/// The index after the transient of the stroboscopic sample taken at `step`.
-fn strobe_index(p: &InstancePlan, step: u64) -> u32 {
-    ((step - u64::from(p.strobe_offset)) / u64::from(p.spp) - u64::from(p.transient_periods)) as u32
-}
-
-/// The smallest p ≤ p_max for which the stroboscopic samples up to `k` and the full state at
-/// sample `k` repeat with period p (see [`EarlyStop`]).
-fn confirmed_period<T: Real>(
-    strobe: &[f64],
-    ring: &[Vec<T>],
-    k: usize,
-    e: &EarlyStop,
-) -> Option<usize> {
-    let w = e.window as usize;
-    let close = |a: f64, b: f64| (a - b).abs() <= e.tol * a.abs().max(1.0);
-    (1..=e.p_max as usize).find(|&p| {
-        k + 1 >= w + p && (k + 1 - w..=k).all(|j| close(strobe[j], strobe[j - p])) && {
-            let (now, then) = (&ring[k % ring.len()], &ring[(k - p) % ring.len()]);
-            then.len() == now.len() && now.iter().zip(then).all(|(a, b)| close(a.wide(), b.wide()))
-        }
-    })
-}
-
-/// The first step (1-based) at or after the transient whose `step mod spp` is the strobe
-/// offset: the first stroboscopic sample.
-fn first_strobe_step(p: &InstancePlan) -> u64 {
+/// The first stroboscopic instant (1-based step, `step mod spp` = the strobe offset): from
+/// the first step when the early stop watches the whole run, else from the transient's end.
+fn first_strobe_step(p: &InstancePlan, from_start: bool) -> u64 {
     let (spp, offset) = (u64::from(p.spp), u64::from(p.strobe_offset));
-    let from = p.transient_steps().max(1);
+    let from = if from_start {
+        1
+    } else {
+        p.transient_steps().max(1)
+    };
     from + (offset + spp - from % spp) % spp
 }

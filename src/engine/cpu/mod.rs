@@ -10,8 +10,9 @@ mod lanes;
 
 pub use hook::RawInstance;
 
+use crate::engine::early::EarlyStop;
 use crate::engine::imex::Imex;
-use crate::engine::plan::{EarlyStop, EnsemblePlan, InstancePlan};
+use crate::engine::plan::{EnsemblePlan, InstancePlan};
 use crate::engine::rk4::Rk4;
 use crate::engine::stepper::{StepHook, run_steps};
 use crate::engine::{
@@ -199,7 +200,7 @@ impl CpuEngine {
                     r_alpha: &r.r_alpha,
                     r_cart: &cart,
                     r_samples_per_period: f64::from(p.spp / p.r_every),
-                    twin: r.twin.as_ref().zip(p.twin.as_ref()),
+                    twin: r.twin.as_ref().zip(r.twin_plan.as_ref()),
                 };
                 reduce_series(&mut out, series, &plan.metrics, opts);
                 out

@@ -10,6 +10,7 @@ use crate::engine::imex::ImexMatrices;
 use crate::engine::method::Method;
 use crate::engine::plan::EnsemblePlan;
 use crate::model::{CHECK_EVERY, Chain};
+use bytemuck::Zeroable;
 use wgpu::util::DeviceExt;
 
 /// Loop iterations one invocation may run on a software adapter (lavapipe stops at 65535).
@@ -28,6 +29,7 @@ pub struct Sizes {
     pub strobe_bytes: u64,
     pub rwork_bytes: u64,
     pub kc_bytes: u64,
+    pub early_bytes: u64,
 }
 
 impl Sizes {
@@ -40,6 +42,8 @@ impl Sizes {
             + self.strobe_bytes
             + self.rwork_bytes
             + self.kc_bytes
+            + self.early_bytes
+            + 8 * n
     }
 }
 
@@ -76,6 +80,7 @@ impl Sizes {
             strobe_bytes: bytes(f.strobe)?,
             rwork_bytes: bytes(f.rwork)?,
             kc_bytes: bytes(f.kc)?,
+            early_bytes: bytes(f.early)?,
         })
     }
 }
@@ -92,6 +97,7 @@ struct Footprint {
     strobe: (&'static str, u64),
     rwork: (&'static str, u64),
     kc: (&'static str, u64),
+    early: (&'static str, u64),
 }
 
 impl Footprint {
@@ -127,10 +133,17 @@ impl Footprint {
                 on(key.want_rseries || key.want_k, 8 * u64::from(rwork_stride)),
             ),
             kc: ("K_c values", on(key.want_k, 4 * key.n_c as u64)),
+            early: (
+                "early-stop rings",
+                on(
+                    key.want_early,
+                    4 * u64::from(GpuControl::zeroed().with_early(plan).1),
+                ),
+            ),
         }
     }
 
-    fn buffers(&self) -> [(&'static str, u64); 6] {
+    fn buffers(&self) -> [(&'static str, u64); 7] {
         [
             self.params,
             self.state,
@@ -138,6 +151,7 @@ impl Footprint {
             self.strobe,
             self.rwork,
             self.kc,
+            self.early,
         ]
     }
 }
@@ -234,7 +248,35 @@ pub fn software_step_budget(
         n_seg,
         max_lever,
         key.want_twin,
+        early_loops(plan, key),
     )))
+}
+
+/// Loop iterations the early stop adds (`shaders/early.wgsl`): per step, its watch at each
+/// stroboscopic instant spread over the shortest period (`early_keep`: `N` stores, then per
+/// period tried the window and the state; `lyap_estimate` and `twin_restart`: 24); per
+/// dispatch, the continuation at most once (every later period, stroboscopic and R sample).
+fn early_loops(plan: &EnsemblePlan, key: &KernelKey) -> (f64, f64) {
+    let Some(e) = plan.early_stop.filter(|_| key.want_early) else {
+        return (0.0, 0.0);
+    };
+    let dim = 2 * plan.segments + 1;
+    let watch = (e.p_max as usize * (e.window as usize + dim + 1) + plan.segments + 24) as f64;
+    let spp_min = plan
+        .instances
+        .iter()
+        .map(|p| p.spp)
+        .min()
+        .unwrap_or(1)
+        .max(1);
+    let periods = plan
+        .instances
+        .iter()
+        .map(|p| p.total_periods)
+        .max()
+        .unwrap_or(0);
+    let fixed = f64::from(periods) + f64::from(plan.strobe_stride) + f64::from(plan.r_stride);
+    (watch / f64::from(spp_min), fixed)
 }
 
 /// Steps per dispatch whose loop iterations, health checks included (one every
@@ -244,14 +286,21 @@ pub fn software_step_budget(
 /// instances short of their last step (caught by the GPU results' check). λ1's twin takes
 /// every step again with a swap in and out (`twin_step`: one step and `2 N`), and at most once
 /// per step a saltation (`twin_saltation`: at most `5 N`) and a sample (`twin_sample`: `2 N`);
-/// per dispatch it is loaded and stored (`2 N`).
-fn steps_within_loop_budget(method: Method, n: usize, levers: usize, twin: bool) -> u64 {
+/// per dispatch it is loaded and stored (`2 N`). The early stop adds `early` (per step,
+/// per dispatch: [`early_loops`]).
+fn steps_within_loop_budget(
+    method: Method,
+    n: usize,
+    levers: usize,
+    twin: bool,
+    early: (f64, f64),
+) -> u64 {
     let one = loops_per_step(method, n, levers) as f64;
     let n = n as f64;
     let (per_step, fixed) = if twin {
-        (2.0 * one + 9.0 * n, 2.0 * n)
+        (2.0 * one + 9.0 * n + early.0, 2.0 * n + early.1)
     } else {
-        (one, 0.0)
+        (one + early.0, early.1)
     };
     let health = 3.0 * n + levers as f64;
     let spare = SOFTWARE_LOOP_BUDGET as f64 - 2.0 * health - fixed;
@@ -276,6 +325,8 @@ fn loops_per_step(method: Method, n: usize, levers: usize) -> usize {
 
 /// The buffers of a run and their bind group (which keeps the others alive).
 pub struct Buffers {
+    pub active: wgpu::Buffer,
+    pub done: wgpu::Buffer,
     pub accum: wgpu::Buffer,
     pub strobe: wgpu::Buffer,
     pub rwork: wgpu::Buffer,
@@ -326,6 +377,14 @@ impl Buffers {
         let kc = empty("kc", sizes.kc_bytes);
         let turns = init("c_turns", bytemuck::cast_slice(&c_turns(reduce)), sto);
         let imex = init("imex_mats", bytemuck::cast_slice(&mats), sto);
+        let early = empty("early", sizes.early_bytes);
+        let all: Vec<u32> = (0..sizes.n_inst as u32).collect();
+        let active = init(
+            "active",
+            bytemuck::cast_slice(&all),
+            sto | wgpu::BufferUsages::COPY_DST,
+        );
+        let done = init("done", bytemuck::cast_slice(&vec![0u32; sizes.n_inst]), sto);
         let control = init(
             "control",
             bytemuck::bytes_of(control),
@@ -344,9 +403,14 @@ impl Buffers {
                 entry(6, &control),
                 entry(7, &kc),
                 entry(8, &imex),
+                entry(9, &early),
+                entry(10, &active),
+                entry(11, &done),
             ],
         });
         Buffers {
+            active,
+            done,
             accum,
             strobe,
             rwork,
@@ -376,7 +440,14 @@ fn initial_state(plan: &EnsemblePlan, sizes: &Sizes) -> (Vec<f32>, Vec<GpuAccum>
         let chain: Chain<f32> = Chain::new(&p.params);
         let y: Vec<f32> = p.y0.iter().map(|&v| v as f32).collect();
         let (r, l) = chain.touching(&y);
-        accum.push(GpuAccum::initial(u32::from(r) | (u32::from(l) << 1)));
+        let (tw_start, tw_window) = p
+            .twin
+            .map_or((0, 0), |t| (t.start_sample + p.transient_periods, t.window));
+        accum.push(GpuAccum::initial(
+            u32::from(r) | (u32::from(l) << 1),
+            tw_start,
+            tw_window,
+        ));
     }
     (state, accum)
 }

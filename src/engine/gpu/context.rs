@@ -181,7 +181,7 @@ fn pick_adapter(choice: AdapterChoice) -> Result<wgpu::Adapter, EngineError> {
         })
 }
 
-/// Bindings 0–8 of the kernels (see `shaders/common.wgsl`).
+/// Bindings 0–11 of the kernels (see `shaders/common.wgsl`).
 fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
         binding,
@@ -214,6 +214,9 @@ fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             storage(5, true),
             storage(7, false),
             storage(8, true),
+            storage(9, false),
+            storage(10, true),
+            storage(11, false),
             uniform,
         ],
     })

@@ -17,14 +17,15 @@ use crate::reduce::regime::{REGIME_FLAT_PER_PERIOD, REGIME_K_CHAOS, REGIME_Z};
 use std::fmt::Write;
 
 /// The stage files of the ensemble kernels, in assembly order: common definitions,
-/// integration (RK4, λ1's twin), the IMEX method, the R reduction, the 0–1 test and period,
+/// integration (RK4, λ1's twin), the early stop, the IMEX method, the R reduction, the 0–1 test and period,
 /// λ1 and the regime.
-pub const SHADER_STAGES: [(&str, &str); 6] = [
+pub const SHADER_STAGES: [(&str, &str); 7] = [
     ("common.wgsl", include_str!("../../../shaders/common.wgsl")),
     (
         "integrate.wgsl",
         include_str!("../../../shaders/integrate.wgsl"),
     ),
+    ("early.wgsl", include_str!("../../../shaders/early.wgsl")),
     ("imex.wgsl", include_str!("../../../shaders/imex.wgsl")),
     (
         "reduce_r.wgsl",
@@ -44,6 +45,7 @@ pub const SHADER_STAGES: [(&str, &str); 6] = [
 pub const SHADER_BODY: &str = concat!(
     include_str!("../../../shaders/common.wgsl"),
     include_str!("../../../shaders/integrate.wgsl"),
+    include_str!("../../../shaders/early.wgsl"),
     include_str!("../../../shaders/imex.wgsl"),
     include_str!("../../../shaders/reduce_r.wgsl"),
     include_str!("../../../shaders/reduce_k.wgsl"),
@@ -130,6 +132,8 @@ pub struct KernelKey {
     pub method: Method,
     /// λ1's twin rides along (and the λ1 and regime kernel runs).
     pub want_twin: bool,
+    /// The early stop of confirmed orbits.
+    pub want_early: bool,
 }
 
 /// Workgroup size of the integration and R kernels.
@@ -157,6 +161,7 @@ impl KernelKey {
             ("N_C", self.n_c as f64),
             ("METHOD_IMEX", flag(self.method == Method::Imex)),
             ("WANT_TWIN", flag(self.want_twin)),
+            ("WANT_EARLY", flag(self.want_early)),
         ]
     }
 }

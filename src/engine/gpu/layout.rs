@@ -4,7 +4,7 @@
 //! [`GpuInstanceParams`] is filled from the one parameter struct, [`ModelParams`], and the
 //! instance's step plan: no physical coefficient is derived anywhere else.
 
-use crate::engine::plan::InstancePlan;
+use crate::engine::plan::{EnsemblePlan, InstancePlan};
 use crate::reduce::TwinPlan;
 use crate::reduce::lyapunov::LYAPUNOV_BLOCKS;
 use bytemuck::{Pod, Zeroable};
@@ -255,8 +255,34 @@ pub struct GpuAccum {
     pub lyap_se: f32,
     /// The regime's code ([`crate::reduce::Regime::code`]).
     pub regime: i32,
+    /// λ1's twin: its first stroboscopic instant (absolute, the transient included).
+    pub tw_start: u32,
+    /// Its window (renormalisations averaged).
+    pub tw_window: u32,
+    /// The current period's hops.
+    pub p_hops: u32,
+    /// The current period's contact onsets.
+    pub p_impacts: u32,
+    /// The current period's Σ v²/R_L.
+    pub p_power: f32,
+    /// The current period's smallest α (rad).
+    pub p_amin: f32,
+    /// The current period's largest α (rad).
+    pub p_amax: f32,
+    /// The early stop's phase (watching, measuring, closing, off: `shaders/early.wgsl`).
+    pub e_phase: u32,
+    /// The confirmed orbit's period (forcing periods).
+    pub e_p: u32,
+    /// The instant λ1's measurement of the confirmed orbit ends.
+    pub e_until: u32,
+    /// Stroboscopic instants kept so far.
+    pub e_seen: u32,
+    /// The last one.
+    pub e_last: u32,
+    /// The period of the orbit the instance stopped on (0: it ran to its end).
+    pub stopped: u32,
     /// Padding.
-    pub pad3: [u32; 3],
+    pub pad3: [u32; 2],
 }
 
 /// `GpuAccum::twin_flags`: the twin runs (the kernel advances it).
@@ -265,12 +291,17 @@ pub const TWIN_RUNNING: u32 = 1;
 pub const TWIN_BROKEN: u32 = 2;
 
 impl GpuAccum {
-    /// The state before the first step.
-    pub fn initial(touch: u32) -> GpuAccum {
+    /// The state before the first step, with bumper flags `touch`, of an instance whose twin
+    /// (if any) starts at instant `tw_start` with a window of `tw_window`.
+    pub fn initial(touch: u32, tw_start: u32, tw_window: u32) -> GpuAccum {
         GpuAccum {
             touch,
+            tw_start,
+            tw_window,
             alpha_min: f32::MAX,
             alpha_max: -f32::MAX,
+            p_amin: f32::MAX,
+            p_amax: -f32::MAX,
             k: f32::NAN,
             r: f32::NAN,
             line: f32::NAN,
@@ -302,4 +333,45 @@ pub struct GpuControl {
     pub period_tol: f32,
     /// The c value the `k_pass` kernel works on.
     pub c_index: u32,
+    /// Instances in the `active` list (the integration kernel's range).
+    pub n_active: u32,
+    /// The early stop: longest period tried (0 without the early stop).
+    pub e_p_max: u32,
+    /// Trailing stroboscopic instants that must repeat.
+    pub e_window: u32,
+    /// Relative tolerance of the repetition.
+    pub e_tol: f32,
+    /// Offset (words) of the α ring in an instance's early-stop rings.
+    pub e_alpha_off: u32,
+    /// Offset of the period tallies.
+    pub e_period_off: u32,
+    /// Offset of the R instants' α.
+    pub e_r_off: u32,
+    /// Length of that ring (1 when unused).
+    pub e_r_len: u32,
+}
+
+/// Words of one tally in the early stop's period ring (hops, impacts, Σ v²/R_L, α min, max).
+pub const EARLY_PERIOD_WORDS: u32 = 5;
+
+impl GpuControl {
+    /// The early stop's part of the control block for `plan` (zeros without the early stop),
+    /// and the words of one instance's rings.
+    pub fn with_early(mut self, plan: &EnsemblePlan) -> (GpuControl, u32) {
+        let Some(e) = plan.early_stop else {
+            self.e_r_len = 1;
+            return (self, 0);
+        };
+        let dim = 2 * plan.segments as u32 + 1;
+        let sp = plan.instances.first().map_or(1, |p| p.spp / p.r_every);
+        self.e_p_max = e.p_max;
+        self.e_window = e.window;
+        self.e_tol = e.tol_in::<f32>() as f32;
+        self.e_alpha_off = (e.p_max + 1) * dim;
+        self.e_period_off = self.e_alpha_off + e.window + e.p_max;
+        self.e_r_off = self.e_period_off + EARLY_PERIOD_WORDS * e.p_max;
+        self.e_r_len = if plan.want_rseries { e.p_max * sp } else { 1 };
+        let words = self.e_r_off + if plan.want_rseries { self.e_r_len } else { 0 };
+        (self, words)
+    }
 }

@@ -25,6 +25,7 @@ use crate::model::Status;
 use crate::reduce::regime::confidence;
 use crate::reduce::{InstanceResult, ReduceOptions, Regime, Span, Tally};
 use buffers::{Buffers, Sizes, batch_capacity, software_step_budget};
+use bytemuck::Zeroable;
 use kernels::{KernelKey, Kernels, WG};
 use layout::{GPU_MAX_SEGMENTS, GpuAccum, GpuControl};
 use serde::Serialize;
@@ -152,6 +153,7 @@ fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings) -> KernelKey {
         n_c: reduce.c_values.len().max(1),
         method: plan.method,
         want_twin: want(Metric::Lyapunov),
+        want_early: plan.early_stop.is_some(),
     }
 }
 
@@ -234,7 +236,7 @@ fn run_batch(
     let kernels = ctx.kernels(key);
     timings.pipelines_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
-    let mut control = GpuControl {
+    let (mut control, _) = GpuControl {
         n_inst: sizes.n_inst as u32,
         steps_per_dispatch: 64,
         strobe_stride: sizes.strobe_stride,
@@ -243,7 +245,10 @@ fn run_batch(
         period_window: reduce.period_window,
         period_tol: reduce.period_tol_rad as f32,
         c_index: 0,
-    };
+        n_active: sizes.n_inst as u32,
+        ..GpuControl::zeroed()
+    }
+    .with_early(plan);
     let bufs = Buffers::upload(ctx, plan, reduce, &sizes, &control, batch.twin_d0);
     timings.upload_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
@@ -258,8 +263,9 @@ fn run_batch(
     let t0 = Instant::now();
     let accum: Vec<GpuAccum> = read_buffer(ctx, &bufs.accum, sizes.accum_bytes)?;
     timings.readback_s += t0.elapsed().as_secs_f64();
+    let accum = &accum[..sizes.n_inst];
     Ok(EngineRun {
-        results: results(plan, &accum[..sizes.n_inst])?,
+        results: results(plan, accum)?,
         strobe,
         r_series,
         timings: EngineTimings {
@@ -268,11 +274,14 @@ fn run_batch(
             gpu: Some(timings),
         },
         dispatches,
-        stopped_early: 0,
+        stopped_early: accum.iter().filter(|a| a.stopped != 0).count(),
     })
 }
 
-/// Integration in bounded dispatches, each aimed at [`DISPATCH_TARGET`] of wall time.
+/// Integration in bounded dispatches, each aimed at [`DISPATCH_TARGET`] of wall time. After
+/// each, the instances that finished (failed, stopped early, or ran all their steps) leave the
+/// work: the host reads the `done` flags and compacts the `active` list the next dispatch
+/// covers, so no workgroup waits on finished invocations.
 fn integrate(
     ctx: &GpuContext,
     kernels: &Kernels,
@@ -282,30 +291,45 @@ fn integrate(
     budget: Option<u64>,
     progress: Progress,
 ) -> Result<u32, EngineError> {
-    let groups = (plan.instances.len() as u32).div_ceil(WG);
+    let n = plan.instances.len();
     let max_steps = plan
         .instances
         .iter()
         .map(|p| p.total_steps())
         .max()
         .unwrap_or(0);
+    let mut active: Vec<u32> = (0..n as u32).collect();
     let (mut done, mut chunk, mut dispatches) = (0u64, 64u64, 0u32);
-    while done < max_steps {
+    while !active.is_empty() && done < max_steps {
         let this = chunk.min(max_steps - done).min(budget.unwrap_or(u64::MAX));
         control.steps_per_dispatch = this as u32;
+        control.n_active = active.len() as u32;
         ctx.queue
             .write_buffer(&bufs.control, 0, bytemuck::bytes_of(control));
         let started = Instant::now();
-        submit(ctx, &kernels.integrate, &bufs.bind, groups);
+        submit(
+            ctx,
+            &kernels.integrate,
+            &bufs.bind,
+            (active.len() as u32).div_ceil(WG),
+        );
         wait(ctx)?;
         let took = started.elapsed();
         dispatches += 1;
         done += this;
         progress(done, max_steps, ProgressUnit::Steps);
+        let finished: Vec<u32> = read_buffer(ctx, &bufs.done, 4 * n as u64)?;
+        let before = active.len();
+        active.retain(|&i| finished[i as usize] == 0);
+        if active.len() != before && !active.is_empty() {
+            ctx.queue
+                .write_buffer(&bufs.active, 0, bytemuck::cast_slice(&active));
+        }
         // Aim each dispatch at DISPATCH_TARGET, growing at most 4× at a time.
         let scale = DISPATCH_TARGET.as_secs_f64() / took.as_secs_f64().max(1e-6);
         chunk = ((this as f64 * scale.clamp(0.25, 4.0)) as u64).clamp(16, 1 << 22);
     }
+    progress(max_steps, max_steps, ProgressUnit::Steps);
     Ok(dispatches)
 }
 
@@ -405,12 +429,13 @@ fn run_reductions(
 }
 
 /// The status of instance `index` as the GPU left it, checked: a defined code, and an `ok`
-/// instance only after its last step.
+/// instance only after its last step (or stopped early before it).
 fn checked_status(index: usize, a: &GpuAccum, total_steps: u64) -> Result<Status, EngineError> {
     let inconsistent = |what: String| EngineError::GpuInconsistent { index, what };
     let status = Status::from_code(a.status)
         .ok_or_else(|| inconsistent(format!("unknown status code {}", a.status)))?;
-    if status == Status::Ok && u64::from(a.step) != total_steps {
+    let stopped = a.stopped != 0 && u64::from(a.step) < total_steps;
+    if status == Status::Ok && u64::from(a.step) != total_steps && !stopped {
         return Err(inconsistent(format!(
             "status ok at step {} of {total_steps}",
             a.step

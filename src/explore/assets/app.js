@@ -160,6 +160,7 @@ async function onHover(ev) {
   const info = await cellInfo(p.k);
   const lines = info.values.map(([k, v]) => `${k} = ${fmt(v, 6)}`);
   lines.push(`status: ${info.status}`);
+  if (info.inferred) lines.push("inferred: filled from its refinement block (run it to compute it)");
   for (const [k, v] of Object.entries(info.columns)) {
     lines.push(`${k}: ${k === "period" && v === null && info.status === "ok" ? "none" : fmt(v)}`);
   }

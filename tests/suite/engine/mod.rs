@@ -11,6 +11,7 @@ mod batches;
 mod cases;
 mod lanes;
 mod layout;
+mod skip;
 mod verdict;
 
 use pendulum_atlas::engine::gpu::REQUIRE_GPU_ENV;
@@ -132,6 +133,16 @@ mod verdict_suite {
         lyapunov_agrees_with_the_f64_cpu_engine,
         lyapunov_does_not_depend_on_the_separation_across_decades,
         the_verdict_follows_the_rule_on_the_engines_own_numbers,
+    );
+}
+
+/// The early stop and refinement cases.
+mod skip_suite {
+    use super::skip;
+    use super::{Eng, Under};
+    engine_suite!(skip:
+        a_map_with_the_early_stop_equals_the_map_without_it,
+        a_refined_map_keeps_its_computed_cells_and_fills_only_uniform_blocks,
     );
 }
 
