@@ -158,7 +158,7 @@ pub fn options(spec: &CalibrationSpec) -> (EnsembleOptions, ReduceOptions) {
         samples_per_period: spec.samples_per_period,
         strobe_phase: 0.0,
         r_max_samples: 1024,
-        early_stop: None,
+        early_stop: Some(crate::engine::EarlyStop::DEFAULT),
         lyapunov: Default::default(),
     };
     let red = ReduceOptions {

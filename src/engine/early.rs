@@ -62,6 +62,14 @@ pub const EARLY_TOL_F64: f64 = 1e-5;
 pub const EARLY_TOL_F32: f64 = 1e-4;
 
 impl EarlyStop {
+    /// The map's default rule (`map.period_max`, `map.period_window`, tolerance by float type):
+    /// what `search` and `calibrate` use.
+    pub const DEFAULT: EarlyStop = EarlyStop {
+        p_max: 8,
+        window: 16,
+        tol: None,
+    };
+
     /// The tolerance in the float type `T` (f32 or f64).
     pub fn tol_in<T: Real>(&self) -> f64 {
         self.tol.unwrap_or(if T::NAME == "f32" {

@@ -170,8 +170,8 @@ pub fn ensemble_options(spec: &SearchSpec) -> EnsembleOptions {
         strobe_phase: 0.0,
         // R is not computed: the shortest series keeps the GPU's work buffer small.
         r_max_samples: 32,
-        // Power needs the whole run.
-        early_stop: None,
+        // A confirmed orbit's power is its cycle's (crate::engine::early).
+        early_stop: Some(crate::engine::EarlyStop::DEFAULT),
         lyapunov: Default::default(),
     }
 }
