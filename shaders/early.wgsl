@@ -88,8 +88,16 @@ fn twin_restart(a: ptr<function, Accum>, abs: u32, window: u32) {
     }
 }
 
+// early_lyapunov_stops of src/engine/early.rs, λ1 and σ per period: shrinking, and σ within
+// EARLY_LYAPUNOV_REL_SE of |λ1|.
+fn early_lyapunov_stops(lambda: f32, sigma: f32) -> bool {
+    return lambda + REGIME_Z * sigma < -REGIME_FLAT && sigma <= EARLY_LYAPUNOV_REL_SE * abs(lambda);
+}
+
 // The hook's `measured`: once the twin's window on the confirmed orbit is complete, close when
-// λ1 shrinks, else send the twin back to the map's window (TwinTracker::reset).
+// λ1 shrinks within EARLY_LYAPUNOV_REL_SE of itself (early_lyapunov_stops); short of that
+// precision double the window in place while it still ends before the map's (TwinTracker::
+// extend); else send the twin back to the map's window (TwinTracker::reset).
 fn early_measured(abs: u32, a: ptr<function, Accum>) {
     if (*a).e_phase != EARLY_MEASURING || abs < (*a).e_until {
         return;
@@ -97,12 +105,33 @@ fn early_measured(abs: u32, a: ptr<function, Accum>) {
     let l = lyap_estimate(a, (*a).tw_window, P.period_s);
     let lambda = l.x * P.period_s;
     let sigma = l.y * P.period_s;
-    if l.z > 0.5 && lambda + REGIME_Z * sigma < -REGIME_FLAT {
+    if l.z > 0.5 && early_lyapunov_stops(lambda, sigma) {
         (*a).e_phase = EARLY_CLOSING;
+        return;
+    }
+    let w = (*a).tw_window;
+    let end = (*a).tw_start + P.twin_align + 2u * w;
+    if l.z > 0.5 && end < P.twin_start + P.transient_periods {
+        twin_extend(a, w);
+        (*a).e_until = end;
         return;
     }
     twin_restart(a, P.twin_start + P.transient_periods, P.twin_window);
     (*a).e_phase = EARLY_OFF;
+}
+
+// Double the twin's window `w` in place, its block sums merged in pairs
+// (LyapunovSums::merge_pairs); it goes on from its last renormalisation.
+fn twin_extend(a: ptr<function, Accum>, w: u32) {
+    let half = LYAPUNOV_BLOCKS / 2u;
+    for (var b = 0u; b < half; b++) {
+        (*a).lyap_sums[b] = (*a).lyap_sums[2u * b] + (*a).lyap_sums[2u * b + 1u];
+    }
+    for (var b = half; b < LYAPUNOV_BLOCKS; b++) {
+        (*a).lyap_sums[b] = 0.0;
+    }
+    (*a).tw_window = 2u * w;
+    (*a).twin_flags = TWIN_RUNNING;
 }
 
 // Keep the tally of period `q` in its ring slot.
@@ -163,4 +192,22 @@ fn early_continue(inst: u32, stop: u32, a: ptr<function, Accum>) {
             }
         }
     }
+}
+
+// After the integration, every instance that stopped early gets what the rest of its run
+// would have added (early_continue from the period boundary it stopped at). A pass of its
+// own: in the integration kernel these loops slowed every step (lavapipe: 1.1x).
+@compute @workgroup_size(WG)
+fn early_finish(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let inst = gid.x;
+    if inst >= ctl.n_inst {
+        return;
+    }
+    var a = acc[inst];
+    if a.stopped == 0u {
+        return;
+    }
+    P = params[inst];
+    early_continue(inst, a.step / P.spp, &a);
+    acc[inst] = a;
 }

@@ -481,7 +481,7 @@ fn accumulate(alpha: f32, now: u32, a: ptr<function, Accum>) {
 }
 
 // The end of forcing period `q`: its tally into the run's after the transient, into the early
-// stop's ring; true when a closing orbit stops here (its rest continued).
+// stop's ring; true when a closing orbit stops here (its rest continued by early_finish).
 fn period_end(inst: u32, q: u32, a: ptr<function, Accum>) -> bool {
     if q >= P.transient_periods {
         add_period(a, (*a).p_hops, (*a).p_impacts, (*a).p_power, (*a).p_amin, (*a).p_amax);
@@ -490,7 +490,7 @@ fn period_end(inst: u32, q: u32, a: ptr<function, Accum>) -> bool {
     if WANT_EARLY {
         early_keep_period(inst, q, a);
         if (*a).e_phase == EARLY_CLOSING {
-            early_continue(inst, q + 1u, a);
+            // The rest of the run is continued by the early_finish pass.
             (*a).stopped = (*a).e_p;
             stop = true;
         }
@@ -571,43 +571,69 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
     let end = min(total, a.step + min(ctl.steps_per_dispatch, total - a.step));
     let dt = P.dt;
     var s = a.step;
+    // s mod spp and s mod r_every, counted instead of divided at every step (an integer
+    // division costs more than a step's arithmetic on lavapipe).
+    var ph = s % P.spp;
+    var rph = s % P.r_every;
+    let r_phase = P.r_start % P.r_every;
     twin_mode = false;
+    // Steps without an event run in the inner loop; the events of a forcing period (its
+    // stroboscopic instant and its end: the early stop's watch, λ1's twin, the period's
+    // tally) are taken between its runs, out of the hot loop.
+    var failed = false;
     loop {
         if s >= end {
             break;
         }
-        step_state(s % P.spp, dt);
-        let twin_on = WANT_TWIN && (a.twin_flags & TWIN_RUNNING) != 0u;
-        if twin_on {
-            twin_step(s % P.spp, dt);
-        }
-        s += 1u;
-        let alpha = th[0];
-        let now = touch_flags();
-        if twin_on && HAS_CONTACT && (now & ~a.touch) != 0u {
-            twin_saltation(now & ~a.touch);
-        }
-        accumulate(alpha, now, &a);
-        if (WANT_EARLY || s >= transient) && s % P.spp == P.strobe_offset {
-            strobe_instant(inst, s, alpha, &a);
-        }
-        if WANT_RSERIES && s >= P.r_start && (s - P.r_start) % P.r_every == 0u {
-            let j = (s - P.r_start) / P.r_every;
-            if j < P.r_count {
-                rwork[at(inst, j)] = vec2<f32>(alpha, 0.0);
+        loop {
+            step_state(ph, dt);
+            let twin_on = WANT_TWIN && (a.twin_flags & TWIN_RUNNING) != 0u;
+            if twin_on {
+                twin_step(ph, dt);
             }
-        }
-        if WANT_EARLY && WANT_RSERIES && s % P.r_every == 0u {
-            early[at(inst, ctl.e_r_off + (s / P.r_every) % ctl.e_r_len)] = alpha;
-        }
-        if s % CHECK_EVERY == 0u || s == total {
-            let h = health(s % P.spp);
-            if h != STATUS_OK {
-                a.status = h;
+            s += 1u;
+            ph += 1u;
+            if ph == P.spp {
+                ph = 0u;
+            }
+            rph += 1u;
+            if rph == P.r_every {
+                rph = 0u;
+            }
+            let alpha = th[0];
+            let now = touch_flags();
+            if twin_on && HAS_CONTACT && (now & ~a.touch) != 0u {
+                twin_saltation(now & ~a.touch);
+            }
+            accumulate(alpha, now, &a);
+            if WANT_RSERIES && rph == r_phase && s >= P.r_start {
+                let j = (s - P.r_start) / P.r_every;
+                if j < P.r_count {
+                    rwork[at(inst, j)] = vec2<f32>(alpha, 0.0);
+                }
+            }
+            if WANT_EARLY && WANT_RSERIES && rph == 0u {
+                early[at(inst, ctl.e_r_off + (s / P.r_every) % ctl.e_r_len)] = alpha;
+            }
+            if s % CHECK_EVERY == 0u || s == total {
+                let h = health(ph);
+                if h != STATUS_OK {
+                    a.status = h;
+                    failed = true;
+                    break;
+                }
+            }
+            if s >= end || ph == P.strobe_offset || ph == 0u {
                 break;
             }
         }
-        if s % P.spp == 0u && period_end(inst, s / P.spp - 1u, &a) {
+        if failed {
+            break;
+        }
+        if (WANT_EARLY || s >= transient) && ph == P.strobe_offset {
+            strobe_instant(inst, s, th[0], &a);
+        }
+        if ph == 0u && period_end(inst, s / P.spp - 1u, &a) {
             break;
         }
     }

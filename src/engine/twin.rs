@@ -145,6 +145,20 @@ impl TwinTracker {
         self.sums = LyapunovSums::default();
     }
 
+    /// Double the window of a restarted twin in place, its block sums merged in pairs
+    /// ([`LyapunovSums::merge_pairs`]), when the longer window still ends before the window
+    /// it was made with begins; whether it did. The twin goes on from its last renormalisation.
+    pub fn extend(&mut self) -> bool {
+        let end = self.start_abs + self.plan.align + 2 * self.plan.window;
+        if end >= self.original.0 {
+            return false;
+        }
+        self.sums.merge_pairs();
+        self.plan.window *= 2;
+        self.running = true;
+        true
+    }
+
     /// Whether the loop must advance the twin with the next step.
     pub fn running(&self) -> bool {
         self.running

@@ -162,6 +162,20 @@ impl LyapunovSums {
         self.counts[b] += 1;
     }
 
+    /// The sums of a window twice as long whose first half is this one: blocks merged in pairs
+    /// (`⌊k·B/2W⌋ = ⌊⌊k·B/W⌋/2⌋`, so growth `k` stays where it belongs), the second half empty.
+    pub fn merge_pairs(&mut self) {
+        let half = LYAPUNOV_BLOCKS / 2;
+        for b in 0..half {
+            self.sums[b] = self.sums[2 * b] + self.sums[2 * b + 1];
+            self.counts[b] = self.counts[2 * b] + self.counts[2 * b + 1];
+        }
+        for b in half..LYAPUNOV_BLOCKS {
+            self.sums[b] = 0.0;
+            self.counts[b] = 0;
+        }
+    }
+
     /// λ1 and its standard error (1/s) once all `window` growths are in; `None` when the twin
     /// broke or the window is incomplete.
     pub fn estimate(&self, window: u32, period_s: f64) -> Option<Lyapunov> {
@@ -219,6 +233,27 @@ mod tests {
         assert!(short.estimate(window, 0.25).is_none());
         sums.add(0, window, f64::NEG_INFINITY);
         assert!(sums.estimate(window, 0.25).is_none());
+    }
+
+    #[test]
+    fn merged_pairs_are_the_sums_of_a_window_twice_as_long() {
+        let (w, g) = (24u32, |k: u32| (f64::from(k) * 0.37).sin());
+        let mut long = LyapunovSums::default();
+        let mut merged = LyapunovSums::default();
+        for k in 0..2 * w {
+            long.add(k, 2 * w, g(k));
+        }
+        for k in 0..w {
+            merged.add(k, w, g(k));
+        }
+        merged.merge_pairs();
+        for k in w..2 * w {
+            merged.add(k, 2 * w, g(k));
+        }
+        assert_eq!(merged.counts, long.counts);
+        for (a, b) in merged.sums.iter().zip(&long.sums) {
+            assert!((a - b).abs() < 1e-12, "{merged:?} vs {long:?}");
+        }
     }
 
     #[test]

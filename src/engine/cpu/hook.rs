@@ -3,12 +3,13 @@
 //! power), the stroboscopic and R samples, λ1's twin, and the early stop on a confirmed
 //! periodic orbit ([`crate::engine::early`]).
 
-use crate::engine::early::{EarlyStop, EarlyTracker, PeriodTally, early_twin_window};
+use crate::engine::early::{
+    EarlyStop, EarlyTracker, PeriodTally, early_lyapunov_stops, early_twin_window,
+};
 use crate::engine::plan::InstancePlan;
 use crate::engine::stepper::{CartClock, StateView, StateViewMut, StepHook};
 use crate::engine::twin::TwinTracker;
 use crate::model::{Chain, Lane, Real, Status, Workspace};
-use crate::reduce::regime::shrinking;
 use crate::reduce::{LyapunovSums, Tally, TwinPlan};
 use std::ops::ControlFlow;
 
@@ -258,8 +259,9 @@ impl<'a, T: Real> EnsembleHook<'a, T> {
     }
 
     /// After the twin's sample at `abs`: a measuring orbit whose λ1 is complete closes when
-    /// λ1 shrinks; else the twin goes back to the map's own window (still ahead) and the run
-    /// goes on.
+    /// λ1 shrinks, precisely enough ([`early_lyapunov_stops`]); short of the precision its
+    /// window doubles while that still ends before the map's own; else the twin goes back to
+    /// the map's window (still ahead) and the run goes on.
     fn measured(&mut self, abs: u64) {
         let (EarlyPhase::Measuring { p, until }, Some(t)) = (self.phase, &mut self.twin) else {
             return;
@@ -268,12 +270,14 @@ impl<'a, T: Real> EnsembleHook<'a, T> {
             return;
         }
         let plan = *t.plan();
-        let stable = t
-            .sums
-            .estimate(plan.window, plan.period_s)
-            .is_some_and(|l| shrinking(l.per_s, l.se_per_s, plan.period_s));
-        self.phase = if stable {
+        let estimate = t.sums.estimate(plan.window, plan.period_s);
+        self.phase = if estimate.is_some_and(|l| early_lyapunov_stops(&l, plan.period_s)) {
             EarlyPhase::Closing { p }
+        } else if estimate.is_some() && t.extend() {
+            EarlyPhase::Measuring {
+                p,
+                until: until + u64::from(plan.window),
+            }
         } else {
             t.reset();
             EarlyPhase::Off

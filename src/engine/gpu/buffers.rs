@@ -254,14 +254,15 @@ pub fn software_step_budget(
 
 /// Loop iterations the early stop adds (`shaders/early.wgsl`): per step, its watch at each
 /// stroboscopic instant spread over the shortest period (`early_keep`: `N` stores, then per
-/// period tried the window and the state; `lyap_estimate` and `twin_restart`: 24); per
+/// period tried the window and the state; `lyap_estimate`, `twin_restart` and `twin_extend`:
+/// 32); per
 /// dispatch, the continuation at most once (every later period, stroboscopic and R sample).
 fn early_loops(plan: &EnsemblePlan, key: &KernelKey) -> (f64, f64) {
     let Some(e) = plan.early_stop.filter(|_| key.want_early) else {
         return (0.0, 0.0);
     };
     let dim = 2 * plan.segments + 1;
-    let watch = (e.p_max as usize * (e.window as usize + dim + 1) + plan.segments + 24) as f64;
+    let watch = (e.p_max as usize * (e.window as usize + dim + 1) + plan.segments + 32) as f64;
     let spp_min = plan
         .instances
         .iter()

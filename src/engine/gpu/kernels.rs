@@ -85,6 +85,11 @@ pub fn shader_header(segments: usize) -> String {
         crate::analysis::ZERO_ONE_COMFORTABLE_SAMPLES
     );
     let _ = writeln!(h, "const LYAPUNOV_BLOCKS: u32 = {LYAPUNOV_BLOCKS}u;");
+    let _ = writeln!(
+        h,
+        "const EARLY_LYAPUNOV_REL_SE: f32 = {:e};",
+        crate::engine::early::EARLY_LYAPUNOV_REL_SE
+    );
     let _ = writeln!(h, "const TWIN_RUNNING: u32 = {TWIN_RUNNING}u;");
     let _ = writeln!(h, "const TWIN_BROKEN: u32 = {TWIN_BROKEN}u;");
     let _ = writeln!(h, "const MAX_SEG: u32 = {}u;", segments.max(1));
@@ -181,6 +186,8 @@ pub struct Kernels {
     pub k_final: Option<wgpu::ComputePipeline>,
     /// λ1 from the twin's growths, and the regime.
     pub verdict: Option<wgpu::ComputePipeline>,
+    /// The continuation of the instances stopped early, after the integration.
+    pub early_finish: Option<wgpu::ComputePipeline>,
 }
 
 impl Kernels {
@@ -214,6 +221,7 @@ impl Kernels {
             k_pass: key.want_k.then(|| pipeline("k_pass")),
             k_final: key.run_k_final.then(|| pipeline("k_final")),
             verdict: key.want_twin.then(|| pipeline("verdict")),
+            early_finish: key.want_early.then(|| pipeline("early_finish")),
         }
     }
 }

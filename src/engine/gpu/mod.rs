@@ -253,6 +253,10 @@ fn run_batch(
     timings.upload_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
     let dispatches = integrate(ctx, &kernels, &bufs, plan, &mut control, budget, progress)?;
+    if let Some(finish) = &kernels.early_finish {
+        submit(ctx, finish, &bufs.bind, (sizes.n_inst as u32).div_ceil(WG));
+        wait(ctx)?;
+    }
     timings.integrate_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
     let (strobe, r_series) = read_series(ctx, &bufs, plan, &sizes, readback)?;
