@@ -701,3 +701,45 @@ fn palettes_colour_like_their_kind_and_draw_a_bar_or_a_legend() {
     .unwrap();
     assert_not_blank(&p, 1000, 700, 30);
 }
+
+#[test]
+fn inferred_cells_are_hatched_and_named_in_the_legend() {
+    let (xs, ys) = ([1.0, 2.0, 3.0], [1.0, 2.0]);
+    let x = Axis {
+        label: "x",
+        values: &xs,
+    };
+    let y = Axis {
+        label: "y",
+        values: &ys,
+    };
+    let vals = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6];
+    let draw = |name: &str, inferred: &[bool]| {
+        let p = out(name);
+        heatmap(
+            &p,
+            "marks",
+            &x,
+            &y,
+            &vals,
+            "v",
+            &CellMarks {
+                invalid: &[],
+                inferred,
+            },
+            &Palette::Sequential(None),
+        )
+        .unwrap();
+        colours(&p, 1000, 700)
+    };
+    let plain = draw("heatmap_plain.png", &[]);
+    let hatched = draw(
+        "heatmap_hatched.png",
+        &[true, false, true, false, false, false],
+    );
+    let new: Vec<_> = hatched.difference(&plain).collect();
+    assert!(
+        !new.is_empty(),
+        "hatch lines and the legend swatch add colours"
+    );
+}

@@ -6,6 +6,7 @@
 use super::Under;
 use super::cases::tiny_map;
 use pendulum_atlas::config::MapSpec;
+use pendulum_atlas::engine::early::EARLY_LYAPUNOV_REL_SE;
 use pendulum_atlas::engine::no_progress;
 use pendulum_atlas::map::{MapRun, run_map};
 use pendulum_atlas::reduce::{InstanceResult, Regime};
@@ -15,7 +16,8 @@ fn map_on(under: Under, spec: &MapSpec) -> Option<MapRun> {
     Some(run_map(spec, engine, &no_progress).expect("map"))
 }
 
-/// The default map's plane at a period-2 cell (4 Hz, 4 mm, which settles), chaotic and
+/// The default map's plane at a period-3 cell of its subharmonic tongue (8.44 Hz, 23.7 mm,
+/// which settles and whose λ1 is precise enough to stop on every engine), chaotic and
 /// settling cells, every metric of the default map and the line, λ1 over the last 12 s.
 fn plane_cells(under: Under, early: bool) -> MapSpec {
     tiny_map(
@@ -24,8 +26,8 @@ fn plane_cells(under: Under, early: bool) -> MapSpec {
         &format!(
             "metrics = [\"K\", \"R\", \"period\", \"hops\", \"impacts_per_s\", \"alpha_range\", \"regime\", \"line\"]\n\
              lyapunov_window_s = 12.0\nearly_stop = {early}\n\
-             [[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [4.0, 11.11111111111111]\n\
-             [[map.axes]]\nkey = \"excitation.amplitude_m\"\nvalues = [0.004, 0.009, 0.01651063829787234]\n"
+             [[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [4.0, 8.444444444444445, 11.11111111111111]\n\
+             [[map.axes]]\nkey = \"excitation.amplitude_m\"\nvalues = [0.009, 0.023659574468085108]\n"
         ),
     )
 }
@@ -40,7 +42,7 @@ pub fn a_map_with_the_early_stop_equals_the_map_without_it(under: Under) {
     assert_eq!(full.stopped_early, 0);
     assert!(
         early.stopped_early >= 1,
-        "the period-2 orbit at 4 Hz, 4 mm settles and stops"
+        "the period-3 orbit at 8.44 Hz, 23.7 mm settles and stops"
     );
     // The continued cycle repeats within the confirmation tolerance (1e-5 in f64, 1e-4 in f32).
     let (k_tol, r_tol, line_tol) = if under.is_f32() {
@@ -69,6 +71,17 @@ pub fn a_map_with_the_early_stop_equals_the_map_without_it(under: Under) {
                 "only a stable orbit stops: {at}"
             );
             assert!(b.lyapunov_per_s < 0.0, "{at}");
+            // Its λ1 is the confirmed cycle's, measured to the early stop's precision.
+            assert!(
+                b.lyapunov_se_per_s <= EARLY_LYAPUNOV_REL_SE * b.lyapunov_per_s.abs(),
+                "{at}"
+            );
+            let spread = 2.0 * (a.lyapunov_se_per_s + b.lyapunov_se_per_s);
+            assert!(
+                (a.lyapunov_per_s - b.lyapunov_per_s).abs()
+                    <= 0.05 * a.lyapunov_per_s.abs() + spread,
+                "λ1 of the stopped cycle against the full run's: {at}"
+            );
         } else {
             assert_eq!(
                 a.lyapunov_per_s.to_bits(),
