@@ -91,10 +91,10 @@ pub fn early_twin_window(p: u32) -> u32 {
 }
 
 /// The largest standard error of λ1, relative to |λ1|, with which a confirmed orbit stops.
-/// A settled orbit's growths repeat every cycle, but where its contacts fall between steps
-/// they scatter from period to period (the period-2 orbit at 4 Hz, 4 mm, N = 3: σ/|λ1| 12 %
-/// over 16 periods on the CPU in f64, 42 % on the GPU in f32, against 4 % over the 120
-/// periods of a full 30-s window); the stopped λ1 is then as good as the full run's.
+/// A settled orbit's growths repeat every cycle only where its contacts fall on the same steps
+/// (the period-2 orbit at 4 Hz, 4 mm, N = 3, over its first 16 periods after confirmation:
+/// σ/|λ1| 12 % on the CPU in f64, 42 % on the GPU in f32, where a full 30-s window gives 4 %);
+/// a stopped cell's λ1 is then known about as well as the full run's.
 pub const EARLY_LYAPUNOV_REL_SE: f64 = 0.1;
 
 /// Whether λ1 measured on a confirmed orbit (forcing period `period_s`) lets it stop: shrinking

@@ -618,7 +618,11 @@ mod tests {
         let out = run(&spec, &rs, &truth);
         let audit = &out.report.audit;
         assert!(audit.agreement < rs.audit_min, "{audit:?}");
-        assert!(audit.rounds[0].deeper_classes.contains(&"chaotic".to_string()));
+        assert!(
+            audit.rounds[0]
+                .deeper_classes
+                .contains(&"chaotic".to_string())
+        );
         assert!(
             audit
                 .rounds
@@ -627,8 +631,8 @@ mod tests {
             "{audit:?}"
         );
         assert_eq!(audit.final_agreement, 1.0);
-        for k in 0..truth.len() {
-            assert!(agree(&out.results[k], &truth[k], rs.follow), "cell {k}");
+        for (k, want) in truth.iter().enumerate() {
+            assert!(agree(&out.results[k], want, rs.follow), "cell {k}");
             if out.inferred[k] {
                 assert!(k / 17 >= 9, "only the period-3 region is filled: cell {k}");
             }
