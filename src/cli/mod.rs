@@ -114,11 +114,13 @@ fn progress_bar(quiet: bool, template: &str) -> indicatif::ProgressBar {
 /// An engine progress callback that moves `bar` (its prefix names the unit counted).
 fn bar_progress(
     bar: &indicatif::ProgressBar,
-) -> impl Fn(u64, u64, pendulum_atlas::engine::ProgressUnit) + Sync + '_ {
+) -> impl Fn(u64, u64, pendulum_atlas::engine::ProgressUnit) -> std::ops::ControlFlow<()> + Sync + '_
+{
     move |done, total, unit| {
         bar.set_length(total);
         bar.set_position(done);
         bar.set_prefix(unit.name());
+        std::ops::ControlFlow::Continue(())
     }
 }
 

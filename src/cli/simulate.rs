@@ -2,22 +2,18 @@
 
 use super::SceneArgs;
 use indicatif::{ProgressBar, ProgressStyle};
-use pendulum_atlas::analysis::{RecordAnalysis, analyze_record};
-use pendulum_atlas::config::LyapunovSettings;
-use pendulum_atlas::config::{DampingReport, Scene};
-use pendulum_atlas::engine::method::MethodSteps;
+use pendulum_atlas::analysis::RecordAnalysis;
+use pendulum_atlas::config::Scene;
 use pendulum_atlas::engine::{
-    DtSource, Instance, Outcome, ReferenceOptions, SingleTwin, StepPlan, integrate_reference,
-    integrate_with_twin,
+    Integrator, Outcome, Precision as EnginePrecision, RunLyapunov, SceneRun, StepPlan, run_scene,
 };
-use pendulum_atlas::model::{Modes, Status};
-use pendulum_atlas::output::Row;
+use pendulum_atlas::model::Status;
 use pendulum_atlas::output::budget::{self, RunSize};
 use pendulum_atlas::output::files::write_json;
 use pendulum_atlas::output::folder::Product;
 use pendulum_atlas::output::{BASE_COLUMNS, PIEZO_COLUMNS};
+use pendulum_atlas::output::{Row, RunFacts, RunReport, record_analysis, run_warnings};
 use pendulum_atlas::output::{TrajectoryRecorder, write_trajectory_csv};
-use pendulum_atlas::reduce::lyapunov::{SEPARATION_F32, SEPARATION_F64};
 use pendulum_atlas::render::{self, Panel, Series};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -33,6 +29,15 @@ pub enum IntegratorChoice {
     Engine,
     /// Adaptive DOP853 with contact events, f64 (for validation; slower).
     Reference,
+}
+
+impl From<IntegratorChoice> for Integrator {
+    fn from(i: IntegratorChoice) -> Integrator {
+        match i {
+            IntegratorChoice::Engine => Integrator::Engine,
+            IntegratorChoice::Reference => Integrator::Reference,
+        }
+    }
 }
 
 /// Floating-point precision of the RK4 engine.
@@ -65,51 +70,6 @@ pub struct SimulateArgs {
     force: bool,
 }
 
-#[derive(Serialize)]
-struct RunJson<'a> {
-    scene: &'a Scene,
-    integrator: IntegratorChoice,
-    precision: &'a str,
-    method: &'a str,
-    method_reason: &'a str,
-    method_steps: &'a MethodSteps,
-    damping: DampingReport,
-    dt_s: f64,
-    dt_source: DtSource,
-    dt_stable_s: f64,
-    steps: u64,
-    steps_done: u64,
-    rows: usize,
-    wall_time_s: f64,
-    status: Status,
-    failed_at_s: Option<f64>,
-    impacts: u64,
-    modes: &'a Modes,
-    warnings: &'a [String],
-    analysis: Option<&'a RecordAnalysis>,
-    lyapunov: LyapunovJson,
-}
-
-/// `run.json`'s `lyapunov`: λ1 of the run from its twin, or why there is none.
-#[derive(Debug, Clone, Serialize)]
-#[serde(untagged)]
-enum LyapunovJson {
-    /// λ1 and how it was measured.
-    Measured {
-        /// λ1 (1/s).
-        per_s: f64,
-        /// Its standard error from the block means (1/s).
-        se_per_s: f64,
-        /// The twin's schedule and separation.
-        twin: SingleTwin,
-    },
-    /// Why the run has no λ1.
-    Skipped {
-        /// The reason.
-        skipped: String,
-    },
-}
-
 /// Run one simulation and write its files.
 pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     if a.integrator == IntegratorChoice::Reference && a.precision == Some(Precision::F32) {
@@ -124,61 +84,39 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     let size = run_size(&scene, &plan, piezo.is_some(), &a.out)?;
     super::claim_out(Product::Simulate, &a.out, a.force)?;
     announce(&plan, a.integrator, &size);
-    let (rec, (outcome, lyapunov), precision, wall) =
-        integrate_with_progress(&a, &scene, &plan, &m)?;
+    let (rec, run, wall) = integrate_with_progress(&a, &scene, &plan)?;
     let csv_path = a.out.join("trajectory.csv");
     write_trajectory_csv(&csv_path, &rec.rows, piezo.is_some())?;
-    let mut warnings = plan.warnings.clone();
-    if let Some(t) = outcome.failed_at_s {
-        warnings.push(format!(
-            "run stopped at t = {t:.6} s with status `{}`: rows after that time are not written",
-            outcome.status
-        ));
-    }
-    let analysis = if outcome.status != Status::Ok {
+    let mut warnings = run_warnings(&plan, &run.outcome);
+    let analysis = if run.outcome.status != Status::Ok {
         None
     } else {
         analyse_run(&scene, &rec.rows, &a.out)
             .map_err(|e| warnings.push(format!("analysis of the run skipped: {e:#}")))
             .ok()
     };
-    let json = RunJson {
+    let facts = RunFacts {
         scene: &scene,
-        integrator: a.integrator,
-        precision,
-        method: match a.integrator {
-            IntegratorChoice::Engine => plan.method.name(),
-            IntegratorChoice::Reference => "dop853",
-        },
-        method_reason: &plan.method_reason,
-        method_steps: &plan.method_steps,
-        damping: scene.damping_report(),
-        dt_s: plan.dt_s,
-        dt_source: plan.dt_source,
-        dt_stable_s: plan.dt_stable_s,
-        steps: plan.steps,
-        steps_done: outcome.steps_done,
+        plan: &plan,
+        integrator: a.integrator.into(),
+        run: &run,
+        modes: &m,
         rows: rec.rows.len(),
         wall_time_s: wall,
-        status: outcome.status,
-        failed_at_s: outcome.failed_at_s,
-        impacts: outcome.impacts,
-        modes: &m,
-        warnings: &warnings,
-        analysis: analysis.as_ref(),
-        lyapunov,
     };
+    let report = RunReport::new(facts, &warnings, analysis.as_ref());
     // The manifest last: its presence means the folder is complete.
-    write_json(&a.out.join("run.json"), &json)?;
-    if let LyapunovJson::Measured {
+    write_json(&a.out.join("run.json"), &report)?;
+    if let RunLyapunov::Measured {
         per_s, se_per_s, ..
-    } = &json.lyapunov
+    } = &run.lyapunov
     {
         eprintln!(
             "largest Lyapunov exponent lambda1 = {per_s:.4} ± {se_per_s:.4} 1/s (twin trajectory)"
         );
     }
-    finish(&a.out, &plan, &outcome, wall, &warnings, analysis.is_some())
+    let outcome = &run.outcome;
+    finish(&a.out, &plan, outcome, wall, &warnings, analysis.is_some())
 }
 
 /// Print the warnings found while running and what was written; a run that ended badly is a
@@ -219,19 +157,13 @@ fn finish(
     Ok(())
 }
 
-/// Integrate with a progress bar: the recorded rows, the outcome with λ1, the precision's
-/// name and the wall time (s).
+/// Integrate with a progress bar: the recorded rows, the run (outcome, λ1, precision) and the
+/// wall time (s).
 fn integrate_with_progress(
     a: &SimulateArgs,
     scene: &Scene,
     plan: &StepPlan,
-    m: &Modes,
-) -> anyhow::Result<(
-    TrajectoryRecorder,
-    (Outcome, LyapunovJson),
-    &'static str,
-    f64,
-)> {
+) -> anyhow::Result<(TrajectoryRecorder, SceneRun, f64)> {
     let mut rec = TrajectoryRecorder {
         load_ohm: scene.piezo_params().map(|z| z.load_ohm),
         ..Default::default()
@@ -241,13 +173,16 @@ fn integrate_with_progress(
         rec.on_row = Some(Box::new(move |step| b.set_position(step)));
     }
     let started = Instant::now();
-    let precision = a.precision.unwrap_or(Precision::F64);
-    let (outcome, precision) = integrate_run(scene, plan, m, (a.integrator, precision), &mut rec)?;
+    let precision = match a.precision.unwrap_or(Precision::F64) {
+        Precision::F64 => EnginePrecision::F64,
+        Precision::F32 => EnginePrecision::F32,
+    };
+    let run = run_scene(scene, plan, a.integrator.into(), precision, &mut rec)?;
     let wall = started.elapsed().as_secs_f64();
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    Ok((rec, outcome, precision, wall))
+    Ok((rec, run, wall))
 }
 
 /// The run's steps, rows, memory and CSV size, refused when it takes no step or does not fit
@@ -293,66 +228,6 @@ fn announce(plan: &StepPlan, integrator: IntegratorChoice, size: &RunSize) {
     }
 }
 
-/// Integrate the run with the chosen integrator and precision: the outcome with λ1 (from the
-/// engine's twin), and the precision's name.
-fn integrate_run(
-    scene: &Scene,
-    plan: &StepPlan,
-    m: &Modes,
-    (integrator, precision): (IntegratorChoice, Precision),
-    rec: &mut TrajectoryRecorder,
-) -> anyhow::Result<((Outcome, LyapunovJson), &'static str)> {
-    let twin =
-        |d0: f64| SingleTwin::for_run(scene, plan, d0, LyapunovSettings::default().align_periods);
-    Ok(match (integrator, precision) {
-        (IntegratorChoice::Reference, _) => {
-            let inst = Instance::<f64>::from_scene(scene);
-            let opts = ReferenceOptions::for_stiffness(m.spectral_radius_per_s);
-            let skipped = LyapunovJson::Skipped {
-                skipped: "the DOP853 reference takes adaptive steps; lambda1 comes from the fixed-step engine's twin trajectory (--integrator engine)".into(),
-            };
-            (
-                (integrate_reference(&inst, plan, &opts, rec)?, skipped),
-                "f64",
-            )
-        }
-        (IntegratorChoice::Engine, Precision::F64) => (
-            engine_run::<f64>(scene, plan, twin(SEPARATION_F64), rec),
-            "f64",
-        ),
-        (IntegratorChoice::Engine, Precision::F32) => (
-            engine_run::<f32>(scene, plan, twin(SEPARATION_F32), rec),
-            "f32",
-        ),
-    })
-}
-
-/// A run of the fixed-step engine in `T`, with λ1's twin when the run is long enough.
-fn engine_run<T: pendulum_atlas::model::Real>(
-    scene: &Scene,
-    plan: &StepPlan,
-    twin: Result<SingleTwin, String>,
-    rec: &mut TrajectoryRecorder,
-) -> (Outcome, LyapunovJson) {
-    let inst = Instance::<T>::from_scene(scene);
-    let (outcome, lyapunov) = integrate_with_twin(&inst, plan, twin.clone().ok(), rec);
-    let json = match (twin, lyapunov) {
-        (Err(skipped), _) => LyapunovJson::Skipped { skipped },
-        (Ok(twin), Some(l)) => LyapunovJson::Measured {
-            per_s: l.per_s,
-            se_per_s: l.se_per_s,
-            twin,
-        },
-        (Ok(_), None) => LyapunovJson::Skipped {
-            skipped: format!(
-                "the twin trajectory broke off (status {}, or a separation that was zero or not finite)",
-                outcome.status
-            ),
-        },
-    };
-    (outcome, json)
-}
-
 /// A progress bar for runs expected to take more than a second or two.
 fn progress_bar(plan: &StepPlan, segments: usize, integ: IntegratorChoice) -> Option<ProgressBar> {
     let work = plan.steps as f64 * segments as f64;
@@ -380,8 +255,7 @@ fn analyse_run(
     let rate = scene.output.sample_rate_hz;
     let alpha: Vec<f64> = rows.iter().map(|r| r.alpha_rad).collect();
     let cart: Vec<f64> = rows.iter().map(|r| r.x0_m).collect();
-    let opts = scene.record_options();
-    let r = analyze_record(&alpha, Some(&cart), rate, 0.0, &opts)?;
+    let r = record_analysis(scene, rows)?;
     super::report::write_analysis(out, &r, &alpha, Some(&cart), rate, 0.0)?;
     time_series_figure(scene, rows, out)?;
     Ok(r)

@@ -147,23 +147,40 @@ pub fn axis_label(key: &str) -> String {
         "piezo.load_ohm" => "load R_L (Ω)".into(),
         "beam.damping_ratio" => "damping ratio ζ1".into(),
         "initial.angle_deg" => "initial angle (deg)".into(),
-        other => {
-            let unit = other.rsplit('_').next().unwrap_or("");
-            let units = [
-                ("hz", "Hz"),
-                ("m", "m"),
-                ("deg", "deg"),
-                ("kg", "kg"),
-                ("ohm", "Ω"),
-                ("s", "s"),
-                ("pa", "Pa"),
-            ];
-            match units.iter().find(|(u, _)| *u == unit) {
-                Some((_, u)) => format!("{other} ({u})"),
-                None => other.to_string(),
-            }
-        }
+        other => match key_unit(other) {
+            Some(u) => format!("{other} ({u})"),
+            None => other.to_string(),
+        },
     }
+}
+
+/// Units of scene keys by the suffix of their name, longest suffixes first.
+const KEY_UNITS: [(&str, &str); 16] = [
+    ("_n_per_m", "N/m"),
+    ("_ns_per_m", "N s/m"),
+    ("_nm_per_v", "N m/V"),
+    ("_deg_s", "deg/s"),
+    ("_m_s2", "m/s^2"),
+    ("_kgm2", "kg m^2"),
+    ("_nms", "N m s/rad"),
+    ("_ohm", "ohm"),
+    ("_deg", "deg"),
+    ("_hz", "Hz"),
+    ("_kg", "kg"),
+    ("_pa", "Pa"),
+    ("_m", "m"),
+    ("_s", "s"),
+    ("_f", "F"),
+    ("_v", "V"),
+];
+
+/// The unit of a scene key's value, read off its name (`excitation.frequency_hz` → `Hz`);
+/// `None` for keys without one (ratios, counts, switches).
+pub fn key_unit(key: &str) -> Option<&'static str> {
+    KEY_UNITS
+        .iter()
+        .find(|(suffix, _)| key.ends_with(suffix))
+        .map(|&(_, unit)| unit)
 }
 
 /// A validated map scene.

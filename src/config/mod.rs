@@ -13,8 +13,9 @@ mod scene;
 pub use error::ConfigError;
 pub use map::{
     AxisScale, DEFAULT_MAP_TOML, LyapunovSettings, MAX_INSTANCES, MapAxis, MapSpec, Metric,
-    Perturbation, RefineFollow, RefineSpec, axis_label, c_order_index, grid_point, load_map,
-    lookup_key, map_from_toml, read_sweep, refuse_sets_on_swept, scene_text, split_section,
+    Perturbation, RefineFollow, RefineSpec, axis_label, c_order_index, grid_point, key_unit,
+    load_map, lookup_key, map_from_toml, read_sweep, refuse_sets_on_swept, scene_text,
+    split_section,
 };
 pub use physics::DampingReport;
 pub use reader::{Range, Reader, apply_override, parse_override_value, parse_toml, set_key};

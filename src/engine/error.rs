@@ -33,6 +33,9 @@ pub enum EngineError {
         /// The default in it.
         auto: f64,
     },
+    /// The progress callback cancelled the run (Ctrl-C in the Python package).
+    #[error("the run was cancelled before it finished")]
+    Cancelled,
     /// An ensemble needs at least one instance.
     #[error("an ensemble needs at least one instance")]
     Empty,
@@ -82,6 +85,11 @@ pub enum EngineError {
         /// wgpu's message.
         message: String,
     },
+    /// The DOP853 reference integrates in double precision only.
+    #[error(
+        "the reference integrator runs in f64 only: ask for f64, or use the fixed-step engine for an f32 run"
+    )]
+    ReferenceNeedsF64,
     /// The GPU engine integrates in single precision only.
     #[error("the GPU engine integrates in f32: ask for f32, or use the CPU engine for f64")]
     GpuNeedsF32,

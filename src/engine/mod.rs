@@ -10,7 +10,8 @@
 //!    WGSL, `f32`) mirrors it in `shaders/`; each reduces its instances to
 //!    [`crate::reduce::InstanceResult`]s;
 //! 4. single runs ([`integrate`], [`integrate_reference`]) hand every output row to an
-//!    [`Observer`]: RK4, and the DOP853 reference with contact events.
+//!    [`Observer`]: RK4, and the DOP853 reference with contact events; [`run_scene`] runs a
+//!    scene with the integrator its user chose (`simulate`, the Python package).
 //!
 //! The health rules, status codes, check interval and cart motion are defined once in
 //! [`crate::model`]; the physics is written down in `docs/model.md`.
@@ -25,6 +26,7 @@ pub mod method;
 pub mod plan;
 mod reference;
 pub mod rk4;
+pub mod scene_run;
 mod single;
 mod step_plan;
 pub mod stepper;
@@ -36,6 +38,7 @@ pub use error::EngineError;
 pub use gpu::{GpuContext, GpuEngine};
 pub use plan::{EnsembleOptions, EnsemblePlan, InstancePlan};
 pub use reference::{ReferenceOptions, integrate_reference};
+pub use scene_run::{Integrator, RunLyapunov, SceneRun, run_scene};
 pub use single::{
     Instance, NoObserver, Observer, Outcome, SingleTwin, integrate, integrate_batch,
     integrate_with, integrate_with_twin,
@@ -44,6 +47,7 @@ pub use step_plan::{DtSource, StepPlan};
 
 use crate::reduce::{InstanceResult, ReduceOptions};
 use serde::{Deserialize, Serialize};
+use std::ops::ControlFlow;
 use std::time::Instant;
 
 /// Which engine a user asks for.
@@ -136,11 +140,15 @@ impl ProgressUnit {
     }
 }
 
-/// Progress callback: `(done, total, unit)`.
-pub type Progress<'a> = &'a (dyn Fn(u64, u64, ProgressUnit) + Sync);
+/// Progress callback: `(done, total, unit)`. It answers whether the run goes on:
+/// [`ControlFlow::Break`] cancels it, and the engine returns [`EngineError::Cancelled`] at its
+/// next progress point (after the instance, lane group or dispatch in flight).
+pub type Progress<'a> = &'a (dyn Fn(u64, u64, ProgressUnit) -> ControlFlow<()> + Sync);
 
-/// A progress callback that shows nothing.
-pub fn no_progress(_: u64, _: u64, _: ProgressUnit) {}
+/// A progress callback that shows nothing and never cancels.
+pub fn no_progress(_: u64, _: u64, _: ProgressUnit) -> ControlFlow<()> {
+    ControlFlow::Continue(())
+}
 
 /// Series to bring back besides the results.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

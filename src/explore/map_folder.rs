@@ -24,8 +24,8 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
     check_shape(dir, &spec, &manifest)?;
     let stored: Vec<(&str, Metric, Vec<f64>)> = COLUMNS
         .iter()
-        .filter(|(_, m, _)| spec.wants(*m))
-        .map(|&(stem, m, _)| {
+        .filter(|(_, m, _, _)| spec.wants(*m))
+        .map(|&(stem, m, _, _)| {
             Ok((
                 stem,
                 m,

@@ -224,7 +224,10 @@ impl Batches<'_> {
                 format!("{stage}: {designs} designs, {instances} instances")
             };
             let progress = self.progress;
-            let cb = |done: u64, total: u64, _unit: ProgressUnit| progress(&label, done, total);
+            let cb = |done: u64, total: u64, _unit: ProgressUnit| {
+                progress(&label, done, total);
+                std::ops::ControlFlow::Continue(())
+            };
             let run = run_plan(plan, &reduce_options(), None, self.engine, &cb).map_err(failed)?;
             let steps = run.plan.total_steps;
             report.instance_steps += steps;

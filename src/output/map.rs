@@ -14,28 +14,96 @@ use serde_json::json;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// The arrays written per metric: (file stem, metric, accessor).
+/// An array stored per metric: (file stem, metric, unit, accessor).
 pub type Column = (
     &'static str,
     Metric,
+    &'static str,
     fn(&crate::reduce::InstanceResult) -> f64,
 );
 
-/// Every stored array of a map, in `grid.csv` order.
+/// Every stored array of a map, in `grid.csv` order, with its unit ("1": dimensionless).
 pub const COLUMNS: [Column; 12] = [
-    ("K", Metric::K, |r| r.k),
-    ("R", Metric::R, |r| r.r),
-    ("period", Metric::Period, |r| r.period),
-    ("hops", Metric::Hops, |r| r.hops),
-    ("impacts_per_s", Metric::ImpactsPerS, |r| r.impacts_per_s),
-    ("alpha_min_rad", Metric::AlphaRange, |r| r.alpha_min_rad),
-    ("alpha_max_rad", Metric::AlphaRange, |r| r.alpha_max_rad),
-    ("power_w", Metric::Power, |r| r.power_w),
-    ("line_ratio", Metric::Line, |r| r.line),
-    ("lyapunov", Metric::Lyapunov, |r| r.lyapunov_per_s),
-    ("lyapunov_se", Metric::Lyapunov, |r| r.lyapunov_se_per_s),
-    ("regime_confidence", Metric::Regime, |r| r.regime_confidence),
+    ("K", Metric::K, "1", |r| r.k),
+    ("R", Metric::R, "1", |r| r.r),
+    ("period", Metric::Period, "forcing periods", |r| r.period),
+    ("hops", Metric::Hops, "1", |r| r.hops),
+    ("impacts_per_s", Metric::ImpactsPerS, "1/s", |r| {
+        r.impacts_per_s
+    }),
+    ("alpha_min_rad", Metric::AlphaRange, "rad", |r| {
+        r.alpha_min_rad
+    }),
+    ("alpha_max_rad", Metric::AlphaRange, "rad", |r| {
+        r.alpha_max_rad
+    }),
+    ("power_w", Metric::Power, "W", |r| r.power_w),
+    ("line_ratio", Metric::Line, "1", |r| r.line),
+    ("lyapunov", Metric::Lyapunov, "1/s", |r| r.lyapunov_per_s),
+    ("lyapunov_se", Metric::Lyapunov, "1/s", |r| {
+        r.lyapunov_se_per_s
+    }),
+    ("regime_confidence", Metric::Regime, "1", |r| {
+        r.regime_confidence
+    }),
 ];
+
+/// The values of one stored array, in its own type.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ArrayData {
+    /// A metric (`float64`).
+    F64(Vec<f64>),
+    /// Regime codes (`int8`).
+    I8(Vec<i8>),
+    /// Status codes and flags (`uint8`).
+    U8(Vec<u8>),
+}
+
+/// One array of a map: its name (the `.npy` file's stem), shape and values (C order).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MapArray {
+    /// File stem, e.g. `K` or `axis0`.
+    pub name: String,
+    /// Shape (the grid's, or an axis's length).
+    pub shape: Vec<usize>,
+    /// Values.
+    pub data: ArrayData,
+}
+
+/// Every array of a map as the `.npy` files hold them: the requested metrics, `regime`,
+/// `status`, `inferred` (refined maps) and the axes. The files and the Python package both
+/// take them from here.
+pub fn map_arrays(spec: &MapSpec, run: &MapRun) -> Vec<MapArray> {
+    let shape = spec.shape();
+    let grid = |name: &str, data| MapArray {
+        name: name.to_string(),
+        shape: shape.clone(),
+        data,
+    };
+    let mut arrays: Vec<MapArray> = COLUMNS
+        .iter()
+        .filter(|c| spec.wants(c.1))
+        .map(|(stem, _, _, get)| grid(stem, ArrayData::F64(run.results.iter().map(get).collect())))
+        .collect();
+    if spec.wants(Metric::Regime) {
+        let codes = run.results.iter().map(|r| r.regime.code()).collect();
+        arrays.push(grid("regime", ArrayData::I8(codes)));
+    }
+    let status = run.results.iter().map(|r| r.status.code()).collect();
+    arrays.push(grid("status", ArrayData::U8(status)));
+    if !run.inferred.is_empty() {
+        let flags = run.inferred.iter().map(|&i| u8::from(i)).collect();
+        arrays.push(grid("inferred", ArrayData::U8(flags)));
+    }
+    for (i, a) in spec.axes.iter().enumerate() {
+        arrays.push(MapArray {
+            name: format!("axis{i}"),
+            shape: vec![a.values.len()],
+            data: ArrayData::F64(a.values.clone()),
+        });
+    }
+    arrays
+}
 
 /// Write every file of a map into `dir` (created if needed); returns the paths written.
 /// `map.json` comes last, so that its presence means the map is complete.
@@ -58,7 +126,7 @@ pub fn write_map(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf
         .collect();
     written.push(write_json(
         &dir.join("map.json"),
-        &map_json(spec, run, &files),
+        &map_manifest(spec, run, &files),
     )?);
     Ok(written)
 }
@@ -86,7 +154,7 @@ fn write_grid_csv(path: &Path, spec: &MapSpec, run: &MapRun) -> Result<PathBuf, 
     writeln!(w, "{}", header.join(",")).map_err(io)?;
     for (k, r) in run.results.iter().enumerate() {
         let mut row: Vec<String> = spec.values_of(k).iter().map(|v| format!("{v}")).collect();
-        row.extend(COLUMNS.iter().map(|(_, _, get)| fmt(get(r))));
+        row.extend(COLUMNS.iter().map(|(_, _, _, get)| fmt(get(r))));
         row.push(if spec.wants(Metric::Regime) {
             r.regime.name().to_string()
         } else {
@@ -99,41 +167,20 @@ fn write_grid_csv(path: &Path, spec: &MapSpec, run: &MapRun) -> Result<PathBuf, 
     w.commit()
 }
 
-/// One `.npy` per requested metric array shaped like the grid, `status.npy` and the axes.
+/// One `.npy` per array of [`map_arrays`].
 fn write_arrays(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf>, OutputError> {
-    let shape = spec.shape();
-    let mut written = Vec::new();
-    for (stem, metric, get) in COLUMNS {
-        if !spec.wants(metric) {
-            continue;
-        }
-        let data: Vec<f64> = run.results.iter().map(get).collect();
-        let p = dir.join(format!("{stem}.npy"));
-        write_npy_f64(&p, &shape, &data)?;
-        written.push(p);
-    }
-    if spec.wants(Metric::Regime) {
-        let codes: Vec<i8> = run.results.iter().map(|r| r.regime.code()).collect();
-        let p = dir.join("regime.npy");
-        write_npy_i8(&p, &shape, &codes)?;
-        written.push(p);
-    }
-    let status: Vec<u8> = run.results.iter().map(|r| r.status.code()).collect();
-    let p = dir.join("status.npy");
-    write_npy_u8(&p, &shape, &status)?;
-    written.push(p);
-    if !run.inferred.is_empty() {
-        let flags: Vec<u8> = run.inferred.iter().map(|&i| u8::from(i)).collect();
-        let p = dir.join("inferred.npy");
-        write_npy_u8(&p, &shape, &flags)?;
-        written.push(p);
-    }
-    for (i, a) in spec.axes.iter().enumerate() {
-        let p = dir.join(format!("axis{i}.npy"));
-        write_npy_f64(&p, &[a.values.len()], &a.values)?;
-        written.push(p);
-    }
-    Ok(written)
+    map_arrays(spec, run)
+        .into_iter()
+        .map(|a| {
+            let p = dir.join(format!("{}.npy", a.name));
+            match &a.data {
+                ArrayData::F64(v) => write_npy_f64(&p, &a.shape, v)?,
+                ArrayData::I8(v) => write_npy_i8(&p, &a.shape, v)?,
+                ArrayData::U8(v) => write_npy_u8(&p, &a.shape, v)?,
+            }
+            Ok(p)
+        })
+        .collect()
 }
 
 /// The bifurcation diagram of a 1-D map: the stroboscopic tail of every `ok` instance.
@@ -167,11 +214,16 @@ fn draw_bifurcation(
     .map(Some)
 }
 
-/// `map.json`: what the map is, how it ran, and which files belong to it.
-fn map_json(spec: &MapSpec, run: &MapRun, files: &[String]) -> serde_json::Value {
+/// `map.json`: what the map is, how it ran, and which files belong to it (`files`; the
+/// Python package passes none, its arrays stay in memory).
+pub fn map_manifest(spec: &MapSpec, run: &MapRun, files: &[String]) -> serde_json::Value {
     let counts = |s: Status| run.results.iter().filter(|r| r.status == s).count();
     json!({
-        "axes": spec.axes,
+        "axes": axes_json(spec),
+        "units": COLUMNS
+            .iter()
+            .map(|c| (c.0.to_string(), json!(c.2)))
+            .collect::<serde_json::Map<String, serde_json::Value>>(),
         "shape": spec.shape(),
         "instances": spec.instances(),
         "order": "C order over the axes as listed (last axis varies fastest); .npy arrays have this shape",
@@ -198,6 +250,10 @@ fn map_json(spec: &MapSpec, run: &MapRun, files: &[String]) -> serde_json::Value
             .iter()
             .map(|&s| (s.as_str().to_string(), json!(counts(s))))
             .collect::<serde_json::Map<String, serde_json::Value>>(),
+        "status_codes": Status::ALL
+            .iter()
+            .map(|&s| (s.as_str().to_string(), json!(s.code())))
+            .collect::<serde_json::Map<String, serde_json::Value>>(),
         "regime": regime_json(spec, run),
         "lyapunov": lyapunov_json(spec, run),
         "sampling": {
@@ -214,6 +270,22 @@ fn map_json(spec: &MapSpec, run: &MapRun, files: &[String]) -> serde_json::Value
         "scene": spec.scene,
         "files": files,
     })
+}
+
+/// `map.json`'s `axes`: each swept key with its values, spacing, unit and label.
+fn axes_json(spec: &MapSpec) -> serde_json::Value {
+    spec.axes
+        .iter()
+        .map(|a| {
+            json!({
+                "key": a.key,
+                "values": a.values,
+                "scale": a.scale,
+                "unit": crate::config::key_unit(&a.key),
+                "label": a.label(),
+            })
+        })
+        .collect()
 }
 
 /// `map.json`'s `steps`: what the grid would take in full, what was integrated, and what the

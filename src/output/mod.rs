@@ -7,7 +7,12 @@ pub mod files;
 pub mod folder;
 pub mod map;
 pub mod npy;
+mod run_report;
 mod trajectory;
 
 pub use error::OutputError;
-pub use trajectory::{BASE_COLUMNS, PIEZO_COLUMNS, Row, TrajectoryRecorder, write_trajectory_csv};
+pub use run_report::{RunFacts, RunReport, record_analysis, run_warnings};
+pub use trajectory::{
+    BASE_COLUMNS, PIEZO_COLUMNS, ROW_COLUMNS, Row, TrajectoryRecorder, row_columns,
+    write_trajectory_csv,
+};

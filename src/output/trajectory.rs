@@ -22,6 +22,29 @@ pub const BASE_COLUMNS: [&str; 9] = [
 /// Extra columns when `piezo.enabled`.
 pub const PIEZO_COLUMNS: [&str; 2] = ["piezo_v", "power_w"];
 
+/// Every column of a trajectory in `trajectory.csv` order: (name, unit, value); the last
+/// two ([`PIEZO_COLUMNS`]) only with the piezo on. The CSV and the Python package read rows
+/// through it.
+pub const ROW_COLUMNS: [(&str, &str, fn(&Row) -> f64); 11] = [
+    ("t_s", "s", |r| r.t_s),
+    ("x0_m", "m", |r| r.x0_m),
+    ("alpha_rad", "rad", |r| r.alpha_rad),
+    ("alpha_dot_rad_s", "rad/s", |r| r.alpha_dot_rad_s),
+    ("tip_x_m", "m", |r| r.tip_x_m),
+    ("tip_y_m", "m", |r| r.tip_y_m),
+    ("chord_m", "m", |r| r.chord_m),
+    ("contact_force_n", "N", |r| r.contact_force_n),
+    ("energy_j", "J", |r| r.energy_j),
+    ("piezo_v", "V", |r| r.piezo_v),
+    ("power_w", "W", |r| r.power_w),
+];
+
+/// The columns of a run's trajectory: [`ROW_COLUMNS`], without the piezo's when it is off.
+pub fn row_columns(piezo: bool) -> &'static [(&'static str, &'static str, fn(&Row) -> f64)] {
+    let n = BASE_COLUMNS.len() + if piezo { PIEZO_COLUMNS.len() } else { 0 };
+    &ROW_COLUMNS[..n]
+}
+
 /// One output row of a single run.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Row {
@@ -100,33 +123,27 @@ impl<T: Real> Observer<T> for TrajectoryRecorder {
 pub fn write_trajectory_csv(path: &Path, rows: &[Row], piezo: bool) -> Result<(), OutputError> {
     let err = csv_error(path);
     let mut w = create_csv(path)?;
-    let mut header: Vec<&str> = BASE_COLUMNS.to_vec();
-    if piezo {
-        header.extend(PIEZO_COLUMNS);
-    }
+    let columns = row_columns(piezo);
+    let header: Vec<&str> = columns.iter().map(|c| c.0).collect();
     w.write_record(&header).map_err(&err)?;
     let mut rec: Vec<String> = Vec::with_capacity(header.len());
     for r in rows {
         rec.clear();
-        for x in [
-            r.t_s,
-            r.x0_m,
-            r.alpha_rad,
-            r.alpha_dot_rad_s,
-            r.tip_x_m,
-            r.tip_y_m,
-            r.chord_m,
-            r.contact_force_n,
-            r.energy_j,
-        ] {
-            rec.push(x.to_string());
-        }
-        if piezo {
-            rec.push(r.piezo_v.to_string());
-            rec.push(r.power_w.to_string());
-        }
+        rec.extend(columns.iter().map(|c| (c.2)(r).to_string()));
         w.write_record(&rec).map_err(&err)?;
     }
     commit_csv(w, path)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn row_columns_are_the_csv_header_in_order() {
+        let names: Vec<&str> = ROW_COLUMNS.iter().map(|c| c.0).collect();
+        assert_eq!(names, [&BASE_COLUMNS[..], &PIEZO_COLUMNS[..]].concat());
+        assert_eq!(row_columns(false).len(), BASE_COLUMNS.len());
+    }
 }

@@ -22,7 +22,7 @@ use crate::engine::plan::{EnsemblePlan, InstancePlan};
 use crate::engine::rk4::{Rk4Scratch, rk4_step, rk4_step_twin};
 use crate::engine::stepper::StateView;
 use crate::engine::twin::{onset_saltation, onsets_of};
-use crate::engine::{Progress, ProgressUnit};
+use crate::engine::{EngineError, Progress, ProgressUnit};
 use crate::model::{Chain, Lane, ModelParams, Real, Status, Workspace, health_due};
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -37,7 +37,7 @@ pub(super) fn integrate_lanes<V: Lane>(
     plan: &EnsemblePlan,
     d0: Option<f64>,
     progress: Progress,
-) -> Vec<RawInstance>
+) -> Result<Vec<RawInstance>, EngineError>
 where
     V::Scalar: Real,
 {
@@ -49,19 +49,20 @@ where
         .map(|g| {
             let raw = run_group::<V>(plan, g, d0);
             let n = done.fetch_add(g.len() as u64, Ordering::Relaxed) + g.len() as u64;
-            progress(n, total, ProgressUnit::Instances);
-            raw
+            super::goes_on(progress(n, total, ProgressUnit::Instances))?;
+            Ok(raw)
         })
-        .collect();
+        .collect::<Result<_, EngineError>>()?;
     let mut out: Vec<Option<RawInstance>> = vec![None; plan.instances.len()];
     for (g, raws) in groups.iter().zip(runs) {
         for (&i, r) in g.iter().zip(raws) {
             out[i] = Some(r);
         }
     }
-    out.into_iter()
+    Ok(out
+        .into_iter()
         .map(|r| r.expect("every instance is in one group"))
-        .collect()
+        .collect())
 }
 
 /// Instance indices in groups of at most `lanes` that can share a vector: the same structure

@@ -177,7 +177,7 @@ impl CpuEngine {
             (CpuLoop::Scalar, Precision::F32) => integrate_all::<f32>(plan, d0, progress),
             (CpuLoop::Simd, Precision::F64) => lanes::integrate_lanes::<F64x4>(plan, d0, progress),
             (CpuLoop::Simd, Precision::F32) => lanes::integrate_lanes::<F32x8>(plan, d0, progress),
-        };
+        }?;
         let integrate_s = t0.elapsed().as_secs_f64();
         let t0 = Instant::now();
         let results = plan
@@ -231,12 +231,12 @@ impl CpuEngine {
 }
 
 /// Integrate every instance on the CPU (λ1's twins at separation `d0`); progress counts
-/// finished instances.
+/// finished instances, and a cancel stops the instances not yet started.
 fn integrate_all<T: Real>(
     plan: &EnsemblePlan,
     d0: Option<f64>,
     progress: Progress,
-) -> Vec<RawInstance> {
+) -> Result<Vec<RawInstance>, EngineError> {
     let done = AtomicU64::new(0);
     let total = plan.instances.len() as u64;
     plan.instances
@@ -244,12 +244,17 @@ fn integrate_all<T: Real>(
         .map(|p| {
             let r =
                 run_instance_with::<T>(p, plan.want_strobe, plan.want_rseries, plan.early_stop, d0);
-            progress(
-                done.fetch_add(1, Ordering::Relaxed) + 1,
-                total,
-                ProgressUnit::Instances,
-            );
-            r
+            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+            goes_on(progress(n, total, ProgressUnit::Instances))?;
+            Ok(r)
         })
         .collect()
+}
+
+/// [`EngineError::Cancelled`] when a progress callback asked to stop.
+pub(super) fn goes_on(flow: ControlFlow<()>) -> Result<(), EngineError> {
+    match flow {
+        ControlFlow::Continue(()) => Ok(()),
+        ControlFlow::Break(()) => Err(EngineError::Cancelled),
+    }
 }

@@ -321,7 +321,9 @@ fn integrate(
         let took = started.elapsed();
         dispatches += 1;
         done += this;
-        progress(done, max_steps, ProgressUnit::Steps);
+        if progress(done, max_steps, ProgressUnit::Steps).is_break() {
+            return Err(EngineError::Cancelled);
+        }
         let finished: Vec<u32> = read_buffer(ctx, &bufs.done, 4 * n as u64)?;
         let before = active.len();
         active.retain(|&i| finished[i as usize] == 0);
@@ -333,7 +335,9 @@ fn integrate(
         let scale = DISPATCH_TARGET.as_secs_f64() / took.as_secs_f64().max(1e-6);
         chunk = ((this as f64 * scale.clamp(0.25, 4.0)) as u64).clamp(16, 1 << 22);
     }
-    progress(max_steps, max_steps, ProgressUnit::Steps);
+    if progress(max_steps, max_steps, ProgressUnit::Steps).is_break() {
+        return Err(EngineError::Cancelled);
+    }
     Ok(dispatches)
 }
 

@@ -1,0 +1,134 @@
+//! `run.json` of a single run: the scene, how it was integrated, how it ended, λ1 and the
+//! paper's analysis. `simulate` writes it; the Python package's `simulate` carries it.
+
+use crate::analysis::{AnalysisError, RecordAnalysis, analyze_record};
+use crate::config::{DampingReport, Scene};
+use crate::engine::Outcome;
+use crate::engine::method::MethodSteps;
+use crate::engine::{DtSource, Integrator, Precision, RunLyapunov, SceneRun, StepPlan};
+use crate::model::{Modes, Status};
+use crate::output::Row;
+use serde::Serialize;
+
+/// Everything `run.json` says about a single run.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunReport<'a> {
+    /// The scene after its overrides.
+    pub scene: &'a Scene,
+    /// The integrator.
+    pub integrator: Integrator,
+    /// The float type.
+    pub precision: Precision,
+    /// The method (`rk4`, `imex` or `dop853`).
+    pub method: &'a str,
+    /// Why the fixed-step engine chose it.
+    pub method_reason: &'a str,
+    /// Steps each method would take.
+    pub method_steps: &'a MethodSteps,
+    /// The damping the scene's keys give.
+    pub damping: DampingReport,
+    /// The step (s).
+    pub dt_s: f64,
+    /// Where the step came from.
+    pub dt_source: DtSource,
+    /// The explicit method's stable step (s).
+    pub dt_stable_s: f64,
+    /// Steps planned.
+    pub steps: u64,
+    /// Steps taken.
+    pub steps_done: u64,
+    /// Output rows recorded.
+    pub rows: usize,
+    /// Wall time of the integration (s).
+    pub wall_time_s: f64,
+    /// How the run ended.
+    pub status: Status,
+    /// When it failed (s), if it did.
+    pub failed_at_s: Option<f64>,
+    /// Bumper contact onsets.
+    pub impacts: u64,
+    /// The linearised chain's frequencies and rates.
+    pub modes: &'a Modes,
+    /// The plan's warnings and the run's own.
+    pub warnings: &'a [String],
+    /// The paper's analysis of α against the cart (absent when the run failed or it could
+    /// not be made).
+    pub analysis: Option<&'a RecordAnalysis>,
+    /// λ1, or why there is none.
+    pub lyapunov: &'a RunLyapunov,
+}
+
+/// What a single run was and how it went, for [`RunReport::new`].
+pub struct RunFacts<'a> {
+    /// The scene.
+    pub scene: &'a Scene,
+    /// Its step plan.
+    pub plan: &'a StepPlan,
+    /// The integrator it ran with.
+    pub integrator: Integrator,
+    /// The run.
+    pub run: &'a SceneRun,
+    /// The scene's modes.
+    pub modes: &'a Modes,
+    /// Rows recorded.
+    pub rows: usize,
+    /// Wall time (s).
+    pub wall_time_s: f64,
+}
+
+impl<'a> RunReport<'a> {
+    /// The report of a run from its facts, warnings and analysis.
+    pub fn new(
+        f: RunFacts<'a>,
+        warnings: &'a [String],
+        analysis: Option<&'a RecordAnalysis>,
+    ) -> Self {
+        RunReport {
+            scene: f.scene,
+            integrator: f.integrator,
+            precision: f.run.precision,
+            method: match f.integrator {
+                Integrator::Engine => f.plan.method.name(),
+                Integrator::Reference => "dop853",
+            },
+            method_reason: &f.plan.method_reason,
+            method_steps: &f.plan.method_steps,
+            damping: f.scene.damping_report(),
+            dt_s: f.plan.dt_s,
+            dt_source: f.plan.dt_source,
+            dt_stable_s: f.plan.dt_stable_s,
+            steps: f.plan.steps,
+            steps_done: f.run.outcome.steps_done,
+            rows: f.rows,
+            wall_time_s: f.wall_time_s,
+            status: f.run.outcome.status,
+            failed_at_s: f.run.outcome.failed_at_s,
+            impacts: f.run.outcome.impacts,
+            modes: f.modes,
+            warnings,
+            analysis,
+            lyapunov: &f.run.lyapunov,
+        }
+    }
+}
+
+/// The plan's warnings, and where the run stopped when it failed.
+pub fn run_warnings(plan: &StepPlan, outcome: &Outcome) -> Vec<String> {
+    let mut warnings = plan.warnings.clone();
+    if let Some(t) = outcome.failed_at_s {
+        warnings.push(format!(
+            "run stopped at t = {t:.6} s with status `{}`: rows after that time are not written",
+            outcome.status
+        ));
+    }
+    warnings
+}
+
+/// The paper's analysis of a run: the holder angle α against the cart position x0, sampled
+/// at the scene's output rate, after its transient (`docs/analysis.md`).
+pub fn record_analysis(scene: &Scene, rows: &[Row]) -> Result<RecordAnalysis, AnalysisError> {
+    let alpha: Vec<f64> = rows.iter().map(|r| r.alpha_rad).collect();
+    let cart: Vec<f64> = rows.iter().map(|r| r.x0_m).collect();
+    let rate = scene.output.sample_rate_hz;
+    analyze_record(&alpha, Some(&cart), rate, 0.0, &scene.record_options())
+}
