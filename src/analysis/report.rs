@@ -40,6 +40,31 @@ pub enum Sampling {
 }
 
 impl Sampling {
+    /// The sampling when none is asked for: stroboscopic with a known forcing frequency,
+    /// else the local extrema (the paper's choice for its Fig. 6).
+    pub fn default_for(forcing_hz: Option<f64>) -> Sampling {
+        match forcing_hz {
+            Some(_) => Sampling::Stroboscopic,
+            None => Sampling::Extrema,
+        }
+    }
+
+    /// The sampling named `name` (`stroboscopic`, `extrema` or `uniform`).
+    pub fn from_name(name: &str) -> Option<Sampling> {
+        [Sampling::Stroboscopic, Sampling::Extrema, Sampling::Uniform]
+            .into_iter()
+            .find(|s| s.name() == name)
+    }
+
+    /// Its name, as `analysis.json` writes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Sampling::Stroboscopic => "stroboscopic",
+            Sampling::Extrema => "extrema",
+            Sampling::Uniform => "uniform",
+        }
+    }
+
     /// What the series of this sampling is called in messages.
     fn describe(self) -> &'static str {
         match self {

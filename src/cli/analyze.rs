@@ -568,7 +568,7 @@ fn record_options(a: &AnalyzeArgs, msgs: &mut Messages) -> anyhow::Result<Record
              --sampling extrema|uniform"
         ),
         (Some(s), _) => sampling_of(s),
-        (None, Some(_)) => Sampling::Stroboscopic,
+        (None, Some(f)) => Sampling::default_for(Some(f)),
         (None, None) => {
             msgs.notes.push(
                 "no --forcing-hz: the 0-1 test uses the local extrema of the signal (the \
@@ -576,7 +576,7 @@ fn record_options(a: &AnalyzeArgs, msgs: &mut Messages) -> anyhow::Result<Record
                  or choose --sampling"
                     .into(),
             );
-            Sampling::Extrema
+            Sampling::default_for(None)
         }
     };
     Ok(RecordOptions {

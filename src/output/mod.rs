@@ -13,6 +13,6 @@ mod trajectory;
 pub use error::OutputError;
 pub use run_report::{RunFacts, RunReport, record_analysis, run_warnings};
 pub use trajectory::{
-    BASE_COLUMNS, PIEZO_COLUMNS, ROW_COLUMNS, Row, TrajectoryRecorder, row_columns,
+    BASE_COLUMNS, PIEZO_COLUMNS, ROW_COLUMNS, Row, RowColumn, TrajectoryRecorder, row_columns,
     write_trajectory_csv,
 };

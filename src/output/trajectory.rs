@@ -25,7 +25,7 @@ pub const PIEZO_COLUMNS: [&str; 2] = ["piezo_v", "power_w"];
 /// Every column of a trajectory in `trajectory.csv` order: (name, unit, value); the last
 /// two ([`PIEZO_COLUMNS`]) only with the piezo on. The CSV and the Python package read rows
 /// through it.
-pub const ROW_COLUMNS: [(&str, &str, fn(&Row) -> f64); 11] = [
+pub const ROW_COLUMNS: [RowColumn; 11] = [
     ("t_s", "s", |r| r.t_s),
     ("x0_m", "m", |r| r.x0_m),
     ("alpha_rad", "rad", |r| r.alpha_rad),
@@ -39,8 +39,11 @@ pub const ROW_COLUMNS: [(&str, &str, fn(&Row) -> f64); 11] = [
     ("power_w", "W", |r| r.power_w),
 ];
 
+/// A trajectory column: its name, unit and value in a row.
+pub type RowColumn = (&'static str, &'static str, fn(&Row) -> f64);
+
 /// The columns of a run's trajectory: [`ROW_COLUMNS`], without the piezo's when it is off.
-pub fn row_columns(piezo: bool) -> &'static [(&'static str, &'static str, fn(&Row) -> f64)] {
+pub fn row_columns(piezo: bool) -> &'static [RowColumn] {
     let n = BASE_COLUMNS.len() + if piezo { PIEZO_COLUMNS.len() } else { 0 };
     &ROW_COLUMNS[..n]
 }

@@ -45,7 +45,9 @@ fn a_plan_run_in_batches_equals_one_run_bit_for_bit() {
         let mut engine = Engine::open(Backend::Gpu, None).unwrap();
         engine.set_gpu_max_batch(max);
         engine
-            .run(&plan, &ReduceOptions::default(), readback, &|_, _, _| {})
+            .run(&plan, &ReduceOptions::default(), readback, &|_, _, _| {
+                std::ops::ControlFlow::Continue(())
+            })
             .unwrap()
     };
     let whole = run(None);

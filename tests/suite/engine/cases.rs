@@ -504,3 +504,46 @@ pub fn a_search_runs_end_to_end_and_agrees_with_single_runs(under: Under) {
         v.median_rel_diff_regular
     );
 }
+
+/// A progress callback that answers `Break` stops the map: the engine returns
+/// `EngineError::Cancelled` instead of results, and only the work in flight when it asked
+/// reports again (one instance or lane group per worker thread on the CPU, none on the GPU).
+pub fn a_cancel_from_the_progress_callback_stops_the_map(under: Under) {
+    use pendulum_atlas::engine::{EngineError, ProgressUnit};
+    use std::ops::ControlFlow;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let Some(engine) = under.engine() else {
+        return;
+    };
+    let threads = rayon::current_num_threads();
+    // More lane groups (of at most 8) than the threads can hold at once, twice over.
+    let n = 8 * (2 * threads + 2);
+    let values: Vec<String> = (0..n)
+        .map(|i| format!("{}", 5.0 + 5.0 * i as f64 / n as f64))
+        .collect();
+    let spec = tiny_map(
+        under,
+        "",
+        &format!(
+            "metrics = [\"K\"]\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [{}]\n",
+            values.join(", ")
+        ),
+    );
+    let calls = AtomicUsize::new(0);
+    let cancel = |_: u64, _: u64, _: ProgressUnit| {
+        calls.fetch_add(1, Ordering::SeqCst);
+        ControlFlow::Break(())
+    };
+    let err = run_map(&spec, engine, &cancel).expect_err("a cancelled map has no results");
+    assert!(matches!(err, EngineError::Cancelled), "{err}");
+    let after = calls.load(Ordering::SeqCst);
+    let in_flight = if under.eng == super::Eng::Gpu {
+        1
+    } else {
+        1 + threads
+    };
+    assert!(
+        after <= in_flight,
+        "{after} progress reports after the cancel on {n} instances; at most {in_flight} expected"
+    );
+}

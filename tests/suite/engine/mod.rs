@@ -159,4 +159,5 @@ engine_suite!(cases:
     metrics_not_requested_are_not_computed,
     a_map_runs_end_to_end_into_its_files,
     a_search_runs_end_to_end_and_agrees_with_single_runs,
+    a_cancel_from_the_progress_callback_stops_the_map,
 );

@@ -1,0 +1,170 @@
+"""pendulum-atlas from Python: chaos and bifurcation maps of the elastic inverted pendulum
+with clearance, single runs, and the paper's indicators for measured records.
+
+Thin over the Rust library (``pendulum_atlas._native``): the same scenes, engines and numbers
+as the ``pendulum-atlas`` command, returned as ``xarray`` datasets.
+
+>>> import pendulum_atlas as pa
+>>> scene = pa.Scene.default_map().set("map.axes", ...)   # doctest: +SKIP
+>>> ds = pa.map(scene)                                      # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Callable, Optional
+
+import numpy as np
+import xarray as xr
+
+from . import _native
+from ._dataset import map_dataset, open_run, run_dataset
+from ._scene import Scene
+
+__version__ = _native.__version__
+SceneError = _native.SceneError
+EngineError = _native.EngineError
+
+__all__ = [
+    "Scene",
+    "SceneError",
+    "EngineError",
+    "map",
+    "simulate",
+    "analyze",
+    "open_run",
+    "__version__",
+]
+
+
+def map(
+    scene: Scene,
+    backend: str = "auto",
+    precision: Optional[str] = None,
+    progress: bool = True,
+) -> xr.Dataset:
+    """Run a map scene on the GPU or the CPU engine and return its dataset.
+
+    Dimensions and coordinates are the map's axes (units in each coordinate's ``attrs``); one
+    variable per stored metric (``K``, ``R``, ``period``, ..., ``lyapunov``,
+    ``regime_confidence``), ``regime`` (int8 codes, meanings in its ``flag_meanings``),
+    ``status`` and, for refined maps, ``inferred``. The values equal the ``.npy`` files of
+    ``pendulum-atlas map`` for the same scene bit for bit; ``attrs["map_json"]`` holds the
+    ``map.json`` the command would write (without its file list).
+
+    ``backend``: ``"auto"`` (a hardware GPU, else lavapipe or the CPU, whichever is faster),
+    ``"gpu"`` or ``"cpu"``. ``precision``: ``None`` (f32 on the GPU, f64 on the CPU),
+    ``"f32"`` or ``"f64"``. ``progress``: a tqdm bar (terminal or Jupyter). The interpreter's
+    lock is released while the engine runs; Ctrl-C stops the map at its next progress point
+    and raises ``KeyboardInterrupt``.
+    """
+    if not isinstance(scene, Scene):
+        raise TypeError(f"map() takes a pendulum_atlas.Scene, not {type(scene).__name__}")
+    if not scene.is_map:
+        raise SceneError(
+            "this scene has no [map] section: map() runs a map scene (see Scene.default_map()); "
+            "use simulate() for one run"
+        )
+    with _Bar(progress, "map") as bar:
+        out = _native.run_map_scene(
+            scene.text, scene.origin, scene.sets, backend, precision, bar.update
+        )
+    return map_dataset(json.loads(out["manifest"]), out["arrays"])
+
+
+def simulate(
+    scene: Scene,
+    integrator: str = "engine",
+    precision: Optional[str] = None,
+    progress: bool = True,
+) -> xr.Dataset:
+    """Integrate one scene and return its trajectory over ``time`` (s).
+
+    Variables are the columns of ``simulate``'s ``trajectory.csv`` (``x0_m``, ``alpha_rad``,
+    ..., units in their ``attrs``); λ1 and the paper's indicators of the run (``K``, ``R``,
+    ``dominant_hz``, ``line_ratio``, ``period``, ``hops``) are attributes, and
+    ``attrs["run_json"]`` holds the ``run.json`` the command would write.
+
+    ``integrator``: ``"engine"`` (the maps' fixed-step RK4/IMEX) or ``"reference"``
+    (adaptive DOP853, f64). ``precision``: ``None`` (f64), ``"f32"`` or ``"f64"``. Ctrl-C
+    returns at once; the run in flight finishes on its own thread and is dropped.
+    """
+    if not isinstance(scene, Scene):
+        raise TypeError(f"simulate() takes a pendulum_atlas.Scene, not {type(scene).__name__}")
+    with _Bar(progress, "simulate") as bar:
+        out = _native.run_single_scene(
+            scene.text, scene.origin, scene.sets, integrator, precision, bar.update
+        )
+    return run_dataset(out["columns"], out["units"], json.loads(out["report"]))
+
+
+def analyze(
+    signal,
+    sample_rate_hz: float,
+    forcing_hz: Optional[float] = None,
+    reference=None,
+    transient_s: float = 0.0,
+    start_s: float = 0.0,
+    clearance_deg: Optional[float] = None,
+    sampling: Optional[str] = None,
+) -> dict:
+    """The paper's indicators of a uniformly sampled record, as ``analyze`` computes them for
+    a CSV (``docs/analysis.md``).
+
+    ``signal``: the response (e.g. the holder angle), one value per sample at
+    ``sample_rate_hz``. ``forcing_hz`` enables stroboscopic sampling, the period and the
+    line ratio; ``reference`` (the excitation, same length) enables R; ``transient_s`` is
+    discarded from the start; ``clearance_deg`` counts hops between the wells; ``sampling``
+    picks the 0–1 test's samples (``None``: stroboscopic with ``forcing_hz``, else the local
+    extrema; or ``"stroboscopic"``, ``"extrema"``, ``"uniform"``). The defaults are those of
+    ``pendulum-atlas analyze``.
+
+    Returns a dict with ``zero_one`` (``K``), ``phase_sync`` (``R``), ``spectrum``,
+    ``statistics`` (period, hops, range), ``wavelet`` and the options used. A record the
+    analysis refuses raises ``ValueError`` with the reason.
+    """
+    x = np.ascontiguousarray(signal, dtype=np.float64)
+    if x.ndim != 1:
+        raise ValueError(f"signal must be one-dimensional, got shape {x.shape}")
+    ref = None
+    if reference is not None:
+        ref = np.ascontiguousarray(reference, dtype=np.float64)
+        if ref.shape != x.shape:
+            raise ValueError(f"reference has shape {ref.shape}, the signal {x.shape}: give one value per sample")
+    text = _native.analyze_signal(
+        x,
+        float(sample_rate_hz),
+        forcing_hz,
+        ref,
+        float(transient_s),
+        float(start_s),
+        clearance_deg,
+        sampling,
+    )
+    return json.loads(text)
+
+
+class _Bar:
+    """A tqdm bar moved by the engine's progress (or nothing when ``enabled`` is false)."""
+
+    def __init__(self, enabled: bool, what: str):
+        self._bar = None
+        if enabled:
+            from tqdm.auto import tqdm
+
+            self._bar = tqdm(total=1, desc=what, unit="", leave=False)
+
+    def update(self, done: int, total: int, unit: str) -> None:
+        if self._bar is None or total == 0:
+            return
+        self._bar.total = total
+        self._bar.unit = f" {unit}"
+        self._bar.n = done
+        self._bar.refresh()
+
+    def __enter__(self) -> "_Bar":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._bar is not None:
+            self._bar.close()

@@ -1,0 +1,129 @@
+"""Maps and runs as ``xarray.Dataset``: one builder for maps run here and map folders."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+import xarray as xr
+
+#: Scalars of ``map.json`` copied into a map dataset's attributes (the whole manifest is in
+#: ``attrs["map_json"]``).
+MAP_ATTRS = ("backend", "adapter", "precision", "segments", "method", "instances")
+
+
+def dim_names(keys: list[str]) -> list[str]:
+    """Dimension names of a map's axes: the key's last part (``frequency_hz``) when the axes'
+    last parts differ, else the full key."""
+    short = [k.rsplit(".", 1)[-1] for k in keys]
+    return short if len(set(short)) == len(short) else list(keys)
+
+
+def _codes_attrs(codes: Mapping[str, int]) -> dict:
+    """CF flag attributes for a coded variable (``regime``, ``status``)."""
+    ordered = sorted(codes.items(), key=lambda kv: kv[1])
+    return {
+        "flag_values": [int(v) for _, v in ordered],
+        "flag_meanings": " ".join(name for name, _ in ordered),
+    }
+
+
+def map_dataset(manifest: dict, arrays: Mapping[str, np.ndarray]) -> xr.Dataset:
+    """A map's dataset from its ``map.json`` content and its arrays (``.npy`` stems)."""
+    axes = manifest["axes"]
+    dims = dim_names([a["key"] for a in axes])
+    coords = {}
+    for i, (dim, axis) in enumerate(zip(dims, axes)):
+        values = arrays.get(f"axis{i}")
+        if values is None:
+            values = np.asarray(axis["values"], dtype=np.float64)
+        attrs = {"key": axis["key"], "scale": axis["scale"], "units": axis.get("unit") or "1"}
+        if axis.get("label"):
+            attrs["long_name"] = axis["label"]
+        coords[dim] = (dim, values, attrs)
+    units = manifest.get("units", {})
+    data_vars = {}
+    for name, values in arrays.items():
+        if name.startswith("axis"):
+            continue
+        attrs = {}
+        if name in units:
+            attrs["units"] = units[name]
+        if name == "regime" and manifest.get("regime"):
+            attrs.update(_codes_attrs(manifest["regime"]["codes"]))
+        elif name == "status" and "status_codes" in manifest:
+            attrs.update(_codes_attrs(manifest["status_codes"]))
+        elif name == "inferred":
+            attrs.update({"flag_values": [0, 1], "flag_meanings": "computed filled_from_its_block"})
+        data_vars[name] = (dims, values, attrs)
+    attrs = {k: manifest[k] for k in MAP_ATTRS if manifest.get(k) is not None}
+    attrs["map_json"] = json.dumps(manifest)
+    return xr.Dataset(data_vars, coords, attrs)
+
+
+def run_dataset(columns: Mapping[str, np.ndarray], units: Mapping[str, str], report: dict) -> xr.Dataset:
+    """A single run's dataset: one variable per trajectory column over ``time`` (s), the
+    run's ``run.json`` in ``attrs["run_json"]`` and its indicators as attributes."""
+    time = columns["t_s"]
+    data_vars = {
+        name: ("time", values, {"units": units[name]})
+        for name, values in columns.items()
+        if name != "t_s"
+    }
+    coords = {"time": ("time", time, {"units": "s", "long_name": "time"})}
+    attrs = {
+        "status": report["status"],
+        "integrator": report["integrator"],
+        "precision": report["precision"],
+        "method": report["method"],
+        "dt_s": report["dt_s"],
+        "impacts": report["impacts"],
+    }
+    attrs.update(_indicators(report))
+    attrs["run_json"] = json.dumps(report)
+    return xr.Dataset(data_vars, coords, attrs)
+
+
+def _indicators(report: dict) -> dict:
+    """λ1 and the paper's indicators of a run, where it has them."""
+    out = {}
+    lyap = report.get("lyapunov") or {}
+    if "per_s" in lyap:
+        out["lambda1_per_s"] = lyap["per_s"]
+        out["lambda1_se_per_s"] = lyap["se_per_s"]
+    analysis = report.get("analysis") or {}
+    picks = {
+        "K": ("zero_one", "K"),
+        "R": ("phase_sync", "R"),
+        "dominant_hz": ("spectrum", "dominant_hz"),
+        "line_ratio": ("spectrum", "ratio_to_forcing"),
+        "period": ("statistics", "period"),
+        "hops": ("statistics", "hops"),
+    }
+    for attr, (section, key) in picks.items():
+        value = (analysis.get(section) or {}).get(key)
+        if value is not None:
+            out[attr] = value
+    return out
+
+
+def open_run(folder: str | os.PathLike) -> xr.Dataset:
+    """The dataset of a ``pendulum-atlas map`` or ``merge`` output folder: every array its
+    ``map.json`` lists, with the axes as coordinates."""
+    folder = Path(folder)
+    manifest_path = folder / "map.json"
+    if not manifest_path.is_file():
+        if (folder / "shard.json").is_file():
+            raise ValueError(f"{folder} holds one shard of a map: merge the shards first (`pendulum-atlas merge`)")
+        raise FileNotFoundError(
+            f"{folder} has no map.json: open_run reads the output folder of `pendulum-atlas map` or `merge`"
+        )
+    manifest = json.loads(manifest_path.read_text(encoding="utf-8"))
+    arrays = {}
+    for name in manifest.get("files", []):
+        if name.endswith(".npy"):
+            arrays[name[: -len(".npy")]] = np.load(folder / name, allow_pickle=False)
+    return map_dataset(manifest, arrays)

@@ -1,0 +1,427 @@
+//! `pendulum_atlas._native`: the library's scenes, maps, single runs and record analysis for
+//! Python. Every number comes from the `pendulum-atlas` crate; this module only converts
+//! (TOML values in, NumPy arrays and JSON text out) and runs the engine off the interpreter
+//! ([`poll`]). The Python package (`python/pendulum_atlas/`) turns what it returns into
+//! `xarray` datasets.
+
+mod poll;
+
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
+use pendulum_atlas::analysis::{RecordOptions, Sampling, analyze_record};
+use pendulum_atlas::config::{
+    ConfigError, DEFAULT_MAP_TOML, MapSpec, PAPER_SCENE_TOML, Scene, apply_override, map_from_toml,
+    parse_toml,
+};
+use pendulum_atlas::engine::{Backend, Engine, EngineError, Integrator, Precision, StepPlan};
+use pendulum_atlas::map::run_map;
+use pendulum_atlas::model::Status;
+use pendulum_atlas::output::budget::{RunSize, memory_available};
+use pendulum_atlas::output::map::{ArrayData, MapArray, map_arrays, map_manifest};
+use pendulum_atlas::output::{
+    RunFacts, RunReport, TrajectoryRecorder, record_analysis, row_columns, run_warnings,
+};
+use poll::{OnInterrupt, run_polled};
+use pyo3::create_exception;
+use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict, PyFloat, PyList, PyString, PyTuple};
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Instant;
+
+create_exception!(
+    _native,
+    SceneError,
+    PyValueError,
+    "A scene that the library refuses; the message names the key and its accepted range."
+);
+create_exception!(
+    _native,
+    EngineError_,
+    PyRuntimeError,
+    "The engine could not run (no GPU adapter, a run too long for it, ...)."
+);
+
+fn scene_error(e: ConfigError) -> PyErr {
+    SceneError::new_err(e.to_string())
+}
+
+/// An engine error in Python terms: what mends it spelt as the function's arguments.
+fn engine_error(e: EngineError) -> PyErr {
+    let mend = match &e {
+        EngineError::GpuNeedsF32 => " (use precision='f32', or backend='cpu' for f64)",
+        EngineError::ReferenceNeedsF64 => " (use precision='f64' with integrator='reference')",
+        EngineError::NoAdapter { .. }
+        | EngineError::TooManySegments { .. }
+        | EngineError::SoftwareLoopBudget { .. } => " (use backend='cpu')",
+        _ => "",
+    };
+    match e {
+        EngineError::Config(c) => scene_error(c),
+        other => EngineError_::new_err(format!("{other}{mend}")),
+    }
+}
+
+fn parse_backend(name: &str) -> PyResult<Backend> {
+    match name {
+        "auto" => Ok(Backend::Auto),
+        "gpu" => Ok(Backend::Gpu),
+        "cpu" => Ok(Backend::Cpu),
+        _ => Err(PyValueError::new_err(format!(
+            "backend={name:?}: use 'auto' (a hardware GPU, else lavapipe or the CPU), 'gpu' or 'cpu'"
+        ))),
+    }
+}
+
+fn parse_precision(name: Option<&str>) -> PyResult<Option<Precision>> {
+    match name {
+        None => Ok(None),
+        Some("f32") => Ok(Some(Precision::F32)),
+        Some("f64") => Ok(Some(Precision::F64)),
+        Some(other) => Err(PyValueError::new_err(format!(
+            "precision={other:?}: use None (the engine's own), 'f32' or 'f64'"
+        ))),
+    }
+}
+
+fn parse_integrator(name: &str) -> PyResult<Integrator> {
+    match name {
+        "engine" => Ok(Integrator::Engine),
+        "reference" => Ok(Integrator::Reference),
+        _ => Err(PyValueError::new_err(format!(
+            "integrator={name:?}: use 'engine' (the maps' fixed-step RK4/IMEX) or 'reference' (adaptive DOP853, f64)"
+        ))),
+    }
+}
+
+/// A Python value as a TOML value: bool, int, float, str, and lists, tuples or dicts (inline
+/// tables, e.g. the entries of `map.axes`) of them.
+fn toml_value(v: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
+    if v.is_instance_of::<PyBool>() {
+        return Ok(toml::Value::Boolean(v.extract()?));
+    }
+    if v.is_instance_of::<PyFloat>() {
+        return Ok(toml::Value::Float(v.extract()?));
+    }
+    if let Ok(i) = v.extract::<i64>() {
+        return Ok(toml::Value::Integer(i));
+    }
+    if let Ok(x) = v.extract::<f64>() {
+        return Ok(toml::Value::Float(x));
+    }
+    if v.is_instance_of::<PyString>() {
+        return Ok(toml::Value::String(v.extract()?));
+    }
+    if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
+        let items: Vec<Bound<'_, PyAny>> = v.try_iter()?.collect::<PyResult<_>>()?;
+        return Ok(toml::Value::Array(
+            items.iter().map(toml_value).collect::<PyResult<_>>()?,
+        ));
+    }
+    if let Ok(d) = v.cast::<PyDict>() {
+        let mut table = toml::Table::new();
+        for (k, item) in d.iter() {
+            table.insert(k.extract::<String>()?, toml_value(&item)?);
+        }
+        return Ok(toml::Value::Table(table));
+    }
+    Err(PyTypeError::new_err(format!(
+        "a scene value must be a bool, int, float, str, or a list or dict of them, not {}",
+        v.get_type().name()?
+    )))
+}
+
+/// `key=value` as `--set` takes it, from a Python value.
+#[pyfunction]
+fn set_arg(key: &str, value: &Bound<'_, PyAny>) -> PyResult<String> {
+    Ok(format!("{key}={}", toml_value(value)?))
+}
+
+/// Validate a scene: `("map" | "scene", its TOML after the overrides, the base scene of a
+/// map (its TOML without `[map]`; the scene itself for a plain scene))`.
+#[pyfunction]
+fn check_scene(text: &str, origin: &str, sets: Vec<String>) -> PyResult<(String, String, String)> {
+    let table = parse_toml(text, origin).map_err(scene_error)?;
+    let to_text =
+        |t: &toml::Table| toml::to_string(t).map_err(|e| SceneError::new_err(e.to_string()));
+    if table.contains_key("map") {
+        let spec = map_from_toml(text, origin, &sets).map_err(scene_error)?;
+        return Ok((
+            "map".into(),
+            to_text(&spec.source_table)?,
+            to_text(&spec.base_table)?,
+        ));
+    }
+    Scene::from_toml(text, origin, &sets).map_err(scene_error)?;
+    let mut resolved = table;
+    for s in &sets {
+        apply_override(&mut resolved, s).map_err(scene_error)?;
+    }
+    let t = to_text(&resolved)?;
+    Ok(("scene".into(), t.clone(), t))
+}
+
+/// A map's arrays, `map.json` (without files) and the engine's name, made off the interpreter.
+struct MapOut {
+    arrays: Vec<MapArray>,
+    manifest: String,
+}
+
+fn map_work(
+    spec: &MapSpec,
+    backend: Backend,
+    precision: Option<Precision>,
+    ticker: &poll::Ticker,
+) -> Result<MapOut, EngineError> {
+    let engine = Engine::open(backend, precision)?;
+    let run = run_map(spec, &engine, &|d, t, u| ticker.report(d, t, u))?;
+    Ok(MapOut {
+        arrays: map_arrays(spec, &run),
+        manifest: map_manifest(spec, &run, &[]).to_string(),
+    })
+}
+
+/// A NumPy array of a map array's values in its own dtype and shape.
+fn to_numpy<'py>(py: Python<'py>, a: MapArray) -> PyResult<Bound<'py, PyAny>> {
+    let shape = a.shape;
+    Ok(match a.data {
+        ArrayData::F64(v) => PyArray1::from_vec(py, v).reshape(shape)?.into_any(),
+        ArrayData::I8(v) => PyArray1::from_vec(py, v).reshape(shape)?.into_any(),
+        ArrayData::U8(v) => PyArray1::from_vec(py, v).reshape(shape)?.into_any(),
+    })
+}
+
+/// Run a map scene: `{"arrays": {name: ndarray}, "manifest": map.json text}`.
+#[pyfunction]
+#[pyo3(signature = (text, origin, sets, backend="auto", precision=None, progress=None))]
+fn run_map_scene<'py>(
+    py: Python<'py>,
+    text: &str,
+    origin: &str,
+    sets: Vec<String>,
+    backend: &str,
+    precision: Option<&str>,
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let spec = map_from_toml(text, origin, &sets).map_err(scene_error)?;
+    let (backend, precision) = (parse_backend(backend)?, parse_precision(precision)?);
+    let out = run_polled(py, progress.as_ref(), OnInterrupt::Stop, move |ticker| {
+        map_work(&spec, backend, precision, ticker)
+    })?
+    .map_err(engine_error)?;
+    let arrays = PyDict::new(py);
+    for a in out.arrays {
+        let name = a.name.clone();
+        arrays.set_item(name, to_numpy(py, a)?)?;
+    }
+    let d = PyDict::new(py);
+    d.set_item("arrays", arrays)?;
+    d.set_item("manifest", out.manifest)?;
+    Ok(d)
+}
+
+/// A single run off the interpreter: its columns, units and `run.json`.
+struct RunOut {
+    columns: Vec<(&'static str, &'static str, Vec<f64>)>,
+    report: String,
+}
+
+/// Why a single run gave no result.
+enum WorkError {
+    /// The engine refused or failed.
+    Engine(EngineError),
+    /// `run.json` could not be made.
+    Report(serde_json::Error),
+}
+
+impl From<EngineError> for WorkError {
+    fn from(e: EngineError) -> Self {
+        WorkError::Engine(e)
+    }
+}
+
+fn work_error(e: WorkError) -> PyErr {
+    match e {
+        WorkError::Engine(e) => engine_error(e),
+        WorkError::Report(e) => PyRuntimeError::new_err(format!("run.json of the run: {e}")),
+    }
+}
+
+fn simulate_work(
+    scene: &Scene,
+    plan: &StepPlan,
+    integrator: Integrator,
+    precision: Precision,
+    ticker: &Arc<poll::Ticker>,
+) -> Result<RunOut, WorkError> {
+    let total = plan.steps;
+    let t = Arc::clone(ticker);
+    let mut rec = TrajectoryRecorder {
+        load_ohm: scene.piezo_params().map(|z| z.load_ohm),
+        on_row: Some(Box::new(move |step| {
+            let _ = t.report(step, total, pendulum_atlas::engine::ProgressUnit::Steps);
+        })),
+        ..Default::default()
+    };
+    let started = Instant::now();
+    let run = pendulum_atlas::engine::run_scene(scene, plan, integrator, precision, &mut rec)?;
+    let wall_time_s = started.elapsed().as_secs_f64();
+    let mut warnings = run_warnings(plan, &run.outcome);
+    let analysis = (run.outcome.status == Status::Ok)
+        .then(|| record_analysis(scene, &rec.rows))
+        .and_then(|r| {
+            r.map_err(|e| warnings.push(format!("analysis of the run skipped: {e}")))
+                .ok()
+        });
+    let modes = scene.modes();
+    let facts = RunFacts {
+        scene,
+        plan,
+        integrator,
+        run: &run,
+        modes: &modes,
+        rows: rec.rows.len(),
+        wall_time_s,
+    };
+    let report = RunReport::new(facts, &warnings, analysis.as_ref());
+    let columns = row_columns(scene.piezo_params().is_some())
+        .iter()
+        .map(|&(name, unit, get)| (name, unit, rec.rows.iter().map(get).collect()))
+        .collect();
+    Ok(RunOut {
+        columns,
+        report: serde_json::to_string(&report).map_err(WorkError::Report)?,
+    })
+}
+
+/// The run's rows must fit in memory; a run of no step is refused.
+fn check_run_size(scene: &Scene, plan: &StepPlan) -> PyResult<()> {
+    let duration = scene.integration.duration_s;
+    let columns = row_columns(scene.piezo_params().is_some()).len();
+    let size = RunSize::new(duration, plan.dt_s, plan.sample_every, columns)
+        .map_err(|e| SceneError::new_err(e.to_string()))?;
+    if size.steps == 0 {
+        return Err(SceneError::new_err(format!(
+            "integration.duration_s = {duration} s is shorter than half a step (dt = {:e} s): the run would take no step; lengthen integration.duration_s or shorten integration.dt_s",
+            plan.dt_s
+        )));
+    }
+    size.check_against(memory_available(), None, Path::new("."))
+        .map_err(|e| SceneError::new_err(e.to_string()))
+}
+
+/// Run a plain scene once: `{"columns": {name: ndarray}, "units": {name: unit}, "report":
+/// run.json text}`.
+#[pyfunction]
+#[pyo3(signature = (text, origin, sets, integrator="engine", precision=None, progress=None))]
+fn run_single_scene<'py>(
+    py: Python<'py>,
+    text: &str,
+    origin: &str,
+    sets: Vec<String>,
+    integrator: &str,
+    precision: Option<&str>,
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    if parse_toml(text, origin)
+        .map_err(scene_error)?
+        .contains_key("map")
+    {
+        return Err(SceneError::new_err(
+            "this scene has a [map] section: simulate runs one scene; use pendulum_atlas.map, or scene.cell(...) for one cell of the map",
+        ));
+    }
+    let scene = Scene::from_toml(text, origin, &sets).map_err(scene_error)?;
+    let integrator = parse_integrator(integrator)?;
+    let precision = parse_precision(precision)?.unwrap_or(Precision::F64);
+    if integrator == Integrator::Reference && precision == Precision::F32 {
+        return Err(engine_error(EngineError::ReferenceNeedsF64));
+    }
+    let plan = StepPlan::for_scene(&scene);
+    check_run_size(&scene, &plan)?;
+    let out = run_polled(py, progress.as_ref(), OnInterrupt::Abandon, move |ticker| {
+        simulate_work(&scene, &plan, integrator, precision, ticker)
+    })?
+    .map_err(work_error)?;
+    let columns = PyDict::new(py);
+    let units = PyDict::new(py);
+    for (name, unit, v) in out.columns {
+        columns.set_item(name, PyArray1::from_vec(py, v))?;
+        units.set_item(name, unit)?;
+    }
+    let d = PyDict::new(py);
+    d.set_item("columns", columns)?;
+    d.set_item("units", units)?;
+    d.set_item("report", out.report)?;
+    Ok(d)
+}
+
+/// The paper's indicators of a record (`docs/analysis.md`), as JSON text.
+// Keyword arguments of one Python function: a struct would only move them.
+#[allow(clippy::too_many_arguments)]
+#[pyfunction]
+#[pyo3(signature = (signal, sample_rate_hz, forcing_hz=None, reference=None, transient_s=0.0, start_s=0.0, clearance_deg=None, sampling=None))]
+fn analyze_signal(
+    py: Python<'_>,
+    signal: PyReadonlyArray1<'_, f64>,
+    sample_rate_hz: f64,
+    forcing_hz: Option<f64>,
+    reference: Option<PyReadonlyArray1<'_, f64>>,
+    transient_s: f64,
+    start_s: f64,
+    clearance_deg: Option<f64>,
+    sampling: Option<&str>,
+) -> PyResult<String> {
+    let sampling = match sampling {
+        None => Sampling::default_for(forcing_hz),
+        Some(name) => Sampling::from_name(name).ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "sampling={name:?}: use None (stroboscopic with forcing_hz, else extrema), 'stroboscopic', 'extrema' or 'uniform'"
+            ))
+        })?,
+    };
+    if sampling == Sampling::Stroboscopic && forcing_hz.is_none() {
+        return Err(PyValueError::new_err(
+            "sampling='stroboscopic' needs the forcing frequency (forcing_hz=...); or choose 'extrema' or 'uniform'",
+        ));
+    }
+    let signal = signal.as_slice()?.to_vec();
+    let reference = reference
+        .map(|r| r.as_slice().map(<[f64]>::to_vec))
+        .transpose()?;
+    let opts = RecordOptions {
+        forcing_hz,
+        sampling,
+        transient_s,
+        clearance_rad: clearance_deg.map(f64::to_radians),
+        ..RecordOptions::default()
+    };
+    let analysis = py
+        .detach(|| {
+            analyze_record(
+                &signal,
+                reference.as_deref(),
+                sample_rate_hz,
+                start_s,
+                &opts,
+            )
+        })
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    serde_json::to_string(&analysis).map_err(|e| PyRuntimeError::new_err(e.to_string()))
+}
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("SceneError", py.get_type::<SceneError>())?;
+    m.add("EngineError", py.get_type::<EngineError_>())?;
+    m.add("DEFAULT_MAP_TOML", DEFAULT_MAP_TOML)?;
+    m.add("PAPER_SCENE_TOML", PAPER_SCENE_TOML)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_function(wrap_pyfunction!(set_arg, m)?)?;
+    m.add_function(wrap_pyfunction!(check_scene, m)?)?;
+    m.add_function(wrap_pyfunction!(run_map_scene, m)?)?;
+    m.add_function(wrap_pyfunction!(run_single_scene, m)?)?;
+    m.add_function(wrap_pyfunction!(analyze_signal, m)?)?;
+    Ok(())
+}
