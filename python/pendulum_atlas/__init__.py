@@ -152,15 +152,15 @@ class _Bar:
         if enabled:
             from tqdm.auto import tqdm
 
-            self._bar = tqdm(total=1, desc=what, unit="", leave=False)
+            self._bar = tqdm(total=1, desc=what, unit="", leave=False, mininterval=0.5)
 
     def update(self, done: int, total: int, unit: str) -> None:
         if self._bar is None or total == 0:
             return
-        self._bar.total = total
-        self._bar.unit = f" {unit}"
-        self._bar.n = done
-        self._bar.refresh()
+        if self._bar.total != total:
+            self._bar.total = total
+            self._bar.unit = f" {unit}"
+        self._bar.update(done - self._bar.n)
 
     def __enter__(self) -> "_Bar":
         return self

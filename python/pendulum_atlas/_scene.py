@@ -43,6 +43,8 @@ class Scene:
             return cls(path.read_text(encoding="utf-8"), str(path))
         if not isinstance(source, str):
             raise TypeError(f"Scene.from_toml takes a path or TOML text, not {type(source).__name__}")
+        if source.strip().endswith(".toml") and "\n" not in source and "=" not in source:
+            raise FileNotFoundError(f"no scene file {source!r} (TOML text has at least one `key = value`)")
         return cls(source, "<text>")
 
     @classmethod
@@ -88,7 +90,7 @@ class Scene:
             raise ValueError("cell() takes a map scene (one with a [map] section)")
         single = Scene(self._base, f"{self._origin} (a cell of the map)")
         for name, value in coords.items():
-            single.set(_full_key(name, self._base), value)
+            single.set(_full_key(name, self._resolved), value)
         return single
 
     # -- what it is ---------------------------------------------------------------------
@@ -134,14 +136,16 @@ def _names_file(source: Any) -> bool:
     return isinstance(source, str) and "\n" not in source and len(source) < 4096 and Path(source).is_file()
 
 
-def _full_key(name: str, base_toml: str) -> str:
-    """``frequency_hz`` → ``excitation.frequency_hz`` when exactly one section of the scene
-    has that key."""
+def _full_key(name: str, map_toml: str) -> str:
+    """``frequency_hz`` → ``excitation.frequency_hz``: a short name is that of one of the
+    map's axes; any other key is given in full."""
     if "." in name:
         return name
-    table = tomllib.loads(base_toml)
-    found = [f"{section}.{name}" for section, keys in table.items() if isinstance(keys, dict) and name in keys]
+    axes = [a["key"] for a in tomllib.loads(map_toml).get("map", {}).get("axes", [])]
+    found = [k for k in axes if k.rsplit(".", 1)[-1] == name]
     if len(found) != 1:
-        where = ", ".join(found) if found else "no section"
-        raise ValueError(f"cell(): `{name}` is in {where}; give the full key, e.g. **{{'excitation.frequency_hz': 8.0}}")
+        raise ValueError(
+            f"cell(): `{name}` is not the short name of one axis of this map (axes: {', '.join(axes)}); "
+            "give other keys in full, e.g. **{'excitation.frequency_hz': 8.0}"
+        )
     return found[0]

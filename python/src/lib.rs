@@ -30,13 +30,13 @@ use std::sync::Arc;
 use std::time::Instant;
 
 create_exception!(
-    _native,
+    pendulum_atlas,
     SceneError,
     PyValueError,
     "A scene that the library refuses; the message names the key and its accepted range."
 );
 create_exception!(
-    _native,
+    pendulum_atlas,
     EngineError_,
     PyRuntimeError,
     "The engine could not run (no GPU adapter, a run too long for it, ...)."
@@ -268,7 +268,7 @@ fn simulate_work(
     let wall_time_s = started.elapsed().as_secs_f64();
     let mut warnings = run_warnings(plan, &run.outcome);
     let analysis = (run.outcome.status == Status::Ok)
-        .then(|| record_analysis(scene, &rec.rows))
+        .then(|| record_analysis(scene, plan, &rec.rows))
         .and_then(|r| {
             r.map_err(|e| warnings.push(format!("analysis of the run skipped: {e}")))
                 .ok()

@@ -69,7 +69,7 @@ pub fn run_scene<O: Observer<f32> + Observer<f64>>(
             let inst = Instance::<f64>::from_scene(scene);
             let opts = ReferenceOptions::for_stiffness(scene.modes().spectral_radius_per_s);
             let skipped = RunLyapunov::Skipped {
-                skipped: "the DOP853 reference takes adaptive steps; lambda1 comes from the fixed-step engine's twin trajectory (integrator `engine`)".into(),
+                skipped: "the DOP853 reference takes adaptive steps; lambda1 comes from the fixed-step engine's twin trajectory (--integrator engine; integrator=\"engine\" in Python)".into(),
             };
             (integrate_reference(&inst, plan, &opts, obs)?, skipped)
         }

@@ -1,0 +1,258 @@
+"""The Python package against the command line it wraps: the same scene gives the same
+arrays bit for bit, coordinates carry the axes and their units, bad scenes raise with the
+library's message, and a map folder opens as the dataset the package returns."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import threading
+import time
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import pendulum_atlas as pa
+from conftest import SMALL_MAP, gpu_backends, run_cli
+
+SETS = {"beam.segments": 2, "map.early_stop": False}
+
+
+def cli_map(tmp_path, scene_file, backend, sets=SETS):
+    out = tmp_path / f"cli_{backend}"
+    args = ["map", scene_file, "--backend", backend, "--out", out, "--quiet"]
+    for key, value in sets.items():
+        args += ["--set", f"{key}={json.dumps(value)}"]
+    run_cli(*args)
+    return out
+
+
+@pytest.mark.parametrize("backend", gpu_backends())
+def test_map_equals_the_cli_npy_files_bit_for_bit(tmp_path, small_map_file, backend):
+    out = cli_map(tmp_path, small_map_file, backend)
+    ds = pa.map(pa.Scene.from_toml(small_map_file).update(SETS), backend=backend, progress=False)
+    manifest = json.loads((out / "map.json").read_text())
+    npy = [f[:-4] for f in manifest["files"] if f.endswith(".npy") and not f.startswith("axis")]
+    assert set(npy) == set(ds.data_vars), "the same arrays"
+    for name in npy:
+        cli = np.load(out / f"{name}.npy")
+        ours = ds[name].values
+        assert ours.dtype == cli.dtype and ours.shape == cli.shape, name
+        assert ours.tobytes() == cli.tobytes(), f"{name} differs from {name}.npy"
+    assert json.loads(ds.attrs["map_json"])["backend"] == backend
+
+
+def test_coordinates_carry_the_axes_and_their_units(small_map_file):
+    ds = pa.map(pa.Scene.from_toml(small_map_file), backend="cpu", progress=False)
+    assert ds["K"].dims == ("frequency_hz", "amplitude_m")
+    np.testing.assert_array_equal(ds["frequency_hz"].values, np.linspace(5.0, 10.0, 3))
+    np.testing.assert_array_equal(ds["amplitude_m"].values, np.linspace(0.009, 0.023, 2))
+    assert ds["frequency_hz"].attrs["units"] == "Hz"
+    assert ds["frequency_hz"].attrs["key"] == "excitation.frequency_hz"
+    assert ds["amplitude_m"].attrs["units"] == "m"
+    assert ds["lyapunov"].attrs["units"] == "1/s"
+    assert ds["alpha_max_rad"].attrs["units"] == "rad"
+    meanings = dict(zip(ds["regime"].attrs["flag_meanings"].split(), ds["regime"].attrs["flag_values"]))
+    assert meanings["chaotic"] == 3 and meanings["periodic"] == 1
+    assert ds["regime"].dtype == np.int8 and ds["status"].dtype == np.uint8
+    manifest = json.loads(ds.attrs["map_json"])
+    assert manifest["shape"] == [3, 2] and ds.attrs["segments"] == 3
+
+
+def test_a_one_axis_map_with_full_keys_when_names_clash():
+    scene = pa.Scene(SMALL_MAP).set(
+        "map.axes",
+        [
+            {"key": "beam.damping_ratio", "values": [0.01, 0.02]},
+            {"key": "excitation.frequency_hz", "values": [6.0]},
+        ],
+    )
+    ds = pa.map(scene, backend="cpu", progress=False)
+    assert ds["K"].dims == ("damping_ratio", "frequency_hz")
+    assert ds["damping_ratio"].attrs["units"] == "1"
+
+
+def test_open_run_on_a_cli_folder_equals_the_package_map(tmp_path, small_map_file):
+    out = cli_map(tmp_path, small_map_file, "cpu")
+    opened = pa.open_run(out)
+    ours = pa.map(pa.Scene.from_toml(small_map_file).update(SETS), backend="cpu", progress=False)
+    xr.testing.assert_equal(opened, ours)
+    for name in ours.variables:
+        assert opened[name].attrs == ours[name].attrs, name
+    assert "K.npy" in json.loads(opened.attrs["map_json"])["files"]
+
+
+def test_open_run_of_a_merged_map_equals_the_whole_map(tmp_path, small_map_file):
+    shards = []
+    for i in range(2):
+        d = tmp_path / f"shard{i}"
+        run_cli("map", small_map_file, "--backend", "cpu", "--shard", f"{i}/2", "--out", d, "--quiet")
+        shards.append(d)
+    with pytest.raises(ValueError, match="merge the shards"):
+        pa.open_run(shards[0])
+    run_cli("merge", *shards, "--out", tmp_path / "merged")
+    whole = pa.map(pa.Scene.from_toml(small_map_file), backend="cpu", progress=False)
+    xr.testing.assert_equal(pa.open_run(tmp_path / "merged"), whole)
+
+
+def test_open_run_of_a_folder_without_a_map_says_what_it_reads(tmp_path):
+    with pytest.raises(FileNotFoundError, match="map.json"):
+        pa.open_run(tmp_path)
+
+
+@pytest.mark.parametrize(
+    "key, value, names",
+    [
+        ("beam.segments", 0, "beam.segments"),
+        ("excitation.frequency_hz", -3.0, "excitation.frequency_hz"),
+        ("beam.segmnts", 3, "beam.segmnts"),
+        ("integration.method", "euler", "integration.method"),
+    ],
+)
+def test_bad_values_raise_the_library_message_and_leave_the_scene_as_it_was(key, value, names):
+    scene = pa.Scene.paper()
+    before = scene.sets
+    with pytest.raises(pa.SceneError, match=names.replace(".", r"\.")) as err:
+        scene.set(key, value)
+    assert isinstance(err.value, ValueError)
+    assert scene.sets == before
+
+
+def test_bad_scenes_and_arguments_raise_before_any_work():
+    with pytest.raises(pa.SceneError, match="line"):
+        pa.Scene("[beam\nsegments = 3")
+    with pytest.raises(FileNotFoundError, match="no_such.toml"):
+        pa.Scene.from_toml("configs/no_such.toml")
+    with pytest.raises(TypeError, match="object"):
+        pa.Scene.paper().set("beam.segments", object())
+    with pytest.raises(pa.SceneError, match=r"no \[map\] section"):
+        pa.map(pa.Scene.paper())
+    with pytest.raises(pa.SceneError, match=r"\[map\] section"):
+        pa.simulate(pa.Scene.default_map())
+    with pytest.raises(ValueError, match="backend"):
+        pa.map(pa.Scene(SMALL_MAP), backend="tpu", progress=False)
+    with pytest.raises(ValueError, match="precision"):
+        pa.map(pa.Scene(SMALL_MAP), precision="f16", progress=False)
+    with pytest.raises(pa.EngineError, match="f32"):
+        pa.map(pa.Scene(SMALL_MAP), backend="gpu", precision="f64", progress=False)
+    with pytest.raises(pa.EngineError, match="f64"):
+        pa.simulate(pa.Scene.paper(), integrator="reference", precision="f32")
+
+
+def test_a_scene_round_trips_through_its_toml_and_cli_arguments(tmp_path):
+    scene = pa.Scene.default_map().set("beam.segments", 4).set("integration.duration_s", 40.0)
+    assert scene.cli_args() == ["--set", "beam.segments=4", "--set", "integration.duration_s=40.0"]
+    with pytest.raises(pa.SceneError, match="axis of this map"):
+        scene.set("excitation.amplitude_m", 0.01)
+    again = pa.Scene(scene.to_toml())
+    assert again.to_toml() == scene.to_toml()
+    cell = scene.cell(frequency_hz=8.0)
+    assert not cell.is_map and "frequency_hz = 8.0" in cell.to_toml()
+
+
+def test_simulate_equals_the_cli_trajectory_and_its_analysis(tmp_path):
+    sets = {"beam.segments": 3, "integration.duration_s": 20.0, "integration.transient_s": 5.0}
+    out = tmp_path / "sim"
+    run_cli("simulate", *[a for k, v in sets.items() for a in ("--set", f"{k}={v}")], "--out", out)
+    ds = pa.simulate(pa.Scene.paper().update(sets), progress=False)
+    csv = np.genfromtxt(out / "trajectory.csv", delimiter=",", names=True)
+    np.testing.assert_array_equal(ds["time"].values, csv["t_s"])
+    for name in csv.dtype.names[1:]:
+        np.testing.assert_array_equal(ds[name].values, csv[name], err_msg=name)
+    report = json.loads((out / "run.json").read_text())
+    assert ds.attrs["K"] == report["analysis"]["zero_one"]["K"]
+    assert ds.attrs["R"] == report["analysis"]["phase_sync"]["R"]
+    assert ds.attrs["lambda1_per_s"] == report["lyapunov"]["per_s"]
+    assert ds["alpha_rad"].attrs["units"] == "rad" and ds["time"].attrs["units"] == "s"
+
+
+def test_analyze_of_a_run_equals_the_runs_own_analysis():
+    scene = pa.Scene.paper().update({"beam.segments": 3, "integration.duration_s": 20.0, "integration.transient_s": 5.0})
+    ds = pa.simulate(scene, progress=False)
+    got = pa.analyze(
+        ds["alpha_rad"].values,
+        sample_rate_hz=1.0 / float(ds["time"][1] - ds["time"][0]),
+        forcing_hz=8.0,
+        reference=ds["x0_m"].values,
+        transient_s=5.0,
+        clearance_deg=20.0,
+    )
+    run = json.loads(ds.attrs["run_json"])["analysis"]
+    assert got["zero_one"]["K"] == run["zero_one"]["K"]
+    assert got["phase_sync"]["R"] == run["phase_sync"]["R"]
+    assert got["statistics"]["hops"] == run["statistics"]["hops"]
+
+
+def test_analyze_tells_a_locked_sine_from_noise():
+    rate, f = 200.0, 4.0
+    t = np.arange(0, 60, 1 / rate)
+    cart = np.sin(2 * np.pi * f * t)
+    locked = pa.analyze(0.3 * np.sin(2 * np.pi * f * t + 0.4), rate, forcing_hz=f, reference=cart)
+    assert locked["statistics"]["period"] == 1
+    assert locked["phase_sync"]["R"] > 0.99
+    assert locked["zero_one"]["K"] < 0.2
+    noise = np.random.default_rng(7).standard_normal(t.size)
+    random = pa.analyze(noise, rate, forcing_hz=f)
+    assert random["zero_one"]["K"] > 0.8
+    with pytest.raises(ValueError, match="forcing"):
+        pa.analyze(noise, rate, sampling="stroboscopic")
+    with pytest.raises(ValueError, match="shape"):
+        pa.analyze(noise, rate, reference=noise[:10])
+
+
+def test_a_progress_callback_that_raises_stops_the_map_and_the_next_map_runs():
+    from pendulum_atlas import _native
+
+    scene = pa.Scene(SMALL_MAP).set(
+        "map.axes", [{"key": "excitation.frequency_hz", "start": 4.0, "end": 12.0, "count": 64}]
+    ).set("integration.duration_s", 60.0)
+    seen = []
+
+    def stop(done, total, unit):
+        seen.append((done, total, unit))
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        _native.run_map_scene(scene.text, scene.origin, scene.sets, "cpu", None, stop)
+    assert seen and seen[0][0] < seen[0][1], "interrupted before the end"
+    assert pa.map(pa.Scene(SMALL_MAP), backend="cpu", progress=False)["K"].size == 6
+
+
+def test_ctrl_c_interrupts_a_running_map():
+    scene = pa.Scene(SMALL_MAP).set(
+        "map.axes", [{"key": "excitation.frequency_hz", "start": 4.0, "end": 12.0, "count": 256}]
+    ).set("integration.duration_s", 100.0)
+    timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    started = time.monotonic()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            pa.map(scene, backend="cpu", progress=False)
+    finally:
+        timer.cancel()
+    assert time.monotonic() - started >= 0.5
+
+
+def test_the_progress_bar_reaches_the_end(capsys):
+    pa.map(pa.Scene(SMALL_MAP), backend="cpu", progress=True)
+    # tqdm writes to stderr; the bar is left off the screen when it closes.
+    assert "map" in capsys.readouterr().err
+
+
+def test_other_threads_run_while_the_engine_works():
+    scene = pa.Scene(SMALL_MAP).set(
+        "map.axes", [{"key": "excitation.frequency_hz", "start": 4.0, "end": 12.0, "count": 128}]
+    ).set("integration.duration_s", 60.0)
+    finished = threading.Event()
+    worker = threading.Thread(target=lambda: (pa.map(scene, backend="cpu", progress=False), finished.set()))
+    worker.start()
+    ticks = 0
+    while not finished.is_set() and worker.is_alive():
+        ticks += 1
+        time.sleep(0.001)
+    worker.join()
+    assert finished.is_set(), "the map ran to its end"
+    # Were the interpreter's lock held for the whole map, this loop would not run until the end.
+    assert ticks >= 50, f"the main thread ran {ticks} times while the map ran"
