@@ -184,6 +184,11 @@ pub fn run_cpu_throughput(
     opts: &CpuThroughputOptions,
     progress: &dyn Fn(&str),
 ) -> Result<CpuThroughputReport, CpuThroughputError> {
+    // The peers' results are read first: a bad --peers costs nothing.
+    let peers = match &opts.peers {
+        Some(dir) => read_peers(dir)?,
+        None => Vec::new(),
+    };
     let t0 = Instant::now();
     let threads = rayon::current_num_threads();
     let mut flops = Vec::new();
@@ -195,10 +200,6 @@ pub fn run_cpu_throughput(
         flops.push(count);
     }
     let default_map = default_map_rows(opts, progress)?;
-    let peers = match &opts.peers {
-        Some(dir) => read_peers(dir)?,
-        None => Vec::new(),
-    };
     Ok(CpuThroughputReport {
         machine: super::machine(opts.gpu),
         ceiling: ceiling(threads),

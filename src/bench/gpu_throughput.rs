@@ -242,6 +242,11 @@ pub fn run_throughput(
     opts: &ThroughputOptions,
     progress: &dyn Fn(&str),
 ) -> Result<ThroughputReport, ThroughputError> {
+    // The peers' results are read first: a bad --peers costs nothing.
+    let peers = match &opts.peers {
+        Some(dir) => read_peers(dir)?,
+        None => Vec::new(),
+    };
     let t0 = Instant::now();
     let cpu = Engine::cpu_with(Precision::F32, CpuLoop::Simd);
     let engines: Vec<&Engine> = opts
@@ -282,10 +287,6 @@ pub fn run_throughput(
     for engine in &engines {
         metrics.extend(metric_rows(engine, opts, &rows, progress)?);
     }
-    let peers = match &opts.peers {
-        Some(dir) => read_peers(dir)?,
-        None => Vec::new(),
-    };
     Ok(ThroughputReport {
         machine: super::machine(opts.gpu),
         adapter: opts.gpu.map(|g| g.info().device.clone()),

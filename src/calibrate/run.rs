@@ -54,6 +54,14 @@ impl CalibrationRun {
     pub fn best(&self) -> &Candidate {
         &self.candidates[self.ranking[0]]
     }
+
+    /// Whether any run of any candidate ended ok, so that something could be judged.
+    pub fn usable(&self) -> bool {
+        self.candidates
+            .iter()
+            .flat_map(|c| c.judgements.iter().flatten())
+            .any(|j| j.distance.is_finite())
+    }
 }
 
 /// Errors of a calibration run.

@@ -334,7 +334,7 @@ pub fn run(a: AnalyzeArgs) -> anyhow::Result<()> {
     let mut msgs = Messages::default();
     let record = uniform_record(&a, &table, &mut msgs)?;
     let opts = record_options(&a, &mut msgs)?;
-    super::claim_out(Product::Analyze, &a.out, a.force)?;
+    super::claim_out_reading(Product::Analyze, &a.out, a.force, &[&a.data])?;
     let mut result = analyze_record(
         &record.signal,
         record.reference.as_deref(),

@@ -33,7 +33,7 @@ pub struct CalibrateArgs {
 pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
     let spec = load_calibration(&a.scene, &a.sets)?;
     let engine = a.engine.open()?;
-    super::claim_out(Product::Calibrate, &a.out, a.force)?;
+    super::claim_out_reading(Product::Calibrate, &a.out, a.force, &[&a.scene])?;
     let bar = super::progress_bar(
         a.quiet,
         "{spinner} calibrate [{bar:40}] {pos}/{len} {elapsed_precise}",
@@ -70,5 +70,13 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
         values.join(", ")
     );
     println!("wrote {} files to {}", files.len(), a.out.display());
+    if !run.usable() {
+        return Err(super::RunFailed(format!(
+            "no run of any of the {} candidates ended ok (every one diverged, turned non-finite or escaped): nothing could be compared with the observations; see candidates.csv in {}",
+            run.candidates.len(),
+            a.out.display()
+        ))
+        .into());
+    }
     Ok(())
 }

@@ -83,7 +83,8 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
     } else {
         Product::Map
     };
-    super::claim_out(product, &a.out, a.force)?;
+    let inputs: Vec<&std::path::Path> = a.scene.iter().map(|p| p.as_path()).collect();
+    super::claim_out_reading(product, &a.out, a.force, &inputs)?;
     let bar = super::progress_bar(
         a.quiet,
         "{spinner} {msg} [{bar:40}] {pos}/{len} {elapsed_precise} (eta {eta})",
@@ -115,7 +116,8 @@ fn run_on_devices(a: &MapArgs, devices: &str, spec: &MapSpec) -> anyhow::Result<
         .iter()
         .map(|&i| Engine::gpu_adapter(i).map_err(hint))
         .collect::<Result<_, _>>()?;
-    super::claim_out(Product::Map, &a.out, a.force)?;
+    let inputs: Vec<&std::path::Path> = a.scene.iter().map(|p| p.as_path()).collect();
+    super::claim_out_reading(Product::Map, &a.out, a.force, &inputs)?;
     if !a.quiet {
         eprintln!(
             "map of {} instances over {} devices: {}",

@@ -85,7 +85,21 @@ pub enum Command {
 /// Make `out` the command's output folder before any work (see `output::folder`): refused when
 /// it holds an earlier run, unless `force`, which deletes that run's files (and says so).
 fn claim_out(product: Product, out: &Path, force: bool) -> anyhow::Result<()> {
-    let cleared = product.claim(out, force)?;
+    claim_out_reading(product, out, force, &[])
+}
+
+/// [`claim_out`] for a command that reads `inputs`, refused when one of them would be
+/// deleted or overwritten as an output.
+fn claim_out_reading(
+    product: Product,
+    out: &Path,
+    force: bool,
+    inputs: &[&Path],
+) -> anyhow::Result<()> {
+    product.refuse_inputs(out, inputs)?;
+    let (lock, cleared) = product.claim(out, force)?;
+    // Held until the process ends: no other run writes into `out` meanwhile.
+    std::mem::forget(lock);
     if cleared > 0 {
         eprintln!(
             "--force: deleted {cleared} file(s) of an earlier `{}` run in {}",

@@ -36,7 +36,8 @@ pub fn run(a: SearchArgs) -> anyhow::Result<()> {
         |p| p.display().to_string(),
     );
     let engine = a.engine.open()?;
-    super::claim_out(Product::Search, &a.out, a.force)?;
+    let inputs: Vec<&std::path::Path> = a.scene.iter().map(|p| p.as_path()).collect();
+    super::claim_out_reading(Product::Search, &a.out, a.force, &inputs)?;
     let bar = super::progress_bar(
         a.quiet,
         "{spinner} {msg} [{bar:40}] {pos}/{len} {elapsed_precise} (eta {eta})",
@@ -99,5 +100,13 @@ pub fn run(a: SearchArgs) -> anyhow::Result<()> {
         );
     }
     println!("wrote {} files to {}", files.len(), a.out.display());
+    if !run.usable() {
+        return Err(super::RunFailed(format!(
+            "no instance of any of the {} designs ended ok (every one diverged, turned non-finite or escaped): the ranking means nothing; see designs.csv in {}",
+            run.designs.len(),
+            a.out.display()
+        ))
+        .into());
+    }
     Ok(())
 }

@@ -82,7 +82,8 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     let plan = StepPlan::for_scene(&scene);
     let piezo = scene.piezo_params();
     let size = run_size(&scene, &plan, piezo.is_some(), &a.out)?;
-    super::claim_out(Product::Simulate, &a.out, a.force)?;
+    let inputs: Vec<&std::path::Path> = a.scene.scene.iter().map(|p| p.as_path()).collect();
+    super::claim_out_reading(Product::Simulate, &a.out, a.force, &inputs)?;
     announce(&plan, a.integrator, &size);
     let (rec, run, wall) = integrate_with_progress(&a, &scene, &plan)?;
     let csv_path = a.out.join("trajectory.csv");
@@ -91,7 +92,7 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     let analysis = if run.outcome.status != Status::Ok {
         None
     } else {
-        analyse_run(&scene, &rec.rows, &a.out)
+        analyse_run(&scene, &plan, &rec.rows, &a.out)
             .map_err(|e| warnings.push(format!("analysis of the run skipped: {e:#}")))
             .ok()
     };
@@ -249,26 +250,31 @@ fn progress_bar(plan: &StepPlan, segments: usize, integ: IntegratorChoice) -> Op
 /// The paper's analysis of one run: holder angle against cart position, after the transient.
 fn analyse_run(
     scene: &Scene,
+    plan: &StepPlan,
     rows: &[Row],
     out: &std::path::Path,
 ) -> anyhow::Result<RecordAnalysis> {
-    let rate = scene.output.sample_rate_hz;
+    let rate = plan.row_rate_hz;
     let alpha: Vec<f64> = rows.iter().map(|r| r.alpha_rad).collect();
     let cart: Vec<f64> = rows.iter().map(|r| r.x0_m).collect();
-    let r = record_analysis(scene, rows)?;
+    let r = record_analysis(scene, plan, rows)?;
     super::report::write_analysis(out, &r, &alpha, Some(&cart), rate, 0.0)?;
-    time_series_figure(scene, rows, out)?;
+    time_series_figure(scene, rate, rows, out)?;
     Ok(r)
 }
 
 /// The paper's Figs. 3–5 for one run: cart, holder angle and chord reduction with the spectra.
-fn time_series_figure(scene: &Scene, rows: &[Row], out: &std::path::Path) -> anyhow::Result<()> {
+fn time_series_figure(
+    scene: &Scene,
+    rate: f64,
+    rows: &[Row],
+    out: &std::path::Path,
+) -> anyhow::Result<()> {
     let t: Vec<f64> = rows.iter().map(|r| r.t_s).collect();
     let col = |f: fn(&Row) -> f64| -> Vec<f64> { rows.iter().map(f).collect() };
     let x0 = col(|r| r.x0_m * 1e3);
     let alpha = col(|r| r.alpha_rad);
     let chord = col(|r| r.chord_m * 1e3);
-    let rate = scene.output.sample_rate_hz;
     let skip = ((scene.integration.transient_s * rate).ceil() as usize).min(rows.len());
     let spec_a = pendulum_atlas::analysis::amplitude_spectrum(&alpha[skip..], rate)?;
     let spec_c = pendulum_atlas::analysis::amplitude_spectrum(&chord[skip..], rate)?;

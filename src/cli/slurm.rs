@@ -57,13 +57,18 @@ pub fn run(a: SlurmArgs) -> anyhow::Result<()> {
             a.gpus_per_shard
         );
     }
-    super::claim_out(Product::Slurm, &a.out, a.force)?;
     let job = job(&a)?;
+    let (array, merge, submit) = (
+        job.array_script()?,
+        job.merge_script()?,
+        job.submit_commands()?,
+    );
+    let inputs: Vec<&std::path::Path> = a.scene.iter().map(|p| p.as_path()).collect();
+    super::claim_out_reading(Product::Slurm, &a.out, a.force, &inputs)?;
     create_dir(&job.dir.join("logs"))?;
     write_bytes(&job.dir.join("scene.toml"), text.as_bytes())?;
-    write_bytes(&job.dir.join("array.sbatch"), job.array_script().as_bytes())?;
-    write_bytes(&job.dir.join("merge.sbatch"), job.merge_script().as_bytes())?;
-    let submit = job.submit_commands();
+    write_bytes(&job.dir.join("array.sbatch"), array.as_bytes())?;
+    write_bytes(&job.dir.join("merge.sbatch"), merge.as_bytes())?;
     println!(
         "{} shards of {} instances; scripts in {}",
         a.shards,

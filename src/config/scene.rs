@@ -324,6 +324,7 @@ fn read_scene(r: &mut Reader) -> Result<Scene, ConfigError> {
     };
     let integration = read_integration(r)?;
     let excitation = read_excitation(r, integration.duration_s)?;
+    check_step_resolves_forcing(&integration, &excitation)?;
     let piezo = read_piezo(r, beam.segments)?;
     let output = Output {
         sample_rate_hz: r.number("output.sample_rate_hz", 1000.0, Range::Positive, "Hz")?,
@@ -354,6 +355,32 @@ fn read_scene(r: &mut Reader) -> Result<Scene, ConfigError> {
         output,
         initial,
         notes: Vec::new(),
+    })
+}
+
+/// A given step must sample the forcing above its Nyquist rate, two steps per period of the
+/// highest forcing frequency: slower, the cart's motion aliases (at one step per half period
+/// the cart is at rest at every step, and the run is "ok").
+fn check_step_resolves_forcing(i: &Integration, e: &Excitation) -> Result<(), ConfigError> {
+    let TimeStep::Seconds(dt) = i.dt_s else {
+        return Ok(());
+    };
+    let f_max = match e.kind {
+        ExcitationKind::Harmonic { frequency_hz } => frequency_hz,
+        ExcitationKind::Sweep {
+            start_hz, end_hz, ..
+        } => start_hz.max(end_hz),
+    };
+    if dt * f_max < 0.5 {
+        return Ok(());
+    }
+    Err(ConfigError::Inconsistent {
+        key: "integration.dt_s".into(),
+        reason: format!(
+            "dt = {dt:e} s takes {:.3} steps per forcing period at {f_max} Hz, below the 2 that resolve the cart's motion at all (dt < {:e} s) and far below what an accurate run takes: shorten integration.dt_s or set it to \"auto\"",
+            1.0 / (dt * f_max),
+            0.5 / f_max
+        ),
     })
 }
 

@@ -470,13 +470,13 @@ fn attach_imex_matrices(instances: &mut [InstancePlan]) -> usize {
     built.len()
 }
 
-/// Steps per forcing period: a multiple of `samples_per_period` near the method's automatic
-/// step `dt_auto_s` (or the given step).
+/// Steps per forcing period: a multiple of `samples_per_period` whose step is at most the
+/// method's automatic step `dt_auto_s` (or the given step): the step is only ever shortened.
 fn steps_per_period(opts: &EnsembleOptions, scene: &Scene, period_s: f64, dt_auto_s: f64) -> u64 {
     let sp = u64::from(opts.samples_per_period);
     let blocks = match scene.integration.dt_s {
         TimeStep::Auto => (period_s / (sp as f64 * dt_auto_s) - 1e-9).ceil().max(1.0),
-        TimeStep::Seconds(dt) => (period_s / (sp as f64 * dt)).round().max(1.0),
+        TimeStep::Seconds(dt) => (period_s / (sp as f64 * dt) - 1e-9).ceil().max(1.0),
     } as u64;
     sp * blocks
 }

@@ -28,6 +28,10 @@ pub struct StepPlan {
     pub steps: u64,
     /// Steps between output rows (the output interval is `sample_every · dt_s`).
     pub sample_every: u64,
+    /// The rate of the rows as written (Hz): `output.sample_rate_hz`, unless a given step
+    /// does not divide the output interval, when it is `1/(sample_every · dt_s)`. The
+    /// analysis of a run reads its rows at this rate.
+    pub row_rate_hz: f64,
     /// Where dt came from.
     pub dt_source: DtSource,
     /// Largest stable RK4 step of the linearised model (s).
@@ -65,7 +69,14 @@ impl StepPlan {
                 (dt, every, DtSource::Given)
             }
         };
+        let interval = sample_every as f64 * dt_s;
+        let row_rate_hz = if (interval - out_dt).abs() <= 1e-9 * out_dt {
+            scene.output.sample_rate_hz
+        } else {
+            1.0 / interval
+        };
         StepPlan {
+            row_rate_hz,
             method: chosen.method,
             method_reason: chosen.reason,
             dt_s,

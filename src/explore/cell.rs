@@ -8,7 +8,7 @@
 use super::error::ExploreError;
 use super::folder::{RunFolder, Source};
 use super::search_folder::split_variant;
-use crate::analysis::{RecordAnalysis, analyze_record, stroboscopic};
+use crate::analysis::{RecordAnalysis, stroboscopic};
 use crate::config::{Scene, set_key};
 use crate::engine::{EnsembleOptions, EnsemblePlan, Instance, Outcome, StepPlan, integrate};
 use crate::model::Status;
@@ -215,7 +215,7 @@ pub fn run_cell(
     let alpha: Vec<f64> = rec.rows.iter().map(|r| r.alpha_rad).collect();
     let cart: Vec<f64> = rec.rows.iter().map(|r| r.x0_m).collect();
     let mut warnings = plan.warnings.clone();
-    let analysis = analyse(scene, &outcome, &alpha, &cart, &mut warnings);
+    let analysis = analyse(scene, &plan, &outcome, &rec.rows, &mut warnings);
     let forcing_hz = scene.excitation.reference_frequency_hz();
     let rows = &rec.rows;
     let skip = rows.partition_point(|r| r.t_s < scene.integration.transient_s);
@@ -273,17 +273,16 @@ fn record(
 /// `simulate`'s analysis of a run that ended ok; why not, in `warnings`, otherwise.
 fn analyse(
     scene: &Scene,
+    plan: &StepPlan,
     outcome: &Outcome,
-    alpha: &[f64],
-    cart: &[f64],
+    rows: &[crate::output::Row],
     warnings: &mut Vec<String>,
 ) -> Option<RecordAnalysis> {
     if outcome.status != Status::Ok {
         warnings.push(format!("the run stopped with status `{}`", outcome.status));
         return None;
     }
-    let rate = scene.output.sample_rate_hz;
-    match analyze_record(alpha, Some(cart), rate, 0.0, &scene.record_options()) {
+    match crate::output::record_analysis(scene, plan, rows) {
         Ok(a) => {
             warnings.extend(a.warnings.iter().cloned());
             Some(a)

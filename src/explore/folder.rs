@@ -83,6 +83,21 @@ pub struct RunFolder {
 }
 
 impl RunFolder {
+    /// The path of picture `name` when it may be served: listed in the manifest, a `.png`,
+    /// a regular file (not a link) that resolves inside the folder.
+    pub fn served_path(&self, name: &str) -> Option<PathBuf> {
+        if !name.ends_with(".png") || !self.files.iter().any(|f| f == name) {
+            return None;
+        }
+        let path = self.dir.join(name);
+        let meta = std::fs::symlink_metadata(&path).ok()?;
+        let inside = path
+            .canonicalize()
+            .ok()?
+            .starts_with(self.dir.canonicalize().ok()?);
+        (meta.file_type().is_file() && inside).then_some(path)
+    }
+
     /// Read `dir`, refusing a folder that is not a complete map, calibration or search.
     pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         if !dir.is_dir() {

@@ -237,11 +237,9 @@ async fn job(State(app): Shared, Path(j): Path<String>) -> Result<Response, Expl
 }
 
 async fn file(State(app): Shared, Path(name): Path<String>) -> Result<Response, ExploreError> {
-    let f = &app.folder;
-    if !name.ends_with(".png") || !f.files.contains(&name) {
+    let Some(path) = app.folder.served_path(&name) else {
         return Err(ExploreError::NotServed(name));
-    }
-    let path = f.dir.join(&name);
+    };
     let bytes = tokio::task::spawn_blocking(move || std::fs::read(path))
         .await
         .ok()

@@ -126,7 +126,15 @@ pub struct SearchRun {
 }
 
 impl SearchRun {
-    /// The best design.
+    /// Whether any instance of any design ended ok (every design failing leaves nothing to
+    /// rank).
+    pub fn usable(&self) -> bool {
+        self.designs
+            .iter()
+            .any(|d| d.failed < d.power_w.iter().map(Vec::len).sum::<usize>())
+    }
+
+    /// The best design by the ranking.
     pub fn best(&self) -> &DesignResult {
         &self.designs[self.ranking[0]]
     }

@@ -76,6 +76,28 @@ pub enum OutputError {
         /// The command asked to write there.
         command: &'static str,
     },
+    /// Another run is writing into the output folder.
+    #[error(
+        "--out `{dir}` is in use by another run that is still writing there: wait for it to end, or choose another folder for this `{command}` run"
+    )]
+    Busy {
+        /// The folder.
+        dir: String,
+        /// The command asked to write there.
+        command: &'static str,
+    },
+    /// An input of the run lies in the output folder under a name the command writes.
+    #[error(
+        "`{input}` is an input of this run, and `{command}` writes a file of that name into --out `{dir}` (--force would delete it, the run overwrite it): choose another --out, or move the input"
+    )]
+    InputIsOutput {
+        /// The input file.
+        input: String,
+        /// The command.
+        command: &'static str,
+        /// The output folder.
+        dir: String,
+    },
     /// A picture could not be drawn.
     #[error("cannot draw `{path}`: {source}")]
     Render {

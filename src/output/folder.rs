@@ -7,7 +7,9 @@
 //! - a folder holding another command's manifest (say `map.json` where `simulate` is asked to
 //!   write) is refused even with `--force`: the two runs would mix.
 //!
-//! The check runs before any work, so a bad `--out` costs nothing.
+//! The check runs before any work, so a bad `--out` costs nothing. A run holds an advisory
+//! lock on its folder ([`FolderLock`], the file `.pendulum-atlas.lock`) from the check to its
+//! exit, so that a second run into the same folder is refused instead of mixing its files in.
 
 use super::error::OutputError;
 use std::path::{Path, PathBuf};
@@ -194,17 +196,23 @@ impl Product {
         Ok(found)
     }
 
-    /// Make `dir` this product's: create it, or check that it holds no earlier run (see the
-    /// module's rules); with `force`, delete the files this product writes there. Returns the
-    /// number of files deleted.
-    pub fn claim(self, dir: &Path, force: bool) -> Result<usize, OutputError> {
+    /// Make `dir` this product's: create it and lock it for this run, then check that it
+    /// holds no earlier run (see the module's rules); with `force`, delete the files this
+    /// product writes there. Returns the lock, to hold until the run ends, and the number of
+    /// files deleted.
+    pub fn claim(self, dir: &Path, force: bool) -> Result<(FolderLock, usize), OutputError> {
         if dir.exists() && !dir.is_dir() {
             return Err(OutputError::NotAFolder(dir.display().to_string()));
         }
         if !dir.exists() {
             super::files::create_dir(dir)?;
-            return Ok(0);
         }
+        let lock = FolderLock::take(dir, self.command())?;
+        Ok((lock, self.clear(dir, force)?))
+    }
+
+    /// The check of [`Product::claim`] on a locked folder.
+    fn clear(self, dir: &Path, force: bool) -> Result<usize, OutputError> {
         if let Some(other) = self.foreign_manifest(dir) {
             return Err(OutputError::OtherRun {
                 dir: dir.display().to_string(),
@@ -231,12 +239,64 @@ impl Product {
         Ok(ours.len())
     }
 
+    /// Refuse `inputs` (files the command reads) that lie in `dir` under a name this product
+    /// writes: an input is never an output. Call it before [`Product::claim`].
+    pub fn refuse_inputs(self, dir: &Path, inputs: &[&Path]) -> Result<(), OutputError> {
+        let Ok(out) = dir.canonicalize() else {
+            return Ok(()); // a folder still to be made holds no input
+        };
+        for input in inputs {
+            let Ok(p) = input.canonicalize() else {
+                continue;
+            };
+            if p.parent() == Some(out.as_path()) && file_name(&p).is_some_and(|n| self.writes(&n)) {
+                return Err(OutputError::InputIsOutput {
+                    input: input.display().to_string(),
+                    command: self.command(),
+                    dir: dir.display().to_string(),
+                });
+            }
+        }
+        Ok(())
+    }
+
     /// Another command's manifest in `dir`, if any.
     fn foreign_manifest(self, dir: &Path) -> Option<Product> {
         Product::ALL
             .into_iter()
             .filter(|p| p.command() != self.command())
             .find(|p| dir.join(p.manifest()).is_file())
+    }
+}
+
+/// The advisory lock of an output folder, held by a run from its check to its end (the lock
+/// goes with the process, however it ends).
+#[derive(Debug)]
+pub struct FolderLock {
+    _file: std::fs::File,
+}
+
+/// The lock file of an output folder.
+pub const LOCK_FILE: &str = ".pendulum-atlas.lock";
+
+impl FolderLock {
+    /// Lock `dir` (which exists) for a run of `command`; refused while another run holds it.
+    pub fn take(dir: &Path, command: &'static str) -> Result<FolderLock, OutputError> {
+        let path = dir.join(LOCK_FILE);
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&path)
+            .map_err(|e| OutputError::io(&path, e))?;
+        match file.try_lock() {
+            Ok(()) => Ok(FolderLock { _file: file }),
+            Err(std::fs::TryLockError::WouldBlock) => Err(OutputError::Busy {
+                dir: dir.display().to_string(),
+                command,
+            }),
+            Err(std::fs::TryLockError::Error(e)) => Err(OutputError::io(&path, e)),
+        }
     }
 }
 
@@ -280,6 +340,18 @@ fn examples(paths: &[PathBuf], manifest: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_folder_claimed_by_a_run_is_refused_to_a_second_until_the_first_ends() {
+        let dir = std::env::temp_dir().join(format!("pa-lock-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let (first, _) = Product::Map.claim(&dir, false).unwrap();
+        let e = Product::Map.claim(&dir, true).unwrap_err().to_string();
+        assert!(e.contains("in use by another run"), "{e}");
+        drop(first);
+        assert!(Product::Map.claim(&dir, false).is_ok());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn temporary_files_count_as_their_target() {

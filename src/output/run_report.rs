@@ -124,11 +124,21 @@ pub fn run_warnings(plan: &StepPlan, outcome: &Outcome) -> Vec<String> {
     warnings
 }
 
-/// The paper's analysis of a run: the holder angle α against the cart position x0, sampled
-/// at the scene's output rate, after its transient (`docs/analysis.md`).
-pub fn record_analysis(scene: &Scene, rows: &[Row]) -> Result<RecordAnalysis, AnalysisError> {
+/// The paper's analysis of a run: the holder angle α against the cart position x0, read at
+/// the rate its rows were written ([`StepPlan::row_rate_hz`]), after its transient
+/// (`docs/analysis.md`).
+pub fn record_analysis(
+    scene: &Scene,
+    plan: &StepPlan,
+    rows: &[Row],
+) -> Result<RecordAnalysis, AnalysisError> {
     let alpha: Vec<f64> = rows.iter().map(|r| r.alpha_rad).collect();
     let cart: Vec<f64> = rows.iter().map(|r| r.x0_m).collect();
-    let rate = scene.output.sample_rate_hz;
-    analyze_record(&alpha, Some(&cart), rate, 0.0, &scene.record_options())
+    analyze_record(
+        &alpha,
+        Some(&cart),
+        plan.row_rate_hz,
+        0.0,
+        &scene.record_options(),
+    )
 }

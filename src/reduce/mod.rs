@@ -97,6 +97,62 @@ impl InstanceResult {
         }
     }
 
+    /// The rules every result of the engines obeys (a shard row read back is held to them):
+    /// a failed instance carries no number and the verdict `failed`; an `ok` one carries a
+    /// finite value of every metric in `metrics`, and every value it carries lies in its
+    /// range (K in [−1, 1], R and the confidence in [0, 1], whole periods; hops, rates,
+    /// power, line and λ1's error non-negative, α's minimum at most its maximum).
+    pub fn check(&self, metrics: &[crate::config::Metric]) -> Result<(), String> {
+        let fields = [
+            ("K", self.k),
+            ("R", self.r),
+            ("period", self.period),
+            ("hops", self.hops),
+            ("impacts_per_s", self.impacts_per_s),
+            ("alpha_min_rad", self.alpha_min_rad),
+            ("alpha_max_rad", self.alpha_max_rad),
+            ("power_w", self.power_w),
+            ("line_ratio", self.line),
+            ("lyapunov", self.lyapunov_per_s),
+            ("lyapunov_se", self.lyapunov_se_per_s),
+            ("regime_confidence", self.regime_confidence),
+        ];
+        if !self.status.is_ok() {
+            if let Some((name, v)) = fields.iter().find(|(_, v)| !v.is_nan()) {
+                return Err(format!("status `{}` but {name} = {v}", self.status));
+            }
+            if self.regime != Regime::Failed {
+                return Err(format!(
+                    "status `{}` but regime `{}`",
+                    self.status,
+                    self.regime.name()
+                ));
+            }
+            return Ok(());
+        }
+        if self.regime == Regime::Failed {
+            return Err("status `ok` but regime `failed`".into());
+        }
+        for m in metrics {
+            let v = self.metric(*m);
+            if !v.is_finite() {
+                return Err(format!("status `ok` but {} = {v}", m.name()));
+            }
+        }
+        for (name, v) in fields.iter().filter(|(_, v)| !v.is_nan()) {
+            if !value_in_range(name, *v) {
+                return Err(format!("{name} = {v} is outside its range"));
+            }
+        }
+        if self.alpha_min_rad > self.alpha_max_rad {
+            return Err(format!(
+                "alpha_min_rad = {} above alpha_max_rad = {}",
+                self.alpha_min_rad, self.alpha_max_rad
+            ));
+        }
+        Ok(())
+    }
+
     /// Set the verdict and its confidence from this result's λ1, period and K
     /// ([`verdict`]); `period_s` is the forcing period, `k_samples` the stroboscopic samples
     /// K comes from.
@@ -133,6 +189,21 @@ impl InstanceResult {
             Metric::Lyapunov => self.lyapunov_per_s,
             Metric::Regime => f64::from(self.regime.code()),
         }
+    }
+}
+
+/// Whether `v` can be the value of result field `name` ([`InstanceResult::check`]).
+fn value_in_range(name: &str, v: f64) -> bool {
+    let whole = v.fract() == 0.0;
+    match name {
+        "K" => (-1.0..=1.0).contains(&v),
+        "R" | "regime_confidence" => (0.0..=1.0).contains(&v),
+        "period" => v >= 0.0 && whole && v.is_finite(),
+        "hops" | "impacts_per_s" | "power_w" | "line_ratio" | "lyapunov_se" => {
+            v >= 0.0 && v.is_finite()
+        }
+        "alpha_min_rad" | "alpha_max_rad" => v.abs() <= std::f64::consts::PI,
+        _ => v.is_finite(),
     }
 }
 

@@ -229,7 +229,15 @@ pub fn read_shard(dir: &Path) -> Result<ShardData, ShardReadError> {
     })
 }
 
+/// A shard row as a result; its index, codes and steps must be whole numbers.
 fn result_of(r: &[f64]) -> Result<InstanceResult, String> {
+    for (col, name) in [(0, "index"), (10, "status"), (11, "steps"), (14, "regime")] {
+        let v = r[col];
+        let whole = v.is_finite() && v.fract() == 0.0 && (name == "regime" || v >= 0.0);
+        if !whole {
+            return Err(format!("a row's {name} is {v}, not a whole number"));
+        }
+    }
     let status = Status::from_code(r[10] as u32)
         .ok_or_else(|| format!("row of instance {}: unknown status code {}", r[0], r[10]))?;
     let regime = Regime::from_code(r[14] as i64)

@@ -49,6 +49,18 @@ pub enum MergeError {
         /// Number of shards.
         count: u32,
     },
+    /// A shard row that no engine could have written.
+    #[error(
+        "`{dir}`: the row of instance {instance} cannot be a result: {reason}; rerun that shard"
+    )]
+    BadRow {
+        /// The shard folder.
+        dir: String,
+        /// The row's instance.
+        instance: usize,
+        /// What is wrong with it.
+        reason: String,
+    },
     /// The stored scene does not read back.
     #[error("the scene stored in `{dir}` no longer reads: {source}")]
     Scene {
@@ -114,9 +126,32 @@ pub fn merge_shards(dirs: &[PathBuf]) -> Result<Merged, MergeError> {
     if map_hash(&spec) != first.manifest.map_hash {
         return Err(MergeError::SceneChanged(first.dir.display().to_string()));
     }
+    for s in &shards {
+        check_rows(s, &spec)?;
+    }
     let plan = EnsemblePlan::new(&spec)?;
     let run = assemble(plan, shards.iter().map(part).collect());
     Ok(Merged { spec, run })
+}
+
+/// Every row of shard `s` obeys the rules of the engines' own results
+/// ([`crate::reduce::InstanceResult::check`]) and names an instance of the grid.
+fn check_rows(s: &ShardData, spec: &MapSpec) -> Result<(), MergeError> {
+    let bad = |instance: usize, reason: String| MergeError::BadRow {
+        dir: s.dir.display().to_string(),
+        instance,
+        reason,
+    };
+    for (&k, r) in s.members.iter().zip(&s.results) {
+        if k >= spec.instances() {
+            return Err(bad(
+                k,
+                format!("the grid has {} instances", spec.instances()),
+            ));
+        }
+        r.check(&spec.metrics).map_err(|reason| bad(k, reason))?;
+    }
+    Ok(())
 }
 
 /// `b` is a shard of the same map as `a`, from the same engine and version.

@@ -186,3 +186,39 @@ fn the_spec_reads_every_observation_and_refuses_what_it_cannot_judge() {
         .to_string();
     assert!(e.contains("is an unknown of this calibration"), "{e}");
 }
+
+#[test]
+fn a_calibration_where_every_run_fails_says_so_and_exits_3() {
+    let dir =
+        std::env::temp_dir().join(format!("pendulum-atlas-calib-fail-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec = dir.join("spec.toml");
+    // A step forty times the explicit method's limit: every run blows up.
+    std::fs::write(
+        &spec,
+        format!(
+            "{BASE}dt_s = 0.02\nmethod = \"rk4\"\n[calibrate]\ninitial_states = 1\n\
+             [[calibrate.unknowns]]\nkey = \"limiter.clearance_deg\"\nvalues = [10.0, 20.0]\n\
+             [[calibrate.cases]]\nname = \"8 Hz\"\n{}\nk_class = \"chaotic\"\n",
+            case_set(8.0, 0.009)
+        ),
+    )
+    .unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_pendulum-atlas"))
+        .args(["calibrate", "--backend", "cpu", "--quiet", "--out"])
+        .arg(dir.join("out"))
+        .arg(&spec)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("no run of any of the") && err.contains("candidates ended ok"),
+        "{err}"
+    );
+    assert!(
+        dir.join("out").join("candidates.csv").is_file(),
+        "the files are written"
+    );
+}

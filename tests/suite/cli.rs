@@ -413,8 +413,9 @@ fn analyze_rejects_bad_records_clearly() {
 
 #[test]
 fn a_run_of_no_step_is_refused() {
-    // A 2-s scene at dt = 10 s, and a 1-ns scene at the automatic step.
-    for (duration, dt) in [("2", "10"), ("1e-9", "\"auto\"")] {
+    // A 10-ms scene at dt = 50 ms (which still resolves the 8-Hz forcing), and a 1-ns scene
+    // at the automatic step.
+    for (duration, dt) in [("0.01", "0.05"), ("1e-9", "\"auto\"")] {
         let set = format!("integration.duration_s={duration}");
         let step = format!("integration.dt_s={dt}");
         let out = out_dir("no_step");
@@ -518,7 +519,12 @@ fn simulate_prints_its_warnings_and_every_file_it_wrote() {
             "{w} not printed in:\n{err}"
         );
     }
-    let written = std::fs::read_dir(&out).unwrap().count() - 1;
+    // Everything but the user's file and the run's hidden folder lock.
+    let written = std::fs::read_dir(&out)
+        .unwrap()
+        .filter(|e| !e.as_ref().unwrap().file_name().to_string_lossy().starts_with('.'))
+        .count()
+        - 1;
     assert!(
         err.contains(&format!("wrote {written} files to {}", out.display())),
         "{err}"
@@ -783,4 +789,199 @@ fn cpu_loop_is_recorded_and_refused_on_the_gpu() {
         err.contains("--cpu-loop applies to the CPU engine") || err.contains("no GPU adapter"),
         "{err}"
     );
+}
+
+#[test]
+fn slurm_refuses_an_out_folder_that_would_inject_a_line_into_its_scripts() {
+    let base = out_dir("slurm-inject");
+    std::fs::create_dir_all(&base).unwrap();
+    let pwned = base.join("pwned");
+    for bad in [
+        format!(
+            "{}/x\n#SBATCH --wrap=touch {}\ny",
+            base.display(),
+            pwned.display()
+        ),
+        format!("{}/x\ntouch {}", base.display(), pwned.display()),
+        format!("{}/q\"uote", base.display()),
+    ] {
+        let o = bin()
+            .args(["slurm", "--shards", "2", "--out", &bad])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{bad:?}: {err}");
+        assert!(
+            err.contains("--out") && err.contains("control characters"),
+            "{err}"
+        );
+        assert!(err.lines().count() <= 3, "{err}");
+    }
+    let left: Vec<_> = std::fs::read_dir(&base).unwrap().collect();
+    assert!(left.is_empty(), "nothing written: {left:?}");
+    assert!(!pwned.exists());
+}
+
+#[test]
+fn bench_reads_its_peers_before_the_study() {
+    let peers = out_dir("bad-peers");
+    std::fs::create_dir_all(&peers).unwrap();
+    std::fs::write(peers.join("jax_cpu_N3.json"), "{ not json").unwrap();
+    std::fs::write(peers.join("jax_gpu_N3.json"), "{ not json").unwrap();
+    for study in ["--cpu-throughput", "--throughput"] {
+        let out = out_dir("bad-peers-out");
+        let o = bin()
+            .args(["bench", study, "--quick", "--backend", "cpu", "--peers"])
+            .arg(&peers)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_ne!(o.status.code(), Some(0), "{study}: {err}");
+        assert!(err.contains("jax_"), "{study}: {err}");
+        // Nothing of the study ran: its progress lines never came.
+        assert!(err.lines().count() <= 3, "{study}: {err}");
+    }
+}
+
+#[test]
+fn an_input_named_like_an_output_in_out_is_refused_and_kept() {
+    let dir = out_dir("input-is-output");
+    std::fs::create_dir_all(&dir).unwrap();
+    let record = dir.join("spectrum.csv");
+    let rows: String = (0..2000)
+        .map(|i| format!("{},{}\n", i as f64 / 200.0, (i as f64 * 0.1).sin()))
+        .collect();
+    std::fs::write(&record, format!("t_s,x\n{rows}")).unwrap();
+    let before = std::fs::read(&record).unwrap();
+    let o = bin()
+        .args([
+            "analyze", "--signal", "x", "--time", "t_s", "--force", "--out",
+        ])
+        .arg(&dir)
+        .arg(&record)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("is an input of this run"), "{err}");
+    assert_eq!(
+        std::fs::read(&record).unwrap(),
+        before,
+        "the input is untouched"
+    );
+    // A map scene saved as the folder's own map_scene.toml, likewise.
+    let scene = dir.join("map_scene.toml");
+    std::fs::write(&scene, pendulum_atlas::config::DEFAULT_MAP_TOML).unwrap();
+    let o = bin()
+        .args(["map", "--backend", "cpu", "--force", "--out"])
+        .arg(&dir)
+        .arg(&scene)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("map_scene.toml") && err.contains("input"),
+        "{err}"
+    );
+}
+
+#[test]
+fn simulate_analyses_rows_at_the_rate_they_were_written() {
+    // A given step longer than the output interval: a row every step (4e-4 s), not every
+    // 1/4000 s. The analysis must read the rows at 2500 Hz, as a run asking for 2500 Hz does.
+    let run = |rate: &str, name: &str| {
+        let out = out_dir(name);
+        let o = bin()
+            .args(["simulate", "--set", "beam.segments=3", "--set"])
+            .args([
+                "integration.duration_s=20.0",
+                "--set",
+                "integration.dt_s=4e-4",
+            ])
+            .args(["--set", &format!("output.sample_rate_hz={rate}"), "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let j: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("run.json")).unwrap()).unwrap();
+        j
+    };
+    let (fast, matched) = (run("4000", "rows-4000"), run("2500", "rows-2500"));
+    assert_eq!(fast["rows"], matched["rows"]);
+    for (section, key) in [
+        ("spectrum", "dominant_hz"),
+        ("zero_one", "K"),
+        ("phase_sync", "R"),
+        ("statistics", "period"),
+    ] {
+        let (a, b) = (
+            fast["analysis"][section][key].as_f64().unwrap(),
+            matched["analysis"][section][key].as_f64().unwrap(),
+        );
+        // The two rates differ in the last bits at most (1/(1 · 4e-4) against 2500).
+        assert!(
+            (a - b).abs() <= 1e-9 * b.abs().max(1.0),
+            "{section}.{key}: {a} vs {b}"
+        );
+    }
+    assert!(
+        fast["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|w| w.as_str().unwrap().contains("not a multiple")),
+        "{fast}"
+    );
+}
+
+#[test]
+fn a_step_that_cannot_sample_the_forcing_is_refused() {
+    for sets in [
+        ["excitation.frequency_hz=10.0", "integration.dt_s=0.05"],
+        ["excitation.frequency_hz=10.0", "integration.dt_s=0.1"],
+        ["excitation.kind=\"sweep\"", "integration.dt_s=0.07"],
+    ] {
+        let o = bin()
+            .args(["simulate", "--set", sets[0], "--set", sets[1], "--out"])
+            .arg(out_dir("nyquist"))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{sets:?}: {err}");
+        assert!(
+            err.contains("integration.dt_s") && err.contains("steps per forcing period"),
+            "{err}"
+        );
+    }
+}
+
+#[test]
+fn a_second_run_into_a_folder_in_use_is_refused() {
+    let out = out_dir("busy");
+    let mut first = bin()
+        .args(["map", "--backend", "cpu", "--quiet", "--out"])
+        .arg(&out)
+        .spawn()
+        .unwrap();
+    let lock = out.join(".pendulum-atlas.lock");
+    let started = std::time::Instant::now();
+    while !lock.exists() && started.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let second = bin()
+        .args(["map", "--backend", "cpu", "--quiet", "--force", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let still_running = first.try_wait().unwrap().is_none();
+    let _ = first.kill();
+    let _ = first.wait();
+    assert!(still_running, "the first map ran for the whole check");
+    let err = String::from_utf8_lossy(&second.stderr);
+    assert_eq!(second.status.code(), Some(2), "{err}");
+    assert!(err.contains("in use by another run"), "{err}");
 }

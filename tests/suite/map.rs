@@ -445,3 +445,24 @@ fn a_refined_map_marks_its_inferred_cells_in_every_file() {
             .any(|f| f == "inferred.npy")
     );
 }
+
+#[test]
+fn a_given_step_is_shortened_to_divide_the_period_never_lengthened() {
+    use pendulum_atlas::config::map_from_toml;
+    use pendulum_atlas::engine::EnsemblePlan;
+    for dt in [4.1e-4, 5e-4, 6.9e-4, 1.3e-3] {
+        let spec = map_from_toml(
+            "[beam]\nsegments = 3\n[integration]\nduration_s = 30.0\ntransient_s = 5.0\n\
+             [map]\nmetrics = [\"K\"]\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\n\
+             start = 4.0\nend = 12.0\ncount = 17\n",
+            "<test>",
+            &[format!("integration.dt_s={dt}")],
+        )
+        .unwrap();
+        let plan = EnsemblePlan::new(&spec).unwrap();
+        for p in &plan.instances {
+            assert!(p.dt_s <= dt * (1.0 + 1e-12), "dt {} > {dt} asked", p.dt_s);
+            assert!(p.dt_s > dt / 2.0, "dt {} much shorter than {dt}", p.dt_s);
+        }
+    }
+}

@@ -241,3 +241,38 @@ fn a_map_split_over_two_devices_equals_the_map_on_one() {
     let e = gpu(&["--devices", "0,x"], &root.join("bad"));
     assert!(String::from_utf8_lossy(&e.stderr).contains("adapter indices separated by commas"));
 }
+
+#[test]
+fn merge_refuses_shard_rows_no_engine_could_have_written() {
+    use pendulum_atlas::output::npy::{read_npy, write_npy_f64};
+    use pendulum_atlas::shard::files::RESULT_COLUMNS;
+    let root = out_dir("tampered");
+    let (a, b) = (shard(&root, 0, 2), shard(&root, 1, 2));
+    let path = b.join("shard_results.npy");
+    let (shape, clean): (Vec<usize>, Vec<f64>) = read_npy(&path).unwrap();
+    let col = |name: &str| RESULT_COLUMNS.iter().position(|c| *c == name).unwrap();
+    let width = RESULT_COLUMNS.len();
+    // Row 0 is an ok instance (the bifurcation map's cells all end ok).
+    assert_eq!(clean[col("status")], 0.0);
+    let cases: [(&str, f64, &str); 6] = [
+        ("K", 7.5, "K = 7.5"),
+        ("R", f64::NAN, "R = NaN"),
+        ("period", 2.5, "period = 2.5"),
+        ("steps", -3.0, "steps is -3"),
+        ("status", 1.0, "status `diverged` but K"),
+        ("index", 2.5, "index is 2.5"),
+    ];
+    for (name, value, says) in cases {
+        let mut rows = clean.clone();
+        rows[col(name)] = value;
+        write_npy_f64(&path, &shape, &rows).unwrap();
+        let o = merge(&[&a, &b], &root.join("merged"));
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{name} = {value}: {e}");
+        assert!(e.contains(says), "{name}: {e}");
+        assert!(e.lines().count() <= 3, "{e}");
+        assert_eq!(width, shape[1]);
+    }
+    write_npy_f64(&path, &shape, &clean).unwrap();
+    ok(&merge(&[&a, &b], &root.join("merged")));
+}

@@ -333,3 +333,26 @@ fn the_folder_of_another_command_is_named() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     refused(&d, &[], "`pendulum-atlas simulate`");
 }
+
+#[test]
+fn a_listed_picture_that_is_a_link_out_of_the_folder_is_not_served() {
+    let dir = scratch("linked_map");
+    std::fs::create_dir_all(&dir).unwrap();
+    for entry in std::fs::read_dir(small_map()).unwrap() {
+        let p = entry.unwrap().path();
+        std::fs::copy(&p, dir.join(p.file_name().unwrap())).unwrap();
+    }
+    // K.png (listed in map.json) now points at a file outside the run folder.
+    let secret = scratch("secret");
+    std::fs::create_dir_all(&secret).unwrap();
+    let outside = secret.join("secret.png");
+    std::fs::write(&outside, b"not for the browser").unwrap();
+    std::fs::remove_file(dir.join("K.png")).unwrap();
+    std::os::unix::fs::symlink(&outside, dir.join("K.png")).unwrap();
+    let s = Server::start(&dir, &[]);
+    let (status, body) = request(&s, "GET", "/files/K.png");
+    assert_eq!(status, 404, "{body}");
+    assert!(!body.contains("not for the browser"));
+    let (status, _) = fetch(&s, "GET", "/files/R.png");
+    assert_eq!(status, 200, "the folder's own pictures are still served");
+}
