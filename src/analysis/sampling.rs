@@ -207,8 +207,12 @@ pub fn time_gaps(t: &[f64], max_median_steps: f64) -> Result<Vec<TimeGap>, Analy
         .collect())
 }
 
+/// Most samples a resampled record may have, as a multiple of the samples it came from.
+pub const MAX_RESAMPLE_GROWTH: usize = 16;
+
 /// Resamples `x(t)` on the uniform grid `t[0] + i/rate_hz` up to `t[last]`, by linear
-/// interpolation between bracketing samples. Returns `(times, values)`.
+/// interpolation between bracketing samples. Returns `(times, values)`; refused when it would
+/// make more than [`MAX_RESAMPLE_GROWTH`] times the samples (a stray time stamp).
 pub fn resample_uniform(
     t: &[f64],
     x: &[f64],
@@ -217,7 +221,18 @@ pub fn resample_uniform(
     validate_record(t, x)?;
     ensure_positive("rate_hz", rate_hz)?;
     let span_s = t[t.len() - 1] - t[0];
-    let count = (span_s * rate_hz * (1.0 + 1e-12)).floor() as usize + 1;
+    let count = (span_s * rate_hz * (1.0 + 1e-12)).floor() + 1.0;
+    let most = (MAX_RESAMPLE_GROWTH * t.len()) as f64;
+    if count > most {
+        return Err(AnalysisError::InvalidArgument(format!(
+            "resampling {} samples at {rate_hz} Hz over their span of {span_s} s would make \
+             {count:.3e} samples, more than {MAX_RESAMPLE_GROWTH} times as many: a time stamp \
+             lies far from the others (the longest step is {} s); check the time column",
+            t.len(),
+            t.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max)
+        )));
+    }
+    let count = count as usize;
     let times = uniform_axis(t[0], rate_hz, count);
     let values = interpolate_at(t, x, &times);
     Ok((times, values))

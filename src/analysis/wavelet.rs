@@ -592,6 +592,10 @@ fn transformed_signal(
 /// Refused: an `s0` whose Fourier period is below `2δt` (shorter than the Nyquist period, so
 /// aliased) or whose scale exceeds the record `N·δt`, and a `J` that carries the largest
 /// scale beyond the record (the default `J` ends there).
+/// Most wavelet coefficients (scales × samples) one transform computes: 2 GiB of complex
+/// values.
+pub const MAX_WAVELET_CELLS: usize = 1 << 27;
+
 fn scale_ladder(n: usize, dt_s: f64, options: &WaveletOptions) -> Result<Vec<f64>, AnalysisError> {
     let lambda = options.mother.fourier_factor();
     let s0_min = 2.0 * dt_s / lambda;
@@ -605,6 +609,16 @@ fn scale_ladder(n: usize, dt_s: f64, options: &WaveletOptions) -> Result<Vec<f64
     }
     let j_default = ((span / s0).log2() / options.dj).round().max(0.0) as usize;
     let j_max = options.j.unwrap_or(j_default);
+    let cells = (j_max as f64 + 1.0) * n as f64;
+    if cells > MAX_WAVELET_CELLS as f64 {
+        return Err(AnalysisError::InvalidArgument(format!(
+            "{} scales of {n} samples would hold {cells:.3e} wavelet coefficients, more than the \
+             {MAX_WAVELET_CELLS} the transform takes (16 bytes each): raise dj (now {}), lower J, \
+             or analyse a shorter or coarser record",
+            j_max as f64 + 1.0,
+            options.dj
+        )));
+    }
     if j_max > j_default {
         return Err(AnalysisError::InvalidArgument(format!(
             "the number of wavelet scales J must lie in [0, {j_default}] for s0 = {s0} s and \

@@ -140,10 +140,7 @@ pub fn load_calibration(
     path: &std::path::Path,
     sets: &[String],
 ) -> Result<CalibrationSpec, ConfigError> {
-    let text = std::fs::read_to_string(path).map_err(|e| ConfigError::Io {
-        path: path.display().to_string(),
-        source: e,
-    })?;
+    let text = crate::config::read_scene_file(path)?;
     calibration_from_toml(&text, &path.display().to_string(), sets)
 }
 

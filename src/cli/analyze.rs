@@ -182,6 +182,26 @@ pub struct Table {
     lines: Vec<u64>,
 }
 
+/// A record must be a regular file whose values fit in memory: its parsed columns take at
+/// most about its size again.
+fn check_record_file(path: &Path) -> anyhow::Result<()> {
+    let shown = path.display();
+    let meta = std::fs::metadata(path).with_context(|| format!("cannot read {shown}"))?;
+    if !meta.is_file() {
+        bail!("{shown} is not a regular file; give the CSV file to analyse");
+    }
+    if let Some(available) = pendulum_atlas::output::budget::memory_available()
+        && meta.len() > available / 2
+    {
+        bail!(
+            "{shown} has {} and {} of memory is available: analyse a shorter record, or split it",
+            pendulum_atlas::output::budget::bytes(meta.len()),
+            pendulum_atlas::output::budget::bytes(available)
+        );
+    }
+    Ok(())
+}
+
 impl Table {
     /// Read a CSV with a header; every cell of the requested columns must be a finite number.
     /// Every error names the file.
@@ -190,6 +210,7 @@ impl Table {
         if path.is_dir() {
             bail!("{shown} is a directory; give the CSV file to analyse");
         }
+        check_record_file(path)?;
         let mut rdr = csv::ReaderBuilder::new()
             .trim(csv::Trim::All)
             .comment(Some(b'#'))
@@ -291,10 +312,19 @@ fn ensure_unique_names(path: &Path, header: &[String]) -> anyhow::Result<()> {
 /// Position of column `want` in the header, or an error listing the columns.
 fn column_index(path: &Path, header: &[String], want: &str) -> anyhow::Result<usize> {
     header.iter().position(|n| n == want).ok_or_else(|| {
+        // At most twelve names, each cut short: a header can be anything.
+        let mut names: Vec<String> = header
+            .iter()
+            .take(12)
+            .map(|n| pendulum_atlas::config::shorten_lines(&n.replace('\n', " ")))
+            .collect();
+        if header.len() > 12 {
+            names.push(format!("… ({} columns)", header.len()));
+        }
         anyhow::anyhow!(
             "{}: no column `{want}`; the columns are: {}",
             path.display(),
-            header.join(", ")
+            pendulum_atlas::config::shorten_lines(&names.join(", "))
         )
     })
 }

@@ -13,6 +13,14 @@ pub enum ConfigError {
         /// Underlying I/O error.
         source: std::io::Error,
     },
+    /// The path is not a scene file (not a regular file, or far too large).
+    #[error("`{path}` is not a scene file: {reason}")]
+    NotAScene {
+        /// Path that was given.
+        path: String,
+        /// Why.
+        reason: String,
+    },
     /// The scene file is not valid TOML.
     #[error("scene `{path}` is not valid TOML: {message}")]
     Toml {

@@ -400,13 +400,7 @@ pub fn scene_text(
             default_text.to_string(),
             format!("<embedded {default_name}>"),
         )),
-        Some(p) => Ok((
-            std::fs::read_to_string(p).map_err(|e| ConfigError::Io {
-                path: p.display().to_string(),
-                source: e,
-            })?,
-            p.display().to_string(),
-        )),
+        Some(p) => Ok((super::reader::read_scene_file(p)?, p.display().to_string())),
     }
 }
 

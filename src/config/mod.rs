@@ -18,7 +18,10 @@ pub use map::{
     split_section,
 };
 pub use physics::DampingReport;
-pub use reader::{Range, Reader, apply_override, parse_override_value, parse_toml, set_key};
+pub use reader::{
+    MAX_SCENE_BYTES, Range, Reader, apply_override, parse_override_value, parse_toml,
+    read_scene_file, set_key, shorten_lines,
+};
 pub use scene::{
     Beam, BeamDamping, ContactDamping, EARLIER_READING_DAMPING_RATIO, Excitation, ExcitationKind,
     Gravity, Initial, Integration, LIBRARY_JOINT_DAMPING_NMS, LIBRARY_SEGMENTS, Limiter,

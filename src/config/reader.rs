@@ -5,11 +5,54 @@ use super::error::ConfigError;
 use std::collections::BTreeSet;
 use toml::{Table, Value};
 
+/// Largest scene file read (bytes): scenes are a few kilobytes; a larger file is not one.
+pub const MAX_SCENE_BYTES: u64 = 1 << 20;
+
+/// Longest line of a message quoted from the input (characters).
+const MAX_QUOTED_LINE: usize = 160;
+
+/// Read a scene file: a regular file of at most [`MAX_SCENE_BYTES`], in UTF-8.
+pub fn read_scene_file(path: &std::path::Path) -> Result<String, ConfigError> {
+    let shown = path.display().to_string();
+    let io = |source| ConfigError::Io {
+        path: shown.clone(),
+        source,
+    };
+    let meta = std::fs::metadata(path).map_err(io)?;
+    let refuse = |reason: String| ConfigError::NotAScene {
+        path: shown.clone(),
+        reason,
+    };
+    if !meta.is_file() {
+        return Err(refuse("not a regular file (a scene is a TOML file)".into()));
+    }
+    if meta.len() > MAX_SCENE_BYTES {
+        return Err(refuse(format!(
+            "{} bytes, more than the {MAX_SCENE_BYTES} a scene file may have",
+            meta.len()
+        )));
+    }
+    std::fs::read_to_string(path).map_err(io)
+}
+
+/// `message` with every line cut to [`MAX_QUOTED_LINE`] characters, so that an error quoting
+/// a huge input line stays short.
+pub fn shorten_lines(message: &str) -> String {
+    message
+        .lines()
+        .map(|l| match l.char_indices().nth(MAX_QUOTED_LINE) {
+            Some((cut, _)) => format!("{}…", &l[..cut]),
+            None => l.to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
 /// Parse TOML text into a table; `origin` names the source in error messages.
 pub fn parse_toml(text: &str, origin: &str) -> Result<Table, ConfigError> {
     text.parse::<Table>().map_err(|e| ConfigError::Toml {
         path: origin.to_string(),
-        message: e.to_string(),
+        message: shorten_lines(&e.to_string()),
     })
 }
 

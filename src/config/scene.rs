@@ -288,10 +288,7 @@ pub fn load_scene(path: Option<&std::path::Path>, sets: &[String]) -> Result<Sce
     match path {
         None => Scene::from_toml(PAPER_SCENE_TOML, "<embedded paper.toml>", sets),
         Some(p) => {
-            let text = std::fs::read_to_string(p).map_err(|e| ConfigError::Io {
-                path: p.display().to_string(),
-                source: e,
-            })?;
+            let text = super::reader::read_scene_file(p)?;
             Scene::from_toml(&text, &p.display().to_string(), sets)
         }
     }
@@ -299,9 +296,18 @@ pub fn load_scene(path: Option<&std::path::Path>, sets: &[String]) -> Result<Sce
 
 fn read_scene(r: &mut Reader) -> Result<Scene, ConfigError> {
     let beam = read_beam(r)?;
+    // The chain's mass matrix stays well conditioned (and the model meaningful) while no mass
+    // outweighs the beam by more than MAX_MASS_RATIO.
+    let heaviest_tip = MAX_MASS_RATIO * beam.mass_kg;
     let tip = Tip {
-        mass_kg: r.number("tip.mass_kg", 0.01195, Range::NonNegative, "kg")?,
+        mass_kg: r.number(
+            "tip.mass_kg",
+            0.01195,
+            Range::Closed(0.0, heaviest_tip),
+            "kg (at most 1e6 times beam.mass_kg)",
+        )?,
     };
+    let heaviest_holder = MAX_MASS_RATIO * beam.mass_kg * beam.length_m * beam.length_m;
     let limiter = read_limiter(r, beam.length_m)?;
     let gravity = Gravity {
         g_m_s2: r.number("gravity.g_m_s2", 9.81, Range::NonNegative, "m/s^2")?,
@@ -318,8 +324,8 @@ fn read_scene(r: &mut Reader) -> Result<Scene, ConfigError> {
         holder_inertia_kgm2: r.number(
             "pivot.holder_inertia_kgm2",
             0.0,
-            Range::NonNegative,
-            "kg m^2",
+            Range::Closed(0.0, heaviest_holder),
+            "kg m^2 (at most 1e6 times beam.mass_kg × beam.length_m²)",
         )?,
     };
     let integration = read_integration(r)?;
@@ -357,6 +363,13 @@ fn read_scene(r: &mut Reader) -> Result<Scene, ConfigError> {
         notes: Vec::new(),
     })
 }
+
+/// The beam masses the model is meant for (kg): a milligram to ten tonnes.
+pub const BEAM_MASS_RANGE_KG: (f64, f64) = (1e-6, 1e4);
+
+/// How many times the beam's mass the tip mass (and the holder's inertia over the beam's
+/// m L²) may be: beyond it the chain's mass matrix loses its precision in `f64`.
+pub const MAX_MASS_RATIO: f64 = 1e6;
 
 /// A given step must sample the forcing above its Nyquist rate, two steps per period of the
 /// highest forcing frequency: slower, the cart's motion aliases (at one step per half period
@@ -396,7 +409,12 @@ fn read_beam(r: &mut Reader) -> Result<Beam, ConfigError> {
     }
     let tube = Tube {
         length_m: r.number("beam.length_m", 0.375, Range::Positive, "m")?,
-        mass_kg: r.number("beam.mass_kg", 0.05525, Range::Positive, "kg")?,
+        mass_kg: r.number(
+            "beam.mass_kg",
+            0.05525,
+            Range::Closed(BEAM_MASS_RANGE_KG.0, BEAM_MASS_RANGE_KG.1),
+            "kg",
+        )?,
         outer_diameter_m: outer,
         inner_diameter_m: inner,
         youngs_modulus_pa: r.number("beam.youngs_modulus_pa", 2e11, Range::Positive, "Pa")?,

@@ -522,7 +522,13 @@ fn simulate_prints_its_warnings_and_every_file_it_wrote() {
     // Everything but the user's file and the run's hidden folder lock.
     let written = std::fs::read_dir(&out)
         .unwrap()
-        .filter(|e| !e.as_ref().unwrap().file_name().to_string_lossy().starts_with('.'))
+        .filter(|e| {
+            !e.as_ref()
+                .unwrap()
+                .file_name()
+                .to_string_lossy()
+                .starts_with('.')
+        })
         .count()
         - 1;
     assert!(
@@ -984,4 +990,100 @@ fn a_second_run_into_a_folder_in_use_is_refused() {
     let err = String::from_utf8_lossy(&second.stderr);
     assert_eq!(second.status.code(), Some(2), "{err}");
     assert!(err.contains("in use by another run"), "{err}");
+}
+
+#[test]
+fn inputs_that_would_take_unbounded_memory_are_refused_with_a_short_message() {
+    let dir = out_dir("unbounded");
+    std::fs::create_dir_all(&dir).unwrap();
+    let run = |args: &[&str]| {
+        let o = bin().args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.len() < 1500 && err.lines().count() <= 6,
+            "{args:?}: {err}"
+        );
+        err
+    };
+    let out = dir.join("out");
+    let out = out.to_str().unwrap();
+    // A record with one stray time stamp at the end.
+    let csv = dir.join("stray.csv");
+    let mut text = String::from("t_s,x\n");
+    for i in 0..4000 {
+        text.push_str(&format!(
+            "{},{}\n",
+            i as f64 / 200.0,
+            (i as f64 * 0.3).sin()
+        ));
+    }
+    text.push_str("1e9,0.0\n");
+    std::fs::write(&csv, text).unwrap();
+    let csv = csv.to_str().unwrap();
+    let e = run(&[
+        "analyze",
+        csv,
+        "--signal",
+        "x",
+        "--time",
+        "t_s",
+        "--resample",
+        "--allow-gaps",
+        "--out",
+        out,
+    ]);
+    assert!(e.contains("far from the others"), "{e}");
+    // A scale spacing near zero.
+    let uniform = dir.join("uniform.csv");
+    std::fs::write(
+        &uniform,
+        text_without_last_line(&std::fs::read_to_string(csv).unwrap()),
+    )
+    .unwrap();
+    let uniform = uniform.to_str().unwrap();
+    let e = run(&[
+        "analyze",
+        uniform,
+        "--signal",
+        "x",
+        "--time",
+        "t_s",
+        "--wavelet-dj",
+        "1e-12",
+        "--out",
+        out,
+    ]);
+    assert!(e.contains("raise dj"), "{e}");
+    // Devices and huge one-line files as scenes or records.
+    let e = run(&["simulate", "/dev/zero", "--out", out]);
+    assert!(e.contains("not a regular file"), "{e}");
+    let e = run(&[
+        "analyze",
+        "/dev/zero",
+        "--signal",
+        "x",
+        "--sample-rate-hz",
+        "100",
+        "--out",
+        out,
+    ]);
+    assert!(e.contains("not a regular file"), "{e}");
+    let long = dir.join("long.toml");
+    std::fs::write(
+        &long,
+        format!("[beam]\nsegments = {}\n", "9".repeat(500_000)),
+    )
+    .unwrap();
+    run(&["simulate", long.to_str().unwrap(), "--out", out]);
+    let huge = dir.join("huge.toml");
+    std::fs::write(&huge, "#".repeat(2 << 20)).unwrap();
+    let e = run(&["map", huge.to_str().unwrap(), "--out", out]);
+    assert!(e.contains("not a scene file"), "{e}");
+}
+
+fn text_without_last_line(text: &str) -> String {
+    let mut lines: Vec<&str> = text.lines().collect();
+    lines.pop();
+    lines.join("\n") + "\n"
 }

@@ -233,3 +233,35 @@ fn setting_a_swept_key_is_an_error_that_names_the_axis() {
         .expect_err("a design variable cannot be set");
     assert!(err.to_string().contains("design variable"), "{err}");
 }
+
+#[test]
+fn masses_beyond_what_the_model_holds_are_refused_with_their_range() {
+    for (sets, key) in [
+        (vec!["beam.mass_kg=1e-20"], "beam.mass_kg"),
+        (vec!["beam.mass_kg=1e9"], "beam.mass_kg"),
+        (vec!["tip.mass_kg=1e20"], "tip.mass_kg"),
+        (vec!["beam.mass_kg=1e-3", "tip.mass_kg=2e3"], "tip.mass_kg"),
+        (
+            vec!["pivot.holder_inertia_kgm2=1e20"],
+            "pivot.holder_inertia_kgm2",
+        ),
+    ] {
+        let e = crate::scene_error(&sets);
+        assert!(
+            e.contains(key) && e.contains("out of range"),
+            "{sets:?}: {e}"
+        );
+    }
+    // Inside the ranges, the linearisation is computed (no panic) on every kept extreme.
+    for sets in [
+        vec!["beam.mass_kg=1e-6", "tip.mass_kg=1.0"],
+        vec!["beam.mass_kg=1e4", "tip.mass_kg=0.0"],
+        vec!["beam.mass_kg=1e-3", "tip.mass_kg=1e3", "beam.segments=64"],
+    ] {
+        let m = crate::scene(&sets).modes();
+        assert!(
+            m.spectral_radius_per_s.is_finite() && m.dt_auto_s > 0.0,
+            "{sets:?}: {m:?}"
+        );
+    }
+}
