@@ -3,6 +3,7 @@
 
 use anyhow::Context;
 use pendulum_atlas::analysis::{RecordAnalysis, pq_path};
+use pendulum_atlas::output::files::{commit_csv, create_csv, draw};
 use pendulum_atlas::output::npy::write_npy_f64;
 use pendulum_atlas::render::{self, Series};
 use std::path::Path;
@@ -57,12 +58,12 @@ fn write_spectrum(out: &Path, r: &RecordAnalysis, unit: &str) -> anyhow::Result<
     let spec = &r.spectrum_full;
     let path = out.join("spectrum.csv");
     let write = || -> anyhow::Result<()> {
-        let mut w = csv::Writer::from_path(&path)?;
+        let mut w = create_csv(&path)?;
         w.write_record(["frequency_hz", "amplitude"])?;
         for (f, a) in spec.frequency_hz.iter().zip(&spec.amplitude) {
             w.write_record([f.to_string(), a.to_string()])?;
         }
-        w.flush()?;
+        commit_csv(w, &path)?;
         Ok(())
     };
     write().with_context(|| format!("cannot write {}", path.display()))?;
@@ -72,25 +73,28 @@ fn write_spectrum(out: &Path, r: &RecordAnalysis, unit: &str) -> anyhow::Result<
         format!("1/{unit}")
     };
     let png = out.join("spectrum.png");
-    render::line_chart(
-        &png,
-        &format!(
-            "Amplitude spectrum (Hann){}",
-            r.spectrum
-                .dominant_hz
-                .map(|f| format!(": peak {f:.3} {freq_unit}{}", ratio_text(r)))
-                .unwrap_or_default()
-        ),
-        &frequency_label(unit),
-        "amplitude (signal units)",
-        &[Series {
-            name: "spectrum",
-            x: &spec.frequency_hz,
-            y: &spec.amplitude,
-        }],
-        false,
-        true,
-    )
+    draw(&png, |p| {
+        render::line_chart(
+            p,
+            &format!(
+                "Amplitude spectrum (Hann){}",
+                r.spectrum
+                    .dominant_hz
+                    .map(|f| format!(": peak {f:.3} {freq_unit}{}", ratio_text(r)))
+                    .unwrap_or_default()
+            ),
+            &frequency_label(unit),
+            "amplitude (signal units)",
+            &[Series {
+                name: "spectrum",
+                x: &spec.frequency_hz,
+                y: &spec.amplitude,
+            }],
+            false,
+            true,
+        )
+    })
+    .map(drop)
     .with_context(|| format!("cannot write {}", png.display()))
 }
 
@@ -138,16 +142,19 @@ fn write_wavelet(out: &Path, r: &RecordAnalysis, unit: &str) -> anyhow::Result<(
         None => ", no significance (lag-1 not estimable)".to_string(),
     };
     let png = out.join("scalogram.png");
-    render::scalogram(
-        &png,
-        &format!("Morlet wavelet power (normalised){contour}, COI shaded; period in {unit}"),
-        &times,
-        &wt.period_s,
-        &wt.power,
-        &wt.coi_s,
-        r.wavelet_significance.as_ref().map(|s| s.ratio.as_slice()),
-        &format!("time ({unit})"),
-    )
+    draw(&png, |p| {
+        render::scalogram(
+            p,
+            &format!("Morlet wavelet power (normalised){contour}, COI shaded; period in {unit}"),
+            &times,
+            &wt.period_s,
+            &wt.power,
+            &wt.coi_s,
+            r.wavelet_significance.as_ref().map(|s| s.ratio.as_slice()),
+            &format!("time ({unit})"),
+        )
+    })
+    .map(drop)
     .with_context(|| format!("cannot write {}", png.display()))
 }
 
@@ -166,8 +173,11 @@ fn zero_one_picture(out: &Path, r: &RecordAnalysis) -> anyhow::Result<()> {
     };
     let (p, q) = pq_path(&r.zero_one_series, zo.c_values[i]);
     let png = out.join("zero_one.png");
-    render::zero_one_figure(&png, &p, &q, &zo.c_values, &zo.k_c, zo.k)
-        .with_context(|| format!("cannot write {}", png.display()))
+    draw(&png, |path| {
+        render::zero_one_figure(path, &p, &q, &zo.c_values, &zo.k_c, zo.k)
+    })
+    .map(drop)
+    .with_context(|| format!("cannot write {}", png.display()))
 }
 
 /// phase_hist.png and portrait.png, when a reference was given.
@@ -181,32 +191,38 @@ fn phase_pictures(
 ) -> anyhow::Result<()> {
     if let (Some(h), Some(ps)) = (&r.phase_hist, &r.phase_sync) {
         let png = out.join("phase_hist.png");
-        render::histogram(
-            &png,
-            &format!(
-                "Phase difference, R = {:.3} ({:?} convention)",
-                ps.r, ps.convention
-            ),
-            &h.edges_rad,
-            &h.density_per_rad,
-            "phase difference Δφ (rad)",
-            "probability density (1/rad)",
-        )
+        draw(&png, |p| {
+            render::histogram(
+                p,
+                &format!(
+                    "Phase difference, R = {:.3} ({:?} convention)",
+                    ps.r, ps.convention
+                ),
+                &h.edges_rad,
+                &h.density_per_rad,
+                "phase difference Δφ (rad)",
+                "probability density (1/rad)",
+            )
+        })
+        .map(drop)
         .with_context(|| format!("cannot write {}", png.display()))?;
     }
     if let Some(reference) = reference {
         let skip =
             (((r.analysed_from_s - start_s) * rate_hz).round().max(0.0) as usize).min(signal.len());
         let png = out.join("portrait.png");
-        render::scatter(
-            &png,
-            "Phase portrait (after the transient)",
-            "reference",
-            "signal",
-            &reference[skip..],
-            &signal[skip..],
-            true,
-        )
+        draw(&png, |p| {
+            render::scatter(
+                p,
+                "Phase portrait (after the transient)",
+                "reference",
+                "signal",
+                &reference[skip..],
+                &signal[skip..],
+                true,
+            )
+        })
+        .map(drop)
         .with_context(|| format!("cannot write {}", png.display()))?;
     }
     Ok(())

@@ -89,12 +89,20 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     let csv_path = a.out.join("trajectory.csv");
     write_trajectory_csv(&csv_path, &rec.rows, piezo.is_some())?;
     let mut warnings = run_warnings(&plan, &run.outcome);
-    let analysis = if run.outcome.status != Status::Ok {
-        None
-    } else {
-        analyse_run(&scene, &plan, &rec.rows, &a.out)
-            .map_err(|e| warnings.push(format!("analysis of the run skipped: {e:#}")))
-            .ok()
+    // An analysis the record does not allow is a warning; files that cannot be written (a
+    // full disk) fail the run.
+    let analysis = match run.outcome.status {
+        Status::Ok => match record_analysis(&scene, &plan, &rec.rows) {
+            Ok(r) => {
+                write_analysis_files(&scene, &plan, &rec.rows, &r, &a.out)?;
+                Some(r)
+            }
+            Err(e) => {
+                warnings.push(format!("analysis of the run skipped: {e}"));
+                None
+            }
+        },
+        _ => None,
     };
     let facts = RunFacts {
         scene: &scene,
@@ -247,20 +255,20 @@ fn progress_bar(plan: &StepPlan, segments: usize, integ: IntegratorChoice) -> Op
     Some(bar)
 }
 
-/// The paper's analysis of one run: holder angle against cart position, after the transient.
-fn analyse_run(
+/// The files of the paper's analysis of one run (holder angle against cart position, after
+/// the transient): its arrays and pictures, and the time series figure.
+fn write_analysis_files(
     scene: &Scene,
     plan: &StepPlan,
     rows: &[Row],
+    r: &RecordAnalysis,
     out: &std::path::Path,
-) -> anyhow::Result<RecordAnalysis> {
+) -> anyhow::Result<()> {
     let rate = plan.row_rate_hz;
     let alpha: Vec<f64> = rows.iter().map(|r| r.alpha_rad).collect();
     let cart: Vec<f64> = rows.iter().map(|r| r.x0_m).collect();
-    let r = record_analysis(scene, plan, rows)?;
-    super::report::write_analysis(out, &r, &alpha, Some(&cart), rate, 0.0)?;
-    time_series_figure(scene, rate, rows, out)?;
-    Ok(r)
+    super::report::write_analysis(out, r, &alpha, Some(&cart), rate, 0.0)?;
+    time_series_figure(scene, rate, rows, out)
 }
 
 /// The paper's Figs. 3–5 for one run: cart, holder angle and chord reduction with the spectra.

@@ -51,14 +51,19 @@ impl AtomicFile {
         &self.target
     }
 
-    /// Flush, then rename the temporary file over the target.
+    /// Flush, then rename the temporary file over the target; on any error the temporary
+    /// file is removed and the target left as it was.
     pub fn commit(mut self) -> Result<PathBuf, OutputError> {
         let out = self.out.take().expect("not yet committed");
-        out.into_inner()
-            .map_err(|e| OutputError::io(&self.target, e.into_error()))?
-            .sync_all()
-            .map_err(|e| OutputError::io(&self.target, e))?;
-        std::fs::rename(&self.tmp, &self.target).map_err(|e| OutputError::io(&self.target, e))?;
+        let done = out
+            .into_inner()
+            .map_err(|e| e.into_error())
+            .and_then(|f| f.sync_all())
+            .and_then(|()| std::fs::rename(&self.tmp, &self.target));
+        if let Err(e) = done {
+            let _ = std::fs::remove_file(&self.tmp);
+            return Err(OutputError::io(&self.target, e));
+        }
         Ok(self.target.clone())
     }
 }
@@ -144,6 +149,9 @@ pub fn draw(
         let _ = std::fs::remove_file(&tmp);
         return Err(e);
     }
-    std::fs::rename(&tmp, path).map_err(|e| OutputError::io(path, e))?;
+    if let Err(e) = std::fs::rename(&tmp, path) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(OutputError::io(path, e));
+    }
     Ok(path.to_path_buf())
 }

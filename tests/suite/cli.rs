@@ -1087,3 +1087,29 @@ fn text_without_last_line(text: &str) -> String {
     lines.pop();
     lines.join("\n") + "\n"
 }
+
+#[test]
+fn simulate_fails_when_its_analysis_cannot_be_written_and_leaves_no_temporary_file() {
+    let out = out_dir("unwritable-analysis");
+    // A folder where the analysis' spectrum.csv goes: its write fails as a full disk would.
+    std::fs::create_dir_all(out.join("spectrum.csv").join("x")).unwrap();
+    let o = bin()
+        .args(["simulate", "--set", "beam.segments=3", "--set"])
+        .args(["integration.duration_s=20.0", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_ne!(o.status.code(), Some(0), "{err}");
+    assert!(err.contains("spectrum.csv"), "{err}");
+    assert!(
+        !out.join("run.json").exists(),
+        "no manifest: the folder is not complete"
+    );
+    let temporaries: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains(".tmp-"))
+        .collect();
+    assert!(temporaries.is_empty(), "{temporaries:?}");
+}
