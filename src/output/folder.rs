@@ -115,11 +115,11 @@ impl Product {
     /// File names it writes besides the manifest.
     fn names(self) -> &'static [&'static str] {
         match self {
-            Product::Simulate => &["trajectory.csv", "spectrum.csv"],
-            Product::Map => &["grid.csv", "map_scene.toml"],
-            Product::Shard => &["scene.toml"],
+            Product::Simulate => &SIMULATE_FILES,
+            Product::Map => &["grid.csv", "map_scene.toml", "bifurcation.png"],
+            Product::Shard => &["scene.toml", "shard_results.npy", "shard_strobe.npy"],
             Product::Slurm => &["array.sbatch", "merge.sbatch", "scene.toml"],
-            Product::Analyze => &["spectrum.csv"],
+            Product::Analyze => &ANALYSIS_FILES,
             Product::Reproduce => &[
                 "table2.csv",
                 "table2.md",
@@ -128,6 +128,8 @@ impl Product {
                 "REPORT.md",
             ],
             Product::Search => &[
+                "pareto.png",
+                "power_vs_frequency.png",
                 "designs.csv",
                 "instances.csv",
                 "verification.csv",
@@ -156,20 +158,16 @@ impl Product {
         }
     }
 
-    /// Extensions of files it writes under names that vary with the run.
-    fn extensions(self) -> &'static [&'static str] {
+    /// Whether `name` is one of the files it writes under names that vary with the run: a
+    /// map's arrays and pictures (named by its metrics), the paper's figures, the agreement
+    /// pictures of a calibration. Nothing else matches, so a user's `rig_photo.png` is never
+    /// taken for one.
+    fn writes_varying(self, name: &str) -> bool {
         match self {
-            Product::Simulate | Product::Map | Product::Analyze => &["npy", "png"],
-            Product::Shard => &["npy"],
-            Product::Slurm => &[],
-            Product::Reproduce | Product::Search | Product::Calibrate => &["png"],
-            Product::Bench
-            | Product::BenchStiff
-            | Product::BenchStiffMap
-            | Product::BenchCpu
-            | Product::BenchGpu
-            | Product::BenchVerdict
-            | Product::BenchRefine => &[],
+            Product::Map => is_map_file(name),
+            Product::Reproduce => name.starts_with("fig") && name.ends_with(".png"),
+            Product::Calibrate => name.starts_with("agreement_") && name.ends_with(".png"),
+            _ => false,
         }
     }
 
@@ -177,13 +175,9 @@ impl Product {
     /// left by a killed run: `.NAME.tmp-PID.EXT`).
     pub fn writes(self, name: &str) -> bool {
         let name = temp_target(name).unwrap_or_else(|| name.to_string());
-        if name == self.manifest() || self.names().contains(&name.as_str()) {
-            return true;
-        }
-        Path::new(&name)
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| self.extensions().contains(&e))
+        name == self.manifest()
+            || self.names().contains(&name.as_str())
+            || self.writes_varying(&name)
     }
 
     /// The files of `dir` this product writes, sorted by name.
@@ -221,7 +215,17 @@ impl Product {
                 command: self.command(),
             });
         }
-        let ours = self.files_in(dir)?;
+        let listed = listed_files(&dir.join(self.manifest()));
+        let ours: Vec<PathBuf> = self
+            .files_in(dir)?
+            .into_iter()
+            .filter(|p| match (&listed, file_name(p)) {
+                (Some(list), Some(n)) => {
+                    n == self.manifest() || temp_target(&n).is_some() || list.contains(&n)
+                }
+                _ => true,
+            })
+            .collect();
         if ours.is_empty() {
             return Ok(0);
         }
@@ -267,6 +271,80 @@ impl Product {
             .filter(|p| p.command() != self.command())
             .find(|p| dir.join(p.manifest()).is_file())
     }
+}
+
+/// The files of a simulation besides its manifest: the trajectory and its analysis.
+const SIMULATE_FILES: [&str; 18] = [
+    "trajectory.csv",
+    "time_series.png",
+    "spectrum.csv",
+    "spectrum.png",
+    "scalogram.png",
+    "zero_one.png",
+    "phase_hist.png",
+    "portrait.png",
+    "phase_diff_rad.npy",
+    "wavelet_power.npy",
+    "wavelet_period_s.npy",
+    "wavelet_scale_s.npy",
+    "wavelet_time_s.npy",
+    "wavelet_coi_s.npy",
+    "wavelet_signif_level.npy",
+    "wavelet_signif_ratio.npy",
+    "wavelet_global_power.npy",
+    "wavelet_global_signif.npy",
+];
+
+/// The files of a record's analysis besides its manifest.
+const ANALYSIS_FILES: [&str; 16] = [
+    "spectrum.csv",
+    "spectrum.png",
+    "scalogram.png",
+    "zero_one.png",
+    "phase_hist.png",
+    "portrait.png",
+    "phase_diff_rad.npy",
+    "wavelet_power.npy",
+    "wavelet_period_s.npy",
+    "wavelet_scale_s.npy",
+    "wavelet_time_s.npy",
+    "wavelet_coi_s.npy",
+    "wavelet_signif_level.npy",
+    "wavelet_signif_ratio.npy",
+    "wavelet_global_power.npy",
+    "wavelet_global_signif.npy",
+];
+
+/// A map's arrays (`K.npy`, `regime.npy`, `axis0.npy`, ...) and pictures (`K.png`,
+/// `K_slice003.png`, ...).
+fn is_map_file(name: &str) -> bool {
+    if let Some(stem) = name.strip_suffix(".npy") {
+        return super::map::COLUMNS.iter().any(|c| c.0 == stem)
+            || ["regime", "status", "inferred", "axis0", "axis1", "axis2"].contains(&stem);
+    }
+    let Some(stem) = name.strip_suffix(".png") else {
+        return false;
+    };
+    let metric = match stem.split_once("_slice") {
+        Some((m, n)) if !n.is_empty() && n.chars().all(|c| c.is_ascii_digit()) => m,
+        _ => stem,
+    };
+    crate::config::Metric::ALL
+        .iter()
+        .any(|m| m.name() == metric)
+}
+
+/// The files a manifest lists under `files`, if it is readable and has that list.
+fn listed_files(manifest: &Path) -> Option<Vec<String>> {
+    let text = std::fs::read_to_string(manifest).ok()?;
+    let json: serde_json::Value = serde_json::from_str(&text).ok()?;
+    let files = json.get("files")?.as_array()?;
+    Some(
+        files
+            .iter()
+            .filter_map(|f| f.as_str().map(str::to_string))
+            .collect(),
+    )
 }
 
 /// The advisory lock of an output folder, held by a run from its check to its end (the lock
@@ -360,5 +438,31 @@ mod tests {
         assert_eq!(temp_target("K.npy"), None);
         assert!(Product::Map.writes(".grid.tmp-99.csv"));
         assert!(!Product::Map.writes("data.csv"));
+    }
+
+    #[test]
+    fn only_names_a_command_writes_are_its_files() {
+        for ours in [
+            "K.npy",
+            "axis1.npy",
+            "K.png",
+            "lyapunov_slice007.png",
+            "map.json",
+        ] {
+            assert!(Product::Map.writes(ours), "{ours}");
+        }
+        for theirs in [
+            "rig_photo.png",
+            "calib.npy",
+            "K_slice.png",
+            "Kx.npy",
+            "notes.txt",
+        ] {
+            assert!(!Product::Map.writes(theirs), "{theirs}");
+        }
+        assert!(Product::Simulate.writes("wavelet_power.npy"));
+        assert!(!Product::Simulate.writes("rig_photo.png"));
+        assert!(!Product::Analyze.writes("calib.npy"));
+        assert!(Product::Reproduce.writes("fig4a_f6.8_A9.png"));
     }
 }

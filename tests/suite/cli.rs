@@ -560,8 +560,9 @@ fn a_rerun_into_a_used_folder_is_refused_unless_forced_and_force_clears_only_its
     assert!(small_simulate(&out, &[]).status.success());
     let run_json = std::fs::read(out.join("run.json")).unwrap();
     // What an earlier, different run could have left, and a file of the user's.
-    std::fs::write(out.join("R_of_an_old_run.npy"), b"old").unwrap();
+    std::fs::write(out.join("wavelet_signif_ratio.npy"), b"old").unwrap();
     std::fs::write(out.join("notes.txt"), b"mine").unwrap();
+    std::fs::write(out.join("R_of_my_rig.npy"), b"mine").unwrap();
     let o = small_simulate(&out, &["--set", "excitation.frequency_hz=5"]);
     let e = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{e}");
@@ -574,8 +575,10 @@ fn a_rerun_into_a_used_folder_is_refused_unless_forced_and_force_clears_only_its
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{e}");
     assert!(e.contains("--force: deleted"), "{e}");
-    assert!(!out.join("R_of_an_old_run.npy").exists());
+    let stale = std::fs::read(out.join("wavelet_signif_ratio.npy")).unwrap_or_default();
+    assert_ne!(stale, b"old", "the earlier run's file is gone or rewritten");
     assert_eq!(std::fs::read(out.join("notes.txt")).unwrap(), b"mine");
+    assert_eq!(std::fs::read(out.join("R_of_my_rig.npy")).unwrap(), b"mine");
     let run: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("run.json")).unwrap()).unwrap();
     assert_eq!(run["scene"]["excitation"]["kind"]["frequency_hz"], 5.0);
@@ -1112,4 +1115,41 @@ fn simulate_fails_when_its_analysis_cannot_be_written_and_leaves_no_temporary_fi
         .filter(|n| n.contains(".tmp-"))
         .collect();
     assert!(temporaries.is_empty(), "{temporaries:?}");
+}
+
+#[test]
+fn force_deletes_only_the_files_of_the_earlier_run() {
+    let out = out_dir("force-ours-only");
+    let small = [
+        "--set",
+        "map.axes=[{key=\"excitation.frequency_hz\",values=[5.0,8.0]}]",
+        "--set",
+        "integration.duration_s=22.0",
+        "--set",
+        "integration.transient_s=2.0",
+    ];
+    let map = |force: bool| {
+        let mut c = bin();
+        c.args(["map", "--backend", "cpu", "--quiet", "--out"])
+            .arg(&out)
+            .args(small);
+        if force {
+            c.arg("--force");
+        }
+        let o = c.output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    map(false);
+    for own in ["rig_photo.png", "calib.npy", "notes.txt"] {
+        std::fs::write(out.join(own), "the user's").unwrap();
+    }
+    map(true);
+    for own in ["rig_photo.png", "calib.npy", "notes.txt"] {
+        assert_eq!(
+            std::fs::read_to_string(out.join(own)).unwrap(),
+            "the user's",
+            "{own}"
+        );
+    }
+    assert!(out.join("K.npy").is_file() && out.join("map.json").is_file());
 }
