@@ -204,6 +204,7 @@ fn run_map_scene<'py>(
     progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let spec = map_from_toml(text, origin, &sets).map_err(scene_error)?;
+    pendulum_atlas::map::check_host_memory(&spec).map_err(engine_error)?;
     let (backend, precision) = (parse_backend(backend)?, parse_precision(precision)?);
     let out = run_polled(py, progress.as_ref(), OnInterrupt::Stop, move |ticker| {
         map_work(&spec, backend, precision, ticker)

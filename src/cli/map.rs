@@ -6,7 +6,7 @@ use pendulum_atlas::config::{DEFAULT_MAP_TOML, MapSpec, map_from_toml, scene_tex
 use pendulum_atlas::engine::gpu::list_adapters;
 use pendulum_atlas::engine::{Engine, no_progress};
 use pendulum_atlas::map::hardware_default::hardware_default;
-use pendulum_atlas::map::{MapRun, run_map, run_map_on_devices, run_map_shard};
+use pendulum_atlas::map::{MapRun, check_host_memory, run_map, run_map_on_devices, run_map_shard};
 use pendulum_atlas::model::Status;
 use pendulum_atlas::output::folder::Product;
 use pendulum_atlas::output::map::write_map;
@@ -61,6 +61,7 @@ pub struct MergeArgs {
 /// Run `map`.
 pub fn run(a: MapArgs) -> anyhow::Result<()> {
     let (text, mut spec) = read_map(a.scene.as_deref(), &a.sets)?;
+    check_host_memory(&spec).map_err(hint)?;
     if let Some(s) = a.shard {
         check_shard_count("--shard", s.count, &spec)?;
     }

@@ -36,6 +36,20 @@ pub enum EngineError {
     /// The progress callback cancelled the run (Ctrl-C in the Python package).
     #[error("the run was cancelled before it finished")]
     Cancelled,
+    /// A map too large for the host's memory.
+    #[error(
+        "a map of {instances} instances at N = {segments} needs about {need} of memory to plan and hold its results, and {available} is available: use a coarser grid or fewer axis values"
+    )]
+    HostMemory {
+        /// Instances of the map.
+        instances: usize,
+        /// Segments N.
+        segments: usize,
+        /// Memory it needs, readable.
+        need: String,
+        /// Memory available, readable.
+        available: String,
+    },
     /// An ensemble needs at least one instance.
     #[error("an ensemble needs at least one instance")]
     Empty,

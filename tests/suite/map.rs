@@ -466,3 +466,21 @@ fn a_given_step_is_shortened_to_divide_the_period_never_lengthened() {
         }
     }
 }
+
+#[test]
+fn a_map_larger_than_the_memory_is_refused_before_planning() {
+    // 4 million instances at N = 256: about 200 GB to plan, refused at once.
+    let o = bin()
+        .args(["map", "--backend", "cpu", "--quiet", "--set", "beam.segments=256", "--set"])
+        .arg("map.axes=[{key=\"excitation.frequency_hz\",start=4.0,end=12.0,count=2000},{key=\"excitation.amplitude_m\",start=0.004,end=0.025,count=2000}]")
+        .arg("--out")
+        .arg(out_dir("too-large"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("4000000 instances") && err.contains("of memory"),
+        "{err}"
+    );
+}
