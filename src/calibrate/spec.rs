@@ -535,12 +535,32 @@ fn check_scenes(spec: &CalibrationSpec) -> Result<(), ConfigError> {
     };
     for case in &spec.cases {
         for values in [ends(false), ends(true)] {
-            spec.scene(case, &values, 0.0)
+            let scene = spec
+                .scene(case, &values, 0.0)
                 .map_err(|e| ConfigError::Inconsistent {
                     key: "calibrate.cases".into(),
                     reason: format!("case `{}` gives an invalid scene: {e}", case.name),
                 })?;
+            check_spread(spec, case, scene.initial.angle_deg)?;
         }
+    }
+    Ok(())
+}
+
+/// The starts of a case, its initial angle ± the spread, must stay inside (−90, 90) deg: a
+/// spread that leaves it is the spread's fault, and named so.
+fn check_spread(spec: &CalibrationSpec, case: &Case, angle_deg: f64) -> Result<(), ConfigError> {
+    let spread = spec.initial_spread_deg;
+    if spec.initial_states > 1 && angle_deg.abs() + spread >= 90.0 {
+        return Err(ConfigError::OutOfRange {
+            key: "calibrate.initial_spread_deg".into(),
+            value: spread,
+            range: format!(
+                "[0, {}) deg: case `{}` starts at {angle_deg} deg, and its starts must stay within ±90 deg",
+                90.0 - angle_deg.abs(),
+                case.name
+            ),
+        });
     }
     Ok(())
 }

@@ -21,8 +21,8 @@ pub struct RunReport<'a> {
     pub precision: Precision,
     /// The method (`rk4`, `imex` or `dop853`).
     pub method: &'a str,
-    /// Why the fixed-step engine chose it.
-    pub method_reason: &'a str,
+    /// Why this method ran: the fixed-step engine's choice, or the reference asked for.
+    pub method_reason: String,
     /// Steps each method would take.
     pub method_steps: &'a MethodSteps,
     /// The damping the scene's keys give.
@@ -91,7 +91,12 @@ impl<'a> RunReport<'a> {
                 Integrator::Engine => f.plan.method.name(),
                 Integrator::Reference => "dop853",
             },
-            method_reason: &f.plan.method_reason,
+            method_reason: match f.integrator {
+                Integrator::Engine => f.plan.method_reason.clone(),
+                Integrator::Reference => {
+                    "the reference integrator was asked for: adaptive DOP853 with contact events in f64 (the fixed-step engine's choice of RK4 or IMEX does not apply)".into()
+                }
+            },
             method_steps: &f.plan.method_steps,
             damping: f.scene.damping_report(),
             dt_s: f.plan.dt_s,

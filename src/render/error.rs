@@ -16,11 +16,29 @@ pub enum RenderError {
     Font,
 }
 
-impl<E: std::error::Error + Send + Sync> From<plotters::drawing::DrawingAreaErrorKind<E>>
+impl<E: std::error::Error + Send + Sync + 'static> From<plotters::drawing::DrawingAreaErrorKind<E>>
     for RenderError
 {
     fn from(e: plotters::drawing::DrawingAreaErrorKind<E>) -> Self {
-        RenderError::Draw(e.to_string())
+        use plotters::drawing::DrawingAreaErrorKind as Area;
+        use plotters_backend::DrawingErrorKind as Backend;
+        RenderError::Draw(match &e {
+            Area::BackendError(Backend::DrawingError(inner)) => backend_text(inner),
+            Area::BackendError(Backend::FontError(f)) => format!("font: {f}"),
+            other => other.to_string(),
+        })
+    }
+}
+
+/// The reason of a bitmap backend's error in words (its own `Display` prints its `Debug`
+/// form, `ImageError(IoError(Custom { .. }))`).
+fn backend_text<E: std::error::Error + 'static>(inner: &E) -> String {
+    use plotters_bitmap::BitMapBackendError as Bitmap;
+    match (inner as &dyn std::any::Any).downcast_ref::<Bitmap>() {
+        Some(Bitmap::IOError(io)) => io.to_string(),
+        Some(Bitmap::ImageError(img)) => img.to_string(),
+        Some(Bitmap::InvalidBuffer) => "the pixel buffer has the wrong size".into(),
+        _ => inner.to_string(),
     }
 }
 

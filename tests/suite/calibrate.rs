@@ -222,3 +222,18 @@ fn a_calibration_where_every_run_fails_says_so_and_exits_3() {
         "the files are written"
     );
 }
+
+#[test]
+fn a_spread_that_takes_the_starts_past_the_bumpers_reach_names_the_spread() {
+    let text = format!(
+        "{BASE}[calibrate]\ninitial_states = 3\ninitial_spread_deg = 85.0\n\
+         [[calibrate.unknowns]]\nkey = \"limiter.clearance_deg\"\nvalues = [10.0, 20.0]\n\
+         [[calibrate.cases]]\nname = \"8 Hz\"\n{}\nk_class = \"chaotic\"\n",
+        case_set(8.0, 0.009)
+    );
+    let e = calibration_from_toml(&text, "<test>", &[])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("calibrate.initial_spread_deg"), "{e}");
+    assert!(!e.contains("`initial.angle_deg`"), "{e}");
+}

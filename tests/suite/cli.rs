@@ -1153,3 +1153,29 @@ fn force_deletes_only_the_files_of_the_earlier_run() {
     }
     assert!(out.join("K.npy").is_file() && out.join("map.json").is_file());
 }
+
+#[test]
+fn a_reference_run_says_it_ran_dop853_and_why() {
+    let out = out_dir("dop853-reason");
+    let o = bin()
+        .args([
+            "simulate",
+            "--integrator",
+            "reference",
+            "--set",
+            "beam.segments=3",
+        ])
+        .args(["--set", "integration.duration_s=0.3", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let run: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("run.json")).unwrap()).unwrap();
+    assert_eq!(run["method"], "dop853");
+    let reason = run["method_reason"].as_str().unwrap();
+    assert!(
+        reason.contains("DOP853") && !reason.contains("cheaper"),
+        "{reason}"
+    );
+}

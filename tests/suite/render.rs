@@ -743,3 +743,30 @@ fn inferred_cells_are_hatched_and_named_in_the_legend() {
         "hatch lines and the legend swatch add colours"
     );
 }
+
+#[test]
+fn a_picture_that_cannot_be_written_says_why_in_words() {
+    let x = [0.0, 1.0, 2.0];
+    let path = std::env::temp_dir()
+        .join(format!("pendulum-atlas-no-such-dir-{}", std::process::id()))
+        .join("chart.png");
+    let e = pendulum_atlas::render::line_chart(
+        &path,
+        "t",
+        "x",
+        "y",
+        &[pendulum_atlas::render::Series {
+            name: "s",
+            x: &x,
+            y: &x,
+        }],
+        false,
+        false,
+    )
+    .expect_err("no such folder")
+    .to_string();
+    assert!(e.contains("No such file or directory"), "{e}");
+    for debug in ["ImageError", "IoError", "Custom {", "kind:"] {
+        assert!(!e.contains(debug), "Debug formatting in: {e}");
+    }
+}
