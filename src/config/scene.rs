@@ -469,7 +469,37 @@ fn read_beam_damping(r: &mut Reader, library_beta_s: f64) -> Result<BeamDamping,
     })
 }
 
+/// The one rule for keys of a part that is switched off (the limiter, the piezo, a sweep under
+/// a harmonic forcing): they are accepted, and each one the scene sets is named in a note
+/// (printed as a warning) saying it is not used.
+fn note_unused(r: &mut Reader, keys: &[&str], why: &str) -> Result<(), ConfigError> {
+    for k in keys {
+        if r.raw(k)?.is_some() {
+            r.note(format!("{k} is set but not used: {why}"));
+        }
+    }
+    Ok(())
+}
+
 fn read_limiter(r: &mut Reader, length_m: f64) -> Result<Limiter, ConfigError> {
+    let limiter = read_limiter_keys(r, length_m)?;
+    if !limiter.enabled {
+        note_unused(
+            r,
+            &[
+                "limiter.clearance_deg",
+                "limiter.contact_arc_m",
+                "limiter.stiffness_n_per_m",
+                "limiter.damping_ns_per_m",
+                "limiter.damping_law",
+            ],
+            "limiter.enabled = false",
+        )?;
+    }
+    Ok(limiter)
+}
+
+fn read_limiter_keys(r: &mut Reader, length_m: f64) -> Result<Limiter, ConfigError> {
     Ok(Limiter {
         enabled: r.boolean("limiter.enabled", true)?,
         clearance_deg: r.number("limiter.clearance_deg", 20.0, Range::Open(0.0, 90.0), "deg")?,
@@ -558,18 +588,15 @@ fn read_excitation(r: &mut Reader, duration_s: f64) -> Result<Excitation, Config
             )?,
         }
     } else {
-        for k in [
-            "excitation.sweep_start_hz",
-            "excitation.sweep_end_hz",
-            "excitation.sweep_duration_s",
-        ] {
-            if r.raw(k)?.is_some() {
-                return Err(ConfigError::Inconsistent {
-                    key: k.into(),
-                    reason: "only used with excitation.kind = \"sweep\"".into(),
-                });
-            }
-        }
+        note_unused(
+            r,
+            &[
+                "excitation.sweep_start_hz",
+                "excitation.sweep_end_hz",
+                "excitation.sweep_duration_s",
+            ],
+            "only used with excitation.kind = \"sweep\"",
+        )?;
         ExcitationKind::Harmonic { frequency_hz }
     };
     Ok(Excitation {
@@ -589,6 +616,19 @@ fn read_piezo(r: &mut Reader, segments: usize) -> Result<Piezo, ConfigError> {
                 segments.saturating_sub(1)
             ),
         });
+    }
+    if !enabled {
+        note_unused(
+            r,
+            &[
+                "piezo.segments",
+                "piezo.capacitance_f",
+                "piezo.load_ohm",
+                "piezo.coupling_nm_per_v",
+                "initial.voltage_v",
+            ],
+            "piezo.enabled = false",
+        )?;
     }
     Ok(Piezo {
         enabled,

@@ -122,11 +122,37 @@ fn choices_and_combinations_are_checked() {
     assert!(e.contains("`piezo.segments`"), "{e}");
     let e = scene_error(&["beam.inner_diameter_m=0.007"]);
     assert!(e.contains("`beam.inner_diameter_m`"), "{e}");
-    let e = scene_error(&["excitation.sweep_end_hz=9"]);
-    assert!(
-        e.contains("only used with excitation.kind = \"sweep\""),
-        "{e}"
-    );
+}
+
+#[test]
+fn keys_of_a_switched_off_part_are_accepted_and_named_as_unused() {
+    for (switch, key) in [
+        ("excitation.kind=\"harmonic\"", "excitation.sweep_end_hz=9"),
+        ("limiter.enabled=false", "limiter.stiffness_n_per_m=5e3"),
+        (
+            "limiter.enabled=false",
+            "limiter.damping_law=\"kelvin_voigt\"",
+        ),
+        ("piezo.enabled=false", "piezo.load_ohm=5e5"),
+        ("piezo.enabled=false", "initial.voltage_v=1.0"),
+    ] {
+        let s = scene(&[switch, key]);
+        let name = key.split('=').next().unwrap();
+        assert!(
+            s.notes
+                .iter()
+                .any(|n| n.starts_with(name) && n.contains("not used")),
+            "{switch} {key}: {:?}",
+            s.notes
+        );
+    }
+    // Switched on, the same keys are used and nothing is noted.
+    let s = scene(&[
+        "piezo.enabled=true",
+        "piezo.load_ohm=5e5",
+        "initial.voltage_v=1.0",
+    ]);
+    assert!(s.notes.is_empty(), "{:?}", s.notes);
 }
 
 #[test]
