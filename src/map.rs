@@ -131,7 +131,8 @@ impl MapRun {
 
 /// Host memory a map takes to plan and hold its results (bytes), estimated before any work:
 /// about 1 kB per instance plus 200 B per segment (its plan's coefficient vectors; measured:
-/// 342 MB peak for 200 000 instances at N = 3, files included) and its bifurcation tail.
+/// a peak RSS of 342 404 KiB for 200 000 instances at N = 3, files included) and its
+/// bifurcation tail.
 pub fn host_bytes_estimate(spec: &MapSpec) -> u64 {
     let tail = if spec.bifurcation {
         8 * u64::from(spec.bifurcation_samples)
