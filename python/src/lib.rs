@@ -297,17 +297,8 @@ fn simulate_work(
 
 /// The run's rows must fit in memory; a run of no step is refused.
 fn check_run_size(scene: &Scene, plan: &StepPlan) -> PyResult<()> {
-    let duration = scene.integration.duration_s;
-    let columns = row_columns(scene.piezo_params().is_some()).len();
-    let size = RunSize::new(duration, plan.dt_s, plan.sample_every, columns)
-        .map_err(|e| SceneError::new_err(e.to_string()))?;
-    if size.steps == 0 {
-        return Err(SceneError::new_err(format!(
-            "integration.duration_s = {duration} s is shorter than half a step (dt = {:e} s): the run would take no step; lengthen integration.duration_s or shorten integration.dt_s",
-            plan.dt_s
-        )));
-    }
-    size.check_against(memory_available(), None, Path::new("."))
+    RunSize::of_run(scene, plan)
+        .and_then(|size| size.check_against(memory_available(), None, Path::new(".")))
         .map_err(|e| SceneError::new_err(e.to_string()))
 }
 

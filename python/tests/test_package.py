@@ -235,7 +235,7 @@ def test_ctrl_c_interrupts_a_running_map():
     assert time.monotonic() - started >= 0.5
 
 
-def test_the_progress_bar_reaches_the_end(capsys):
+def test_a_progress_bar_is_shown_on_stderr(capsys):
     pa.map(pa.Scene(SMALL_MAP), backend="cpu", progress=True)
     # tqdm writes to stderr; the bar is left off the screen when it closes.
     assert "map" in capsys.readouterr().err

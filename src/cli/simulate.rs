@@ -11,7 +11,6 @@ use pendulum_atlas::model::Status;
 use pendulum_atlas::output::budget::{self, RunSize};
 use pendulum_atlas::output::files::write_json;
 use pendulum_atlas::output::folder::Product;
-use pendulum_atlas::output::{BASE_COLUMNS, PIEZO_COLUMNS};
 use pendulum_atlas::output::{Row, RunFacts, RunReport, record_analysis, run_warnings};
 use pendulum_atlas::output::{TrajectoryRecorder, write_trajectory_csv};
 use pendulum_atlas::render::{self, Panel, Series};
@@ -81,7 +80,7 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     let m = scene.modes();
     let plan = StepPlan::for_scene(&scene);
     let piezo = scene.piezo_params();
-    let size = run_size(&scene, &plan, piezo.is_some(), &a.out)?;
+    let size = run_size(&scene, &plan, &a.out)?;
     let inputs: Vec<&std::path::Path> = a.scene.scene.iter().map(|p| p.as_path()).collect();
     super::claim_out_reading(Product::Simulate, &a.out, a.force, &inputs)?;
     announce(&plan, a.integrator, &size);
@@ -196,21 +195,8 @@ fn integrate_with_progress(
 
 /// The run's steps, rows, memory and CSV size, refused when it takes no step or does not fit
 /// (see `output::budget`).
-fn run_size(
-    scene: &Scene,
-    plan: &StepPlan,
-    piezo: bool,
-    out: &std::path::Path,
-) -> anyhow::Result<RunSize> {
-    let duration = scene.integration.duration_s;
-    let columns = BASE_COLUMNS.len() + if piezo { PIEZO_COLUMNS.len() } else { 0 };
-    let size = RunSize::new(duration, plan.dt_s, plan.sample_every, columns)?;
-    if size.steps == 0 {
-        anyhow::bail!(
-            "integration.duration_s = {duration} s is shorter than half a step (dt = {:e} s): the run would take no step; lengthen integration.duration_s or shorten integration.dt_s",
-            plan.dt_s
-        );
-    }
+fn run_size(scene: &Scene, plan: &StepPlan, out: &std::path::Path) -> anyhow::Result<RunSize> {
+    let size = RunSize::of_run(scene, plan)?;
     size.check(out)?;
     Ok(size)
 }

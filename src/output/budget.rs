@@ -46,6 +46,16 @@ pub enum TooLarge {
         /// Steps the run needs.
         steps: f64,
     },
+    /// A run shorter than half a step.
+    #[error(
+        "integration.duration_s = {duration_s} s is shorter than half a step (dt = {dt_s:e} s): the run would take no step; lengthen integration.duration_s or shorten integration.dt_s"
+    )]
+    NoStep {
+        /// The scene's duration (s).
+        duration_s: f64,
+        /// The plan's step (s).
+        dt_s: f64,
+    },
     /// More memory than the machine has available.
     #[error(
         "the run's {rows} output rows need about {need} of memory and {available} is available: lower output.sample_rate_hz or shorten integration.duration_s"
@@ -73,6 +83,24 @@ pub enum TooLarge {
 }
 
 impl RunSize {
+    /// The size of a single run of `scene` over `plan` (the trajectory's columns with the
+    /// piezo's when it is on); refused when it takes no step or more than the engines count.
+    pub fn of_run(
+        scene: &crate::config::Scene,
+        plan: &crate::engine::StepPlan,
+    ) -> Result<RunSize, TooLarge> {
+        let duration_s = scene.integration.duration_s;
+        let columns = super::row_columns(scene.piezo_params().is_some()).len();
+        let size = RunSize::new(duration_s, plan.dt_s, plan.sample_every, columns)?;
+        if size.steps == 0 {
+            return Err(TooLarge::NoStep {
+                duration_s,
+                dt_s: plan.dt_s,
+            });
+        }
+        Ok(size)
+    }
+
     /// The size of a run of `duration_s / dt_s` steps writing a row every `sample_every` steps
     /// with `columns` CSV columns. Counts are computed in floating point first, so a step of
     /// 1e-300 s is a huge number, not a saturated integer.

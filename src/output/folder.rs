@@ -115,11 +115,11 @@ impl Product {
     /// File names it writes besides the manifest.
     fn names(self) -> &'static [&'static str] {
         match self {
-            Product::Simulate => &SIMULATE_FILES,
+            Product::Simulate => &["trajectory.csv", "time_series.png"],
             Product::Map => &["grid.csv", "map_scene.toml", "bifurcation.png"],
             Product::Shard => &["scene.toml", "shard_results.npy", "shard_strobe.npy"],
             Product::Slurm => &["array.sbatch", "merge.sbatch", "scene.toml"],
-            Product::Analyze => &ANALYSIS_FILES,
+            Product::Analyze => &[],
             Product::Reproduce => &[
                 "table2.csv",
                 "table2.md",
@@ -158,12 +158,13 @@ impl Product {
         }
     }
 
-    /// Whether `name` is one of the files it writes under names that vary with the run: a
-    /// map's arrays and pictures (named by its metrics), the paper's figures, the agreement
-    /// pictures of a calibration. Nothing else matches, so a user's `rig_photo.png` is never
+    /// Whether `name` is one of the files it writes beyond its fixed names: the analysis of a
+    /// record (simulate, analyze), a map's arrays and pictures (named by its metrics), the
+    /// paper's figures, the agreement pictures of a calibration. Nothing else matches, so a user's `rig_photo.png` is never
     /// taken for one.
     fn writes_varying(self, name: &str) -> bool {
         match self {
+            Product::Simulate | Product::Analyze => ANALYSIS_FILES.contains(&name),
             Product::Map => is_map_file(name),
             Product::Reproduce => name.starts_with("fig") && name.ends_with(".png"),
             Product::Calibrate => name.starts_with("agreement_") && name.ends_with(".png"),
@@ -273,29 +274,7 @@ impl Product {
     }
 }
 
-/// The files of a simulation besides its manifest: the trajectory and its analysis.
-const SIMULATE_FILES: [&str; 18] = [
-    "trajectory.csv",
-    "time_series.png",
-    "spectrum.csv",
-    "spectrum.png",
-    "scalogram.png",
-    "zero_one.png",
-    "phase_hist.png",
-    "portrait.png",
-    "phase_diff_rad.npy",
-    "wavelet_power.npy",
-    "wavelet_period_s.npy",
-    "wavelet_scale_s.npy",
-    "wavelet_time_s.npy",
-    "wavelet_coi_s.npy",
-    "wavelet_signif_level.npy",
-    "wavelet_signif_ratio.npy",
-    "wavelet_global_power.npy",
-    "wavelet_global_signif.npy",
-];
-
-/// The files of a record's analysis besides its manifest.
+/// The files of a record's analysis (`simulate` and `analyze`) besides the manifest.
 const ANALYSIS_FILES: [&str; 16] = [
     "spectrum.csv",
     "spectrum.png",
