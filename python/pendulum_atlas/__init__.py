@@ -87,7 +87,7 @@ def simulate(
 
     ``integrator``: ``"engine"`` (the maps' fixed-step RK4/IMEX) or ``"reference"``
     (adaptive DOP853, f64). ``precision``: ``None`` (f64), ``"f32"`` or ``"f64"``. Ctrl-C
-    returns at once; the run in flight finishes on its own thread and is dropped.
+    stops the run at its next output row and raises ``KeyboardInterrupt``.
     """
     if not isinstance(scene, Scene):
         raise TypeError(f"simulate() takes a pendulum_atlas.Scene, not {type(scene).__name__}")

@@ -20,7 +20,7 @@ use pendulum_atlas::output::map::{ArrayData, MapArray, map_arrays, map_manifest}
 use pendulum_atlas::output::{
     RunFacts, RunReport, TrajectoryRecorder, record_analysis, row_columns, run_warnings,
 };
-use poll::{OnInterrupt, run_polled};
+use poll::run_polled;
 use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -206,7 +206,7 @@ fn run_map_scene<'py>(
     let spec = map_from_toml(text, origin, &sets).map_err(scene_error)?;
     pendulum_atlas::map::check_host_memory(&spec).map_err(engine_error)?;
     let (backend, precision) = (parse_backend(backend)?, parse_precision(precision)?);
-    let out = run_polled(py, progress.as_ref(), OnInterrupt::Stop, move |ticker| {
+    let out = run_polled(py, progress.as_ref(), move |ticker| {
         map_work(&spec, backend, precision, ticker)
     })?
     .map_err(engine_error)?;
@@ -260,12 +260,15 @@ fn simulate_work(
     let mut rec = TrajectoryRecorder {
         load_ohm: scene.piezo_params().map(|z| z.load_ohm),
         on_row: Some(Box::new(move |step| {
-            let _ = t.report(step, total, pendulum_atlas::engine::ProgressUnit::Steps);
+            t.report(step, total, pendulum_atlas::engine::ProgressUnit::Steps)
         })),
         ..Default::default()
     };
     let started = Instant::now();
     let run = pendulum_atlas::engine::run_scene(scene, plan, integrator, precision, &mut rec)?;
+    if rec.stopped {
+        return Err(WorkError::Engine(pendulum_atlas::engine::EngineError::Cancelled));
+    }
     let wall_time_s = started.elapsed().as_secs_f64();
     let mut warnings = run_warnings(plan, &run.outcome);
     let analysis = (run.outcome.status == Status::Ok)
@@ -331,7 +334,7 @@ fn run_single_scene<'py>(
     }
     let plan = StepPlan::for_scene(&scene);
     check_run_size(&scene, &plan)?;
-    let out = run_polled(py, progress.as_ref(), OnInterrupt::Abandon, move |ticker| {
+    let out = run_polled(py, progress.as_ref(), move |ticker| {
         simulate_work(&scene, &plan, integrator, precision, ticker)
     })?
     .map_err(work_error)?;

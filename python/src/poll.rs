@@ -48,23 +48,13 @@ impl Ticker {
     }
 }
 
-/// What becomes of work in flight when the caller is interrupted.
-#[derive(Clone, Copy, PartialEq, Eq)]
-pub enum OnInterrupt {
-    /// The work stops at its next progress point (a cancel through [`Ticker::report`]), and
-    /// the call waits for that before raising.
-    Stop,
-    /// The work cannot stop (a single run): the call raises at once and the run finishes
-    /// on its own thread, its result dropped.
-    Abandon,
-}
-
 /// Run `work` on its own thread; call `progress(done, total, unit)` on this thread as it
-/// goes. Ctrl-C (or an exception raised by `progress`) cancels the work and is raised here.
+/// goes. Ctrl-C (or an exception raised by `progress`) cancels the work, which stops at its
+/// next progress point (a map's instance or dispatch, a single run's output row); the call
+/// waits for that and then raises.
 pub fn run_polled<T: Send + 'static>(
     py: Python<'_>,
     progress: Option<&Bound<'_, PyAny>>,
-    on_interrupt: OnInterrupt,
     work: impl FnOnce(&Arc<Ticker>) -> T + Send + 'static,
 ) -> PyResult<T> {
     let ticker = Arc::new(Ticker::default());
@@ -99,13 +89,11 @@ pub fn run_polled<T: Send + 'static>(
         });
         if let Err(e) = polled {
             ticker.cancel.store(true, Ordering::Relaxed);
-            if on_interrupt == OnInterrupt::Stop {
-                py.detach(|| {
-                    while !worker.is_finished() {
-                        thread::park_timeout(TICK)
-                    }
-                });
-            }
+            py.detach(|| {
+                while !worker.is_finished() {
+                    thread::park_timeout(TICK)
+                }
+            });
             return Err(e);
         }
     }

@@ -178,7 +178,10 @@ fn integrate_with_progress(
     };
     let bar = progress_bar(plan, scene.beam.segments, a.integrator);
     if let Some(b) = bar.clone() {
-        rec.on_row = Some(Box::new(move |step| b.set_position(step)));
+        rec.on_row = Some(Box::new(move |step| {
+            b.set_position(step);
+            std::ops::ControlFlow::Continue(())
+        }));
     }
     let started = Instant::now();
     let precision = match a.precision.unwrap_or(Precision::F64) {

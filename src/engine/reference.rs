@@ -222,6 +222,14 @@ pub fn integrate_reference<O: Observer<f64>>(
             chain,
             &mut ws,
         );
+        if obs.stopped() {
+            return Ok(Outcome {
+                status: Status::Ok,
+                steps_done: row * plan.sample_every,
+                impacts,
+                failed_at_s: None,
+            });
+        }
     }
     Ok(Outcome {
         status: Status::Ok,

@@ -30,6 +30,12 @@ pub trait Observer<T: Real> {
         chain: &Chain<T>,
         ws: &mut Workspace<T>,
     );
+
+    /// Whether the run should stop at the row just sampled (a cancel or a time limit); the
+    /// outcome then counts fewer steps than planned. Never, unless the observer says so.
+    fn stopped(&self) -> bool {
+        false
+    }
 }
 
 /// An observer that records nothing.
@@ -203,6 +209,9 @@ impl<T: Real, O: Observer<T>> StepHook<T> for Rows<'_, T, O> {
             let t = step as f64 * self.plan.dt_s;
             let cart = self.cart.at_step(step, 0.0, self.plan.dt_s);
             self.obs.sample(step, t, &cart, y, chain, ws);
+            if self.obs.stopped() {
+                return ControlFlow::Break(());
+            }
         }
         if let Some(tw) = &mut self.twin {
             let sch = tw.schedule;

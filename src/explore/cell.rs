@@ -5,6 +5,7 @@
 //! page shows. The run is `simulate`'s: the CPU engine in f64, then
 //! [`analyze_record`] with [`Scene::record_options`].
 
+use super::CellLimits;
 use super::error::ExploreError;
 use super::folder::{RunFolder, Source};
 use super::search_folder::split_variant;
@@ -13,10 +14,12 @@ use crate::config::{Scene, set_key};
 use crate::engine::{EnsembleOptions, EnsemblePlan, Instance, Outcome, StepPlan, integrate};
 use crate::model::Status;
 use crate::output::TrajectoryRecorder;
+use crate::output::budget::{RunSize, bytes};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::ops::ControlFlow;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 use toml::{Table, Value};
 
@@ -198,19 +201,77 @@ pub struct CellRun {
     pub warnings: Vec<String>,
 }
 
-/// Integrate and analyse cell `k` (variant `v`) as `simulate` would; `progress` goes from 0
-/// to 1000.
+/// Memory a cell run holds per byte of its rows: the rows themselves, the analysis's copies
+/// of α and the cart, its spectra and the wavelet transform of the (block-averaged) record.
+/// Measured with `simulate` on the default scene (see `docs/bench/EXPLORE.md`).
+pub const MEMORY_PER_ROW_BYTE: u64 = 18;
+
+/// The memory a run of `scene` over `plan` holds in `explore` (bytes, estimated): its rows
+/// times [`MEMORY_PER_ROW_BYTE`].
+pub fn cell_memory_bytes(scene: &Scene, plan: &StepPlan) -> Result<u64, ExploreError> {
+    let size = RunSize::of_run(scene, plan).map_err(|e| ExploreError::Cell(e.to_string()))?;
+    Ok(size.memory_bytes.saturating_mul(MEMORY_PER_ROW_BYTE))
+}
+
+/// A running cell's progress (0 to 1000) and the page's cancel.
+#[derive(Debug, Default)]
+pub struct CellControl {
+    done: AtomicU64,
+    cancelled: AtomicBool,
+}
+
+impl CellControl {
+    /// Share of the steps done, 0 to 1.
+    pub fn progress(&self) -> f64 {
+        self.done.load(Ordering::Relaxed) as f64 / 1000.0
+    }
+
+    /// Ask the run to stop at its next output row.
+    pub fn cancel(&self) {
+        self.cancelled.store(true, Ordering::Relaxed);
+    }
+
+    /// Whether the run was asked to stop.
+    pub fn is_cancelled(&self) -> bool {
+        self.cancelled.load(Ordering::Relaxed)
+    }
+}
+
+/// Integrate and analyse cell `k` (variant `v`) as `simulate` would, within `limits`:
+/// refused before it starts when it would hold more memory, stopped when it runs longer or
+/// when `control` is cancelled.
 pub fn run_cell(
     folder: &RunFolder,
     k: usize,
     v: usize,
-    progress: &Arc<AtomicU64>,
+    control: &Arc<CellControl>,
+    limits: CellLimits,
 ) -> Result<CellRun, ExploreError> {
     let started = Instant::now();
     let cs = cell_scene(folder, k, v)?;
     let scene = &cs.scene;
     let plan = StepPlan::for_scene(scene);
-    let (rec, outcome) = record(scene, &plan, progress);
+    let need = cell_memory_bytes(scene, &plan)?;
+    if need > limits.memory_bytes {
+        return Err(ExploreError::TooLarge {
+            cell: k,
+            need: bytes(need),
+            limit: bytes(limits.memory_bytes),
+        });
+    }
+    let (rec, outcome) = record(scene, &plan, control, started, limits.wall_s);
+    if rec.stopped {
+        let done_percent = 100.0 * outcome.steps_done as f64 / plan.steps.max(1) as f64;
+        return Err(if control.is_cancelled() {
+            ExploreError::Cancelled(k)
+        } else {
+            ExploreError::TooLong {
+                cell: k,
+                limit_s: limits.wall_s,
+                done_percent,
+            }
+        });
+    }
     let t: Vec<f64> = rec.rows.iter().map(|r| r.t_s).collect();
     let alpha: Vec<f64> = rec.rows.iter().map(|r| r.alpha_rad).collect();
     let cart: Vec<f64> = rec.rows.iter().map(|r| r.x0_m).collect();
@@ -252,19 +313,29 @@ pub fn run_cell(
     })
 }
 
-/// Integrate `scene` with every output row kept, moving `progress` from 0 to 1000.
+/// Integrate `scene` with every output row kept, moving the progress from 0 to 1000; the
+/// run stops at the row where `control` is cancelled or `wall_s` has passed since `started`
+/// (the recorder's `stopped` then says so).
 fn record(
     scene: &Scene,
     plan: &StepPlan,
-    progress: &Arc<AtomicU64>,
+    control: &Arc<CellControl>,
+    started: Instant,
+    wall_s: f64,
 ) -> (TrajectoryRecorder, Outcome) {
     let mut rec = TrajectoryRecorder {
         load_ohm: scene.piezo_params().map(|z| z.load_ohm),
         ..Default::default()
     };
-    let (p, total) = (progress.clone(), plan.steps.max(1));
+    let (c, total) = (control.clone(), plan.steps.max(1));
     rec.on_row = Some(Box::new(move |step| {
-        p.store(step.min(total) * 1000 / total, Ordering::Relaxed);
+        c.done
+            .store(step.min(total) * 1000 / total, Ordering::Relaxed);
+        if c.is_cancelled() || started.elapsed().as_secs_f64() > wall_s {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
     }));
     let outcome = integrate(&Instance::<f64>::from_scene(scene), plan, &mut rec);
     (rec, outcome)

@@ -3,13 +3,15 @@
 //! running or waiting), so a burst of clicks on the same cells costs one run each, and a burst on many
 //! cells is refused once the queue is full instead of starting threads without bound.
 //! Finished runs are kept (the newest [`KEEP_DONE`]) to answer repeated clicks at once.
+//! Each run is held to the server's [`CellLimits`], and a cancel stops a waiting job at once
+//! and a running one at its next output row.
 
-use super::cell::{CellRun, run_cell};
+use super::CellLimits;
+use super::cell::{CellControl, CellRun, run_cell};
 use super::error::ExploreError;
 use super::folder::RunFolder;
 use serde::Serialize;
 use std::collections::{HashMap, VecDeque};
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 
 /// Finished jobs kept for repeated clicks.
@@ -60,7 +62,7 @@ pub enum JobView {
 #[derive(Debug)]
 enum Stage {
     Queued,
-    Running(Arc<AtomicU64>),
+    Running(Arc<CellControl>),
     Done(Arc<CellRun>),
     Failed(String),
 }
@@ -82,15 +84,23 @@ pub struct Jobs {
     state: Mutex<State>,
     wake: Condvar,
     capacity: usize,
+    limits: CellLimits,
 }
 
 impl Jobs {
-    /// Start `workers` threads running cells of `folder`, with at most `capacity` waiting.
-    pub fn start(folder: Arc<RunFolder>, workers: usize, capacity: usize) -> Arc<Jobs> {
+    /// Start `workers` threads running cells of `folder` within `limits`, with at most
+    /// `capacity` waiting.
+    pub fn start(
+        folder: Arc<RunFolder>,
+        workers: usize,
+        capacity: usize,
+        limits: CellLimits,
+    ) -> Arc<Jobs> {
         let jobs = Arc::new(Jobs {
             state: Mutex::new(State::default()),
             wake: Condvar::new(),
             capacity,
+            limits,
         });
         for _ in 0..workers.max(1) {
             let (j, f) = (jobs.clone(), folder.clone());
@@ -131,6 +141,30 @@ impl Jobs {
         view(&self.lock(), id).ok_or(ExploreError::UnknownJob(id))
     }
 
+    /// What one cell run may take.
+    pub fn limits(&self) -> CellLimits {
+        self.limits
+    }
+
+    /// Cancel job `id`: a waiting job leaves the queue and fails as cancelled at once, a
+    /// running one stops at its next output row; a finished job stays as it is.
+    pub fn cancel(&self, id: u64) -> Result<JobView, ExploreError> {
+        let mut s = self.lock();
+        let (cell, stage) = s.stages.get(&id).ok_or(ExploreError::UnknownJob(id))?;
+        let cell = *cell;
+        match stage {
+            Stage::Queued => {
+                s.queue.retain(|&q| q != id);
+                drop(s);
+                self.finish(id, cell, Err(ExploreError::Cancelled(cell.0)));
+                return self.get(id);
+            }
+            Stage::Running(control) => control.cancel(),
+            Stage::Done(_) | Stage::Failed(_) => {}
+        }
+        Ok(view(&s, id).expect("looked up above"))
+    }
+
     /// A worker: take the oldest waiting job, run it, record the outcome; forever.
     fn work(&self, folder: &RunFolder) {
         loop {
@@ -142,13 +176,13 @@ impl Jobs {
                         None => s = self.wake.wait(s).unwrap_or_else(|p| p.into_inner()),
                     }
                 };
-                let progress = Arc::new(AtomicU64::new(0));
+                let control = Arc::new(CellControl::default());
                 let entry = s.stages.get_mut(&id).expect("queued jobs exist");
-                entry.1 = Stage::Running(progress.clone());
-                (id, entry.0, progress)
+                entry.1 = Stage::Running(control.clone());
+                (id, entry.0, control)
             };
             let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                run_cell(folder, cell.0, cell.1, &progress)
+                run_cell(folder, cell.0, cell.1, &progress, self.limits)
             }))
             .unwrap_or_else(|_| {
                 Err(ExploreError::Cell(format!(
@@ -160,18 +194,26 @@ impl Jobs {
         }
     }
 
-    /// Record a finished job, forgetting the oldest beyond [`KEEP_DONE`].
+    /// Record a finished job, forgetting the oldest beyond [`KEEP_DONE`]. A cancelled or
+    /// stopped run is forgotten by its cell, so that the next click runs it again.
     fn finish(&self, id: u64, cell: Cell, outcome: Result<CellRun, ExploreError>) {
         let mut s = self.lock();
         let stage = match outcome {
             Ok(run) => Stage::Done(Arc::new(run)),
-            Err(e) => Stage::Failed(e.to_string()),
+            Err(e) => {
+                if matches!(e, ExploreError::Cancelled(_) | ExploreError::TooLong { .. }) {
+                    s.by_cell.remove(&cell);
+                }
+                Stage::Failed(e.to_string())
+            }
         };
         s.stages.insert(id, (cell, stage));
         s.finished.push_back(id);
         while s.finished.len() > KEEP_DONE {
             let old = s.finished.pop_front().expect("longer than KEEP_DONE");
-            if let Some((c, _)) = s.stages.remove(&old) {
+            if let Some((c, _)) = s.stages.remove(&old)
+                && s.by_cell.get(&c) == Some(&old)
+            {
                 s.by_cell.remove(&c);
             }
         }
@@ -187,10 +229,10 @@ fn view(s: &State, id: u64) -> Option<JobView> {
             cell,
             ahead: s.queue.iter().position(|&q| q == id).unwrap_or(0),
         },
-        Stage::Running(p) => JobView::Running {
+        Stage::Running(c) => JobView::Running {
             job,
             cell,
-            progress: p.load(Ordering::Relaxed) as f64 / 1000.0,
+            progress: c.progress(),
         },
         Stage::Done(r) => JobView::Done {
             job,

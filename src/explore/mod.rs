@@ -9,7 +9,8 @@
 //! 2. [`field`] (`field`): one quantity over one slice, coloured by the PNG heat maps' rule;
 //! 3. [`cell_scene`] / [`run_cell`] (`cell`): a cell's scene with its command's method and
 //!    step pinned, integrated and analysed exactly as `simulate` does;
-//! 4. [`Jobs`] (`jobs`): a bounded queue of cell runs on a fixed set of worker threads;
+//! 4. [`Jobs`] (`jobs`): a bounded queue of cell runs on a fixed set of worker threads, each
+//!    run within [`CellLimits`] and cancellable from the page;
 //! 5. [`serve`] (`server`): the embedded page and the JSON API on a local port.
 //!
 //! Errors are [`ExploreError`]s; the server answers each with one HTTP status and a JSON
@@ -25,7 +26,7 @@ mod map_folder;
 mod search_folder;
 mod server;
 
-pub use cell::{CellRun, CellScene, cell_scene, run_cell};
+pub use cell::{CellControl, CellRun, CellScene, cell_memory_bytes, cell_scene, run_cell};
 pub use error::ExploreError;
 pub use field::{Field, field};
 pub use folder::{Axis, Column, RunFolder, Source};
@@ -33,6 +34,25 @@ pub use jobs::{JobView, Jobs};
 
 use std::net::{IpAddr, SocketAddr};
 use std::sync::Arc;
+
+/// What one cell run may take: it is refused before it starts when its estimated memory
+/// exceeds `memory_bytes`, and stopped when it runs longer than `wall_s`. The page says both,
+/// and offers the cell's scene for `simulate`, which has no such limits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CellLimits {
+    /// Longest integration of one cell (s).
+    pub wall_s: f64,
+    /// Most memory one cell run may hold: its rows and their analysis (bytes).
+    pub memory_bytes: u64,
+}
+
+impl CellLimits {
+    /// 5 minutes and 2 GB: a click answers within minutes and a few clicks fit a laptop.
+    pub const DEFAULT: CellLimits = CellLimits {
+        wall_s: 300.0,
+        memory_bytes: 2_000_000_000,
+    };
+}
 
 /// How the server runs.
 #[derive(Debug, Clone)]
@@ -45,6 +65,8 @@ pub struct ServeOptions {
     pub workers: usize,
     /// Cell runs allowed to wait.
     pub queue: usize,
+    /// What one cell run may take.
+    pub limits: CellLimits,
 }
 
 /// Serve `folder` until the process is stopped; `ready` is called with the bound address
@@ -55,7 +77,7 @@ pub fn serve(
     ready: impl FnOnce(SocketAddr),
 ) -> std::io::Result<()> {
     let folder = Arc::new(folder);
-    let jobs = Jobs::start(folder.clone(), opts.workers, opts.queue);
+    let jobs = Jobs::start(folder.clone(), opts.workers, opts.queue, opts.limits);
     let app = Arc::new(server::App { folder, jobs });
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)

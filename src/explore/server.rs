@@ -9,6 +9,7 @@
 //! | `GET /api/cell/K/scene.toml?variant=V` | cell K's scene run as V, as `simulate` takes it |
 //! | `POST /api/cell/K/run?variant=V` | queue a run of cell K as V; its job                |
 //! | `GET /api/job/J`               | where job J stands, its result when done             |
+//! | `POST /api/job/J/cancel`       | stop job J (waiting or running); where it stands     |
 //! | `GET /files/NAME`              | a PNG the manifest lists (`bifurcation.png`, ...)    |
 //!
 //! Every index is checked (`400` with the accepted range), an unknown quantity is `404` with
@@ -50,11 +51,16 @@ impl IntoResponse for ExploreError {
             ExploreError::UnknownMetric { .. }
             | ExploreError::UnknownJob(_)
             | ExploreError::NotServed(_) => StatusCode::NOT_FOUND,
-            ExploreError::OutOfRange { .. } | ExploreError::BadSlice { .. } => {
+            ExploreError::OutOfRange { .. }
+            | ExploreError::BadSlice { .. }
+            | ExploreError::BadJobId(_) => {
                 StatusCode::BAD_REQUEST
             }
             ExploreError::QueueFull { .. } => StatusCode::SERVICE_UNAVAILABLE,
-            ExploreError::Cell(_) => StatusCode::UNPROCESSABLE_ENTITY,
+            ExploreError::Cell(_)
+            | ExploreError::TooLarge { .. }
+            | ExploreError::TooLong { .. }
+            | ExploreError::Cancelled(_) => StatusCode::UNPROCESSABLE_ENTITY,
             ExploreError::MissingFile { .. } | ExploreError::BadFile { .. } => {
                 StatusCode::INTERNAL_SERVER_ERROR
             }
@@ -75,6 +81,7 @@ pub fn router(app: Arc<App>) -> Router {
         .route("/api/cell/{k}/scene.toml", get(cell_toml))
         .route("/api/cell/{k}/run", post(cell_run))
         .route("/api/job/{j}", get(job))
+        .route("/api/job/{j}/cancel", post(job_cancel))
         .route("/files/{name}", get(file))
         .method_not_allowed_fallback(|| async {
             (
@@ -136,6 +143,10 @@ async fn map_info(State(app): Shared) -> Response {
         "bifurcation": pictures.iter().any(|n| n.as_str() == "bifurcation.png"),
         "pictures": pictures,
         "scalogram_bar": sequential_bar(),
+        "cell_limits": {
+            "wall_s": app.jobs.limits().wall_s,
+            "memory": crate::output::budget::bytes(app.jobs.limits().memory_bytes),
+        },
     }))
     .into_response()
 }
@@ -228,12 +239,17 @@ async fn cell_run(
 }
 
 async fn job(State(app): Shared, Path(j): Path<String>) -> Result<Response, ExploreError> {
-    let id = j.parse::<u64>().map_err(|_| ExploreError::OutOfRange {
-        what: "job",
-        given: j.clone(),
-        last: u64::MAX as usize,
-    })?;
-    Ok(axum::Json(app.jobs.get(id)?).into_response())
+    Ok(axum::Json(app.jobs.get(job_id(&j)?)?).into_response())
+}
+
+async fn job_cancel(State(app): Shared, Path(j): Path<String>) -> Result<Response, ExploreError> {
+    Ok(axum::Json(app.jobs.cancel(job_id(&j)?)?).into_response())
+}
+
+/// A job id as the API gives them: a whole number.
+fn job_id(j: &str) -> Result<u64, ExploreError> {
+    j.parse::<u64>()
+        .map_err(|_| ExploreError::BadJobId(j.chars().take(40).collect()))
 }
 
 async fn file(State(app): Shared, Path(name): Path<String>) -> Result<Response, ExploreError> {

@@ -5,6 +5,7 @@ use crate::model::{CartState, Chain, Real, Workspace};
 use crate::output::OutputError;
 use crate::output::files::{commit_csv, create_csv, csv_error};
 use std::path::Path;
+use std::ops::ControlFlow;
 
 /// Columns of `trajectory.csv` (the piezo columns are appended when the piezo is on).
 pub const BASE_COLUMNS: [&str; 9] = [
@@ -84,8 +85,11 @@ pub struct TrajectoryRecorder {
     pub rows: Vec<Row>,
     /// Load resistance (Ω) when the piezo is on.
     pub load_ohm: Option<f64>,
-    /// Called after each row (e.g. to move a progress bar).
-    pub on_row: Option<Box<dyn FnMut(u64) + Send>>,
+    /// Called after each row with its step (e.g. to move a progress bar); `Break` stops the
+    /// run there (a cancel), and [`TrajectoryRecorder::stopped`] says so afterwards.
+    pub on_row: Option<Box<dyn FnMut(u64) -> ControlFlow<()> + Send>>,
+    /// Whether `on_row` asked the run to stop.
+    pub stopped: bool,
 }
 
 impl<T: Real> Observer<T> for TrajectoryRecorder {
@@ -117,8 +121,12 @@ impl<T: Real> Observer<T> for TrajectoryRecorder {
             dissipation_w: chain.dissipated_power_w(y),
         });
         if let Some(f) = self.on_row.as_mut() {
-            f(step);
+            self.stopped |= f(step).is_break();
         }
+    }
+
+    fn stopped(&self) -> bool {
+        self.stopped
     }
 }
 

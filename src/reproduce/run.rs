@@ -56,7 +56,7 @@ pub fn simulate(case: &str, scene: &Scene) -> Result<Simulation, ReproduceError>
     let mut rec = TrajectoryRecorder {
         rows: Vec::with_capacity(plan.rows()),
         load_ohm: scene.piezo_params().map(|z| z.load_ohm),
-        on_row: None,
+        ..Default::default()
     };
     let started = Instant::now();
     let outcome = integrate(&inst, &plan, &mut rec);

@@ -3,7 +3,7 @@
 "use strict";
 
 const $ = (id) => document.getElementById(id);
-const state = { map: null, field: null, cellCache: new Map(), selected: null, poll: null };
+const state = { map: null, field: null, cellCache: new Map(), selected: null, poll: null, job: null };
 const M = { left: 78, right: 118, top: 30, bottom: 56 };  // heat-map margins (px)
 
 async function api(url, opts) {
@@ -184,6 +184,7 @@ function setCellState(st, text) {
 function failCell(err) {
   setCellState("failed", "The run failed.");
   $("cellProgress").hidden = true;
+  $("cellCancel").hidden = true;
   showError($("cellError"), err);
 }
 
@@ -201,6 +202,8 @@ async function runCell(k) {
   let job = await api(`/api/cell/${k}/run?variant=${variant}`, { method: "POST" });
   const bar = $("cellProgress");
   bar.hidden = false;
+  state.job = job.job;
+  $("cellCancel").hidden = false;
   while (job.state === "queued" || job.state === "running") {
     if (job.state === "queued") setCellState("queued", `Waiting: ${job.ahead} run(s) ahead.`);
     else setCellState("running", `Integrating… ${Math.round(job.progress * 100)} %`);
@@ -210,6 +213,8 @@ async function runCell(k) {
     job = await api(`/api/job/${job.job}`);
   }
   bar.hidden = true;
+  $("cellCancel").hidden = true;
+  state.job = null;
   if (job.state === "failed") throw new Error(job.error);
   showCell(job.result);
 }
@@ -374,6 +379,12 @@ async function start() {
       if (state.selected !== null) runCell(state.selected).catch((e) => failCell(e));
     });
   }
+  const lim = m.cell_limits;
+  $("cellLimits").textContent = `A cell run may take ${fmt(lim.wall_s, 4)} s and ${lim.memory}; ` +
+    "a longer run is stopped, a larger one refused (download its scene and run simulate instead).";
+  $("cellCancel").addEventListener("click", () => {
+    if (state.job !== null) api(`/api/job/${state.job}/cancel`, { method: "POST" }).catch((e) => failCell(e));
+  });
   if (m.bifurcation) { $("bifurcation").src = "/files/bifurcation.png"; $("bifurcationFigure").hidden = false; }
   $("metric").addEventListener("change", () => loadField().catch((e) => showError($("error"), e)));
   $("map").addEventListener("mousemove", (e) => onHover(e).catch(() => {}));

@@ -356,3 +356,117 @@ fn a_listed_picture_that_is_a_link_out_of_the_folder_is_not_served() {
     let (status, _) = fetch(&s, "GET", "/files/R.png");
     assert_eq!(status, 200, "the folder's own pictures are still served");
 }
+
+/// A one-cell map of long runs (3000 s of N = 3 at 100 rows/s), made once: its cell's run in
+/// `explore` integrates for seconds, long enough to be cancelled or stopped.
+fn long_cell_map() -> &'static Path {
+    static DIR: std::sync::OnceLock<std::path::PathBuf> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| {
+        let out = scratch("long-map");
+        let o = super::bin()
+            .args(["map", "--backend", "cpu", "--quiet", "--out"])
+            .arg(&out)
+            .args([
+                "--set",
+                "map.axes=[{key=\"excitation.frequency_hz\",start=8.0,end=8.0,count=1}]",
+                "--set",
+                "integration.duration_s=3000.0",
+                "--set",
+                "output.sample_rate_hz=100.0",
+            ])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        out
+    })
+}
+
+/// Wait until job `id` is running and has made some progress.
+fn wait_running(s: &Server, id: u64) {
+    for _ in 0..600 {
+        let j = json(s, "GET", &format!("/api/job/{id}"), 200);
+        if j["state"] == "running" && j["progress"].as_f64().unwrap() > 0.0 {
+            return;
+        }
+        assert_ne!(j["state"], "done", "the long cell finished before it was cancelled");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    panic!("job {id} did not start in 30 s");
+}
+
+#[test]
+fn a_running_or_waiting_cell_run_is_cancelled_and_a_new_click_runs_it_again() {
+    let s = Server::start(long_cell_map(), &["--workers", "1"]);
+    let limits = json(&s, "GET", "/api/map", 200)["cell_limits"].clone();
+    assert_eq!(limits["wall_s"].as_f64(), Some(300.0), "{limits}");
+    assert_eq!(limits["memory"], "2.0 GB", "{limits}");
+    let running = json(&s, "POST", "/api/cell/0/run", 202)["job"].as_u64().unwrap();
+    wait_running(&s, running);
+    let cancel = json(&s, "POST", &format!("/api/job/{running}/cancel"), 200);
+    assert!(
+        ["running", "failed"].contains(&cancel["state"].as_str().unwrap()),
+        "{cancel}"
+    );
+    let end = wait_job(&s, running);
+    assert_eq!(end["state"], "failed", "{end}");
+    assert!(
+        end["error"].as_str().unwrap().contains("was cancelled"),
+        "{end}"
+    );
+    // A new click is a new run, not the cancelled one.
+    let again = json(&s, "POST", "/api/cell/0/run", 202)["job"].as_u64().unwrap();
+    assert_ne!(again, running);
+    wait_running(&s, again);
+    json(&s, "POST", &format!("/api/job/{again}/cancel"), 200);
+    assert_eq!(wait_job(&s, again)["state"], "failed");
+    // Cancelling a finished job leaves it as it was; an unknown or malformed id is refused.
+    assert_eq!(
+        json(&s, "POST", &format!("/api/job/{again}/cancel"), 200)["state"],
+        "failed"
+    );
+    json(&s, "POST", "/api/job/4242/cancel", 404);
+    let bad = json(&s, "POST", "/api/job/x/cancel", 400);
+    assert!(bad["error"].as_str().unwrap().contains("not a job id"), "{bad}");
+}
+
+#[test]
+fn a_waiting_cell_run_is_cancelled_at_once() {
+    let s = Server::start(small_map(), &["--workers", "1"]);
+    let ids: Vec<u64> = (0..3)
+        .map(|k| json(&s, "POST", &format!("/api/cell/{k}/run"), 202)["job"].as_u64().unwrap())
+        .collect();
+    let last = ids[2];
+    let view = json(&s, "POST", &format!("/api/job/{last}/cancel"), 200);
+    // Two runs ahead of it on one worker: it was still waiting and is failed at once.
+    assert_eq!(view["state"], "failed", "{view}");
+    assert!(view["error"].as_str().unwrap().contains("cancelled"), "{view}");
+    assert_eq!(wait_job(&s, ids[0])["state"], "done");
+    assert_eq!(wait_job(&s, ids[1])["state"], "done");
+}
+
+#[test]
+fn a_cell_run_past_the_time_limit_is_stopped_and_one_too_large_is_refused() {
+    let s = Server::start(long_cell_map(), &["--cell-time-limit-s", "0.5"]);
+    let id = json(&s, "POST", "/api/cell/0/run", 202)["job"].as_u64().unwrap();
+    let end = wait_job(&s, id);
+    assert_eq!(end["state"], "failed", "{end}");
+    let e = end["error"].as_str().unwrap();
+    assert!(e.contains("limit of 0.5 s"), "{e}");
+    assert!(e.contains("pendulum-atlas simulate"), "{e}");
+    drop(s);
+    // 300 000 rows of about 112 bytes, 18 times over: far above 1 MB.
+    let s = Server::start(long_cell_map(), &["--cell-memory-mb", "1"]);
+    let id = json(&s, "POST", "/api/cell/0/run", 202)["job"].as_u64().unwrap();
+    let end = wait_job(&s, id);
+    assert_eq!(end["state"], "failed", "{end}");
+    let e = end["error"].as_str().unwrap();
+    assert!(e.contains("would hold about") && e.contains("1.0 MB"), "{e}");
+}
+
+#[test]
+fn cell_limits_outside_their_range_are_refused() {
+    let dir = small_map();
+    refused(dir, &["--cell-time-limit-s", "0"], "--cell-time-limit-s 0");
+    refused(dir, &["--cell-time-limit-s", "nan"], "above 0 and at most 86400");
+    refused(dir, &["--cell-memory-mb", "0"], "give 1 to 1000000 MB");
+}
