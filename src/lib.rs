@@ -43,3 +43,4 @@ pub mod reduce;
 pub mod render;
 pub mod reproduce;
 pub mod shard;
+pub mod text;

@@ -55,6 +55,15 @@ pub enum MotherWavelet {
     },
 }
 
+impl MotherWavelet {
+    /// The mother wavelet in words: `the Morlet wavelet with omega0 = 6`.
+    pub fn name(&self) -> String {
+        match self {
+            MotherWavelet::Morlet { omega0 } => format!("the Morlet wavelet with omega0 = {omega0}"),
+        }
+    }
+}
+
 impl Default for MotherWavelet {
     fn default() -> Self {
         MotherWavelet::Morlet {
@@ -545,8 +554,8 @@ fn tabulated_c_delta(mother: &MotherWavelet) -> Result<f64, AnalysisError> {
     mother.c_delta().ok_or_else(|| {
         AnalysisError::InvalidArgument(format!(
             "reconstruction needs the factor C_delta, tabulated only for the Morlet wavelet \
-             with omega0 = {MORLET_OMEGA0}; this transform used {mother:?}"
-        ))
+             with omega0 = {MORLET_OMEGA0}; this transform used {}"
+        , mother.name()))
     })
 }
 
@@ -587,14 +596,16 @@ fn transformed_signal(
     Ok(x.iter().map(|v| (v - m) / sd).collect())
 }
 
+/// Most wavelet coefficients (scales × samples) one transform computes: 2 GiB of complex
+/// values.
+pub const MAX_WAVELET_CELLS: usize = 1 << 27;
+
 /// Scales `s0·2^{j·δj}`, `j = 0…J`, with pycwt's defaults for `s0` and `J`.
 ///
 /// Refused: an `s0` whose Fourier period is below `2δt` (shorter than the Nyquist period, so
 /// aliased) or whose scale exceeds the record `N·δt`, and a `J` that carries the largest
-/// scale beyond the record (the default `J` ends there).
-/// Most wavelet coefficients (scales × samples) one transform computes: 2 GiB of complex
-/// values.
-pub const MAX_WAVELET_CELLS: usize = 1 << 27;
+/// scale beyond the record (the default `J` ends there), and more than
+/// [`MAX_WAVELET_CELLS`] coefficients.
 
 fn scale_ladder(n: usize, dt_s: f64, options: &WaveletOptions) -> Result<Vec<f64>, AnalysisError> {
     let lambda = options.mother.fourier_factor();

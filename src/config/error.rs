@@ -56,7 +56,7 @@ pub enum ConfigError {
         found: String,
     },
     /// A number is NaN or infinite.
-    #[error("key `{key}` must be a finite number, found {value}")]
+    #[error("key `{key}` must be a finite number, found {}", crate::text::num(*value))]
     NotFinite {
         /// Dotted key path.
         key: String,
@@ -64,7 +64,7 @@ pub enum ConfigError {
         value: f64,
     },
     /// A number lies outside the accepted range.
-    #[error("key `{key}` = {value} is out of range: accepted {range}")]
+    #[error("key `{key}` = {} is out of range: accepted {range}", crate::text::num(*value))]
     OutOfRange {
         /// Dotted key path.
         key: String,

@@ -14,6 +14,7 @@
 //! Every instance is the base scene with the axis keys set to the grid values, validated like
 //! any scene, so a swept value out of range is reported with its key.
 
+use crate::text::num;
 use super::error::ConfigError;
 use super::reader::{Range, Reader, apply_override, parse_toml, set_key};
 use super::scene::{ExcitationKind, Scene};
@@ -341,7 +342,7 @@ impl MapSpec {
                 self.axes
                     .iter()
                     .zip(self.values_of(k))
-                    .map(|(a, v)| format!("{} = {v}", a.key))
+                    .map(|(a, v)| format!("{} = {}", a.key, num(v)))
                     .collect::<Vec<_>>()
                     .join(", ")
             ),
@@ -378,7 +379,7 @@ fn set_number(table: &mut Table, key: &str, v: f64) -> Result<(), ConfigError> {
             return Err(ConfigError::WrongType {
                 key: key.into(),
                 expected: "an integer (it is swept by a map axis)".into(),
-                found: format!("{v}"),
+                found: format!("the number {}", num(v)),
             });
         }
         Value::Integer(v as i64)
@@ -1059,7 +1060,11 @@ fn check_range(
     if end < start {
         return Err(named(
             "end",
-            format!("the range is empty: end = {end} is below start = {start}"),
+            format!(
+                "the range is empty: end = {} is below start = {}",
+                num(end),
+                num(start)
+            ),
         ));
     }
     if count == 1 && start != end {
@@ -1068,7 +1073,10 @@ fn check_range(
     if count > 1 && end == start {
         return Err(named(
             "end",
-            format!("the range is empty: start = end = {start} with count = {count}"),
+            format!(
+                "the range is empty: start = end = {} with count = {count}",
+                num(start)
+            ),
         ));
     }
     if scale == AxisScale::Log && start <= 0.0 {

@@ -1,6 +1,7 @@
 //! Raw scene handling: TOML text, `--set` overrides, and a key reader that remembers which keys
 //! were read so that anything left over is reported as unknown.
 
+use crate::text::num;
 use super::error::ConfigError;
 use std::collections::BTreeSet;
 use toml::{Table, Value};
@@ -115,12 +116,44 @@ pub fn set_key(table: &mut Table, key: &str, value: Value) -> Result<(), ConfigE
     Ok(())
 }
 
+/// The dotted keys of every value (not section) in `table`.
+pub fn leaf_keys(table: &Table) -> BTreeSet<String> {
+    fn walk(t: &Table, prefix: &str, out: &mut BTreeSet<String>) {
+        for (k, v) in t {
+            let key = if prefix.is_empty() {
+                k.clone()
+            } else {
+                format!("{prefix}.{k}")
+            };
+            match v {
+                Value::Table(inner) => walk(inner, &key, out),
+                _ => {
+                    out.insert(key);
+                }
+            }
+        }
+    }
+    let mut out = BTreeSet::new();
+    walk(table, "", &mut out);
+    out
+}
+
+/// The whole numbers from `lo` to `hi` in words, an end at the type's limit left open.
+fn integer_range(lo: i64, hi: i64) -> String {
+    match (lo == i64::MIN, hi == i64::MAX) {
+        (true, true) => "any whole number".into(),
+        (false, true) => format!("whole numbers from {lo} up"),
+        (true, false) => format!("whole numbers up to {hi}"),
+        (false, false) => format!("integers in [{lo}, {hi}]"),
+    }
+}
+
 /// A human description of a TOML value, for type errors.
 fn describe(v: &Value) -> String {
     match v {
         Value::String(s) => format!("a string \"{s}\""),
         Value::Integer(i) => format!("an integer {i}"),
-        Value::Float(f) => format!("a number {f}"),
+        Value::Float(f) => format!("a number {}", num(*f)),
         Value::Boolean(b) => format!("a boolean {b}"),
         Value::Datetime(d) => format!("a date {d}"),
         Value::Array(_) => "an array".into(),
@@ -170,10 +203,10 @@ impl Range {
             Range::Any => format!("any finite number{u}"),
             Range::Positive => format!("> 0{u}"),
             Range::NonNegative => format!(">= 0{u}"),
-            Range::Open(a, b) => format!("({a}, {b}){u}"),
-            Range::ClosedOpen(a, b) => format!("[{a}, {b}){u}"),
-            Range::Closed(a, b) => format!("[{a}, {b}]{u}"),
-            Range::OpenClosed(a, b) => format!("({a}, {b}]{u}"),
+            Range::Open(a, b) => format!("({}, {}){u}", num(a), num(b)),
+            Range::ClosedOpen(a, b) => format!("[{}, {}){u}", num(a), num(b)),
+            Range::Closed(a, b) => format!("[{}, {}]{u}", num(a), num(b)),
+            Range::OpenClosed(a, b) => format!("({}, {}]{u}", num(a), num(b)),
         }
     }
 }
@@ -183,6 +216,7 @@ pub struct Reader {
     table: Table,
     used: BTreeSet<String>,
     notes: Vec<String>,
+    defaults: BTreeSet<String>,
 }
 
 impl Reader {
@@ -192,7 +226,22 @@ impl Reader {
             table,
             used: BTreeSet::new(),
             notes: Vec::new(),
+            defaults: BTreeSet::new(),
         }
+    }
+
+    /// Wrap a table whose keys `defaults` come from the embedded default scene, not from the
+    /// user: [`Reader::given`] does not count them.
+    pub fn with_defaults(table: Table, defaults: BTreeSet<String>) -> Self {
+        Reader {
+            defaults,
+            ..Reader::new(table)
+        }
+    }
+
+    /// Whether the user gave `key` (in their scene file or a `--set`), not the default scene.
+    pub fn given(&mut self, key: &str) -> Result<bool, ConfigError> {
+        Ok(self.raw(key)?.is_some() && !self.defaults.contains(key))
     }
 
     /// Record a remark for the user (a key given but not used, say).
@@ -283,7 +332,7 @@ impl Reader {
             return Err(ConfigError::OutOfRange {
                 key: key.into(),
                 value: n as f64,
-                range: format!("integers in [{lo}, {hi}]"),
+                range: integer_range(lo, hi),
             });
         }
         Ok(n)

@@ -1,8 +1,9 @@
 //! The validated scene: every physical input with its unit (the parameter table of
 //! `docs/model.md`).
 
+use crate::text::num;
 use super::error::ConfigError;
-use super::reader::{Range, Reader, apply_override, parse_toml};
+use super::reader::{Range, Reader, apply_override, leaf_keys, parse_toml};
 use crate::analysis::{RecordOptions, Sampling};
 use crate::model::Tube;
 pub use crate::model::{ContactDamping, ExcitationKind};
@@ -246,7 +247,25 @@ impl Scene {
 
     /// Validate an already-parsed table. Every key is optional and defaults to Table 1.
     pub fn from_table(table: Table) -> Result<Scene, ConfigError> {
-        let mut r = Reader::new(table);
+        Scene::from_reader(Reader::new(table))
+    }
+
+    /// The embedded paper scene with the user's overrides `sets`; its notes name only keys
+    /// the user gave (a `--set limiter.enabled=false` is not told that the paper's limiter
+    /// keys go unused).
+    pub fn paper_with(sets: &[String]) -> Result<Scene, ConfigError> {
+        let mut table = parse_toml(PAPER_SCENE_TOML, "<embedded paper.toml>")?;
+        let mut defaults = leaf_keys(&table);
+        for s in sets {
+            apply_override(&mut table, s)?;
+            if let Some((key, _)) = s.split_once('=') {
+                defaults.remove(key.trim());
+            }
+        }
+        Scene::from_reader(Reader::with_defaults(table, defaults))
+    }
+
+    fn from_reader(mut r: Reader) -> Result<Scene, ConfigError> {
         let mut scene = read_scene(&mut r)?;
         scene.notes = r.take_notes();
         r.finish()?;
@@ -286,7 +305,7 @@ impl Scene {
 /// Read a scene file (or the embedded paper scene when `path` is `None`) with overrides.
 pub fn load_scene(path: Option<&std::path::Path>, sets: &[String]) -> Result<Scene, ConfigError> {
     match path {
-        None => Scene::from_toml(PAPER_SCENE_TOML, "<embedded paper.toml>", sets),
+        None => Scene::paper_with(sets),
         Some(p) => {
             let text = super::reader::read_scene_file(p)?;
             Scene::from_toml(&text, &p.display().to_string(), sets)
@@ -390,8 +409,9 @@ fn check_step_resolves_forcing(i: &Integration, e: &Excitation) -> Result<(), Co
     Err(ConfigError::Inconsistent {
         key: "integration.dt_s".into(),
         reason: format!(
-            "dt = {dt:e} s takes {:.3} steps per forcing period at {f_max} Hz, below the 2 that resolve the cart's motion at all (dt < {:e} s) and far below what an accurate run takes: shorten integration.dt_s or set it to \"auto\"",
+            "dt = {dt:e} s takes {:.3} steps per forcing period at {} Hz, below the 2 that resolve the cart's motion at all (dt < {:e} s) and far below what an accurate run takes: shorten integration.dt_s or set it to \"auto\"",
             1.0 / (dt * f_max),
+            num(f_max),
             0.5 / f_max
         ),
     })
@@ -404,7 +424,7 @@ fn read_beam(r: &mut Reader) -> Result<Beam, ConfigError> {
         return Err(ConfigError::OutOfRange {
             key: "beam.inner_diameter_m".into(),
             value: inner,
-            range: format!("[0, {outer}) m (below beam.outer_diameter_m)"),
+            range: format!("[0, {}) m (below beam.outer_diameter_m)", num(outer)),
         });
     }
     let tube = Tube {
@@ -474,7 +494,7 @@ fn read_beam_damping(r: &mut Reader, library_beta_s: f64) -> Result<BeamDamping,
 /// (printed as a warning) saying it is not used.
 fn note_unused(r: &mut Reader, keys: &[&str], why: &str) -> Result<(), ConfigError> {
     for k in keys {
-        if r.raw(k)?.is_some() {
+        if r.given(k)? {
             r.note(format!("{k} is set but not used: {why}"));
         }
     }
@@ -571,10 +591,11 @@ fn read_excitation(r: &mut Reader, duration_s: f64) -> Result<Excitation, Config
     let kind = r.choice("excitation.kind", "harmonic", &["harmonic", "sweep"])?;
     let frequency_hz = r.number("excitation.frequency_hz", 8.0, Range::Positive, "Hz")?;
     let kind = if kind == "sweep" {
-        if r.raw("excitation.frequency_hz")?.is_some() {
+        if r.given("excitation.frequency_hz")? {
             r.note(format!(
-                "excitation.frequency_hz = {frequency_hz} is not used: a sweep runs from \
-                 excitation.sweep_start_hz to excitation.sweep_end_hz"
+                "excitation.frequency_hz = {} is not used: a sweep runs from \
+                 excitation.sweep_start_hz to excitation.sweep_end_hz",
+                num(frequency_hz)
             ));
         }
         ExcitationKind::Sweep {

@@ -74,7 +74,7 @@ pub enum EngineError {
     },
     /// An instance needs more steps than the engines' 32-bit step counter holds.
     #[error(
-        "{at}: {steps} steps per instance exceed the engines' 32-bit step counter; shorten integration.duration_s or lengthen the step"
+        "{at}: {} steps per instance exceed the engines' 32-bit step counter; shorten integration.duration_s or lengthen the step", crate::text::num(*steps as f64)
     )]
     TooManySteps {
         /// The instance's frequency, duration and transient.

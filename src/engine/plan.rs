@@ -10,6 +10,7 @@
 //! need: the stroboscopic α (K, period, bifurcation) and a power-of-two uniform α series at
 //! `samples_per_period` per period (R). Trajectories are never stored.
 
+use crate::text::num;
 use crate::config::{
     LyapunovSettings, MapSpec, MethodChoice, Metric, Perturbation, Scene, TimeStep,
 };
@@ -494,8 +495,10 @@ fn plan_instance(
     let total_periods = (scene.integration.duration_s * f).round().max(1.0) as u64;
     let transient_periods = ((scene.integration.transient_s * f).round() as u64).max(1);
     let at = format!(
-        "f = {f} Hz, duration {} s, transient {} s",
-        scene.integration.duration_s, scene.integration.transient_s
+        "f = {} Hz, duration {} s, transient {} s",
+        num(f),
+        num(scene.integration.duration_s),
+        num(scene.integration.transient_s)
     );
     let short = |reason: String| EngineError::TooShort {
         at: at.clone(),
@@ -506,7 +509,7 @@ fn plan_instance(
             "the transient leaves no forcing period to analyse".into(),
         ));
     }
-    let total_steps = total_periods * spp;
+    let total_steps = total_periods.saturating_mul(spp);
     if total_steps > u64::from(u32::MAX) {
         return Err(EngineError::TooManySteps {
             at,

@@ -105,7 +105,7 @@ fn read_grid(dir: &Path, spec: &CalibrationSpec, axes: &[Axis]) -> Result<Grid, 
     for row in csv.rows.iter().filter(|r| r[stage] == "grid") {
         let values: Vec<f64> = unknown_cols.iter().map(|&c| num(&row[c])).collect();
         let k = grid_cell(axes, &values).ok_or_else(|| {
-            bad(&csv.path, format!("a grid candidate at {values:?} is not on the grid of calibrate_scene.toml: the files are from different calibrations"))
+            bad(&csv.path, format!("a grid candidate at ({}) is not on the grid of calibrate_scene.toml: the files are from different calibrations", values.iter().map(|&v| crate::text::num(v)).collect::<Vec<_>>().join(", ")))
         })?;
         grid.total[k] = num(&row[matched]);
         grid.distance[k] = num(&row[distance]);

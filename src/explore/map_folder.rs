@@ -128,8 +128,9 @@ fn check_shape(
         return Err(bad(
             &dir.join("map.json"),
             format!(
-                "its shape {stated:?} is not the grid of map_scene.toml {:?}: the files are from different maps",
-                spec.shape()
+                "its shape ({}) is not the grid of map_scene.toml ({}): the files are from different maps",
+                stated.as_deref().map_or_else(|| "none given".into(), crate::text::shape),
+                crate::text::shape(&spec.shape())
             ),
         ));
     }
@@ -156,8 +157,9 @@ fn read_array<T: npyz::Deserialize>(
         return Err(bad(
             &path,
             format!(
-                "shape {shape:?}, the grid is {:?}: the files are from different maps",
-                spec.shape()
+                "shape {}, the grid is {}: the files are from different maps",
+                crate::text::shape(&shape),
+                crate::text::shape(&spec.shape())
             ),
         ));
     }

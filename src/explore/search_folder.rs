@@ -151,7 +151,7 @@ fn read_designs(
     for row in csv.rows.iter().filter(|r| r[stage] == "grid") {
         let values: Vec<f64> = var_cols.iter().map(|&c| num(&row[c])).collect();
         let k = grid_cell(axes, &values).ok_or_else(|| {
-            bad(&csv.path, format!("a grid design at {values:?} is not on the grid of search_scene.toml: the files are from different searches"))
+            bad(&csv.path, format!("a grid design at ({}) is not on the grid of search_scene.toml: the files are from different searches", values.iter().map(|&v| crate::text::num(v)).collect::<Vec<_>>().join(", ")))
         })?;
         design[k] = Some(row[id].clone());
         for (c, &i) in columns.iter_mut().zip(&data_cols) {

@@ -40,7 +40,7 @@ pub struct RunSize {
 pub enum TooLarge {
     /// More steps than the engines count.
     #[error(
-        "the run needs {steps:.3e} steps; the limit is {MAX_STEPS} (2^32): shorten integration.duration_s or lengthen integration.dt_s"
+        "the run needs {steps:.3e} steps; the limit is {MAX_STEPS} (2^32 - 1): shorten integration.duration_s or lengthen integration.dt_s"
     )]
     Steps {
         /// Steps the run needs.
@@ -48,7 +48,7 @@ pub enum TooLarge {
     },
     /// A run shorter than half a step.
     #[error(
-        "integration.duration_s = {duration_s} s is shorter than half a step (dt = {dt_s:e} s): the run would take no step; lengthen integration.duration_s or shorten integration.dt_s"
+        "integration.duration_s = {} s is shorter than half a step (dt = {dt_s:e} s): the run would take no step; lengthen integration.duration_s or shorten integration.dt_s", crate::text::num(*duration_s)
     )]
     NoStep {
         /// The scene's duration (s).

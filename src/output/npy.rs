@@ -83,6 +83,21 @@ pub fn write_npy_i32(
     write_npy(path, shape, data_row_major)
 }
 
+/// A NumPy dtype in a user's words, for Rust's element type name `rust`.
+fn npy_dtype_words(rust: &str) -> &'static str {
+    match rust {
+        "f64" => "float64",
+        "f32" => "float32",
+        "i8" => "int8",
+        "u8" => "uint8",
+        "i32" => "int32",
+        "u32" => "uint32",
+        "i64" => "int64",
+        "u64" => "uint64",
+        _ => "another dtype",
+    }
+}
+
 /// Reads an `.npy` array of `T` (`f64`, `u8`, ...): its shape and its elements in C order.
 /// The error names the file and says what is wrong with it.
 pub fn read_npy<T: npyz::Deserialize>(path: &Path) -> Result<(Vec<usize>, Vec<T>), String> {
@@ -92,10 +107,10 @@ pub fn read_npy<T: npyz::Deserialize>(path: &Path) -> Result<(Vec<usize>, Vec<T>
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read {name}: {e}"))?;
     let npy = npyz::NpyFile::new(&bytes[..]).map_err(|e| format!("{name}: {e}"))?;
     let shape = npy.shape().iter().map(|&s| s as usize).collect();
-    let data = npy.into_vec::<T>().map_err(|e| {
+    let data = npy.into_vec::<T>().map_err(|_| {
         format!(
-            "{name}: not an array of {} ({e})",
-            std::any::type_name::<T>()
+            "{name}: its values are not of the type this program writes there ({}): the file is damaged or from another program",
+            npy_dtype_words(std::any::type_name::<T>())
         )
     })?;
     Ok((shape, data))

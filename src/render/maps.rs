@@ -381,7 +381,11 @@ pub fn heatmap(
     if let Palette::Sequential(Some((a, b))) = palette
         && !(a.is_finite() && b.is_finite() && a < b)
     {
-        bad_input!("heatmap: invalid colour range {:?}", (a, b));
+        bad_input!(
+            "heatmap: invalid colour range from {} to {}: give finite ends, the first below the second",
+            crate::text::num(*a),
+            crate::text::num(*b)
+        );
     }
     let bad = |k: usize| invalid.get(k).copied().unwrap_or(false);
     let inferred = |k: usize| marked.get(k).copied().unwrap_or(false);

@@ -145,9 +145,10 @@ impl CaseRow {
 /// Write rows as CSV with a header of the field names.
 pub fn write_csv(path: &Path, rows: &[CaseRow]) -> Result<(), ReproduceError> {
     let io = |e: csv::Error| {
+        let text = e.to_string();
         let source = match e.into_kind() {
             csv::ErrorKind::Io(e) => e,
-            other => std::io::Error::other(format!("{other:?}")),
+            _ => std::io::Error::other(text),
         };
         ReproduceError::io(path, source)
     };

@@ -17,6 +17,7 @@ use crate::output::OutputError;
 use crate::output::files::{create_dir, write_bytes, write_json};
 use crate::output::npy::{read_npy, write_npy_f64};
 use crate::reduce::{InstanceResult, Regime};
+use crate::text::num;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -192,12 +193,13 @@ pub fn read_shard(dir: &Path) -> Result<ShardData, ShardReadError> {
         })
     };
     let manifest: ShardManifest = serde_json::from_str(&text("shard.json")?)
-        .map_err(|e| fail(format!("shard.json is not a shard manifest: {e}")))?;
+        .map_err(|e| fail(crate::text::json_damage("shard.json", &e)))?;
     let scene_text = text("scene.toml")?;
     let (shape, rows) = read_npy(&dir.join("shard_results.npy")).map_err(&fail)?;
     if shape != [manifest.members, RESULT_COLUMNS.len()] {
         return Err(fail(format!(
-            "shard_results.npy has shape {shape:?}, the manifest says {} rows of {}",
+            "shard_results.npy has shape {}, the manifest says {} rows of {}",
+            crate::text::shape(&shape),
             manifest.members,
             RESULT_COLUMNS.len()
         )));
@@ -212,7 +214,12 @@ pub fn read_shard(dir: &Path) -> Result<ShardData, ShardReadError> {
     if manifest.strobe_tail > 0 {
         let (shape, flat) = read_npy(&dir.join("shard_strobe.npy")).map_err(&fail)?;
         if shape != [manifest.members, manifest.strobe_tail] {
-            return Err(fail(format!("shard_strobe.npy has shape {shape:?}")));
+            return Err(fail(format!(
+                "shard_strobe.npy has shape {}, the manifest says {} × {}",
+                crate::text::shape(&shape),
+                manifest.members,
+                manifest.strobe_tail
+            )));
         }
         strobe_tail = flat
             .chunks_exact(manifest.strobe_tail)
@@ -233,15 +240,19 @@ pub fn read_shard(dir: &Path) -> Result<ShardData, ShardReadError> {
 fn result_of(r: &[f64]) -> Result<InstanceResult, String> {
     for (col, name) in [(0, "index"), (10, "status"), (11, "steps"), (14, "regime")] {
         let v = r[col];
+        // Whole and below 2^53, where an f64 still counts every integer.
         let whole = v.is_finite() && v.fract() == 0.0 && (name == "regime" || v >= 0.0);
-        if !whole {
-            return Err(format!("a row's {name} is {v}, not a whole number"));
+        if !whole || v.abs() >= 9.007_199_254_740_992e15 {
+            return Err(format!(
+                "a row's {name} is {}, not a whole number from 0 to 2^53",
+                num(v)
+            ));
         }
     }
     let status = Status::from_code(r[10] as u32)
-        .ok_or_else(|| format!("row of instance {}: unknown status code {}", r[0], r[10]))?;
+        .ok_or_else(|| format!("row of instance {}: unknown status code {}", r[0], num(r[10])))?;
     let regime = Regime::from_code(r[14] as i64)
-        .ok_or_else(|| format!("row of instance {}: unknown regime code {}", r[0], r[14]))?;
+        .ok_or_else(|| format!("row of instance {}: unknown regime code {}", r[0], num(r[14])))?;
     Ok(InstanceResult {
         k: r[1],
         r: r[2],

@@ -161,8 +161,8 @@ fn same_map(a: &ShardData, b: &ShardData) -> Result<(), MergeError> {
         ("the map hash", mb.map_hash.clone(), ma.map_hash.clone()),
         (
             "the grid shape",
-            format!("{:?}", mb.shape),
-            format!("{:?}", ma.shape),
+            crate::text::shape(&mb.shape),
+            crate::text::shape(&ma.shape),
         ),
         (
             "the shard count",

@@ -70,7 +70,7 @@ fn nan_and_inf_are_refused() {
 fn negative_mass_and_length_are_refused_with_the_range() {
     let e = scene_error(&["beam.mass_kg=-0.1"]);
     assert!(
-        e.contains("`beam.mass_kg` = -0.1 is out of range: accepted [0.000001, 10000] kg"),
+        e.contains("`beam.mass_kg` = -0.1 is out of range: accepted [1e-6, 10000] kg"),
         "{e}"
     );
     let e = scene_error(&["tip.mass_kg=-1"]);
@@ -156,6 +156,32 @@ fn keys_of_a_switched_off_part_are_accepted_and_named_as_unused() {
 }
 
 #[test]
+fn the_default_scene_names_as_unused_only_the_keys_the_user_set() {
+    let sets = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    // The embedded paper scene sets the limiter's keys and the frequency; switching the
+    // limiter off or sweeping must not blame the user for them.
+    let s = Scene::paper_with(&sets(&["limiter.enabled=false"])).unwrap();
+    assert!(s.notes.is_empty(), "{:?}", s.notes);
+    let s = Scene::paper_with(&sets(&["excitation.kind=\"sweep\""])).unwrap();
+    assert!(s.notes.is_empty(), "{:?}", s.notes);
+    // A key the user set is named, once, and nothing else is.
+    let s = Scene::paper_with(&sets(&["limiter.enabled=false", "limiter.clearance_deg=10"]))
+        .unwrap();
+    assert_eq!(s.notes.len(), 1, "{:?}", s.notes);
+    assert!(s.notes[0].starts_with("limiter.clearance_deg is set but not used"));
+    let s = Scene::paper_with(&sets(&[
+        "excitation.kind=\"sweep\"",
+        "excitation.frequency_hz=9",
+    ]))
+    .unwrap();
+    assert_eq!(s.notes.len(), 1, "{:?}", s.notes);
+    assert!(s.notes[0].starts_with("excitation.frequency_hz = 9 is not used"));
+    // A scene file of the user's own: every key in it is the user's.
+    let s = scene(&["limiter.enabled=false"]);
+    assert_eq!(s.notes.len(), 5, "{:?}", s.notes);
+}
+
+#[test]
 fn malformed_overrides_and_toml_are_reported() {
     let e = scene_error(&["beam.segments"]);
     assert!(e.contains("bad override `beam.segments`"), "{e}");
@@ -229,8 +255,14 @@ fn the_contact_damping_law_is_one_of_two_names() {
 
 #[test]
 fn a_sweep_says_that_its_frequency_key_is_not_used() {
-    let sweep = pendulum_atlas::config::load_scene(None, &["excitation.kind=\"sweep\"".into()])
-        .expect("scene");
+    let sweep = pendulum_atlas::config::load_scene(
+        None,
+        &[
+            "excitation.kind=\"sweep\"".into(),
+            "excitation.frequency_hz=9".into(),
+        ],
+    )
+    .expect("scene");
     assert_eq!(sweep.notes.len(), 1, "{:?}", sweep.notes);
     assert!(
         sweep.notes[0].contains("excitation.frequency_hz"),

@@ -14,6 +14,7 @@ mod explore;
 mod harvest;
 mod imex;
 mod map;
+mod messages;
 mod model;
 mod render;
 mod reproduce;

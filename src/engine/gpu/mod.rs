@@ -565,7 +565,7 @@ fn read_buffer<T: bytemuck::Pod>(
         .map_err(|e| failed(e.to_string()))?;
     let view = staging
         .get_mapped_range(..)
-        .map_err(|e| failed(format!("{e:?}")))?;
+        .map_err(|e| failed(format!("the read-back buffer cannot be mapped: {e}")))?;
     let out = bytemuck::cast_slice::<u8, T>(&view).to_vec();
     drop(view);
     staging.unmap();

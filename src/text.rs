@@ -1,0 +1,66 @@
+//! Numbers, shapes and damaged files as messages show them to people: never 300 digits,
+//! never Rust's Debug form (`Some([7, 3])`), never serde's names of our types.
+
+/// `x` for a message: as written between 1e-4 and 1e15 in magnitude (and 0), in exponent form
+/// beyond (`1e300`, not 301 digits; `1e-300`, not 300 zeros), `inf`/`-inf`/`NaN` as words.
+pub fn num(x: f64) -> String {
+    if x.is_nan() {
+        "NaN".into()
+    } else if x.is_infinite() {
+        if x > 0.0 { "inf" } else { "-inf" }.into()
+    } else if x == 0.0 || (1e-4..1e15).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// An array's shape for a message: `7 × 3` (`a single value` for no axes).
+pub fn shape(dims: &[usize]) -> String {
+    if dims.is_empty() {
+        return "a single value".into();
+    }
+    dims.iter()
+        .map(usize::to_string)
+        .collect::<Vec<_>>()
+        .join(" × ")
+}
+
+/// Why a JSON file of ours does not read, in words: where it stops being JSON, or that its
+/// fields are not ours (never serde's names of our types).
+pub fn json_damage(name: &str, e: &serde_json::Error) -> String {
+    use serde_json::error::Category;
+    let at = format!("line {}, column {}", e.line(), e.column());
+    match e.classify() {
+        Category::Io | Category::Syntax | Category::Eof => {
+            format!("{name} is not complete JSON ({at}): the file is damaged")
+        }
+        Category::Data => format!(
+            "{name} does not hold the fields this version writes ({at}): it is damaged or from another version; rerun what wrote it"
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_stay_short_at_every_magnitude() {
+        assert_eq!(num(8.0), "8");
+        assert_eq!(num(0.35), "0.35");
+        assert_eq!(num(0.0), "0");
+        assert_eq!(num(1e300), "1e300");
+        assert_eq!(num(-1e-300), "-1e-300");
+        assert_eq!(num(f64::MAX), "1.7976931348623157e308");
+        assert_eq!(num(f64::INFINITY), "inf");
+        assert_eq!(num(f64::NAN), "NaN");
+    }
+
+    #[test]
+    fn shapes_read_as_dimensions() {
+        assert_eq!(shape(&[7, 3]), "7 × 3");
+        assert_eq!(shape(&[12]), "12");
+        assert_eq!(shape(&[]), "a single value");
+    }
+}
