@@ -267,7 +267,9 @@ fn simulate_work(
     let started = Instant::now();
     let run = pendulum_atlas::engine::run_scene(scene, plan, integrator, precision, &mut rec)?;
     if rec.stopped {
-        return Err(WorkError::Engine(pendulum_atlas::engine::EngineError::Cancelled));
+        return Err(WorkError::Engine(
+            pendulum_atlas::engine::EngineError::Cancelled,
+        ));
     }
     let wall_time_s = started.elapsed().as_secs_f64();
     let mut warnings = run_warnings(plan, &run.outcome);

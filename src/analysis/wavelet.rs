@@ -59,7 +59,9 @@ impl MotherWavelet {
     /// The mother wavelet in words: `the Morlet wavelet with omega0 = 6`.
     pub fn name(&self) -> String {
         match self {
-            MotherWavelet::Morlet { omega0 } => format!("the Morlet wavelet with omega0 = {omega0}"),
+            MotherWavelet::Morlet { omega0 } => {
+                format!("the Morlet wavelet with omega0 = {omega0}")
+            }
         }
     }
 }
@@ -554,8 +556,9 @@ fn tabulated_c_delta(mother: &MotherWavelet) -> Result<f64, AnalysisError> {
     mother.c_delta().ok_or_else(|| {
         AnalysisError::InvalidArgument(format!(
             "reconstruction needs the factor C_delta, tabulated only for the Morlet wavelet \
-             with omega0 = {MORLET_OMEGA0}; this transform used {}"
-        , mother.name()))
+             with omega0 = {MORLET_OMEGA0}; this transform used {}",
+            mother.name()
+        ))
     })
 }
 

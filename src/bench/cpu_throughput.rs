@@ -395,7 +395,9 @@ pub(crate) fn read_peer_files<T: serde::de::DeserializeOwned>(
         .map(|p| {
             let text = std::fs::read_to_string(p).map_err(|e| (p.clone(), e.to_string()))?;
             serde_json::from_str(&text).map_err(|e| {
-                let name = p.file_name().map_or_else(String::new, |n| n.to_string_lossy().into());
+                let name = p
+                    .file_name()
+                    .map_or_else(String::new, |n| n.to_string_lossy().into());
                 (p.clone(), crate::text::json_damage(&name, &e))
             })
         })

@@ -55,7 +55,11 @@ fn print_text(r: &ModesReport) {
     for (i, f) in m.frequencies_hz.iter().enumerate() {
         println!("  {:>3}  {f:.6}", i + 1);
     }
-    let rates: Vec<String> = m.unstable_rates_per_s.iter().map(|r| format!("{r:.6}")).collect();
+    let rates: Vec<String> = m
+        .unstable_rates_per_s
+        .iter()
+        .map(|r| format!("{r:.6}"))
+        .collect();
     println!("unstable growth rates (1/s): {}", rates.join(", "));
     let d = &r.damping;
     println!(

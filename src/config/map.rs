@@ -14,11 +14,11 @@
 //! Every instance is the base scene with the axis keys set to the grid values, validated like
 //! any scene, so a swept value out of range is reported with its key.
 
-use crate::text::num;
 use super::error::ConfigError;
 use super::reader::{Range, Reader, apply_override, parse_toml, set_key};
 use super::scene::{ExcitationKind, Scene};
 use crate::analysis::PhaseConvention;
+use crate::text::num;
 use serde::Serialize;
 use toml::{Table, Value};
 

@@ -1,8 +1,8 @@
 //! Raw scene handling: TOML text, `--set` overrides, and a key reader that remembers which keys
 //! were read so that anything left over is reported as unknown.
 
-use crate::text::num;
 use super::error::ConfigError;
+use crate::text::num;
 use std::collections::BTreeSet;
 use toml::{Table, Value};
 

@@ -1,12 +1,12 @@
 //! The validated scene: every physical input with its unit (the parameter table of
 //! `docs/model.md`).
 
-use crate::text::num;
 use super::error::ConfigError;
 use super::reader::{Range, Reader, apply_override, leaf_keys, parse_toml};
 use crate::analysis::{RecordOptions, Sampling};
 use crate::model::Tube;
 pub use crate::model::{ContactDamping, ExcitationKind};
+use crate::text::num;
 use serde::Serialize;
 use toml::Table;
 

@@ -10,7 +10,6 @@
 //! need: the stroboscopic α (K, period, bifurcation) and a power-of-two uniform α series at
 //! `samples_per_period` per period (R). Trajectories are never stored.
 
-use crate::text::num;
 use crate::config::{
     LyapunovSettings, MapSpec, MethodChoice, Metric, Perturbation, Scene, TimeStep,
 };
@@ -23,6 +22,7 @@ use crate::engine::step_plan::given_step_warning;
 use crate::model::{CartState, ExcitationKind, Guard, ModelParams};
 use crate::reduce::TwinPlan;
 use crate::reduce::lyapunov::LYAPUNOV_MIN_WINDOW;
+use crate::text::num;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::HashMap;

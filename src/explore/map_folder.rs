@@ -129,7 +129,9 @@ fn check_shape(
             &dir.join("map.json"),
             format!(
                 "its shape ({}) is not the grid of map_scene.toml ({}): the files are from different maps",
-                stated.as_deref().map_or_else(|| "none given".into(), crate::text::shape),
+                stated
+                    .as_deref()
+                    .map_or_else(|| "none given".into(), crate::text::shape),
                 crate::text::shape(&spec.shape())
             ),
         ));

@@ -53,9 +53,7 @@ impl IntoResponse for ExploreError {
             | ExploreError::NotServed(_) => StatusCode::NOT_FOUND,
             ExploreError::OutOfRange { .. }
             | ExploreError::BadSlice { .. }
-            | ExploreError::BadJobId(_) => {
-                StatusCode::BAD_REQUEST
-            }
+            | ExploreError::BadJobId(_) => StatusCode::BAD_REQUEST,
             ExploreError::QueueFull { .. } => StatusCode::SERVICE_UNAVAILABLE,
             ExploreError::Cell(_)
             | ExploreError::TooLarge { .. }

@@ -4,8 +4,8 @@ use crate::engine::Observer;
 use crate::model::{CartState, Chain, Real, Workspace};
 use crate::output::OutputError;
 use crate::output::files::{commit_csv, create_csv, csv_error};
-use std::path::Path;
 use std::ops::ControlFlow;
+use std::path::Path;
 
 /// Columns of `trajectory.csv` (the piezo columns are appended when the piezo is on).
 pub const BASE_COLUMNS: [&str; 9] = [

@@ -249,10 +249,20 @@ fn result_of(r: &[f64]) -> Result<InstanceResult, String> {
             ));
         }
     }
-    let status = Status::from_code(r[10] as u32)
-        .ok_or_else(|| format!("row of instance {}: unknown status code {}", r[0], num(r[10])))?;
-    let regime = Regime::from_code(r[14] as i64)
-        .ok_or_else(|| format!("row of instance {}: unknown regime code {}", r[0], num(r[14])))?;
+    let status = Status::from_code(r[10] as u32).ok_or_else(|| {
+        format!(
+            "row of instance {}: unknown status code {}",
+            r[0],
+            num(r[10])
+        )
+    })?;
+    let regime = Regime::from_code(r[14] as i64).ok_or_else(|| {
+        format!(
+            "row of instance {}: unknown regime code {}",
+            r[0],
+            num(r[14])
+        )
+    })?;
     Ok(InstanceResult {
         k: r[1],
         r: r[2],

@@ -165,8 +165,11 @@ fn the_default_scene_names_as_unused_only_the_keys_the_user_set() {
     let s = Scene::paper_with(&sets(&["excitation.kind=\"sweep\""])).unwrap();
     assert!(s.notes.is_empty(), "{:?}", s.notes);
     // A key the user set is named, once, and nothing else is.
-    let s = Scene::paper_with(&sets(&["limiter.enabled=false", "limiter.clearance_deg=10"]))
-        .unwrap();
+    let s = Scene::paper_with(&sets(&[
+        "limiter.enabled=false",
+        "limiter.clearance_deg=10",
+    ]))
+    .unwrap();
     assert_eq!(s.notes.len(), 1, "{:?}", s.notes);
     assert!(s.notes[0].starts_with("limiter.clearance_deg is set but not used"));
     let s = Scene::paper_with(&sets(&[

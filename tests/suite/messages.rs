@@ -86,8 +86,14 @@ fn scene_refusals_are_short_and_hold_no_internals() {
     let seed = "[map]\nk_seed = -1\naxes = [{ key = \"excitation.frequency_hz\", start = 4, end = 8, count = 3 }]\n";
     std::fs::write(dir.join("seed.toml"), seed).unwrap();
     let probes: Vec<(Vec<&str>, &str)> = vec![
-        (vec!["simulate", "--set", "beam.damping_ratio=1e300"], "1e300"),
-        (vec!["simulate", "--set", "beam.damping_ratio=-1e-300"], "-1e-300"),
+        (
+            vec!["simulate", "--set", "beam.damping_ratio=1e300"],
+            "1e300",
+        ),
+        (
+            vec!["simulate", "--set", "beam.damping_ratio=-1e-300"],
+            "-1e-300",
+        ),
         (
             vec![
                 "simulate",
@@ -99,15 +105,27 @@ fn scene_refusals_are_short_and_hold_no_internals() {
             "limiter.contact_arc_m",
         ),
         (
-            vec!["simulate", "--set", "beam.outer_diameter_m=1e300", "--set", "beam.inner_diameter_m=2e300"],
+            vec![
+                "simulate",
+                "--set",
+                "beam.outer_diameter_m=1e300",
+                "--set",
+                "beam.inner_diameter_m=2e300",
+            ],
             "beam.inner_diameter_m",
         ),
         (
             vec!["simulate", "--set", "integration.duration_s=1e-300"],
             "integration.duration_s",
         ),
-        (vec!["simulate", "--set", "beam.segments=1e3"], "beam.segments"),
-        (vec!["simulate", "--set", "beam.segments=99999999999999999"], "beam.segments"),
+        (
+            vec!["simulate", "--set", "beam.segments=1e3"],
+            "beam.segments",
+        ),
+        (
+            vec!["simulate", "--set", "beam.segments=99999999999999999"],
+            "beam.segments",
+        ),
         (vec!["modes", "--set", "beam.mass_kg=1e-20"], "beam.mass_kg"),
         (vec!["map", "backwards.toml"], "below start"),
         (vec!["map", "seed.toml"], "map.k_seed"),
@@ -116,7 +134,10 @@ fn scene_refusals_are_short_and_hold_no_internals() {
         let msg = refused(&args, &dir);
         assert!(msg.contains(names), "{args:?} names {names}: {msg}");
     }
-    assert!(!dir.join("never_written").exists(), "refused before any file");
+    assert!(
+        !dir.join("never_written").exists(),
+        "refused before any file"
+    );
 }
 
 #[test]
@@ -125,13 +146,9 @@ fn damaged_files_of_ours_are_described_in_words() {
     // A shard folder whose manifest is not ours: no serde type names in the refusal.
     let shard = dir.join("shard");
     std::fs::create_dir_all(&shard).unwrap();
-    for (i, text) in [
-        "[1, 2, 3]",
-        "{\"members\": -1}",
-        "{\"members\": 3",
-    ]
-    .iter()
-    .enumerate()
+    for (i, text) in ["[1, 2, 3]", "{\"members\": -1}", "{\"members\": 3"]
+        .iter()
+        .enumerate()
     {
         std::fs::write(shard.join("shard.json"), text).unwrap();
         let out = format!("merged{i}");

@@ -388,7 +388,10 @@ fn wait_running(s: &Server, id: u64) {
         if j["state"] == "running" && j["progress"].as_f64().unwrap() > 0.0 {
             return;
         }
-        assert_ne!(j["state"], "done", "the long cell finished before it was cancelled");
+        assert_ne!(
+            j["state"], "done",
+            "the long cell finished before it was cancelled"
+        );
         std::thread::sleep(std::time::Duration::from_millis(50));
     }
     panic!("job {id} did not start in 30 s");
@@ -400,7 +403,9 @@ fn a_running_or_waiting_cell_run_is_cancelled_and_a_new_click_runs_it_again() {
     let limits = json(&s, "GET", "/api/map", 200)["cell_limits"].clone();
     assert_eq!(limits["wall_s"].as_f64(), Some(300.0), "{limits}");
     assert_eq!(limits["memory"], "2.0 GB", "{limits}");
-    let running = json(&s, "POST", "/api/cell/0/run", 202)["job"].as_u64().unwrap();
+    let running = json(&s, "POST", "/api/cell/0/run", 202)["job"]
+        .as_u64()
+        .unwrap();
     wait_running(&s, running);
     let cancel = json(&s, "POST", &format!("/api/job/{running}/cancel"), 200);
     assert!(
@@ -414,7 +419,9 @@ fn a_running_or_waiting_cell_run_is_cancelled_and_a_new_click_runs_it_again() {
         "{end}"
     );
     // A new click is a new run, not the cancelled one.
-    let again = json(&s, "POST", "/api/cell/0/run", 202)["job"].as_u64().unwrap();
+    let again = json(&s, "POST", "/api/cell/0/run", 202)["job"]
+        .as_u64()
+        .unwrap();
     assert_ne!(again, running);
     wait_running(&s, again);
     json(&s, "POST", &format!("/api/job/{again}/cancel"), 200);
@@ -426,20 +433,30 @@ fn a_running_or_waiting_cell_run_is_cancelled_and_a_new_click_runs_it_again() {
     );
     json(&s, "POST", "/api/job/4242/cancel", 404);
     let bad = json(&s, "POST", "/api/job/x/cancel", 400);
-    assert!(bad["error"].as_str().unwrap().contains("not a job id"), "{bad}");
+    assert!(
+        bad["error"].as_str().unwrap().contains("not a job id"),
+        "{bad}"
+    );
 }
 
 #[test]
 fn a_waiting_cell_run_is_cancelled_at_once() {
     let s = Server::start(small_map(), &["--workers", "1"]);
     let ids: Vec<u64> = (0..3)
-        .map(|k| json(&s, "POST", &format!("/api/cell/{k}/run"), 202)["job"].as_u64().unwrap())
+        .map(|k| {
+            json(&s, "POST", &format!("/api/cell/{k}/run"), 202)["job"]
+                .as_u64()
+                .unwrap()
+        })
         .collect();
     let last = ids[2];
     let view = json(&s, "POST", &format!("/api/job/{last}/cancel"), 200);
     // Two runs ahead of it on one worker: it was still waiting and is failed at once.
     assert_eq!(view["state"], "failed", "{view}");
-    assert!(view["error"].as_str().unwrap().contains("cancelled"), "{view}");
+    assert!(
+        view["error"].as_str().unwrap().contains("cancelled"),
+        "{view}"
+    );
     assert_eq!(wait_job(&s, ids[0])["state"], "done");
     assert_eq!(wait_job(&s, ids[1])["state"], "done");
 }
@@ -447,7 +464,9 @@ fn a_waiting_cell_run_is_cancelled_at_once() {
 #[test]
 fn a_cell_run_past_the_time_limit_is_stopped_and_one_too_large_is_refused() {
     let s = Server::start(long_cell_map(), &["--cell-time-limit-s", "0.5"]);
-    let id = json(&s, "POST", "/api/cell/0/run", 202)["job"].as_u64().unwrap();
+    let id = json(&s, "POST", "/api/cell/0/run", 202)["job"]
+        .as_u64()
+        .unwrap();
     let end = wait_job(&s, id);
     assert_eq!(end["state"], "failed", "{end}");
     let e = end["error"].as_str().unwrap();
@@ -456,17 +475,26 @@ fn a_cell_run_past_the_time_limit_is_stopped_and_one_too_large_is_refused() {
     drop(s);
     // 300 000 rows of about 112 bytes, 18 times over: far above 1 MB.
     let s = Server::start(long_cell_map(), &["--cell-memory-mb", "1"]);
-    let id = json(&s, "POST", "/api/cell/0/run", 202)["job"].as_u64().unwrap();
+    let id = json(&s, "POST", "/api/cell/0/run", 202)["job"]
+        .as_u64()
+        .unwrap();
     let end = wait_job(&s, id);
     assert_eq!(end["state"], "failed", "{end}");
     let e = end["error"].as_str().unwrap();
-    assert!(e.contains("would hold about") && e.contains("1.0 MB"), "{e}");
+    assert!(
+        e.contains("would hold about") && e.contains("1.0 MB"),
+        "{e}"
+    );
 }
 
 #[test]
 fn cell_limits_outside_their_range_are_refused() {
     let dir = small_map();
     refused(dir, &["--cell-time-limit-s", "0"], "--cell-time-limit-s 0");
-    refused(dir, &["--cell-time-limit-s", "nan"], "above 0 and at most 86400");
+    refused(
+        dir,
+        &["--cell-time-limit-s", "nan"],
+        "above 0 and at most 86400",
+    );
     refused(dir, &["--cell-memory-mb", "0"], "give 1 to 1000000 MB");
 }
