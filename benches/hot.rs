@@ -18,7 +18,7 @@ fn scene(n: usize) -> Scene {
 fn rhs_and_step(c: &mut Criterion) {
     for n in [3usize, 17, 64] {
         let s = scene(n);
-        let p = s.model_params();
+        let p = s.model_params().unwrap();
         let chain: Chain<f64> = Chain::new(&p);
         let mut ws = chain.workspace();
         let y = s.initial_state(&p);

@@ -279,7 +279,7 @@ fn simulate_work(
             r.map_err(|e| warnings.push(format!("analysis of the run skipped: {e}")))
                 .ok()
         });
-    let modes = scene.modes();
+    let modes = scene.modes().map_err(EngineError::from)?;
     let facts = RunFacts {
         scene,
         plan,
@@ -334,7 +334,7 @@ fn run_single_scene<'py>(
     if integrator == Integrator::Reference && precision == Precision::F32 {
         return Err(engine_error(EngineError::ReferenceNeedsF64));
     }
-    let plan = StepPlan::for_scene(&scene);
+    let plan = StepPlan::for_scene(&scene).map_err(|e| scene_error(e.into()))?;
     check_run_size(&scene, &plan)?;
     let out = run_polled(py, progress.as_ref(), move |ticker| {
         simulate_work(&scene, &plan, integrator, precision, ticker)

@@ -609,7 +609,6 @@ pub const MAX_WAVELET_CELLS: usize = 1 << 27;
 /// aliased) or whose scale exceeds the record `N·δt`, and a `J` that carries the largest
 /// scale beyond the record (the default `J` ends there), and more than
 /// [`MAX_WAVELET_CELLS`] coefficients.
-
 fn scale_ladder(n: usize, dt_s: f64, options: &WaveletOptions) -> Result<Vec<f64>, AnalysisError> {
     let lambda = options.mother.fourier_factor();
     let s0_min = 2.0 * dt_s / lambda;

@@ -176,10 +176,10 @@ const MAP_PERIODS: f64 = 100.0;
 
 /// The scenes of the reference map (N = 17, automatic step) and of the K-only comparison, for
 /// a check that each gives K enough samples.
-pub fn study_scenes(quick: bool) -> Vec<Scene> {
-    let mut v = map_scenes(17, None, quick);
+pub fn study_scenes(quick: bool) -> Result<Vec<Scene>, EngineError> {
+    let mut v = map_scenes(17, None, quick)?;
     v.extend(k_only_scenes());
-    v
+    Ok(v)
 }
 
 /// The scene of the study at N segments (Table 1, 8 Hz, 9 mm, limiter at 20°), edited. This
@@ -243,8 +243,8 @@ fn options(metrics: Vec<Metric>) -> EnsembleOptions {
 }
 
 /// The explicit step `factor` times the automatic step of N (s).
-fn explicit_step(n: usize, factor: f64) -> f64 {
-    factor * bench_scene(n, |_| {}).modes().dt_auto_s
+fn explicit_step(n: usize, factor: f64) -> Result<f64, EngineError> {
+    Ok(factor * bench_scene(n, |_| {}).modes()?.dt_auto_s)
 }
 
 /// The reference trajectory: DOP853 at N = 17 over the horizon, rows at 16 per period.
@@ -254,10 +254,10 @@ fn reference_trajectory() -> Result<Vec<f64>, EngineError> {
         s.integration.transient_s = (HORIZON_S / 3.0).min(10.0);
         s.output.sample_rate_hz = 8.0 * f64::from(SAMPLES_PER_PERIOD);
     });
-    let inst: Instance<f64> = Instance::from_scene(&scene);
-    let plan = StepPlan::for_scene(&scene);
+    let inst: Instance<f64> = Instance::from_scene(&scene)?;
+    let plan = StepPlan::for_scene(&scene)?;
     let mut rows = AlphaRows(Vec::new());
-    let opts = ReferenceOptions::for_stiffness(scene.modes().spectral_radius_per_s);
+    let opts = ReferenceOptions::for_stiffness(scene.modes()?.spectral_radius_per_s);
     integrate_reference(&inst, &plan, &opts, &mut rows)?;
     Ok(rows.0)
 }
@@ -268,7 +268,7 @@ fn horizon_error(
     engine: &Engine,
     reference: &[f64],
 ) -> Result<(f64, f64), EngineError> {
-    let dt = explicit_step(cfg.segments, cfg.dt_factor);
+    let dt = explicit_step(cfg.segments, cfg.dt_factor)?;
     let scene = bench_scene(cfg.segments, |s| {
         s.integration.dt_s = TimeStep::Seconds(dt);
         timing(s, HORIZON_S, 0.125);
@@ -291,13 +291,13 @@ fn horizon_error(
 }
 
 /// The reference map's scenes for N segments and, when given, a step factor.
-fn map_scenes(n: usize, factor: Option<f64>, quick: bool) -> Vec<Scene> {
+fn map_scenes(n: usize, factor: Option<f64>, quick: bool) -> Result<Vec<Scene>, EngineError> {
     let (fs, amps, transient): (&[f64], &[f64], f64) = if quick {
         (&[5.0, 7.5, 10.0, 12.0], &[0.006, 0.012, 0.02], 2.0)
     } else {
         (&[5.0, 7.0, 9.5, 12.0], &[0.006, 0.01, 0.015, 0.02], 4.0)
     };
-    let dt = factor.map(|f| explicit_step(n, f));
+    let dt = factor.map(|f| explicit_step(n, f)).transpose()?;
     let mut out = Vec::new();
     for &f in fs {
         for &a in amps {
@@ -312,7 +312,7 @@ fn map_scenes(n: usize, factor: Option<f64>, quick: bool) -> Vec<Scene> {
             }));
         }
     }
-    out
+    Ok(out)
 }
 
 fn run_map_scenes(
@@ -437,7 +437,7 @@ fn measure_config(
     let map = if is_reference {
         reference
     } else {
-        let scenes = map_scenes(cfg.segments, Some(cfg.dt_factor), quick);
+        let scenes = map_scenes(cfg.segments, Some(cfg.dt_factor), quick)?;
         fresh = run_map_scenes(&scenes, MAP_METRICS.to_vec(), engine)?;
         &fresh
     };
@@ -461,7 +461,7 @@ pub fn run_bench(opts: &BenchOptions, progress: &dyn Fn(&str)) -> Result<BenchRe
     ));
     let t0 = Instant::now();
     let ref_map = run_map_scenes(
-        &map_scenes(17, None, quick),
+        &map_scenes(17, None, quick)?,
         MAP_METRICS.to_vec(),
         &engines.cpu64,
     )?;

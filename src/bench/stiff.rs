@@ -158,22 +158,22 @@ fn reference_alpha(n: usize, reading: Reading) -> Result<Vec<f64>, EngineError> 
     let mut s = scene(n, reading);
     timing(&mut s, HORIZON_S, 0.125);
     s.output.sample_rate_hz = 8.0 * f64::from(SAMPLES_PER_PERIOD);
-    let plan = StepPlan::for_scene(&s);
+    let plan = StepPlan::for_scene(&s)?;
     let mut rows = AlphaRows(Vec::new());
-    let opts = ReferenceOptions::for_stiffness(s.modes().spectral_radius_per_s);
-    integrate_reference(&Instance::from_scene(&s), &plan, &opts, &mut rows)?;
+    let opts = ReferenceOptions::for_stiffness(s.modes()?.spectral_radius_per_s);
+    integrate_reference(&Instance::from_scene(&s)?, &plan, &opts, &mut rows)?;
     Ok(rows.0)
 }
 
 /// `s` with `method` at `factor` times its automatic step.
-fn with_method(mut s: Scene, method: Method, factor: f64) -> Scene {
-    let auto = MethodSteps::of_scene(&s).auto_s(method);
+fn with_method(mut s: Scene, method: Method, factor: f64) -> Result<Scene, EngineError> {
+    let auto = MethodSteps::of_scene(&s)?.auto_s(method);
     s.integration.method = match method {
         Method::Rk4 => MethodChoice::Rk4,
         Method::Imex => MethodChoice::Imex,
     };
     s.integration.dt_s = TimeStep::Seconds(factor * auto);
-    s
+    Ok(s)
 }
 
 /// One row of part (a).
@@ -189,7 +189,7 @@ fn horizon_row(
     } else {
         Reading::Earlier
     };
-    let s = with_method(s, method, factor);
+    let s = with_method(s, method, factor)?;
     let plan = EnsemblePlan::from_scenes(&[s], &options(vec![Metric::R]))?;
     let readback = Readback {
         strobe: false,
@@ -295,7 +295,7 @@ fn map_cells(quick: bool) -> (Vec<(f64, f64)>, usize, String) {
     (cells, n, grid)
 }
 
-fn map_scenes(cells: &[(f64, f64)], n: usize, method: Method) -> Vec<Scene> {
+fn map_scenes(cells: &[(f64, f64)], n: usize, method: Method) -> Result<Vec<Scene>, EngineError> {
     cells
         .iter()
         .map(|&(f, a)| {
@@ -342,7 +342,7 @@ fn map_part(
     let (cells, n, grid) = map_cells(quick);
     let metrics = vec![Metric::K, Metric::Period];
     let reference = run_map_scenes(
-        &map_scenes(&cells, n, Method::Rk4),
+        &map_scenes(&cells, n, Method::Rk4)?,
         metrics.clone(),
         engines[0],
     )?;
@@ -354,7 +354,7 @@ fn map_part(
     ));
     for engine in engines {
         let map = run_map_scenes(
-            &map_scenes(&cells, n, Method::Imex),
+            &map_scenes(&cells, n, Method::Imex)?,
             metrics.clone(),
             engine,
         )?;

@@ -161,7 +161,7 @@ const IMEX_HALF: Variant = Variant {
     ..IMEX
 };
 
-fn scenes(cells: &[(f64, f64)], n: usize, v: Variant) -> Vec<Scene> {
+fn scenes(cells: &[(f64, f64)], n: usize, v: Variant) -> Result<Vec<Scene>, EngineError> {
     cells
         .iter()
         .map(|&(f, a)| {
@@ -173,13 +173,13 @@ fn scenes(cells: &[(f64, f64)], n: usize, v: Variant) -> Vec<Scene> {
             if v.twin {
                 s.initial.rate_deg_s += TWIN_RATE_DEG_S;
             }
-            let auto = MethodSteps::of_scene(&s).auto_s(v.method);
+            let auto = MethodSteps::of_scene(&s)?.auto_s(v.method);
             s.integration.method = match v.method {
                 Method::Rk4 => MethodChoice::Rk4,
                 Method::Imex => MethodChoice::Imex,
             };
             s.integration.dt_s = TimeStep::Seconds(v.dt_factor * auto);
-            s
+            Ok(s)
         })
         .collect()
 }
@@ -191,7 +191,7 @@ fn run_variant(
     engine: &Engine,
 ) -> Result<MapCells, EngineError> {
     let map = run_map_scenes(
-        &scenes(cells, n, v),
+        &scenes(cells, n, v)?,
         vec![Metric::K, Metric::Period],
         engine,
     )?;

@@ -32,11 +32,11 @@ struct ModesReport {
 /// Print the modes of the scene.
 pub fn run(a: ModesArgs) -> anyhow::Result<()> {
     let scene = a.scene.load()?;
-    let steps = MethodSteps::of_scene(&scene);
+    let steps = MethodSteps::of_scene(&scene)?;
     let chosen = choose_method(scene.integration.method, scene.integration.dt_s, &steps);
     let r = ModesReport {
-        modes: scene.modes(),
-        damping: scene.damping_report(),
+        modes: scene.modes()?,
+        damping: scene.damping_report()?,
         method_steps: steps,
         method: chosen.method.name(),
         method_reason: chosen.reason,

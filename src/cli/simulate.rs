@@ -77,8 +77,8 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
         );
     }
     let scene = a.scene.load()?;
-    let m = scene.modes();
-    let plan = StepPlan::for_scene(&scene);
+    let m = scene.modes()?;
+    let plan = StepPlan::for_scene(&scene)?;
     let piezo = scene.piezo_params();
     let size = run_size(&scene, &plan, &a.out)?;
     let inputs: Vec<&std::path::Path> = a.scene.scene.iter().map(|p| p.as_path()).collect();

@@ -5,6 +5,9 @@ use thiserror::Error;
 /// Everything that can be wrong with a scene file or a `--set` override.
 #[derive(Debug, Error)]
 pub enum ConfigError {
+    /// The scene's chain cannot be linearised (its damping ratio, its automatic step).
+    #[error("this scene cannot be linearised: {0}")]
+    Linear(#[from] crate::model::linear::LinearError),
     /// The scene file could not be read.
     #[error("cannot read scene file `{path}`: {source}")]
     Io {

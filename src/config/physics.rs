@@ -3,6 +3,7 @@
 //! coefficients ([`ModelParams`], damping included), its initial state and its modes.
 
 use super::scene::{BeamDamping, PivotMode, Scene};
+use crate::model::linear::LinearError;
 use crate::model::{
     BumperDesign, CartMotion, ChainDesign, ModelParams, Modes, PiezoParams, Tube, linear, modes,
 };
@@ -73,7 +74,8 @@ impl Scene {
 
     /// Every coefficient of the equations of motion, the joint dampers set from the scene's
     /// damping key (`beam.damping_ratio` solves one small eigenproblem for ω1).
-    pub fn model_params(&self) -> ModelParams {
+    /// `Err` only when `beam.damping_ratio`'s eigenproblem cannot be solved.
+    pub fn model_params(&self) -> Result<ModelParams, LinearError> {
         let bumpers = self.bumper_design();
         let p = ModelParams::undamped(
             &self.chain_design(),
@@ -83,10 +85,10 @@ impl Scene {
         );
         let beta_s = match self.beam.damping {
             BeamDamping::TimeS(beta) => beta,
-            BeamDamping::Ratio(zeta) => linear::damping_time_for_ratio(&p, zeta),
+            BeamDamping::Ratio(zeta) => linear::damping_time_for_ratio(&p, zeta)?,
             BeamDamping::JointNms(b) => b / p.joint_stiffness_nm,
         };
-        p.with_damping_time(beta_s)
+        Ok(p.with_damping_time(beta_s))
     }
 
     /// The library reading's damping time β = 0.35 N m s/rad / (EI/(L/17)) for this scene's
@@ -97,13 +99,13 @@ impl Scene {
 
     /// The joint damping a run uses: β, the per-joint b at this N, and ζ1 of the first clamped
     /// bending mode.
-    pub fn damping_report(&self) -> DampingReport {
-        let p = self.model_params();
-        DampingReport {
+    pub fn damping_report(&self) -> Result<DampingReport, LinearError> {
+        let p = self.model_params()?;
+        Ok(DampingReport {
             damping_time_s: p.beta_s,
             joint_damping_nms: p.joint_damping_nms,
-            first_mode_damping_ratio: linear::first_mode_damping_ratio(&p),
-        }
+            first_mode_damping_ratio: linear::first_mode_damping_ratio(&p)?,
+        })
     }
 
     /// The initial state `[θ; θ̇; v]` of the scene: a straight beam at `initial.angle_deg`.
@@ -116,7 +118,7 @@ impl Scene {
     }
 
     /// Natural frequencies, unstable rates and the automatic RK4 step of the scene.
-    pub fn modes(&self) -> Modes {
-        modes(&self.model_params(), self.integration.dt_safety)
+    pub fn modes(&self) -> Result<Modes, LinearError> {
+        modes(&self.model_params()?, self.integration.dt_safety)
     }
 }

@@ -9,6 +9,9 @@ pub enum EngineError {
     /// A scene of the ensemble is invalid.
     #[error(transparent)]
     Config(#[from] crate::config::ConfigError),
+    /// A scene's linearisation (its automatic step, its damping ratio) cannot be computed.
+    #[error(transparent)]
+    Linear(#[from] crate::model::linear::LinearError),
     /// `--adapter` or `--devices` beyond the adapters of this machine.
     #[error(
         "there is no adapter {index}: this machine has {count} (`pendulum-atlas adapters` lists them)"

@@ -17,7 +17,7 @@
 //!   of one step ([`imex_step_cost`] RK4 steps).
 
 use crate::config::{MethodChoice, Scene, TimeStep};
-use crate::model::linear::{clamped_first_omega, explicit_part_radius};
+use crate::model::linear::{LinearError, clamped_first_omega, explicit_part_radius};
 use crate::model::{ModelParams, modes};
 use serde::Serialize;
 
@@ -74,10 +74,10 @@ pub struct MethodSteps {
 
 impl MethodSteps {
     /// The automatic steps of chain `p` with safety factor `safety`.
-    pub fn of(p: &ModelParams, safety: f64) -> MethodSteps {
-        let m = modes(p, safety);
-        let rho_e = explicit_part_radius(p);
-        let f1 = clamped_first_omega(p) / std::f64::consts::TAU;
+    pub fn of(p: &ModelParams, safety: f64) -> Result<MethodSteps, LinearError> {
+        let m = modes(p, safety)?;
+        let rho_e = explicit_part_radius(p)?;
+        let f1 = clamped_first_omega(p)? / std::f64::consts::TAU;
         let mut steps = MethodSteps {
             rk4_auto_s: m.dt_auto_s,
             rk4_stable_s: m.dt_stable_s,
@@ -87,7 +87,7 @@ impl MethodSteps {
             segments: p.segments,
         };
         steps.imex_auto_s = safety * steps.imex_limit_s();
-        steps
+        Ok(steps)
     }
 
     /// The IMEX method's limit at safety 1 (s): the explicit half's stability limit or the
@@ -98,8 +98,8 @@ impl MethodSteps {
     }
 
     /// The automatic steps of a scene.
-    pub fn of_scene(scene: &Scene) -> MethodSteps {
-        MethodSteps::of(&scene.model_params(), scene.integration.dt_safety)
+    pub fn of_scene(scene: &Scene) -> Result<MethodSteps, LinearError> {
+        MethodSteps::of(&scene.model_params()?, scene.integration.dt_safety)
     }
 
     /// The automatic step of `method` (s).

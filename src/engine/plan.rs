@@ -19,6 +19,7 @@ use crate::engine::error::EngineError;
 use crate::engine::imex::ImexMatrices;
 use crate::engine::method::{Method, MethodSteps};
 use crate::engine::step_plan::given_step_warning;
+use crate::model::linear::LinearError;
 use crate::model::{CartState, ExcitationKind, Guard, ModelParams};
 use crate::reduce::TwinPlan;
 use crate::reduce::lyapunov::LYAPUNOV_MIN_WINDOW;
@@ -216,8 +217,11 @@ impl EnsemblePlan {
     ) -> Result<EnsemblePlan, EngineError> {
         let first = scenes.first().ok_or(EngineError::Empty)?;
         check_shared_structure(scenes)?;
-        let params: Vec<ModelParams> = scenes.par_iter().map(Scene::model_params).collect();
-        let limits = step_limits(scenes, &params);
+        let params: Vec<ModelParams> = scenes
+            .par_iter()
+            .map(Scene::model_params)
+            .collect::<Result<_, _>>()?;
+        let limits = step_limits(scenes, &params)?;
         let (method, method_reason) = ensemble_method(scenes, &limits);
         let mut instances: Vec<InstancePlan> = scenes
             .par_iter()
@@ -358,7 +362,7 @@ fn check_shared_structure(scenes: &[Scene]) -> Result<(), EngineError> {
 
 /// Both methods' automatic steps for every instance. They depend on the structure, not on the
 /// cart: one set of eigenproblems per distinct structure (and step safety factor).
-fn step_limits(scenes: &[Scene], params: &[ModelParams]) -> Vec<MethodSteps> {
+fn step_limits(scenes: &[Scene], params: &[ModelParams]) -> Result<Vec<MethodSteps>, LinearError> {
     let key = |k: usize| {
         let mut bits = params[k].structure_bits();
         bits.push(scenes[k].integration.dt_safety.to_bits());
@@ -372,13 +376,13 @@ fn step_limits(scenes: &[Scene], params: &[ModelParams]) -> Vec<MethodSteps> {
     let solved: HashMap<usize, MethodSteps> = reps
         .par_iter()
         .map(|&k| {
-            (
+            Ok((
                 k,
-                MethodSteps::of(&params[k], scenes[k].integration.dt_safety),
-            )
+                MethodSteps::of(&params[k], scenes[k].integration.dt_safety)?,
+            ))
         })
-        .collect();
-    owner.iter().map(|k| solved[k]).collect()
+        .collect::<Result<_, LinearError>>()?;
+    Ok(owner.iter().map(|k| solved[k]).collect())
 }
 
 /// The warning when some instances give the 0–1 test fewer samples than it needs to be reliable

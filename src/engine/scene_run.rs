@@ -66,18 +66,18 @@ pub fn run_scene<O: Observer<f32> + Observer<f64>>(
     let (outcome, lyapunov) = match (integrator, precision) {
         (Integrator::Reference, Precision::F32) => return Err(EngineError::ReferenceNeedsF64),
         (Integrator::Reference, Precision::F64) => {
-            let inst = Instance::<f64>::from_scene(scene);
-            let opts = ReferenceOptions::for_stiffness(scene.modes().spectral_radius_per_s);
+            let inst = Instance::<f64>::from_scene(scene)?;
+            let opts = ReferenceOptions::for_stiffness(scene.modes()?.spectral_radius_per_s);
             let skipped = RunLyapunov::Skipped {
                 skipped: "the DOP853 reference takes adaptive steps; lambda1 comes from the fixed-step engine's twin trajectory (--integrator engine; integrator=\"engine\" in Python)".into(),
             };
             (integrate_reference(&inst, plan, &opts, obs)?, skipped)
         }
         (Integrator::Engine, Precision::F64) => {
-            engine_run::<f64, O>(scene, plan, twin(SEPARATION_F64), obs)
+            engine_run::<f64, O>(scene, plan, twin(SEPARATION_F64), obs)?
         }
         (Integrator::Engine, Precision::F32) => {
-            engine_run::<f32, O>(scene, plan, twin(SEPARATION_F32), obs)
+            engine_run::<f32, O>(scene, plan, twin(SEPARATION_F32), obs)?
         }
     };
     Ok(SceneRun {
@@ -93,8 +93,8 @@ fn engine_run<T: Real, O: Observer<T>>(
     plan: &StepPlan,
     twin: Result<SingleTwin, String>,
     obs: &mut O,
-) -> (Outcome, RunLyapunov) {
-    let inst = Instance::<T>::from_scene(scene);
+) -> Result<(Outcome, RunLyapunov), EngineError> {
+    let inst = Instance::<T>::from_scene(scene)?;
     let (outcome, lyapunov) = integrate_with_twin(&inst, plan, twin.clone().ok(), obs);
     let lyapunov = match (twin, lyapunov) {
         (Err(skipped), _) => RunLyapunov::Skipped { skipped },
@@ -110,5 +110,5 @@ fn engine_run<T: Real, O: Observer<T>>(
             ),
         },
     };
-    (outcome, lyapunov)
+    Ok((outcome, lyapunov))
 }

@@ -10,6 +10,7 @@ use crate::engine::rk4::Rk4;
 use crate::engine::step_plan::StepPlan;
 use crate::engine::stepper::{CartClock, StepHook, Stepper, run_steps};
 use crate::engine::twin::TwinTracker;
+use crate::model::linear::LinearError;
 use crate::model::{CartMotion, CartState, Chain, Guard, ModelParams, Real, Status, Workspace};
 use crate::reduce::lyapunov::LYAPUNOV_MIN_WINDOW;
 use crate::reduce::{Lyapunov, TwinPlan};
@@ -82,10 +83,11 @@ pub struct Instance<T: Real> {
 }
 
 impl<T: Real> Instance<T> {
-    /// The instance a scene describes, with its initial state.
-    pub fn from_scene(scene: &Scene) -> Instance<T> {
-        let params = scene.model_params();
-        Instance::new(&params, scene.initial_state(&params))
+    /// The instance a scene describes, with its initial state; `Err` when its damping ratio's
+    /// eigenproblem cannot be solved.
+    pub fn from_scene(scene: &Scene) -> Result<Instance<T>, LinearError> {
+        let params = scene.model_params()?;
+        Ok(Instance::new(&params, scene.initial_state(&params)))
     }
 
     /// The instance of a chain started from `y0`.

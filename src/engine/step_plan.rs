@@ -3,6 +3,7 @@
 
 use crate::config::{Scene, TimeStep};
 use crate::engine::method::{Method, MethodSteps, choose_method};
+use crate::model::linear::LinearError;
 use serde::Serialize;
 
 /// Where a run's step came from.
@@ -45,9 +46,10 @@ pub struct StepPlan {
 impl StepPlan {
     /// Choose the method and step for a scene. The automatic step is the method's (see
     /// [`MethodSteps`]), capped by the output interval and then shortened so that the output
-    /// interval is a whole number of steps.
-    pub fn for_scene(scene: &Scene) -> StepPlan {
-        let steps = MethodSteps::of_scene(scene);
+    /// interval is a whole number of steps. `Err` when the scene's linearisation, which sets
+    /// the automatic steps, cannot be computed.
+    pub fn for_scene(scene: &Scene) -> Result<StepPlan, LinearError> {
+        let steps = MethodSteps::of_scene(scene)?;
         let chosen = choose_method(scene.integration.method, scene.integration.dt_s, &steps);
         let out_dt = 1.0 / scene.output.sample_rate_hz;
         let mut warnings = Vec::new();
@@ -75,7 +77,7 @@ impl StepPlan {
         } else {
             1.0 / interval
         };
-        StepPlan {
+        Ok(StepPlan {
             row_rate_hz,
             method: chosen.method,
             method_reason: chosen.reason,
@@ -86,7 +88,7 @@ impl StepPlan {
             dt_stable_s: steps.rk4_stable_s,
             method_steps: steps,
             warnings,
-        }
+        })
     }
 
     /// Number of output rows, including t = 0.

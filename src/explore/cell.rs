@@ -13,6 +13,7 @@ use crate::analysis::{RecordAnalysis, stroboscopic};
 use crate::config::{Scene, set_key};
 use crate::engine::{EnsembleOptions, EnsemblePlan, Instance, Outcome, StepPlan, integrate};
 use crate::model::Status;
+use crate::model::linear::LinearError;
 use crate::output::TrajectoryRecorder;
 use crate::output::budget::{RunSize, bytes};
 use serde::Serialize;
@@ -250,7 +251,8 @@ pub fn run_cell(
     let started = Instant::now();
     let cs = cell_scene(folder, k, v)?;
     let scene = &cs.scene;
-    let plan = StepPlan::for_scene(scene);
+    let plan =
+        StepPlan::for_scene(scene).map_err(|e| ExploreError::Cell(format!("cell {k}: {e}")))?;
     let need = cell_memory_bytes(scene, &plan)?;
     if need > limits.memory_bytes {
         return Err(ExploreError::TooLarge {
@@ -259,7 +261,8 @@ pub fn run_cell(
             limit: bytes(limits.memory_bytes),
         });
     }
-    let (rec, outcome) = record(scene, &plan, control, started, limits.wall_s);
+    let (rec, outcome) = record(scene, &plan, control, started, limits.wall_s)
+        .map_err(|e| ExploreError::Cell(format!("cell {k}: {e}")))?;
     if rec.stopped {
         let done_percent = 100.0 * outcome.steps_done as f64 / plan.steps.max(1) as f64;
         return Err(if control.is_cancelled() {
@@ -322,7 +325,7 @@ fn record(
     control: &Arc<CellControl>,
     started: Instant,
     wall_s: f64,
-) -> (TrajectoryRecorder, Outcome) {
+) -> Result<(TrajectoryRecorder, Outcome), LinearError> {
     let mut rec = TrajectoryRecorder {
         load_ohm: scene.piezo_params().map(|z| z.load_ohm),
         ..Default::default()
@@ -337,8 +340,8 @@ fn record(
             ControlFlow::Continue(())
         }
     }));
-    let outcome = integrate(&Instance::<f64>::from_scene(scene), plan, &mut rec);
-    (rec, outcome)
+    let outcome = integrate(&Instance::<f64>::from_scene(scene)?, plan, &mut rec);
+    Ok((rec, outcome))
 }
 
 /// `simulate`'s analysis of a run that ended ok; why not, in `warnings`, otherwise.

@@ -365,6 +365,7 @@ fn evaluate_baseline(
     let scene0 = Scene::from_table(table.clone())?;
     let first_natural_hz = scene0
         .modes()
+        .map_err(crate::config::ConfigError::from)?
         .frequencies_hz
         .first()
         .copied()

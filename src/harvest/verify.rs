@@ -135,9 +135,10 @@ pub struct Resimulated {
 }
 
 /// One instance integrated as `simulate` integrates it.
-pub fn simulate_power(scene: &crate::config::Scene) -> Resimulated {
-    let plan = StepPlan::for_scene(scene);
-    let inst = Instance::<f64>::from_scene(scene);
+pub fn simulate_power(scene: &crate::config::Scene) -> Result<Resimulated, HarvestError> {
+    let linear = |e| HarvestError::Config(crate::config::ConfigError::from(e));
+    let plan = StepPlan::for_scene(scene).map_err(linear)?;
+    let inst = Instance::<f64>::from_scene(scene).map_err(linear)?;
     let mut meter = PowerMeter {
         transient_s: scene.integration.transient_s,
         inv_load: scene.piezo_params().map_or(0.0, |z| 1.0 / z.load_ohm),
@@ -167,11 +168,11 @@ pub fn simulate_power(scene: &crate::config::Scene) -> Resimulated {
     } else {
         f64::NAN
     };
-    Resimulated {
+    Ok(Resimulated {
         power_w,
         k,
         status: outcome.status,
-    }
+    })
 }
 
 /// Re-simulate a design at every band frequency from every initial state.
@@ -235,7 +236,7 @@ fn resimulate_points(
             let state = &spec.initial_states[s];
             let f = spec.band.frequencies_hz[j];
             let scene = spec.instance_scene(&table, clearance, state, f)?;
-            let re = simulate_power(&scene);
+            let re = simulate_power(&scene)?;
             Ok(VerifiedPoint {
                 frequency_hz: f,
                 state: state.name.clone(),

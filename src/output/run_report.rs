@@ -26,7 +26,7 @@ pub struct RunReport<'a> {
     /// Steps each method would take.
     pub method_steps: &'a MethodSteps,
     /// The damping the scene's keys give.
-    pub damping: DampingReport,
+    pub damping: Option<DampingReport>,
     /// The step (s).
     pub dt_s: f64,
     /// Where the step came from.
@@ -98,7 +98,7 @@ impl<'a> RunReport<'a> {
                 }
             },
             method_steps: &f.plan.method_steps,
-            damping: f.scene.damping_report(),
+            damping: f.scene.damping_report().ok(),
             dt_s: f.plan.dt_s,
             dt_source: f.plan.dt_source,
             dt_stable_s: f.plan.dt_stable_s,

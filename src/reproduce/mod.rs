@@ -453,7 +453,13 @@ fn draw_case(
 /// First natural frequency of the clamped beam (no gravity, no bumpers) at the run's N (Hz).
 fn first_clamped_hz(case: &PaperCase, opts: &ReproduceOptions) -> Result<f64, ReproduceError> {
     let scene = case.scene(opts.quick, &[])?;
-    let omega = crate::model::linear::clamped_first_omega(&scene.model_params());
+    let omega = scene
+        .model_params()
+        .and_then(|p| crate::model::linear::clamped_first_omega(&p))
+        .map_err(|e| ReproduceError::Scene {
+            case: case.id.to_string(),
+            source: e.into(),
+        })?;
     Ok(omega / std::f64::consts::TAU)
 }
 
@@ -473,11 +479,13 @@ fn settings_text(opts: &ReproduceOptions, sims: &[Simulation]) -> String {
         format!("{:.3}–{:.3} µs", dt_lo * 1e6, dt_hi * 1e6)
     };
     let first = sims.first().map(|s| &s.scene);
-    let method = first.map_or("–", |s| {
-        crate::engine::StepPlan::for_scene(s).method.name()
-    });
+    let method = first
+        .and_then(|s| crate::engine::StepPlan::for_scene(s).ok())
+        .map_or("–", |p| p.method.name());
     let damping = first.map_or("–".into(), |s| {
-        let d = s.damping_report();
+        let Ok(d) = s.damping_report() else {
+            return "joint dampers: not computable for this scene".to_string();
+        };
         format!(
             "joint dampers β = {:.3e} s (b = {:.3} N m s/rad per joint, ζ1 = {:.4}), contact damping {}",
             d.damping_time_s,

@@ -51,8 +51,12 @@ impl Simulation {
 /// Integrate `scene` (case `case` in error messages) at its automatic step with f64 RK4.
 /// A run that diverges or turns non-finite is an error: its numbers would mean nothing.
 pub fn simulate(case: &str, scene: &Scene) -> Result<Simulation, ReproduceError> {
-    let plan = StepPlan::for_scene(scene);
-    let inst = Instance::<f64>::from_scene(scene);
+    let invalid = |e| ReproduceError::Scene {
+        case: case.into(),
+        source: crate::config::ConfigError::from(e),
+    };
+    let plan = StepPlan::for_scene(scene).map_err(invalid)?;
+    let inst = Instance::<f64>::from_scene(scene).map_err(invalid)?;
     let mut rec = TrajectoryRecorder {
         rows: Vec::with_capacity(plan.rows()),
         load_ohm: scene.piezo_params().map(|z| z.load_ohm),

@@ -167,7 +167,7 @@ fn every_map_of_the_study_gives_k_enough_samples() {
             early_stop: None,
             lyapunov: Default::default(),
         };
-        for s in pendulum_atlas::bench::study_scenes(quick) {
+        for s in pendulum_atlas::bench::study_scenes(quick).unwrap() {
             EnsemblePlan::from_scenes(std::slice::from_ref(&s), &opts)
                 .unwrap_or_else(|e| panic!("quick = {quick}: {e}"));
         }

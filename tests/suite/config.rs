@@ -319,7 +319,7 @@ fn masses_beyond_what_the_model_holds_are_refused_with_their_range() {
         vec!["beam.mass_kg=1e4", "tip.mass_kg=0.0"],
         vec!["beam.mass_kg=1e-3", "tip.mass_kg=1e3", "beam.segments=64"],
     ] {
-        let m = crate::scene(&sets).modes();
+        let m = crate::scene(&sets).modes().unwrap();
         assert!(
             m.spectral_radius_per_s.is_finite() && m.dt_auto_s > 0.0,
             "{sets:?}: {m:?}"

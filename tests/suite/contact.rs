@@ -31,10 +31,10 @@ fn impact(law: &str) -> (Scene, Vec<Row>) {
     let law = format!("limiter.damping_law=\"{law}\"");
     sets.push(&law);
     let s = scene(&sets);
-    let plan = StepPlan::for_scene(&s);
+    let plan = StepPlan::for_scene(&s).unwrap();
     let mut rec = TrajectoryRecorder::default();
     let o = integrate_reference(
-        &Instance::<f64>::from_scene(&s),
+        &Instance::<f64>::from_scene(&s).unwrap(),
         &plan,
         &ReferenceOptions::default(),
         &mut rec,

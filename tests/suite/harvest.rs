@@ -148,7 +148,7 @@ fn the_baseline_peaks_at_the_clamped_first_natural_frequency() {
     let mut clamped = spec.scene.clone();
     clamped.pivot.mode = pendulum_atlas::config::PivotMode::Clamped;
     clamped.limiter.enabled = false;
-    let f1 = clamped.modes().frequencies_hz[0];
+    let f1 = clamped.modes().unwrap().frequencies_hz[0];
     close(run.baseline.first_natural_hz, f1, 1e-9, "baseline f1");
     let b = &run.baseline;
     assert_eq!(b.failed, 0);

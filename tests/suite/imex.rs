@@ -16,16 +16,22 @@ use pendulum_atlas::output::{Row, TrajectoryRecorder};
 const LIBRARY_ZETA: &str = "beam.damping_ratio=0.0546";
 
 fn run(s: &Scene) -> (Vec<Row>, StepPlan, Status) {
-    let plan = StepPlan::for_scene(s);
+    let plan = StepPlan::for_scene(s).unwrap();
     let mut rec = TrajectoryRecorder::default();
-    let o = integrate(&Instance::<f64>::from_scene(s), &plan, &mut rec);
+    let o = integrate(&Instance::<f64>::from_scene(s).unwrap(), &plan, &mut rec);
     (rec.rows, plan, o.status)
 }
 
 fn reference(s: &Scene, opts: &ReferenceOptions) -> Vec<Row> {
-    let plan = StepPlan::for_scene(s);
+    let plan = StepPlan::for_scene(s).unwrap();
     let mut rec = TrajectoryRecorder::default();
-    let o = integrate_reference(&Instance::<f64>::from_scene(s), &plan, opts, &mut rec).unwrap();
+    let o = integrate_reference(
+        &Instance::<f64>::from_scene(s).unwrap(),
+        &plan,
+        opts,
+        &mut rec,
+    )
+    .unwrap();
     assert_eq!(o.status, Status::Ok);
     rec.rows
 }
@@ -122,7 +128,7 @@ fn imex_is_stable_at_n64_with_the_library_damping_far_beyond_rk4s_limit() {
         "integration.method=imex",
     ];
     let s = scene(&base);
-    let steps = MethodSteps::of_scene(&s);
+    let steps = MethodSteps::of_scene(&s).unwrap();
     // RK4 would need a step below 1e-9 s here; the IMEX step is set by accuracy.
     assert!(steps.rk4_stable_s < 1e-8, "{steps:?}");
     assert!(steps.imex_auto_s / steps.rk4_stable_s > 1e4, "{steps:?}");
@@ -162,7 +168,7 @@ fn imex_at_its_automatic_step_matches_the_reference_with_stiff_dampers_and_impac
     assert_eq!((plan.method, status), (Method::Imex, Status::Ok));
     let truth = reference(
         &s,
-        &ReferenceOptions::for_stiffness(s.modes().spectral_radius_per_s),
+        &ReferenceOptions::for_stiffness(s.modes().unwrap().spectral_radius_per_s),
     );
     assert!(
         truth.iter().any(|r| r.contact_force_n.abs() > 1.0),
@@ -185,7 +191,7 @@ fn the_step_cap_of_the_reference_changes_nothing_but_the_steps() {
     let free = reference(&s, &ReferenceOptions::default());
     let capped = reference(
         &s,
-        &ReferenceOptions::for_stiffness(s.modes().spectral_radius_per_s),
+        &ReferenceOptions::for_stiffness(s.modes().unwrap().spectral_radius_per_s),
     );
     assert!(
         free.iter().any(|r| r.contact_force_n.abs() > 1.0),
@@ -197,9 +203,10 @@ fn the_step_cap_of_the_reference_changes_nothing_but_the_steps() {
 
 #[test]
 fn auto_picks_the_cheaper_method_and_says_why() {
-    let earlier = StepPlan::for_scene(&scene(&["beam.segments=3", "beam.damping_ratio=0.0035"]));
+    let earlier =
+        StepPlan::for_scene(&scene(&["beam.segments=3", "beam.damping_ratio=0.0035"])).unwrap();
     assert_eq!(earlier.method, Method::Rk4, "{}", earlier.method_reason);
-    let library = StepPlan::for_scene(&scene(&["beam.segments=17", LIBRARY_ZETA]));
+    let library = StepPlan::for_scene(&scene(&["beam.segments=17", LIBRARY_ZETA])).unwrap();
     assert_eq!(library.method, Method::Imex, "{}", library.method_reason);
     assert!(
         library.method_reason.starts_with("auto: imex is"),
@@ -207,13 +214,15 @@ fn auto_picks_the_cheaper_method_and_says_why() {
         library.method_reason
     );
     // A given step beyond RK4's stable limit: the method that is stable there.
-    let beyond = StepPlan::for_scene(&scene(&["beam.segments=17", "integration.dt_s=1e-4"]));
+    let beyond =
+        StepPlan::for_scene(&scene(&["beam.segments=17", "integration.dt_s=1e-4"])).unwrap();
     assert_eq!(beyond.method, Method::Imex, "{}", beyond.method_reason);
     let forced = StepPlan::for_scene(&scene(&[
         "beam.segments=17",
         "integration.dt_s=1e-4",
         "integration.method=rk4",
-    ]));
+    ]))
+    .unwrap();
     assert_eq!(forced.method, Method::Rk4);
     assert!(
         forced

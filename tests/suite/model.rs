@@ -13,7 +13,7 @@ fn clamped(n: usize) -> Vec<f64> {
     let seg = format!("beam.segments={n}");
     let mut sets: Vec<&str> = CLAMPED_G0.to_vec();
     sets.push(&seg);
-    scene(&sets).modes().frequencies_hz
+    scene(&sets).modes().unwrap().frequencies_hz
 }
 
 #[test]
@@ -35,7 +35,7 @@ fn clamped_first_frequency_matches_model_md() {
 
 #[test]
 fn hinged_upright_chain_has_one_falling_mode() {
-    let m = scene(&[]).modes();
+    let m = scene(&[]).modes().unwrap();
     assert_eq!(
         m.unstable_rates_per_s.len(),
         1,
@@ -50,7 +50,7 @@ fn hinged_upright_chain_has_one_falling_mode() {
 
 #[test]
 fn spectral_radius_and_auto_step_match_model_md() {
-    let r = |sets: &[&str]| scene(sets).modes().spectral_radius_per_s;
+    let r = |sets: &[&str]| scene(sets).modes().unwrap().spectral_radius_per_s;
     let n3 = r(&["beam.segments=3", "beam.damping_ratio=0.0035"]);
     let n17_undamped = r(&["beam.damping_ratio=0"]);
     let n17_earlier = r(&["beam.damping_ratio=0.0035"]);
@@ -65,7 +65,7 @@ fn spectral_radius_and_auto_step_match_model_md() {
         "N=17 ζ1 = 0.0035: {n17_earlier}"
     );
     assert!((n17 / 1.0e7 - 1.0).abs() < 0.05, "N=17 library: {n17}");
-    let m = scene(&[]).modes();
+    let m = scene(&[]).modes().unwrap();
     assert!((m.dt_auto_s - 0.8 * 2.78 / n17).abs() < 1e-12);
     // The automatic step lies inside the RK4 stability limit.
     assert!(m.dt_auto_s < m.dt_stable_s);
@@ -76,8 +76,8 @@ fn first_mode_zeta(sets: &[&str]) -> f64 {
     let mut all = CLAMPED_G0.to_vec();
     all.extend_from_slice(sets);
     let s = scene(&all);
-    let eig = linear::jacobian_eigenvalues(&s.model_params());
-    let w1 = 2.0 * std::f64::consts::PI * s.modes().frequencies_hz[0];
+    let eig = linear::jacobian_eigenvalues(&s.model_params().unwrap()).unwrap();
+    let w1 = 2.0 * std::f64::consts::PI * s.modes().unwrap().frequencies_hz[0];
     let lam = eig
         .iter()
         .filter(|z| z.im > 0.0)
@@ -98,7 +98,7 @@ fn the_library_reading_gives_zeta_0_054_at_seventeen_segments() {
     let zeta = first_mode_zeta(&[]);
     assert!((zeta - 0.054).abs() <= 0.001, "ζ1 = {zeta}");
     let s = scene(&[]);
-    let report = s.damping_report();
+    let report = s.damping_report().unwrap();
     assert!(
         (report.joint_damping_nms - 0.35).abs() < 1e-12,
         "{report:?}"
@@ -108,7 +108,7 @@ fn the_library_reading_gives_zeta_0_054_at_seventeen_segments() {
         "{report:?}"
     );
     // The same β at any N: b scales with the joint stiffness EI/(L/N).
-    let n5 = scene(&["beam.segments=5"]).damping_report();
+    let n5 = scene(&["beam.segments=5"]).damping_report().unwrap();
     assert!((n5.damping_time_s - report.damping_time_s).abs() < 1e-18);
     assert!(
         (n5.joint_damping_nms - 0.35 * 5.0 / 17.0).abs() < 1e-12,
@@ -121,7 +121,7 @@ fn the_library_reading_gives_zeta_0_054_at_seventeen_segments() {
         "beam.joint_damping_nms=0.35".to_string(),
         format!("beam.damping_ratio={:e}", report.first_mode_damping_ratio),
     ] {
-        let other = scene(&[&set]).damping_report();
+        let other = scene(&[&set]).damping_report().unwrap();
         assert!(
             (other.damping_time_s / beta - 1.0).abs() < 1e-9,
             "{set}: {other:?}"
@@ -215,7 +215,7 @@ fn recursive_solve_equals_dense_solve() {
         let seg = format!("beam.segments={n}");
         let mut sets = extra.clone();
         sets.push(&seg);
-        let p = scene(&sets).model_params();
+        let p = scene(&sets).model_params().unwrap();
         let chain = Chain::<f64>::new(&p);
         let mut ws = chain.workspace();
         for _ in 0..20 {
@@ -242,4 +242,32 @@ fn recursive_solve_equals_dense_solve() {
             }
         }
     }
+}
+
+#[test]
+fn a_linearisation_that_cannot_be_computed_is_an_error_not_a_hang_or_a_panic() {
+    let p = scene(&[]).model_params().unwrap();
+    // A stiffness that overflowed: the QR iterations either stop at EIGEN_MAX_ITERATIONS or
+    // end on values that are not numbers; both are errors, never NaN frequencies.
+    let mut q = p.clone();
+    q.joint_stiffness_nm = f64::NAN;
+    let failed = |e: &linear::LinearError| {
+        matches!(
+            e,
+            linear::LinearError::NoConvergence { .. } | linear::LinearError::NotFinite { .. }
+        )
+    };
+    let e = linear::generalized_eigenvalues(&q).unwrap_err();
+    assert!(failed(&e), "{e}");
+    let e = linear::jacobian_eigenvalues(&q).unwrap_err();
+    assert!(failed(&e), "{e}");
+    assert!(linear::modes(&q, 0.5).is_err());
+    // A mass matrix that is not positive definite is said, not a panic in Cholesky.
+    let mut m = p.clone();
+    m.seg_mass_kg = -1.0;
+    let e = linear::generalized_eigenvalues(&m).unwrap_err();
+    assert!(e.to_string().contains("not positive definite"), "{e}");
+    // The method's steps and the damping ratio carry the same error.
+    assert!(pendulum_atlas::engine::method::MethodSteps::of(&q, 0.5).is_err());
+    assert!(linear::first_mode_damping_ratio(&m).is_err());
 }

@@ -10,8 +10,8 @@ use pendulum_atlas::model::{Real, Status};
 use pendulum_atlas::output::{Row, TrajectoryRecorder};
 
 fn run_rk4<T: Real>(s: &Scene) -> (Vec<Row>, Status) {
-    let plan = StepPlan::for_scene(s);
-    let inst = Instance::<T>::from_scene(s);
+    let plan = StepPlan::for_scene(s).unwrap();
+    let inst = Instance::<T>::from_scene(s).unwrap();
     let mut rec = TrajectoryRecorder {
         load_ohm: s.piezo_params().map(|z| z.load_ohm),
         ..Default::default()
@@ -21,8 +21,8 @@ fn run_rk4<T: Real>(s: &Scene) -> (Vec<Row>, Status) {
 }
 
 fn run_reference(s: &Scene) -> Vec<Row> {
-    let plan = StepPlan::for_scene(s);
-    let inst = Instance::<f64>::from_scene(s);
+    let plan = StepPlan::for_scene(s).unwrap();
+    let inst = Instance::<f64>::from_scene(s).unwrap();
     let mut rec = TrajectoryRecorder {
         load_ohm: s.piezo_params().map(|z| z.load_ohm),
         ..Default::default()
@@ -198,7 +198,7 @@ fn a_step_three_times_the_limit_is_flagged_not_returned() {
         "integration.duration_s=0.5",
         "integration.method=rk4",
     ]);
-    let m = s0.modes();
+    let m = s0.modes().unwrap();
     let dt = format!("integration.dt_s={}", 3.0 * m.dt_stable_s);
     let s = scene(&[
         "beam.segments=5",
@@ -206,7 +206,7 @@ fn a_step_three_times_the_limit_is_flagged_not_returned() {
         "integration.method=rk4",
         &dt,
     ]);
-    let plan = StepPlan::for_scene(&s);
+    let plan = StepPlan::for_scene(&s).unwrap();
     assert!(
         plan.warnings.iter().any(|w| w.contains("stability limit")),
         "{:?}",
@@ -232,8 +232,11 @@ fn batch_equals_single_runs_and_keeps_order() {
             ])
         })
         .collect();
-    let plan = StepPlan::for_scene(&scenes[0]);
-    let insts: Vec<Instance<f64>> = scenes.iter().map(Instance::from_scene).collect();
+    let plan = StepPlan::for_scene(&scenes[0]).unwrap();
+    let insts: Vec<Instance<f64>> = scenes
+        .iter()
+        .map(|s| Instance::from_scene(s).unwrap())
+        .collect();
     let mut recs: Vec<TrajectoryRecorder> = (0..3).map(|_| TrajectoryRecorder::default()).collect();
     integrate_batch(&insts, &plan, &mut recs);
     for (i, inst) in insts.iter().enumerate() {

@@ -70,10 +70,10 @@ fn reference_alpha(scene: &Scene, periods: u32) -> Vec<f64> {
     let f = s.excitation.reference_frequency_hz();
     s.output.sample_rate_hz = 16.0 * f;
     s.integration.duration_s = f64::from(periods) / f;
-    let plan = StepPlan::for_scene(&s);
+    let plan = StepPlan::for_scene(&s).unwrap();
     let mut rows = AlphaRows(Vec::new());
     integrate_reference(
-        &Instance::from_scene(&s),
+        &Instance::from_scene(&s).unwrap(),
         &plan,
         &ReferenceOptions::default(),
         &mut rows,
@@ -313,7 +313,7 @@ fn statuses(run: &MapRun) -> Vec<Status> {
 pub fn step_beyond_the_stability_limit_is_flagged_not_returned(under: Under) {
     let n3 = "[beam]\nsegments = 3\n[integration]\nduration_s = 3.0\ntransient_s = 0.5";
     let scene = Scene::from_toml(n3, "<stress>", &[]).unwrap();
-    let m = scene.modes();
+    let m = scene.modes().unwrap();
     // 0.9 of the estimate, not 1.0: with the library damping the largest eigenvalue is real,
     // where 2.78/max|λ| lies just inside RK4's boundary (|R| = 0.992) and the nonlinear terms
     // can tip a step exactly at the estimate over it.

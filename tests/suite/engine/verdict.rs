@@ -48,7 +48,8 @@ const LINEAR: &str = "[pivot]\nmode = \"clamped\"\n[limiter]\nenabled = false\n[
 /// The largest real part of the eigenvalues of the damped linearisation (1/s), from
 /// nalgebra's eigen-solver on the first-order Jacobian of `linear`.
 fn least_damped_rate(scene: &Scene) -> f64 {
-    linear::jacobian_eigenvalues(&scene.model_params())
+    linear::jacobian_eigenvalues(&scene.model_params().unwrap())
+        .unwrap()
         .iter()
         .map(|z| z.re)
         .fold(f64::NEG_INFINITY, f64::max)
@@ -65,8 +66,9 @@ pub fn lyapunov_of_a_linear_response_is_the_least_damped_eigenvalue(under: Under
         if g == 0.0 {
             // Stiffness-proportional damping without gravity: every mode is damped at ζ_k ω_k
             // with ζ_k = β ω_k / 2, the first mode least (docs/model.md, "Damping").
-            let p = spec.scene.model_params();
-            let zeta_omega = linear::first_mode_damping_ratio(&p) * linear::clamped_first_omega(&p);
+            let p = spec.scene.model_params().unwrap();
+            let zeta_omega = linear::first_mode_damping_ratio(&p).unwrap()
+                * linear::clamped_first_omega(&p).unwrap();
             assert!(
                 (want + zeta_omega).abs() < 1e-9 * zeta_omega,
                 "eigen-solver {want} vs -ζ1 ω1 = {}",
@@ -107,8 +109,8 @@ fn reference_after(scene: &Scene, y0: &[f64], periods: u32) -> Vec<f64> {
     let f = s.excitation.reference_frequency_hz();
     s.integration.duration_s = f64::from(periods) / f;
     s.output.sample_rate_hz = f;
-    let plan = StepPlan::for_scene(&s);
-    let inst = Instance::<f64>::new(&s.model_params(), y0.to_vec());
+    let plan = StepPlan::for_scene(&s).unwrap();
+    let inst = Instance::<f64>::new(&s.model_params().unwrap(), y0.to_vec());
     let mut last = LastRow(Vec::new());
     let out = integrate_reference(&inst, &plan, &ReferenceOptions::default(), &mut last)
         .expect("reference");
@@ -121,7 +123,7 @@ fn reference_after(scene: &Scene, y0: &[f64], periods: u32) -> Vec<f64> {
 /// of the monodromy matrix over pT, by central differences of the DOP853 reference map on the
 /// angles and rates, ln|μ|/(pT). No twin, no fixed step.
 fn floquet_exponent(scene: &Scene, p: u32, settle: u32) -> f64 {
-    let params = scene.model_params();
+    let params = scene.model_params().unwrap();
     let y_star = reference_after(scene, &scene.initial_state(&params), settle);
     let n = 2 * params.segments;
     let h = 1e-7;
