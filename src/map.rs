@@ -7,7 +7,9 @@ pub mod refine;
 use crate::config::MapSpec;
 use crate::engine::gpu::GpuTimings;
 use crate::engine::{Engine, EngineError, EngineInfo, EnsemblePlan, Progress, Readback};
-use crate::reduce::{InstanceResult, ReduceOptions};
+use crate::reduce::{
+    AttractorMap, AttractorRule, InstanceResult, ReduceOptions, attractor_map, basin_map,
+};
 use crate::shard::Shard;
 use serde::Serialize;
 use std::time::Instant;
@@ -86,6 +88,10 @@ pub struct MapRun {
     pub inferred: Vec<bool>,
     /// What refinement did, when it ran.
     pub refine: Option<refine::RefineReport>,
+    /// The attractors of a map run from several starts per cell; `results` and
+    /// `strobe_tail` then hold each cell's representative run (the first start that reached
+    /// its most likely attractor).
+    pub attractors: Option<AttractorMap>,
 }
 
 /// One shard of a merged map, as `map.json` lists it.
@@ -140,7 +146,7 @@ pub fn host_bytes_estimate(spec: &MapSpec) -> u64 {
         0
     };
     let per_instance = 1024 + 200 * spec.scene.beam.segments as u64 + tail;
-    spec.instances() as u64 * per_instance
+    (spec.instances() * spec.starts_per_cell()) as u64 * per_instance
 }
 
 /// Refuse a map whose plan and results would not fit in half the memory available now (every
@@ -174,6 +180,9 @@ fn run_map_part(
 ) -> Result<MapRun, EngineError> {
     let t0 = Instant::now();
     let mut plan = EnsemblePlan::new(spec)?;
+    if spec.labels_attractors() {
+        return run_starts(plan, spec, shard, engine, progress, t0);
+    }
     if let (Some(rs), None) = (&spec.refine, shard) {
         let plan_s = t0.elapsed().as_secs_f64();
         let mut run = run_refined(plan, rs, spec, engine, progress)?;
@@ -200,6 +209,66 @@ fn run_map_part(
     )?;
     run.timings.plan_s = plan_s;
     run.timings.total_s += plan_s;
+    Ok(run)
+}
+
+/// A map that labels attractors (several starts per cell, or a basin picture with one): every
+/// (cell, start) run in the one ensemble with the stroboscopic tail its fingerprint needs,
+/// then the attractor stage ([`crate::reduce::attractors`]) groups and labels the runs and
+/// picks each cell's representative.
+fn run_starts(
+    plan: EnsemblePlan,
+    spec: &MapSpec,
+    shard: Option<Shard>,
+    engine: &Engine,
+    progress: Progress,
+    t0: Instant,
+) -> Result<MapRun, EngineError> {
+    if shard.is_some() {
+        return Err(crate::config::ConfigError::Inconsistent {
+            key: "map.initial_states".into(),
+            reason: "a map that labels attractors cannot be sharded yet: run it in one piece (drop --shard and --devices)".into(),
+        }
+        .into());
+    }
+    let plan_s = t0.elapsed().as_secs_f64();
+    let bifurcation = spec
+        .bifurcation
+        .then_some(spec.bifurcation_samples as usize);
+    let tail = bifurcation.unwrap_or(0).max(spec.period_max as usize);
+    let mut run = run_plan(
+        plan,
+        &ReduceOptions::from_spec(spec),
+        Some(tail),
+        engine,
+        progress,
+    )?;
+    let t_stage = Instant::now();
+    let k = spec.starts_per_cell();
+    let rule = AttractorRule::for_period_tol(spec.period_tol_rad);
+    let map = if spec.is_basin_picture() {
+        basin_map(&run.results, &run.strobe_tail, rule)
+    } else {
+        attractor_map(&spec.shape(), k, &run.results, &run.strobe_tail, rule)
+    };
+    let pick = |c: usize| c * k + map.representative[c];
+    let picks: Vec<usize> = (0..spec.instances()).map(pick).collect();
+    run.results = picks.iter().map(|&i| run.results[i]).collect();
+    run.plan = run.plan.select(&picks);
+    run.strobe_tail = match bifurcation {
+        Some(n) => picks
+            .iter()
+            .map(|&i| {
+                let t = &run.strobe_tail[i];
+                t[t.len().saturating_sub(n)..].to_vec()
+            })
+            .collect(),
+        None => Vec::new(),
+    };
+    run.attractors = Some(map);
+    run.timings.reduce_s += t_stage.elapsed().as_secs_f64();
+    run.timings.plan_s = plan_s;
+    run.timings.total_s += plan_s + t_stage.elapsed().as_secs_f64();
     Ok(run)
 }
 
@@ -249,6 +318,7 @@ fn run_refined(
         shards: Vec::new(),
         inferred: refined.inferred,
         refine: Some(refined.report),
+        attractors: None,
     })
 }
 
@@ -292,6 +362,7 @@ pub fn run_plan(
         shards: Vec::new(),
         inferred: Vec::new(),
         refine: None,
+        attractors: None,
     })
 }
 
@@ -369,6 +440,7 @@ pub fn assemble(plan: EnsemblePlan, parts: Vec<MapPart>) -> MapRun {
         shards,
         inferred: Vec::new(),
         refine: None,
+        attractors: None,
     }
 }
 

@@ -58,7 +58,9 @@ def map_dataset(manifest: dict, arrays: Mapping[str, np.ndarray]) -> xr.Dataset:
             attrs.update(_codes_attrs(manifest["status_codes"]))
         elif name == "inferred":
             attrs.update({"flag_values": [0, 1], "flag_meanings": "computed filled_from_its_block"})
-        data_vars[name] = (dims, values, attrs)
+        # basin_fraction has one leading axis more: the attractor label.
+        var_dims = ("attractor_label", *dims) if values.ndim == len(dims) + 1 else dims
+        data_vars[name] = (var_dims, values, attrs)
     attrs = {k: manifest[k] for k in MAP_ATTRS if manifest.get(k) is not None}
     attrs["map_json"] = json.dumps(manifest)
     return xr.Dataset(data_vars, coords, attrs)

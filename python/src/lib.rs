@@ -188,6 +188,7 @@ fn to_numpy<'py>(py: Python<'py>, a: MapArray) -> PyResult<Bound<'py, PyAny>> {
         ArrayData::F64(v) => PyArray1::from_vec(py, v).reshape(shape)?.into_any(),
         ArrayData::I8(v) => PyArray1::from_vec(py, v).reshape(shape)?.into_any(),
         ArrayData::U8(v) => PyArray1::from_vec(py, v).reshape(shape)?.into_any(),
+        ArrayData::I32(v) => PyArray1::from_vec(py, v).reshape(shape)?.into_any(),
     })
 }
 

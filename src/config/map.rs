@@ -17,6 +17,7 @@
 use super::error::ConfigError;
 use super::reader::{Range, Reader, apply_override, parse_toml, set_key};
 use super::scene::{ExcitationKind, Scene};
+use super::starts::StartSet;
 use crate::analysis::PhaseConvention;
 use crate::text::num;
 use serde::Serialize;
@@ -148,6 +149,7 @@ pub fn axis_label(key: &str) -> String {
         "piezo.load_ohm" => "load R_L (Ω)".into(),
         "beam.damping_ratio" => "damping ratio ζ1".into(),
         "initial.angle_deg" => "initial angle (deg)".into(),
+        "initial.rate_deg_s" => "initial rate (deg/s)".into(),
         other => match key_unit(other) {
             Some(u) => format!("{other} ({u})"),
             None => other.to_string(),
@@ -231,6 +233,8 @@ pub struct MapSpec {
     pub lyapunov: LyapunovSettings,
     /// Adaptive refinement (`map.refine`), when asked for.
     pub refine: Option<RefineSpec>,
+    /// Several starts per cell (`map.initial_states`); `None`: the scene's own start.
+    pub starts: Option<StartSet>,
 }
 
 /// What refinement compares between neighbouring cells.
@@ -331,6 +335,67 @@ impl MapSpec {
             set_number(&mut table, &axis.key, v)?;
         }
         Ok(table)
+    }
+
+    /// Whether the map labels attractors: several starts per cell, or a basin picture (an
+    /// axis over the start itself, `initial.angle_deg` or `initial.rate_deg_s`).
+    pub fn labels_attractors(&self) -> bool {
+        self.starts.is_some()
+            || self
+                .axes
+                .iter()
+                .any(|a| START_KEYS.contains(&a.key.as_str()))
+    }
+
+    /// Whether the map is a basin picture: every axis a key of the start, so that every cell
+    /// runs the same scene from another start.
+    pub fn is_basin_picture(&self) -> bool {
+        self.starts.is_none()
+            && self
+                .axes
+                .iter()
+                .all(|a| START_KEYS.contains(&a.key.as_str()))
+    }
+
+    /// Runs per cell: the starts of `map.initial_states`, or 1.
+    pub fn starts_per_cell(&self) -> usize {
+        self.starts.as_ref().map_or(1, StartSet::len)
+    }
+
+    /// The scene table of start `s` of cell `k`: the cell's table with `initial.angle_deg`
+    /// and `initial.rate_deg_s` of the start (the cell's own with one start per cell).
+    pub fn start_table(&self, k: usize, s: usize) -> Result<Table, ConfigError> {
+        let mut table = self.instance_table(k)?;
+        if let Some(start) = self.starts.as_ref().and_then(|set| set.states.get(s)) {
+            set_key(
+                &mut table,
+                "initial.angle_deg",
+                Value::Float(start.angle_deg),
+            )?;
+            set_key(
+                &mut table,
+                "initial.rate_deg_s",
+                Value::Float(start.rate_deg_s),
+            )?;
+        }
+        Ok(table)
+    }
+
+    /// The validated scene of run `i` of the map's ensemble: start `i % k` of cell `i / k`
+    /// with `k` starts per cell (the cell's own scene with one).
+    pub fn run_scene(&self, i: usize) -> Result<Scene, ConfigError> {
+        let k = self.starts_per_cell();
+        if k == 1 {
+            return self.instance_scene(i);
+        }
+        Scene::from_table(self.start_table(i / k, i % k)?).map_err(|e| ConfigError::Inconsistent {
+            key: "map.initial_states".into(),
+            reason: format!(
+                "start {} of cell {} gives an invalid scene: {e}",
+                i % k,
+                i / k
+            ),
+        })
     }
 
     /// The validated scene of instance `k`: the base scene with the axis keys set.
@@ -504,6 +569,7 @@ fn read_map(
 ) -> Result<MapSpec, ConfigError> {
     let axes_value = map.remove("axes");
     let metrics_value = map.remove("metrics");
+    let starts_value = map.remove("initial_states");
     let mut wrapped = Table::new();
     if !map.is_empty() {
         wrapped.insert("map".into(), Value::Table(map));
@@ -536,6 +602,21 @@ fn read_map(
     let early_stop_tol = read_early_stop_tol(&mut r)?;
     let lyapunov = read_lyapunov(&mut r)?;
     let refine = read_refine(&mut r, &axes, &metrics, bifurcation)?;
+    let cells = axes.iter().map(|a| a.values.len()).product();
+    let axis_keys: Vec<&str> = axes.iter().map(|a| a.key.as_str()).collect();
+    let starts = super::starts::read_starts(&mut r, starts_value, &scene, cells, &axis_keys)?;
+    let labels = starts.is_some() || axis_keys.iter().any(|k| START_KEYS.contains(k));
+    if labels && refine.is_some() {
+        return Err(ConfigError::Inconsistent {
+            key: "map.refine".into(),
+            reason: "refinement of a map that labels attractors (map.initial_states, or an axis over initial.angle_deg or initial.rate_deg_s) is not supported yet: set map.refine = false".into(),
+        });
+    }
+    let metrics = if labels {
+        with_attractor_metrics(metrics, &scene)
+    } else {
+        metrics
+    };
     r.finish()?;
 
     let spec = MapSpec {
@@ -559,6 +640,7 @@ fn read_map(
         early_stop_tol,
         lyapunov,
         refine,
+        starts,
     };
     // Every axis key must be a scene key that takes this kind of value: check the first point.
     spec.instance_scene(0)?;
@@ -749,6 +831,33 @@ fn read_phase_convention(r: &mut Reader) -> Result<PhaseConvention, ConfigError>
         _ => PhaseConvention::Standard,
     };
     Ok(convention)
+}
+
+/// The keys of a start: an axis over one of them draws a basin picture.
+pub const START_KEYS: [&str; 2] = ["initial.angle_deg", "initial.rate_deg_s"];
+
+/// The metrics an attractor's fingerprint reads (`docs/analysis.md`, "Attractors"): the
+/// regime (which brings λ1, the period and K), the α range, the hops and, with the piezo on,
+/// the power; added to those asked for, in output order.
+fn with_attractor_metrics(mut metrics: Vec<Metric>, scene: &Scene) -> Vec<Metric> {
+    let mut need = vec![
+        Metric::K,
+        Metric::Period,
+        Metric::Lyapunov,
+        Metric::Regime,
+        Metric::AlphaRange,
+        Metric::Hops,
+    ];
+    if scene.piezo.enabled {
+        need.push(Metric::Power);
+    }
+    for m in need {
+        if !metrics.contains(&m) {
+            metrics.push(m);
+        }
+    }
+    metrics.sort_by_key(|m| Metric::ALL.iter().position(|a| a == m));
+    metrics
 }
 
 fn read_metrics(v: Option<Value>, scene: &Scene) -> Result<Vec<Metric>, ConfigError> {

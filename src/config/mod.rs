@@ -9,6 +9,7 @@ mod map;
 mod physics;
 mod reader;
 mod scene;
+mod starts;
 
 pub use error::ConfigError;
 pub use map::{
@@ -28,3 +29,4 @@ pub use scene::{
     MAX_SEGMENTS, MethodChoice, Output, PAPER_SCENE_TOML, Piezo, Pivot, PivotMode, Scene, TimeStep,
     Tip, load_scene,
 };
+pub use starts::{MAX_START_RATE_DEG_S, MAX_STARTS, Start, StartSet, StartSource, latin_hypercube};

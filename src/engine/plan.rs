@@ -201,9 +201,9 @@ const MIN_STROBE_PERIOD: u32 = 20;
 impl EnsemblePlan {
     /// Plan every instance of a map: validate its scene, choose its step and sampling.
     pub fn new(spec: &MapSpec) -> Result<EnsemblePlan, EngineError> {
-        let scenes: Vec<Scene> = (0..spec.instances())
+        let scenes: Vec<Scene> = (0..spec.instances() * spec.starts_per_cell())
             .into_par_iter()
-            .map(|k| spec.instance_scene(k))
+            .map(|i| spec.run_scene(i))
             .collect::<Result<_, _>>()?;
         EnsemblePlan::from_scenes(&scenes, &EnsembleOptions::from_spec(spec))
     }

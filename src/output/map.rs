@@ -7,7 +7,7 @@ use crate::map::MapRun;
 use crate::model::Status;
 use crate::output::OutputError;
 use crate::output::files::{AtomicFile, create_dir, draw, write_json, write_toml};
-use crate::output::npy::{write_npy_f64, write_npy_i8, write_npy_u8};
+use crate::output::npy::{write_npy_f64, write_npy_i8, write_npy_i32, write_npy_u8};
 use crate::reduce::Regime;
 use crate::render::{Axis, Category, CellMarks, Palette, RGBColor, heatmap, scatter};
 use serde_json::json;
@@ -57,6 +57,8 @@ pub enum ArrayData {
     I8(Vec<i8>),
     /// Status codes and flags (`uint8`).
     U8(Vec<u8>),
+    /// Attractor labels and counts (`int32`; −1: none).
+    I32(Vec<i32>),
 }
 
 /// One array of a map: its name (the `.npy` file's stem), shape and values (C order).
@@ -95,6 +97,20 @@ pub fn map_arrays(spec: &MapSpec, run: &MapRun) -> Vec<MapArray> {
         let flags = run.inferred.iter().map(|&i| u8::from(i)).collect();
         arrays.push(grid("inferred", ArrayData::U8(flags)));
     }
+    if let Some(a) = &run.attractors {
+        let count = a.count.iter().map(|&n| i32::from(n)).collect();
+        arrays.push(grid("attractors", ArrayData::I32(count)));
+        arrays.push(grid("attractor", ArrayData::I32(a.most_likely.clone())));
+        arrays.push(grid("failed_fraction", ArrayData::F64(a.failed.clone())));
+        arrays.push(MapArray {
+            name: "basin_fraction".into(),
+            shape: [a.families.len()]
+                .into_iter()
+                .chain(shape.iter().copied())
+                .collect(),
+            data: ArrayData::F64(a.fractions.concat()),
+        });
+    }
     for (i, a) in spec.axes.iter().enumerate() {
         arrays.push(MapArray {
             name: format!("axis{i}"),
@@ -119,6 +135,13 @@ pub fn write_map(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf
     }
     if spec.bifurcation && !run.strobe_tail.is_empty() {
         written.extend(draw_bifurcation(&dir.join("bifurcation.png"), spec, run)?);
+    }
+    if let Some(a) = &run.attractors {
+        written.push(write_json(
+            &dir.join("attractors.json"),
+            &json!({ "starts": spec.starts, "attractors": a }),
+        )?);
+        written.extend(draw_attractors(dir, spec, run, a)?);
     }
     let files: Vec<String> = written
         .iter()
@@ -177,6 +200,7 @@ fn write_arrays(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf>
                 ArrayData::F64(v) => write_npy_f64(&p, &a.shape, v)?,
                 ArrayData::I8(v) => write_npy_i8(&p, &a.shape, v)?,
                 ArrayData::U8(v) => write_npy_u8(&p, &a.shape, v)?,
+                ArrayData::I32(v) => write_npy_i32(&p, &a.shape, v)?,
             }
             Ok(p)
         })
@@ -265,6 +289,19 @@ pub fn map_manifest(spec: &MapSpec, run: &MapRun, files: &[String]) -> serde_jso
             "period": {"max": spec.period_max, "window": spec.period_window, "tol_rad": spec.period_tol_rad},
         },
         "refine": run.refine,
+        "attractors": run.attractors.as_ref().map(|a| json!({
+            "starts": spec.starts,
+            "labels": a.families.len(),
+            "rule": a.rule,
+            "arrays": {
+                "attractors": "distinct attractors per cell (failed runs not counted)",
+                "attractor": "the label most starts reached (-1: every start failed)",
+                "basin_fraction": "share of the cell's starts per label, shape (labels, *grid)",
+                "failed_fraction": "share of the cell's starts that failed",
+            },
+            "metric_arrays": "each cell's metric arrays hold its representative run: the first start that reached its most likely attractor",
+            "details": "attractors.json",
+        })),
         "warnings": run.plan.warnings,
         "shards": run.shards,
         "scene": spec.scene,
@@ -495,13 +532,121 @@ fn draw_metric(
     run: &MapRun,
     m: Metric,
 ) -> Result<Vec<PathBuf>, OutputError> {
+    let style = metric_style(m, spec);
+    draw_values(dir, spec, run, m.name(), &style, &|k| {
+        drawn_value(run, m, k)
+    })
+}
+
+/// The picture(s) of one value per cell, `stem.png` (or one per 2-D slice): a heat map, or a
+/// curve for a 1-D map.
+fn draw_values(
+    dir: &Path,
+    spec: &MapSpec,
+    run: &MapRun,
+    stem: &str,
+    style: &Style,
+    value: &dyn Fn(usize) -> f64,
+) -> Result<Vec<PathBuf>, OutputError> {
     if spec.axes.len() == 1 {
-        return Ok(draw_curve(dir, spec, run, m)?.into_iter().collect());
+        return Ok(draw_curve(dir, spec, run, stem, style, value)?
+            .into_iter()
+            .collect());
     }
     let nz = spec.shape().get(2).copied().unwrap_or(1);
     (0..nz)
-        .map(|iz| draw_slice(dir, spec, run, m, iz))
+        .map(|iz| draw_slice(dir, spec, run, (stem, style, value), iz))
         .collect()
+}
+
+/// `attractors.png` (distinct attractors per cell, with several starts) and `attractor.png`
+/// (the most likely attractor's label, a colour per family named in the legend; in a basin
+/// picture, the attractor each start reached).
+fn draw_attractors(
+    dir: &Path,
+    spec: &MapSpec,
+    run: &MapRun,
+    a: &crate::reduce::AttractorMap,
+) -> Result<Vec<PathBuf>, OutputError> {
+    let mut out = Vec::new();
+    if a.starts > 1 {
+        let count = Style {
+            label: format!("distinct attractors among {} starts", a.starts),
+            palette: Palette::Sequential(None),
+        };
+        out = draw_values(dir, spec, run, "attractors", &count, &|k| {
+            f64::from(a.count[k])
+        })?;
+    }
+    let what = if a.starts > 1 {
+        "most likely attractor"
+    } else {
+        "attractor reached"
+    };
+    let labels = Style {
+        label: format!("{what} (Pp: period p; wells + α > 0, − α < 0, ± both)"),
+        palette: attractor_palette(a),
+    };
+    let shown = |k: usize| match a.most_likely[k] {
+        l if l < 0 => f64::NAN,
+        l => f64::from(l.min(ATTRACTOR_COLOURS.len() as i32 - 1)),
+    };
+    out.extend(draw_values(dir, spec, run, "attractor", &labels, &shown)?);
+    Ok(out)
+}
+
+/// Colours of attractor labels 0, 1, …; the last one stands for every later label.
+const ATTRACTOR_COLOURS: [RGBColor; 9] = [
+    RGBColor(0, 114, 178),
+    RGBColor(213, 94, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(86, 180, 233),
+    RGBColor(230, 159, 0),
+    RGBColor(240, 228, 66),
+    RGBColor(120, 94, 240),
+    RGBColor(140, 140, 140),
+];
+
+/// One category per family, named by its fingerprint (`0: P1 +`); families
+/// beyond the colours share the last one.
+fn attractor_palette(a: &crate::reduce::AttractorMap) -> Palette {
+    let last = ATTRACTOR_COLOURS.len() - 1;
+    let mut c: Vec<Category> = a
+        .families
+        .iter()
+        .take(last)
+        .map(|f| Category {
+            value: f.label as f64,
+            label: format!("{}: {}", f.label, family_words(&f.fingerprint)),
+            colour: ATTRACTOR_COLOURS[f.label],
+        })
+        .collect();
+    if a.families.len() > last {
+        c.push(Category {
+            value: last as f64,
+            label: format!("{last} and later labels"),
+            colour: ATTRACTOR_COLOURS[last],
+        });
+    }
+    Palette::Categorical(c)
+}
+
+/// A family in a few characters: its regime or period and its wells (`P2 +`: period 2 in the
+/// α > 0 well).
+fn family_words(f: &crate::reduce::Fingerprint) -> String {
+    use crate::reduce::attractors::Wells;
+    let wells = match f.wells {
+        Wells::Positive => "+",
+        Wells::Negative => "−",
+        Wells::Both => "±",
+    };
+    match f.regime {
+        Regime::Periodic => format!("P{} {wells}", f.period),
+        Regime::Regular => format!("regular {wells}"),
+        Regime::Chaotic => format!("chaotic {wells}"),
+        Regime::Undecided | Regime::Failed => format!("undecided {wells}"),
+    }
 }
 
 /// The curve of a 1-D map; failed points are left out (and counted in the title).
@@ -509,14 +654,16 @@ fn draw_curve(
     dir: &Path,
     spec: &MapSpec,
     run: &MapRun,
-    m: Metric,
+    stem: &str,
+    style: &Style,
+    value: &dyn Fn(usize) -> f64,
 ) -> Result<Option<PathBuf>, OutputError> {
-    let label = metric_style(m, spec).label;
+    let label = style.label.clone();
     let axis = &spec.axes[0];
     let bad = |k: usize| run.results[k].status != Status::Ok;
     let (xs, ys): (Vec<f64>, Vec<f64>) = (0..axis.values.len())
-        .filter(|&k| !bad(k) && drawn_value(run, m, k).is_finite())
-        .map(|k| (axis.values[k], drawn_value(run, m, k)))
+        .filter(|&k| !bad(k) && value(k).is_finite())
+        .map(|k| (axis.values[k], value(k)))
         .unzip();
     if xs.is_empty() {
         return Ok(None);
@@ -527,7 +674,7 @@ fn draw_curve(
     } else {
         label.clone()
     };
-    let p = dir.join(format!("{}.png", m.name()));
+    let p = dir.join(format!("{stem}.png"));
     draw(&p, |t| {
         scatter(t, &title, &axis.label(), &label, &xs, &ys, xs.len() > 1)
     })
@@ -539,16 +686,16 @@ fn draw_slice(
     dir: &Path,
     spec: &MapSpec,
     run: &MapRun,
-    m: Metric,
+    (stem, style, value): (&str, &Style, &dyn Fn(usize) -> f64),
     iz: usize,
 ) -> Result<PathBuf, OutputError> {
-    let Style { label, palette } = metric_style(m, spec);
+    let Style { label, palette } = style.clone();
     let shape = spec.shape();
     let (nx, ny) = (shape[0], shape[1]);
     let nz = shape.get(2).copied().unwrap_or(1);
     // heatmap wants rows of x for each y: cell (ix, iy) of slice iz.
     let cells = (0..ny).flat_map(|iy| (0..nx).map(move |ix| (ix * ny + iy) * nz + iz));
-    let vals: Vec<f64> = cells.clone().map(|k| drawn_value(run, m, k)).collect();
+    let vals: Vec<f64> = cells.clone().map(value).collect();
     let invalid: Vec<bool> = cells
         .clone()
         .map(|k| run.results[k].status != Status::Ok)
@@ -557,11 +704,11 @@ fn draw_slice(
         .map(|k| run.inferred.get(k).copied().unwrap_or(false))
         .collect();
     let (p, title) = if nz == 1 {
-        (dir.join(format!("{}.png", m.name())), label.clone())
+        (dir.join(format!("{stem}.png")), label.clone())
     } else {
         let a = &spec.axes[2];
         (
-            dir.join(format!("{}_slice{iz:03}.png", m.name())),
+            dir.join(format!("{stem}_slice{iz:03}.png")),
             format!("{label} at {} = {}", a.key, a.values[iz]),
         )
     };

@@ -9,17 +9,22 @@
 //! 3. λ1 ([`lyapunov`]): the twin trajectory's log-growths ([`LyapunovSums`]) into the
 //!    largest Lyapunov exponent and its standard error;
 //! 4. the verdict ([`regime`]): one [`Regime`] per cell from λ1, the period and K, with its
-//!    confidence ([`verdict`]).
+//!    confidence ([`verdict`]);
+//! 5. attractors ([`attractors`]), for maps run from several starts per cell: each run's
+//!    fingerprint, the runs of a cell grouped into attractors, families labelled across
+//!    neighbouring cells, basin fractions ([`attractor_map`]).
 //!
 //! The CPU engine runs every stage here; the GPU engine reduces on the device with the same
 //! definitions (`shaders/reduce_*.wgsl`, the twin in `shaders/integrate.wgsl`) and converts
 //! its accumulators with [`Tally::result`] like the CPU engine does.
 
+pub mod attractors;
 pub mod lyapunov;
 pub mod regime;
 mod series;
 mod tally;
 
+pub use attractors::{AttractorMap, AttractorRule, Fingerprint, attractor_map, basin_map};
 pub use lyapunov::{LYAPUNOV_BLOCKS, Lyapunov, LyapunovSums, TwinPlan};
 pub use regime::{Evidence, Regime, Verdict, verdict};
 pub use series::{Series, k_of, line_of, period_of, r_of, reduce_series};

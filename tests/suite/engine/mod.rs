@@ -7,6 +7,7 @@
 //! The GPU needs a wgpu adapter (lavapipe is enough). Without one its tests print a skip
 //! message, unless PENDULUM_ATLAS_REQUIRE_GPU=1 (as `.ci/run` sets), which makes them fail.
 
+mod attractors;
 mod batches;
 mod cases;
 mod lanes;
@@ -133,6 +134,16 @@ mod verdict_suite {
         lyapunov_agrees_with_the_f64_cpu_engine,
         lyapunov_does_not_depend_on_the_separation_across_decades,
         the_verdict_follows_the_rule_on_the_engines_own_numbers,
+    );
+}
+
+/// Several starts per cell: attractors, basins.
+mod attractor_suite {
+    use super::attractors;
+    use super::{Eng, Under};
+    engine_suite!(attractors:
+        a_bistable_cell_shows_the_attractor_of_each_well,
+        a_basin_picture_agrees_with_the_starts_estimate,
     );
 }
 
