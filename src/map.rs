@@ -88,10 +88,25 @@ pub struct MapRun {
     pub inferred: Vec<bool>,
     /// What refinement did, when it ran.
     pub refine: Option<refine::RefineReport>,
-    /// The attractors of a map run from several starts per cell; `results` and
+    /// The attractors of a map run from several starts per cell; `results`, `plan` and
     /// `strobe_tail` then hold each cell's representative run (the first start that reached
-    /// its most likely attractor).
+    /// its most likely attractor), and `runs` counts every run.
     pub attractors: Option<AttractorMap>,
+    /// Every run of the ensemble when it is more than one per cell.
+    pub runs: Option<RunCount>,
+}
+
+/// The size of a map's ensemble when cells ran several starts: what was integrated in all.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct RunCount {
+    /// Runs (cells × starts).
+    pub runs: usize,
+    /// Runs that ended ok.
+    pub ok: usize,
+    /// Instance-steps integrated, every run.
+    pub steps: u64,
+    /// Instance-steps planned, every run.
+    pub planned_steps: u64,
 }
 
 /// One shard of a merged map, as `map.json` lists it.
@@ -117,7 +132,10 @@ impl MapRun {
             Some(g) => g.integrate_s,
             None => self.timings.integrate_s,
         };
-        let steps: u64 = self.results.iter().map(|r| r.steps).sum();
+        let steps: u64 = match &self.runs {
+            Some(c) => c.steps,
+            None => self.results.iter().map(|r| r.steps).sum(),
+        };
         steps as f64 / t.max(1e-12)
     }
 
@@ -252,6 +270,12 @@ fn run_starts(
         attractor_map(&spec.shape(), k, &run.results, &run.strobe_tail, rule)
     };
     let pick = |c: usize| c * k + map.representative[c];
+    run.runs = Some(RunCount {
+        runs: run.results.len(),
+        ok: run.results.iter().filter(|r| r.status.is_ok()).count(),
+        steps: run.results.iter().map(|r| r.steps).sum(),
+        planned_steps: run.plan.total_steps,
+    });
     let picks: Vec<usize> = (0..spec.instances()).map(pick).collect();
     run.results = picks.iter().map(|&i| run.results[i]).collect();
     run.plan = run.plan.select(&picks);
@@ -319,6 +343,7 @@ fn run_refined(
         inferred: refined.inferred,
         refine: Some(refined.report),
         attractors: None,
+        runs: None,
     })
 }
 
@@ -363,6 +388,7 @@ pub fn run_plan(
         inferred: Vec::new(),
         refine: None,
         attractors: None,
+        runs: None,
     })
 }
 
@@ -441,6 +467,7 @@ pub fn assemble(plan: EnsemblePlan, parts: Vec<MapPart>) -> MapRun {
         inferred: Vec::new(),
         refine: None,
         attractors: None,
+        runs: None,
     }
 }
 

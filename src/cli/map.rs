@@ -229,14 +229,25 @@ fn report(run: &MapRun, files: usize, out: &std::path::Path) -> anyhow::Result<(
         .iter()
         .filter(|r| r.status == Status::Ok)
         .count();
+    let runs = match (&run.runs, &run.attractors) {
+        (Some(c), Some(a)) => format!(
+            " from {} starts each: {} runs ({} ok), {} attractor families",
+            a.starts,
+            c.runs,
+            c.ok,
+            a.families.len()
+        ),
+        _ => String::new(),
+    };
+    let steps = run.runs.map_or(run.plan.total_steps, |c| c.planned_steps);
     println!(
-        "map: {} instances ({} ok) on {} [{}], N = {}, {:.2e} instance-steps in {:.1} s ({:.3e} instance-steps/s, {:.3e} segment-steps/s)",
+        "map: {} instances ({} ok){runs} on {} [{}], N = {}, {:.2e} instance-steps in {:.1} s ({:.3e} instance-steps/s, {:.3e} segment-steps/s)",
         run.results.len(),
         ok,
         run.engine.kind.name(),
         run.engine.device,
         run.plan.segments,
-        run.plan.total_steps as f64,
+        steps as f64,
         run.timings.total_s,
         run.instance_steps_per_s(),
         run.segment_steps_per_s()

@@ -300,6 +300,7 @@ pub fn map_manifest(spec: &MapSpec, run: &MapRun, files: &[String]) -> serde_jso
                 "failed_fraction": "share of the cell's starts that failed",
             },
             "metric_arrays": "each cell's metric arrays hold its representative run: the first start that reached its most likely attractor",
+            "runs": run.runs,
             "details": "attractors.json",
         })),
         "warnings": run.plan.warnings,

@@ -484,3 +484,127 @@ fn a_map_larger_than_the_memory_is_refused_before_planning() {
         "{err}"
     );
 }
+
+#[test]
+fn starts_that_cannot_be_run_are_refused_before_any_work() {
+    // The default map is 41 × 31 cells: 4 000 000 runs allow 3146 starts each.
+    let e = map_error(&[
+        "map.initial_states=1024",
+        "map.axes=[{key=\"excitation.frequency_hz\",start=4.0,end=12.0,count=4000}]",
+    ]);
+    assert!(
+        e.contains("1024 starts in each of 4000 cells") && e.contains("give at most 1000 starts"),
+        "{e}"
+    );
+    let e = map_error(&["map.initial_states=2000"]);
+    assert!(e.contains("integers in [1, 1024]"), "{e}");
+    // Beyond the bumpers' reach (the default clearance is 20 deg).
+    let e = map_error(&["map.initial_states=8", "map.initial_angle_max_deg=25"]);
+    assert!(
+        e.contains("map.initial_angle_max_deg") && e.contains("[-20, 20] deg"),
+        "{e}"
+    );
+    let e = map_error(&["map.initial_states=[{angle_deg=30.0,rate_deg_s=0.0}]"]);
+    assert!(e.contains("map.initial_states[0].angle_deg"), "{e}");
+    let e = map_error(&[
+        "map.initial_states=8",
+        "map.initial_rate_min_deg_s=50",
+        "map.initial_rate_max_deg_s=-50",
+    ]);
+    assert!(e.contains("the range is empty"), "{e}");
+    // The start as an axis and as a set of starts at once; refinement of labelled maps.
+    let e = map_error(&[
+        "map.initial_states=8",
+        "map.axes=[{key=\"initial.angle_deg\",start=-10.0,end=10.0,count=3}]",
+    ]);
+    assert!(e.contains("initial.angle_deg is an axis"), "{e}");
+    let e = map_error(&[
+        "map.initial_states=8",
+        "map.refine=true",
+        "map.axes=[{key=\"excitation.frequency_hz\",start=4.0,end=12.0,count=9},{key=\"excitation.amplitude_m\",start=0.004,end=0.02,count=9}]",
+    ]);
+    assert!(
+        e.contains("map.refine") && e.contains("not supported yet"),
+        "{e}"
+    );
+    let e = map_error(&["map.initial_states=\"many\""]);
+    assert!(e.contains("a number of starts"), "{e}");
+}
+
+#[test]
+fn a_map_with_starts_writes_its_attractor_files() {
+    let out = out_dir("starts");
+    let o = bin()
+        .args(["map", "--backend", "cpu", "--quiet", "--out"])
+        .arg(&out)
+        .args([
+            "--set",
+            "map.axes=[{key=\"excitation.frequency_hz\",values=[7.8,8.0]},{key=\"excitation.amplitude_m\",values=[0.001]}]",
+            "--set",
+            "beam.segments=3",
+            "--set",
+            "integration.duration_s=30",
+            "--set",
+            "integration.transient_s=15",
+            "--set",
+            "map.initial_states=6",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("from 6 starts each: 12 runs") && stdout.contains("2 attractor families"),
+        "{stdout}"
+    );
+    for f in [
+        "attractors.npy",
+        "attractor.npy",
+        "basin_fraction.npy",
+        "failed_fraction.npy",
+        "attractors.json",
+        "attractors.png",
+        "attractor.png",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let read = |name: &str| -> (Vec<u64>, Vec<f64>) {
+        let bytes = std::fs::read(out.join(name)).unwrap();
+        let npy = npyz::NpyFile::new(&bytes[..]).unwrap();
+        let shape = npy.shape().to_vec();
+        let data = match npy.dtype() {
+            npyz::DType::Plain(t) if t.type_char() == npyz::TypeChar::Int => npy
+                .into_vec::<i32>()
+                .unwrap()
+                .into_iter()
+                .map(f64::from)
+                .collect(),
+            _ => npy.into_vec::<f64>().unwrap(),
+        };
+        (shape, data)
+    };
+    let (shape, fractions) = read("basin_fraction.npy");
+    let (_, failed) = read("failed_fraction.npy");
+    let labels = shape[0] as usize;
+    assert_eq!(shape[1..], [2, 1]);
+    for c in 0..2 {
+        let sum: f64 = (0..labels).map(|l| fractions[l * 2 + c]).sum::<f64>() + failed[c];
+        assert!((sum - 1.0).abs() < 1e-12, "cell {c}: {sum}");
+    }
+    let (_, count) = read("attractors.npy");
+    assert_eq!(count, vec![2.0, 2.0], "both wells' orbits in each cell");
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("map.json")).unwrap()).unwrap();
+    assert_eq!(manifest["attractors"]["runs"]["runs"], 12);
+    assert_eq!(
+        manifest["attractors"]["starts"]["source"]["kind"],
+        "sampled"
+    );
+    assert_eq!(
+        manifest["attractors"]["starts"]["states"]
+            .as_array()
+            .unwrap()
+            .len(),
+        6
+    );
+}
