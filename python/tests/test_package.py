@@ -256,3 +256,28 @@ def test_other_threads_run_while_the_engine_works():
     assert finished.is_set(), "the map ran to its end"
     # Were the interpreter's lock held for the whole map, this loop would not run until the end.
     assert ticks >= 50, f"the main thread ran {ticks} times while the map ran"
+
+
+def test_a_map_with_starts_has_basin_fractions_over_an_attractor_label_axis(tmp_path, small_map_file):
+    scene = (
+        pa.Scene(SMALL_MAP)
+        .set("map.axes", [
+            {"key": "excitation.frequency_hz", "values": [7.8, 8.0]},
+            {"key": "excitation.amplitude_m", "values": [0.001]},
+        ])
+        .set("integration.duration_s", 30.0)
+        .set("integration.transient_s", 15.0)
+        .set("map.initial_states", 6)
+    )
+    ds = pa.map(scene, backend="cpu", progress=False)
+    fractions = ds["basin_fraction"]
+    assert fractions.dims == ("attractor_label", "frequency_hz", "amplitude_m")
+    total = fractions.sum("attractor_label") + ds["failed_fraction"]
+    np.testing.assert_allclose(total.values, 1.0, rtol=0, atol=1e-12)
+    assert (ds["attractors"].values == 2).all(), "both wells' orbits in each cell"
+    # The same arrays as the command writes.
+    out = tmp_path / "map"
+    run_cli("map", small_map_file, *scene.cli_args(), "--backend", "cpu", "--quiet", "--out", out)
+    for name in ["basin_fraction", "attractor", "attractors", "failed_fraction"]:
+        on_disk = np.load(out / f"{name}.npy")
+        assert on_disk.dtype == ds[name].dtype and np.array_equal(on_disk, ds[name].values), name

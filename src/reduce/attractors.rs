@@ -7,12 +7,11 @@
 //! The fingerprint of a run that ended `ok` is its regime, its period and, for a periodic
 //! orbit, its stroboscopic cycle (the last `p` stroboscopic α samples), its α range, the wells
 //! it visits (α > 0 only, α < 0 only, or both), its hops and its mean power. Two fingerprints
-//! are one attractor when
-//! - both are periodic with the same period `p` and their cycles, compared over every
-//!   rotation, differ by at most `cycle_tol_rad` at every sample
-//!   (`min_r max_j |a_j − b_{(j+r) mod p}|`); or
-//! - neither is periodic, both have the same regime and visit the same wells, and their α
-//!   ranges overlap by at least `RANGE_OVERLAP` of their union.
+//! are one attractor when they have the same regime, period and wells, and
+//! - both are periodic and their cycles, compared over every rotation, differ by at most
+//!   `cycle_tol_rad` at every sample (`min_r max_j |a_j − b_{(j+r) mod p}|`); or
+//! - neither is periodic and their α ranges overlap by at least `RANGE_OVERLAP` of their
+//!   union.
 //!
 //! A failed run (diverged, non-finite) belongs to no attractor; its share is counted apart, so
 //! that the basin fractions and the failed share of a cell sum to 1.
@@ -126,14 +125,13 @@ impl Fingerprint {
 
     /// Whether `self` and `other` are one attractor, periodic cycles within `cycle_tol_rad`.
     pub fn same_as(&self, other: &Fingerprint, cycle_tol_rad: f64, overlap: f64) -> bool {
-        if self.regime != other.regime || self.period != other.period {
+        if self.regime != other.regime || self.period != other.period || self.wells != other.wells {
             return false;
         }
         if self.period > 0 {
             return cycle_distance(&self.cycle_rad, &other.cycle_rad) <= cycle_tol_rad;
         }
-        self.wells == other.wells
-            && range_overlap(self.alpha_range_rad, other.alpha_range_rad) >= overlap
+        range_overlap(self.alpha_range_rad, other.alpha_range_rad) >= overlap
     }
 }
 
