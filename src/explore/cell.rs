@@ -47,7 +47,11 @@ pub fn cell_scene(folder: &RunFolder, k: usize, v: usize) -> Result<CellScene, E
     let values = folder.values_of(k);
     let (mut table, opts) = match &folder.source {
         Source::Map(spec) => {
-            let mut t = spec.instance_table(k).map_err(|e| fail(e.to_string()))?;
+            let mut t = match folder.starts.get(k) {
+                Some(&s) => spec.start_table(k, s),
+                None => spec.instance_table(k),
+            }
+            .map_err(|e| fail(e.to_string()))?;
             let method = folder.manifest["method"].as_str().unwrap_or("auto");
             set(&mut t, "integration.method", Value::String(method.into()))?;
             (t, EnsembleOptions::from_spec(spec))

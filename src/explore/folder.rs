@@ -80,6 +80,9 @@ pub struct RunFolder {
     pub source: Source,
     /// Segments N of the base scene.
     pub segments: usize,
+    /// The start (of `map.initial_states`) whose run each cell's values are: a click reruns
+    /// that start (empty for a map of one start per cell).
+    pub starts: Vec<usize>,
 }
 
 impl RunFolder {

@@ -52,9 +52,27 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
     } else {
         Vec::new()
     };
+    let starts = if listed_files(&manifest).iter().any(|f| f == "start.npy") {
+        read_array::<i32>(dir, "start.npy", &spec)?
+            .into_iter()
+            .map(|s| usize::try_from(s).unwrap_or(usize::MAX))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    if let Some(bad_start) = starts.iter().find(|&&s| s >= spec.starts_per_cell()) {
+        return Err(bad(
+            &dir.join("start.npy"),
+            format!(
+                "start {bad_start} is not one of the map's {} starts: the files are from different maps",
+                spec.starts_per_cell()
+            ),
+        ));
+    }
     Ok(RunFolder {
         dir: dir.to_path_buf(),
         product: Product::Map,
+        starts,
         files: listed_files(&manifest),
         manifest,
         axes: spec

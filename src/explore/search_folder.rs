@@ -100,6 +100,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         })
         .collect();
     Ok(RunFolder {
+        starts: Vec::new(),
         dir: dir.to_path_buf(),
         product: Product::Search,
         files: listed_files(&manifest),

@@ -102,6 +102,10 @@ pub fn map_arrays(spec: &MapSpec, run: &MapRun) -> Vec<MapArray> {
         arrays.push(grid("attractors", ArrayData::I32(count)));
         arrays.push(grid("attractor", ArrayData::I32(a.most_likely.clone())));
         arrays.push(grid("failed_fraction", ArrayData::F64(a.failed.clone())));
+        if a.starts > 1 {
+            let start = a.representative.iter().map(|&s| s as i32).collect();
+            arrays.push(grid("start", ArrayData::I32(start)));
+        }
         arrays.push(MapArray {
             name: "basin_fraction".into(),
             shape: [a.families.len()]

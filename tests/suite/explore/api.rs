@@ -498,3 +498,54 @@ fn cell_limits_outside_their_range_are_refused() {
     );
     refused(dir, &["--cell-memory-mb", "0"], "give 1 to 1000000 MB");
 }
+
+#[test]
+fn a_clicked_cell_of_a_map_with_starts_reruns_its_representative_start() {
+    let out = scratch("starts-map");
+    let o = super::bin()
+        .args(["map", "--backend", "cpu", "--quiet", "--out"])
+        .arg(&out)
+        .args([
+            "--set",
+            "map.axes=[{key=\"excitation.frequency_hz\",values=[7.8,8.0]},{key=\"excitation.amplitude_m\",values=[0.001]}]",
+            "--set",
+            "beam.segments=3",
+            "--set",
+            "integration.duration_s=30",
+            "--set",
+            "integration.transient_s=15",
+            "--set",
+            "map.initial_states=6",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let starts: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("attractors.json")).unwrap())
+            .unwrap();
+    let bytes = std::fs::read(out.join("start.npy")).unwrap();
+    let start: Vec<i32> = npyz::NpyFile::new(&bytes[..]).unwrap().into_vec().unwrap();
+    let s = Server::start(&out, &[]);
+    for (cell, &st) in start.iter().enumerate() {
+        let (status, toml) = request(&s, "GET", &format!("/api/cell/{cell}/scene.toml"));
+        assert_eq!(status, 200, "{toml}");
+        let scene: toml::Table = toml.parse().unwrap();
+        let want = &starts["starts"]["states"][st as usize];
+        let got = &scene["initial"];
+        assert_eq!(
+            got["angle_deg"].as_float(),
+            want["angle_deg"].as_f64(),
+            "cell {cell}"
+        );
+        assert_eq!(
+            got["rate_deg_s"].as_float(),
+            want["rate_deg_s"].as_f64(),
+            "cell {cell}"
+        );
+    }
+    // The rerun of the representative start runs to its end.
+    let job = json(&s, "POST", "/api/cell/1/run", 202);
+    let done = wait_job(&s, job["job"].as_u64().unwrap());
+    assert_eq!(done["state"], "done", "{done}");
+    assert_eq!(done["result"]["status"], "ok");
+}
