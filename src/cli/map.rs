@@ -230,11 +230,15 @@ fn report(run: &MapRun, files: usize, out: &std::path::Path) -> anyhow::Result<(
         .filter(|r| r.status == Status::Ok)
         .count();
     let runs = match (&run.runs, &run.attractors) {
-        (Some(c), Some(a)) => format!(
+        (Some(c), Some(a)) if a.starts > 1 => format!(
             " from {} starts each: {} runs ({} ok), {} attractor families",
             a.starts,
             c.runs,
             c.ok,
+            a.families.len()
+        ),
+        (_, Some(a)) => format!(
+            ", a basin picture of {} attractor families",
             a.families.len()
         ),
         _ => String::new(),
