@@ -30,7 +30,11 @@ pub fn shape(dims: &[usize]) -> String {
 /// fields are not ours (never serde's names of our types).
 pub fn json_damage(name: &str, e: &serde_json::Error) -> String {
     use serde_json::error::Category;
-    let at = format!("line {}, column {}", e.line(), e.column());
+    let at = if e.line() == 0 {
+        "in its fields".to_string()
+    } else {
+        format!("line {}, column {}", e.line(), e.column())
+    };
     match e.classify() {
         Category::Io | Category::Syntax | Category::Eof => {
             format!("{name} is not complete JSON ({at}): the file is damaged")

@@ -5,8 +5,11 @@ use super::error::ExploreError;
 use super::folder::{Axis, Column, RunFolder, Source, bad, listed_files, read_json, read_text};
 use crate::config::{MapSpec, Metric, map_from_toml};
 use crate::output::folder::Product;
-use crate::output::map::{COLUMNS, metric_style, regime_shade, shown_value};
+use crate::output::map::{
+    COLUMNS, attractor_style, metric_style, regime_shade, shown_label, shown_value,
+};
 use crate::output::npy::read_npy;
+use crate::reduce::attractors::Family;
 use std::path::Path;
 
 /// Read a map folder.
@@ -38,11 +41,12 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
     } else {
         Vec::new()
     };
-    let columns = spec
+    let mut columns: Vec<Column> = spec
         .metrics
         .iter()
         .map(|&m| metric_column(&spec, m, &stored, &regime))
         .collect();
+    columns.extend(attractor_columns(dir, &spec, &manifest)?);
     let status = read_array::<u8>(dir, "status.npy", &spec)?;
     let inferred = if listed_files(&manifest).iter().any(|f| f == "inferred.npy") {
         read_array::<u8>(dir, "inferred.npy", &spec)?
@@ -129,6 +133,52 @@ fn metric_column(
         palette: style.palette,
         values: raw.iter().map(|&v| shown_value(m, v)).collect(),
     }
+}
+
+/// A map that labels attractors: its most likely attractor per cell (`attractor`, a colour
+/// per family of `attractors.json`) and, with several starts, the count (`attractors`).
+fn attractor_columns(
+    dir: &Path,
+    spec: &MapSpec,
+    manifest: &serde_json::Value,
+) -> Result<Vec<Column>, ExploreError> {
+    if !listed_files(manifest)
+        .iter()
+        .any(|f| f == "attractors.json")
+    {
+        return Ok(Vec::new());
+    }
+    let path = dir.join("attractors.json");
+    let families: Vec<Family> =
+        serde_json::from_value(read_json(&path)?["attractors"]["families"].clone())
+            .map_err(|e| bad(&path, crate::text::json_damage("attractors.json", &e)))?;
+    let labels = read_array::<i32>(dir, "attractor.npy", spec)?;
+    let several = spec.starts_per_cell() > 1;
+    let what = if several {
+        "most likely attractor"
+    } else {
+        "attractor reached"
+    };
+    let style = attractor_style(what, &families);
+    let mut out = vec![Column {
+        name: "attractor".into(),
+        label: style.label,
+        palette: style.palette,
+        values: labels.iter().map(|&l| shown_label(l)).collect(),
+    }];
+    if several {
+        let count = read_array::<i32>(dir, "attractors.npy", spec)?;
+        out.push(Column {
+            name: "attractors".into(),
+            label: format!(
+                "distinct attractors among {} starts",
+                spec.starts_per_cell()
+            ),
+            palette: crate::render::Palette::Sequential(None),
+            values: count.iter().map(|&n| f64::from(n)).collect(),
+        });
+    }
+    Ok(out)
 }
 
 /// The grid of `map_scene.toml` is the grid of `map.json`.

@@ -588,16 +588,28 @@ fn draw_attractors(
     } else {
         "attractor reached"
     };
-    let labels = Style {
-        label: format!("{what} (Pp: period p; wells + α > 0, − α < 0, ± both)"),
-        palette: attractor_palette(a),
-    };
-    let shown = |k: usize| match a.most_likely[k] {
-        l if l < 0 => f64::NAN,
-        l => f64::from(l.min(ATTRACTOR_COLOURS.len() as i32 - 1)),
-    };
+    let labels = attractor_style(what, &a.families);
+    let shown = |k: usize| shown_label(a.most_likely[k]);
     out.extend(draw_values(dir, spec, run, "attractor", &labels, &shown)?);
     Ok(out)
+}
+
+/// The style of an attractor-label picture: `what` it shows, a colour per family.
+pub fn attractor_style(what: &str, families: &[crate::reduce::attractors::Family]) -> Style {
+    Style {
+        label: format!("{what} (Pp: period p; wells + α > 0, − α < 0, ± both)"),
+        palette: attractor_palette(families),
+    }
+}
+
+/// An attractor label as its picture draws it: no data for none (−1), the later labels in
+/// the last colour.
+pub fn shown_label(label: i32) -> f64 {
+    if label < 0 {
+        f64::NAN
+    } else {
+        f64::from(label.min(ATTRACTOR_COLOURS.len() as i32 - 1))
+    }
 }
 
 /// Colours of attractor labels 0, 1, …; the last one stands for every later label.
@@ -615,10 +627,9 @@ const ATTRACTOR_COLOURS: [RGBColor; 9] = [
 
 /// One category per family, named by its fingerprint (`0: P1 +`); families
 /// beyond the colours share the last one.
-fn attractor_palette(a: &crate::reduce::AttractorMap) -> Palette {
+fn attractor_palette(families: &[crate::reduce::attractors::Family]) -> Palette {
     let last = ATTRACTOR_COLOURS.len() - 1;
-    let mut c: Vec<Category> = a
-        .families
+    let mut c: Vec<Category> = families
         .iter()
         .take(last)
         .map(|f| Category {
@@ -627,7 +638,7 @@ fn attractor_palette(a: &crate::reduce::AttractorMap) -> Palette {
             colour: ATTRACTOR_COLOURS[f.label],
         })
         .collect();
-    if a.families.len() > last {
+    if families.len() > last {
         c.push(Category {
             value: last as f64,
             label: format!("{last} and later labels"),

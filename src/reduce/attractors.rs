@@ -18,7 +18,7 @@
 
 use super::{InstanceResult, Regime};
 use crate::config::c_order_index;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Least overlap of two α ranges, over their union, for non-periodic runs to be one
 /// attractor.
@@ -49,7 +49,7 @@ impl AttractorRule {
 }
 
 /// The wells a run visits after the transient.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Wells {
     /// α > 0 throughout.
@@ -74,7 +74,7 @@ impl Wells {
 }
 
 /// What tells one run's attractor from another's.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Fingerprint {
     /// The run's verdict.
     pub regime: Regime,
@@ -88,9 +88,16 @@ pub struct Fingerprint {
     /// The wells it visits.
     pub wells: Wells,
     /// Hops after the transient.
+    #[serde(deserialize_with = "nan_if_null")]
     pub hops: f64,
-    /// Mean harvested power (W; NaN without the piezo).
+    /// Mean harvested power (W; NaN without the piezo, written as `null`).
+    #[serde(deserialize_with = "nan_if_null")]
     pub power_w: f64,
+}
+
+/// A number that JSON wrote as `null` because it was NaN.
+fn nan_if_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
 }
 
 impl Fingerprint {
@@ -176,8 +183,8 @@ pub fn range_overlap(a: (f64, f64), b: (f64, f64)) -> f64 {
     inter / union
 }
 
-/// One attractor family across the map.
-#[derive(Debug, Clone, Serialize)]
+/// One attractor family across the map (as `attractors.json` lists it).
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Family {
     /// Its label (0 is the family that the most runs reached).
     pub label: usize,

@@ -46,7 +46,7 @@ pub const REGIME_FLAT_PER_PERIOD: f64 = 0.01;
 pub const REGIME_K_CHAOS: f64 = 0.5;
 
 /// One cell's verdict, with the fixed codes of `regime.npy`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Regime {
     /// The run failed (diverged, non-finite, escaped): code −1.

@@ -543,6 +543,27 @@ fn a_clicked_cell_of_a_map_with_starts_reruns_its_representative_start() {
             "cell {cell}"
         );
     }
+    // The attractor arrays are quantities of the page too, as the map stored them.
+    let f = json(&s, "GET", "/api/field?metric=attractor", 200);
+    let bytes = std::fs::read(out.join("attractor.npy")).unwrap();
+    let labels: Vec<i32> = npyz::NpyFile::new(&bytes[..]).unwrap().into_vec().unwrap();
+    let cells: Vec<usize> = serde_json::from_value(f["cells"].clone()).unwrap();
+    for (at, &cell) in cells.iter().enumerate() {
+        assert_eq!(
+            f["values"][at].as_f64(),
+            Some(f64::from(labels[cell])),
+            "cell {cell}"
+        );
+    }
+    let count = json(&s, "GET", "/api/field?metric=attractors", 200);
+    assert!(
+        count["values"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|v| v.as_f64() == Some(2.0)),
+        "{count}"
+    );
     // The rerun of the representative start runs to its end.
     let job = json(&s, "POST", "/api/cell/1/run", 202);
     let done = wait_job(&s, job["job"].as_u64().unwrap());
