@@ -604,7 +604,13 @@ fn read_map(
     let refine = read_refine(&mut r, &axes, &metrics, bifurcation)?;
     let cells = axes.iter().map(|a| a.values.len()).product();
     let axis_keys: Vec<&str> = axes.iter().map(|a| a.key.as_str()).collect();
-    let starts = super::starts::read_starts(&mut r, starts_value, &scene, cells, &axis_keys)?;
+    let starts = super::starts::read_starts(
+        &mut r,
+        starts_value,
+        &scene,
+        (cells, MAX_INSTANCES),
+        &axis_keys,
+    )?;
     let labels = starts.is_some() || axis_keys.iter().any(|k| START_KEYS.contains(k));
     if labels && refine.is_some() {
         return Err(ConfigError::Inconsistent {

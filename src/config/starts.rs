@@ -9,7 +9,6 @@
 //! holder, as `initial.angle_deg` and `initial.rate_deg_s` describe it.
 
 use super::error::ConfigError;
-use super::map::MAX_INSTANCES;
 use super::reader::{Range, Reader};
 use super::scene::Scene;
 use crate::text::num;
@@ -73,13 +72,14 @@ impl StartSet {
 }
 
 /// `map.initial_states` and its ranges, checked against the scene (starts within the bumpers'
-/// reach), the grid (at most [`MAX_INSTANCES`] runs in all) and the axes (no axis may set the
-/// start itself). `None` when the key is absent: one start per cell, the scene's own.
+/// reach), the grid (at most `max_runs` runs in all, the map's instance limit) and the axes
+/// (no axis may set the start itself). `None` when the key is absent: one start per cell, the
+/// scene's own.
 pub fn read_starts(
     r: &mut Reader,
     value: Option<Value>,
     scene: &Scene,
-    cells: usize,
+    (cells, max_runs): (usize, usize),
     axis_keys: &[&str],
 ) -> Result<Option<StartSet>, ConfigError> {
     let reach = if scene.limiter.enabled {
@@ -141,7 +141,7 @@ pub fn read_starts(
             });
         }
     };
-    check_instances(cells, set.len())?;
+    check_instances(cells, set.len(), max_runs)?;
     Ok(Some(set))
 }
 
@@ -177,14 +177,14 @@ fn count(k: i64) -> Result<usize, ConfigError> {
     Ok(k as usize)
 }
 
-/// Every cell runs every start: refused beyond [`MAX_INSTANCES`] runs, with the most starts
-/// this grid allows.
-fn check_instances(cells: usize, starts: usize) -> Result<(), ConfigError> {
-    if cells.saturating_mul(starts) > MAX_INSTANCES {
+/// Every cell runs every start: refused beyond `max_runs` runs, with the most starts this
+/// grid allows.
+fn check_instances(cells: usize, starts: usize, max_runs: usize) -> Result<(), ConfigError> {
+    if cells.saturating_mul(starts) > max_runs {
         return Err(inconsistent(format!(
-            "{starts} starts in each of {cells} cells are {} runs, more than the {MAX_INSTANCES} a map takes: give at most {} starts, or fewer cells",
+            "{starts} starts in each of {cells} cells are {} runs, more than the {max_runs} a map takes: give at most {} starts, or fewer cells",
             cells.saturating_mul(starts),
-            MAX_INSTANCES / cells.max(1)
+            max_runs / cells.max(1)
         )));
     }
     Ok(())
