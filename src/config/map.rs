@@ -846,14 +846,8 @@ pub const START_KEYS: [&str; 2] = ["initial.angle_deg", "initial.rate_deg_s"];
 /// regime (which brings λ1, the period and K), the α range, the hops and, with the piezo on,
 /// the power; added to those asked for, in output order.
 fn with_attractor_metrics(mut metrics: Vec<Metric>, scene: &Scene) -> Vec<Metric> {
-    let mut need = vec![
-        Metric::K,
-        Metric::Period,
-        Metric::Lyapunov,
-        Metric::Regime,
-        Metric::AlphaRange,
-        Metric::Hops,
-    ];
+    let mut need = vec![Metric::Regime, Metric::AlphaRange, Metric::Hops];
+    need.extend_from_slice(Metric::Regime.needs());
     if scene.piezo.enabled {
         need.push(Metric::Power);
     }

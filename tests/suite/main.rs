@@ -25,6 +25,22 @@ mod throughput;
 
 use pendulum_atlas::config::{PAPER_SCENE_TOML, Scene};
 
+/// `map` arguments of a two-cell map (7.8 and 8 Hz at 1 mm, N = 3) run from 6 starts per
+/// cell: both cells hold the two wells' period-1 orbits (the pinned bistable cell and its
+/// neighbour).
+pub const STARTS_MAP_SETS: [&str; 10] = [
+    "--set",
+    "map.axes=[{key=\"excitation.frequency_hz\",values=[7.8,8.0]},{key=\"excitation.amplitude_m\",values=[0.001]}]",
+    "--set",
+    "beam.segments=3",
+    "--set",
+    "integration.duration_s=30",
+    "--set",
+    "integration.transient_s=15",
+    "--set",
+    "map.initial_states=6",
+];
+
 /// The paper scene with `section.key=value` overrides.
 pub fn scene(sets: &[&str]) -> Scene {
     let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();

@@ -537,18 +537,7 @@ fn a_map_with_starts_writes_its_attractor_files() {
     let o = bin()
         .args(["map", "--backend", "cpu", "--quiet", "--out"])
         .arg(&out)
-        .args([
-            "--set",
-            "map.axes=[{key=\"excitation.frequency_hz\",values=[7.8,8.0]},{key=\"excitation.amplitude_m\",values=[0.001]}]",
-            "--set",
-            "beam.segments=3",
-            "--set",
-            "integration.duration_s=30",
-            "--set",
-            "integration.transient_s=15",
-            "--set",
-            "map.initial_states=6",
-        ])
+        .args(crate::STARTS_MAP_SETS)
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
