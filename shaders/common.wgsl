@@ -57,7 +57,7 @@ struct InstanceParams {
     volt0: f32,
     half_clearance: f32,
     guard_holder: f32,
-    pad1: f32,
+    phase0: f32,
     n_levers: u32,
     piezo_last: u32,
     spp: u32,

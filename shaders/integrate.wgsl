@@ -3,10 +3,10 @@
 // the step loop of src/engine/stepper.rs and the bookkeeping of src/engine/cpu.rs
 // (accumulators, stroboscopic and R samples).
 
-// Cart acceleration at phase (step mod spp + frac) / spp: CartMotion::at_phase of
+// Cart acceleration at phase (step mod spp + frac) / spp + φ0: CartMotion::at_phase of
 // src/model/excitation.rs (exact phase, never t += dt).
 fn cart_acc(phase_steps: u32, frac: f32) -> f32 {
-    let ph = (f32(phase_steps) + frac) / f32(P.spp);
+    let ph = (f32(phase_steps) + frac) / f32(P.spp) + P.phase0;
     return -P.acc_amp * sin(TAU * ph);
 }
 
@@ -298,7 +298,7 @@ fn health(ph: u32) -> u32 {
             return STATUS_DIVERGED;
         }
     }
-    let cart_v = P.vel_amp * cos(TAU * f32(ph) / f32(P.spp));
+    let cart_v = P.vel_amp * cos(TAU * (f32(ph) / f32(P.spp) + P.phase0));
     let e = energy(cart_v);
     if not_finite(e) || abs(e) > P.guard_energy {
         return STATUS_DIVERGED;

@@ -160,7 +160,7 @@ fn r_cart(@builtin(global_invocation_id) gid: vec3<u32>) {
     let n = p.r_count;
     for (var j = 0u; j < n; j++) {
         let s = p.r_start + j * p.r_every;
-        let ph = f32(s % p.spp) / f32(p.spp);
+        let ph = f32(s % p.spp) / f32(p.spp) + p.phase0;
         rwork[at(inst, n + j)] = vec2<f32>(p.pos_amp * sin(TAU * ph), 0.0);
     }
     analytic(inst, n, n);

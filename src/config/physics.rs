@@ -69,6 +69,7 @@ impl Scene {
         CartMotion {
             amplitude_m: self.excitation.amplitude_m,
             kind: self.excitation.kind,
+            phase_cycles: self.excitation.phase_deg / 360.0,
         }
     }
 

@@ -115,6 +115,9 @@ pub struct Excitation {
     pub kind: ExcitationKind,
     /// Cart displacement amplitude A (m).
     pub amplitude_m: f64,
+    /// Forcing phase at t = 0, φ0 (deg, [0, 360)): x0 = A sin(2π f t + φ0). 180° mirrors the
+    /// forcing, which with the mirrored start gives the mirrored motion.
+    pub phase_deg: f64,
 }
 
 impl Excitation {
@@ -623,6 +626,12 @@ fn read_excitation(r: &mut Reader, duration_s: f64) -> Result<Excitation, Config
     Ok(Excitation {
         kind,
         amplitude_m: r.number("excitation.amplitude_m", 0.009, Range::NonNegative, "m")?,
+        phase_deg: r.number(
+            "excitation.phase_deg",
+            0.0,
+            Range::ClosedOpen(0.0, 360.0),
+            "deg",
+        )?,
     })
 }
 

@@ -16,7 +16,7 @@ use std::f64::consts::TAU;
 #[derive(Debug, Clone, Copy, Serialize, PartialEq)]
 #[serde(tag = "kind", rename_all = "lowercase")]
 pub enum ExcitationKind {
-    /// x0 = A sin(2π f t).
+    /// x0 = A sin(2π f t + φ0).
     Harmonic {
         /// Forcing frequency f (Hz).
         frequency_hz: f64,
@@ -81,11 +81,21 @@ pub struct CartMotion {
     pub amplitude_m: f64,
     /// Harmonic or sweep.
     pub kind: ExcitationKind,
+    /// Forcing phase at t = 0, φ0/2π, in cycles ∈ [0, 1): `excitation.phase_deg` / 360.
+    /// Half a cycle turns the cart's motion into its mirror image, x0 → −x0.
+    pub phase_cycles: f64,
 }
 
 impl CartMotion {
-    /// Forcing phase φ(t) in cycles (not reduced), its rate (Hz) and its second derivative (Hz/s).
-    fn phase_cycles(&self, t: f64) -> (f64, f64, f64) {
+    /// Forcing phase φ(t) in cycles (not reduced, φ0 included), its rate (Hz) and its second
+    /// derivative (Hz/s).
+    fn phase_at(&self, t: f64) -> (f64, f64, f64) {
+        let (cycles, f, fdot) = self.phase_from_zero(t);
+        (cycles + self.phase_cycles, f, fdot)
+    }
+
+    /// φ(t) − φ0 (cycles), its rate (Hz) and its second derivative (Hz/s).
+    fn phase_from_zero(&self, t: f64) -> (f64, f64, f64) {
         match self.kind {
             ExcitationKind::Harmonic { frequency_hz } => (frequency_hz * t, frequency_hz, 0.0),
             ExcitationKind::Sweep {
@@ -112,7 +122,7 @@ impl CartMotion {
 
     /// Cart state at time `t` (s).
     pub fn at_time(&self, t: f64) -> CartState {
-        let (cycles, f, fdot) = self.phase_cycles(t);
+        let (cycles, f, fdot) = self.phase_at(t);
         let phase = TAU * cycles.fract();
         let (s, c) = phase.sin_cos();
         let a = self.amplitude_m;
@@ -135,12 +145,12 @@ impl CartMotion {
         }
     }
 
-    /// Harmonic cart state at the forcing phase `cycles` ∈ [0, 1) (fraction of a period):
-    /// x0 = A sin 2πφ, ẋ0 = Aω cos 2πφ, ẍ0 = −Aω² sin 2πφ.
+    /// Harmonic cart state `cycles` ∈ [0, 1) of a period after a whole number of periods
+    /// (φ = cycles + φ0): x0 = A sin 2πφ, ẋ0 = Aω cos 2πφ, ẍ0 = −Aω² sin 2πφ.
     #[inline]
     pub fn at_phase(&self, cycles: f64) -> CartState {
         let amp = self.amplitudes();
-        let (s, c) = (TAU * cycles).sin_cos();
+        let (s, c) = (TAU * (cycles + self.phase_cycles)).sin_cos();
         CartState {
             x_m: amp.position_m * s,
             v_m_s: amp.velocity_m_s * c,
@@ -150,6 +160,6 @@ impl CartMotion {
 
     /// Instantaneous forcing frequency at `t` (Hz).
     pub fn frequency_at(&self, t: f64) -> f64 {
-        self.phase_cycles(t).1
+        self.phase_from_zero(t).1
     }
 }

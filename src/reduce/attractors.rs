@@ -71,6 +71,15 @@ impl Wells {
             Wells::Both
         }
     }
+
+    /// The wells of the mirror image α → −α.
+    pub fn mirrored(self) -> Wells {
+        match self {
+            Wells::Positive => Wells::Negative,
+            Wells::Negative => Wells::Positive,
+            Wells::Both => Wells::Both,
+        }
+    }
 }
 
 /// What tells one run's attractor from another's.
@@ -128,6 +137,19 @@ impl Fingerprint {
             hops: r.hops,
             power_w: r.power_w,
         })
+    }
+
+    /// The fingerprint of the mirror image (α, α̇, t) → (−α, −α̇, t + T/2), which the model
+    /// maps onto another of its motions (`docs/model.md`, "Symmetry"): the cycle and the α
+    /// range negated, the wells swapped; regime, period, hops and power unchanged.
+    pub fn mirrored(&self) -> Fingerprint {
+        let negated: Vec<f64> = self.cycle_rad.iter().map(|a| -a).collect();
+        Fingerprint {
+            cycle_rad: canonical_cycle(&negated),
+            alpha_range_rad: (-self.alpha_range_rad.1, -self.alpha_range_rad.0),
+            wells: self.wells.mirrored(),
+            ..self.clone()
+        }
     }
 
     /// Whether `self` and `other` are one attractor, periodic cycles within `cycle_tol_rad`.

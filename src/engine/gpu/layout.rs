@@ -70,8 +70,8 @@ pub struct GpuInstanceParams {
     pub half_clearance: f32,
     /// |α| beyond which the holder has escaped over a bumper (rad; huge without bumpers).
     pub guard_holder: f32,
-    /// Padding.
-    pub pad1: f32,
+    /// Forcing phase at t = 0 (cycles, [`CartMotion::phase_cycles`](crate::model::CartMotion)).
+    pub phase0: f32,
     /// Number of contact levers.
     pub n_levers: u32,
     /// Last segment of the piezo patch (0-based).
@@ -182,7 +182,7 @@ impl GpuInstanceParams {
             volt0: p.y0[2 * n] as f32,
             half_clearance: p.half_clearance_rad as f32,
             guard_holder: p.guard.max_holder_angle_rad.min(f64::from(f32::MAX)) as f32,
-            pad1: 0.0,
+            phase0: p.params.cart.phase_cycles as f32,
             n_levers,
             piezo_last: last,
             spp: p.spp,

@@ -110,3 +110,60 @@ pub fn a_basin_picture_agrees_with_the_starts_estimate(under: Under) {
     assert_eq!(pa.starts, 1);
     assert_eq!(pa.run_label, pa.most_likely);
 }
+
+/// Three starts that are not mirror images of one another, given as (angle, rate) in
+/// (deg, deg/s); `sign` −1 mirrors them.
+fn starts_list(sign: f64) -> String {
+    let starts = [(6.0, 90.0), (-12.0, 40.0), (15.0, -150.0)];
+    let items: Vec<String> = starts
+        .iter()
+        .map(|(a, r)| {
+            format!(
+                "{{angle_deg = {:.1}, rate_deg_s = {:.1}}}",
+                sign * a,
+                sign * r
+            )
+        })
+        .collect();
+    format!("initial_states = [{}]\n", items.join(", "))
+}
+
+/// The model is unchanged by (α, α̇, t) → (−α, −α̇, t + T/2) with x0 = A sin 2πft: the
+/// mirrored start under the forcing shifted by half a period (`excitation.phase_deg = 180`)
+/// lands on the mirror image of the attractor the start reached, run by run.
+pub fn a_mirrored_start_with_half_a_period_of_phase_lands_on_the_mirrored_attractor(under: Under) {
+    let plain = tiny_map(
+        under,
+        BISTABLE,
+        &format!("{}{}", starts_list(1.0), bistable_axes("")),
+    );
+    let mirror = tiny_map(
+        under,
+        &format!("{BISTABLE}\n[excitation]\nphase_deg = 180.0"),
+        &format!("{}{}", starts_list(-1.0), bistable_axes("")),
+    );
+    let (Some(p), Some(m)) = (map_on(under, &plain), map_on(under, &mirror)) else {
+        return;
+    };
+    let (pa, ma) = (p.attractors.unwrap(), m.attractors.unwrap());
+    let fingerprint = |a: &pendulum_atlas::reduce::AttractorMap, run: usize| {
+        let label = a.run_label[run];
+        assert!(label >= 0, "run {run} failed");
+        a.families[label as usize].fingerprint.clone()
+    };
+    let mut wells = Vec::new();
+    for run in 0..3 {
+        let (f, g) = (fingerprint(&pa, run), fingerprint(&ma, run));
+        let rule = pa.rule;
+        assert!(
+            g.same_as(&f.mirrored(), rule.cycle_tol_rad, rule.range_overlap),
+            "run {run}: {g:?} is not the mirror image of {f:?}"
+        );
+        wells.push(f.wells);
+    }
+    // The starts reach both wells, so the mirror exchanges two different attractors.
+    assert!(
+        wells.contains(&Wells::Positive) && wells.contains(&Wells::Negative),
+        "{wells:?}"
+    );
+}

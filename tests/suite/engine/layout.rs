@@ -63,7 +63,7 @@ fn parameter_structs_have_the_same_layout_in_rust_and_wgsl() {
         offsets!(GpuInstanceParams; seg_len, seg_mass, seg_inertia, tip_mass, holder_inertia, g,
             k, k0, b, b0, gap, kc, cc, piezo_inv_c, piezo_inv_r, piezo_theta, pos_amp, vel_amp,
             acc_amp, dt, guard_energy, guard_bend, theta0, omega0, volt0, half_clearance,
-            guard_holder, pad1, n_levers, piezo_last, spp, transient_periods, total_periods, strobe_offset,
+            guard_holder, phase0, n_levers, piezo_last, spp, transient_periods, total_periods, strobe_offset,
             strobe_count, r_every, r_count, r_start, imex_offset, contact_law, twin_start,
             twin_align, twin_window, twin_d0, twin_rate_w, twin_volt_w, period_s, levers),
         size_of::<GpuInstanceParams>(),

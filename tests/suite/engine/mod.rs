@@ -144,6 +144,7 @@ mod attractor_suite {
     engine_suite!(attractors:
         a_bistable_cell_shows_the_attractor_of_each_well,
         a_basin_picture_agrees_with_the_starts_estimate,
+        a_mirrored_start_with_half_a_period_of_phase_lands_on_the_mirrored_attractor,
     );
 }
 
