@@ -1,6 +1,7 @@
 //! A map from start to finish: plan the instances of a [`MapSpec`], run them on an opened
 //! [`Engine`], keep what the pictures need. [`crate::output::map`] writes the files.
 
+pub mod continuation;
 pub mod hardware_default;
 pub mod refine;
 
@@ -98,6 +99,9 @@ pub struct MapRun {
     pub attractors: Option<AttractorMap>,
     /// Every run of the ensemble when it is more than one per cell.
     pub runs: Option<RunCount>,
+    /// A map run by continuation: each direction's results (the first is `results`), and
+    /// where up and down differ.
+    pub continuation: Option<continuation::ContinuationRun>,
 }
 
 /// The size of a map's ensemble when cells ran several starts: what was integrated in all.
@@ -205,6 +209,16 @@ fn run_map_part(
     if spec.labels_attractors() {
         return run_starts(plan, spec, shard, engine, progress, t0);
     }
+    if let Some(cs) = &spec.continuation {
+        if shard.is_some() {
+            return Err(crate::config::ConfigError::Inconsistent {
+                key: "map.continuation".into(),
+                reason: "a map run by continuation cannot be sharded: its cells run one after another (drop --shard and --devices)".into(),
+            }
+            .into());
+        }
+        return run_continued(plan, spec, cs, engine, progress, t0);
+    }
     if let (Some(rs), None) = (&spec.refine, shard) {
         let plan_s = t0.elapsed().as_secs_f64();
         let mut run = run_refined(plan, rs, spec, engine, progress)?;
@@ -300,6 +314,114 @@ fn run_starts(
     Ok(run)
 }
 
+/// Times, dispatches, early stops and warnings added up over the ensembles of a staged map
+/// (refinement's levels, continuation's steps).
+#[derive(Default)]
+struct StageTotals {
+    timings: MapTimings,
+    dispatches: u32,
+    stopped_early: usize,
+    warnings: Vec<String>,
+}
+
+impl StageTotals {
+    fn add(&mut self, run: &MapRun) {
+        let t = &mut self.timings;
+        t.integrate_s += run.timings.integrate_s;
+        t.reduce_s += run.timings.reduce_s;
+        t.gpu = match (t.gpu.take(), run.timings.gpu.clone()) {
+            (Some(a), Some(b)) => Some(a.joined(&b)),
+            (a, b) => a.or(b),
+        };
+        self.dispatches += run.dispatches;
+        self.stopped_early += run.stopped_early;
+        for w in &run.plan.warnings {
+            if !self.warnings.contains(w) {
+                self.warnings.push(w.clone());
+            }
+        }
+    }
+
+    /// The timings (with the engine's opening and the wall time since `t_all`), dispatches
+    /// and early stops.
+    fn finish(&mut self, engine: &Engine, t_all: &Instant) -> (MapTimings, u32, usize) {
+        let mut timings = std::mem::take(&mut self.timings);
+        timings.device_s = engine.info().open_s;
+        timings.total_s = t_all.elapsed().as_secs_f64();
+        (timings, self.dispatches, self.stopped_early)
+    }
+}
+
+/// A map by continuation ([`continuation`]): each step of each direction is one ensemble
+/// whose cells start from their predecessors' final states; the map's arrays hold the first
+/// direction, and `continuation` every direction and their hysteresis.
+fn run_continued(
+    plan: EnsemblePlan,
+    spec: &MapSpec,
+    cs: &crate::config::ContinuationSpec,
+    engine: &Engine,
+    progress: Progress,
+    t0: Instant,
+) -> Result<MapRun, EngineError> {
+    let plan_s = t0.elapsed().as_secs_f64();
+    let t_all = Instant::now();
+    let opts = ReduceOptions::from_spec(spec);
+    let tail = (spec.period_max as usize).max(spec.bifurcation_samples as usize);
+    let steps = (spec.axes[cs.axis].values.len() * cs.sweep.directions().len()) as u64;
+    let mut step = 0u64;
+    let mut totals = StageTotals::default();
+    let mut cont = continuation::continue_map(spec, cs, |cells, starts| {
+        let mut part = plan.select(cells);
+        for (inst, start) in part.instances.iter_mut().zip(starts) {
+            if let Some(y) = start {
+                inst.y0 = y;
+            }
+        }
+        let j = step;
+        let step_progress =
+            |done: u64, total: u64, unit| progress(j * total + done, steps * total, unit);
+        let (run, final_state) = run_engine(part, &opts, Some(tail), true, engine, &step_progress)?;
+        step += 1;
+        totals.add(&run);
+        Ok(continuation::StepRun {
+            results: run.results,
+            strobe_tail: run.strobe_tail,
+            final_state,
+        })
+    })?;
+    let (mut timings, dispatches, stopped_early) = totals.finish(engine, &t_all);
+    timings.plan_s = plan_s;
+    timings.total_s += plan_s;
+    let first = &mut cont.legs[0];
+    let strobe_tail = if spec.bifurcation {
+        let n = spec.bifurcation_samples as usize;
+        first
+            .strobe_tail
+            .iter()
+            .map(|t| t[t.len().saturating_sub(n)..].to_vec())
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let mut plan = plan;
+    plan.warnings = std::mem::take(&mut totals.warnings);
+    Ok(MapRun {
+        results: first.results.clone(),
+        plan,
+        engine: engine.info().clone(),
+        timings,
+        dispatches,
+        stopped_early,
+        strobe_tail,
+        shards: Vec::new(),
+        inferred: Vec::new(),
+        refine: None,
+        attractors: None,
+        runs: None,
+        continuation: Some(cont),
+    })
+}
+
 /// A map by adaptive refinement ([`refine`]): each stage integrates and reduces its cells on
 /// `engine`; times, dispatches and early stops add up over the stages.
 fn run_refined(
@@ -311,30 +433,15 @@ fn run_refined(
 ) -> Result<MapRun, EngineError> {
     let t_all = Instant::now();
     let opts = ReduceOptions::from_spec(spec);
-    let mut timings = MapTimings::default();
-    let (mut dispatches, mut stopped_early) = (0u32, 0usize);
-    let mut warnings: Vec<String> = Vec::new();
+    let mut totals = StageTotals::default();
     let refined = refine::refine(spec, rs, |members| {
         let run = run_plan(plan.select(members), &opts, None, engine, progress)?;
-        timings.integrate_s += run.timings.integrate_s;
-        timings.reduce_s += run.timings.reduce_s;
-        timings.gpu = match (timings.gpu.take(), run.timings.gpu) {
-            (Some(a), Some(b)) => Some(a.joined(&b)),
-            (a, b) => a.or(b),
-        };
-        dispatches += run.dispatches;
-        stopped_early += run.stopped_early;
-        for w in run.plan.warnings {
-            if !warnings.contains(&w) {
-                warnings.push(w);
-            }
-        }
+        totals.add(&run);
         Ok(run.results)
     })?;
-    timings.device_s = engine.info().open_s;
-    timings.total_s = t_all.elapsed().as_secs_f64();
+    let (timings, dispatches, stopped_early) = totals.finish(engine, &t_all);
     let mut plan = plan;
-    plan.warnings = warnings;
+    plan.warnings = totals.warnings;
     Ok(MapRun {
         results: refined.results,
         plan,
@@ -348,6 +455,7 @@ fn run_refined(
         refine: Some(refined.report),
         attractors: None,
         runs: None,
+        continuation: None,
     })
 }
 
@@ -360,12 +468,26 @@ pub fn run_plan(
     engine: &Engine,
     progress: Progress,
 ) -> Result<MapRun, EngineError> {
+    Ok(run_engine(plan, opts, strobe_tail, false, engine, progress)?.0)
+}
+
+/// [`run_plan`], with every instance's final state when `final_state` (else an empty list).
+fn run_engine(
+    plan: EnsemblePlan,
+    opts: &ReduceOptions,
+    strobe_tail: Option<usize>,
+    final_state: bool,
+    engine: &Engine,
+    progress: Progress,
+) -> Result<(MapRun, Vec<Vec<f64>>), EngineError> {
     let t_all = Instant::now();
     let readback = Readback {
         strobe: strobe_tail.is_some(),
         r_series: false,
+        final_state,
     };
-    let run = engine.run(&plan, opts, readback, progress)?;
+    let mut run = engine.run(&plan, opts, readback, progress)?;
+    let states = std::mem::take(&mut run.final_state);
     let keep = strobe_tail.unwrap_or(0);
     let strobe_tail = run
         .strobe
@@ -381,7 +503,7 @@ pub fn run_plan(
         total_s: t_all.elapsed().as_secs_f64(),
         gpu: run.timings.gpu,
     };
-    Ok(MapRun {
+    let map_run = MapRun {
         results: run.results,
         plan,
         engine: engine.info().clone(),
@@ -394,7 +516,9 @@ pub fn run_plan(
         refine: None,
         attractors: None,
         runs: None,
-    })
+        continuation: None,
+    };
+    Ok((map_run, states))
 }
 
 /// One separately run part of a map (a shard, or one device's share): its instances' results.
@@ -473,6 +597,7 @@ pub fn assemble(plan: EnsemblePlan, parts: Vec<MapPart>) -> MapRun {
         refine: None,
         attractors: None,
         runs: None,
+        continuation: None,
     }
 }
 

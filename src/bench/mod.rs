@@ -277,6 +277,7 @@ fn horizon_error(
     let readback = Readback {
         strobe: false,
         r_series: true,
+        ..Readback::default()
     };
     let run = engine.run(&plan, &ReduceOptions::default(), readback, &no_progress)?;
     let p = &plan.instances[0];

@@ -194,6 +194,7 @@ fn horizon_row(
     let readback = Readback {
         strobe: false,
         r_series: true,
+        ..Readback::default()
     };
     let t0 = Instant::now();
     let run = engine.run(&plan, &ReduceOptions::default(), readback, &no_progress)?;

@@ -222,6 +222,52 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<()> {
     report(&merged.run, files.len(), &a.out)
 }
 
+/// One line on a map run by continuation: its axis and directions, restarts, and the bands
+/// where up and down differ.
+fn continuation_summary(c: &pendulum_atlas::map::continuation::ContinuationRun) -> String {
+    use pendulum_atlas::text::num;
+    let dirs: Vec<&str> = c.legs.iter().map(|l| l.direction.name()).collect();
+    let restarted: usize = c.legs.iter().map(|l| l.restarted).sum();
+    let mut line = format!(
+        "continuation along {} ({})",
+        c.spec.key,
+        dirs.join(", then ")
+    );
+    if restarted > 0 {
+        line += &format!(
+            ", {restarted} cells restarted from the scene's state after a failed neighbour"
+        );
+    }
+    if let Some(h) = &c.hysteresis {
+        let unit = pendulum_atlas::config::key_unit(&c.spec.key).unwrap_or("");
+        let bands: Vec<String> = h
+            .bands
+            .iter()
+            .take(4)
+            .map(|b| format!("{}–{} {unit}", num(b.from), num(b.to)))
+            .collect();
+        line += &match h.cells {
+            0 => ": up and down agree on every cell (no hysteresis at this resolution)".to_string(),
+            n => format!(
+                ": up and down differ on {n} cells, in {} ({}{}; hysteresis.npy, map.json)",
+                plural(h.bands.len(), "band"),
+                bands.join(", "),
+                if h.bands.len() > 4 { ", ..." } else { "" }
+            ),
+        };
+    }
+    line
+}
+
+/// "1 band", "3 bands".
+fn plural(n: usize, word: &str) -> String {
+    if n == 1 {
+        format!("1 {word}")
+    } else {
+        format!("{n} {word}s")
+    }
+}
+
 /// What ran and where it went; exit status 3 when no instance ended ok.
 fn report(run: &MapRun, files: usize, out: &std::path::Path) -> anyhow::Result<()> {
     let ok = run
@@ -266,6 +312,9 @@ fn report(run: &MapRun, files: usize, out: &std::path::Path) -> anyhow::Result<(
         run.plan.dt_range_s.0,
         run.plan.dt_range_s.1
     );
+    if let Some(c) = &run.continuation {
+        println!("{}", continuation_summary(c));
+    }
     println!("wrote {files} files to {}", out.display());
     if ok == 0 {
         return Err(super::RunFailed(format!(

@@ -14,6 +14,7 @@
 //! Every instance is the base scene with the axis keys set to the grid values, validated like
 //! any scene, so a swept value out of range is reported with its key.
 
+use super::continuation::ContinuationSpec;
 use super::error::ConfigError;
 use super::reader::{Range, Reader, apply_override, parse_toml, set_key};
 use super::scene::{ExcitationKind, Scene};
@@ -235,6 +236,9 @@ pub struct MapSpec {
     pub refine: Option<RefineSpec>,
     /// Several starts per cell (`map.initial_states`); `None`: the scene's own start.
     pub starts: Option<StartSet>,
+    /// Continuation along one axis (`map.continuation`); `None`: every cell from the
+    /// scene's own start, all at once.
+    pub continuation: Option<ContinuationSpec>,
 }
 
 /// What refinement compares between neighbouring cells.
@@ -618,6 +622,10 @@ fn read_map(
             reason: "refinement of a map that labels attractors (map.initial_states, or an axis over initial.angle_deg or initial.rate_deg_s) is not supported yet: set map.refine = false".into(),
         });
     }
+    let continuation = super::continuation::read_continuation(&mut r, &axes)?;
+    if continuation.is_some() {
+        refuse_with_continuation(labels, refine.is_some())?;
+    }
     let metrics = if labels {
         with_attractor_metrics(metrics, &scene)
     } else {
@@ -647,10 +655,28 @@ fn read_map(
         lyapunov,
         refine,
         starts,
+        continuation,
     };
     // Every axis key must be a scene key that takes this kind of value: check the first point.
     spec.instance_scene(0)?;
     Ok(spec)
+}
+
+/// What continuation cannot be combined with: several starts per cell or a basin picture
+/// (continuation has one start, the neighbour's state), and refinement (every cell of the
+/// path runs).
+fn refuse_with_continuation(labels: bool, refine: bool) -> Result<(), ConfigError> {
+    let reason = if labels {
+        "continuation starts each cell from its neighbour's final state, one start per cell: drop map.initial_states and the axes over initial.angle_deg and initial.rate_deg_s, or drop map.continuation"
+    } else if refine {
+        "continuation runs every cell of its path: set map.refine = false"
+    } else {
+        return Ok(());
+    };
+    Err(ConfigError::Inconsistent {
+        key: "map.continuation".into(),
+        reason: reason.into(),
+    })
 }
 
 /// `map.refine` and its keys: refused before any work when there is nothing to follow, the

@@ -4,6 +4,7 @@
 //! key by key into a [`Scene`] that can only hold valid values. Every key left unread is an
 //! error, so a typo never silently falls back to a default.
 
+mod continuation;
 mod error;
 mod map;
 mod physics;
@@ -11,6 +12,7 @@ mod reader;
 mod scene;
 mod starts;
 
+pub use continuation::{ContinuationSpec, Direction, Sweep};
 pub use error::ConfigError;
 pub use map::{
     AxisScale, DEFAULT_MAP_TOML, LyapunovSettings, MAX_INSTANCES, MapAxis, MapSpec, Metric,

@@ -157,6 +157,10 @@ pub struct Readback {
     pub strobe: bool,
     /// The uniform α series of R (tests, the bench's trajectory errors).
     pub r_series: bool,
+    /// Every instance's state `[θ; θ̇; v]` where it ended (continuation starts the next cell
+    /// from it). A run that ended ok ended at a whole number of forcing periods (its last
+    /// step, or the period end at which the early stop confirmed its orbit).
+    pub final_state: bool,
 }
 
 /// Wall time of an engine's stages (s).
@@ -179,6 +183,8 @@ pub struct EngineRun {
     pub strobe: Vec<Vec<f64>>,
     /// The R series of α per instance (each `r_count` long), when read back.
     pub r_series: Vec<Vec<f64>>,
+    /// The state `[θ; θ̇; v]` each instance ended in, when read back.
+    pub final_state: Vec<Vec<f64>>,
     /// Wall time per stage.
     pub timings: EngineTimings,
     /// Integration dispatches (GPU).
@@ -211,6 +217,7 @@ impl EngineRun {
         self.results.extend(next.results);
         self.strobe.extend(next.strobe);
         self.r_series.extend(next.r_series);
+        self.final_state.extend(next.final_state);
         self.timings.integrate_s += next.timings.integrate_s;
         self.timings.reduce_s += next.timings.reduce_s;
         self.timings.gpu = match (self.timings.gpu, next.timings.gpu) {

@@ -4,12 +4,15 @@
 
 use crate::config::{MapSpec, Metric};
 use crate::map::MapRun;
+use crate::map::continuation::ContinuationRun;
 use crate::model::Status;
 use crate::output::OutputError;
 use crate::output::files::{AtomicFile, create_dir, draw, write_json, write_toml};
 use crate::output::npy::{write_npy_f64, write_npy_i8, write_npy_i32, write_npy_u8};
 use crate::reduce::Regime;
-use crate::render::{Axis, Category, CellMarks, Palette, RGBColor, heatmap, scatter};
+use crate::render::{
+    Axis, Category, CellMarks, Palette, RGBColor, Series, heatmap, scatter, scatter_groups,
+};
 use serde_json::json;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -115,12 +118,45 @@ pub fn map_arrays(spec: &MapSpec, run: &MapRun) -> Vec<MapArray> {
             data: ArrayData::F64(a.fractions.concat()),
         });
     }
+    if let Some(c) = &run.continuation {
+        arrays.extend(continuation_arrays(spec, c));
+    }
     for (i, a) in spec.axes.iter().enumerate() {
         arrays.push(MapArray {
             name: format!("axis{i}"),
             shape: vec![a.values.len()],
             data: ArrayData::F64(a.values.clone()),
         });
+    }
+    arrays
+}
+
+/// The arrays of a map run both ways: the second direction's metrics, regime and status
+/// (`K_down.npy`, ...), and `hysteresis` (1 where up and down ended on different attractors).
+fn continuation_arrays(spec: &MapSpec, c: &ContinuationRun) -> Vec<MapArray> {
+    let grid = |name: String, data| MapArray {
+        name,
+        shape: spec.shape(),
+        data,
+    };
+    let mut arrays = Vec::new();
+    for leg in &c.legs[1..] {
+        let suffix = leg.direction.name();
+        let rs = &leg.results;
+        for (stem, _, _, get) in COLUMNS.iter().filter(|c| spec.wants(c.1)) {
+            let values = ArrayData::F64(rs.iter().map(get).collect());
+            arrays.push(grid(format!("{stem}_{suffix}"), values));
+        }
+        if spec.wants(Metric::Regime) {
+            let codes = ArrayData::I8(rs.iter().map(|r| r.regime.code()).collect());
+            arrays.push(grid(format!("regime_{suffix}"), codes));
+        }
+        let status = ArrayData::U8(rs.iter().map(|r| r.status.code()).collect());
+        arrays.push(grid(format!("status_{suffix}"), status));
+    }
+    if let Some(h) = &c.hysteresis {
+        let flags = ArrayData::U8(h.differs.iter().map(|&d| u8::from(d)).collect());
+        arrays.push(grid("hysteresis".into(), flags));
     }
     arrays
 }
@@ -139,6 +175,18 @@ pub fn write_map(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf
     }
     if spec.bifurcation && !run.strobe_tail.is_empty() {
         written.extend(draw_bifurcation(&dir.join("bifurcation.png"), spec, run)?);
+    }
+    if let Some(h) = run
+        .continuation
+        .as_ref()
+        .and_then(|c| c.hysteresis.as_ref())
+    {
+        let style = Style {
+            label: "up and down differ (1: on different attractors)".into(),
+            palette: Palette::Sequential(Some((0.0, 1.0))),
+        };
+        let value = |k: usize| f64::from(u8::from(h.differs[k]));
+        written.extend(draw_values(dir, spec, run, "hysteresis", &style, &value)?);
     }
     if let Some(a) = &run.attractors {
         written.push(write_json(
@@ -218,28 +266,65 @@ fn draw_bifurcation(
     run: &MapRun,
 ) -> Result<Option<PathBuf>, OutputError> {
     let axis = &spec.axes[0];
-    let (mut xs, mut ys) = (Vec::new(), Vec::new());
-    for (k, tail) in run.strobe_tail.iter().enumerate() {
-        if run.results[k].status != Status::Ok {
-            continue;
-        }
-        for &v in tail.iter().filter(|v| v.is_finite()) {
-            xs.push(axis.values[k]);
-            ys.push(v.to_degrees());
-        }
-    }
-    if xs.is_empty() {
-        return Ok(None);
-    }
+    let n = spec.bifurcation_samples as usize;
     let title = format!(
         "Bifurcation diagram: stroboscopic holder angle, last {} periods",
         spec.bifurcation_samples
     );
     let label = "holder angle α at the forcing phase (deg)";
+    let Some(c) = &run.continuation else {
+        let (xs, ys) = bifurcation_points(&axis.values, &run.results, &run.strobe_tail, n);
+        if xs.is_empty() {
+            return Ok(None);
+        }
+        return draw(path, |p| {
+            scatter(p, &title, &axis.label(), label, &xs, &ys, false)
+        })
+        .map(Some);
+    };
+    let points: Vec<(String, (Vec<f64>, Vec<f64>))> = c
+        .legs
+        .iter()
+        .map(|leg| {
+            let name = format!("sweeping {}", leg.direction.name());
+            let xy = bifurcation_points(&axis.values, &leg.results, &leg.strobe_tail, n);
+            (name, xy)
+        })
+        .collect();
+    if points.iter().all(|(_, (xs, _))| xs.is_empty()) {
+        return Ok(None);
+    }
+    let groups: Vec<Series> = points
+        .iter()
+        .map(|(name, (x, y))| Series { name, x, y })
+        .collect();
+    let title = format!("{title}, by continuation");
     draw(path, |p| {
-        scatter(p, &title, &axis.label(), label, &xs, &ys, false)
+        scatter_groups(p, &title, &axis.label(), label, &groups)
     })
     .map(Some)
+}
+
+/// The (axis value, α in degrees) points of a 1-D map's bifurcation diagram: the last `n`
+/// stroboscopic samples of every `ok` cell.
+fn bifurcation_points(
+    values: &[f64],
+    results: &[crate::reduce::InstanceResult],
+    tails: &[Vec<f64>],
+    n: usize,
+) -> (Vec<f64>, Vec<f64>) {
+    let (mut xs, mut ys) = (Vec::new(), Vec::new());
+    for (k, tail) in tails.iter().enumerate() {
+        if results[k].status != Status::Ok {
+            continue;
+        }
+        let tail = &tail[tail.len().saturating_sub(n)..];
+        for &v in tail.iter().filter(|v| v.is_finite()) {
+            xs.push(values[k]);
+            ys.push(v.to_degrees());
+        }
+    }
+    (xs, ys)
 }
 
 /// `map.json`: what the map is, how it ran, and which files belong to it (`files`; the
@@ -307,10 +392,40 @@ pub fn map_manifest(spec: &MapSpec, run: &MapRun, files: &[String]) -> serde_jso
             "runs": run.runs,
             "details": "attractors.json",
         })),
+        "continuation": run.continuation.as_ref().map(|c| continuation_json(spec, c)),
         "warnings": run.plan.warnings,
         "shards": run.shards,
         "scene": spec.scene,
         "files": files,
+    })
+}
+
+/// `map.json`'s `continuation`: the axis, the directions, restarts, and where up and down
+/// differ.
+fn continuation_json(spec: &MapSpec, c: &ContinuationRun) -> serde_json::Value {
+    let other: Vec<&str> = spec
+        .axes
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != c.spec.axis)
+        .map(|(_, a)| a.key.as_str())
+        .collect();
+    json!({
+        "axis": c.spec.key,
+        "sweep": c.spec.sweep,
+        "directions": c.legs,
+        "metric_arrays": format!(
+            "the metric arrays hold the {} direction{}",
+            c.legs[0].direction.name(),
+            if c.legs.len() > 1 { "; NAME_down.npy the other" } else { "" }
+        ),
+        "hysteresis": c.hysteresis.as_ref().map(|h| json!({
+            "cells": h.cells,
+            "rule": h.rule,
+            "band_line_keys": other,
+            "bands": h.bands,
+            "array": "hysteresis.npy: 1 where up and down ended on different attractors (or one failed)",
+        })),
     })
 }
 

@@ -179,6 +179,58 @@ pub fn scatter(
     Ok(())
 }
 
+/// Dots of several groups on one pair of axes, a colour per group named in the legend: the
+/// first group filled, the others as rings a little larger, so that where groups coincide
+/// (the two directions of a continuation on one orbit) both stay visible. 1000×700 px.
+pub fn scatter_groups(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    groups: &[Series],
+) -> Result<()> {
+    check_series(groups)?;
+    let pts = |s: &Series| -> Vec<(f64, f64)> {
+        s.x.iter()
+            .zip(s.y)
+            .filter(|(a, b)| a.is_finite() && b.is_finite())
+            .map(|(&a, &b)| (a, b))
+            .collect()
+    };
+    let all: Vec<Vec<(f64, f64)>> = groups.iter().map(pts).collect();
+    let xa = AxisSpec::auto(all.iter().flatten().map(|p| p.0), false, PAD);
+    let ya = AxisSpec::auto(all.iter().flatten().map(|p| p.1), false, PAD);
+    let root = canvas(path, SIZE)?;
+    let mut chart = build_chart(&root, Some(title), &xa, &ya, x_label, y_label, true, 25)?;
+    let r = if all.iter().map(Vec::len).sum::<usize>() > 2000 {
+        1
+    } else {
+        3
+    };
+    for (i, (s, p)) in groups.iter().zip(&all).enumerate() {
+        let color = PALETTE[i % PALETTE.len()];
+        let style = if i == 0 {
+            color.filled()
+        } else {
+            color.stroke_width(1)
+        };
+        let radius = r + 2 * i as i32;
+        chart
+            .draw_series(p.iter().map(|&q| Circle::new(q, radius, style)))?
+            .label(s.name)
+            .legend(move |(x, y)| Circle::new((x + 12, y), 4, style));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(font(TICK_PX))
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
+
 /// Draws dots; `hline` adds a horizontal reference line and includes it (and
 /// [0, 1]) in the y range.
 fn draw_points(

@@ -21,7 +21,7 @@ use error::{Result, bad_input};
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
-pub use charts::{histogram, line_chart, scatter, stacked_panels, zero_one_figure};
+pub use charts::{histogram, line_chart, scatter, scatter_groups, stacked_panels, zero_one_figure};
 pub use colormap::viridis;
 pub use error::RenderError;
 pub use maps::{CellMarks, HATCH_PX, cell_colour, colour_range, heatmap, scalogram};

@@ -67,6 +67,8 @@ pub struct RawInstance {
     pub twin: Option<LyapunovSums>,
     /// The plan the twin ran (a confirmed orbit measures a shorter window).
     pub twin_plan: Option<TwinPlan>,
+    /// The main state `[θ; θ̇; v]` where the instance ended.
+    pub y_end: Vec<f64>,
 }
 
 /// The cart of an ensemble instance: exact phase `(step mod spp + c)/spp`.
@@ -151,6 +153,7 @@ impl<'a, T: Real> EnsembleHook<'a, T> {
                 stopped_early: None,
                 twin: None,
                 twin_plan: None,
+                y_end: Vec::new(),
             },
             period: PeriodTally::default(),
             well: 0,

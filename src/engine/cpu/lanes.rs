@@ -222,6 +222,8 @@ struct LaneState<'a, T: Real> {
     touching: (bool, bool),
     /// `Some` once the lane has ended: its status and steps.
     end: Option<(Status, u64)>,
+    /// The lane's state where it ended (the group steps on after it).
+    y_end: Vec<f64>,
 }
 
 impl<T: Real> LaneState<'_, T> {
@@ -247,6 +249,7 @@ impl<T: Real> LaneState<'_, T> {
         }
         if self.hook.record(step, y, onsets, twin).is_break() || step == total {
             self.end = Some((Status::Ok, step));
+            self.y_end = (0..y.len()).map(|k| y.at(k).wide()).collect();
         }
     }
 }
@@ -277,6 +280,7 @@ where
             hook: EnsembleHook::new(p, plan.want_strobe, plan.want_rseries, plan.early_stop, d0),
             touching: touching(i),
             end: None,
+            y_end: Vec::new(),
         })
         .collect();
     let longest = plans.iter().map(|p| p.total_steps()).max().unwrap_or(0);
@@ -331,6 +335,7 @@ where
             let mut raw = l.hook.finish();
             raw.tally.status = status;
             raw.tally.steps = steps;
+            raw.y_end = l.y_end;
             raw
         })
         .collect()

@@ -79,6 +79,7 @@ pub fn run_instance_with<T: Real>(
     let mut raw = hook.finish();
     raw.tally.status = end.status;
     raw.tally.steps = end.steps_done;
+    raw.y_end = y.iter().map(|v| v.wide()).collect();
     raw
 }
 
@@ -219,6 +220,7 @@ impl CpuEngine {
             results,
             strobe: keep(readback.strobe && plan.want_strobe, |r| &r.strobe),
             r_series: keep(readback.r_series && plan.want_rseries, |r| &r.r_alpha),
+            final_state: keep(readback.final_state, |r| &r.y_end),
             timings: EngineTimings {
                 integrate_s,
                 reduce_s,

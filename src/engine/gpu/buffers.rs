@@ -328,6 +328,7 @@ fn loops_per_step(method: Method, n: usize, levers: usize) -> usize {
 pub struct Buffers {
     pub active: wgpu::Buffer,
     pub done: wgpu::Buffer,
+    pub state: wgpu::Buffer,
     pub accum: wgpu::Buffer,
     pub strobe: wgpu::Buffer,
     pub rwork: wgpu::Buffer,
@@ -412,6 +413,7 @@ impl Buffers {
         Buffers {
             active,
             done,
+            state,
             accum,
             strobe,
             rwork,

@@ -260,6 +260,11 @@ fn run_batch(
     timings.integrate_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
     let (strobe, r_series) = read_series(ctx, &bufs, plan, &sizes, readback)?;
+    let final_state = if readback.final_state {
+        read_final_state(ctx, &bufs, plan, &sizes)?
+    } else {
+        Vec::new()
+    };
     timings.readback_s += t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
     run_reductions(ctx, &kernels, &bufs, key, &sizes, &mut control)?;
@@ -272,6 +277,7 @@ fn run_batch(
         results: results(plan, accum)?,
         strobe,
         r_series,
+        final_state,
         timings: EngineTimings {
             integrate_s: t_all.elapsed().as_secs_f64(),
             reduce_s: 0.0,
@@ -388,6 +394,22 @@ fn read_series(
             .collect();
     }
     Ok((strobe, r_series))
+}
+
+/// Every instance's main state `[θ; θ̇; v]` where it ended (the state buffer is
+/// component-major: component j of instance i at `j·n_inst + i`).
+fn read_final_state(
+    ctx: &GpuContext,
+    bufs: &Buffers,
+    plan: &EnsemblePlan,
+    sizes: &Sizes,
+) -> Result<Vec<Vec<f64>>, EngineError> {
+    let n = sizes.n_inst;
+    let dim = 2 * plan.segments + 1;
+    let raw: Vec<f32> = read_buffer(ctx, &bufs.state, 4 * (dim * n) as u64)?;
+    Ok((0..n)
+        .map(|i| (0..dim).map(|j| f64::from(raw[j * n + i])).collect())
+        .collect())
 }
 
 /// R (three kernels), then the 0–1 test (one pass per c value) and the median and period,

@@ -40,6 +40,7 @@ fn a_plan_run_in_batches_equals_one_run_bit_for_bit() {
     let readback = Readback {
         strobe: true,
         r_series: true,
+        ..Readback::default()
     };
     let run = |max: Option<usize>| {
         let mut engine = Engine::open(Backend::Gpu, None).unwrap();

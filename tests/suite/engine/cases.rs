@@ -96,6 +96,7 @@ pub fn holder_angle_over_a_short_horizon_matches_the_reference_integrator(under:
     let readback = Readback {
         strobe: false,
         r_series: true,
+        ..Readback::default()
     };
     let run = engine
         .run(
@@ -139,6 +140,7 @@ pub fn reductions_equal_the_analysis_library_on_the_engines_own_series(under: Un
     let readback = Readback {
         strobe: true,
         r_series: true,
+        ..Readback::default()
     };
     let run = engine
         .run(&plan, &opts, readback, &no_progress)

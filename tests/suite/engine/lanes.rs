@@ -24,6 +24,7 @@ fn run(engine: &Engine, spec: &MapSpec) -> EngineRun {
     let readback = Readback {
         strobe: false,
         r_series: true,
+        ..Readback::default()
     };
     engine
         .run(

@@ -10,6 +10,7 @@
 mod attractors;
 mod batches;
 mod cases;
+mod continuation;
 mod lanes;
 mod layout;
 mod skip;
@@ -145,6 +146,16 @@ mod attractor_suite {
         a_bistable_cell_shows_the_attractor_of_each_well,
         a_basin_picture_agrees_with_the_starts_estimate,
         a_mirrored_start_with_half_a_period_of_phase_lands_on_the_mirrored_attractor,
+    );
+}
+
+/// Continuation: the state carried from cell to cell, hysteresis.
+mod continuation_suite {
+    use super::continuation;
+    use super::{Eng, Under};
+    engine_suite!(continuation:
+        a_continued_cell_starts_exactly_where_its_neighbour_ended,
+        sweeping_down_keeps_a_period_two_orbit_that_sweeping_up_never_reaches,
     );
 }
 
