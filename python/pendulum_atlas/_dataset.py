@@ -50,14 +50,18 @@ def map_dataset(manifest: dict, arrays: Mapping[str, np.ndarray]) -> xr.Dataset:
         if name.startswith("axis"):
             continue
         attrs = {}
-        if name in units:
-            attrs["units"] = units[name]
-        if name == "regime" and manifest.get("regime"):
+        # A map run both ways has the second direction's arrays as NAME_down.
+        base = name.removesuffix("_down")
+        if base in units:
+            attrs["units"] = units[base]
+        if base == "regime" and manifest.get("regime"):
             attrs.update(_codes_attrs(manifest["regime"]["codes"]))
-        elif name == "status" and "status_codes" in manifest:
+        elif base == "status" and "status_codes" in manifest:
             attrs.update(_codes_attrs(manifest["status_codes"]))
         elif name == "inferred":
             attrs.update({"flag_values": [0, 1], "flag_meanings": "computed filled_from_its_block"})
+        elif name == "hysteresis":
+            attrs.update({"flag_values": [0, 1], "flag_meanings": "up_and_down_agree up_and_down_differ"})
         # basin_fraction has one leading axis more: the attractor label.
         var_dims = ("attractor_label", *dims) if values.ndim == len(dims) + 1 else dims
         data_vars[name] = (var_dims, values, attrs)

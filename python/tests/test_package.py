@@ -281,3 +281,25 @@ def test_a_map_with_starts_has_basin_fractions_over_an_attractor_label_axis(tmp_
     for name in ["basin_fraction", "attractor", "attractors", "failed_fraction"]:
         on_disk = np.load(out / f"{name}.npy")
         assert on_disk.dtype == ds[name].dtype and np.array_equal(on_disk, ds[name].values), name
+
+
+def test_a_map_run_both_ways_has_both_directions_and_their_hysteresis():
+    scene = (
+        pa.Scene(SMALL_MAP)
+        .set("map.axes", [{"key": "excitation.frequency_hz", "values": [9.0, 10.0, 10.5, 11.0, 11.5, 12.0]}])
+        .set("integration.duration_s", 36.0)
+        .set("integration.transient_s", 12.0)
+        .set("excitation.amplitude_m", 0.001)
+        .set("map.metrics", ["period", "alpha_range", "regime"])
+        .set("map.lyapunov_window_s", 6.0)
+        .set("map.continuation", "both")
+    )
+    ds = pa.map(scene, backend="cpu", progress=False)
+    # The pinned band of the engine suite: period 2 sweeping down from 12 Hz to 10 Hz.
+    assert ds["period"].values.tolist() == [1.0] * 6
+    assert ds["period_down"].values.tolist() == [1.0, 2.0, 2.0, 2.0, 2.0, 2.0]
+    assert ds["period_down"].dims == ("frequency_hz",)
+    assert ds["hysteresis"].values.tolist() == [0, 1, 1, 1, 1, 1]
+    assert ds["regime_down"].attrs["flag_meanings"] == ds["regime"].attrs["flag_meanings"]
+    bands = json.loads(ds.attrs["map_json"])["continuation"]["hysteresis"]["bands"]
+    assert [(b["from"], b["to"]) for b in bands] == [(10.0, 12.0)]

@@ -202,10 +202,10 @@ pub fn scatter_groups(
     let ya = AxisSpec::auto(all.iter().flatten().map(|p| p.1), false, PAD);
     let root = canvas(path, SIZE)?;
     let mut chart = build_chart(&root, Some(title), &xa, &ya, x_label, y_label, true, 25)?;
-    let r = if all.iter().map(Vec::len).sum::<usize>() > 2000 {
-        1
-    } else {
-        3
+    let r = match all.iter().map(Vec::len).sum::<usize>() {
+        0..=2000 => 3,
+        2001..=20_000 => 2,
+        _ => 1,
     };
     for (i, (s, p)) in groups.iter().zip(&all).enumerate() {
         let color = PALETTE[i % PALETTE.len()];

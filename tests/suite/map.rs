@@ -597,3 +597,115 @@ fn a_map_with_starts_writes_its_attractor_files() {
         6
     );
 }
+
+#[test]
+fn continuation_that_cannot_be_run_is_refused_before_any_work() {
+    let axes2 = "map.axes=[{key=\"excitation.frequency_hz\",start=4.0,end=12.0,count=5},{key=\"excitation.amplitude_m\",values=[0.002,0.004]}]";
+    let e = map_error(&[
+        "map.continuation=both",
+        "map.continuation_axis=beam.segments",
+        axes2,
+    ]);
+    assert!(
+        e.contains("\"beam.segments\" is not an axis of this map")
+            && e.contains("excitation.frequency_hz, excitation.amplitude_m"),
+        "{e}"
+    );
+    let e = map_error(&["map.continuation=sideways"]);
+    assert!(e.contains("map.continuation") && e.contains("\"both\""), "{e}");
+    let e = map_error(&["map.continuation_axis=excitation.frequency_hz"]);
+    assert!(e.contains("only read with map.continuation"), "{e}");
+    let e = map_error(&[
+        "map.continuation=up",
+        "map.axes=[{key=\"excitation.frequency_hz\",values=[8.0]}]",
+    ]);
+    assert!(e.contains("continuation needs at least 2"), "{e}");
+    let e = map_error(&[
+        "map.continuation=up",
+        "map.axes=[{key=\"initial.angle_deg\",start=-10.0,end=10.0,count=3}]",
+    ]);
+    assert!(e.contains("replaces initial.angle_deg"), "{e}");
+    let e = map_error(&["map.continuation=up", "map.initial_states=4", axes2]);
+    assert!(e.contains("one start per cell"), "{e}");
+    let e = map_error(&[
+        "map.continuation=up",
+        "map.refine=true",
+        "map.axes=[{key=\"excitation.frequency_hz\",start=4.0,end=12.0,count=9},{key=\"excitation.amplitude_m\",start=0.004,end=0.02,count=9}]",
+    ]);
+    assert!(e.contains("set map.refine = false"), "{e}");
+    // A map whose cells run one after another is not split into shards.
+    let o = bin()
+        .args(["map", "--backend", "cpu", "--quiet", "--shard", "1/2", "--out"])
+        .arg(out_dir("cont-shard"))
+        .args(["--set", "map.continuation=up", "--set", axes2])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("cannot be sharded"), "{err}");
+}
+
+#[test]
+fn a_map_run_both_ways_writes_both_directions_and_where_they_differ() {
+    // The pinned hysteresis of the engine suite (1 mm; P2 sweeping down, P1 sweeping up).
+    let out = out_dir("both-ways");
+    let o = bin()
+        .args(["map", "--backend", "cpu", "--quiet", "--out"])
+        .arg(&out)
+        .args([
+            "--set",
+            "map.axes=[{key=\"excitation.frequency_hz\",values=[9.0,10.0,10.5,11.0,11.5,12.0]}]",
+            "--set",
+            "beam.segments=3",
+            "--set",
+            "integration.duration_s=36",
+            "--set",
+            "integration.transient_s=12",
+            "--set",
+            "excitation.amplitude_m=0.001",
+            "--set",
+            "map.metrics=[\"period\",\"alpha_range\",\"regime\"]",
+            "--set",
+            "map.lyapunov_window_s=6",
+            "--set",
+            "map.bifurcation=true",
+            "--set",
+            "map.continuation=both",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("continuation along excitation.frequency_hz (up, then down)")
+            && stdout.contains("differ on 5 cells, in 1 band (10–12 Hz"),
+        "{stdout}"
+    );
+    let read = |name: &str| -> Vec<f64> {
+        let bytes = std::fs::read(out.join(name)).unwrap();
+        let npy = npyz::NpyFile::new(&bytes[..]).unwrap();
+        match npy.dtype() {
+            npyz::DType::Plain(t) if t.type_char() == npyz::TypeChar::Uint => npy
+                .into_vec::<u8>()
+                .unwrap()
+                .into_iter()
+                .map(f64::from)
+                .collect(),
+            _ => npy.into_vec::<f64>().unwrap(),
+        }
+    };
+    assert_eq!(read("period.npy"), vec![1.0; 6]);
+    assert_eq!(read("period_down.npy"), vec![1.0, 2.0, 2.0, 2.0, 2.0, 2.0]);
+    assert_eq!(read("hysteresis.npy"), vec![0.0, 1.0, 1.0, 1.0, 1.0, 1.0]);
+    for f in ["status_down.npy", "regime_down.npy", "hysteresis.png", "bifurcation.png"] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("map.json")).unwrap()).unwrap();
+    let c = &manifest["continuation"];
+    assert_eq!(c["sweep"], "both");
+    assert_eq!(c["directions"][1]["direction"], "down");
+    let band = &c["hysteresis"]["bands"][0];
+    assert_eq!((band["from"].as_f64(), band["to"].as_f64()), (Some(10.0), Some(12.0)));
+    assert_eq!(band["cells"], 5);
+}
