@@ -77,21 +77,30 @@ pub fn run(a: SearchArgs) -> anyhow::Result<()> {
     }
     let best = run.best();
     let b = &run.baseline.metrics;
+    let word = spec.weighting.name();
+    let m = best.ranked(spec.weighting).0;
     println!(
-        "search on {} [{}]: {} designs in {:.1} s; best #{}: robust bandwidth {:.2} Hz (baseline {:.2} Hz), robust band-averaged power {:.3e} W (baseline {:.3e} W)",
+        "ranked by {}",
+        spec.weighting.describe(spec.initial_states.len())
+    );
+    println!(
+        "search on {} [{}]: {} designs in {:.1} s; best #{}: {word} bandwidth {:.2} Hz (baseline {:.2} Hz), {word} band-averaged power {:.3e} W (baseline {:.3e} W)",
         run.engine.kind.name(),
         run.engine.device,
         run.designs.len(),
         run.total_s,
         best.id,
-        best.robust.bandwidth_hz,
+        m.bandwidth_hz,
         b.bandwidth_hz,
-        best.robust.band_average_w,
+        m.band_average_w,
         b.band_average_w
     );
+    if let Some(line) = top_attractor_line(best, &spec) {
+        println!("{line}");
+    }
     if let Some(v) = &verification {
         println!(
-            "re-simulated with the simulate engine: robust band-averaged power {:.3e} W vs {:.3e} W from the search (median point {:.2} %, largest {:.1} % at {} Hz)",
+            "re-simulated with the simulate engine: {word} band-averaged power {:.3e} W vs {:.3e} W from the search (median point {:.2} %, largest {:.1} % at {} Hz)",
             v.simulate_band_average_w,
             v.search_band_average_w,
             100.0 * v.median_rel_diff,
@@ -109,4 +118,26 @@ pub fn run(a: SearchArgs) -> anyhow::Result<()> {
         .into());
     }
     Ok(())
+}
+
+/// With the expected weighting: where the best design's high-power attractor is most likely,
+/// in one line (its power and basin fraction at that frequency).
+fn top_attractor_line(
+    best: &pendulum_atlas::harvest::DesignResult,
+    spec: &pendulum_atlas::harvest::SearchSpec,
+) -> Option<String> {
+    let f = &spec.band.frequencies_hz;
+    let (j, t) = best
+        .top_attractor
+        .iter()
+        .enumerate()
+        .filter(|(_, t)| t.power_w.is_finite())
+        .max_by(|a, b| a.1.power_w.total_cmp(&b.1.power_w))?;
+    Some(format!(
+        "best design's high-power attractor: {:.3e} W at {} Hz, reached from {:.0} % of the starts (basin fraction {:.2})",
+        t.power_w,
+        pendulum_atlas::text::num(f[j]),
+        100.0 * t.basin_fraction,
+        t.basin_fraction
+    ))
 }

@@ -36,28 +36,33 @@ pub fn design_label(spec: &SearchSpec, id: usize, values: &[f64]) -> String {
     format!("#{id} {}", parts.join(", "))
 }
 
-/// `pareto.png`: every design's robust bandwidth against its robust band-averaged power
-/// (log scale), the Pareto front joined, the best design and the baseline marked.
+/// `pareto.png`: every design's bandwidth against its band-averaged power (log scale), both
+/// of the ranked curve, the Pareto front joined, the best design and the baseline marked.
 pub fn pareto_figure(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<()> {
     let pts: Vec<(f64, f64, bool)> = run
         .designs
         .iter()
         .filter(|d| d.failed == 0)
-        .map(|d| (d.robust.bandwidth_hz, d.robust.band_average_w, d.pareto))
+        .map(|d| {
+            let m = d.ranked(spec.weighting).0;
+            (m.bandwidth_hz, m.band_average_w, d.pareto)
+        })
         .collect();
     let base = (
         run.baseline.metrics.bandwidth_hz,
         run.baseline.metrics.band_average_w,
     );
     let best = run.best();
-    let best_pt = (best.robust.bandwidth_hz, best.robust.band_average_w);
+    let best_m = best.ranked(spec.weighting).0;
+    let best_pt = (best_m.bandwidth_hz, best_m.band_average_w);
+    let word = spec.weighting.name();
     let xs = pts.iter().map(|p| p.0).chain([base.0, 0.0]);
     let ys = pts.iter().map(|p| p.1).chain([base.1]);
     let xa = AxisSpec::auto(xs, false, 0.05);
     let ya = AxisSpec::auto(ys.filter_map(|y| plot_value(y, true)), true, 0.05);
     let root = canvas(path, (1000, 700))?;
     let title = format!(
-        "{} designs: robust bandwidth vs band-averaged power",
+        "{} designs: {word} bandwidth vs band-averaged power",
         run.designs.len()
     );
     let mut chart = build_chart(
@@ -66,11 +71,11 @@ pub fn pareto_figure(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<
         &xa,
         &ya,
         &format!(
-            "robust bandwidth (Hz) where P ≥ {} W",
+            "{word} bandwidth (Hz) where P ≥ {} W",
             crate::render::fmt_num(run.threshold_w)
         ),
         &format!(
-            "robust band-averaged power (W), {}–{} Hz",
+            "{word} band-averaged power (W), {}–{} Hz",
             spec.band.start_hz(),
             spec.band.end_hz()
         ),
@@ -146,13 +151,16 @@ fn draw_best_and_baseline(
     Ok(())
 }
 
-/// `power_vs_frequency.png`: robust P(f) of the top designs, the baseline's P(f) and the
-/// threshold, on a log power axis.
+/// `power_vs_frequency.png`: the ranked P(f) (robust or expected) of the top designs, the
+/// baseline's P(f) and the threshold, on a log power axis.
 pub fn power_figure(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<()> {
     let top = run.top(spec.report_top);
     let labels: Vec<String> = top
         .iter()
-        .map(|d| format!("{} (robust)", design_label(spec, d.id, &d.values)))
+        .map(|d| {
+            let label = design_label(spec, d.id, &d.values);
+            format!("{label} ({})", spec.weighting.name())
+        })
         .collect();
     let f = &spec.band.frequencies_hz;
     let mut series: Vec<Series> = top
@@ -161,7 +169,7 @@ pub fn power_figure(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<(
         .map(|(d, l)| Series {
             name: l,
             x: f,
-            y: &d.robust_w,
+            y: d.ranked(spec.weighting).1,
         })
         .collect();
     series.push(Series {

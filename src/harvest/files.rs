@@ -378,6 +378,19 @@ fn search_json(
             "frequencies_hz": spec.band.frequencies_hz,
             "robust_w": best.robust_w,
             "mean_w": best.mean_w,
+            "top_attractor": (!best.top_attractor.is_empty()).then_some(&best.top_attractor),
+        },
+        "ranked_by": {
+            "weighting": spec.weighting,
+            "in_words": spec.weighting.describe(spec.initial_states.len()),
+            "curve": match spec.weighting {
+                crate::harvest::Weighting::Robust => "robust_w (bandwidth_robust_hz, band_avg_power_robust_w in designs.csv)",
+                crate::harvest::Weighting::Expected { .. } => "mean_w over the sampled starts (bandwidth_mean_hz, band_avg_power_mean_w in designs.csv)",
+            },
+            "top_attractor_rule": format!(
+                "per frequency, the starts within {} % of the most powerful start's power and of its period; basin_fraction counts them among all starts",
+                100.0 * crate::harvest::TOP_POWER_SHARE
+            ),
         },
         "verification": verification,
     })

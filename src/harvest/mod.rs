@@ -26,9 +26,12 @@ pub mod verify;
 pub use band::{BandMetrics, band_average_w, band_metrics, bandwidth_hz, mean_curve, robust_curve};
 pub use error::HarvestError;
 pub use files::write_search;
-pub use search::{Baseline, DesignResult, SearchProgress, SearchRun, StageReport, run_search};
+pub use search::{
+    Baseline, DesignResult, SearchProgress, SearchRun, StageReport, TOP_POWER_SHARE, TopAttractor,
+    run_search,
+};
 pub use spec::{
     BaseExcitation, DEFAULT_SEARCH_TOML, DesignVariable, InitialState, Objective, SearchSpec,
-    Threshold, load_search, search_from_toml,
+    Threshold, Weighting, load_search, search_from_toml,
 };
 pub use verify::{Resimulated, Verification, VerifiedPoint, simulate_power, verify_design};

@@ -14,7 +14,9 @@
 
 use super::band::{BandMetrics, band_metrics, mean_curve, robust_curve};
 use super::error::HarvestError;
-use super::spec::{InitialState, Objective, SearchSpec, describe_design, design_key, neighbours};
+use super::spec::{
+    InitialState, Objective, SearchSpec, Weighting, describe_design, design_key, neighbours,
+};
 use crate::config::{ConfigError, Metric, Scene};
 use crate::engine::{Engine, EngineInfo, EnsembleOptions, EnsemblePlan, ProgressUnit};
 use crate::map::run_plan;
@@ -54,12 +56,68 @@ pub struct DesignResult {
     pub robust: BandMetrics,
     /// Band metrics of the mean curve.
     pub mean: BandMetrics,
+    /// With the expected weighting, per frequency: the high-power attractor, the starts whose
+    /// power is within [`TOP_POWER_SHARE`] of the most powerful start's and whose period is
+    /// its period (empty with the robust weighting).
+    pub top_attractor: Vec<TopAttractor>,
     /// Instances (state × frequency) that did not end `ok`.
     pub failed: usize,
     /// On the Pareto front of (robust bandwidth, robust band-averaged power).
     pub pareto: bool,
     /// Position in the ranking (1 = best).
     pub rank: usize,
+}
+
+/// Two starts of one (design, frequency) are on the high-power attractor when their powers
+/// differ by at most this share of the highest power and their periods agree.
+pub const TOP_POWER_SHARE: f64 = 0.1;
+
+/// The high-power attractor of one (design, frequency) among its sampled starts.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TopAttractor {
+    /// Mean power of its starts (W).
+    pub power_w: f64,
+    /// Its basin fraction: the share of all starts (failed ones included) that reached it.
+    pub basin_fraction: f64,
+    /// Its period (forcing periods; 0: not periodic up to the period test's limit; NaN: not
+    /// tested).
+    pub period: f64,
+}
+
+impl TopAttractor {
+    /// The high-power attractor of the starts' `power_w` and `period` at one frequency
+    /// (`None` when no start ended ok).
+    pub fn of(power_w: &[f64], period: &[f64]) -> Option<TopAttractor> {
+        let top = (0..power_w.len())
+            .filter(|&i| power_w[i].is_finite())
+            .max_by(|&a, &b| power_w[a].total_cmp(&power_w[b]))?;
+        let (p, per) = (power_w[top], period[top]);
+        let same_period = |q: f64| q == per || (q.is_nan() && per.is_nan());
+        let members: Vec<f64> = (0..power_w.len())
+            .filter(|&i| {
+                power_w[i].is_finite()
+                    && p - power_w[i] <= TOP_POWER_SHARE * p.abs()
+                    && same_period(period[i])
+            })
+            .map(|i| power_w[i])
+            .collect();
+        Some(TopAttractor {
+            power_w: members.iter().sum::<f64>() / members.len() as f64,
+            basin_fraction: members.len() as f64 / power_w.len() as f64,
+            period: per,
+        })
+    }
+}
+
+impl DesignResult {
+    /// The band metrics and the curve the ranking reads under `w`: the robust curve's, or
+    /// the mean's (the expected power over sampled starts).
+    pub fn ranked(&self, w: Weighting) -> (&BandMetrics, &[f64]) {
+        match w {
+            Weighting::Robust => (&self.robust, &self.robust_w),
+            Weighting::Expected { .. } => (&self.mean, &self.mean_w),
+        }
+    }
 }
 
 /// The clamped linear cantilever with the same beam, patch and load.
@@ -312,7 +370,21 @@ fn evaluate(
                     .collect()
             };
             let power_w = grid(|r| r.power_w);
+            let period = grid(|r| r.period);
             let failed = chunk.iter().filter(|r| r.status != Status::Ok).count();
+            let top_attractor = match spec.weighting {
+                Weighting::Robust => Vec::new(),
+                Weighting::Expected { .. } => (0..n_f)
+                    .map(|j| {
+                        let at = |g: &[Vec<f64>]| g.iter().map(|s| s[j]).collect::<Vec<f64>>();
+                        TopAttractor::of(&at(&power_w), &at(&period)).unwrap_or(TopAttractor {
+                            power_w: f64::NAN,
+                            basin_fraction: 0.0,
+                            period: f64::NAN,
+                        })
+                    })
+                    .collect(),
+            };
             let robust_w = robust_curve(&power_w);
             let mean_w = mean_curve(&power_w);
             let f = &spec.band.frequencies_hz;
@@ -322,7 +394,8 @@ fn evaluate(
                 values,
                 hops: grid(|r| r.hops),
                 impacts_per_s: grid(|r| r.impacts_per_s),
-                period: grid(|r| r.period),
+                period,
+                top_attractor,
                 robust: band_metrics(f, &robust_w, threshold_w),
                 mean: band_metrics(f, &mean_w, threshold_w),
                 robust_w,
@@ -422,9 +495,10 @@ fn evaluate_baseline(
 /// Ranking key: designs with failed instances last, then the objective.
 fn better(spec: &SearchSpec, a: &DesignResult, b: &DesignResult) -> std::cmp::Ordering {
     let key = |d: &DesignResult| {
+        let m = d.ranked(spec.weighting).0;
         let (p, s) = match spec.objective {
-            Objective::Bandwidth => (d.robust.bandwidth_hz, d.robust.band_average_w),
-            Objective::Power => (d.robust.band_average_w, d.robust.bandwidth_hz),
+            Objective::Bandwidth => (m.bandwidth_hz, m.band_average_w),
+            Objective::Power => (m.band_average_w, m.bandwidth_hz),
         };
         (d.failed == 0, p, s)
     };
@@ -442,10 +516,13 @@ fn rank(spec: &SearchSpec, designs: &[DesignResult]) -> Vec<usize> {
     ids
 }
 
-/// Mark the designs no other design beats in both robust bandwidth and robust band-averaged
-/// power (designs with failed instances take no part). Sorted sweep: O(n log n).
-fn mark_pareto(designs: &mut [DesignResult]) {
-    let key = |d: &DesignResult| (d.robust.bandwidth_hz, d.robust.band_average_w);
+/// Mark the designs no other design beats in both bandwidth and band-averaged power of the
+/// ranked curve (`w`; designs with failed instances take no part). Sorted sweep: O(n log n).
+fn mark_pareto(designs: &mut [DesignResult], w: Weighting) {
+    let key = |d: &DesignResult| {
+        let m = d.ranked(w).0;
+        (m.bandwidth_hz, m.band_average_w)
+    };
     let mut ok: Vec<usize> = (0..designs.len())
         .filter(|&i| designs[i].failed == 0)
         .collect();
@@ -544,7 +621,7 @@ pub fn run_search(
         stages.push(report);
     }
 
-    mark_pareto(&mut designs);
+    mark_pareto(&mut designs, spec.weighting);
     let ranking = rank(spec, &designs);
     for (pos, &id) in ranking.iter().enumerate() {
         designs[id].rank = pos + 1;

@@ -225,6 +225,58 @@ pub struct Refinement {
     pub shrink: f64,
 }
 
+/// How the P(f) curves of a design's starts become the one curve it is ranked by.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "lowercase")]
+pub enum Weighting {
+    /// At each frequency the smallest power over the named initial states: the worst start.
+    Robust,
+    /// At each frequency the mean power over `starts` sampled starts (a seeded Latin hypercube
+    /// over the holder angle within ± the design's clearance and the rate within ±200 deg/s):
+    /// the expected power of a harvester started at random, each attractor weighed by its
+    /// basin fraction.
+    Expected {
+        /// Sampled starts per (design, frequency).
+        starts: usize,
+        /// Seed of the hypercube.
+        seed: u64,
+    },
+}
+
+impl Weighting {
+    /// "robust" or "expected".
+    pub fn name(self) -> &'static str {
+        match self {
+            Weighting::Robust => "robust",
+            Weighting::Expected { .. } => "expected",
+        }
+    }
+
+    /// The curve a design is ranked by, from its P(f) per start (`[start][frequency]`).
+    pub fn curve(self, per_state: &[Vec<f64>]) -> Vec<f64> {
+        match self {
+            Weighting::Robust => super::band::robust_curve(per_state),
+            Weighting::Expected { .. } => super::band::mean_curve(per_state),
+        }
+    }
+
+    /// In words, for reports: what the ranked curve is.
+    pub fn describe(self, states: usize) -> String {
+        match self {
+            Weighting::Robust => format!("robust: the smallest power over {states} initial states"),
+            Weighting::Expected { starts, .. } => format!(
+                "expected: the mean power over {starts} sampled starts, each attractor weighed by its basin fraction"
+            ),
+        }
+    }
+}
+
+/// Largest sampled starts of `search.basin_starts`.
+pub const MAX_BASIN_STARTS: usize = 1024;
+
+/// Largest |holder rate| of the sampled starts of the expected weighting (deg/s).
+pub const BASIN_RATE_DEG_S: f64 = 200.0;
+
 /// What "best" means.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -268,6 +320,8 @@ pub struct SearchSpec {
     pub refine: Refinement,
     /// What the ranking maximises.
     pub objective: Objective,
+    /// Which curve of a design's starts the ranking reads.
+    pub weighting: Weighting,
     /// Designs listed in best.md and drawn in power_vs_frequency.png.
     pub report_top: usize,
     /// Steps per forcing period are a multiple of this (ensemble sampling).
@@ -488,7 +542,11 @@ fn read_search(
     let variables = read_variables(vars_value, &base_table)?;
     let band = read_band(&mut r)?;
     let threshold = read_threshold(&mut r)?;
-    let initial_states = read_initial_states(initial_value)?;
+    let weighting = read_weighting(&mut r, initial_value.is_some())?;
+    let initial_states = match weighting {
+        Weighting::Robust => read_initial_states(initial_value)?,
+        Weighting::Expected { starts, seed } => sampled_states(starts, seed),
+    };
     let refine = Refinement {
         rounds: r.integer("search.refine.rounds", 2, 0, 20)? as u32,
         top: r.integer("search.refine.top", 4, 1, 1000)? as usize,
@@ -526,6 +584,7 @@ fn read_search(
         initial_states,
         refine,
         objective,
+        weighting,
         report_top,
         samples_per_period,
         baseline_zoom,
@@ -620,6 +679,49 @@ fn missing(key: &str, what: &str) -> ConfigError {
         key: key.into(),
         reason: format!("missing: give {what}"),
     }
+}
+
+/// `search.weighting` with `search.basin_starts` and `search.basin_seed`; named initial states
+/// (`named`) are refused with the expected weighting, which samples its own.
+fn read_weighting(r: &mut Reader, named: bool) -> Result<Weighting, ConfigError> {
+    let kind = r.choice("search.weighting", "robust", &["robust", "expected"])?;
+    let starts = r.integer("search.basin_starts", 16, 2, MAX_BASIN_STARTS as i64)? as usize;
+    let seed = r.integer("search.basin_seed", 0, 0, i64::MAX)? as u64;
+    if kind == "robust" {
+        for key in ["search.basin_starts", "search.basin_seed"] {
+            if r.given(key)? {
+                return Err(ConfigError::Inconsistent {
+                    key: key.into(),
+                    reason: "is only read with search.weighting = \"expected\"".into(),
+                });
+            }
+        }
+        return Ok(Weighting::Robust);
+    }
+    if named {
+        return Err(ConfigError::Inconsistent {
+            key: "search.initial".into(),
+            reason: "the expected weighting samples its own starts (search.basin_starts) so that each attractor counts by its basin; named [[search.initial]] states go with search.weighting = \"robust\"".into(),
+        });
+    }
+    Ok(Weighting::Expected { starts, seed })
+}
+
+/// The sampled starts of the expected weighting: the angle as a share of the design's
+/// clearance (a `well` in (−1, 1)), the rate within ±[`BASIN_RATE_DEG_S`].
+fn sampled_states(starts: usize, seed: u64) -> Vec<InitialState> {
+    let rate = (-BASIN_RATE_DEG_S, BASIN_RATE_DEG_S);
+    crate::config::latin_hypercube(starts, (-1.0, 1.0), rate, seed)
+        .into_iter()
+        .enumerate()
+        .map(|(i, s)| InitialState {
+            name: format!("start {}", i + 1),
+            well: Some(s.angle_deg),
+            angle_deg: None,
+            rate_deg_s: s.rate_deg_s,
+            voltage_v: 0.0,
+        })
+        .collect()
 }
 
 /// `[[search.initial]]`: the initial states (both wells when absent).

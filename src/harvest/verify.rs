@@ -187,8 +187,8 @@ pub fn verify_design(
         .chunks(n_f)
         .map(|c| c.iter().map(|p| p.simulate_w).collect())
         .collect();
-    let robust = super::band::robust_curve(&per_state);
-    let simulate_band_average_w = super::band::band_average_w(&spec.band.frequencies_hz, &robust);
+    let ranked = spec.weighting.curve(&per_state);
+    let simulate_band_average_w = super::band::band_average_w(&spec.band.frequencies_hz, &ranked);
     let diffs: Vec<f64> = points
         .iter()
         .map(|p| rel(p.simulate_w, p.search_w))
@@ -207,7 +207,7 @@ pub fn verify_design(
         });
     Ok(Verification {
         design_id: design.id,
-        search_band_average_w: design.robust.band_average_w,
+        search_band_average_w: design.ranked(spec.weighting).0.band_average_w,
         simulate_band_average_w,
         median_rel_diff: median(diffs),
         max_rel_diff_regular: regular.iter().copied().fold(0.0, f64::max),

@@ -282,7 +282,7 @@ fn draw_bifurcation(
         })
         .map(Some);
     };
-    let points: Vec<(String, (Vec<f64>, Vec<f64>))> = c
+    let points: Vec<(String, Points)> = c
         .legs
         .iter()
         .map(|leg| {
@@ -305,6 +305,9 @@ fn draw_bifurcation(
     .map(Some)
 }
 
+/// Points of a scatter plot: x values and y values.
+type Points = (Vec<f64>, Vec<f64>);
+
 /// The (axis value, α in degrees) points of a 1-D map's bifurcation diagram: the last `n`
 /// stroboscopic samples of every `ok` cell.
 fn bifurcation_points(
@@ -312,7 +315,7 @@ fn bifurcation_points(
     results: &[crate::reduce::InstanceResult],
     tails: &[Vec<f64>],
     n: usize,
-) -> (Vec<f64>, Vec<f64>) {
+) -> Points {
     let (mut xs, mut ys) = (Vec::new(), Vec::new());
     for (k, tail) in tails.iter().enumerate() {
         if results[k].status != Status::Ok {

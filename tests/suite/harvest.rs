@@ -489,3 +489,110 @@ fn a_bad_design_variable_stops_the_command_with_its_name() {
     );
     assert!(!err.contains("panicked"), "{err}");
 }
+
+#[test]
+fn the_expected_weighting_ranks_designs_by_the_mean_power_over_sampled_starts() {
+    use pendulum_atlas::harvest::{TOP_POWER_SHARE, Weighting};
+    let spec = tiny_spec(&[
+        "search.band={start_hz=6.0,end_hz=14.0,count=3,base_acceleration_m_s2=2.0}",
+        "search.variables=[{key=\"limiter.clearance_deg\",values=[8.0,12.0,16.0]}]",
+        "search.baseline.zoom_count=0",
+        "search.objective=power",
+        "search.weighting=expected",
+        "search.basin_starts=6",
+    ]);
+    assert_eq!(spec.weighting, Weighting::Expected { starts: 6, seed: 0 });
+    // Six sampled starts, the angle a share of each design's clearance.
+    assert_eq!(spec.initial_states.len(), 6);
+    assert!(
+        spec.initial_states
+            .iter()
+            .all(|s| s.well.is_some_and(|w| w.abs() < 1.0))
+    );
+    let run = run_search(&spec, &Engine::cpu(Precision::F64), &|_, _, _| {}).expect("search");
+    for d in &run.designs {
+        assert_eq!(d.power_w.len(), 6);
+        for j in 0..3 {
+            let mean = d.power_w.iter().map(|s| s[j]).sum::<f64>() / 6.0;
+            close(
+                d.mean_w[j],
+                mean,
+                1e-12,
+                "the expected power is the starts' mean",
+            );
+            // The high-power attractor: the starts near the strongest one, counted among all.
+            let t = d.top_attractor[j];
+            let best = d
+                .power_w
+                .iter()
+                .map(|s| s[j])
+                .fold(f64::NEG_INFINITY, f64::max);
+            let near = d
+                .power_w
+                .iter()
+                .zip(&d.period)
+                .filter(|(p, q)| {
+                    best - p[j] <= TOP_POWER_SHARE * best && q[j].to_bits() == t.period.to_bits()
+                })
+                .count();
+            close(t.basin_fraction, near as f64 / 6.0, 1e-12, "basin fraction");
+            assert!(t.power_w <= best && t.power_w >= (1.0 - TOP_POWER_SHARE) * best);
+        }
+    }
+    // Ranked by the mean curve's band-averaged power (the objective), not the worst start's.
+    let ranked: Vec<f64> = run
+        .ranking
+        .iter()
+        .map(|&i| run.designs[i].mean.band_average_w)
+        .collect();
+    assert!(ranked.windows(2).all(|w| w[0] >= w[1]), "{ranked:?}");
+    // The weighting takes no named states, and its keys are not read without it.
+    let e = search_error(&["search.weighting=expected", "search.initial=[{well=1.0}]"]);
+    assert!(e.contains("search.initial") && e.contains("robust"), "{e}");
+    let e = search_error(&["search.basin_starts=8"]);
+    assert!(e.contains("only read with search.weighting"), "{e}");
+    let e = search_error(&["search.weighting=expected", "search.basin_starts=1"]);
+    assert!(e.contains("search.basin_starts"), "{e}");
+}
+
+#[test]
+fn search_says_which_weighting_ranked_its_designs() {
+    let out = out_dir("expected");
+    let o = bin()
+        .args(["search", "--backend", "cpu", "--quiet", "--out"])
+        .arg(&out)
+        .args([
+            "--set",
+            "integration.duration_s=8.0",
+            "--set",
+            "integration.transient_s=5.0",
+            "--set",
+            "search.refine.rounds=0",
+            "--set",
+            "search.verify=false",
+            "--set",
+            "search.variables=[{key=\"limiter.clearance_deg\",values=[10.0]}]",
+            "--set",
+            "search.band={start_hz=6.0,end_hz=14.0,count=3,base_acceleration_m_s2=2.0}",
+            "--set",
+            "search.baseline.zoom_count=0",
+            "--set",
+            "search.weighting=expected",
+            "--set",
+            "search.basin_starts=4",
+        ])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        stdout.contains("ranked by expected: the mean power over 4 sampled starts")
+            && stdout.contains("high-power attractor")
+            && stdout.contains("expected band-averaged power"),
+        "{stdout}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("search.json")).unwrap()).unwrap();
+    assert_eq!(json["ranked_by"]["weighting"]["kind"], "expected");
+    assert_eq!(json["best"]["top_attractor"].as_array().unwrap().len(), 3);
+}

@@ -612,7 +612,10 @@ fn continuation_that_cannot_be_run_is_refused_before_any_work() {
         "{e}"
     );
     let e = map_error(&["map.continuation=sideways"]);
-    assert!(e.contains("map.continuation") && e.contains("\"both\""), "{e}");
+    assert!(
+        e.contains("map.continuation") && e.contains("\"both\""),
+        "{e}"
+    );
     let e = map_error(&["map.continuation_axis=excitation.frequency_hz"]);
     assert!(e.contains("only read with map.continuation"), "{e}");
     let e = map_error(&[
@@ -635,7 +638,15 @@ fn continuation_that_cannot_be_run_is_refused_before_any_work() {
     assert!(e.contains("set map.refine = false"), "{e}");
     // A map whose cells run one after another is not split into shards.
     let o = bin()
-        .args(["map", "--backend", "cpu", "--quiet", "--shard", "1/2", "--out"])
+        .args([
+            "map",
+            "--backend",
+            "cpu",
+            "--quiet",
+            "--shard",
+            "1/2",
+            "--out",
+        ])
         .arg(out_dir("cont-shard"))
         .args(["--set", "map.continuation=up", "--set", axes2])
         .output()
@@ -697,7 +708,12 @@ fn a_map_run_both_ways_writes_both_directions_and_where_they_differ() {
     assert_eq!(read("period.npy"), vec![1.0; 6]);
     assert_eq!(read("period_down.npy"), vec![1.0, 2.0, 2.0, 2.0, 2.0, 2.0]);
     assert_eq!(read("hysteresis.npy"), vec![0.0, 1.0, 1.0, 1.0, 1.0, 1.0]);
-    for f in ["status_down.npy", "regime_down.npy", "hysteresis.png", "bifurcation.png"] {
+    for f in [
+        "status_down.npy",
+        "regime_down.npy",
+        "hysteresis.png",
+        "bifurcation.png",
+    ] {
         assert!(out.join(f).is_file(), "{f} missing");
     }
     let manifest: serde_json::Value =
@@ -706,6 +722,9 @@ fn a_map_run_both_ways_writes_both_directions_and_where_they_differ() {
     assert_eq!(c["sweep"], "both");
     assert_eq!(c["directions"][1]["direction"], "down");
     let band = &c["hysteresis"]["bands"][0];
-    assert_eq!((band["from"].as_f64(), band["to"].as_f64()), (Some(10.0), Some(12.0)));
+    assert_eq!(
+        (band["from"].as_f64(), band["to"].as_f64()),
+        (Some(10.0), Some(12.0))
+    );
     assert_eq!(band["cells"], 5);
 }
