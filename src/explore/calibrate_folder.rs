@@ -67,6 +67,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
     let columns = columns(&spec, &grid);
     let cells = grid.total.len();
     Ok(RunFolder {
+        cell_attractors: Vec::new(),
         starts: Vec::new(),
         dir: dir.to_path_buf(),
         product: Product::Calibrate,

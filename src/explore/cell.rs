@@ -47,8 +47,12 @@ pub fn cell_scene(folder: &RunFolder, k: usize, v: usize) -> Result<CellScene, E
     let values = folder.values_of(k);
     let (mut table, opts) = match &folder.source {
         Source::Map(spec) => {
-            let mut t = match folder.starts.get(k) {
-                Some(&s) => spec.start_table(k, s),
+            let start = match v {
+                0 => folder.starts.get(k).copied(),
+                s => Some(s - 1),
+            };
+            let mut t = match start {
+                Some(s) => spec.start_table(k, s),
                 None => spec.instance_table(k),
             }
             .map_err(|e| fail(e.to_string()))?;
@@ -407,7 +411,22 @@ fn map_values(folder: &RunFolder, k: usize) -> BTreeMap<String, Option<f64>> {
 /// What a calibration or a search found for cell `k` run as variant `v`.
 fn notes(folder: &RunFolder, k: usize, v: usize) -> Vec<String> {
     match &folder.source {
-        Source::Map(_) => Vec::new(),
+        Source::Map(_) if v == 0 => Vec::new(),
+        Source::Map(_) => {
+            let reached = folder.cell_attractors[k]
+                .iter()
+                .find(|a| a.start == v - 1)
+                .map_or(String::new(), |a| {
+                    format!(
+                        ", and is the first start of this cell to reach `{}`",
+                        a.name
+                    )
+                });
+            vec![format!(
+                "this run is start {v} of the cell{reached}; the map's values are those of its representative start {}",
+                folder.starts.get(k).map_or(1, |s| s + 1)
+            )]
+        }
         Source::Calibrate(c) => c.judged[k]
             .get(v)
             .map(|obs| {

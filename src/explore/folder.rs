@@ -83,6 +83,22 @@ pub struct RunFolder {
     /// The start (of `map.initial_states`) whose run each cell's values are: a click reruns
     /// that start (empty for a map of one start per cell).
     pub starts: Vec<usize>,
+    /// Per cell, the attractors its starts reached (a map of several starts per cell; empty
+    /// otherwise).
+    pub cell_attractors: Vec<Vec<CellAttractor>>,
+}
+
+/// One attractor of one cell of a map run from several starts per cell.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct CellAttractor {
+    /// Its family's label (`attractors.json`).
+    pub label: usize,
+    /// The family in words, as the legend names it (`P2 +`).
+    pub name: String,
+    /// Its basin fraction in the cell.
+    pub fraction: f64,
+    /// The first start of the cell that reached it: the variant `start + 1` runs it.
+    pub start: usize,
 }
 
 impl RunFolder {

@@ -2,7 +2,9 @@
 //! each shaped like the grid.
 
 use super::error::ExploreError;
-use super::folder::{Axis, Column, RunFolder, Source, bad, listed_files, read_json, read_text};
+use super::folder::{
+    Axis, CellAttractor, Column, RunFolder, Source, bad, listed_files, read_json, read_text,
+};
 use crate::config::{MapSpec, Metric, map_from_toml};
 use crate::output::folder::Product;
 use crate::output::map::{
@@ -46,7 +48,8 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         .iter()
         .map(|&m| metric_column(&spec, m, &stored, &regime))
         .collect();
-    columns.extend(attractor_columns(dir, &spec, &manifest)?);
+    let families = read_families(dir, &manifest)?;
+    columns.extend(attractor_columns(dir, &spec, families.as_deref())?);
     let status = read_array::<u8>(dir, "status.npy", &spec)?;
     let inferred = if listed_files(&manifest).iter().any(|f| f == "inferred.npy") {
         read_array::<u8>(dir, "inferred.npy", &spec)?
@@ -73,10 +76,19 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
             ),
         ));
     }
+    let cell_attractors = match &families {
+        Some(f) if spec.starts_per_cell() > 1 => cell_attractors(dir, &spec, f)?,
+        _ => Vec::new(),
+    };
+    let variants = match (&spec.starts, cell_attractors.is_empty()) {
+        (Some(set), false) => start_variants(set),
+        _ => Vec::new(),
+    };
     Ok(RunFolder {
         dir: dir.to_path_buf(),
         product: Product::Map,
         starts,
+        cell_attractors,
         files: listed_files(&manifest),
         manifest,
         axes: spec
@@ -91,7 +103,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         columns,
         status,
         inferred,
-        variants: Vec::new(),
+        variants,
         segments: spec.scene.beam.segments,
         source: Source::Map(Box::new(spec)),
     })
@@ -135,23 +147,87 @@ fn metric_column(
     }
 }
 
+/// The attractor families of a map that labels attractors (`None` for any other map).
+fn read_families(
+    dir: &Path,
+    manifest: &serde_json::Value,
+) -> Result<Option<Vec<Family>>, ExploreError> {
+    if !listed_files(manifest)
+        .iter()
+        .any(|f| f == "attractors.json")
+    {
+        return Ok(None);
+    }
+    let path = dir.join("attractors.json");
+    serde_json::from_value(read_json(&path)?["attractors"]["families"].clone())
+        .map(Some)
+        .map_err(|e| bad(&path, crate::text::json_damage("attractors.json", &e)))
+}
+
+/// The ways a cell of a map with several starts runs: its representative start (variant 0),
+/// then each start (variant `s + 1`).
+fn start_variants(set: &crate::config::StartSet) -> Vec<String> {
+    let each = set.states.iter().enumerate().map(|(s, st)| {
+        format!(
+            "start {}: {} deg, {} deg/s",
+            s + 1,
+            crate::text::num(st.angle_deg),
+            crate::text::num(st.rate_deg_s)
+        )
+    });
+    std::iter::once("the cell's representative start".to_string())
+        .chain(each)
+        .collect()
+}
+
+/// Per cell, the attractors its starts reached, from `basin_fraction.npy` and
+/// `attractor_start.npy` (labels × grid each).
+fn cell_attractors(
+    dir: &Path,
+    spec: &MapSpec,
+    families: &[Family],
+) -> Result<Vec<Vec<CellAttractor>>, ExploreError> {
+    let labels = families.len();
+    let fractions = read_labelled::<f64>(dir, "basin_fraction.npy", spec, labels)?;
+    let firsts = read_labelled::<i32>(dir, "attractor_start.npy", spec, labels)?;
+    let cells = spec.instances();
+    let k = spec.starts_per_cell();
+    (0..cells)
+        .map(|c| {
+            (0..labels)
+                .filter(|&l| fractions[l * cells + c] > 0.0)
+                .map(|l| {
+                    let start = usize::try_from(firsts[l * cells + c])
+                        .ok()
+                        .filter(|&s| s < k)
+                        .ok_or_else(|| {
+                            bad(
+                                &dir.join("attractor_start.npy"),
+                                format!("cell {c} holds label {l} but names no start of the map's {k} that reached it: the files are from different maps"),
+                            )
+                        })?;
+                    Ok(CellAttractor {
+                        label: l,
+                        name: crate::output::map::family_words(&families[l].fingerprint),
+                        fraction: fractions[l * cells + c],
+                        start,
+                    })
+                })
+                .collect()
+        })
+        .collect()
+}
+
 /// A map that labels attractors: its most likely attractor per cell (`attractor`, a colour
 /// per family of `attractors.json`) and, with several starts, the count (`attractors`).
 fn attractor_columns(
     dir: &Path,
     spec: &MapSpec,
-    manifest: &serde_json::Value,
+    families: Option<&[Family]>,
 ) -> Result<Vec<Column>, ExploreError> {
-    if !listed_files(manifest)
-        .iter()
-        .any(|f| f == "attractors.json")
-    {
+    let Some(families) = families else {
         return Ok(Vec::new());
-    }
-    let path = dir.join("attractors.json");
-    let families: Vec<Family> =
-        serde_json::from_value(read_json(&path)?["attractors"]["families"].clone())
-            .map_err(|e| bad(&path, crate::text::json_damage("attractors.json", &e)))?;
+    };
     let labels = read_array::<i32>(dir, "attractor.npy", spec)?;
     let several = spec.starts_per_cell() > 1;
     let what = if several {
@@ -159,7 +235,7 @@ fn attractor_columns(
     } else {
         "attractor reached"
     };
-    let style = attractor_style(what, &families);
+    let style = attractor_style(what, families);
     let mut out = vec![Column {
         name: "attractor".into(),
         label: style.label,
@@ -213,6 +289,26 @@ fn read_array<T: npyz::Deserialize>(
     name: &str,
     spec: &MapSpec,
 ) -> Result<Vec<T>, ExploreError> {
+    read_shaped(dir, name, &spec.shape())
+}
+
+/// An array with one value per (label, cell): shape (labels, *grid).
+fn read_labelled<T: npyz::Deserialize>(
+    dir: &Path,
+    name: &str,
+    spec: &MapSpec,
+    labels: usize,
+) -> Result<Vec<T>, ExploreError> {
+    let shape: Vec<usize> = std::iter::once(labels).chain(spec.shape()).collect();
+    read_shaped(dir, name, &shape)
+}
+
+/// The array `name` of `dir`, refused unless its shape is `want`.
+fn read_shaped<T: npyz::Deserialize>(
+    dir: &Path,
+    name: &str,
+    want: &[usize],
+) -> Result<Vec<T>, ExploreError> {
     let path = dir.join(name);
     if !path.is_file() {
         return Err(ExploreError::MissingFile {
@@ -223,13 +319,13 @@ fn read_array<T: npyz::Deserialize>(
         });
     }
     let (shape, data) = read_npy::<T>(&path).map_err(|e| bad(&path, e))?;
-    if shape != spec.shape() {
+    if shape != want {
         return Err(bad(
             &path,
             format!(
-                "shape {}, the grid is {}: the files are from different maps",
+                "shape {}, this map's is {}: the files are from different maps",
                 crate::text::shape(&shape),
-                crate::text::shape(&spec.shape())
+                crate::text::shape(want)
             ),
         ));
     }

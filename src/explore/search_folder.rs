@@ -100,6 +100,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         })
         .collect();
     Ok(RunFolder {
+        cell_attractors: Vec::new(),
         starts: Vec::new(),
         dir: dir.to_path_buf(),
         product: Product::Search,

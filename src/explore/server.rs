@@ -5,7 +5,7 @@
 //! | `GET /`, `/app.js`, `/style.css` | the page (embedded in the binary)                  |
 //! | `GET /api/map`                 | axes, units, quantities, variants, how it was run     |
 //! | `GET /api/field?metric=M&slice=I,J` | quantity M over a slice: values and colours      |
-//! | `GET /api/cell/K`              | cell K's axis values, status and every quantity      |
+//! | `GET /api/cell/K`              | cell K's axis values, status, quantities, attractors |
 //! | `GET /api/cell/K/scene.toml?variant=V` | cell K's scene run as V, as `simulate` takes it |
 //! | `POST /api/cell/K/run?variant=V` | queue a run of cell K as V; its job                |
 //! | `GET /api/job/J`               | where job J stands, its result when done             |
@@ -197,6 +197,7 @@ async fn cell_info(State(app): Shared, Path(k): Path<String>) -> Result<Response
         "status": status_name(f.status[k]),
         "inferred": f.inferred.get(k).copied().unwrap_or(false),
         "columns": columns,
+        "attractors": f.cell_attractors.get(k),
     }))
     .into_response())
 }

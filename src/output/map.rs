@@ -108,6 +108,14 @@ pub fn map_arrays(spec: &MapSpec, run: &MapRun) -> Vec<MapArray> {
         if a.starts > 1 {
             let start = a.representative.iter().map(|&s| s as i32).collect();
             arrays.push(grid("start", ArrayData::I32(start)));
+            arrays.push(MapArray {
+                name: "attractor_start".into(),
+                shape: [a.families.len()]
+                    .into_iter()
+                    .chain(shape.iter().copied())
+                    .collect(),
+                data: ArrayData::I32(a.first_starts().concat()),
+            });
         }
         arrays.push(MapArray {
             name: "basin_fraction".into(),
@@ -389,6 +397,7 @@ pub fn map_manifest(spec: &MapSpec, run: &MapRun, files: &[String]) -> serde_jso
                 "attractors": "distinct attractors per cell (failed runs not counted)",
                 "attractor": "the label most starts reached (-1: every start failed)",
                 "basin_fraction": "share of the cell's starts per label, shape (labels, *grid)",
+                "attractor_start": "with several starts: the first start of the cell that reached each label, shape (labels, *grid), -1 where none did",
                 "failed_fraction": "share of the cell's starts that failed",
             },
             "metric_arrays": "each cell's metric arrays hold its representative run: the first start that reached its most likely attractor",
@@ -768,7 +777,7 @@ fn attractor_palette(families: &[crate::reduce::attractors::Family]) -> Palette 
 
 /// A family in a few characters: its regime or period and its wells (`P2 +`: period 2 in the
 /// α > 0 well).
-fn family_words(f: &crate::reduce::Fingerprint) -> String {
+pub fn family_words(f: &crate::reduce::Fingerprint) -> String {
     use crate::reduce::attractors::Wells;
     let wells = match f.wells {
         Wells::Positive => "+",

@@ -250,6 +250,22 @@ pub struct AttractorMap {
     pub run_label: Vec<i32>,
 }
 
+impl AttractorMap {
+    /// The first start of each cell that reached each label: `[label][cell]`, −1 where no
+    /// start of the cell reached it (what runs one attractor of one cell again).
+    pub fn first_starts(&self) -> Vec<Vec<i32>> {
+        let k = self.starts;
+        let cells = self.most_likely.len();
+        let mut out = vec![vec![-1; cells]; self.families.len()];
+        for (i, &label) in self.run_label.iter().enumerate().rev() {
+            if label >= 0 {
+                out[label as usize][i / k] = (i % k) as i32;
+            }
+        }
+        out
+    }
+}
+
 /// One cell's attractors: each with the starts that reached it.
 struct Local {
     fingerprint: Fingerprint,

@@ -197,6 +197,7 @@ async function runCell(k) {
   const info = await cellInfo(k);
   $("cellTitle").textContent = `Cell ${k}: ` +
     info.values.map(([key, v]) => `${key} = ${fmt(v, 6)}`).join(", ");
+  showAttractors(k, info.attractors);
   setCellState("queued", "Queued…");
   const variant = $("variant").value || 0;
   let job = await api(`/api/cell/${k}/run?variant=${variant}`, { method: "POST" });
@@ -217,6 +218,28 @@ async function runCell(k) {
   state.job = null;
   if (job.state === "failed") throw new Error(job.error);
   showCell(job.result);
+}
+
+// A map run from several starts per cell: the cell's attractors, each with a button that runs
+// the first start that reached it (the variant start + 1).
+function showAttractors(k, attractors) {
+  const list = $("attractorList");
+  list.innerHTML = "";
+  $("cellAttractors").hidden = !attractors || attractors.length === 0;
+  for (const a of attractors || []) {
+    const li = document.createElement("li");
+    li.dataset.label = a.label;
+    li.append(`${a.name} (label ${a.label}): ${fmt(100 * a.fraction, 3)} % `);
+    const b = document.createElement("button");
+    b.type = "button";
+    b.textContent = `Run start ${a.start + 1}`;
+    b.addEventListener("click", () => {
+      $("variant").value = String(a.start + 1);
+      runCell(k).catch((e) => failCell(e));
+    });
+    li.append(b);
+    list.append(li);
+  }
 }
 
 // ---- the cell's result --------------------------------------------------------------------
@@ -373,7 +396,7 @@ async function start() {
     m.variants.forEach((name, i) => {
       const o = document.createElement("option"); o.value = i; o.textContent = name; $("variant").append(o);
     });
-    $("variantName").textContent = m.kind === "calibrate" ? "run in case" : "run at";
+    $("variantName").textContent = { calibrate: "run in case", map: "run from" }[m.kind] || "run at";
     $("variantRow").hidden = false;
     $("variant").addEventListener("change", () => {
       if (state.selected !== null) runCell(state.selected).catch((e) => failCell(e));
@@ -393,5 +416,5 @@ async function start() {
   await loadField();
 }
 
-window.atlas = { cellRect, cellAt, state };
+window.atlas = { cellRect, cellAt, state, runCell };
 start().catch((e) => showError($("error"), e));

@@ -558,4 +558,62 @@ fn a_clicked_cell_of_a_map_with_starts_reruns_its_representative_start() {
     let done = wait_job(&s, job["job"].as_u64().unwrap());
     assert_eq!(done["state"], "done", "{done}");
     assert_eq!(done["result"]["status"], "ok");
+    // The cell lists both wells' attractors, and running each one's start lands in its well.
+    let info = json(&s, "GET", "/api/cell/1", 200);
+    let attractors = info["attractors"]
+        .as_array()
+        .expect("the cell's attractors");
+    assert_eq!(attractors.len(), 2, "{info}");
+    let total: f64 = attractors
+        .iter()
+        .map(|a| a["fraction"].as_f64().unwrap())
+        .sum();
+    assert!((total - 1.0).abs() < 1e-12, "{info}");
+    for a in attractors {
+        let start = a["start"].as_u64().unwrap() as usize;
+        let (status, toml) = request(
+            &s,
+            "GET",
+            &format!("/api/cell/1/scene.toml?variant={}", start + 1),
+        );
+        assert_eq!(status, 200, "{toml}");
+        let scene: toml::Table = toml.parse().unwrap();
+        let want = &starts["starts"]["states"][start];
+        assert_eq!(
+            scene["initial"]["angle_deg"].as_float(),
+            want["angle_deg"].as_f64()
+        );
+        let job = json(
+            &s,
+            "POST",
+            &format!("/api/cell/1/run?variant={}", start + 1),
+            202,
+        );
+        let done = wait_job(&s, job["job"].as_u64().unwrap());
+        assert_eq!(done["state"], "done", "{done}");
+        let r = &done["result"];
+        let transient = r["transient_s"].as_f64().unwrap();
+        let settled: Vec<f64> = r["alpha"]["x"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .zip(r["alpha"]["y"].as_array().unwrap())
+            .filter(|(t, _)| t.as_f64().unwrap() > transient)
+            .map(|(_, a)| a.as_f64().unwrap())
+            .collect();
+        let name = a["name"].as_str().unwrap();
+        let positive = name.contains('+');
+        assert!(
+            settled.iter().all(|&x| (x > 0.0) == positive),
+            "start {start} reached `{name}` in the map"
+        );
+        assert!(
+            r["notes"][0]
+                .as_str()
+                .unwrap()
+                .contains(&format!("start {}", start + 1))
+        );
+    }
+    let bad = json(&s, "POST", "/api/cell/1/run?variant=7", 400);
+    assert!(bad.to_string().contains("variant"), "{bad}");
 }

@@ -247,3 +247,61 @@ fn npy_status(dir: &Path) -> Vec<u8> {
     let bytes = std::fs::read(dir.join("status.npy")).unwrap();
     npyz::NpyFile::new(&bytes[..]).unwrap().into_vec().unwrap()
 }
+
+/// A map from several starts per cell: the page lists a cell's attractors, and a button runs
+/// the start that reached one of them.
+#[test]
+fn the_page_lists_a_cells_attractors_and_runs_each() {
+    let Some(driver) = start_driver() else { return };
+    let out = scratch("browser-starts-map");
+    let o = super::bin()
+        .args(["map", "--backend", "cpu", "--quiet", "--out"])
+        .arg(&out)
+        .args(crate::STARTS_MAP_SETS)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let server = Server::start(&out, &[]);
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    rt.block_on(async {
+        let profile = scratch("chromium-profile-starts");
+        let c = browser(&driver, &profile).await;
+        c.goto(&format!("{}/", server.url)).await.unwrap();
+        c.wait()
+            .at_most(Duration::from_secs(30))
+            .for_element(Locator::Css("#map[data-ready='1']"))
+            .await
+            .expect("the map is drawn");
+        c.execute("atlas.runCell(1);", vec![]).await.unwrap();
+        let done = Locator::Css("#cellState[data-state='done']");
+        c.wait()
+            .at_most(Duration::from_secs(120))
+            .for_element(done)
+            .await
+            .unwrap();
+        let items = c.find_all(Locator::Css("#attractorList li")).await.unwrap();
+        assert_eq!(items.len(), 2, "both wells' attractors listed");
+        let button = items[1].find(Locator::Css("button")).await.unwrap();
+        let label = button.text().await.unwrap();
+        let start: usize = label.trim_start_matches("Run start ").parse().unwrap();
+        button.click().await.unwrap();
+        // The run of that start replaces the first one's result when it is done.
+        let want = format!("run as start {start}:");
+        let mut info = String::new();
+        for _ in 0..480 {
+            info = c
+                .find(Locator::Id("runInfo"))
+                .await
+                .unwrap()
+                .text()
+                .await
+                .unwrap();
+            if info.starts_with(&want) {
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(250)).await;
+        }
+        assert!(info.starts_with(&want), "{info}");
+        let _ = c.close().await;
+    });
+}
