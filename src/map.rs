@@ -133,6 +133,34 @@ pub struct ShardSummary {
 }
 
 impl MapRun {
+    /// A run of `plan` with its results, engine, times, `(dispatches, early stops)` and
+    /// stroboscopic tails, and nothing of the staged maps (shards, refinement, attractors,
+    /// continuation) yet.
+    fn new(
+        results: Vec<InstanceResult>,
+        plan: EnsemblePlan,
+        engine: EngineInfo,
+        timings: MapTimings,
+        (dispatches, stopped_early): (u32, usize),
+        strobe_tail: Vec<Vec<f64>>,
+    ) -> MapRun {
+        MapRun {
+            results,
+            plan,
+            engine,
+            timings,
+            dispatches,
+            stopped_early,
+            strobe_tail,
+            shards: Vec::new(),
+            inferred: Vec::new(),
+            refine: None,
+            attractors: None,
+            runs: None,
+            continuation: None,
+        }
+    }
+
     /// Instance-steps per second of the integration stage (the GPU's integration dispatches
     /// alone, without its reductions, on the GPU backend).
     pub fn instance_steps_per_s(&self) -> f64 {
@@ -342,13 +370,13 @@ impl StageTotals {
         }
     }
 
-    /// The timings (with the engine's opening and the wall time since `t_all`), dispatches
-    /// and early stops.
-    fn finish(&mut self, engine: &Engine, t_all: &Instant) -> (MapTimings, u32, usize) {
+    /// The timings (with the engine's opening and the wall time since `t_all`), and the
+    /// dispatches and early stops.
+    fn finish(&mut self, engine: &Engine, t_all: &Instant) -> (MapTimings, (u32, usize)) {
         let mut timings = std::mem::take(&mut self.timings);
         timings.device_s = engine.info().open_s;
         timings.total_s = t_all.elapsed().as_secs_f64();
-        (timings, self.dispatches, self.stopped_early)
+        (timings, (self.dispatches, self.stopped_early))
     }
 }
 
@@ -389,7 +417,7 @@ fn run_continued(
             final_state,
         })
     })?;
-    let (mut timings, dispatches, stopped_early) = totals.finish(engine, &t_all);
+    let (mut timings, counts) = totals.finish(engine, &t_all);
     timings.plan_s = plan_s;
     timings.total_s += plan_s;
     let first = &mut cont.legs[0];
@@ -405,21 +433,17 @@ fn run_continued(
     };
     let mut plan = plan;
     plan.warnings = std::mem::take(&mut totals.warnings);
-    Ok(MapRun {
-        results: first.results.clone(),
+    let results = first.results.clone();
+    let mut run = MapRun::new(
+        results,
         plan,
-        engine: engine.info().clone(),
+        engine.info().clone(),
         timings,
-        dispatches,
-        stopped_early,
+        counts,
         strobe_tail,
-        shards: Vec::new(),
-        inferred: Vec::new(),
-        refine: None,
-        attractors: None,
-        runs: None,
-        continuation: Some(cont),
-    })
+    );
+    run.continuation = Some(cont);
+    Ok(run)
 }
 
 /// A map by adaptive refinement ([`refine`]): each stage integrates and reduces its cells on
@@ -439,24 +463,14 @@ fn run_refined(
         totals.add(&run);
         Ok(run.results)
     })?;
-    let (timings, dispatches, stopped_early) = totals.finish(engine, &t_all);
+    let (timings, counts) = totals.finish(engine, &t_all);
     let mut plan = plan;
     plan.warnings = totals.warnings;
-    Ok(MapRun {
-        results: refined.results,
-        plan,
-        engine: engine.info().clone(),
-        timings,
-        dispatches,
-        stopped_early,
-        strobe_tail: Vec::new(),
-        shards: Vec::new(),
-        inferred: refined.inferred,
-        refine: Some(refined.report),
-        attractors: None,
-        runs: None,
-        continuation: None,
-    })
+    let info = engine.info().clone();
+    let mut run = MapRun::new(refined.results, plan, info, timings, counts, Vec::new());
+    run.inferred = refined.inferred;
+    run.refine = Some(refined.report);
+    Ok(run)
 }
 
 /// Integrate and reduce an already planned ensemble (see [`EnsemblePlan::from_scenes`]) on an
@@ -503,21 +517,9 @@ fn run_engine(
         total_s: t_all.elapsed().as_secs_f64(),
         gpu: run.timings.gpu,
     };
-    let map_run = MapRun {
-        results: run.results,
-        plan,
-        engine: engine.info().clone(),
-        timings,
-        dispatches: run.dispatches,
-        stopped_early: run.stopped_early,
-        strobe_tail,
-        shards: Vec::new(),
-        inferred: Vec::new(),
-        refine: None,
-        attractors: None,
-        runs: None,
-        continuation: None,
-    };
+    let counts = (run.dispatches, run.stopped_early);
+    let info = engine.info().clone();
+    let map_run = MapRun::new(run.results, plan, info, timings, counts, strobe_tail);
     Ok((map_run, states))
 }
 
@@ -581,24 +583,17 @@ pub fn assemble(plan: EnsemblePlan, parts: Vec<MapPart>) -> MapRun {
     shards.sort_by_key(|s| s.shard.index);
     let mut engine = parts[0].engine.clone();
     engine.device = devices.join(" + ");
-    MapRun {
-        results: results
-            .into_iter()
-            .map(|r| r.expect("the parts cover the grid"))
-            .collect(),
-        plan,
-        engine,
-        timings,
-        dispatches: parts.iter().map(|p| p.dispatches).sum(),
-        stopped_early: parts.iter().map(|p| p.stopped_early).sum(),
-        strobe_tail,
-        shards,
-        inferred: Vec::new(),
-        refine: None,
-        attractors: None,
-        runs: None,
-        continuation: None,
-    }
+    let results = results
+        .into_iter()
+        .map(|r| r.expect("the parts cover the grid"))
+        .collect();
+    let counts = (
+        parts.iter().map(|p| p.dispatches).sum(),
+        parts.iter().map(|p| p.stopped_early).sum(),
+    );
+    let mut run = MapRun::new(results, plan, engine, timings, counts, strobe_tail);
+    run.shards = shards;
+    run
 }
 
 /// One map split over several opened engines (every GPU of a node), each integrating the

@@ -5,7 +5,7 @@ use super::search::SearchRun;
 use super::spec::SearchSpec;
 use crate::render::RenderError;
 use crate::render::{
-    AxisSpec, Chart, PALETTE, Series, TICK_PX, build_chart, canvas, font, line_chart, plot_value,
+    AxisSpec, Chart, PALETTE, Series, build_chart, canvas, draw_legend, line_chart, plot_value,
 };
 
 type Result<T> = std::result::Result<T, RenderError>;
@@ -85,13 +85,7 @@ pub fn pareto_figure(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<
     let map = |(x, y): (f64, f64)| Some((xa.map(x)?, ya.map(y)?));
     draw_designs_and_front(&mut chart, &pts, map)?;
     draw_best_and_baseline(&mut chart, map(best_pt), best.id, map(base))?;
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(font(TICK_PX))
-        .draw()?;
+    draw_legend(&mut chart, SeriesLabelPosition::LowerRight)?;
     root.present()?;
     Ok(())
 }

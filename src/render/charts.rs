@@ -6,7 +6,7 @@ use super::error::{Result, bad_input};
 use plotters::prelude::*;
 
 use super::{
-    Area, AxisSpec, PALETTE, Panel, Series, TICK_PX, build_chart, canvas, check_series, font,
+    Area, AxisSpec, PALETTE, Panel, Series, build_chart, canvas, check_series, draw_legend,
     plot_value, segments, titled,
 };
 
@@ -60,13 +60,7 @@ fn draw_lines(
         }
     }
     if series.len() > 1 {
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(font(TICK_PX))
-            .draw()?;
+        draw_legend(&mut chart, SeriesLabelPosition::UpperRight)?;
     }
     Ok(())
 }
@@ -220,13 +214,7 @@ pub fn scatter_groups(
             .label(s.name)
             .legend(move |(x, y)| Circle::new((x + 12, y), 4, style));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(font(TICK_PX))
-        .draw()?;
+    draw_legend(&mut chart, SeriesLabelPosition::UpperRight)?;
     root.present()?;
     Ok(())
 }

@@ -297,6 +297,21 @@ pub(crate) fn build_chart<'a, 'b>(
     Ok(chart)
 }
 
+/// Draws the legend of `chart`'s labelled series at `position`, in the house style.
+pub(crate) fn draw_legend<'a, 'b: 'a>(
+    chart: &mut Chart<'a, 'b>,
+    position: SeriesLabelPosition,
+) -> Result<()> {
+    chart
+        .configure_series_labels()
+        .position(position)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(font(TICK_PX))
+        .draw()?;
+    Ok(())
+}
+
 /// Draws a centred figure title at the top of `area`; returns the area below it.
 pub(crate) fn titled<'b>(area: &Area<'b>, title: &str) -> Result<Area<'b>> {
     Ok(area.margin(10, 0, 0, 0).titled(title, font(TITLE_PX))?)
