@@ -27,27 +27,14 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
     let spec = map_from_toml(&text, &path.display().to_string(), &[])
         .map_err(|e| bad(&path, e.to_string()))?;
     check_shape(dir, &spec, &manifest)?;
-    let stored: Vec<(&str, Metric, Vec<f64>)> = COLUMNS
-        .iter()
-        .filter(|(_, m, _, _)| spec.wants(*m))
-        .map(|&(stem, m, _, _)| {
-            Ok((
-                stem,
-                m,
-                read_array::<f64>(dir, &format!("{stem}.npy"), &spec)?,
-            ))
-        })
-        .collect::<Result<_, ExploreError>>()?;
-    let regime = if spec.wants(Metric::Regime) {
-        read_array::<i8>(dir, "regime.npy", &spec)?
-    } else {
-        Vec::new()
-    };
-    let mut columns: Vec<Column> = spec
-        .metrics
-        .iter()
-        .map(|&m| metric_column(&spec, m, &stored, &regime))
-        .collect();
+    let mut columns = metric_columns(dir, &spec, "")?;
+    if let Some(c) = &spec.continuation {
+        let first = c.sweep.directions()[0].name();
+        for col in &mut columns {
+            col.label = format!("{}, sweeping {first}", col.label);
+        }
+    }
+    columns.extend(continuation_columns(dir, &spec)?);
     let families = read_families(dir, &manifest)?;
     columns.extend(attractor_columns(dir, &spec, families.as_deref())?);
     let status = read_array::<u8>(dir, "status.npy", &spec)?;
@@ -107,6 +94,56 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         segments: spec.scene.beam.segments,
         source: Source::Map(Box::new(spec)),
     })
+}
+
+/// Every metric of the map as stored in `NAME{suffix}.npy` (`suffix` "_down" for the down
+/// sweep of a map run both ways).
+fn metric_columns(dir: &Path, spec: &MapSpec, suffix: &str) -> Result<Vec<Column>, ExploreError> {
+    let stored: Vec<(&str, Metric, Vec<f64>)> = COLUMNS
+        .iter()
+        .filter(|(_, m, _, _)| spec.wants(*m))
+        .map(|&(stem, m, _, _)| {
+            let values = read_array::<f64>(dir, &format!("{stem}{suffix}.npy"), spec)?;
+            Ok((stem, m, values))
+        })
+        .collect::<Result<_, ExploreError>>()?;
+    let regime = if spec.wants(Metric::Regime) {
+        read_array::<i8>(dir, &format!("regime{suffix}.npy"), spec)?
+    } else {
+        Vec::new()
+    };
+    Ok(spec
+        .metrics
+        .iter()
+        .map(|&m| metric_column(spec, m, &stored, &regime))
+        .collect())
+}
+
+/// A map run by continuation both ways: the down sweep's metrics (`NAME_down`) and where the
+/// two sweeps differ (`hysteresis`); nothing for any other map.
+fn continuation_columns(dir: &Path, spec: &MapSpec) -> Result<Vec<Column>, ExploreError> {
+    let Some(c) = &spec.continuation else {
+        return Ok(Vec::new());
+    };
+    if c.sweep != crate::config::Sweep::Both {
+        return Ok(Vec::new());
+    }
+    let mut out: Vec<Column> = metric_columns(dir, spec, "_down")?
+        .into_iter()
+        .map(|col| Column {
+            name: format!("{}_down", col.name),
+            label: format!("{}, sweeping down", col.label),
+            ..col
+        })
+        .collect();
+    let differs = read_array::<u8>(dir, "hysteresis.npy", spec)?;
+    out.push(Column {
+        name: "hysteresis".into(),
+        label: "up and down differ (1: on different attractors)".into(),
+        palette: crate::render::Palette::Sequential(Some((0.0, 1.0))),
+        values: differs.iter().map(|&d| f64::from(d)).collect(),
+    });
+    Ok(out)
 }
 
 /// Metric `m` as shown: its label and palette from the PNGs' rule, `alpha_range` as the

@@ -617,3 +617,59 @@ fn a_clicked_cell_of_a_map_with_starts_reruns_its_representative_start() {
     let bad = json(&s, "POST", "/api/cell/1/run?variant=7", 400);
     assert!(bad.to_string().contains("variant"), "{bad}");
 }
+
+#[test]
+fn a_map_run_both_ways_shows_both_sweeps_and_says_a_rerun_starts_afresh() {
+    let out = scratch("both-ways-map");
+    let o = super::bin()
+        .args(["map", "--backend", "cpu", "--quiet", "--out"])
+        .arg(&out)
+        .args([
+            "--set",
+            "map.axes=[{key=\"excitation.frequency_hz\",values=[9.0,10.0,10.5,11.0,11.5,12.0]}]",
+            "--set",
+            "beam.segments=3",
+            "--set",
+            "integration.duration_s=36",
+            "--set",
+            "integration.transient_s=12",
+            "--set",
+            "excitation.amplitude_m=0.001",
+            "--set",
+            "map.metrics=[\"period\",\"alpha_range\",\"regime\"]",
+            "--set",
+            "map.lyapunov_window_s=6",
+            "--set",
+            "map.continuation=both",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s = Server::start(&out, &[]);
+    let m = json(&s, "GET", "/api/map", 200);
+    let names: Vec<&str> = m["metrics"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["name"].as_str().unwrap())
+        .collect();
+    for want in ["period", "period_down", "regime_down", "hysteresis"] {
+        assert!(names.contains(&want), "{want} not in {names:?}");
+    }
+    let f = json(&s, "GET", "/api/field?metric=hysteresis", 200);
+    let shown: Vec<f64> = f["values"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    assert_eq!(shown, vec![0.0, 1.0, 1.0, 1.0, 1.0, 1.0]);
+    let job = json(&s, "POST", "/api/cell/3/run", 202);
+    let done = wait_job(&s, job["job"].as_u64().unwrap());
+    assert_eq!(done["state"], "done", "{done}");
+    let note = done["result"]["notes"][0].as_str().unwrap();
+    assert!(
+        note.contains("ran by continuation") && note.contains("scene's own state"),
+        "{note}"
+    );
+}
