@@ -105,26 +105,24 @@ pub fn map_arrays(spec: &MapSpec, run: &MapRun) -> Vec<MapArray> {
         arrays.push(grid("attractors", ArrayData::I32(count)));
         arrays.push(grid("attractor", ArrayData::I32(a.most_likely.clone())));
         arrays.push(grid("failed_fraction", ArrayData::F64(a.failed.clone())));
+        // Arrays with one value per (label, cell): shape (labels, *grid).
+        let per_label = |name: &str, data| MapArray {
+            name: name.to_string(),
+            shape: std::iter::once(a.families.len())
+                .chain(shape.iter().copied())
+                .collect(),
+            data,
+        };
         if a.starts > 1 {
             let start = a.representative.iter().map(|&s| s as i32).collect();
             arrays.push(grid("start", ArrayData::I32(start)));
-            arrays.push(MapArray {
-                name: "attractor_start".into(),
-                shape: [a.families.len()]
-                    .into_iter()
-                    .chain(shape.iter().copied())
-                    .collect(),
-                data: ArrayData::I32(a.first_starts().concat()),
-            });
+            let firsts = ArrayData::I32(a.first_starts().concat());
+            arrays.push(per_label("attractor_start", firsts));
         }
-        arrays.push(MapArray {
-            name: "basin_fraction".into(),
-            shape: [a.families.len()]
-                .into_iter()
-                .chain(shape.iter().copied())
-                .collect(),
-            data: ArrayData::F64(a.fractions.concat()),
-        });
+        arrays.push(per_label(
+            "basin_fraction",
+            ArrayData::F64(a.fractions.concat()),
+        ));
     }
     if let Some(c) = &run.continuation {
         arrays.extend(continuation_arrays(spec, c));
