@@ -41,6 +41,40 @@ pub const STARTS_MAP_SETS: [&str; 10] = [
     "map.initial_states=6",
 ];
 
+/// `map` arguments of the pinned hysteresis (engine suite, `continuation.rs`): six cells from
+/// 9 to 12 Hz at 1 mm (N = 3), run up and down; sweeping down holds a period-2 orbit from
+/// 12 Hz to 10 Hz that sweeping up never reaches.
+pub const HYSTERESIS_MAP_SETS: [&str; 16] = [
+    "--set",
+    "map.axes=[{key=\"excitation.frequency_hz\",values=[9.0,10.0,10.5,11.0,11.5,12.0]}]",
+    "--set",
+    "beam.segments=3",
+    "--set",
+    "integration.duration_s=36",
+    "--set",
+    "integration.transient_s=12",
+    "--set",
+    "excitation.amplitude_m=0.001",
+    "--set",
+    "map.metrics=[\"period\",\"alpha_range\",\"regime\"]",
+    "--set",
+    "map.lyapunov_window_s=6",
+    "--set",
+    "map.continuation=both",
+];
+
+/// `pendulum-atlas map --backend cpu --quiet --out OUT ARGS`, which must succeed: its stdout.
+pub fn map_cli(out: &std::path::Path, args: &[&str]) -> String {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_pendulum-atlas"))
+        .args(["map", "--backend", "cpu", "--quiet", "--out"])
+        .arg(out)
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
 /// The paper scene with `section.key=value` overrides.
 pub fn scene(sets: &[&str]) -> Scene {
     let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();

@@ -534,14 +534,7 @@ fn starts_that_cannot_be_run_are_refused_before_any_work() {
 #[test]
 fn a_map_with_starts_writes_its_attractor_files() {
     let out = out_dir("starts");
-    let o = bin()
-        .args(["map", "--backend", "cpu", "--quiet", "--out"])
-        .arg(&out)
-        .args(crate::STARTS_MAP_SETS)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let stdout = String::from_utf8_lossy(&o.stdout);
+    let stdout = crate::map_cli(&out, &crate::STARTS_MAP_SETS);
     assert!(
         stdout.contains("from 6 starts each: 12 runs") && stdout.contains("2 attractor families"),
         "{stdout}"
@@ -660,33 +653,12 @@ fn continuation_that_cannot_be_run_is_refused_before_any_work() {
 fn a_map_run_both_ways_writes_both_directions_and_where_they_differ() {
     // The pinned hysteresis of the engine suite (1 mm; P2 sweeping down, P1 sweeping up).
     let out = out_dir("both-ways");
-    let o = bin()
-        .args(["map", "--backend", "cpu", "--quiet", "--out"])
-        .arg(&out)
-        .args([
-            "--set",
-            "map.axes=[{key=\"excitation.frequency_hz\",values=[9.0,10.0,10.5,11.0,11.5,12.0]}]",
-            "--set",
-            "beam.segments=3",
-            "--set",
-            "integration.duration_s=36",
-            "--set",
-            "integration.transient_s=12",
-            "--set",
-            "excitation.amplitude_m=0.001",
-            "--set",
-            "map.metrics=[\"period\",\"alpha_range\",\"regime\"]",
-            "--set",
-            "map.lyapunov_window_s=6",
-            "--set",
-            "map.bifurcation=true",
-            "--set",
-            "map.continuation=both",
-        ])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let stdout = String::from_utf8_lossy(&o.stdout);
+    let args: Vec<&str> = crate::HYSTERESIS_MAP_SETS
+        .iter()
+        .copied()
+        .chain(["--set", "map.bifurcation=true"])
+        .collect();
+    let stdout = crate::map_cli(&out, &args);
     assert!(
         stdout.contains("continuation along excitation.frequency_hz (up, then down)")
             && stdout.contains("differ on 5 cells, in 1 band (10–12 Hz"),

@@ -502,13 +502,7 @@ fn cell_limits_outside_their_range_are_refused() {
 #[test]
 fn a_clicked_cell_of_a_map_with_starts_reruns_its_representative_start() {
     let out = scratch("starts-map");
-    let o = super::bin()
-        .args(["map", "--backend", "cpu", "--quiet", "--out"])
-        .arg(&out)
-        .args(crate::STARTS_MAP_SETS)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    crate::map_cli(&out, &crate::STARTS_MAP_SETS);
     let starts: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("attractors.json")).unwrap())
             .unwrap();
@@ -621,30 +615,7 @@ fn a_clicked_cell_of_a_map_with_starts_reruns_its_representative_start() {
 #[test]
 fn a_map_run_both_ways_shows_both_sweeps_and_says_a_rerun_starts_afresh() {
     let out = scratch("both-ways-map");
-    let o = super::bin()
-        .args(["map", "--backend", "cpu", "--quiet", "--out"])
-        .arg(&out)
-        .args([
-            "--set",
-            "map.axes=[{key=\"excitation.frequency_hz\",values=[9.0,10.0,10.5,11.0,11.5,12.0]}]",
-            "--set",
-            "beam.segments=3",
-            "--set",
-            "integration.duration_s=36",
-            "--set",
-            "integration.transient_s=12",
-            "--set",
-            "excitation.amplitude_m=0.001",
-            "--set",
-            "map.metrics=[\"period\",\"alpha_range\",\"regime\"]",
-            "--set",
-            "map.lyapunov_window_s=6",
-            "--set",
-            "map.continuation=both",
-        ])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    crate::map_cli(&out, &crate::HYSTERESIS_MAP_SETS);
     let s = Server::start(&out, &[]);
     let m = json(&s, "GET", "/api/map", 200);
     let names: Vec<&str> = m["metrics"]

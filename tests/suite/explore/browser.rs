@@ -254,13 +254,7 @@ fn npy_status(dir: &Path) -> Vec<u8> {
 fn the_page_lists_a_cells_attractors_and_runs_each() {
     let Some(driver) = start_driver() else { return };
     let out = scratch("browser-starts-map");
-    let o = super::bin()
-        .args(["map", "--backend", "cpu", "--quiet", "--out"])
-        .arg(&out)
-        .args(crate::STARTS_MAP_SETS)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    crate::map_cli(&out, &crate::STARTS_MAP_SETS);
     let server = Server::start(&out, &[]);
     let rt = tokio::runtime::Runtime::new().unwrap();
     rt.block_on(async {
