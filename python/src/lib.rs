@@ -7,17 +7,17 @@
 mod poll;
 
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
-use pendulum_atlas::analysis::{RecordOptions, Sampling, analyze_record};
-use pendulum_atlas::config::{
+use pendulum_atlas_core::analysis::{RecordOptions, Sampling, analyze_record};
+use pendulum_atlas_core::config::{
     ConfigError, DEFAULT_MAP_TOML, MapSpec, PAPER_SCENE_TOML, Scene, apply_override, map_from_toml,
     parse_toml,
 };
-use pendulum_atlas::engine::{Backend, Engine, EngineError, Integrator, Precision, StepPlan};
-use pendulum_atlas::map::run_map;
-use pendulum_atlas::model::Status;
-use pendulum_atlas::output::budget::{RunSize, memory_available};
-use pendulum_atlas::output::map::{ArrayData, MapArray, map_arrays, map_manifest};
-use pendulum_atlas::output::{
+use pendulum_atlas_core::engine::{Backend, Engine, EngineError, Integrator, Precision, StepPlan};
+use pendulum_atlas_map::map::run_map;
+use pendulum_atlas_core::model::Status;
+use pendulum_atlas_map::output::budget::{RunSize, memory_available};
+use pendulum_atlas_map::output::map::{ArrayData, MapArray, map_arrays, map_manifest};
+use pendulum_atlas_map::output::{
     RunFacts, RunReport, TrajectoryRecorder, record_analysis, row_columns, run_warnings,
 };
 use poll::run_polled;
@@ -205,7 +205,7 @@ fn run_map_scene<'py>(
     progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let spec = map_from_toml(text, origin, &sets).map_err(scene_error)?;
-    pendulum_atlas::map::check_host_memory(&spec).map_err(engine_error)?;
+    pendulum_atlas_map::map::check_host_memory(&spec).map_err(engine_error)?;
     let (backend, precision) = (parse_backend(backend)?, parse_precision(precision)?);
     let out = run_polled(py, progress.as_ref(), move |ticker| {
         map_work(&spec, backend, precision, ticker)
@@ -261,15 +261,15 @@ fn simulate_work(
     let mut rec = TrajectoryRecorder {
         load_ohm: scene.piezo_params().map(|z| z.load_ohm),
         on_row: Some(Box::new(move |step| {
-            t.report(step, total, pendulum_atlas::engine::ProgressUnit::Steps)
+            t.report(step, total, pendulum_atlas_core::engine::ProgressUnit::Steps)
         })),
         ..Default::default()
     };
     let started = Instant::now();
-    let run = pendulum_atlas::engine::run_scene(scene, plan, integrator, precision, &mut rec)?;
+    let run = pendulum_atlas_core::engine::run_scene(scene, plan, integrator, precision, &mut rec)?;
     if rec.stopped {
         return Err(WorkError::Engine(
-            pendulum_atlas::engine::EngineError::Cancelled,
+            pendulum_atlas_core::engine::EngineError::Cancelled,
         ));
     }
     let wall_time_s = started.elapsed().as_secs_f64();

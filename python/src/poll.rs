@@ -2,7 +2,7 @@
 //! released, while the calling (main) thread wakes every [`TICK`] to move the progress bar
 //! and to notice Ctrl-C, which only the main thread can see.
 
-use pendulum_atlas::engine::ProgressUnit;
+use pendulum_atlas_core::engine::ProgressUnit;
 use pyo3::prelude::*;
 use std::ops::ControlFlow;
 use std::sync::Arc;

@@ -1,14 +1,14 @@
 //! `pendulum-atlas analyze`: the paper's indicators for a measured (or simulated) CSV record.
 
 use anyhow::{Context, bail};
-use pendulum_atlas::analysis::{
+use pendulum_atlas_core::analysis::{
     AnalysisError, GAP_MEDIAN_STEPS, K01Method, Lag1Choice, Lag1Estimator, MORLET_OMEGA0_MIN,
     MotherWavelet, PhaseConvention, RECORD_MIN_SAMPLES, RecordAnalysis, RecordOptions, Sampling,
     TimeGap, WaveletSettings, ZeroOneOptions, analyze_record, check_uniform_time, median_step,
     resample_uniform, time_gaps,
 };
-use pendulum_atlas::output::files::write_json;
-use pendulum_atlas::output::folder::Product;
+use pendulum_atlas_map::output::files::write_json;
+use pendulum_atlas_map::output::folder::Product;
 use std::path::{Path, PathBuf};
 
 /// Relative tolerance within which every time step must equal the median step for the record
@@ -190,13 +190,13 @@ fn check_record_file(path: &Path) -> anyhow::Result<()> {
     if !meta.is_file() {
         bail!("{shown} is not a regular file; give the CSV file to analyse");
     }
-    if let Some(available) = pendulum_atlas::output::budget::memory_available()
+    if let Some(available) = pendulum_atlas_map::output::budget::memory_available()
         && meta.len() > available / 2
     {
         bail!(
             "{shown} has {} and {} of memory is available: analyse a shorter record, or split it",
-            pendulum_atlas::output::budget::bytes(meta.len()),
-            pendulum_atlas::output::budget::bytes(available)
+            pendulum_atlas_map::output::budget::bytes(meta.len()),
+            pendulum_atlas_map::output::budget::bytes(available)
         );
     }
     Ok(())
@@ -316,7 +316,7 @@ fn column_index(path: &Path, header: &[String], want: &str) -> anyhow::Result<us
         let mut names: Vec<String> = header
             .iter()
             .take(12)
-            .map(|n| pendulum_atlas::config::shorten_lines(&n.replace('\n', " ")))
+            .map(|n| pendulum_atlas_core::config::shorten_lines(&n.replace('\n', " ")))
             .collect();
         if header.len() > 12 {
             names.push(format!("… ({} columns)", header.len()));
@@ -324,7 +324,7 @@ fn column_index(path: &Path, header: &[String], want: &str) -> anyhow::Result<us
         anyhow::anyhow!(
             "{}: no column `{want}`; the columns are: {}",
             path.display(),
-            pendulum_atlas::config::shorten_lines(&names.join(", "))
+            pendulum_atlas_core::config::shorten_lines(&names.join(", "))
         )
     })
 }

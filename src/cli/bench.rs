@@ -1,18 +1,18 @@
 //! `pendulum-atlas bench`: the work-precision study and scaling measurements.
 
 use super::engine::BackendArg;
-use pendulum_atlas::bench::cpu_report::write_cpu_throughput;
-use pendulum_atlas::bench::cpu_throughput::{CpuThroughputOptions, run_cpu_throughput};
-use pendulum_atlas::bench::gpu_report::write_throughput;
-use pendulum_atlas::bench::gpu_throughput::{SEGMENTS, ThroughputOptions, run_throughput};
-use pendulum_atlas::bench::stiff::{StiffOptions, run_stiff};
-use pendulum_atlas::bench::stiff_map::{StiffMapOptions, run_stiff_map};
-use pendulum_atlas::bench::stiff_map_report::write_stiff_map;
-use pendulum_atlas::bench::stiff_report::write_stiff;
-use pendulum_atlas::bench::verdict::{VerdictOptions, run_verdict};
-use pendulum_atlas::bench::verdict_report::write_verdict;
-use pendulum_atlas::bench::{BenchOptions, report::write_bench, run_bench};
-use pendulum_atlas::output::folder::Product;
+use pendulum_atlas_studies::bench::cpu_report::write_cpu_throughput;
+use pendulum_atlas_studies::bench::cpu_throughput::{CpuThroughputOptions, run_cpu_throughput};
+use pendulum_atlas_studies::bench::gpu_report::write_throughput;
+use pendulum_atlas_studies::bench::gpu_throughput::{SEGMENTS, ThroughputOptions, run_throughput};
+use pendulum_atlas_studies::bench::stiff::{StiffOptions, run_stiff};
+use pendulum_atlas_studies::bench::stiff_map::{StiffMapOptions, run_stiff_map};
+use pendulum_atlas_studies::bench::stiff_map_report::write_stiff_map;
+use pendulum_atlas_studies::bench::stiff_report::write_stiff;
+use pendulum_atlas_studies::bench::verdict::{VerdictOptions, run_verdict};
+use pendulum_atlas_studies::bench::verdict_report::write_verdict;
+use pendulum_atlas_studies::bench::{BenchOptions, report::write_bench, run_bench};
+use pendulum_atlas_map::output::folder::Product;
 use std::path::PathBuf;
 
 /// Arguments of `bench`.
@@ -189,7 +189,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
 /// `bench --cpu-throughput`.
 fn cpu_throughput(
     a: &BenchArgs,
-    gpu: Option<&pendulum_atlas::engine::Engine>,
+    gpu: Option<&pendulum_atlas_core::engine::Engine>,
 ) -> anyhow::Result<()> {
     let report = run_cpu_throughput(
         &CpuThroughputOptions {
@@ -210,8 +210,8 @@ fn cpu_throughput(
 }
 
 /// `bench --refine`.
-fn refine(a: &BenchArgs, gpu: Option<&pendulum_atlas::engine::Engine>) -> anyhow::Result<()> {
-    use pendulum_atlas::bench::refine::{RefineOptions, run_refine, write_refine};
+fn refine(a: &BenchArgs, gpu: Option<&pendulum_atlas_core::engine::Engine>) -> anyhow::Result<()> {
+    use pendulum_atlas_studies::bench::refine::{RefineOptions, run_refine, write_refine};
     let report = run_refine(
         &RefineOptions {
             quick: a.quick,
@@ -230,7 +230,7 @@ fn refine(a: &BenchArgs, gpu: Option<&pendulum_atlas::engine::Engine>) -> anyhow
 }
 
 /// `bench --verdict`.
-fn verdict(a: &BenchArgs, gpu: Option<&pendulum_atlas::engine::Engine>) -> anyhow::Result<()> {
+fn verdict(a: &BenchArgs, gpu: Option<&pendulum_atlas_core::engine::Engine>) -> anyhow::Result<()> {
     let report = run_verdict(
         &VerdictOptions {
             quick: a.quick,
@@ -273,7 +273,7 @@ fn peak_tflops(s: &str) -> Result<f64, String> {
 }
 
 /// `bench --throughput`.
-fn throughput(a: &BenchArgs, gpu: Option<&pendulum_atlas::engine::Engine>) -> anyhow::Result<()> {
+fn throughput(a: &BenchArgs, gpu: Option<&pendulum_atlas_core::engine::Engine>) -> anyhow::Result<()> {
     if gpu.is_none() && a.no_cpu {
         anyhow::bail!("bench --throughput --no-cpu needs a GPU adapter, and none was found");
     }

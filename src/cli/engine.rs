@@ -1,7 +1,7 @@
 //! The engine flags shared by `map`, `search`, `bench`: the CLI's spelling of
 //! [`Backend`] and [`Precision`], and opening the engine once per command.
 
-use pendulum_atlas::engine::{Backend, CpuLoop, Engine, EngineError, Precision};
+use pendulum_atlas_core::engine::{Backend, CpuLoop, Engine, EngineError, Precision};
 
 /// CLI spelling of [`Backend`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

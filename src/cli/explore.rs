@@ -1,7 +1,7 @@
 //! `pendulum-atlas explore`: serve a finished map, calibration or search folder as an
 //! interactive page.
 
-use pendulum_atlas::explore::{CellLimits, RunFolder, ServeOptions, serve};
+use pendulum_atlas_explore::{CellLimits, RunFolder, ServeOptions, serve};
 use std::io::Write;
 use std::net::IpAddr;
 use std::path::PathBuf;

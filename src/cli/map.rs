@@ -2,15 +2,15 @@
 //! whole or one shard of it; `pendulum-atlas merge`: shards back into one map.
 
 use super::engine::{EngineArgs, hint};
-use pendulum_atlas::config::{DEFAULT_MAP_TOML, MapSpec, map_from_toml, scene_text};
-use pendulum_atlas::engine::gpu::list_adapters;
-use pendulum_atlas::engine::{Engine, no_progress};
-use pendulum_atlas::map::hardware_default::hardware_default;
-use pendulum_atlas::map::{MapRun, check_host_memory, run_map, run_map_on_devices, run_map_shard};
-use pendulum_atlas::model::Status;
-use pendulum_atlas::output::folder::Product;
-use pendulum_atlas::output::map::write_map;
-use pendulum_atlas::shard::{Shard, merge_shards, write_shard};
+use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, MapSpec, map_from_toml, scene_text};
+use pendulum_atlas_core::engine::gpu::list_adapters;
+use pendulum_atlas_core::engine::{Engine, no_progress};
+use pendulum_atlas_map::map::hardware_default::hardware_default;
+use pendulum_atlas_map::map::{MapRun, check_host_memory, run_map, run_map_on_devices, run_map_shard};
+use pendulum_atlas_core::model::Status;
+use pendulum_atlas_map::output::folder::Product;
+use pendulum_atlas_map::output::map::write_map;
+use pendulum_atlas_map::shard::{Shard, merge_shards, write_shard};
 use std::path::PathBuf;
 
 /// Arguments of `map`.
@@ -224,8 +224,8 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<()> {
 
 /// One line on a map run by continuation: its axis and directions, restarts, and the bands
 /// where up and down differ.
-fn continuation_summary(c: &pendulum_atlas::map::continuation::ContinuationRun) -> String {
-    use pendulum_atlas::text::num;
+fn continuation_summary(c: &pendulum_atlas_map::map::continuation::ContinuationRun) -> String {
+    use pendulum_atlas_core::text::num;
     let dirs: Vec<&str> = c.legs.iter().map(|l| l.direction.name()).collect();
     let restarted: usize = c.legs.iter().map(|l| l.restarted).sum();
     let mut line = format!(
@@ -239,7 +239,7 @@ fn continuation_summary(c: &pendulum_atlas::map::continuation::ContinuationRun) 
         );
     }
     if let Some(h) = &c.hysteresis {
-        let unit = pendulum_atlas::config::key_unit(&c.spec.key).unwrap_or("");
+        let unit = pendulum_atlas_core::config::key_unit(&c.spec.key).unwrap_or("");
         let bands: Vec<String> = h
             .bands
             .iter()

@@ -20,7 +20,7 @@ use clap::{Parser, Subcommand};
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct RunFailed(pub String);
-use pendulum_atlas::output::folder::Product;
+use pendulum_atlas_map::output::folder::Product;
 use std::path::{Path, PathBuf};
 
 /// Chaos and bifurcation maps of an elastic inverted pendulum with clearance
@@ -128,7 +128,7 @@ fn progress_bar(quiet: bool, template: &str) -> indicatif::ProgressBar {
 /// An engine progress callback that moves `bar` (its prefix names the unit counted).
 fn bar_progress(
     bar: &indicatif::ProgressBar,
-) -> impl Fn(u64, u64, pendulum_atlas::engine::ProgressUnit) -> std::ops::ControlFlow<()> + Sync + '_
+) -> impl Fn(u64, u64, pendulum_atlas_core::engine::ProgressUnit) -> std::ops::ControlFlow<()> + Sync + '_
 {
     move |done, total, unit| {
         bar.set_length(total);
@@ -159,8 +159,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 impl SceneArgs {
     /// Load and validate the scene with its overrides.
     /// Its remarks (keys given but not used) are printed as warnings.
-    pub fn load(&self) -> anyhow::Result<pendulum_atlas::config::Scene> {
-        let scene = pendulum_atlas::config::load_scene(self.scene.as_deref(), &self.sets)?;
+    pub fn load(&self) -> anyhow::Result<pendulum_atlas_core::config::Scene> {
+        let scene = pendulum_atlas_core::config::load_scene(self.scene.as_deref(), &self.sets)?;
         for note in &scene.notes {
             eprintln!("warning: {note}");
         }

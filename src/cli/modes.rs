@@ -2,9 +2,9 @@
 //! damping it implies, and the automatic steps of both integration methods.
 
 use super::SceneArgs;
-use pendulum_atlas::config::DampingReport;
-use pendulum_atlas::engine::method::{MethodSteps, choose_method};
-use pendulum_atlas::model::Modes;
+use pendulum_atlas_core::config::DampingReport;
+use pendulum_atlas_core::engine::method::{MethodSteps, choose_method};
+use pendulum_atlas_core::model::Modes;
 use serde::Serialize;
 
 /// Arguments of `modes`.

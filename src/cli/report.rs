@@ -2,10 +2,10 @@
 //! the pictures, every axis labelled in the record's time unit.
 
 use anyhow::Context;
-use pendulum_atlas::analysis::{RecordAnalysis, pq_path};
-use pendulum_atlas::output::files::{commit_csv, create_csv, draw};
-use pendulum_atlas::output::npy::write_npy_f64;
-use pendulum_atlas::render::{self, Series};
+use pendulum_atlas_core::analysis::{RecordAnalysis, pq_path};
+use pendulum_atlas_map::output::files::{commit_csv, create_csv, draw};
+use pendulum_atlas_map::output::npy::write_npy_f64;
+use pendulum_atlas_map::render::{self, Series};
 use std::path::Path;
 
 /// Write spectrum.csv, the wavelet and phase arrays (.npy) and the PNGs of an analysis of the

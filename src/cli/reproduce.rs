@@ -1,8 +1,8 @@
 //! `pendulum-atlas reproduce`: every case of the paper, its Table 2, figures and a report.
 
 use anyhow::Context;
-use pendulum_atlas::output::folder::Product;
-use pendulum_atlas::reproduce::{ReproduceOptions, paper_cases, reproduce};
+use pendulum_atlas_map::output::folder::Product;
+use pendulum_atlas_studies::reproduce::{ReproduceOptions, paper_cases, reproduce};
 use std::path::PathBuf;
 
 /// Arguments of `reproduce`.

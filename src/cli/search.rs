@@ -1,8 +1,8 @@
 //! `pendulum-atlas search`: the broadband-harvesting design search over a harvester scene.
 
 use super::engine::EngineArgs;
-use pendulum_atlas::harvest::{load_search, run_search, verify_design, write_search};
-use pendulum_atlas::output::folder::Product;
+use pendulum_atlas_studies::harvest::{load_search, run_search, verify_design, write_search};
+use pendulum_atlas_map::output::folder::Product;
 use std::path::PathBuf;
 
 /// Arguments of `search`.
@@ -123,8 +123,8 @@ pub fn run(a: SearchArgs) -> anyhow::Result<()> {
 /// With the expected weighting: where the best design's high-power attractor is most likely,
 /// in one line (its power and basin fraction at that frequency).
 fn top_attractor_line(
-    best: &pendulum_atlas::harvest::DesignResult,
-    spec: &pendulum_atlas::harvest::SearchSpec,
+    best: &pendulum_atlas_studies::harvest::DesignResult,
+    spec: &pendulum_atlas_studies::harvest::SearchSpec,
 ) -> Option<String> {
     let f = &spec.band.frequencies_hz;
     let (j, t) = best
@@ -136,7 +136,7 @@ fn top_attractor_line(
     Some(format!(
         "best design's high-power attractor: {:.3e} W at {} Hz, reached from {:.0} % of the starts (basin fraction {:.2})",
         t.power_w,
-        pendulum_atlas::text::num(f[j]),
+        pendulum_atlas_core::text::num(f[j]),
         100.0 * t.basin_fraction,
         t.basin_fraction
     ))

@@ -2,18 +2,18 @@
 
 use super::SceneArgs;
 use indicatif::{ProgressBar, ProgressStyle};
-use pendulum_atlas::analysis::RecordAnalysis;
-use pendulum_atlas::config::Scene;
-use pendulum_atlas::engine::{
+use pendulum_atlas_core::analysis::RecordAnalysis;
+use pendulum_atlas_core::config::Scene;
+use pendulum_atlas_core::engine::{
     Integrator, Outcome, Precision as EnginePrecision, RunLyapunov, SceneRun, StepPlan, run_scene,
 };
-use pendulum_atlas::model::Status;
-use pendulum_atlas::output::budget::{self, RunSize};
-use pendulum_atlas::output::files::write_json;
-use pendulum_atlas::output::folder::Product;
-use pendulum_atlas::output::{Row, RunFacts, RunReport, record_analysis, run_warnings};
-use pendulum_atlas::output::{TrajectoryRecorder, write_trajectory_csv};
-use pendulum_atlas::render::{self, Panel, Series};
+use pendulum_atlas_core::model::Status;
+use pendulum_atlas_map::output::budget::{self, RunSize};
+use pendulum_atlas_map::output::files::write_json;
+use pendulum_atlas_map::output::folder::Product;
+use pendulum_atlas_map::output::{Row, RunFacts, RunReport, record_analysis, run_warnings};
+use pendulum_atlas_map::output::{TrajectoryRecorder, write_trajectory_csv};
+use pendulum_atlas_map::render::{self, Panel, Series};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -273,8 +273,8 @@ fn time_series_figure(
     let alpha = col(|r| r.alpha_rad);
     let chord = col(|r| r.chord_m * 1e3);
     let skip = ((scene.integration.transient_s * rate).ceil() as usize).min(rows.len());
-    let spec_a = pendulum_atlas::analysis::amplitude_spectrum(&alpha[skip..], rate)?;
-    let spec_c = pendulum_atlas::analysis::amplitude_spectrum(&chord[skip..], rate)?;
+    let spec_a = pendulum_atlas_core::analysis::amplitude_spectrum(&alpha[skip..], rate)?;
+    let spec_c = pendulum_atlas_core::analysis::amplitude_spectrum(&chord[skip..], rate)?;
     // Show the band of the paper's spectra: up to six times the forcing frequency.
     let f_max = 6.0 * scene.excitation.reference_frequency_hz();
     let keep = spec_a
@@ -289,7 +289,7 @@ fn time_series_figure(
         log_y: false,
     };
     let path = out.join("time_series.png");
-    pendulum_atlas::output::files::draw(&path, |p| {
+    pendulum_atlas_map::output::files::draw(&path, |p| {
         render::stacked_panels(
             p,
             &format!(

@@ -1,9 +1,9 @@
 //! `pendulum-atlas slurm`: the sbatch scripts of a sharded map, and optionally their submission.
 
 use super::engine::BackendArg;
-use pendulum_atlas::output::files::{create_dir, write_bytes, write_json};
-use pendulum_atlas::output::folder::Product;
-use pendulum_atlas::shard::{SlurmJob, check_partition, check_time};
+use pendulum_atlas_map::output::files::{create_dir, write_bytes, write_json};
+use pendulum_atlas_map::output::folder::Product;
+use pendulum_atlas_map::shard::{SlurmJob, check_partition, check_time};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 

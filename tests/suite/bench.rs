@@ -1,8 +1,8 @@
 //! The work-precision report: files, table and pictures from a study's results.
 
-use pendulum_atlas::bench::report::write_bench;
-use pendulum_atlas::bench::{BenchConfig, BenchReport, ConfigResult, KOnly, Scaling};
-use pendulum_atlas::engine::{EngineKind, Precision};
+use pendulum_atlas_studies::bench::report::write_bench;
+use pendulum_atlas_studies::bench::{BenchConfig, BenchReport, ConfigResult, KOnly, Scaling};
+use pendulum_atlas_core::engine::{EngineKind, Precision};
 
 fn config(n: usize, precision: Precision, err: f64, cost: f64) -> ConfigResult {
     ConfigResult {
@@ -73,9 +73,9 @@ fn bench_report_writes_table_json_and_pictures() {
 
 #[test]
 fn the_stiff_study_compares_rk4_and_imex_against_the_reference() {
-    use pendulum_atlas::bench::stiff::{Reading, StiffOptions, run_stiff};
-    use pendulum_atlas::bench::stiff_report::markdown;
-    use pendulum_atlas::engine::method::Method;
+    use pendulum_atlas_studies::bench::stiff::{Reading, StiffOptions, run_stiff};
+    use pendulum_atlas_studies::bench::stiff_report::markdown;
+    use pendulum_atlas_core::engine::method::Method;
     let r = run_stiff(
         &StiffOptions {
             quick: true,
@@ -117,8 +117,8 @@ fn the_stiff_study_compares_rk4_and_imex_against_the_reference() {
 
 #[test]
 fn the_stiff_map_study_counts_agreement_on_classified_and_settled_cells() {
-    use pendulum_atlas::bench::stiff_map::{StiffMapOptions, agreement, run_stiff_map};
-    use pendulum_atlas::bench::stiff_map_report::markdown;
+    use pendulum_atlas_studies::bench::stiff_map::{StiffMapOptions, agreement, run_stiff_map};
+    use pendulum_atlas_studies::bench::stiff_map_report::markdown;
     let r = run_stiff_map(
         &StiffMapOptions {
             quick: true,
@@ -155,8 +155,8 @@ fn the_stiff_map_study_counts_agreement_on_classified_and_settled_cells() {
 fn every_map_of_the_study_gives_k_enough_samples() {
     // A study that stops on its own map with "the 0-1 test needs at least 95 samples" is a
     // broken command: plan each of its maps with K the way the study does.
-    use pendulum_atlas::config::Metric;
-    use pendulum_atlas::engine::{EnsembleOptions, EnsemblePlan};
+    use pendulum_atlas_core::config::Metric;
+    use pendulum_atlas_core::engine::{EnsembleOptions, EnsemblePlan};
     for quick in [true, false] {
         let opts = EnsembleOptions {
             metrics: vec![Metric::K, Metric::R, Metric::Period],
@@ -167,7 +167,7 @@ fn every_map_of_the_study_gives_k_enough_samples() {
             early_stop: None,
             lyapunov: Default::default(),
         };
-        for s in pendulum_atlas::bench::study_scenes(quick).unwrap() {
+        for s in pendulum_atlas_studies::bench::study_scenes(quick).unwrap() {
             EnsemblePlan::from_scenes(std::slice::from_ref(&s), &opts)
                 .unwrap_or_else(|e| panic!("quick = {quick}: {e}"));
         }
@@ -176,8 +176,8 @@ fn every_map_of_the_study_gives_k_enough_samples() {
 
 #[test]
 fn the_verdict_study_scores_candidates_on_the_settled_cells_of_its_reference() {
-    use pendulum_atlas::bench::verdict::{Decider, VerdictOptions, run_verdict};
-    use pendulum_atlas::bench::verdict_report::write_verdict;
+    use pendulum_atlas_studies::bench::verdict::{Decider, VerdictOptions, run_verdict};
+    use pendulum_atlas_studies::bench::verdict_report::write_verdict;
     let r = run_verdict(
         &VerdictOptions {
             quick: true,

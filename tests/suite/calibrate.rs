@@ -1,10 +1,10 @@
 //! Calibration: the spec refuses what it cannot judge, and a calibration recovers an unknown
 //! from observations the model itself produced at a known value.
 
-use pendulum_atlas::calibrate::{Observation, calibration_from_toml, run_calibration};
-use pendulum_atlas::engine::{Engine, EnsembleOptions, EnsemblePlan, Precision, no_progress};
-use pendulum_atlas::map::run_plan;
-use pendulum_atlas::reduce::{InstanceResult, ReduceOptions};
+use pendulum_atlas_studies::calibrate::{Observation, calibration_from_toml, run_calibration};
+use pendulum_atlas_core::engine::{Engine, EnsembleOptions, EnsemblePlan, Precision, no_progress};
+use pendulum_atlas_map::map::run_plan;
+use pendulum_atlas_core::reduce::{InstanceResult, ReduceOptions};
 
 /// N = 3, 22-s runs (2 s transient: 100 stroboscopic samples at 5 Hz for K), the paper's
 /// bumpers.
@@ -21,7 +21,7 @@ fn truth(clearance: f64) -> Vec<InstanceResult> {
     let scenes: Vec<_> = CASES
         .iter()
         .map(|&(f, a)| {
-            pendulum_atlas::config::Scene::from_toml(
+            pendulum_atlas_core::config::Scene::from_toml(
                 BASE,
                 "<truth>",
                 &[
@@ -34,7 +34,7 @@ fn truth(clearance: f64) -> Vec<InstanceResult> {
         })
         .collect();
     let opts = EnsembleOptions {
-        metrics: pendulum_atlas::config::Metric::ALL.to_vec(),
+        metrics: pendulum_atlas_core::config::Metric::ALL.to_vec(),
         keep_strobe: false,
         samples_per_period: 16,
         strobe_phase: 0.0,

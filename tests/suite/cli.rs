@@ -743,7 +743,7 @@ fn calibrate_writes_its_candidates_best_scene_report_and_manifest() {
     image::open(&png).unwrap_or_else(|e| panic!("{}: {e}", png.display()));
     // The best scene is a scene `simulate` reads, with the best value in it.
     let scene = std::fs::read_to_string(out.join("best_scene.toml")).unwrap();
-    let parsed = pendulum_atlas::config::Scene::from_toml(&scene, "<best>", &[]).unwrap();
+    let parsed = pendulum_atlas_core::config::Scene::from_toml(&scene, "<best>", &[]).unwrap();
     assert_eq!(parsed.limiter.contact_arc_m, best);
     assert!(!scene.contains("[calibrate]"), "{scene}");
     let report = std::fs::read_to_string(out.join("REPORT.md")).unwrap();
@@ -882,7 +882,7 @@ fn an_input_named_like_an_output_in_out_is_refused_and_kept() {
     );
     // A map scene saved as the folder's own map_scene.toml, likewise.
     let scene = dir.join("map_scene.toml");
-    std::fs::write(&scene, pendulum_atlas::config::DEFAULT_MAP_TOML).unwrap();
+    std::fs::write(&scene, pendulum_atlas_core::config::DEFAULT_MAP_TOML).unwrap();
     let o = bin()
         .args(["map", "--backend", "cpu", "--force", "--out"])
         .arg(&dir)

@@ -1,7 +1,7 @@
 //! Scene validation: each class of bad input gets a message naming the key and the range.
 
 use super::{scene, scene_error};
-use pendulum_atlas::config::{PivotMode, Scene, TimeStep, parse_override_value};
+use pendulum_atlas_core::config::{PivotMode, Scene, TimeStep, parse_override_value};
 
 #[test]
 fn paper_scene_is_table_1() {
@@ -201,7 +201,7 @@ fn malformed_overrides_and_toml_are_reported() {
 
 #[test]
 fn every_shipped_scene_is_valid() {
-    use pendulum_atlas::config::{load_map, load_scene};
+    use pendulum_atlas_core::config::{load_map, load_scene};
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
     let mut checked = 0;
     for dir in ["", "paper", "maps", "stress"] {
@@ -215,7 +215,7 @@ fn every_shipped_scene_is_valid() {
                 let spec = load_map(Some(&path), &[])
                     .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
                 // Planning checks what validation cannot: enough samples for every metric.
-                pendulum_atlas::engine::EnsemblePlan::new(&spec)
+                pendulum_atlas_core::engine::EnsemblePlan::new(&spec)
                     .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             } else {
                 load_scene(Some(&path), &[]).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
@@ -245,7 +245,7 @@ fn two_joint_damping_keys_are_an_error_naming_both() {
 
 #[test]
 fn the_contact_damping_law_is_one_of_two_names() {
-    use pendulum_atlas::config::ContactDamping;
+    use pendulum_atlas_core::config::ContactDamping;
     assert_eq!(scene(&[]).limiter.damping_law, ContactDamping::Loading);
     let kv = scene(&["limiter.damping_law=\"kelvin_voigt\""]);
     assert_eq!(kv.limiter.damping_law, ContactDamping::KelvinVoigt);
@@ -258,7 +258,7 @@ fn the_contact_damping_law_is_one_of_two_names() {
 
 #[test]
 fn a_sweep_says_that_its_frequency_key_is_not_used() {
-    let sweep = pendulum_atlas::config::load_scene(
+    let sweep = pendulum_atlas_core::config::load_scene(
         None,
         &[
             "excitation.kind=\"sweep\"".into(),
@@ -280,7 +280,7 @@ fn a_sweep_says_that_its_frequency_key_is_not_used() {
 fn setting_a_swept_key_is_an_error_that_names_the_axis() {
     for value in ["5.0", "5"] {
         let arg = format!("excitation.amplitude_m={value}");
-        let err = pendulum_atlas::config::load_map(None, std::slice::from_ref(&arg))
+        let err = pendulum_atlas_core::config::load_map(None, std::slice::from_ref(&arg))
             .expect_err("an axis cannot be set");
         let text = err.to_string();
         assert!(text.contains("is an axis of this map"), "{text}");
@@ -288,9 +288,9 @@ fn setting_a_swept_key_is_an_error_that_names_the_axis() {
     }
     // A key no axis sweeps is still overridden.
     let spec =
-        pendulum_atlas::config::load_map(None, &["limiter.clearance_deg=15".into()]).expect("map");
+        pendulum_atlas_core::config::load_map(None, &["limiter.clearance_deg=15".into()]).expect("map");
     assert_eq!(spec.scene.limiter.clearance_deg, 15.0);
-    let err = pendulum_atlas::harvest::load_search(None, &["limiter.clearance_deg=15".into()])
+    let err = pendulum_atlas_studies::harvest::load_search(None, &["limiter.clearance_deg=15".into()])
         .expect_err("a design variable cannot be set");
     assert!(err.to_string().contains("design variable"), "{err}");
 }

@@ -9,10 +9,10 @@
 //! lever `s_b cos θ` over the impact (< 0.3 %).
 
 use super::scene;
-use pendulum_atlas::config::Scene;
-use pendulum_atlas::engine::{Instance, ReferenceOptions, StepPlan, integrate_reference};
-use pendulum_atlas::model::Status;
-use pendulum_atlas::output::{Row, TrajectoryRecorder};
+use pendulum_atlas_core::config::Scene;
+use pendulum_atlas_core::engine::{Instance, ReferenceOptions, StepPlan, integrate_reference};
+use pendulum_atlas_core::model::Status;
+use pendulum_atlas_map::output::{Row, TrajectoryRecorder};
 
 const IMPACT: [&str; 9] = [
     "beam.segments=1",

@@ -2,8 +2,8 @@
 //! linear baseline against the clamped beam's natural frequency, `search` end to end on both
 //! backends (with its power re-checked by `simulate`, as a user would), and its input errors.
 
-use pendulum_atlas::engine::{Engine, Precision};
-use pendulum_atlas::harvest::{
+use pendulum_atlas_core::engine::{Engine, Precision};
+use pendulum_atlas_studies::harvest::{
     SearchSpec, band_average_w, band_metrics, bandwidth_hz, mean_curve, robust_curve, run_search,
     search_from_toml,
 };
@@ -129,7 +129,7 @@ fn tiny_spec(extra_sets: &[&str]) -> SearchSpec {
     .collect();
     sets.extend(extra_sets.iter().map(|s| s.to_string()));
     search_from_toml(
-        pendulum_atlas::harvest::DEFAULT_SEARCH_TOML,
+        pendulum_atlas_studies::harvest::DEFAULT_SEARCH_TOML,
         "<default search>",
         &sets,
     )
@@ -146,7 +146,7 @@ fn the_baseline_peaks_at_the_clamped_first_natural_frequency() {
     let run = run_search(&spec, &Engine::cpu(Precision::F64), &|_, _, _| {}).expect("search");
     // `modes` of the clamped beam, no limiter, g as given.
     let mut clamped = spec.scene.clone();
-    clamped.pivot.mode = pendulum_atlas::config::PivotMode::Clamped;
+    clamped.pivot.mode = pendulum_atlas_core::config::PivotMode::Clamped;
     clamped.limiter.enabled = false;
     let f1 = clamped.modes().unwrap().frequencies_hz[0];
     close(run.baseline.first_natural_hz, f1, 1e-9, "baseline f1");
@@ -399,7 +399,7 @@ fn search_runs_end_to_end_on_the_gpu() {
 fn search_error(sets: &[&str]) -> String {
     let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
     search_from_toml(
-        pendulum_atlas::harvest::DEFAULT_SEARCH_TOML,
+        pendulum_atlas_studies::harvest::DEFAULT_SEARCH_TOML,
         "<default search>",
         &sets,
     )
@@ -492,7 +492,7 @@ fn a_bad_design_variable_stops_the_command_with_its_name() {
 
 #[test]
 fn the_expected_weighting_ranks_designs_by_the_mean_power_over_sampled_starts() {
-    use pendulum_atlas::harvest::{TOP_POWER_SHARE, Weighting};
+    use pendulum_atlas_studies::harvest::{TOP_POWER_SHARE, Weighting};
     let spec = tiny_spec(&[
         "search.band={start_hz=6.0,end_hz=14.0,count=3,base_acceleration_m_s2=2.0}",
         "search.variables=[{key=\"limiter.clearance_deg\",values=[8.0,12.0,16.0]}]",

@@ -3,14 +3,14 @@
 //! integrator's step cap for stiff chains.
 
 use super::scene;
-use pendulum_atlas::config::Scene;
-use pendulum_atlas::engine::imex::{AE, AI, B, B_HAT, C, GAMMA};
-use pendulum_atlas::engine::method::{Method, MethodSteps};
-use pendulum_atlas::engine::{
+use pendulum_atlas_core::config::Scene;
+use pendulum_atlas_core::engine::imex::{AE, AI, B, B_HAT, C, GAMMA};
+use pendulum_atlas_core::engine::method::{Method, MethodSteps};
+use pendulum_atlas_core::engine::{
     Instance, ReferenceOptions, StepPlan, integrate, integrate_reference,
 };
-use pendulum_atlas::model::Status;
-use pendulum_atlas::output::{Row, TrajectoryRecorder};
+use pendulum_atlas_core::model::Status;
+use pendulum_atlas_map::output::{Row, TrajectoryRecorder};
 
 /// The library reading of the joint damping (ζ1 of the first clamped mode at N = 17).
 const LIBRARY_ZETA: &str = "beam.damping_ratio=0.0546";

@@ -23,7 +23,7 @@ mod single_run;
 mod slurm;
 mod throughput;
 
-use pendulum_atlas::config::{PAPER_SCENE_TOML, Scene};
+use pendulum_atlas_core::config::{PAPER_SCENE_TOML, Scene};
 
 /// `map` arguments of a two-cell map (7.8 and 8 Hz at 1 mm, N = 3) run from 6 starts per
 /// cell: both cells hold the two wells' period-1 orbits (the pinned bistable cell and its

@@ -134,11 +134,11 @@ fn check_map_dir(out: &std::path::Path, backend: &str) {
     assert!(header.contains("'shape': (3, 2"), "K.npy header {header}");
     // regime.npy: int8 codes −1…3 shaped like the grid, the names of grid.csv.
     let (shape, codes) =
-        pendulum_atlas::output::npy::read_npy::<i8>(&out.join("regime.npy")).unwrap();
+        pendulum_atlas_map::output::npy::read_npy::<i8>(&out.join("regime.npy")).unwrap();
     assert_eq!(shape, vec![3, 2]);
     let names: Vec<&str> = rows.iter().map(|r| r.split(',').nth(14).unwrap()).collect();
     for (c, n) in codes.iter().zip(&names) {
-        let r = pendulum_atlas::reduce::Regime::from_code(i64::from(*c)).expect("a code");
+        let r = pendulum_atlas_core::reduce::Regime::from_code(i64::from(*c)).expect("a code");
         assert_eq!(r.name(), *n);
     }
     let counts = &json["regime"]["counts"];
@@ -448,8 +448,8 @@ fn a_refined_map_marks_its_inferred_cells_in_every_file() {
 
 #[test]
 fn a_given_step_is_shortened_to_divide_the_period_never_lengthened() {
-    use pendulum_atlas::config::map_from_toml;
-    use pendulum_atlas::engine::EnsemblePlan;
+    use pendulum_atlas_core::config::map_from_toml;
+    use pendulum_atlas_core::engine::EnsemblePlan;
     for dt in [4.1e-4, 5e-4, 6.9e-4, 1.3e-3] {
         let spec = map_from_toml(
             "[beam]\nsegments = 3\n[integration]\nduration_s = 30.0\ntransient_s = 5.0\n\

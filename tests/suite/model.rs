@@ -1,7 +1,7 @@
 //! The model against MODEL.md's reference numbers and against its own dense form.
 
 use super::scene;
-use pendulum_atlas::model::{Chain, ContactDamping, ContactLaw, ModelParams, dense, linear};
+use pendulum_atlas_core::model::{Chain, ContactDamping, ContactLaw, ModelParams, dense, linear};
 
 const CLAMPED_G0: [&str; 3] = [
     "pivot.mode=clamped",
@@ -268,6 +268,6 @@ fn a_linearisation_that_cannot_be_computed_is_an_error_not_a_hang_or_a_panic() {
     let e = linear::generalized_eigenvalues(&m).unwrap_err();
     assert!(e.to_string().contains("not positive definite"), "{e}");
     // The method's steps and the damping ratio carry the same error.
-    assert!(pendulum_atlas::engine::method::MethodSteps::of(&q, 0.5).is_err());
+    assert!(pendulum_atlas_core::engine::method::MethodSteps::of(&q, 0.5).is_err());
     assert!(linear::first_mode_damping_ratio(&m).is_err());
 }

@@ -5,8 +5,8 @@ use std::collections::HashSet;
 use std::f64::consts::PI;
 use std::path::PathBuf;
 
-use pendulum_atlas::output::npy::{write_npy_f32, write_npy_f64, write_npy_i32, write_npy_u8};
-use pendulum_atlas::render::{
+use pendulum_atlas_map::output::npy::{write_npy_f32, write_npy_f64, write_npy_i32, write_npy_u8};
+use pendulum_atlas_map::render::{
     Axis, Category, CellMarks, Palette, Panel, RGBColor, Series, heatmap, histogram, line_chart,
     scalogram, scatter, stacked_panels, zero_one_figure,
 };
@@ -632,11 +632,11 @@ fn palettes_colour_like_their_kind_and_draw_a_bar_or_a_legend() {
     assert!(blue.2 > blue.0 && red.0 > red.2, "{blue:?} {red:?}");
     assert_eq!(
         d.colour(f64::NAN, false, range),
-        pendulum_atlas::render::NODATA_COLOR
+        pendulum_atlas_map::render::NODATA_COLOR
     );
     assert_eq!(
         d.colour(1.0, true, range),
-        pendulum_atlas::render::INVALID_COLOR
+        pendulum_atlas_map::render::INVALID_COLOR
     );
     assert_eq!(d.bar(64).len(), 64);
     // Categorical: a colour per listed value, anything else no data; the legend lists the
@@ -657,7 +657,7 @@ fn palettes_colour_like_their_kind_and_draw_a_bar_or_a_legend() {
     assert_eq!(cats.colour(3.0, false, range), RGBColor(4, 5, 6));
     assert_eq!(
         cats.colour(2.0, false, range),
-        pendulum_atlas::render::NODATA_COLOR
+        pendulum_atlas_map::render::NODATA_COLOR
     );
     assert!(cats.bar(64).is_empty());
     let present = cats.present(&[3.0, 3.0, 1.0], &[false, false, true]);
@@ -750,12 +750,12 @@ fn a_picture_that_cannot_be_written_says_why_in_words() {
     let path = std::env::temp_dir()
         .join(format!("pendulum-atlas-no-such-dir-{}", std::process::id()))
         .join("chart.png");
-    let e = pendulum_atlas::render::line_chart(
+    let e = pendulum_atlas_map::render::line_chart(
         &path,
         "t",
         "x",
         "y",
-        &[pendulum_atlas::render::Series {
+        &[pendulum_atlas_map::render::Series {
             name: "s",
             x: &x,
             y: &x,

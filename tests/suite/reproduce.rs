@@ -1,9 +1,9 @@
 //! `reproduce`: the paper's cases are the paper's numbers, and `reproduce --quick` writes every
 //! promised file (tables, report, valid PNGs) end to end.
 
-use pendulum_atlas::analysis::amplitude_spectrum;
-use pendulum_atlas::config::ExcitationKind;
-use pendulum_atlas::reproduce::{
+use pendulum_atlas_core::analysis::amplitude_spectrum;
+use pendulum_atlas_core::config::ExcitationKind;
+use pendulum_atlas_studies::reproduce::{
     CaseKind, QUICK_DURATION_S, QUICK_SEGMENTS, line_prominence, paper_cases,
 };
 use std::collections::HashMap;

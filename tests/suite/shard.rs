@@ -244,8 +244,8 @@ fn a_map_split_over_two_devices_equals_the_map_on_one() {
 
 #[test]
 fn merge_refuses_shard_rows_no_engine_could_have_written() {
-    use pendulum_atlas::output::npy::{read_npy, write_npy_f64};
-    use pendulum_atlas::shard::files::RESULT_COLUMNS;
+    use pendulum_atlas_map::output::npy::{read_npy, write_npy_f64};
+    use pendulum_atlas_map::shard::files::RESULT_COLUMNS;
     let root = out_dir("tampered");
     let (a, b) = (shard(&root, 0, 2), shard(&root, 1, 2));
     let path = b.join("shard_results.npy");

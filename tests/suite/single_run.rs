@@ -2,12 +2,12 @@
 //! f32/f64/reference agreement, the piezo energy balance, and divergence flagging.
 
 use super::{scene, scene_error};
-use pendulum_atlas::config::Scene;
-use pendulum_atlas::engine::{
+use pendulum_atlas_core::config::Scene;
+use pendulum_atlas_core::engine::{
     Instance, ReferenceOptions, StepPlan, integrate, integrate_batch, integrate_reference,
 };
-use pendulum_atlas::model::{Real, Status};
-use pendulum_atlas::output::{Row, TrajectoryRecorder};
+use pendulum_atlas_core::model::{Real, Status};
+use pendulum_atlas_map::output::{Row, TrajectoryRecorder};
 
 fn run_rk4<T: Real>(s: &Scene) -> (Vec<Row>, Status) {
     let plan = StepPlan::for_scene(s).unwrap();

@@ -1,6 +1,6 @@
 //! Bad input is refused with the variant, and the message, that says what was wrong.
 
-use pendulum_atlas::analysis::{
+use pendulum_atlas_core::analysis::{
     AnalysisError, PhaseConvention, WaveletOptions, ZERO_ONE_MIN_SAMPLES, ZeroOneOptions,
     amplitude_spectrum, morlet_cwt, phase_histogram, phase_sync, rms, stroboscopic, zero_one_test,
 };

@@ -1,6 +1,6 @@
 //! Period detection, hop counting, RMS and range.
 
-use pendulum_atlas::analysis::{detect_period, hops, range, rms};
+use pendulum_atlas_core::analysis::{detect_period, hops, range, rms};
 
 use super::common::logistic;
 

@@ -3,7 +3,7 @@
 
 use std::f64::consts::TAU;
 
-use pendulum_atlas::analysis::{
+use pendulum_atlas_core::analysis::{
     AnalysisError, FLAT_SIGNAL_REL_RANGE, Lag1Choice, MotherWavelet, RECORD_MIN_SAMPLES,
     RecordOptions, Sampling, WaveletSettings, ZERO_ONE_MIN_SAMPLES, analyze_record,
     chi2_2dof_quantile,

@@ -2,7 +2,7 @@
 
 use std::f64::consts::{FRAC_PI_2, TAU};
 
-use pendulum_atlas::analysis::{
+use pendulum_atlas_core::analysis::{
     AnalysisError, GAP_MEDIAN_STEPS, STROBE_MIN_SAMPLES_PER_PERIOD, TimeGap, check_uniform_time,
     local_extrema, median_step, resample_uniform, stroboscopic, stroboscopic_uniform, time_gaps,
 };

@@ -2,7 +2,7 @@
 //! pycwt's `ar1`, scipy's `chi2.ppf`, TC98 eq. 23 evaluated with numpy, and pycwt's `cwt` with
 //! a Morlet wavelet of `ω0 = 10` (tests/fixtures/make_lag1_fixture.py).
 
-use pendulum_atlas::analysis::{
+use pendulum_atlas_core::analysis::{
     AnalysisError, DEFAULT_CONFIDENCE, Lag1Estimator, MotherWavelet, WaveletOptions,
     chi2_2dof_quantile, chi2_quantile, estimate_lag1, global_significance_ar1, lag1_allen_smith,
     lag1_autocorrelation, morlet_cwt, reconstruct_variance, significance_ar1,

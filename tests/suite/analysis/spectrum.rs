@@ -2,7 +2,7 @@
 
 use std::f64::consts::TAU;
 
-use pendulum_atlas::analysis::{amplitude_spectrum, dominant_peak, ratio_to_forcing};
+use pendulum_atlas_core::analysis::{amplitude_spectrum, dominant_peak, ratio_to_forcing};
 
 fn tone(amplitude: f64, freq_hz: f64, rate_hz: f64, duration_s: f64) -> Vec<f64> {
     let n = (rate_hz * duration_s).round() as usize;

@@ -3,7 +3,7 @@
 
 use std::f64::consts::TAU;
 
-use pendulum_atlas::analysis::{
+use pendulum_atlas_core::analysis::{
     DEFAULT_CONFIDENCE, WaveletOptions, chi2_2dof_quantile, cone_of_influence,
     lag1_autocorrelation, morlet_cwt, power_averaged_inside_coi, reconstruct_signal,
     reconstruct_variance, significance_ar1,

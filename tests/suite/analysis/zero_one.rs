@@ -1,6 +1,6 @@
 //! The 0–1 test against dynamics of known character (ANALYSIS.md reference behaviour).
 
-use pendulum_atlas::analysis::{
+use pendulum_atlas_core::analysis::{
     AnalysisError, K01Method, ZERO_ONE_COMFORTABLE_SAMPLES, ZERO_ONE_MIN_SAMPLES, ZeroOneOptions,
     pq_path, zero_one_test,
 };

@@ -4,11 +4,11 @@
 
 use super::Under;
 use super::cases::tiny_map;
-use pendulum_atlas::config::MapSpec;
-use pendulum_atlas::engine::no_progress;
-use pendulum_atlas::map::{MapRun, run_map};
-use pendulum_atlas::reduce::Regime;
-use pendulum_atlas::reduce::attractors::Wells;
+use pendulum_atlas_core::config::MapSpec;
+use pendulum_atlas_core::engine::no_progress;
+use pendulum_atlas_map::map::{MapRun, run_map};
+use pendulum_atlas_core::reduce::Regime;
+use pendulum_atlas_core::reduce::attractors::Wells;
 
 /// The pinned bistable cell: 8 Hz at 1 mm (N = 3), where the pendulum rattles on one bumper
 /// in a period-1 orbit, the one of the α > 0 well or its mirror image in the α < 0 well,
@@ -82,7 +82,7 @@ pub fn a_basin_picture_agrees_with_the_starts_estimate(under: Under) {
     };
     let (pa, sa) = (p.attractors.unwrap(), s.attractors.unwrap());
     // The picture's share of each well's attractor against the starts' basin fraction.
-    let share_of = |wells: Wells, a: &pendulum_atlas::reduce::AttractorMap| -> f64 {
+    let share_of = |wells: Wells, a: &pendulum_atlas_core::reduce::AttractorMap| -> f64 {
         a.families
             .iter()
             .filter(|f| f.fingerprint.wells == wells)
@@ -146,7 +146,7 @@ pub fn a_mirrored_start_with_half_a_period_of_phase_lands_on_the_mirrored_attrac
         return;
     };
     let (pa, ma) = (p.attractors.unwrap(), m.attractors.unwrap());
-    let fingerprint = |a: &pendulum_atlas::reduce::AttractorMap, run: usize| {
+    let fingerprint = |a: &pendulum_atlas_core::reduce::AttractorMap, run: usize| {
         let label = a.run_label[run];
         assert!(label >= 0, "run {run} failed");
         a.families[label as usize].fingerprint.clone()

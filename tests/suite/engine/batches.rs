@@ -2,9 +2,9 @@
 //! read-back series and the statuses equal those of a single run bit for bit, in plan order.
 
 use super::gpu;
-use pendulum_atlas::config::{Metric, PAPER_SCENE_TOML, Scene};
-use pendulum_atlas::engine::{Backend, Engine, EnsembleOptions, EnsemblePlan, Readback};
-use pendulum_atlas::reduce::ReduceOptions;
+use pendulum_atlas_core::config::{Metric, PAPER_SCENE_TOML, Scene};
+use pendulum_atlas_core::engine::{Backend, Engine, EnsembleOptions, EnsemblePlan, Readback};
+use pendulum_atlas_core::reduce::ReduceOptions;
 
 /// Eleven paper scenes across 6–11 Hz at N = 3, short enough for a test, every metric.
 fn plan() -> EnsemblePlan {
@@ -56,7 +56,7 @@ fn a_plan_run_in_batches_equals_one_run_bit_for_bit() {
     assert_eq!(whole.results.len(), plan.instances.len());
     assert_eq!(batched.results.len(), plan.instances.len());
     for (i, (a, b)) in whole.results.iter().zip(&batched.results).enumerate() {
-        let bits = |r: &pendulum_atlas::reduce::InstanceResult| {
+        let bits = |r: &pendulum_atlas_core::reduce::InstanceResult| {
             [
                 r.k,
                 r.r,

@@ -7,15 +7,15 @@
 //! flagged and carries no numbers.
 
 use super::Under;
-use pendulum_atlas::config::{MapSpec, Metric, Scene, map_from_toml};
-use pendulum_atlas::engine::method::Method;
-use pendulum_atlas::engine::{
+use pendulum_atlas_core::config::{MapSpec, Metric, Scene, map_from_toml};
+use pendulum_atlas_core::engine::method::Method;
+use pendulum_atlas_core::engine::{
     EnsemblePlan, Instance, Observer, Readback, ReferenceOptions, StepPlan, integrate_reference,
     no_progress,
 };
-use pendulum_atlas::map::{MapRun, run_map};
-use pendulum_atlas::model::{CartState, Chain, Status, Workspace};
-use pendulum_atlas::reduce::{ReduceOptions, k_of, line_of, period_of, r_of};
+use pendulum_atlas_map::map::{MapRun, run_map};
+use pendulum_atlas_core::model::{CartState, Chain, Status, Workspace};
+use pendulum_atlas_core::reduce::{ReduceOptions, k_of, line_of, period_of, r_of};
 
 /// A small map scene over (f, A) at N = 3 with the given extra TOML and map section, integrated
 /// with `under`'s method.
@@ -283,7 +283,7 @@ fn stress_scene(under: Under, name: &str, sets: &[String]) -> MapSpec {
         .join(name);
     let mut sets = sets.to_vec();
     sets.push(under.method_set());
-    pendulum_atlas::config::load_map(Some(&path), &sets).expect("valid stress scene")
+    pendulum_atlas_core::config::load_map(Some(&path), &sets).expect("valid stress scene")
 }
 
 /// Every `ok` instance has finite values for every requested metric; every failed one has none.
@@ -440,7 +440,7 @@ pub fn a_map_runs_end_to_end_into_its_files(under: Under) {
     let dir =
         std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("engine-map-{under:?}"));
     let _ = std::fs::remove_dir_all(&dir);
-    pendulum_atlas::output::map::write_map(&dir, &spec, &run).expect("files");
+    pendulum_atlas_map::output::map::write_map(&dir, &spec, &run).expect("files");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("map.json")).unwrap()).unwrap();
     let backend = if under.eng == super::Eng::Gpu {
@@ -465,7 +465,7 @@ pub fn a_map_runs_end_to_end_into_its_files(under: Under) {
 }
 
 pub fn a_search_runs_end_to_end_and_agrees_with_single_runs(under: Under) {
-    use pendulum_atlas::harvest::{run_search, search_from_toml, verify_design};
+    use pendulum_atlas_studies::harvest::{run_search, search_from_toml, verify_design};
     let Some(engine) = under.engine() else { return };
     // Two clearances, short runs at a step converged in power (RK4 with the penalty bumper
     // converges slowly in power), so that the search and `simulate` must agree closely.
@@ -484,7 +484,7 @@ pub fn a_search_runs_end_to_end_and_agrees_with_single_runs(under: Under) {
     .chain([under.method_set()])
     .collect();
     let spec = search_from_toml(
-        pendulum_atlas::harvest::DEFAULT_SEARCH_TOML,
+        pendulum_atlas_studies::harvest::DEFAULT_SEARCH_TOML,
         "<tiny>",
         &sets,
     )
@@ -511,7 +511,7 @@ pub fn a_search_runs_end_to_end_and_agrees_with_single_runs(under: Under) {
 /// `EngineError::Cancelled` instead of results, and only the work in flight when it asked
 /// reports again (one instance or lane group per worker thread on the CPU, none on the GPU).
 pub fn a_cancel_from_the_progress_callback_stops_the_map(under: Under) {
-    use pendulum_atlas::engine::{EngineError, ProgressUnit};
+    use pendulum_atlas_core::engine::{EngineError, ProgressUnit};
     use std::ops::ControlFlow;
     use std::sync::atomic::{AtomicUsize, Ordering};
     let Some(engine) = under.engine() else {

@@ -4,11 +4,11 @@
 
 use super::Under;
 use super::cases::tiny_map;
-use pendulum_atlas::engine::no_progress;
-use pendulum_atlas::map::{MapRun, run_map};
-use pendulum_atlas::reduce::Regime;
+use pendulum_atlas_core::engine::no_progress;
+use pendulum_atlas_map::map::{MapRun, run_map};
+use pendulum_atlas_core::reduce::Regime;
 
-fn map_on(under: Under, spec: &pendulum_atlas::config::MapSpec) -> Option<MapRun> {
+fn map_on(under: Under, spec: &pendulum_atlas_core::config::MapSpec) -> Option<MapRun> {
     let engine = under.engine()?;
     Some(run_map(spec, engine, &no_progress).expect("map"))
 }
@@ -24,7 +24,7 @@ fn unsettled(
     duration: f64,
     transient: f64,
     map: &str,
-) -> pendulum_atlas::config::MapSpec {
+) -> pendulum_atlas_core::config::MapSpec {
     let extra = format!(
         "{UNSETTLED}[integration]\nduration_s = {duration:.1}\ntransient_s = {transient:.1}\n"
     );
@@ -91,7 +91,7 @@ pub fn sweeping_down_keeps_a_period_two_orbit_that_sweeping_up_never_reaches(und
     };
     let c = run.continuation.as_ref().expect("a continued map");
     let (up, down) = (&c.legs[0].results, &c.legs[1].results);
-    let periods = |rs: &[pendulum_atlas::reduce::InstanceResult]| -> Vec<f64> {
+    let periods = |rs: &[pendulum_atlas_core::reduce::InstanceResult]| -> Vec<f64> {
         rs.iter().map(|r| r.period).collect()
     };
     assert!(

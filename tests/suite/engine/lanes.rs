@@ -2,12 +2,12 @@
 //! computes (the same operations in the same order; only `sin`/`cos` come from another
 //! implementation, a few ulp apart), and its results do not depend on the thread count.
 
-use pendulum_atlas::config::{MapSpec, map_from_toml};
-use pendulum_atlas::engine::{
+use pendulum_atlas_core::config::{MapSpec, map_from_toml};
+use pendulum_atlas_core::engine::{
     CpuLoop, Engine, EngineRun, EnsemblePlan, Precision, Readback, no_progress,
 };
-use pendulum_atlas::model::{Chain, ContactLaw, F32x8, F64x4, Lane, ModelParams, Real};
-use pendulum_atlas::reduce::ReduceOptions;
+use pendulum_atlas_core::model::{Chain, ContactLaw, F32x8, F64x4, Lane, ModelParams, Real};
+use pendulum_atlas_core::reduce::ReduceOptions;
 
 /// A map of `count` frequencies × 3 amplitudes at N segments (the frequencies give the
 /// instances different steps and step counts; 3·count is not a multiple of 4 or 8 when
@@ -169,7 +169,7 @@ fn simd_results_do_not_depend_on_the_thread_count() {
 
 #[test]
 fn the_flop_count_is_the_engines_own_step() {
-    use pendulum_atlas::bench::flops::rk4_flops;
+    use pendulum_atlas_studies::bench::flops::rk4_flops;
     let plan = EnsemblePlan::new(&spec(3, 2, "rk4", "")).expect("plan");
     let p = &plan.instances[0];
     let c = rk4_flops(&p.params, p.dt_s);
@@ -180,7 +180,7 @@ fn the_flop_count_is_the_engines_own_step() {
     let c9 = rk4_flops(&n9.instances[0].params, n9.instances[0].dt_s);
     assert_eq!((c9.sin_cos, c9.divisions), (36, 72), "{c9:?}");
     // Linear in N: the arithmetic per segment stays within 10 % from N = 3 to 9.
-    let per = |c: &pendulum_atlas::bench::flops::FlopCount| c.arithmetic as f64 / c.segments as f64;
+    let per = |c: &pendulum_atlas_studies::bench::flops::FlopCount| c.arithmetic as f64 / c.segments as f64;
     assert!((per(&c9) / per(&c) - 1.0).abs() < 0.1, "{c:?} {c9:?}");
 }
 
@@ -191,7 +191,7 @@ fn auto_on_a_software_adapter_measures_both_engines() {
         eprintln!("SKIPPED: the adapter is hardware; auto takes it without a probe");
         return;
     }
-    let auto = Engine::open(pendulum_atlas::engine::Backend::Auto, None).expect("auto");
+    let auto = Engine::open(pendulum_atlas_core::engine::Backend::Auto, None).expect("auto");
     let why = &auto.info().reason;
     assert!(
         why.contains("measured here") && why.contains("probe"),

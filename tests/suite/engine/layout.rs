@@ -2,9 +2,9 @@
 //! both languages, the assembled shader validates, its generated header carries the Rust
 //! definitions; and, with an adapter, one device compiles each kernel set once.
 
-use pendulum_atlas::engine::gpu::kernels::{SHADER_STAGES, shader_header, shader_source};
-use pendulum_atlas::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams};
-use pendulum_atlas::model::{CHECK_EVERY, Status};
+use pendulum_atlas_core::engine::gpu::kernels::{SHADER_STAGES, shader_header, shader_source};
+use pendulum_atlas_core::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams};
+use pendulum_atlas_core::model::{CHECK_EVERY, Status};
 
 /// Member offsets of a Rust struct, by name.
 macro_rules! offsets {
@@ -96,7 +96,7 @@ fn the_assembled_shader_validates_without_an_adapter() {
     .validate(&module())
     .unwrap_or_else(|e| panic!("{e:?}"));
     // Every stage file of shaders/ is part of the assembly, and nothing else is there.
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/core/shaders");
     let mut on_disk: Vec<String> = std::fs::read_dir(&dir)
         .expect("shaders/")
         .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
@@ -129,7 +129,7 @@ fn the_shader_takes_status_codes_and_the_check_interval_from_rust() {
         assert_eq!(Status::from_code(u32::from(s.code())), Some(s));
     }
     assert_eq!(u64::from(wgsl_const(&m, "CHECK_EVERY")), CHECK_EVERY);
-    for law in pendulum_atlas::model::ContactDamping::ALL {
+    for law in pendulum_atlas_core::model::ContactDamping::ALL {
         assert_eq!(wgsl_const(&m, law.wgsl_name()), law.gpu_code(), "{law:?}");
     }
     // The stage files carry no copy of their own.
@@ -163,10 +163,10 @@ fn wgsl_literal(module: &naga::Module, name: &str) -> naga::Literal {
 
 #[test]
 fn the_shader_takes_regime_codes_thresholds_and_twin_flags_from_rust() {
-    use pendulum_atlas::engine::gpu::layout::{TWIN_BROKEN, TWIN_RUNNING};
-    use pendulum_atlas::reduce::Regime;
-    use pendulum_atlas::reduce::lyapunov::LYAPUNOV_BLOCKS;
-    use pendulum_atlas::reduce::regime::{REGIME_FLAT_PER_PERIOD, REGIME_K_CHAOS, REGIME_Z};
+    use pendulum_atlas_core::engine::gpu::layout::{TWIN_BROKEN, TWIN_RUNNING};
+    use pendulum_atlas_core::reduce::Regime;
+    use pendulum_atlas_core::reduce::lyapunov::LYAPUNOV_BLOCKS;
+    use pendulum_atlas_core::reduce::regime::{REGIME_FLAT_PER_PERIOD, REGIME_K_CHAOS, REGIME_Z};
     let m = module();
     for r in Regime::ALL {
         assert_eq!(
@@ -188,7 +188,7 @@ fn the_shader_takes_regime_codes_thresholds_and_twin_flags_from_rust() {
     }
     assert_eq!(
         wgsl_const(&m, "K_FIRM_SAMPLES") as usize,
-        pendulum_atlas::analysis::ZERO_ONE_COMFORTABLE_SAMPLES
+        pendulum_atlas_core::analysis::ZERO_ONE_COMFORTABLE_SAMPLES
     );
     assert_eq!(wgsl_const(&m, "LYAPUNOV_BLOCKS") as usize, LYAPUNOV_BLOCKS);
     assert_eq!(wgsl_const(&m, "TWIN_RUNNING"), TWIN_RUNNING);
@@ -206,8 +206,8 @@ fn the_shader_takes_regime_codes_thresholds_and_twin_flags_from_rust() {
 
 #[test]
 fn one_gpu_device_compiles_each_kernel_set_once() {
-    use pendulum_atlas::engine::gpu::{AdapterChoice, GpuContext};
-    use pendulum_atlas::engine::{Engine, no_progress};
+    use pendulum_atlas_core::engine::gpu::{AdapterChoice, GpuContext};
+    use pendulum_atlas_core::engine::{Engine, no_progress};
     if super::gpu().is_none() {
         return;
     }
@@ -221,7 +221,7 @@ fn one_gpu_device_compiles_each_kernel_set_once() {
     let k_only = super::cases::tiny_map(
         super::Under {
             eng: super::Eng::Gpu,
-            method: pendulum_atlas::engine::method::Method::Rk4,
+            method: pendulum_atlas_core::engine::method::Method::Rk4,
         },
         "",
         "metrics = [\"K\"]\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [5.0, 8.0]",
@@ -229,13 +229,13 @@ fn one_gpu_device_compiles_each_kernel_set_once() {
     let hops = super::cases::tiny_map(
         super::Under {
             eng: super::Eng::Gpu,
-            method: pendulum_atlas::engine::method::Method::Rk4,
+            method: pendulum_atlas_core::engine::method::Method::Rk4,
         },
         "",
         "metrics = [\"hops\"]\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [5.0, 8.0]",
     );
     for spec in [&k_only, &k_only, &hops, &k_only, &hops] {
-        pendulum_atlas::map::run_map(spec, &engine, &no_progress).expect("map");
+        pendulum_atlas_map::map::run_map(spec, &engine, &no_progress).expect("map");
     }
     assert_eq!(ctx.compiled_kernel_sets(), 2);
 }

@@ -16,9 +16,9 @@ mod layout;
 mod skip;
 mod verdict;
 
-use pendulum_atlas::engine::gpu::REQUIRE_GPU_ENV;
-use pendulum_atlas::engine::method::Method;
-use pendulum_atlas::engine::{Backend, CpuLoop, Engine, Precision};
+use pendulum_atlas_core::engine::gpu::REQUIRE_GPU_ENV;
+use pendulum_atlas_core::engine::method::Method;
+use pendulum_atlas_core::engine::{Backend, CpuLoop, Engine, Precision};
 use std::sync::OnceLock;
 
 /// The engines the suite runs on.
@@ -103,7 +103,7 @@ macro_rules! engine_method {
     ($cases:ident, $module:ident, $eng:ident, $method:ident, [$($case:ident),*]) => {
         mod $module {
             use super::{Eng, Under};
-            use pendulum_atlas::engine::method::Method;
+            use pendulum_atlas_core::engine::method::Method;
             const UNDER: Under = Under { eng: Eng::$eng, method: Method::$method };
             $(#[test] fn $case() { super::$cases::$case(UNDER) })*
         }

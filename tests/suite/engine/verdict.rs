@@ -8,14 +8,14 @@
 use super::Under;
 use super::cases::tiny_map;
 use nalgebra::DMatrix;
-use pendulum_atlas::config::{MapSpec, Scene};
-use pendulum_atlas::engine::{
+use pendulum_atlas_core::config::{MapSpec, Scene};
+use pendulum_atlas_core::engine::{
     Instance, Observer, ReferenceOptions, StepPlan, integrate_reference, no_progress,
 };
-use pendulum_atlas::map::{MapRun, run_map};
-use pendulum_atlas::model::{CartState, Chain, Status, Workspace, linear};
-use pendulum_atlas::reduce::Regime;
-use pendulum_atlas::reduce::regime::{confidence, regime_of};
+use pendulum_atlas_map::map::{MapRun, run_map};
+use pendulum_atlas_core::model::{CartState, Chain, Status, Workspace, linear};
+use pendulum_atlas_core::reduce::Regime;
+use pendulum_atlas_core::reduce::regime::{confidence, regime_of};
 
 fn map_on(under: Under, spec: &MapSpec) -> Option<MapRun> {
     let engine = under.engine()?;
@@ -264,7 +264,7 @@ pub fn lyapunov_does_not_depend_on_the_separation_across_decades(under: Under) {
         .iter()
         .filter_map(|d0| {
             let mut spec = verdict_map(under);
-            spec.lyapunov.perturbation = pendulum_atlas::config::Perturbation::Given(*d0);
+            spec.lyapunov.perturbation = pendulum_atlas_core::config::Perturbation::Given(*d0);
             map_on(under, &spec)
         })
         .collect();

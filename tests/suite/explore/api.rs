@@ -2,7 +2,7 @@
 //! its status and a message naming the accepted range, and bad folders refused at start.
 
 use super::{Server, bin, fetch, json, npy, request, scratch, simulate, small_map, wait_job};
-use pendulum_atlas::render::{Palette, cell_colour, colour_range};
+use pendulum_atlas_map::render::{Palette, cell_colour, colour_range};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -76,7 +76,7 @@ fn the_map_and_its_fields_are_the_files_of_the_folder() {
     // shade of their period, and the codes of regime.npy.
     let r = json(&s, "GET", "/api/field?metric=regime", 200);
     assert_eq!(r["bar"], serde_json::json!([]));
-    let (_, codes) = pendulum_atlas::output::npy::read_npy::<i8>(&dir.join("regime.npy")).unwrap();
+    let (_, codes) = pendulum_atlas_map::output::npy::read_npy::<i8>(&dir.join("regime.npy")).unwrap();
     let period = npy(dir, "period");
     let names: Vec<String> = r["categories"]
         .as_array()

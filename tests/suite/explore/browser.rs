@@ -10,8 +10,8 @@
 use super::{Server, npy, request, scratch, simulate, small_map};
 use fantoccini::actions::{InputSource, MOUSE_BUTTON_LEFT, MouseActions, PointerAction};
 use fantoccini::{Client, ClientBuilder, Locator};
-use pendulum_atlas::model::Status;
-use pendulum_atlas::render::cell_colour;
+use pendulum_atlas_core::model::Status;
+use pendulum_atlas_map::render::cell_colour;
 use serde_json::json;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};

@@ -11,7 +11,7 @@ use serde::Serialize;
 use toml::Table;
 
 /// The paper's scene (Table 1, f = 8 Hz, A = 9 mm), embedded so the tool runs with no files.
-pub const PAPER_SCENE_TOML: &str = include_str!("../../configs/paper.toml");
+pub const PAPER_SCENE_TOML: &str = include_str!("../../../../configs/paper.toml");
 
 /// The beam: a hollow steel tube split into rigid segments.
 #[derive(Debug, Clone, Serialize, PartialEq)]

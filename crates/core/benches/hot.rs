@@ -3,12 +3,12 @@
 //! work-precision study is `pendulum-atlas bench`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use pendulum_atlas::analysis::{
+use pendulum_atlas_core::analysis::{
     PhaseConvention, WaveletOptions, ZeroOneOptions, morlet_cwt, phase_sync, zero_one_test,
 };
-use pendulum_atlas::config::{PAPER_SCENE_TOML, Scene};
-use pendulum_atlas::engine::rk4::{Rk4Scratch, rk4_step};
-use pendulum_atlas::model::{Chain, ContactLaw};
+use pendulum_atlas_core::config::{PAPER_SCENE_TOML, Scene};
+use pendulum_atlas_core::engine::rk4::{Rk4Scratch, rk4_step};
+use pendulum_atlas_core::model::{Chain, ContactLaw};
 use std::hint::black_box;
 
 fn scene(n: usize) -> Scene {

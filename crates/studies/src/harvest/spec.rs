@@ -30,7 +30,7 @@ use toml::{Table, Value};
 
 /// The embedded default search (`configs/harvest/default.toml`): what `pendulum-atlas search`
 /// runs with no scene.
-pub const DEFAULT_SEARCH_TOML: &str = include_str!("../../configs/harvest/default.toml");
+pub const DEFAULT_SEARCH_TOML: &str = include_str!("../../../../configs/harvest/default.toml");
 
 /// Largest number of designs in the initial grid.
 pub const MAX_GRID_DESIGNS: usize = 100_000;

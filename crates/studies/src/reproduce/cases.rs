@@ -55,7 +55,7 @@ macro_rules! scene {
     ($stem:literal) => {
         (
             concat!("configs/paper/", $stem, ".toml"),
-            include_str!(concat!("../../configs/paper/", $stem, ".toml")),
+            include_str!(concat!("../../../../configs/paper/", $stem, ".toml")),
         )
     };
 }

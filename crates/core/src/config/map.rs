@@ -25,7 +25,7 @@ use serde::Serialize;
 use toml::{Table, Value};
 
 /// The embedded default map (`configs/maps/default.toml`): what `pendulum-atlas map` runs with no scene.
-pub const DEFAULT_MAP_TOML: &str = include_str!("../../configs/maps/default.toml");
+pub const DEFAULT_MAP_TOML: &str = include_str!("../../../../configs/maps/default.toml");
 
 /// Largest grid accepted (instances). Beyond this the results alone need gigabytes.
 pub const MAX_INSTANCES: usize = 4_000_000;

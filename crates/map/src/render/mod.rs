@@ -63,13 +63,13 @@ pub struct Axis<'a> {
 }
 
 /// Font family name under which the embedded font is registered.
-pub(crate) const FONT: &str = "sans-serif";
+pub const FONT: &str = "sans-serif";
 /// Title font size (px).
-pub(crate) const TITLE_PX: u32 = 26;
+pub const TITLE_PX: u32 = 26;
 /// Axis description font size (px).
-pub(crate) const LABEL_PX: u32 = 20;
+pub const LABEL_PX: u32 = 20;
 /// Tick label / legend font size (px).
-pub(crate) const TICK_PX: u32 = 16;
+pub const TICK_PX: u32 = 16;
 
 static FONT_BYTES: &[u8] = include_bytes!(concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -79,7 +79,7 @@ static FONT_ONCE: Once = Once::new();
 static FONT_OK: AtomicBool = AtomicBool::new(false);
 
 /// Registers the embedded DejaVu Sans font with plotters (idempotent).
-pub(crate) fn ensure_font() -> Result<()> {
+pub fn ensure_font() -> Result<()> {
     FONT_ONCE.call_once(|| {
         let ok = plotters::style::register_font(FONT, FontStyle::Normal, FONT_BYTES).is_ok();
         FONT_OK.store(ok, Ordering::SeqCst);
@@ -92,12 +92,12 @@ pub(crate) fn ensure_font() -> Result<()> {
 }
 
 /// Text style helper.
-pub(crate) fn font(px: u32) -> TextStyle<'static> {
+pub fn font(px: u32) -> TextStyle<'static> {
     (FONT, px).into_font().color(&BLACK)
 }
 
 /// Qualitative palette (matplotlib "tab10").
-pub(crate) const PALETTE: [RGBColor; 10] = [
+pub const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -111,18 +111,22 @@ pub(crate) const PALETTE: [RGBColor; 10] = [
 ];
 
 /// Grid line colour.
-pub(crate) const GRID: RGBColor = RGBColor(225, 225, 225);
+pub const GRID: RGBColor = RGBColor(225, 225, 225);
 /// Minor grid line colour.
-pub(crate) const GRID_MINOR: RGBColor = RGBColor(242, 242, 242);
+pub const GRID_MINOR: RGBColor = RGBColor(242, 242, 242);
 
 /// A resolved axis in plotting coordinates (log10 of data for log axes).
 #[derive(Debug, Clone)]
-pub(crate) struct AxisSpec {
+pub struct AxisSpec {
+    /// Lower end (plotting space).
     pub lo: f64,
+    /// Upper end (plotting space).
     pub hi: f64,
     /// Log base of the axis (plotting space = log_base(data)), None = linear.
     pub base: Option<f64>,
+    /// Labelled ticks (plotting space).
     pub ticks: Vec<f64>,
+    /// Unlabelled minor ticks (plotting space).
     pub minor: Vec<f64>,
 }
 
@@ -217,7 +221,7 @@ impl AxisSpec {
 
 /// Linear f64 coordinate with explicit major (labelled) and minor tick
 /// positions (plotting space); labels are formatted by the chart.
-pub(crate) struct Coord {
+pub struct Coord {
     inner: plotters::coord::types::RangedCoordf64,
     ticks: Vec<f64>,
     minor: Vec<f64>,
@@ -243,7 +247,7 @@ impl Ranged for Coord {
 
 /// Data value to plotting space: log10 for log axes; None if non-finite
 /// (or non-positive on a log axis).
-pub(crate) fn plot_value(v: f64, log: bool) -> Option<f64> {
+pub fn plot_value(v: f64, log: bool) -> Option<f64> {
     let t = if log {
         if v > 0.0 { v.log10() } else { return None }
     } else {
@@ -253,13 +257,13 @@ pub(crate) fn plot_value(v: f64, log: bool) -> Option<f64> {
 }
 
 /// Drawing area of the bitmap backend in pixel coordinates.
-pub(crate) type Area<'b> = DrawingArea<BitMapBackend<'b>, plotters::coord::Shift>;
+pub type Area<'b> = DrawingArea<BitMapBackend<'b>, plotters::coord::Shift>;
 /// A configured 2-D chart.
-pub(crate) type Chart<'a, 'b> = ChartContext<'a, BitMapBackend<'b>, Cartesian2d<Coord, Coord>>;
+pub type Chart<'a, 'b> = ChartContext<'a, BitMapBackend<'b>, Cartesian2d<Coord, Coord>>;
 
 /// Builds a chart with axes, labels and (optionally) grid lines on `area`.
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn build_chart<'a, 'b>(
+pub fn build_chart<'a, 'b>(
     area: &'a Area<'b>,
     caption: Option<&str>,
     xa: &AxisSpec,
@@ -298,7 +302,7 @@ pub(crate) fn build_chart<'a, 'b>(
 }
 
 /// Draws the legend of `chart`'s labelled series at `position`, in the house style.
-pub(crate) fn draw_legend<'a, 'b: 'a>(
+pub fn draw_legend<'a, 'b: 'a>(
     chart: &mut Chart<'a, 'b>,
     position: SeriesLabelPosition,
 ) -> Result<()> {
@@ -313,12 +317,12 @@ pub(crate) fn draw_legend<'a, 'b: 'a>(
 }
 
 /// Draws a centred figure title at the top of `area`; returns the area below it.
-pub(crate) fn titled<'b>(area: &Area<'b>, title: &str) -> Result<Area<'b>> {
+pub fn titled<'b>(area: &Area<'b>, title: &str) -> Result<Area<'b>> {
     Ok(area.margin(10, 0, 0, 0).titled(title, font(TITLE_PX))?)
 }
 
 /// Creates a white bitmap of `size` at `path` (font registered first).
-pub(crate) fn canvas(path: &std::path::Path, size: (u32, u32)) -> Result<Area<'_>> {
+pub fn canvas(path: &std::path::Path, size: (u32, u32)) -> Result<Area<'_>> {
     ensure_font()?;
     let root = BitMapBackend::new(path, size).into_drawing_area();
     root.fill(&WHITE)?;
@@ -326,7 +330,7 @@ pub(crate) fn canvas(path: &std::path::Path, size: (u32, u32)) -> Result<Area<'_
 }
 
 /// Min and max over the finite values, or None if there are none.
-pub(crate) fn finite_min_max(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
+pub fn finite_min_max(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
     values
         .filter(|v| v.is_finite())
         .fold(None, |acc, v| match acc {
@@ -336,7 +340,7 @@ pub(crate) fn finite_min_max(values: impl Iterator<Item = f64>) -> Option<(f64, 
 }
 
 /// "Nice" ticks (1, 2, 2.5, 5 × 10^k steps) inside `[lo, hi]`, at most `max_n`.
-pub(crate) fn nice_ticks(lo: f64, hi: f64, max_n: usize) -> Vec<f64> {
+pub fn nice_ticks(lo: f64, hi: f64, max_n: usize) -> Vec<f64> {
     let span = hi - lo;
     if !(span.is_finite() && span > 0.0) {
         return vec![];
@@ -395,7 +399,7 @@ fn log_ticks(lo: f64, hi: f64) -> (Vec<f64>, Vec<f64>) {
 }
 
 /// Compact number formatting for tick labels.
-pub(crate) fn fmt_num(v: f64) -> String {
+pub fn fmt_num(v: f64) -> String {
     if !v.is_finite() {
         return format!("{v}");
     }
@@ -422,7 +426,7 @@ fn trim_zeros(s: &str) -> String {
 
 /// Splits a point list into runs of consecutive mappable points (breaks at
 /// non-finite or, for log axes, non-positive values).
-pub(crate) fn segments(s: &Series, xa: &AxisSpec, ya: &AxisSpec) -> Vec<Vec<(f64, f64)>> {
+pub fn segments(s: &Series, xa: &AxisSpec, ya: &AxisSpec) -> Vec<Vec<(f64, f64)>> {
     let mut out = vec![];
     let mut cur = vec![];
     for (&x, &y) in s.x.iter().zip(s.y) {
@@ -442,7 +446,7 @@ pub(crate) fn segments(s: &Series, xa: &AxisSpec, ya: &AxisSpec) -> Vec<Vec<(f64
 }
 
 /// Checks that every series has equal-length x and y.
-pub(crate) fn check_series(series: &[Series]) -> Result<()> {
+pub fn check_series(series: &[Series]) -> Result<()> {
     for s in series {
         if s.x.len() != s.y.len() {
             bad_input!(

@@ -1,4 +1,4 @@
-//! `explore`: a finished map, calibration or search in the browser. Every quantity of the
+//! pendulum-atlas-explore (`pendulum-atlas explore`): a finished map, calibration or search in the browser. Every quantity of the
 //! grid as a heat map with its colour bar, and a click on a cell runs that cell again with its
 //! motion kept (α(t) and the cart, the phase portrait, the stroboscopic section, the spectrum
 //! and the scalogram).
@@ -25,6 +25,12 @@ mod jobs;
 mod map_folder;
 mod search_folder;
 mod server;
+
+// The stages below, by the names they have there: `crate::engine` here is
+// `pendulum_atlas_core::engine`, `crate::output` is `pendulum_atlas_map`'s.
+use pendulum_atlas_core::{analysis, config, engine, model, reduce, text};
+use pendulum_atlas_map::{output, render};
+use pendulum_atlas_studies::{calibrate, harvest};
 
 pub use cell::{CellControl, CellRun, CellScene, cell_memory_bytes, cell_scene, run_cell};
 pub use error::ExploreError;

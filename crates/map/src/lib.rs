@@ -1,0 +1,22 @@
+//! pendulum-atlas-map: a parameter map from plan to files, on top of the numerical core
+//! (`pendulum-atlas-core`).
+//!
+//! 1. [`map`]: a map from start to finish: the instances of a `MapSpec` planned and run on an
+//!    opened engine (plain, several starts per cell, continuation, adaptive refinement), with
+//!    what the pictures need kept.
+//! 2. [`shard`]: one map split over several processes or machines, and the merge back into the
+//!    files one run writes.
+//! 3. [`output`]: what leaves the program: trajectories as CSV, arrays as `.npy`, the map's
+//!    folder and manifest, every file written whole or not at all.
+//! 4. [`render`]: the PNG pictures (heat maps with axes and colour bars, line charts, panels,
+//!    scalograms).
+#![warn(missing_docs)]
+
+pub mod map;
+pub mod output;
+pub mod render;
+pub mod shard;
+
+// The core's stages, by the names they have there: `crate::engine::Engine` here is
+// `pendulum_atlas_core::engine::Engine`.
+use pendulum_atlas_core::{analysis, config, engine, model, reduce, text};

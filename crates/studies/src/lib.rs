@@ -1,0 +1,19 @@
+//! pendulum-atlas-studies: the studies built on maps and single runs. Each is a stage of its
+//! own that reads a scene, runs the core's engines (often through a map) and writes its files.
+//!
+//! - [`bench`]: work-precision, throughput, stiff-chain, refinement and verdict studies
+//!   (`pendulum-atlas bench`).
+//! - [`reproduce`]: the paper's cases, figures and report in one call.
+//! - [`harvest`]: the broadband-harvesting design search (`pendulum-atlas search`).
+//! - [`calibrate`]: which values of the unknown parameters reproduce what was observed.
+#![warn(missing_docs)]
+
+pub mod bench;
+pub mod calibrate;
+pub mod harvest;
+pub mod reproduce;
+
+// The stages below, by the names they have there: `crate::engine::Engine` here is
+// `pendulum_atlas_core::engine::Engine`, `crate::map::run_plan` is `pendulum_atlas_map`'s.
+use pendulum_atlas_core::{analysis, config, engine, model, reduce, text};
+use pendulum_atlas_map::{map, output, render};
