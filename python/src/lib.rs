@@ -13,9 +13,10 @@ use pendulum_atlas_core::config::{
     parse_toml,
 };
 use pendulum_atlas_core::engine::{Backend, Engine, EngineError, Integrator, Precision, StepPlan};
-use pendulum_atlas_map::map::run_map;
 use pendulum_atlas_core::model::Status;
-use pendulum_atlas_map::output::budget::{RunSize, memory_available};
+use pendulum_atlas_map::machine::memory_available;
+use pendulum_atlas_map::map::run_map;
+use pendulum_atlas_map::output::budget::RunSize;
 use pendulum_atlas_map::output::map::{ArrayData, MapArray, map_arrays, map_manifest};
 use pendulum_atlas_map::output::{
     RunFacts, RunReport, TrajectoryRecorder, record_analysis, row_columns, run_warnings,
@@ -25,8 +26,10 @@ use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyList, PyString, PyTuple};
+use std::collections::BTreeMap;
+use std::collections::btree_map::Entry;
 use std::path::Path;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 create_exception!(
@@ -161,6 +164,11 @@ fn check_scene(text: &str, origin: &str, sets: Vec<String>) -> PyResult<(String,
     Ok(("scene".into(), t.clone(), t))
 }
 
+/// The engines this process has opened, by what was asked for: the GPU device, its compiled
+/// kernels and `auto`'s measured choice are made once and reused by every later map (one map
+/// at a time).
+static ENGINES: Mutex<BTreeMap<(Backend, Option<Precision>), Engine>> = Mutex::new(BTreeMap::new());
+
 /// A map's arrays, `map.json` (without files) and the engine's name, made off the interpreter.
 struct MapOut {
     arrays: Vec<MapArray>,
@@ -173,8 +181,18 @@ fn map_work(
     precision: Option<Precision>,
     ticker: &poll::Ticker,
 ) -> Result<MapOut, EngineError> {
-    let engine = Engine::open(backend, precision)?;
-    let run = run_map(spec, &engine, &|d, t, u| ticker.report(d, t, u))?;
+    let mut engines = ENGINES
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    let engine = match engines.entry((backend, precision)) {
+        Entry::Occupied(e) => {
+            let engine = e.into_mut();
+            engine.mark_reused();
+            engine
+        }
+        Entry::Vacant(e) => e.insert(Engine::open(backend, precision)?),
+    };
+    let run = run_map(spec, engine, &|d, t, u| ticker.report(d, t, u))?;
     Ok(MapOut {
         arrays: map_arrays(spec, &run),
         manifest: map_manifest(spec, &run, &[]).to_string(),
@@ -261,7 +279,11 @@ fn simulate_work(
     let mut rec = TrajectoryRecorder {
         load_ohm: scene.piezo_params().map(|z| z.load_ohm),
         on_row: Some(Box::new(move |step| {
-            t.report(step, total, pendulum_atlas_core::engine::ProgressUnit::Steps)
+            t.report(
+                step,
+                total,
+                pendulum_atlas_core::engine::ProgressUnit::Steps,
+            )
         })),
         ..Default::default()
     };

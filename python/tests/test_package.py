@@ -44,6 +44,19 @@ def test_map_equals_the_cli_npy_files_bit_for_bit(tmp_path, small_map_file, back
     assert json.loads(ds.attrs["map_json"])["backend"] == backend
 
 
+@pytest.mark.parametrize("backend", gpu_backends())
+def test_the_engine_is_opened_once_per_process_and_reused(small_map_file, backend):
+    scene = pa.Scene.from_toml(small_map_file).update(SETS)
+    first = pa.map(scene, backend=backend, progress=False)
+    second = pa.map(scene, backend=backend, progress=False)
+    manifest = json.loads(second.attrs["map_json"])
+    assert manifest["backend_reason"].endswith("(reused: opened by an earlier call of this process)")
+    assert manifest["timings_s"]["device_s"] == 0.0
+    assert manifest["backend"] == backend
+    for name in first.data_vars:
+        assert first[name].values.tobytes() == second[name].values.tobytes(), name
+
+
 def test_coordinates_carry_the_axes_and_their_units(small_map_file):
     ds = pa.map(pa.Scene.from_toml(small_map_file), backend="cpu", progress=False)
     assert ds["K"].dims == ("frequency_hz", "amplitude_m")

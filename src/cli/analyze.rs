@@ -190,13 +190,13 @@ fn check_record_file(path: &Path) -> anyhow::Result<()> {
     if !meta.is_file() {
         bail!("{shown} is not a regular file; give the CSV file to analyse");
     }
-    if let Some(available) = pendulum_atlas_map::output::budget::memory_available()
+    if let Some(available) = pendulum_atlas_map::machine::memory_available()
         && meta.len() > available / 2
     {
         bail!(
             "{shown} has {} and {} of memory is available: analyse a shorter record, or split it",
-            pendulum_atlas_map::output::budget::bytes(meta.len()),
-            pendulum_atlas_map::output::budget::bytes(available)
+            pendulum_atlas_core::text::bytes(meta.len()),
+            pendulum_atlas_core::text::bytes(available)
         );
     }
     Ok(())

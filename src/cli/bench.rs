@@ -1,6 +1,7 @@
 //! `pendulum-atlas bench`: the work-precision study and scaling measurements.
 
 use super::engine::BackendArg;
+use pendulum_atlas_map::output::folder::Product;
 use pendulum_atlas_studies::bench::cpu_report::write_cpu_throughput;
 use pendulum_atlas_studies::bench::cpu_throughput::{CpuThroughputOptions, run_cpu_throughput};
 use pendulum_atlas_studies::bench::gpu_report::write_throughput;
@@ -12,7 +13,6 @@ use pendulum_atlas_studies::bench::stiff_report::write_stiff;
 use pendulum_atlas_studies::bench::verdict::{VerdictOptions, run_verdict};
 use pendulum_atlas_studies::bench::verdict_report::write_verdict;
 use pendulum_atlas_studies::bench::{BenchOptions, report::write_bench, run_bench};
-use pendulum_atlas_map::output::folder::Product;
 use std::path::PathBuf;
 
 /// Arguments of `bench`.
@@ -273,7 +273,10 @@ fn peak_tflops(s: &str) -> Result<f64, String> {
 }
 
 /// `bench --throughput`.
-fn throughput(a: &BenchArgs, gpu: Option<&pendulum_atlas_core::engine::Engine>) -> anyhow::Result<()> {
+fn throughput(
+    a: &BenchArgs,
+    gpu: Option<&pendulum_atlas_core::engine::Engine>,
+) -> anyhow::Result<()> {
     if gpu.is_none() && a.no_cpu {
         anyhow::bail!("bench --throughput --no-cpu needs a GPU adapter, and none was found");
     }

@@ -1,8 +1,8 @@
 //! `pendulum-atlas calibrate`: which values of the unknowns reproduce the observations.
 
 use super::engine::{EngineArgs, hint};
-use pendulum_atlas_studies::calibrate::{load_calibration, run_calibration, write_calibration};
 use pendulum_atlas_map::output::folder::Product;
+use pendulum_atlas_studies::calibrate::{load_calibration, run_calibration, write_calibration};
 use std::path::PathBuf;
 use std::time::Instant;
 

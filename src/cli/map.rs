@@ -5,9 +5,11 @@ use super::engine::{EngineArgs, hint};
 use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, MapSpec, map_from_toml, scene_text};
 use pendulum_atlas_core::engine::gpu::list_adapters;
 use pendulum_atlas_core::engine::{Engine, no_progress};
-use pendulum_atlas_map::map::hardware_default::hardware_default;
-use pendulum_atlas_map::map::{MapRun, check_host_memory, run_map, run_map_on_devices, run_map_shard};
 use pendulum_atlas_core::model::Status;
+use pendulum_atlas_map::map::hardware_default::hardware_default;
+use pendulum_atlas_map::map::{
+    MapRun, check_host_memory, run_map, run_map_on_devices, run_map_shard,
+};
 use pendulum_atlas_map::output::folder::Product;
 use pendulum_atlas_map::output::map::write_map;
 use pendulum_atlas_map::shard::{Shard, merge_shards, write_shard};

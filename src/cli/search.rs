@@ -1,8 +1,8 @@
 //! `pendulum-atlas search`: the broadband-harvesting design search over a harvester scene.
 
 use super::engine::EngineArgs;
-use pendulum_atlas_studies::harvest::{load_search, run_search, verify_design, write_search};
 use pendulum_atlas_map::output::folder::Product;
+use pendulum_atlas_studies::harvest::{load_search, run_search, verify_design, write_search};
 use std::path::PathBuf;
 
 /// Arguments of `search`.

@@ -8,7 +8,7 @@ use pendulum_atlas_core::engine::{
     Integrator, Outcome, Precision as EnginePrecision, RunLyapunov, SceneRun, StepPlan, run_scene,
 };
 use pendulum_atlas_core::model::Status;
-use pendulum_atlas_map::output::budget::{self, RunSize};
+use pendulum_atlas_map::output::budget::RunSize;
 use pendulum_atlas_map::output::files::write_json;
 use pendulum_atlas_map::output::folder::Product;
 use pendulum_atlas_map::output::{Row, RunFacts, RunReport, record_analysis, run_warnings};
@@ -218,8 +218,8 @@ fn announce(plan: &StepPlan, integrator: IntegratorChoice, size: &RunSize) {
         "run: {} steps, {} rows (about {} in memory, {} of trajectory.csv)",
         size.steps,
         size.rows,
-        budget::bytes(size.memory_bytes),
-        budget::bytes(size.csv_bytes)
+        pendulum_atlas_core::text::bytes(size.memory_bytes),
+        pendulum_atlas_core::text::bytes(size.csv_bytes)
     );
     for w in &plan.warnings {
         eprintln!("warning: {w}");

@@ -1,8 +1,8 @@
 //! The work-precision report: files, table and pictures from a study's results.
 
+use pendulum_atlas_core::engine::{EngineKind, Precision};
 use pendulum_atlas_studies::bench::report::write_bench;
 use pendulum_atlas_studies::bench::{BenchConfig, BenchReport, ConfigResult, KOnly, Scaling};
-use pendulum_atlas_core::engine::{EngineKind, Precision};
 
 fn config(n: usize, precision: Precision, err: f64, cost: f64) -> ConfigResult {
     ConfigResult {
@@ -73,9 +73,9 @@ fn bench_report_writes_table_json_and_pictures() {
 
 #[test]
 fn the_stiff_study_compares_rk4_and_imex_against_the_reference() {
+    use pendulum_atlas_core::engine::method::Method;
     use pendulum_atlas_studies::bench::stiff::{Reading, StiffOptions, run_stiff};
     use pendulum_atlas_studies::bench::stiff_report::markdown;
-    use pendulum_atlas_core::engine::method::Method;
     let r = run_stiff(
         &StiffOptions {
             quick: true,

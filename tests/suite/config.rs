@@ -287,11 +287,12 @@ fn setting_a_swept_key_is_an_error_that_names_the_axis() {
         assert!(!text.contains("integer"), "{text}");
     }
     // A key no axis sweeps is still overridden.
-    let spec =
-        pendulum_atlas_core::config::load_map(None, &["limiter.clearance_deg=15".into()]).expect("map");
+    let spec = pendulum_atlas_core::config::load_map(None, &["limiter.clearance_deg=15".into()])
+        .expect("map");
     assert_eq!(spec.scene.limiter.clearance_deg, 15.0);
-    let err = pendulum_atlas_studies::harvest::load_search(None, &["limiter.clearance_deg=15".into()])
-        .expect_err("a design variable cannot be set");
+    let err =
+        pendulum_atlas_studies::harvest::load_search(None, &["limiter.clearance_deg=15".into()])
+            .expect_err("a design variable cannot be set");
     assert!(err.to_string().contains("design variable"), "{err}");
 }
 

@@ -2,13 +2,13 @@
 //! small grid (N = 3, 1000 instances); the command's refusals.
 
 use crate::engine::gpu;
+use pendulum_atlas_core::engine::EngineKind;
+use pendulum_atlas_core::engine::method::Method;
 use pendulum_atlas_studies::bench::flops::{imex_flops, rk4_flops};
 use pendulum_atlas_studies::bench::gpu_report::write_throughput;
 use pendulum_atlas_studies::bench::gpu_throughput::{
     ThroughputOptions, ThroughputScene, run_throughput, workload,
 };
-use pendulum_atlas_core::engine::EngineKind;
-use pendulum_atlas_core::engine::method::Method;
 use std::process::Command;
 
 #[test]

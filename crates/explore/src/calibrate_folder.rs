@@ -7,33 +7,12 @@ use super::error::ExploreError;
 use super::folder::{
     Axis, Column, Csv, RunFolder, Source, bad, grid_cell, listed_files, num, read_json, read_text,
 };
+use super::sources::{Calibration, Judged};
 use crate::calibrate::{CalibrationSpec, calibration_from_toml};
 use crate::config::{Scene, axis_label};
 use crate::output::folder::Product;
 use crate::render::Palette;
 use std::path::Path;
-
-/// How a candidate fared on one observation, as `candidates.csv` says.
-#[derive(Debug, Clone)]
-pub struct Judged {
-    /// The observation, in words.
-    pub observation: String,
-    /// 1 when matched, 0 when not.
-    pub matched: f64,
-    /// Share of the initial states that matched.
-    pub share: f64,
-    /// Distance to the observation (0 when matched).
-    pub distance: f64,
-}
-
-/// A calibration and what its candidates' rows say per case.
-#[derive(Debug)]
-pub struct Calibration {
-    /// The calibration, rebuilt from `calibrate_scene.toml`.
-    pub spec: CalibrationSpec,
-    /// Per cell and case, the observations judged (empty where the grid has no candidate).
-    pub judged: Vec<Vec<Vec<Judged>>>,
-}
 
 /// The grid rows of `candidates.csv`: matched in all, distance, and the judgements per case.
 struct Grid {

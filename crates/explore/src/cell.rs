@@ -15,7 +15,8 @@ use crate::engine::{EnsembleOptions, EnsemblePlan, Instance, Outcome, StepPlan, 
 use crate::model::Status;
 use crate::model::linear::LinearError;
 use crate::output::TrajectoryRecorder;
-use crate::output::budget::{RunSize, bytes};
+use crate::output::budget::RunSize;
+use crate::text::bytes;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::ops::ControlFlow;

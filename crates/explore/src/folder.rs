@@ -12,7 +12,7 @@
 //! `search_scene.toml`), from which every cell's scene is rebuilt by the command's own code.
 
 use super::error::ExploreError;
-use super::{calibrate_folder, map_folder, search_folder};
+use super::sources::{Calibration, Search};
 use crate::calibrate::CalibrationSpec;
 use crate::config::{MapSpec, c_order_index, grid_point};
 use crate::harvest::spec::SearchSpec;
@@ -50,9 +50,9 @@ pub enum Source {
     /// A map: the cell's axis values set in the map's scene.
     Map(Box<MapSpec>),
     /// A calibration: a candidate's unknowns in one of the cases.
-    Calibrate(Box<calibrate_folder::Calibration>),
+    Calibrate(Box<Calibration>),
     /// A search: a design at one frequency of the band from one initial state.
-    Search(Box<search_folder::Search>),
+    Search(Box<Search>),
 }
 
 /// A complete run folder as a grid.
@@ -115,41 +115,6 @@ impl RunFolder {
             .ok()?
             .starts_with(self.dir.canonicalize().ok()?);
         (meta.file_type().is_file() && inside).then_some(path)
-    }
-
-    /// Read `dir`, refusing a folder that is not a complete map, calibration or search.
-    pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
-        if !dir.is_dir() {
-            return Err(ExploreError::MissingFile {
-                path: dir.display().to_string(),
-                hint: "give the --out folder of a finished `pendulum-atlas map`, `calibrate` \
-                       or `search`"
-                    .into(),
-            });
-        }
-        match Product::ALL
-            .into_iter()
-            .find(|p| dir.join(p.manifest()).is_file())
-        {
-            Some(Product::Map) => map_folder::open(dir),
-            Some(Product::Calibrate) => calibrate_folder::open(dir),
-            Some(Product::Search) => search_folder::open(dir),
-            Some(p) => Err(ExploreError::MissingFile {
-                path: dir.join("map.json").display().to_string(),
-                hint: format!(
-                    "this is the folder of `pendulum-atlas {}` ({} is there); explore reads \
-                     the folder of a finished `map` (or `merge`), `calibrate` or `search`",
-                    p.command(),
-                    p.manifest()
-                ),
-            }),
-            None => Err(ExploreError::MissingFile {
-                path: dir.join("map.json").display().to_string(),
-                hint: "not a finished map folder (nor calibrate.json or search.json): each \
-                       command writes its manifest last, so a run that was stopped has none"
-                    .into(),
-            }),
-        }
     }
 
     /// Shape of the grid.

@@ -23,8 +23,10 @@ mod field;
 mod folder;
 mod jobs;
 mod map_folder;
+mod open;
 mod search_folder;
 mod server;
+mod sources;
 
 // The stages below, by the names they have there: `crate::engine` here is
 // `pendulum_atlas_core::engine`, `crate::output` is `pendulum_atlas_map`'s.

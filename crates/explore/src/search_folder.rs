@@ -7,6 +7,7 @@ use super::error::ExploreError;
 use super::folder::{
     Axis, Column, Csv, RunFolder, Source, bad, grid_cell, listed_files, num, read_json, read_text,
 };
+use super::sources::{Found, InstanceKey, Search};
 use crate::config::axis_label;
 use crate::harvest::spec::{SearchSpec, search_from_toml};
 use crate::output::folder::Product;
@@ -38,32 +39,6 @@ const DESIGN_COLUMNS: [(&str, &str); 9] = [
     ("periodic_fraction", "share of periodic instances"),
     ("failed_instances", "failed instances"),
 ];
-
-/// One row of `instances.csv`: what the search found for a design at one frequency from one
-/// initial state.
-#[derive(Debug, Clone, Copy)]
-pub struct Found {
-    /// Mean harvested power (W).
-    pub power_w: f64,
-    /// Hops between the wells.
-    pub hops: f64,
-    /// Period (forcing periods; 0 none, NaN not tested).
-    pub period: f64,
-}
-
-/// `(design id, initial state name, frequency index)`.
-type InstanceKey = (String, String, usize);
-
-/// A search and what `instances.csv` says of each grid design.
-#[derive(Debug)]
-pub struct Search {
-    /// The search, rebuilt from `search_scene.toml`.
-    pub spec: SearchSpec,
-    /// Per cell: its design's id in `instances.csv`.
-    pub design: Vec<Option<String>>,
-    /// What the search found per instance.
-    pub instances: HashMap<InstanceKey, Found>,
-}
 
 /// Read a search folder.
 pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {

@@ -143,7 +143,7 @@ async fn map_info(State(app): Shared) -> Response {
         "scalogram_bar": sequential_bar(),
         "cell_limits": {
             "wall_s": app.jobs.limits().wall_s,
-            "memory": crate::output::budget::bytes(app.jobs.limits().memory_bytes),
+            "memory": crate::text::bytes(app.jobs.limits().memory_bytes),
         },
     }))
     .into_response()

@@ -1,6 +1,7 @@
 //! pendulum-atlas-map: a parameter map from plan to files, on top of the numerical core
 //! (`pendulum-atlas-core`).
 //!
+//! 0. [`machine`]: the memory and disk the machine has, for the size checks of every stage.
 //! 1. [`map`]: a map from start to finish: the instances of a `MapSpec` planned and run on an
 //!    opened engine (plain, several starts per cell, continuation, adaptive refinement), with
 //!    what the pictures need kept.
@@ -12,6 +13,7 @@
 //!    scalograms).
 #![warn(missing_docs)]
 
+pub mod machine;
 pub mod map;
 pub mod output;
 pub mod render;

@@ -4,6 +4,7 @@
 pub mod continuation;
 pub mod hardware_default;
 pub mod refine;
+pub mod shard;
 
 use crate::config::MapSpec;
 use crate::engine::gpu::GpuTimings;
@@ -11,8 +12,8 @@ use crate::engine::{Engine, EngineError, EngineInfo, EnsemblePlan, Progress, Rea
 use crate::reduce::{
     AttractorMap, AttractorRule, InstanceResult, ReduceOptions, attractor_map, basin_map,
 };
-use crate::shard::Shard;
 use serde::Serialize;
+use shard::Shard;
 use std::time::Instant;
 
 /// Wall time of each stage (s).
@@ -206,7 +207,8 @@ pub fn host_bytes_estimate(spec: &MapSpec) -> u64 {
 /// Refuse a map whose plan and results would not fit in half the memory available now (every
 /// shard plans the whole map, so sharding does not shrink it).
 pub fn check_host_memory(spec: &MapSpec) -> Result<(), EngineError> {
-    use crate::output::budget::{bytes, memory_available};
+    use crate::machine::memory_available;
+    use crate::text::bytes;
     let need = host_bytes_estimate(spec);
     match memory_available() {
         Some(available) if need > available / 2 => Err(EngineError::HostMemory {

@@ -2,7 +2,9 @@
 
 use std::f64::consts::{FRAC_2_PI, PI};
 
-use pendulum_atlas_core::analysis::{PhaseConvention, analytic_signal, phase_histogram, phase_sync};
+use pendulum_atlas_core::analysis::{
+    PhaseConvention, analytic_signal, phase_histogram, phase_sync,
+};
 
 use super::common::{assert_all_close, fixture, floats, white_noise};
 

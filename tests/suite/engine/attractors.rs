@@ -6,9 +6,9 @@ use super::Under;
 use super::cases::tiny_map;
 use pendulum_atlas_core::config::MapSpec;
 use pendulum_atlas_core::engine::no_progress;
-use pendulum_atlas_map::map::{MapRun, run_map};
 use pendulum_atlas_core::reduce::Regime;
 use pendulum_atlas_core::reduce::attractors::Wells;
+use pendulum_atlas_map::map::{MapRun, run_map};
 
 /// The pinned bistable cell: 8 Hz at 1 mm (N = 3), where the pendulum rattles on one bumper
 /// in a period-1 orbit, the one of the α > 0 well or its mirror image in the α < 0 well,

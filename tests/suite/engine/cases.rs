@@ -13,9 +13,9 @@ use pendulum_atlas_core::engine::{
     EnsemblePlan, Instance, Observer, Readback, ReferenceOptions, StepPlan, integrate_reference,
     no_progress,
 };
-use pendulum_atlas_map::map::{MapRun, run_map};
 use pendulum_atlas_core::model::{CartState, Chain, Status, Workspace};
 use pendulum_atlas_core::reduce::{ReduceOptions, k_of, line_of, period_of, r_of};
+use pendulum_atlas_map::map::{MapRun, run_map};
 
 /// A small map scene over (f, A) at N = 3 with the given extra TOML and map section, integrated
 /// with `under`'s method.

@@ -5,8 +5,8 @@
 use super::Under;
 use super::cases::tiny_map;
 use pendulum_atlas_core::engine::no_progress;
-use pendulum_atlas_map::map::{MapRun, run_map};
 use pendulum_atlas_core::reduce::Regime;
+use pendulum_atlas_map::map::{MapRun, run_map};
 
 fn map_on(under: Under, spec: &pendulum_atlas_core::config::MapSpec) -> Option<MapRun> {
     let engine = under.engine()?;

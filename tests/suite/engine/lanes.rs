@@ -180,7 +180,9 @@ fn the_flop_count_is_the_engines_own_step() {
     let c9 = rk4_flops(&n9.instances[0].params, n9.instances[0].dt_s);
     assert_eq!((c9.sin_cos, c9.divisions), (36, 72), "{c9:?}");
     // Linear in N: the arithmetic per segment stays within 10 % from N = 3 to 9.
-    let per = |c: &pendulum_atlas_studies::bench::flops::FlopCount| c.arithmetic as f64 / c.segments as f64;
+    let per = |c: &pendulum_atlas_studies::bench::flops::FlopCount| {
+        c.arithmetic as f64 / c.segments as f64
+    };
     assert!((per(&c9) / per(&c) - 1.0).abs() < 0.1, "{c:?} {c9:?}");
 }
 

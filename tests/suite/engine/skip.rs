@@ -8,8 +8,8 @@ use super::cases::tiny_map;
 use pendulum_atlas_core::config::MapSpec;
 use pendulum_atlas_core::engine::early::EARLY_LYAPUNOV_REL_SE;
 use pendulum_atlas_core::engine::no_progress;
-use pendulum_atlas_map::map::{MapRun, run_map};
 use pendulum_atlas_core::reduce::{InstanceResult, Regime};
+use pendulum_atlas_map::map::{MapRun, run_map};
 
 fn map_on(under: Under, spec: &MapSpec) -> Option<MapRun> {
     let engine = under.engine()?;

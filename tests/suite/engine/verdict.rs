@@ -12,10 +12,10 @@ use pendulum_atlas_core::config::{MapSpec, Scene};
 use pendulum_atlas_core::engine::{
     Instance, Observer, ReferenceOptions, StepPlan, integrate_reference, no_progress,
 };
-use pendulum_atlas_map::map::{MapRun, run_map};
 use pendulum_atlas_core::model::{CartState, Chain, Status, Workspace, linear};
 use pendulum_atlas_core::reduce::Regime;
 use pendulum_atlas_core::reduce::regime::{confidence, regime_of};
+use pendulum_atlas_map::map::{MapRun, run_map};
 
 fn map_on(under: Under, spec: &MapSpec) -> Option<MapRun> {
     let engine = under.engine()?;

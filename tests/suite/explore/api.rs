@@ -76,7 +76,8 @@ fn the_map_and_its_fields_are_the_files_of_the_folder() {
     // shade of their period, and the codes of regime.npy.
     let r = json(&s, "GET", "/api/field?metric=regime", 200);
     assert_eq!(r["bar"], serde_json::json!([]));
-    let (_, codes) = pendulum_atlas_map::output::npy::read_npy::<i8>(&dir.join("regime.npy")).unwrap();
+    let (_, codes) =
+        pendulum_atlas_map::output::npy::read_npy::<i8>(&dir.join("regime.npy")).unwrap();
     let period = npy(dir, "period");
     let names: Vec<String> = r["categories"]
         .as_array()

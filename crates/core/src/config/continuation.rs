@@ -10,8 +10,8 @@
 //! continuation together with several starts per cell or refinement.
 
 use super::error::ConfigError;
-use super::map::MapAxis;
 use super::reader::Reader;
+use super::sweep::MapAxis;
 use crate::text::num;
 use serde::{Deserialize, Serialize};
 use toml::Value;

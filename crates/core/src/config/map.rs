@@ -19,6 +19,7 @@ use super::error::ConfigError;
 use super::reader::{Range, Reader, apply_override, parse_toml, set_key};
 use super::scene::{ExcitationKind, Scene};
 use super::starts::StartSet;
+use super::sweep::{MapAxis, SweepList, lookup_key};
 use crate::analysis::PhaseConvention;
 use crate::text::num;
 use serde::Serialize;
@@ -108,83 +109,6 @@ impl Metric {
     fn parse(s: &str) -> Option<Metric> {
         Metric::ALL.into_iter().find(|m| m.name() == s)
     }
-}
-
-/// Spacing of an axis's values.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum AxisScale {
-    /// Evenly spaced.
-    Linear,
-    /// Evenly spaced in log (start and end > 0).
-    Log,
-}
-
-/// One swept scene key.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct MapAxis {
-    /// Dotted scene key, e.g. `excitation.frequency_hz`.
-    pub key: String,
-    /// Values of the key along the axis, in order.
-    pub values: Vec<f64>,
-    /// Spacing.
-    pub scale: AxisScale,
-}
-
-impl MapAxis {
-    /// A label with the unit in physical terms, for pictures.
-    pub fn label(&self) -> String {
-        axis_label(&self.key)
-    }
-}
-
-/// A readable label (with unit) for a scene key; unknown keys are shown as they are.
-pub fn axis_label(key: &str) -> String {
-    match key {
-        "excitation.frequency_hz" => "forcing frequency f (Hz)".into(),
-        "excitation.amplitude_m" => "cart amplitude A (m)".into(),
-        "limiter.clearance_deg" => "clearance θc (deg)".into(),
-        "limiter.contact_arc_m" => "bumper arc s_b (m)".into(),
-        "limiter.stiffness_n_per_m" => "contact stiffness k_c (N/m)".into(),
-        "tip.mass_kg" => "tip mass M (kg)".into(),
-        "piezo.load_ohm" => "load R_L (Ω)".into(),
-        "beam.damping_ratio" => "damping ratio ζ1".into(),
-        "initial.angle_deg" => "initial angle (deg)".into(),
-        "initial.rate_deg_s" => "initial rate (deg/s)".into(),
-        other => match key_unit(other) {
-            Some(u) => format!("{other} ({u})"),
-            None => other.to_string(),
-        },
-    }
-}
-
-/// Units of scene keys by the suffix of their name, longest suffixes first.
-const KEY_UNITS: [(&str, &str); 16] = [
-    ("_n_per_m", "N/m"),
-    ("_ns_per_m", "N s/m"),
-    ("_nm_per_v", "N m/V"),
-    ("_deg_s", "deg/s"),
-    ("_m_s2", "m/s^2"),
-    ("_kgm2", "kg m^2"),
-    ("_nms", "N m s/rad"),
-    ("_ohm", "ohm"),
-    ("_deg", "deg"),
-    ("_hz", "Hz"),
-    ("_kg", "kg"),
-    ("_pa", "Pa"),
-    ("_m", "m"),
-    ("_s", "s"),
-    ("_f", "F"),
-    ("_v", "V"),
-];
-
-/// The unit of a scene key's value, read off its name (`excitation.frequency_hz` → `Hz`);
-/// `None` for keys without one (ratios, counts, switches).
-pub fn key_unit(key: &str) -> Option<&'static str> {
-    KEY_UNITS
-        .iter()
-        .find(|(suffix, _)| key.ends_with(suffix))
-        .map(|&(_, unit)| unit)
 }
 
 /// A validated map scene.
@@ -283,6 +207,10 @@ pub enum Perturbation {
     /// This `d0`.
     Given(f64),
 }
+
+/// The largest initial separation d0 of λ1's twin accepted (`map.lyapunov_perturbation`; λ1
+/// within 3.4e-3 of its small-d0 value there).
+pub const SEPARATION_MAX: f64 = 1e-3;
 
 /// `map.lyapunov_*`: how the twin trajectory of λ1 runs.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -580,7 +508,7 @@ fn read_map(
     }
     let mut r = Reader::new(wrapped);
 
-    let axes = read_axes(axes_value, &base_table)?;
+    let axes = MAP_AXES.read(axes_value, None, axis_refusal)?;
     let metrics = read_metrics(metrics_value, &scene)?;
     let bifurcation = r.boolean("map.bifurcation", false)?;
     if bifurcation && axes.len() != 1 {
@@ -833,18 +761,12 @@ fn read_lyapunov(r: &mut Reader) -> Result<LyapunovSettings, ConfigError> {
             return Err(ConfigError::BadChoice {
                 key: key.into(),
                 value: s.clone(),
-                choices: format!(
-                    "\"auto\" or a number in (0, {}]",
-                    crate::reduce::lyapunov::SEPARATION_MAX
-                ),
+                choices: format!("\"auto\" or a number in (0, {}]", SEPARATION_MAX),
             });
         }
-        Some(_) => Perturbation::Given(r.number(
-            key,
-            0.0,
-            Range::OpenClosed(0.0, crate::reduce::lyapunov::SEPARATION_MAX),
-            "",
-        )?),
+        Some(_) => {
+            Perturbation::Given(r.number(key, 0.0, Range::OpenClosed(0.0, SEPARATION_MAX), "")?)
+        }
     };
     Ok(LyapunovSettings {
         window_s,
@@ -942,319 +864,25 @@ fn read_metrics(v: Option<Value>, scene: &Scene) -> Result<Vec<Metric>, ConfigEr
     Ok(out)
 }
 
-/// `[[map.axes]]`: 1 to 3 distinct swept keys, each with its values, and at most
-/// [`MAX_INSTANCES`] grid points in all.
-fn read_axes(v: Option<Value>, base: &Table) -> Result<Vec<MapAxis>, ConfigError> {
-    let items = axis_tables(v)?;
-    let mut axes: Vec<MapAxis> = Vec::new();
-    let mut total: usize = 1;
-    for (i, item) in items.into_iter().enumerate() {
-        let prefix = format!("map.axes[{}]", i + 1);
-        let Value::Table(t) = item else {
-            return Err(ConfigError::WrongType {
-                key: prefix,
-                expected: "a table with key, start, end, count".into(),
-                found: "a value".into(),
-            });
-        };
-        let mut wrapped = Table::new();
-        let mut inner = Table::new();
-        inner.insert(format!("axes[{}]", i + 1), Value::Table(t));
-        wrapped.insert("map".into(), Value::Table(inner));
-        let mut r = Reader::new(wrapped);
-        let key = axis_key(&mut r, &prefix, &axes)?;
-        let (values, scale) = read_sweep(&mut r, &prefix, &key, MAX_INSTANCES)?;
-        r.finish()?;
-        total = total
-            .checked_mul(values.len())
-            .filter(|&t| t <= MAX_INSTANCES)
-            .ok_or_else(|| ConfigError::OutOfRange {
-                key: format!("{prefix}.count"),
-                value: values.len() as f64,
-                range: format!(
-                    "grids of at most {MAX_INSTANCES} instances in all (this one would need more)"
-                ),
-            })?;
-        // The key must exist in the scene schema: checked by validating the first grid point.
-        let _ = base;
-        axes.push(MapAxis { key, values, scale });
-    }
-    Ok(axes)
-}
+/// `[[map.axes]]`: 1 to 3 swept keys and at most [`MAX_INSTANCES`] grid points in all.
+const MAP_AXES: SweepList = SweepList {
+    section: "map.axes",
+    entry: "a map axis",
+    needs: "a map needs 1 to 3 axes",
+    max_entries: 3,
+    max_points: MAX_INSTANCES,
+    points: "instances",
+    example_key: "excitation.frequency_hz",
+};
 
-/// The entries of `map.axes`: an array of 1 to 3 items.
-fn axis_tables(v: Option<Value>) -> Result<Vec<Value>, ConfigError> {
-    let items = match v {
-        Some(Value::Array(items)) => items,
-        Some(_) => {
-            return Err(ConfigError::WrongType {
-                key: "map.axes".into(),
-                expected: "an array of tables ([[map.axes]])".into(),
-                found: "a single value".into(),
-            });
-        }
-        None => {
-            return Err(ConfigError::Inconsistent {
-                key: "map.axes".into(),
-                reason: "a map needs 1 to 3 axes ([[map.axes]] with key, start, end, count)".into(),
-            });
-        }
-    };
-    if items.is_empty() || items.len() > 3 {
-        return Err(ConfigError::Inconsistent {
-            key: "map.axes".into(),
-            reason: format!("a map needs 1 to 3 axes, found {}", items.len()),
-        });
-    }
-    Ok(items)
-}
-
-/// The scene key an axis at `prefix` sweeps: a string that [`axis_refusal`] accepts.
-fn axis_key(r: &mut Reader, prefix: &str, axes: &[MapAxis]) -> Result<String, ConfigError> {
-    let key = match r.raw(&format!("{prefix}.key"))? {
-        Some(Value::String(s)) => s.clone(),
-        Some(other) => {
-            return Err(ConfigError::WrongType {
-                key: format!("{prefix}.key"),
-                expected: "a dotted scene key such as \"excitation.frequency_hz\"".into(),
-                found: format!("{other}"),
-            });
-        }
-        None => {
-            return Err(ConfigError::Inconsistent {
-                key: format!("{prefix}.key"),
-                reason: "missing: name the scene key this axis sweeps".into(),
-            });
-        }
-    };
-    match axis_refusal(&key, axes) {
-        Some(reason) => Err(ConfigError::Inconsistent {
-            key: format!("{prefix}.key"),
-            reason,
-        }),
-        None => Ok(key),
-    }
-}
-
-/// Why `key` cannot be swept next to `axes`: every instance of a map shares the segment
-/// count and the excitation's kind, map settings are not scene keys, and a key is swept once.
-fn axis_refusal(key: &str, axes: &[MapAxis]) -> Option<String> {
+/// Why `key` cannot be a map axis: every instance of a map shares the segment count and the
+/// excitation's kind, and map settings are not scene keys.
+fn axis_refusal(key: &str) -> Option<String> {
     if key == "beam.segments" {
-        return Some("beam.segments cannot be swept: every instance of a map shares one segment count (run one map per N)".into());
+        return Some("every instance of a map shares one segment count (run one map per N)".into());
     }
     if key.starts_with("map.") || key.starts_with("excitation.sweep") || key == "excitation.kind" {
-        return Some(format!("`{key}` cannot be a map axis"));
-    }
-    if axes.iter().any(|a| a.key == key) {
-        return Some(format!("`{key}` is swept twice"));
-    }
-    None
-}
-
-/// The values of a swept scene key (a map axis, a design variable) read from the table at
-/// `prefix`: either `values = [...]` (finite, strictly increasing) or `start`, `end`, `count`
-/// with an optional `scale = "linear" | "log"`. At most `max` values. Errors name the key.
-pub fn read_sweep(
-    r: &mut Reader,
-    prefix: &str,
-    key: &str,
-    max: usize,
-) -> Result<(Vec<f64>, AxisScale), ConfigError> {
-    let scale = match r
-        .choice(&format!("{prefix}.scale"), "linear", &["linear", "log"])?
-        .as_str()
-    {
-        "log" => AxisScale::Log,
-        _ => AxisScale::Linear,
-    };
-    let values = match r.raw(&format!("{prefix}.values"))?.cloned() {
-        Some(Value::Array(vs)) => listed_values(r, prefix, key, max, vs)?,
-        Some(other) => {
-            return Err(ConfigError::WrongType {
-                key: format!("{prefix}.values"),
-                expected: "an array of numbers".into(),
-                found: format!("{other}"),
-            });
-        }
-        None => ranged_values(r, prefix, key, max, scale)?,
-    };
-    Ok((values, scale))
-}
-
-/// An inconsistency at `{prefix}.{what}`, its reason prefixed with the swept key.
-fn sweep_error(prefix: &str, key: &str, what: &str, reason: String) -> ConfigError {
-    ConfigError::Inconsistent {
-        key: format!("{prefix}.{what}"),
-        reason: format!("{key}: {reason}"),
-    }
-}
-
-/// `values = [...]`: 1 to `max` finite numbers, strictly increasing, with no start, end or
-/// count beside them.
-fn listed_values(
-    r: &mut Reader,
-    prefix: &str,
-    key: &str,
-    max: usize,
-    vs: Vec<Value>,
-) -> Result<Vec<f64>, ConfigError> {
-    let named = |what: &str, reason: String| sweep_error(prefix, key, what, reason);
-    let out = vs
-        .into_iter()
-        .map(|v| listed_number(prefix, v))
-        .collect::<Result<Vec<f64>, _>>()?;
-    if out.is_empty() {
-        return Err(named("values", "the range is empty (values = [])".into()));
-    }
-    if out.len() > max {
-        return Err(named("values", format!("at most {max} values")));
-    }
-    if out.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(named("values", "values must be strictly increasing".into()));
-    }
-    for k in ["start", "end", "count"] {
-        if r.raw(&format!("{prefix}.{k}"))?.is_some() {
-            return Err(named(
-                k,
-                "give either `values` or start/end/count, not both".into(),
-            ));
-        }
-    }
-    Ok(out)
-}
-
-/// One entry of `values`: a finite number (an integer is taken as a float).
-fn listed_number(prefix: &str, v: Value) -> Result<f64, ConfigError> {
-    let x = match v {
-        Value::Float(f) => f,
-        Value::Integer(i) => i as f64,
-        other => {
-            return Err(ConfigError::WrongType {
-                key: format!("{prefix}.values"),
-                expected: "an array of numbers".into(),
-                found: format!("{other}"),
-            });
-        }
-    };
-    if !x.is_finite() {
-        return Err(ConfigError::NotFinite {
-            key: format!("{prefix}.values"),
-            value: x,
-        });
-    }
-    Ok(x)
-}
-
-/// `start`, `end` and `count` (all required), checked for an empty or impossible range, then
-/// spread over it linearly or logarithmically per `scale`.
-fn ranged_values(
-    r: &mut Reader,
-    prefix: &str,
-    key: &str,
-    max: usize,
-    scale: AxisScale,
-) -> Result<Vec<f64>, ConfigError> {
-    let missing = |what: &str| {
-        sweep_error(
-            prefix,
-            key,
-            what,
-            "missing: give start, end and count (or values)".into(),
-        )
-    };
-    let start = r
-        .number_opt(&format!("{prefix}.start"), Range::Any, "")?
-        .ok_or_else(|| missing("start"))?;
-    let end = r
-        .number_opt(&format!("{prefix}.end"), Range::Any, "")?
-        .ok_or_else(|| missing("end"))?;
-    let count = match r.raw(&format!("{prefix}.count"))? {
-        None => return Err(missing("count")),
-        Some(_) => r.integer(&format!("{prefix}.count"), 0, i64::MIN, i64::MAX)?,
-    };
-    check_range(prefix, key, max, scale, (start, end, count))?;
-    Ok(spread(start, end, count as usize, scale))
-}
-
-/// Refuse a range that is empty, whose count and ends disagree, a log range reaching 0, or
-/// one of more than `max` values.
-fn check_range(
-    prefix: &str,
-    key: &str,
-    max: usize,
-    scale: AxisScale,
-    (start, end, count): (f64, f64, i64),
-) -> Result<(), ConfigError> {
-    let named = |what: &str, reason: String| sweep_error(prefix, key, what, reason);
-    if count < 1 {
-        return Err(named(
-            "count",
-            format!("the range is empty (count = {count})"),
-        ));
-    }
-    if end < start {
-        return Err(named(
-            "end",
-            format!(
-                "the range is empty: end = {} is below start = {}",
-                num(end),
-                num(start)
-            ),
-        ));
-    }
-    if count == 1 && start != end {
-        return Err(named("count", "count = 1 needs start = end".into()));
-    }
-    if count > 1 && end == start {
-        return Err(named(
-            "end",
-            format!(
-                "the range is empty: start = end = {} with count = {count}",
-                num(start)
-            ),
-        ));
-    }
-    if scale == AxisScale::Log && start <= 0.0 {
-        return Err(named("start", "a log range needs start > 0".into()));
-    }
-    if count as u64 > max as u64 {
-        return Err(ConfigError::OutOfRange {
-            key: format!("{prefix}.count"),
-            value: count as f64,
-            range: format!("at most {max} values"),
-        });
-    }
-    Ok(())
-}
-
-/// `n` values from `start` to `end`, evenly spaced on a linear or a log scale (`start` alone
-/// when `n` is 1).
-fn spread(start: f64, end: f64, n: usize, scale: AxisScale) -> Vec<f64> {
-    (0..n)
-        .map(|j| {
-            let u = if n == 1 {
-                0.0
-            } else {
-                j as f64 / (n - 1) as f64
-            };
-            match scale {
-                AxisScale::Linear => start + (end - start) * u,
-                AxisScale::Log => (start.ln() + (end.ln() - start.ln()) * u).exp(),
-            }
-        })
-        .collect()
-}
-
-/// The value at a dotted key of a scene table, if any.
-pub fn lookup_key<'a>(table: &'a Table, key: &str) -> Option<&'a Value> {
-    let mut cursor = table;
-    let parts: Vec<&str> = key.split('.').collect();
-    for (i, p) in parts.iter().enumerate() {
-        let v = cursor.get(*p)?;
-        if i + 1 == parts.len() {
-            return Some(v);
-        }
-        cursor = v.as_table()?;
+        return Some("map settings and the kind of excitation are shared by every instance".into());
     }
     None
 }

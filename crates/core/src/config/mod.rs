@@ -11,14 +11,14 @@ mod physics;
 mod reader;
 mod scene;
 mod starts;
+mod sweep;
 
 pub use continuation::{ContinuationSpec, Direction, Sweep};
 pub use error::ConfigError;
 pub use map::{
-    AxisScale, DEFAULT_MAP_TOML, LyapunovSettings, MAX_INSTANCES, MapAxis, MapSpec, Metric,
-    Perturbation, RefineFollow, RefineSpec, axis_label, c_order_index, grid_point, key_unit,
-    load_map, lookup_key, map_from_toml, read_sweep, refuse_sets_on_swept, scene_text,
-    split_section,
+    DEFAULT_MAP_TOML, LyapunovSettings, MAX_INSTANCES, MapSpec, Metric, Perturbation, RefineFollow,
+    RefineSpec, SEPARATION_MAX, c_order_index, grid_point, load_map, map_from_toml,
+    refuse_sets_on_swept, scene_text, split_section,
 };
 pub use physics::DampingReport;
 pub use reader::{
@@ -32,3 +32,7 @@ pub use scene::{
     Tip, load_scene,
 };
 pub use starts::{MAX_START_RATE_DEG_S, MAX_STARTS, Start, StartSet, StartSource, latin_hypercube};
+pub use sweep::{
+    AxisScale, MapAxis, SweepList, SweptKey, axis_label, key_unit, lookup_key, neighbours,
+    point_key, read_sweep,
+};

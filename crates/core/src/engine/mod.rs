@@ -19,6 +19,7 @@
 mod auto;
 pub mod cpu;
 pub mod early;
+mod early_rule;
 mod error;
 pub mod gpu;
 pub mod imex;
@@ -28,12 +29,13 @@ mod reference;
 pub mod rk4;
 pub mod scene_run;
 mod single;
+pub mod state_view;
 mod step_plan;
 pub mod stepper;
 pub mod twin;
 
 pub use cpu::{CpuEngine, CpuLoop};
-pub use early::EarlyStop;
+pub use early_rule::EarlyStop;
 pub use error::EngineError;
 pub use gpu::{GpuContext, GpuEngine};
 pub use plan::{EnsembleOptions, EnsemblePlan, InstancePlan};
@@ -51,7 +53,7 @@ use std::ops::ControlFlow;
 use std::time::Instant;
 
 /// Which engine a user asks for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Backend {
     /// A hardware GPU if present; else the faster of the software adapter lavapipe and the
@@ -64,7 +66,7 @@ pub enum Backend {
 }
 
 /// Float type of an engine.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Precision {
     /// Single precision, as the GPU integrates.
@@ -260,6 +262,9 @@ impl EnsembleEngine for CpuEngine {
     }
 }
 
+/// What [`Engine::mark_reused`] adds to an engine's reason.
+const REUSED: &str = " (reused: opened by an earlier call of this process)";
+
 /// An opened engine: what the caller creates once and hands to every batch.
 pub struct Engine {
     info: EngineInfo,
@@ -391,6 +396,15 @@ impl Engine {
                 precision.unwrap_or(Precision::F64),
                 "auto: no GPU adapter at all (not even lavapipe): CPU engine".into(),
             ),
+        }
+    }
+
+    /// Mark this engine as reused by a later call of the same process (the Python package keeps
+    /// its engines open): its opening cost no more (`open_s` 0) and its reason says so.
+    pub fn mark_reused(&mut self) {
+        self.info.open_s = 0.0;
+        if !self.info.reason.ends_with(REUSED) {
+            self.info.reason.push_str(REUSED);
         }
     }
 

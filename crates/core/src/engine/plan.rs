@@ -14,7 +14,7 @@ use crate::config::{
     LyapunovSettings, MapSpec, MethodChoice, Metric, Perturbation, Scene, TimeStep,
 };
 use crate::engine::Precision;
-use crate::engine::early::EarlyStop;
+use crate::engine::early_rule::EarlyStop;
 use crate::engine::error::EngineError;
 use crate::engine::imex::ImexMatrices;
 use crate::engine::method::{Method, MethodSteps};

@@ -18,42 +18,6 @@ pub trait CartClock {
     fn velocity(&self, step: u64) -> f64;
 }
 
-/// A state the bookkeeping reads: one instance's slice `[θ; θ̇; v]`, or one lane of a state
-/// of vectors.
-pub trait StateView<T> {
-    /// Component `k`.
-    fn at(&self, k: usize) -> T;
-    /// Components.
-    fn len(&self) -> usize;
-    /// No components.
-    fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-}
-
-/// A state the bookkeeping also writes (the twin of λ1, renormalised).
-pub trait StateViewMut<T>: StateView<T> {
-    /// Set component `k`.
-    fn set(&mut self, k: usize, v: T);
-}
-
-impl<T: Copy> StateView<T> for [T] {
-    #[inline]
-    fn at(&self, k: usize) -> T {
-        self[k]
-    }
-    fn len(&self) -> usize {
-        <[T]>::len(self)
-    }
-}
-
-impl<T: Copy> StateViewMut<T> for [T] {
-    #[inline]
-    fn set(&mut self, k: usize, v: T) {
-        self[k] = v;
-    }
-}
-
 /// A fixed-step integration method: advances the state by one step.
 pub trait Stepper<T: Real> {
     /// The same method at the same step with nothing carried over (no summation

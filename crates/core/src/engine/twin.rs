@@ -30,7 +30,7 @@
 //! period-2 orbit at 4 Hz, 4 mm (N = 3) read −0.42 1/s on every fixed-step engine, against
 //! its Floquet exponent −3.30 1/s from the event-locating DOP853 integrator.
 
-use crate::engine::stepper::{StateView, StateViewMut};
+use crate::engine::state_view::{StateView, StateViewMut};
 use crate::model::{Chain, Real, Workspace};
 use crate::reduce::{LyapunovSums, TwinPlan};
 

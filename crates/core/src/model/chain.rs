@@ -8,9 +8,8 @@
 //! is exactly how they appear in the Lagrange equations. [`crate::model::dense`] builds the
 //! dense M and Q term by term for the cross-check in tests.
 
-use crate::model::lane::Lane;
+use crate::model::lane::{Lane, Real};
 use crate::model::params::{ContactDamping, ContactParams, ModelParams, PiezoParams};
-use crate::model::real::Real;
 
 /// Which branch of the force law a bumper is on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -6,8 +6,8 @@
 //! struct; the engine test suite holds the GPU's statuses against the CPU's.
 
 use crate::model::chain::Chain;
+use crate::model::lane::Real;
 use crate::model::params::ModelParams;
-use crate::model::real::Real;
 use serde::Serialize;
 
 /// Steps between health checks (energy bound, folded chain, non-finite state).

@@ -8,8 +8,10 @@
 //! `cos`: the vectors use `wide`'s polynomial (Agner Fog's vector class library, within a few
 //! ulp), the scalars the platform's libm. Branches of the physics (a bumper pushing or not)
 //! become lane selects ([`Lane::if_positive`]).
+//!
+//! [`Real`] is the scalar alone (`f64` for the reference and the CPU fallback, `f32` for what the
+//! GPU computes, so that its error can be measured on the CPU); each scalar is a lane of one.
 
-use crate::model::real::Real;
 use std::fmt::Debug;
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
 use wide::CmpGt;
@@ -137,3 +139,50 @@ macro_rules! vector_lane {
 
 vector_lane!(F64x4, f64, 4);
 vector_lane!(F32x8, f32, 8);
+
+/// A floating-point scalar usable by the chain solve and the RK4 engine.
+pub trait Real:
+    Lane<Scalar = Self>
+    + num_traits::Float
+    + num_traits::FloatConst
+    + Default
+    + Send
+    + Sync
+    + std::fmt::Debug
+    + std::fmt::Display
+    + std::ops::AddAssign
+    + std::ops::SubAssign
+    + std::ops::MulAssign
+    + 'static
+{
+    /// Convert from `f64` (rounding to nearest for `f32`).
+    fn of(x: f64) -> Self;
+    /// Widen to `f64`.
+    fn wide(self) -> f64;
+    /// A short name for reports ("f32" or "f64").
+    const NAME: &'static str;
+}
+
+impl Real for f64 {
+    #[inline(always)]
+    fn of(x: f64) -> Self {
+        x
+    }
+    #[inline(always)]
+    fn wide(self) -> f64 {
+        self
+    }
+    const NAME: &'static str = "f64";
+}
+
+impl Real for f32 {
+    #[inline(always)]
+    fn of(x: f64) -> Self {
+        x as f32
+    }
+    #[inline(always)]
+    fn wide(self) -> f64 {
+        self as f64
+    }
+    const NAME: &'static str = "f32";
+}

@@ -17,7 +17,6 @@ mod health;
 mod lane;
 pub mod linear;
 mod params;
-mod real;
 
 pub use chain::{
     Branches, BumperLoad, BumperMode, Chain, ContactLaw, ContactReport, Energy, Workspace,
@@ -25,9 +24,8 @@ pub use chain::{
 };
 pub use excitation::{CartMotion, CartState, ExcitationKind, HarmonicAmplitudes};
 pub use health::{CHECK_EVERY, Guard, Status, health_due};
-pub use lane::{F32x8, F64x4, Lane};
+pub use lane::{F32x8, F64x4, Lane, Real};
 pub use linear::{Modes, modes};
 pub use params::{
     BumperDesign, ChainDesign, ContactDamping, ContactParams, ModelParams, PiezoParams, Tube,
 };
-pub use real::Real;

@@ -70,8 +70,8 @@ pub const SEPARATION_F32_MIN: f64 = 1e-4;
 /// The smallest d0 accepted in f64 (measured down to it).
 pub const SEPARATION_F64_MIN: f64 = 1e-10;
 
-/// The largest d0 accepted (λ1 within 3.4e-3 of its small-d0 value there).
-pub const SEPARATION_MAX: f64 = 1e-3;
+/// The largest d0 accepted: a bound of the settings ([`crate::config::SEPARATION_MAX`]).
+pub use crate::config::SEPARATION_MAX;
 
 /// How an instance's twin runs: when it starts, how long it aligns and measures, and the
 /// weights of its state norm.

@@ -11,6 +11,8 @@
 //!   file system.
 
 use super::Row;
+use crate::machine::{free_space, memory_available};
+use crate::text::bytes;
 use std::path::Path;
 
 /// The share of available memory a run may plan to use.
@@ -158,36 +160,6 @@ impl RunSize {
             });
         }
         Ok(())
-    }
-}
-
-/// Memory the machine has available now (bytes), where the system says.
-pub fn memory_available() -> Option<u64> {
-    let mut sys = sysinfo::System::new().ok()?;
-    sys.refresh_memory();
-    Some(sys.available_memory()).filter(|&m| m > 0)
-}
-
-/// Space free to this user on the file system of `dir` or its nearest existing ancestor.
-fn free_space(dir: &Path) -> Option<u64> {
-    dir.ancestors()
-        .find(|p| p.exists())
-        .and_then(|p| fs4::available_space(p).ok())
-}
-
-/// A byte count for people: "1.2 GB".
-pub fn bytes(n: u64) -> String {
-    const UNITS: [&str; 5] = ["B", "kB", "MB", "GB", "TB"];
-    let mut v = n as f64;
-    let mut unit = 0;
-    while v >= 1000.0 && unit + 1 < UNITS.len() {
-        v /= 1000.0;
-        unit += 1;
-    }
-    if unit == 0 {
-        format!("{n} B")
-    } else {
-        format!("{v:.1} {}", UNITS[unit])
     }
 }
 

@@ -8,9 +8,9 @@
 //! - `scene.toml`: the map scene as given (the `--set` overrides are in the manifest);
 //! - `shard.json`: the manifest, written last.
 
-use super::spec::{Shard, map_hash};
 use crate::config::MapSpec;
 use crate::engine::EngineInfo;
+use crate::map::shard::{Shard, map_hash};
 use crate::map::{MapRun, MapTimings};
 use crate::model::Status;
 use crate::output::OutputError;

@@ -2,9 +2,9 @@
 //! their results put back in grid order.
 
 use super::files::{ShardData, ShardReadError, read_shard};
-use super::spec::map_hash;
 use crate::config::{ConfigError, MapSpec, map_from_toml};
 use crate::engine::{EngineError, EnsemblePlan};
+use crate::map::shard::map_hash;
 use crate::map::{MapPart, MapRun, assemble};
 use std::path::PathBuf;
 

@@ -3,7 +3,7 @@
 //!
 //! The stages, in the order a sharded map runs them:
 //!
-//! 1. [`spec`]: `--shard I/N` as a [`Shard`]: which instances of the grid it integrates. The
+//! 1. [`Shard`] (the map planner's `map::shard`): `--shard I/N`: which instances of the grid it integrates. The
 //!    partition interleaves (instance `k` belongs to shard `k mod N`), so that neighbouring
 //!    cells, which cost alike, spread over all shards and every shard takes about as long.
 //! 2. [`files`]: a shard's folder: its results (`shard_results.npy`, full f64, NaN kept), the
@@ -19,9 +19,8 @@
 pub mod files;
 pub mod merge;
 pub mod slurm;
-pub mod spec;
 
+pub use crate::map::shard::{MAX_SHARDS, Shard, ShardSpecError, map_hash};
 pub use files::{ShardData, read_shard, write_shard};
 pub use merge::{MergeError, merge_shards};
 pub use slurm::{SlurmJob, SlurmSpecError, check_partition, check_time};
-pub use spec::{Shard, ShardSpecError, map_hash};

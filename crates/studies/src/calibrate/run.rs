@@ -7,9 +7,8 @@
 
 use super::observe::{Judgement, judge};
 use super::spec::CalibrationSpec;
-use crate::config::{ConfigError, Metric};
+use crate::config::{ConfigError, Metric, neighbours, point_key as key};
 use crate::engine::{Engine, EngineError, EnsembleOptions, EnsemblePlan, Progress};
-use crate::harvest::spec::{design_key as key, neighbours};
 use crate::map::run_plan;
 use crate::reduce::{InstanceResult, ReduceOptions};
 use serde::Serialize;

@@ -31,7 +31,7 @@
 use super::observe::Observation;
 use crate::analysis::PhaseConvention;
 use crate::config::{
-    ConfigError, MAX_INSTANCES, Range, Reader, Scene, read_sweep, set_key, split_section,
+    ConfigError, MAX_INSTANCES, Range, Reader, Scene, SweepList, SweptKey, set_key, split_section,
 };
 use crate::reduce::ReduceOptions;
 use serde::Serialize;
@@ -40,9 +40,9 @@ use toml::{Table, Value};
 /// Largest number of grid candidates.
 pub const MAX_CANDIDATES: usize = 10_000;
 
-/// One unknown parameter: a scene key and the values the coarse grid takes (a design
-/// variable of the harvesting search, with the same step space and refinement).
-pub type Unknown = crate::harvest::DesignVariable;
+/// One unknown parameter: a scene key and the values the coarse grid takes, a [`SweptKey`]
+/// like a design variable of the harvesting search (the same step space and refinement).
+pub type Unknown = SweptKey;
 
 /// One observed setting and what was observed there.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -160,7 +160,9 @@ pub fn calibration_from_toml(
     Scene::from_table(base_table.clone())?;
     let mut source_table = base_table.clone();
     source_table.insert("calibrate".into(), Value::Table(section.clone()));
-    let unknowns = read_unknowns(section.remove("unknowns"))?;
+    let unknowns = UNKNOWNS.read(section.remove("unknowns"), None, |k| {
+        reserved(k).map(String::from)
+    })?;
     let cases = read_cases(section.remove("cases"), &unknowns)?;
     let mut r = Reader::new(wrap("calibrate", section));
     let spec = CalibrationSpec {
@@ -264,66 +266,16 @@ fn reserved(key: &str) -> Option<&'static str> {
     }
 }
 
-/// `[[calibrate.unknowns]]`, at most [`MAX_CANDIDATES`] grid points in all.
-fn read_unknowns(v: Option<Value>) -> Result<Vec<Unknown>, ConfigError> {
-    let mut out: Vec<Unknown> = Vec::new();
-    let mut total = 1usize;
-    let items = tables(
-        v,
-        "calibrate.unknowns",
-        "key, start, end, count (or values)",
-    )?;
-    for (i, t) in items.into_iter().enumerate() {
-        let prefix = format!("calibrate.unknowns[{}]", i + 1);
-        let mut r = Reader::new(wrap(&prefix, t));
-        let key = match r.raw(&format!("{prefix}.key"))? {
-            Some(Value::String(s)) => s.clone(),
-            _ => {
-                return Err(ConfigError::WrongType {
-                    key: format!("{prefix}.key"),
-                    expected: "a dotted scene key such as \"limiter.contact_arc_m\"".into(),
-                    found: "something else or nothing".into(),
-                });
-            }
-        };
-        if let Some(why) = reserved(&key) {
-            return Err(inconsistent(
-                &prefix,
-                format!("`{key}` cannot be an unknown: {why}"),
-            ));
-        }
-        if out.iter().any(|u| u.key == key) {
-            return Err(inconsistent(
-                &prefix,
-                format!("`{key}` is an unknown twice"),
-            ));
-        }
-        let (values, scale) = read_sweep(&mut r, &prefix, &key, MAX_CANDIDATES)?;
-        r.finish()?;
-        total = total
-            .checked_mul(values.len())
-            .filter(|&n| n <= MAX_CANDIDATES)
-            .ok_or_else(|| ConfigError::OutOfRange {
-                key: format!("{prefix}.count"),
-                value: values.len() as f64,
-                range: format!("grids of at most {MAX_CANDIDATES} candidates in all"),
-            })?;
-        out.push(Unknown {
-            key,
-            values,
-            scale,
-            integer: false,
-        });
-    }
-    Ok(out)
-}
-
-fn inconsistent(prefix: &str, reason: String) -> ConfigError {
-    ConfigError::Inconsistent {
-        key: format!("{prefix}.key"),
-        reason,
-    }
-}
+/// `[[calibrate.unknowns]]`: 1 or more swept keys, at most [`MAX_CANDIDATES`] grid points.
+const UNKNOWNS: SweepList = SweepList {
+    section: "calibrate.unknowns",
+    entry: "an unknown",
+    needs: "a calibration needs at least one unknown",
+    max_entries: usize::MAX,
+    max_points: MAX_CANDIDATES,
+    points: "candidates",
+    example_key: "limiter.contact_arc_m",
+};
 
 /// `[[calibrate.cases]]`: a name, overrides and at least one observation each.
 fn read_cases(v: Option<Value>, unknowns: &[Unknown]) -> Result<Vec<Case>, ConfigError> {

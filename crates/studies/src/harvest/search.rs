@@ -14,10 +14,8 @@
 
 use super::band::{BandMetrics, band_metrics, mean_curve, robust_curve};
 use super::error::HarvestError;
-use super::spec::{
-    InitialState, Objective, SearchSpec, Weighting, describe_design, design_key, neighbours,
-};
-use crate::config::{ConfigError, Metric, Scene};
+use super::spec::{InitialState, Objective, SearchSpec, Weighting, describe_design};
+use crate::config::{ConfigError, Metric, Scene, neighbours, point_key};
 use crate::engine::{Engine, EngineInfo, EnsembleOptions, EnsemblePlan, ProgressUnit};
 use crate::map::run_plan;
 use crate::model::Status;
@@ -566,7 +564,7 @@ fn refinement_candidates(
         .iter()
         .take(spec.refine.top)
         .flat_map(|&id| neighbours(&spec.variables, &designs[id].values, shrink))
-        .filter(|c| seen.insert(design_key(c)))
+        .filter(|c| seen.insert(point_key(c)))
         .collect()
 }
 
@@ -604,7 +602,7 @@ pub fn run_search(
     let grid: Vec<Vec<f64>> = (0..spec.grid_designs())
         .map(|k| spec.grid_design(k))
         .collect();
-    let mut seen: HashSet<String> = grid.iter().map(|d| design_key(d)).collect();
+    let mut seen: HashSet<String> = grid.iter().map(|d| point_key(d)).collect();
     let (mut designs, report) = evaluate(spec, &mut engine, "grid", grid, 0, threshold_w)?;
     stages.push(report);
 

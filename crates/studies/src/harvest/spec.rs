@@ -22,8 +22,8 @@
 //! variable is checked against the scene schema before any integration starts.
 
 use crate::config::{
-    AxisScale, ConfigError, ExcitationKind, Range, Reader, Scene, lookup_key, read_sweep,
-    refuse_sets_on_swept, scene_text, set_key, split_section,
+    ConfigError, ExcitationKind, Range, Reader, Scene, SweepList, SweptKey, refuse_sets_on_swept,
+    scene_text, set_key, split_section,
 };
 use serde::Serialize;
 use toml::{Table, Value};
@@ -35,64 +35,9 @@ pub const DEFAULT_SEARCH_TOML: &str = include_str!("../../../../configs/harvest/
 /// Largest number of designs in the initial grid.
 pub const MAX_GRID_DESIGNS: usize = 100_000;
 
-/// Scene keys whose values are integers.
-const INTEGER_KEYS: [&str; 1] = ["piezo.segments"];
-
-/// One design variable: a numeric scene key and the values the grid takes.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct DesignVariable {
-    /// Dotted scene key, e.g. `limiter.clearance_deg`.
-    pub key: String,
-    /// Grid values, strictly increasing.
-    pub values: Vec<f64>,
-    /// Spacing of the grid, also the space in which refinement steps are taken.
-    pub scale: AxisScale,
-    /// The key holds an integer (refined values are rounded).
-    pub integer: bool,
-}
-
-impl DesignVariable {
-    /// Smallest value: refinement never goes below it.
-    pub fn lo(&self) -> f64 {
-        self.values[0]
-    }
-
-    /// Largest value: refinement never goes above it.
-    pub fn hi(&self) -> f64 {
-        self.values[self.values.len() - 1]
-    }
-
-    /// A value in the space steps are taken in (ln for log variables).
-    pub fn to_step_space(&self, v: f64) -> f64 {
-        match self.scale {
-            AxisScale::Linear => v,
-            AxisScale::Log => v.ln(),
-        }
-    }
-
-    /// Back from step space.
-    pub fn from_step_space(&self, u: f64) -> f64 {
-        match self.scale {
-            AxisScale::Linear => u,
-            AxisScale::Log => u.exp(),
-        }
-    }
-
-    /// The mean grid spacing in step space (0 for a single value: the variable is fixed).
-    pub fn grid_step(&self) -> f64 {
-        let n = self.values.len();
-        if n < 2 {
-            return 0.0;
-        }
-        (self.to_step_space(self.hi()) - self.to_step_space(self.lo())) / (n - 1) as f64
-    }
-
-    /// Clamp to the grid's range and round integer keys.
-    pub fn admissible(&self, v: f64) -> f64 {
-        let v = v.clamp(self.lo(), self.hi());
-        if self.integer { v.round() } else { v }
-    }
-}
+/// One design variable: a numeric scene key and the values the grid takes, a [`SweptKey`]
+/// like a map axis.
+pub type DesignVariable = SweptKey;
 
 /// How hard the cart shakes at each frequency of the band.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -431,34 +376,6 @@ pub fn describe_design(vars: &[DesignVariable], values: &[f64]) -> String {
         .join(", ")
 }
 
-/// A key identifying a design by its values (for "already evaluated" sets).
-pub fn design_key(values: &[f64]) -> String {
-    values
-        .iter()
-        .map(|v| format!("{v:.12e}"))
-        .collect::<Vec<_>>()
-        .join(",")
-}
-
-/// The neighbours of `centre`: one step of the grid spacing × `shrink` along each variable,
-/// both ways, in the variable's step space, clamped to its range (integers rounded).
-pub fn neighbours(vars: &[DesignVariable], centre: &[f64], shrink: f64) -> Vec<Vec<f64>> {
-    let mut out = Vec::new();
-    for (i, var) in vars.iter().enumerate() {
-        let step = var.grid_step() * shrink;
-        if step == 0.0 {
-            continue;
-        }
-        for sign in [-1.0, 1.0] {
-            let u = var.to_step_space(centre[i]) + sign * step;
-            let mut cand = centre.to_vec();
-            cand[i] = var.admissible(var.from_step_space(u));
-            out.push(cand);
-        }
-    }
-    out
-}
-
 /// Set a numeric key in a scene table (integers for integer keys).
 fn set_number(table: &mut Table, key: &str, v: f64, integer: bool) -> Result<(), ConfigError> {
     let value = if integer {
@@ -539,7 +456,9 @@ fn read_search(
         wrapped.insert("search".into(), Value::Table(search));
     }
     let mut r = Reader::new(wrapped);
-    let variables = read_variables(vars_value, &base_table)?;
+    let variables = SEARCH_VARIABLES.read(vars_value, Some(&base_table), |k| {
+        reserved(k).map(String::from)
+    })?;
     let band = read_band(&mut r)?;
     let threshold = read_threshold(&mut r)?;
     let weighting = read_weighting(&mut r, initial_value.is_some())?;
@@ -871,115 +790,16 @@ fn reserved(key: &str) -> Option<&'static str> {
     }
 }
 
-/// `[[search.variables]]`: each key with its grid values, checked for empty ranges, and at
-/// most [`MAX_GRID_DESIGNS`] grid designs in all.
-fn read_variables(v: Option<Value>, base: &Table) -> Result<Vec<DesignVariable>, ConfigError> {
-    let items = variable_tables(v)?;
-    let mut vars: Vec<DesignVariable> = Vec::new();
-    let mut total: usize = 1;
-    for (i, item) in items.into_iter().enumerate() {
-        let prefix = format!("search.variables[{}]", i + 1);
-        let Value::Table(t) = item else {
-            return Err(ConfigError::WrongType {
-                key: prefix,
-                expected: "a table with key, start, end, count (or values)".into(),
-                found: "a value".into(),
-            });
-        };
-        let mut r = Reader::new(wrap(&prefix, t));
-        let key = variable_key(&mut r, &prefix, &vars)?;
-        let (values, scale) = read_sweep(&mut r, &prefix, &key, MAX_GRID_DESIGNS)?;
-        r.finish()?;
-        total = total
-            .checked_mul(values.len())
-            .filter(|&t| t <= MAX_GRID_DESIGNS)
-            .ok_or_else(|| ConfigError::OutOfRange {
-                key: format!("{prefix}.count"),
-                value: values.len() as f64,
-                range: format!("grids of at most {MAX_GRID_DESIGNS} designs in all"),
-            })?;
-        let integer = INTEGER_KEYS.contains(&key.as_str())
-            || lookup_key(base, &key).is_some_and(Value::is_integer);
-        if integer && values.iter().any(|v| v.fract() != 0.0) {
-            return Err(ConfigError::Inconsistent {
-                key: format!("{prefix}.values"),
-                reason: format!("{key}: this key takes integers: every value must be whole"),
-            });
-        }
-        vars.push(DesignVariable {
-            key,
-            values,
-            scale,
-            integer,
-        });
-    }
-    Ok(vars)
-}
-
-/// The entries of `search.variables`: a non-empty array.
-fn variable_tables(v: Option<Value>) -> Result<Vec<Value>, ConfigError> {
-    let items = match v {
-        Some(Value::Array(items)) => items,
-        Some(_) => {
-            return Err(ConfigError::WrongType {
-                key: "search.variables".into(),
-                expected: "an array of tables ([[search.variables]])".into(),
-                found: "a single value".into(),
-            });
-        }
-        None => {
-            return Err(ConfigError::Inconsistent {
-                key: "search.variables".into(),
-                reason: "a search needs at least one design variable ([[search.variables]] with key, start, end, count)".into(),
-            });
-        }
-    };
-    if items.is_empty() {
-        return Err(ConfigError::Inconsistent {
-            key: "search.variables".into(),
-            reason: "the list of design variables is empty".into(),
-        });
-    }
-    Ok(items)
-}
-
-/// The scene key a variable at `prefix` sets: a string, not [`reserved`], and not already a
-/// variable of `vars`.
-fn variable_key(
-    r: &mut Reader,
-    prefix: &str,
-    vars: &[DesignVariable],
-) -> Result<String, ConfigError> {
-    let key = match r.raw(&format!("{prefix}.key"))? {
-        Some(Value::String(s)) => s.clone(),
-        Some(other) => {
-            return Err(ConfigError::WrongType {
-                key: format!("{prefix}.key"),
-                expected: "a dotted scene key such as \"limiter.clearance_deg\"".into(),
-                found: format!("{other}"),
-            });
-        }
-        None => {
-            return Err(missing(
-                &format!("{prefix}.key"),
-                "the scene key this variable sets",
-            ));
-        }
-    };
-    if let Some(why) = reserved(&key) {
-        return Err(ConfigError::Inconsistent {
-            key: format!("{prefix}.key"),
-            reason: format!("`{key}` cannot be a design variable: {why}"),
-        });
-    }
-    if vars.iter().any(|v| v.key == key) {
-        return Err(ConfigError::Inconsistent {
-            key: format!("{prefix}.key"),
-            reason: format!("`{key}` is a design variable twice"),
-        });
-    }
-    Ok(key)
-}
+/// `[[search.variables]]`: 1 or more swept keys, at most [`MAX_GRID_DESIGNS`] grid designs.
+const SEARCH_VARIABLES: SweepList = SweepList {
+    section: "search.variables",
+    entry: "a design variable",
+    needs: "a search needs at least one design variable",
+    max_entries: usize::MAX,
+    max_points: MAX_GRID_DESIGNS,
+    points: "designs",
+    example_key: "limiter.clearance_deg",
+};
 
 /// Every variable must be a numeric scene key, and each of its values must give a valid
 /// scene (the other variables at their first value): checked before any work starts.

@@ -7,7 +7,8 @@ use crate::engine::early::{
     EarlyStop, EarlyTracker, PeriodTally, early_lyapunov_stops, early_twin_window,
 };
 use crate::engine::plan::InstancePlan;
-use crate::engine::stepper::{CartClock, StateView, StateViewMut, StepHook};
+use crate::engine::state_view::{StateView, StateViewMut};
+use crate::engine::stepper::{CartClock, StepHook};
 use crate::engine::twin::TwinTracker;
 use crate::model::{Chain, Lane, Real, Status, Workspace};
 use crate::reduce::{LyapunovSums, Tally, TwinPlan};

@@ -20,7 +20,7 @@ use super::hook::{EnsembleHook, LaneView, LaneViewMut, RawInstance};
 use crate::engine::imex::{C as IMEX_C, Imex};
 use crate::engine::plan::{EnsemblePlan, InstancePlan};
 use crate::engine::rk4::{Rk4Scratch, rk4_step, rk4_step_twin};
-use crate::engine::stepper::StateView;
+use crate::engine::state_view::StateView;
 use crate::engine::twin::{onset_saltation, onsets_of};
 use crate::engine::{EngineError, Progress, ProgressUnit};
 use crate::model::{Chain, Lane, ModelParams, Real, Status, Workspace, health_due};

@@ -1,0 +1,69 @@
+"""Type stubs of the Rust extension ``pendulum_atlas._native`` (``python/src/lib.rs``).
+
+Users call the package's functions (``pendulum_atlas.map``, ``simulate``, ``analyze``), which
+convert what these return into xarray datasets and dicts.
+"""
+
+from typing import Callable, Literal, Optional, TypedDict
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+DEFAULT_MAP_TOML: str
+PAPER_SCENE_TOML: str
+
+class SceneError(ValueError):
+    """A scene the library refuses: the message names the key and its accepted range."""
+
+class EngineError(RuntimeError):
+    """A run that could not be made (no adapter, too large, a failed device)."""
+
+Progress = Callable[[int, int, str], None]
+
+class MapResult(TypedDict):
+    arrays: dict[str, npt.NDArray[np.generic]]
+    manifest: str
+
+class RunResult(TypedDict):
+    columns: dict[str, npt.NDArray[np.float64]]
+    units: dict[str, str]
+    report: str
+
+def set_arg(key: str, value: object) -> str:
+    """``key=value`` with the value written as TOML (a ``--set`` argument)."""
+
+def check_scene(text: str, origin: str, sets: list[str]) -> tuple[Literal["map", "scene"], str, str]:
+    """Validate a scene: its kind, its TOML after the overrides, and its base scene's TOML."""
+
+def run_map_scene(
+    text: str,
+    origin: str,
+    sets: list[str],
+    backend: Literal["auto", "gpu", "cpu"] = "auto",
+    precision: Optional[Literal["f32", "f64"]] = None,
+    progress: Optional[Progress] = None,
+) -> MapResult:
+    """Run a map scene: its arrays by name and ``map.json`` (without its file list) as text."""
+
+def run_single_scene(
+    text: str,
+    origin: str,
+    sets: list[str],
+    integrator: Literal["engine", "reference"] = "engine",
+    precision: Optional[Literal["f32", "f64"]] = None,
+    progress: Optional[Progress] = None,
+) -> RunResult:
+    """Integrate one scene: its columns, their units and ``run.json`` as text."""
+
+def analyze_signal(
+    signal: npt.NDArray[np.float64],
+    sample_rate_hz: float,
+    forcing_hz: Optional[float] = None,
+    reference: Optional[npt.NDArray[np.float64]] = None,
+    transient_s: float = 0.0,
+    start_s: float = 0.0,
+    clearance_deg: Optional[float] = None,
+    sampling: Optional[Literal["stroboscopic", "extrema", "uniform"]] = None,
+) -> str:
+    """The paper's indicators of a record, as the JSON text ``analyze`` writes."""
