@@ -700,3 +700,37 @@ fn a_map_run_both_ways_writes_both_directions_and_where_they_differ() {
     );
     assert_eq!(band["cells"], 5);
 }
+
+#[test]
+fn a_shard_of_a_map_that_cannot_be_split_is_refused_before_planning() {
+    // The second cell's step cannot resolve its forcing (600 Hz at dt = 1 ms), which planning
+    // would report; the refusal to shard must come first, for every kind of split map.
+    let bad_cell = "map.axes=[{key=\"excitation.frequency_hz\",values=[8.0,600.0]}]";
+    for (mode, key) in [
+        ("map.initial_states=2", "map.initial_states"),
+        ("map.continuation=up", "map.continuation"),
+    ] {
+        let o = bin()
+            .args([
+                "map",
+                "--backend",
+                "cpu",
+                "--quiet",
+                "--shard",
+                "0/2",
+                "--out",
+            ])
+            .arg(out_dir(&format!("unsplittable-{key}")))
+            .args(["--set", "integration.dt_s=1e-3", "--set", bad_cell])
+            .args(["--set", mode])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{mode}: {err}");
+        assert!(
+            err.contains("cannot be sharded") && err.contains(key),
+            "{mode}: {err}"
+        );
+        assert!(!err.contains("grid point"), "{mode}: {err}");
+    }
+}

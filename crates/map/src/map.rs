@@ -14,6 +14,7 @@ use crate::reduce::{
 };
 use serde::Serialize;
 use shard::Shard;
+use std::borrow::Cow;
 use std::time::Instant;
 
 /// Wall time of each stage (s).
@@ -223,45 +224,73 @@ pub fn check_host_memory(spec: &MapSpec) -> Result<(), EngineError> {
 
 /// Plan, integrate and reduce a map on an opened engine.
 pub fn run_map(spec: &MapSpec, engine: &Engine, progress: Progress) -> Result<MapRun, EngineError> {
-    run_map_part(spec, None, engine, progress)
+    let t0 = Instant::now();
+    let plan = EnsemblePlan::new(spec)?;
+    run_map_part(spec, Cow::Owned(plan), None, engine, progress, t0)
 }
 
-/// Plan the whole map, keep `shard`'s instances (all without one), integrate and reduce them;
-/// planning time counts in the run's timings.
+/// Refuse to split a map whose cells cannot run apart, before any planning: a map that labels
+/// attractors (its starts are matched across neighbouring cells) and a continuation (each cell
+/// starts where its neighbour ended).
+fn check_shardable(spec: &MapSpec) -> Result<(), EngineError> {
+    let refused = |key: &str, reason: &str| {
+        Err(crate::config::ConfigError::Inconsistent {
+            key: key.into(),
+            reason: reason.into(),
+        }
+        .into())
+    };
+    if spec.labels_attractors() {
+        return refused(
+            "map.initial_states",
+            "a map that labels attractors cannot be sharded yet: run it in one piece (drop --shard and --devices)",
+        );
+    }
+    if spec.continuation.is_some() {
+        return refused(
+            "map.continuation",
+            "a map run by continuation cannot be sharded: its cells run one after another (drop --shard and --devices)",
+        );
+    }
+    Ok(())
+}
+
+/// Keep `shard`'s instances of the whole map's `plan` (all without one), integrate and reduce
+/// them; planning time (since `t0`) counts in the run's timings.
 fn run_map_part(
     spec: &MapSpec,
+    plan: Cow<'_, EnsemblePlan>,
     shard: Option<Shard>,
     engine: &Engine,
     progress: Progress,
+    t0: Instant,
 ) -> Result<MapRun, EngineError> {
-    let t0 = Instant::now();
-    let mut plan = EnsemblePlan::new(spec)?;
+    if shard.is_some() {
+        check_shardable(spec)?;
+    }
     if spec.labels_attractors() {
-        return run_starts(plan, spec, shard, engine, progress, t0);
+        return run_starts(plan.into_owned(), spec, engine, progress, t0);
     }
     if let Some(cs) = &spec.continuation {
-        if shard.is_some() {
-            return Err(crate::config::ConfigError::Inconsistent {
-                key: "map.continuation".into(),
-                reason: "a map run by continuation cannot be sharded: its cells run one after another (drop --shard and --devices)".into(),
-            }
-            .into());
-        }
-        return run_continued(plan, spec, cs, engine, progress, t0);
+        return run_continued(plan.into_owned(), spec, cs, engine, progress, t0);
     }
     if let (Some(rs), None) = (&spec.refine, shard) {
         let plan_s = t0.elapsed().as_secs_f64();
-        let mut run = run_refined(plan, rs, spec, engine, progress)?;
+        let mut run = run_refined(plan.into_owned(), rs, spec, engine, progress)?;
         run.timings.plan_s = plan_s;
         run.timings.total_s += plan_s;
         return Ok(run);
     }
-    if let Some(s) = shard {
-        plan = plan.select(&s.members(spec.instances()));
-        if plan.instances.is_empty() {
-            return Err(EngineError::Empty);
+    let plan = match shard {
+        Some(s) => {
+            let part = plan.select(&s.members(spec.instances()));
+            if part.instances.is_empty() {
+                return Err(EngineError::Empty);
+            }
+            part
         }
-    }
+        None => plan.into_owned(),
+    };
     let plan_s = t0.elapsed().as_secs_f64();
     let tail = spec
         .bifurcation
@@ -285,18 +314,10 @@ fn run_map_part(
 fn run_starts(
     plan: EnsemblePlan,
     spec: &MapSpec,
-    shard: Option<Shard>,
     engine: &Engine,
     progress: Progress,
     t0: Instant,
 ) -> Result<MapRun, EngineError> {
-    if shard.is_some() {
-        return Err(crate::config::ConfigError::Inconsistent {
-            key: "map.initial_states".into(),
-            reason: "a map that labels attractors cannot be sharded yet: run it in one piece (drop --shard and --devices)".into(),
-        }
-        .into());
-    }
     let plan_s = t0.elapsed().as_secs_f64();
     let bifurcation = spec
         .bifurcation
@@ -608,17 +629,29 @@ pub fn run_map_on_devices(
 ) -> Result<MapRun, EngineError> {
     let n = engines.len() as u32;
     let t0 = Instant::now();
+    check_shardable(spec)?;
+    let plan = EnsemblePlan::new(spec)?;
+    let plan_s = t0.elapsed().as_secs_f64();
     let runs: Vec<Result<MapPart, EngineError>> = std::thread::scope(|s| {
         let handles: Vec<_> = engines
             .iter()
             .enumerate()
             .map(|(d, engine)| {
+                let plan = &plan;
                 s.spawn(move || {
                     let shard = Shard {
                         index: d as u32,
                         count: n,
                     };
-                    let run = run_map_shard(spec, shard, engine, progress)?;
+                    let started = Instant::now();
+                    let run = run_map_part(
+                        spec,
+                        Cow::Borrowed(plan),
+                        Some(shard),
+                        engine,
+                        progress,
+                        started,
+                    )?;
                     Ok(MapPart {
                         shard,
                         label: format!("device {d}"),
@@ -639,7 +672,8 @@ pub fn run_map_on_devices(
             .collect()
     });
     let parts: Vec<MapPart> = runs.into_iter().collect::<Result<_, _>>()?;
-    let mut run = assemble(EnsemblePlan::new(spec)?, parts);
+    let mut run = assemble(plan, parts);
+    run.timings.plan_s += plan_s;
     run.timings.total_s = t0.elapsed().as_secs_f64();
     Ok(run)
 }
@@ -653,5 +687,8 @@ pub fn run_map_shard(
     engine: &Engine,
     progress: Progress,
 ) -> Result<MapRun, EngineError> {
-    run_map_part(spec, Some(shard), engine, progress)
+    check_shardable(spec)?;
+    let t0 = Instant::now();
+    let plan = EnsemblePlan::new(spec)?;
+    run_map_part(spec, Cow::Owned(plan), Some(shard), engine, progress, t0)
 }
