@@ -10,6 +10,8 @@ from typing import Mapping
 import numpy as np
 import xarray as xr
 
+from . import _native
+
 #: Scalars of ``map.json`` copied into a map dataset's attributes (the whole manifest is in
 #: ``attrs["map_json"]``).
 MAP_ATTRS = ("backend", "adapter", "precision", "segments", "method", "instances")
@@ -127,7 +129,9 @@ def open_run(folder: str | os.PathLike) -> xr.Dataset:
         raise FileNotFoundError(
             f"{folder} has no map.json: open_run reads the output folder of `pendulum-atlas map` or `merge`"
         )
-    manifest = json.loads(manifest_path.read_text(encoding="utf-8"))
+    # Read and checked by the type the command writes it with: a damaged map.json, or one
+    # listing a path outside the folder, raises ValueError naming the problem.
+    manifest = json.loads(_native.read_map_manifest(str(manifest_path)))
     arrays = {}
     for name in manifest.get("files", []):
         if name.endswith(".npy"):

@@ -67,3 +67,6 @@ def analyze_signal(
     sampling: Optional[Literal["stroboscopic", "extrema", "uniform"]] = None,
 ) -> str:
     """The paper's indicators of a record, as the JSON text ``analyze`` writes."""
+
+def read_map_manifest(path: str) -> str:
+    """A map folder's ``map.json``, read and checked (fields, files by name only), as JSON text."""

@@ -17,6 +17,7 @@ use pendulum_atlas_core::model::Status;
 use pendulum_atlas_map::machine::memory_available;
 use pendulum_atlas_map::map::run_map;
 use pendulum_atlas_map::output::budget::RunSize;
+use pendulum_atlas_map::output::manifest::MapManifest;
 use pendulum_atlas_map::output::map::{ArrayData, MapArray, map_arrays, map_manifest};
 use pendulum_atlas_map::output::{
     RunFacts, RunReport, TrajectoryRecorder, record_analysis, row_columns, run_warnings,
@@ -135,6 +136,15 @@ fn toml_value(v: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
 }
 
 /// `key=value` as `--set` takes it, from a Python value.
+/// A map folder's `map.json`, read and checked by the one type the command writes it with
+/// (every field it needs, files listed by name only), as JSON text.
+#[pyfunction]
+fn read_map_manifest(path: std::path::PathBuf) -> PyResult<String> {
+    let manifest = MapManifest::read(&path).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    serde_json::to_string(&manifest)
+        .map_err(|e| PyRuntimeError::new_err(format!("map.json of the map: {e}")))
+}
+
 #[pyfunction]
 fn set_arg(key: &str, value: &Bound<'_, PyAny>) -> PyResult<String> {
     Ok(format!("{key}={}", toml_value(value)?))
@@ -172,7 +182,7 @@ static ENGINES: Mutex<BTreeMap<(Backend, Option<Precision>), Engine>> = Mutex::n
 /// A map's arrays, `map.json` (without files) and the engine's name, made off the interpreter.
 struct MapOut {
     arrays: Vec<MapArray>,
-    manifest: String,
+    manifest: MapManifest,
 }
 
 fn map_work(
@@ -195,7 +205,7 @@ fn map_work(
     let run = run_map(spec, engine, &|d, t, u| ticker.report(d, t, u))?;
     Ok(MapOut {
         arrays: map_arrays(spec, &run),
-        manifest: map_manifest(spec, &run, &[]).to_string(),
+        manifest: map_manifest(spec, &run, &[]),
     })
 }
 
@@ -236,7 +246,9 @@ fn run_map_scene<'py>(
     }
     let d = PyDict::new(py);
     d.set_item("arrays", arrays)?;
-    d.set_item("manifest", out.manifest)?;
+    let manifest = serde_json::to_string(&out.manifest)
+        .map_err(|e| PyRuntimeError::new_err(format!("map.json of the map: {e}")))?;
+    d.set_item("manifest", manifest)?;
     Ok(d)
 }
 
@@ -439,6 +451,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("PAPER_SCENE_TOML", PAPER_SCENE_TOML)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(set_arg, m)?)?;
+    m.add_function(wrap_pyfunction!(read_map_manifest, m)?)?;
     m.add_function(wrap_pyfunction!(check_scene, m)?)?;
     m.add_function(wrap_pyfunction!(run_map_scene, m)?)?;
     m.add_function(wrap_pyfunction!(run_single_scene, m)?)?;

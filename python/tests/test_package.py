@@ -115,6 +115,18 @@ def test_open_run_of_a_folder_without_a_map_says_what_it_reads(tmp_path):
         pa.open_run(tmp_path)
 
 
+def test_open_run_refuses_a_damaged_map_json_and_paths_out_of_the_folder(tmp_path, small_map_file):
+    out = cli_map(tmp_path, small_map_file, "cpu")
+    manifest = json.loads((out / "map.json").read_text())
+    manifest["files"].append("../../secret.npy")
+    (out / "map.json").write_text(json.dumps(manifest))
+    with pytest.raises(ValueError, match="not a file name of its folder"):
+        pa.open_run(out)
+    (out / "map.json").write_text(json.dumps({"files": []}))
+    with pytest.raises(ValueError, match="does not hold the fields this version writes"):
+        pa.open_run(out)
+
+
 @pytest.mark.parametrize(
     "key, value, names",
     [

@@ -47,7 +47,7 @@ pub fn cell_scene(folder: &RunFolder, k: usize, v: usize) -> Result<CellScene, E
     let fail = |e: String| ExploreError::Cell(format!("cell {k}: {e}"));
     let values = folder.values_of(k);
     let (mut table, opts) = match &folder.source {
-        Source::Map(spec) => {
+        Source::Map(spec, manifest) => {
             let start = match v {
                 0 => folder.starts.get(k).copied(),
                 s => Some(s - 1),
@@ -57,8 +57,11 @@ pub fn cell_scene(folder: &RunFolder, k: usize, v: usize) -> Result<CellScene, E
                 None => spec.instance_table(k),
             }
             .map_err(|e| fail(e.to_string()))?;
-            let method = folder.manifest["method"].as_str().unwrap_or("auto");
-            set(&mut t, "integration.method", Value::String(method.into()))?;
+            set(
+                &mut t,
+                "integration.method",
+                Value::String(manifest.method.clone()),
+            )?;
             (t, EnsembleOptions::from_spec(spec))
         }
         Source::Calibrate(c) => {
@@ -412,14 +415,14 @@ fn map_values(folder: &RunFolder, k: usize) -> BTreeMap<String, Option<f64>> {
 /// What a calibration or a search found for cell `k` run as variant `v`.
 fn notes(folder: &RunFolder, k: usize, v: usize) -> Vec<String> {
     match &folder.source {
-        Source::Map(spec) if v == 0 => match &spec.continuation {
+        Source::Map(spec, _) if v == 0 => match &spec.continuation {
             Some(c) => vec![format!(
                 "this map ran by continuation along {}: each cell started from the state its neighbour ended in, and this run starts from the scene's own state, so it may land on another attractor (where hysteresis.npy is 1, the two sweeps did)",
                 c.key
             )],
             None => Vec::new(),
         },
-        Source::Map(_) => {
+        Source::Map(..) => {
             let reached = folder.cell_attractors[k]
                 .iter()
                 .find(|a| a.start == v - 1)

@@ -17,6 +17,7 @@ use crate::calibrate::CalibrationSpec;
 use crate::config::{MapSpec, c_order_index, grid_point};
 use crate::harvest::spec::SearchSpec;
 use crate::output::folder::Product;
+use crate::output::manifest::MapManifest;
 use crate::render::Palette;
 use std::path::{Path, PathBuf};
 
@@ -48,7 +49,7 @@ pub struct Column {
 #[derive(Debug)]
 pub enum Source {
     /// A map: the cell's axis values set in the map's scene.
-    Map(Box<MapSpec>),
+    Map(Box<MapSpec>, Box<MapManifest>),
     /// A calibration: a candidate's unknowns in one of the cases.
     Calibrate(Box<Calibration>),
     /// A search: a design at one frequency of the band from one initial state.
@@ -281,7 +282,7 @@ impl Source {
     /// The map's spec, when the folder is a map.
     pub fn map(&self) -> Option<&MapSpec> {
         match self {
-            Source::Map(m) => Some(m),
+            Source::Map(m, _) => Some(m),
             _ => None,
         }
     }

@@ -2,11 +2,10 @@
 //! each shaped like the grid.
 
 use super::error::ExploreError;
-use super::folder::{
-    Axis, CellAttractor, Column, RunFolder, Source, bad, listed_files, read_json, read_text,
-};
+use super::folder::{Axis, CellAttractor, Column, RunFolder, Source, bad, read_json, read_text};
 use crate::config::{MapSpec, Metric, map_from_toml};
 use crate::output::folder::Product;
+use crate::output::manifest::{MAP_JSON, ManifestError, MapManifest};
 use crate::output::map::{
     COLUMNS, attractor_style, metric_style, regime_shade, shown_label, shown_value,
 };
@@ -16,7 +15,14 @@ use std::path::Path;
 
 /// Read a map folder.
 pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
-    let manifest = read_json(&dir.join("map.json"))?;
+    let manifest_path = dir.join(MAP_JSON);
+    let manifest = MapManifest::read(&manifest_path).map_err(|e| match e {
+        ManifestError::Unreadable { .. } => ExploreError::MissingFile {
+            path: manifest_path.display().to_string(),
+            hint: e.to_string(),
+        },
+        other => bad(&manifest_path, other.to_string()),
+    })?;
     let text = read_text(
         dir,
         "map_scene.toml",
@@ -38,7 +44,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
     let families = read_families(dir, &manifest)?;
     columns.extend(attractor_columns(dir, &spec, families.as_deref())?);
     let status = read_array::<u8>(dir, "status.npy", &spec)?;
-    let inferred = if listed_files(&manifest).iter().any(|f| f == "inferred.npy") {
+    let inferred = if manifest.files.iter().any(|f| f == "inferred.npy") {
         read_array::<u8>(dir, "inferred.npy", &spec)?
             .into_iter()
             .map(|f| f == 1)
@@ -46,7 +52,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
     } else {
         Vec::new()
     };
-    let starts = if listed_files(&manifest).iter().any(|f| f == "start.npy") {
+    let starts = if manifest.files.iter().any(|f| f == "start.npy") {
         read_array::<i32>(dir, "start.npy", &spec)?
             .into_iter()
             .map(|s| usize::try_from(s).unwrap_or(usize::MAX))
@@ -76,8 +82,9 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         product: Product::Map,
         starts,
         cell_attractors,
-        files: listed_files(&manifest),
-        manifest,
+        files: manifest.files.clone(),
+        manifest: serde_json::to_value(&manifest)
+            .map_err(|e| bad(&manifest_path, e.to_string()))?,
         axes: spec
             .axes
             .iter()
@@ -92,7 +99,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         inferred,
         variants,
         segments: spec.scene.beam.segments,
-        source: Source::Map(Box::new(spec)),
+        source: Source::Map(Box::new(spec), Box::new(manifest)),
     })
 }
 
@@ -185,14 +192,8 @@ fn metric_column(
 }
 
 /// The attractor families of a map that labels attractors (`None` for any other map).
-fn read_families(
-    dir: &Path,
-    manifest: &serde_json::Value,
-) -> Result<Option<Vec<Family>>, ExploreError> {
-    if !listed_files(manifest)
-        .iter()
-        .any(|f| f == "attractors.json")
-    {
+fn read_families(dir: &Path, manifest: &MapManifest) -> Result<Option<Vec<Family>>, ExploreError> {
+    if !manifest.files.iter().any(|f| f == "attractors.json") {
         return Ok(None);
     }
     let path = dir.join("attractors.json");
@@ -295,24 +296,14 @@ fn attractor_columns(
 }
 
 /// The grid of `map_scene.toml` is the grid of `map.json`.
-fn check_shape(
-    dir: &Path,
-    spec: &MapSpec,
-    manifest: &serde_json::Value,
-) -> Result<(), ExploreError> {
-    let stated: Option<Vec<usize>> = manifest["shape"].as_array().map(|a| {
-        a.iter()
-            .filter_map(|v| v.as_u64().map(|n| n as usize))
-            .collect()
-    });
-    if stated.as_deref() != Some(&spec.shape()[..]) {
+fn check_shape(dir: &Path, spec: &MapSpec, manifest: &MapManifest) -> Result<(), ExploreError> {
+    let stated = Some(&manifest.shape[..]);
+    if stated != Some(&spec.shape()[..]) {
         return Err(bad(
             &dir.join("map.json"),
             format!(
                 "its shape ({}) is not the grid of map_scene.toml ({}): the files are from different maps",
-                stated
-                    .as_deref()
-                    .map_or_else(|| "none given".into(), crate::text::shape),
+                stated.map_or_else(|| "none given".into(), crate::text::shape),
                 crate::text::shape(&spec.shape())
             ),
         ));

@@ -116,9 +116,9 @@ async fn map_info(State(app): Shared) -> Response {
         .collect();
     let pictures: Vec<&String> = f.files.iter().filter(|n| n.ends_with(".png")).collect();
     let run = match &f.source {
-        Source::Map(_) => json!({
-            "segments": f.segments, "method": m["method"], "backend": m["backend"],
-            "adapter": m["adapter"], "precision": m["precision"],
+        Source::Map(_, mm) => json!({
+            "segments": f.segments, "method": mm.method, "backend": mm.backend,
+            "adapter": mm.adapter, "precision": mm.precision,
         }),
         Source::Calibrate(_) | Source::Search(_) => json!({
             "segments": f.segments,

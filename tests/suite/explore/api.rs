@@ -312,6 +312,20 @@ fn a_folder_that_is_not_a_complete_map_is_refused_at_start() {
     .unwrap();
     refused(&other, &[], "different maps");
     refused(&scratch("nowhere"), &[], "finished `pendulum-atlas map`");
+    // map.json is read by the type the command writes it with: a damaged one, or one that
+    // lists a path out of the folder, is refused in words.
+    let damaged = copy_without("damaged-manifest", "");
+    let text = std::fs::read_to_string(damaged.join("map.json")).unwrap();
+    std::fs::write(damaged.join("map.json"), &text[..text.len() / 2]).unwrap();
+    refused(&damaged, &[], "is not complete JSON");
+    let foreign = copy_without("foreign-manifest", "");
+    let text = std::fs::read_to_string(foreign.join("map.json")).unwrap();
+    std::fs::write(
+        foreign.join("map.json"),
+        text.replace("\"K.npy\"", "\"../../K.npy\""),
+    )
+    .unwrap();
+    refused(&foreign, &[], "which is not a file name of its folder");
     refused(small_map(), &["--workers", "0"], "--workers 0: give 1 to");
     refused(small_map(), &["--queue", "0"], "--queue 0: give 1 to 1000");
 }

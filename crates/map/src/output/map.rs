@@ -2,6 +2,7 @@
 //! overrides), one `.npy` per metric shaped like the grid, a PNG per metric (per 2-D slice of
 //! a 3-D grid), and `bifurcation.png`.
 
+use super::manifest::{ManifestAxis, MapManifest, StepRange};
 use crate::config::{MapSpec, Metric};
 use crate::map::MapRun;
 use crate::map::continuation::ContinuationRun;
@@ -13,7 +14,7 @@ use crate::reduce::Regime;
 use crate::render::{
     Axis, Category, CellMarks, Palette, RGBColor, Series, heatmap, scatter, scatter_groups,
 };
-use serde_json::json;
+use serde_json::{Value, json};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -338,56 +339,71 @@ fn bifurcation_points(
 
 /// `map.json`: what the map is, how it ran, and which files belong to it (`files`; the
 /// Python package passes none, its arrays stay in memory).
-pub fn map_manifest(spec: &MapSpec, run: &MapRun, files: &[String]) -> serde_json::Value {
+pub fn map_manifest(spec: &MapSpec, run: &MapRun, files: &[String]) -> MapManifest {
     let counts = |s: Status| run.results.iter().filter(|r| r.status == s).count();
-    json!({
-        "axes": axes_json(spec),
-        "units": COLUMNS
+    MapManifest {
+        axes: spec
+            .axes
             .iter()
-            .map(|c| (c.0.to_string(), json!(c.2)))
-            .collect::<serde_json::Map<String, serde_json::Value>>(),
-        "shape": spec.shape(),
-        "instances": spec.instances(),
-        "order": "C order over the axes as listed (last axis varies fastest); .npy arrays have this shape",
-        "metrics": spec.metrics,
-        "backend": run.engine.kind,
-        "backend_reason": run.engine.reason,
-        "adapter": run.engine.device,
-        "precision": run.engine.precision,
-        "segments": run.plan.segments,
-        "method": run.plan.method,
-        "method_reason": run.plan.method_reason,
-        "imex_matrix_sets": run.plan.imex_matrix_sets,
-        "method_steps_of_base_scene": crate::engine::method::MethodSteps::of_scene(&spec.scene).ok(),
-        "damping_of_base_scene": spec.scene.damping_report().ok(),
-        "dt_s": {"min": run.plan.dt_range_s.0, "max": run.plan.dt_range_s.1},
-        "steps": steps_json(run),
-        "timings_s": run.timings,
-        "wall_share": run.timings.wall_share(),
-        "throughput": {
+            .map(|a| ManifestAxis {
+                key: a.key.clone(),
+                values: a.values.clone(),
+                scale: word(&a.scale),
+                unit: crate::config::key_unit(&a.key).map(String::from),
+                label: a.label(),
+            })
+            .collect(),
+        units: COLUMNS
+            .iter()
+            .map(|c| (c.0.to_string(), c.2.to_string()))
+            .collect(),
+        shape: spec.shape(),
+        instances: spec.instances(),
+        order: "C order over the axes as listed (last axis varies fastest); .npy arrays have this shape".into(),
+        metrics: spec.metrics.iter().map(word).collect(),
+        backend: word(&run.engine.kind),
+        backend_reason: run.engine.reason.clone(),
+        adapter: run.engine.device.clone(),
+        precision: word(&run.engine.precision),
+        segments: run.plan.segments,
+        method: word(&run.plan.method),
+        method_reason: run.plan.method_reason.clone(),
+        imex_matrix_sets: run.plan.imex_matrix_sets,
+        method_steps_of_base_scene: json!(
+            crate::engine::method::MethodSteps::of_scene(&spec.scene).ok()
+        ),
+        damping_of_base_scene: json!(spec.scene.damping_report().ok()),
+        dt_s: StepRange {
+            min: run.plan.dt_range_s.0,
+            max: run.plan.dt_range_s.1,
+        },
+        steps: steps_json(run),
+        timings_s: json!(run.timings),
+        wall_share: json!(run.timings.wall_share()),
+        throughput: json!({
             "instance_steps_per_s": run.instance_steps_per_s(),
             "segment_steps_per_s": run.segment_steps_per_s(),
-        },
-        "status_counts": Status::ALL
+        }),
+        status_counts: Status::ALL
             .iter()
-            .map(|&s| (s.as_str().to_string(), json!(counts(s))))
-            .collect::<serde_json::Map<String, serde_json::Value>>(),
-        "status_codes": Status::ALL
+            .map(|&s| (s.as_str().to_string(), counts(s)))
+            .collect(),
+        status_codes: Status::ALL
             .iter()
-            .map(|&s| (s.as_str().to_string(), json!(s.code())))
-            .collect::<serde_json::Map<String, serde_json::Value>>(),
-        "regime": regime_json(spec, run),
-        "lyapunov": lyapunov_json(spec, run),
-        "sampling": {
+            .map(|&s| (s.as_str().to_string(), s.code()))
+            .collect(),
+        regime: regime_json(spec, run),
+        lyapunov: lyapunov_json(spec, run),
+        sampling: json!({
             "samples_per_period": spec.samples_per_period,
             "strobe_phase": spec.strobe_phase,
             "r_max_samples": spec.r_max_samples,
             "phase_convention": spec.phase_convention,
             "zero_one": {"method": "correlation", "n_c": spec.k_n_c, "seed": spec.k_seed},
             "period": {"max": spec.period_max, "window": spec.period_window, "tol_rad": spec.period_tol_rad},
-        },
-        "refine": run.refine,
-        "attractors": run.attractors.as_ref().map(|a| json!({
+        }),
+        refine: json!(run.refine),
+        attractors: run.attractors.as_ref().map_or(Value::Null, |a| json!({
             "starts": spec.starts,
             "labels": a.families.len(),
             "rule": a.rule,
@@ -402,12 +418,24 @@ pub fn map_manifest(spec: &MapSpec, run: &MapRun, files: &[String]) -> serde_jso
             "runs": run.runs,
             "details": "attractors.json",
         })),
-        "continuation": run.continuation.as_ref().map(|c| continuation_json(spec, c)),
-        "warnings": run.plan.warnings,
-        "shards": run.shards,
-        "scene": spec.scene,
-        "files": files,
-    })
+        continuation: run
+            .continuation
+            .as_ref()
+            .map_or(Value::Null, |c| continuation_json(spec, c)),
+        warnings: run.plan.warnings.clone(),
+        shards: json!(run.shards),
+        scene: json!(spec.scene),
+        files: files.to_vec(),
+    }
+}
+
+/// A unit enum's serialised name (`"cpu"`, `"f64"`, `"rk4"`, `"linear"`, a metric's name).
+fn word(v: &impl serde::Serialize) -> String {
+    match serde_json::to_value(v) {
+        Ok(Value::String(s)) => s,
+        Ok(other) => other.to_string(),
+        Err(e) => format!("<{e}>"),
+    }
 }
 
 /// `map.json`'s `continuation`: the axis, the directions, restarts, and where up and down
@@ -437,22 +465,6 @@ fn continuation_json(spec: &MapSpec, c: &ContinuationRun) -> serde_json::Value {
             "array": "hysteresis.npy: 1 where up and down ended on different attractors (or one failed)",
         })),
     })
-}
-
-/// `map.json`'s `axes`: each swept key with its values, spacing, unit and label.
-fn axes_json(spec: &MapSpec) -> serde_json::Value {
-    spec.axes
-        .iter()
-        .map(|a| {
-            json!({
-                "key": a.key,
-                "values": a.values,
-                "scale": a.scale,
-                "unit": crate::config::key_unit(&a.key),
-                "label": a.label(),
-            })
-        })
-        .collect()
 }
 
 /// `map.json`'s `steps`: what the grid would take in full, what was integrated, and what the

@@ -5,6 +5,7 @@ pub mod budget;
 mod error;
 pub mod files;
 pub mod folder;
+pub mod manifest;
 pub mod map;
 pub mod npy;
 mod run_report;

@@ -1,0 +1,183 @@
+//! `map.json`, typed: [`MapManifest`] is what the writer fills ([`super::map::map_manifest`])
+//! and what every reader parses (the explorer, the Python package through
+//! [`MapManifest::read`]), so that a field is named once and a damaged or foreign file is
+//! refused in words.
+//!
+//! The fields a reader acts on are typed (axes, shape, engine, counts, files); the blocks that
+//! describe the run for people (steps, timings, the verdict's tallies, sampling, refinement,
+//! attractors, continuation, the scene) are kept as JSON values as the writer made them.
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// The name of the manifest in a map's folder.
+pub const MAP_JSON: &str = "map.json";
+
+/// One axis of the map as `map.json` states it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ManifestAxis {
+    /// Dotted scene key.
+    pub key: String,
+    /// Values along the axis.
+    pub values: Vec<f64>,
+    /// `linear` or `log`.
+    pub scale: String,
+    /// Unit read off the key's name (`None` for ratios and counts).
+    pub unit: Option<String>,
+    /// Label with the unit, for pictures.
+    pub label: String,
+}
+
+/// The time steps of the map's instances (s).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct StepRange {
+    /// Smallest step.
+    pub min: f64,
+    /// Largest step.
+    pub max: f64,
+}
+
+/// `map.json`: what the map is, how it ran, and which files belong to it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MapManifest {
+    /// The axes, in grid order.
+    pub axes: Vec<ManifestAxis>,
+    /// Unit of every stored array, by file stem ("1": dimensionless).
+    pub units: BTreeMap<String, String>,
+    /// Shape of the grid (and of every per-cell array).
+    pub shape: Vec<usize>,
+    /// Cells of the grid.
+    pub instances: usize,
+    /// How flat indices map onto the grid.
+    pub order: String,
+    /// Metrics asked for.
+    pub metrics: Vec<String>,
+    /// Engine kind (`cpu` or `gpu`).
+    pub backend: String,
+    /// Why this engine.
+    pub backend_reason: String,
+    /// The device (adapter name, or the CPU's threads and loop).
+    pub adapter: String,
+    /// Float type (`f32` or `f64`).
+    pub precision: String,
+    /// Rigid segments N.
+    pub segments: usize,
+    /// Integration method (`rk4` or `imex`).
+    pub method: String,
+    /// Why this method.
+    pub method_reason: String,
+    /// Distinct IMEX matrix sets the plan factored.
+    pub imex_matrix_sets: usize,
+    /// Automatic steps of the base scene.
+    #[serde(default)]
+    pub method_steps_of_base_scene: Value,
+    /// Joint damping of the base scene.
+    #[serde(default)]
+    pub damping_of_base_scene: Value,
+    /// Range of the instances' steps.
+    pub dt_s: StepRange,
+    /// Steps in full, integrated and saved.
+    #[serde(default)]
+    pub steps: Value,
+    /// Wall time per stage (s): planning (`plan_s`), opening the engine, integration,
+    /// reductions.
+    pub timings_s: Value,
+    /// Shares of the wall time per stage.
+    #[serde(default)]
+    pub wall_share: Value,
+    /// Instance and segment steps per second.
+    #[serde(default)]
+    pub throughput: Value,
+    /// Cells per status.
+    pub status_counts: BTreeMap<String, usize>,
+    /// Code of each status in `status.npy`.
+    pub status_codes: BTreeMap<String, u8>,
+    /// The verdict's counts and codes (null without the regime).
+    #[serde(default)]
+    pub regime: Value,
+    /// λ1's settings and summary (null without it).
+    #[serde(default)]
+    pub lyapunov: Value,
+    /// How each instance was sampled.
+    #[serde(default)]
+    pub sampling: Value,
+    /// Adaptive refinement's rounds (null without it).
+    #[serde(default)]
+    pub refine: Value,
+    /// The attractor stage (null without several starts).
+    #[serde(default)]
+    pub attractors: Value,
+    /// The continuation (null without it).
+    #[serde(default)]
+    pub continuation: Value,
+    /// Warnings of the plan.
+    #[serde(default)]
+    pub warnings: Vec<String>,
+    /// The shards or devices the map was assembled from (null when run in one piece).
+    #[serde(default)]
+    pub shards: Value,
+    /// The base scene, validated.
+    #[serde(default)]
+    pub scene: Value,
+    /// Files of the map, by name in its folder (empty from the Python package).
+    pub files: Vec<String>,
+}
+
+/// Why a `map.json` cannot be read.
+#[derive(Debug, thiserror::Error)]
+pub enum ManifestError {
+    /// The file cannot be read.
+    #[error("cannot read {path}: {reason}")]
+    Unreadable {
+        /// The manifest's path.
+        path: String,
+        /// What the system said.
+        reason: String,
+    },
+    /// Not JSON, or not the fields this version writes.
+    #[error("{0}")]
+    Damaged(String),
+    /// It lists a file outside its folder.
+    #[error(
+        "{path} lists `{name}`, which is not a file name of its folder (a map lists its own files by name, never a path): the manifest is damaged or not ours"
+    )]
+    ForeignFile {
+        /// The manifest's path.
+        path: String,
+        /// The listed name.
+        name: String,
+    },
+}
+
+impl MapManifest {
+    /// Read and check the `map.json` at `path`: the fields this version writes, and files
+    /// listed by plain name (no folder, no `..`), so that nothing outside the folder is read
+    /// through it.
+    pub fn read(path: &Path) -> Result<MapManifest, ManifestError> {
+        let shown = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| ManifestError::Unreadable {
+            path: shown.clone(),
+            reason: e.to_string(),
+        })?;
+        let manifest: MapManifest = serde_json::from_str(&text)
+            .map_err(|e| ManifestError::Damaged(crate::text::json_damage(&shown, &e)))?;
+        if let Some(name) = manifest.files.iter().find(|n| !is_plain_name(n)) {
+            return Err(ManifestError::ForeignFile {
+                path: shown,
+                name: name.clone(),
+            });
+        }
+        Ok(manifest)
+    }
+}
+
+/// A file name with no folder in it: not empty, no separator, not `.` or `..`.
+fn is_plain_name(name: &str) -> bool {
+    !name.is_empty()
+        && name != "."
+        && name != ".."
+        && !name.contains(['/', '\\'])
+        && !Path::new(name).is_absolute()
+}
