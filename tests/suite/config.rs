@@ -327,3 +327,34 @@ fn masses_beyond_what_the_model_holds_are_refused_with_their_range() {
         );
     }
 }
+
+#[test]
+fn map_axes_are_read_by_the_one_swept_key_reader() {
+    let err = |axes: &str| {
+        let arg = format!("map.axes={axes}");
+        pendulum_atlas_core::config::load_map(None, std::slice::from_ref(&arg))
+            .expect_err("refused")
+            .to_string()
+    };
+    let f = "{key=\"excitation.frequency_hz\",values=[4.0,5.0]}";
+    let e = err(&format!("[{f},{f}]"));
+    assert!(
+        e.contains("`excitation.frequency_hz` is a map axis twice"),
+        "{e}"
+    );
+    let e = err("[{key=\"beam.segments\",values=[3.0,5.0]}]");
+    assert!(
+        e.contains("`beam.segments` cannot be a map axis: every instance"),
+        "{e}"
+    );
+    let a = "{key=\"excitation.amplitude_m\",values=[0.001]}";
+    let e = err(&format!("[{f},{a},{a},{a}]"));
+    assert!(e.contains("a map needs 1 to 3 axes, found 4"), "{e}");
+    let e = err(
+        "[{key=\"excitation.frequency_hz\",start=4.0,end=12.0,count=3000},{key=\"excitation.amplitude_m\",start=0.001,end=0.02,count=3000}]",
+    );
+    assert!(
+        e.contains("grids of at most 4000000 instances in all"),
+        "{e}"
+    );
+}

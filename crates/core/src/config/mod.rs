@@ -34,5 +34,5 @@ pub use scene::{
 pub use starts::{MAX_START_RATE_DEG_S, MAX_STARTS, Start, StartSet, StartSource, latin_hypercube};
 pub use sweep::{
     AxisScale, MapAxis, SweepList, SweptKey, axis_label, key_unit, lookup_key, neighbours,
-    point_key, read_sweep,
+    point_key,
 };

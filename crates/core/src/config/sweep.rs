@@ -364,7 +364,7 @@ pub fn key_unit(key: &str) -> Option<&'static str> {
 /// The values of a swept scene key (a map axis, a design variable) read from the table at
 /// `prefix`: either `values = [...]` (finite, strictly increasing) or `start`, `end`, `count`
 /// with an optional `scale = "linear" | "log"`. At most `max` values. Errors name the key.
-pub fn read_sweep(
+fn read_sweep(
     r: &mut Reader,
     prefix: &str,
     key: &str,
