@@ -8,10 +8,10 @@ use super::folder::{
     Axis, Column, Csv, RunFolder, Source, bad, grid_cell, listed_files, num, read_json, read_text,
 };
 use super::sources::{Calibration, Judged};
-use crate::calibrate::{CalibrationSpec, calibration_from_toml};
-use crate::config::{Scene, axis_label};
-use crate::output::folder::Product;
-use crate::render::Palette;
+use pendulum_atlas_core::config::{Scene, axis_label};
+use pendulum_atlas_map::output::folder::Product;
+use pendulum_atlas_map::render::Palette;
+use pendulum_atlas_studies::calibrate::{CalibrationSpec, calibration_from_toml};
 use std::path::Path;
 
 /// The grid rows of `candidates.csv`: matched in all, distance, and the judgements per case.
@@ -86,7 +86,7 @@ fn read_grid(dir: &Path, spec: &CalibrationSpec, axes: &[Axis]) -> Result<Grid, 
     for row in csv.rows.iter().filter(|r| r[stage] == "grid") {
         let values: Vec<f64> = unknown_cols.iter().map(|&c| num(&row[c])).collect();
         let k = grid_cell(axes, &values).ok_or_else(|| {
-            bad(&csv.path, format!("a grid candidate at ({}) is not on the grid of calibrate_scene.toml: the files are from different calibrations", values.iter().map(|&v| crate::text::num(v)).collect::<Vec<_>>().join(", ")))
+            bad(&csv.path, format!("a grid candidate at ({}) is not on the grid of calibrate_scene.toml: the files are from different calibrations", values.iter().map(|&v| pendulum_atlas_core::text::num(v)).collect::<Vec<_>>().join(", ")))
         })?;
         grid.total[k] = num(&row[matched]);
         grid.distance[k] = num(&row[distance]);

@@ -9,14 +9,16 @@ use super::CellLimits;
 use super::error::ExploreError;
 use super::folder::{RunFolder, Source};
 use super::search_folder::split_variant;
-use crate::analysis::{RecordAnalysis, stroboscopic};
-use crate::config::{Scene, set_key};
-use crate::engine::{EnsembleOptions, EnsemblePlan, Instance, Outcome, StepPlan, integrate};
-use crate::model::Status;
-use crate::model::linear::LinearError;
-use crate::output::TrajectoryRecorder;
-use crate::output::budget::RunSize;
-use crate::text::bytes;
+use pendulum_atlas_core::analysis::{RecordAnalysis, stroboscopic};
+use pendulum_atlas_core::config::{Scene, set_key};
+use pendulum_atlas_core::engine::{
+    EnsembleOptions, EnsemblePlan, Instance, Outcome, StepPlan, integrate,
+};
+use pendulum_atlas_core::model::Status;
+use pendulum_atlas_core::model::linear::LinearError;
+use pendulum_atlas_core::text::bytes;
+use pendulum_atlas_map::output::TrajectoryRecorder;
+use pendulum_atlas_map::output::budget::RunSize;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::ops::ControlFlow;
@@ -69,7 +71,10 @@ pub fn cell_scene(folder: &RunFolder, k: usize, v: usize) -> Result<CellScene, E
                 .spec
                 .scene_table(&c.spec.cases[v], &values, 0.0)
                 .map_err(|e| fail(e.to_string()))?;
-            (t, crate::calibrate::run::options(&c.spec).0)
+            (
+                t,
+                pendulum_atlas_studies::calibrate::run::options(&c.spec).0,
+            )
         }
         Source::Search(s) => {
             let spec = &s.spec;
@@ -85,7 +90,10 @@ pub fn cell_scene(folder: &RunFolder, k: usize, v: usize) -> Result<CellScene, E
                     spec.band.frequencies_hz[j],
                 )
                 .map_err(|e| fail(e.to_string()))?;
-            (t, crate::harvest::search::ensemble_options(spec))
+            (
+                t,
+                pendulum_atlas_studies::harvest::search::ensemble_options(spec),
+            )
         }
     };
     let scene = Scene::from_table(table.clone()).map_err(|e| fail(e.to_string()))?;
@@ -361,14 +369,14 @@ fn analyse(
     scene: &Scene,
     plan: &StepPlan,
     outcome: &Outcome,
-    rows: &[crate::output::Row],
+    rows: &[pendulum_atlas_map::output::Row],
     warnings: &mut Vec<String>,
 ) -> Option<RecordAnalysis> {
     if outcome.status != Status::Ok {
         warnings.push(format!("the run stopped with status `{}`", outcome.status));
         return None;
     }
-    match crate::output::record_analysis(scene, plan, rows) {
+    match pendulum_atlas_map::output::record_analysis(scene, plan, rows) {
         Ok(a) => {
             warnings.extend(a.warnings.iter().cloned());
             Some(a)

@@ -9,8 +9,8 @@
 
 use super::error::ExploreError;
 use super::folder::{RunFolder, parse_index};
-use crate::model::Status;
-use crate::render::{INVALID_COLOR, NODATA_COLOR};
+use pendulum_atlas_core::model::Status;
+use pendulum_atlas_map::render::{INVALID_COLOR, NODATA_COLOR};
 use plotters::style::RGBColor;
 use serde::Serialize;
 

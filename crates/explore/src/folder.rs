@@ -13,12 +13,12 @@
 
 use super::error::ExploreError;
 use super::sources::{Calibration, Search};
-use crate::calibrate::CalibrationSpec;
-use crate::config::{MapSpec, c_order_index, grid_point};
-use crate::harvest::spec::SearchSpec;
-use crate::output::folder::Product;
-use crate::output::manifest::MapManifest;
-use crate::render::Palette;
+use pendulum_atlas_core::config::{MapSpec, c_order_index, grid_point};
+use pendulum_atlas_map::output::folder::Product;
+use pendulum_atlas_map::output::manifest::MapManifest;
+use pendulum_atlas_map::render::Palette;
+use pendulum_atlas_studies::calibrate::CalibrationSpec;
+use pendulum_atlas_studies::harvest::spec::SearchSpec;
 use std::path::{Path, PathBuf};
 
 /// One axis of the grid.

@@ -28,12 +28,6 @@ mod search_folder;
 mod server;
 mod sources;
 
-// The stages below, by the names they have there: `crate::engine` here is
-// `pendulum_atlas_core::engine`, `crate::output` is `pendulum_atlas_map`'s.
-use pendulum_atlas_core::{analysis, config, engine, model, reduce, text};
-use pendulum_atlas_map::{output, render};
-use pendulum_atlas_studies::{calibrate, harvest};
-
 pub use cell::{CellControl, CellRun, CellScene, cell_memory_bytes, cell_scene, run_cell};
 pub use error::ExploreError;
 pub use field::{Field, field};

@@ -3,14 +3,14 @@
 
 use super::error::ExploreError;
 use super::folder::{Axis, CellAttractor, Column, RunFolder, Source, bad, read_json, read_text};
-use crate::config::{MapSpec, Metric, map_from_toml};
-use crate::output::folder::Product;
-use crate::output::manifest::{MAP_JSON, ManifestError, MapManifest};
-use crate::output::map::{
+use pendulum_atlas_core::config::{MapSpec, Metric, map_from_toml};
+use pendulum_atlas_core::reduce::attractors::Family;
+use pendulum_atlas_map::output::folder::Product;
+use pendulum_atlas_map::output::manifest::{MAP_JSON, ManifestError, MapManifest};
+use pendulum_atlas_map::output::map::{
     COLUMNS, attractor_style, metric_style, regime_shade, shown_label, shown_value,
 };
-use crate::output::npy::read_npy;
-use crate::reduce::attractors::Family;
+use pendulum_atlas_map::output::npy::read_npy;
 use std::path::Path;
 
 /// Read a map folder.
@@ -132,7 +132,7 @@ fn continuation_columns(dir: &Path, spec: &MapSpec) -> Result<Vec<Column>, Explo
     let Some(c) = &spec.continuation else {
         return Ok(Vec::new());
     };
-    if c.sweep != crate::config::Sweep::Both {
+    if c.sweep != pendulum_atlas_core::config::Sweep::Both {
         return Ok(Vec::new());
     }
     let mut out: Vec<Column> = metric_columns(dir, spec, "_down")?
@@ -147,7 +147,7 @@ fn continuation_columns(dir: &Path, spec: &MapSpec) -> Result<Vec<Column>, Explo
     out.push(Column {
         name: "hysteresis".into(),
         label: "up and down differ (1: on different attractors)".into(),
-        palette: crate::render::Palette::Sequential(Some((0.0, 1.0))),
+        palette: pendulum_atlas_map::render::Palette::Sequential(Some((0.0, 1.0))),
         values: differs.iter().map(|&d| f64::from(d)).collect(),
     });
     Ok(out)
@@ -199,18 +199,23 @@ fn read_families(dir: &Path, manifest: &MapManifest) -> Result<Option<Vec<Family
     let path = dir.join("attractors.json");
     serde_json::from_value(read_json(&path)?["attractors"]["families"].clone())
         .map(Some)
-        .map_err(|e| bad(&path, crate::text::json_damage("attractors.json", &e)))
+        .map_err(|e| {
+            bad(
+                &path,
+                pendulum_atlas_core::text::json_damage("attractors.json", &e),
+            )
+        })
 }
 
 /// The ways a cell of a map with several starts runs: its representative start (variant 0),
 /// then each start (variant `s + 1`).
-fn start_variants(set: &crate::config::StartSet) -> Vec<String> {
+fn start_variants(set: &pendulum_atlas_core::config::StartSet) -> Vec<String> {
     let each = set.states.iter().enumerate().map(|(s, st)| {
         format!(
             "start {}: {} deg, {} deg/s",
             s + 1,
-            crate::text::num(st.angle_deg),
-            crate::text::num(st.rate_deg_s)
+            pendulum_atlas_core::text::num(st.angle_deg),
+            pendulum_atlas_core::text::num(st.rate_deg_s)
         )
     });
     std::iter::once("the cell's representative start".to_string())
@@ -246,7 +251,7 @@ fn cell_attractors(
                         })?;
                     Ok(CellAttractor {
                         label: l,
-                        name: crate::output::map::family_words(&families[l].fingerprint),
+                        name: pendulum_atlas_map::output::map::family_words(&families[l].fingerprint),
                         fraction: fractions[l * cells + c],
                         start,
                     })
@@ -288,7 +293,7 @@ fn attractor_columns(
                 "distinct attractors among {} starts",
                 spec.starts_per_cell()
             ),
-            palette: crate::render::Palette::Sequential(None),
+            palette: pendulum_atlas_map::render::Palette::Sequential(None),
             values: count.iter().map(|&n| f64::from(n)).collect(),
         });
     }
@@ -303,8 +308,8 @@ fn check_shape(dir: &Path, spec: &MapSpec, manifest: &MapManifest) -> Result<(),
             &dir.join("map.json"),
             format!(
                 "its shape ({}) is not the grid of map_scene.toml ({}): the files are from different maps",
-                stated.map_or_else(|| "none given".into(), crate::text::shape),
-                crate::text::shape(&spec.shape())
+                stated.map_or_else(|| "none given".into(), pendulum_atlas_core::text::shape),
+                pendulum_atlas_core::text::shape(&spec.shape())
             ),
         ));
     }
@@ -352,8 +357,8 @@ fn read_shaped<T: npyz::Deserialize>(
             &path,
             format!(
                 "shape {}, this map's is {}: the files are from different maps",
-                crate::text::shape(&shape),
-                crate::text::shape(want)
+                pendulum_atlas_core::text::shape(&shape),
+                pendulum_atlas_core::text::shape(want)
             ),
         ));
     }

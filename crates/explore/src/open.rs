@@ -3,7 +3,7 @@
 use super::error::ExploreError;
 use super::folder::RunFolder;
 use super::{calibrate_folder, map_folder, search_folder};
-use crate::output::folder::Product;
+use pendulum_atlas_map::output::folder::Product;
 use std::path::Path;
 
 impl RunFolder {

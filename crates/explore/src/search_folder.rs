@@ -8,10 +8,10 @@ use super::folder::{
     Axis, Column, Csv, RunFolder, Source, bad, grid_cell, listed_files, num, read_json, read_text,
 };
 use super::sources::{Found, InstanceKey, Search};
-use crate::config::axis_label;
-use crate::harvest::spec::{SearchSpec, search_from_toml};
-use crate::output::folder::Product;
-use crate::render::Palette;
+use pendulum_atlas_core::config::axis_label;
+use pendulum_atlas_map::output::folder::Product;
+use pendulum_atlas_map::render::Palette;
+use pendulum_atlas_studies::harvest::spec::{SearchSpec, search_from_toml};
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -128,7 +128,7 @@ fn read_designs(
     for row in csv.rows.iter().filter(|r| r[stage] == "grid") {
         let values: Vec<f64> = var_cols.iter().map(|&c| num(&row[c])).collect();
         let k = grid_cell(axes, &values).ok_or_else(|| {
-            bad(&csv.path, format!("a grid design at ({}) is not on the grid of search_scene.toml: the files are from different searches", values.iter().map(|&v| crate::text::num(v)).collect::<Vec<_>>().join(", ")))
+            bad(&csv.path, format!("a grid design at ({}) is not on the grid of search_scene.toml: the files are from different searches", values.iter().map(|&v| pendulum_atlas_core::text::num(v)).collect::<Vec<_>>().join(", ")))
         })?;
         design[k] = Some(row[id].clone());
         for (c, &i) in columns.iter_mut().zip(&data_cols) {

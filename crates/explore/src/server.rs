@@ -143,7 +143,7 @@ async fn map_info(State(app): Shared) -> Response {
         "scalogram_bar": sequential_bar(),
         "cell_limits": {
             "wall_s": app.jobs.limits().wall_s,
-            "memory": crate::text::bytes(app.jobs.limits().memory_bytes),
+            "memory": pendulum_atlas_core::text::bytes(app.jobs.limits().memory_bytes),
         },
     }))
     .into_response()
@@ -151,7 +151,7 @@ async fn map_info(State(app): Shared) -> Response {
 
 /// The colour stops of a cell's scalogram (viridis, as its PNG), whatever the map shows.
 fn sequential_bar() -> Vec<String> {
-    crate::render::Palette::Sequential(None)
+    pendulum_atlas_map::render::Palette::Sequential(None)
         .bar(64)
         .into_iter()
         .map(super::field::hex)

@@ -1,8 +1,8 @@
 //! What explore keeps of a calibration or a search beside its grid, read once by
 //! `calibrate_folder` and `search_folder` and held in a [`super::folder::Source`].
 
-use crate::calibrate::CalibrationSpec;
-use crate::harvest::spec::SearchSpec;
+use pendulum_atlas_studies::calibrate::CalibrationSpec;
+use pendulum_atlas_studies::harvest::spec::SearchSpec;
 use std::collections::HashMap;
 
 /// How a candidate fared on one observation, as `candidates.csv` says.

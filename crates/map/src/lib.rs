@@ -18,7 +18,3 @@ pub mod map;
 pub mod output;
 pub mod render;
 pub mod shard;
-
-// The core's stages, by the names they have there: `crate::engine::Engine` here is
-// `pendulum_atlas_core::engine::Engine`.
-use pendulum_atlas_core::{analysis, config, engine, model, reduce, text};

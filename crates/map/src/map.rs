@@ -6,10 +6,12 @@ pub mod hardware_default;
 pub mod refine;
 pub mod shard;
 
-use crate::config::MapSpec;
-use crate::engine::gpu::GpuTimings;
-use crate::engine::{Engine, EngineError, EngineInfo, EnsemblePlan, Progress, Readback};
-use crate::reduce::{
+use pendulum_atlas_core::config::MapSpec;
+use pendulum_atlas_core::engine::gpu::GpuTimings;
+use pendulum_atlas_core::engine::{
+    Engine, EngineError, EngineInfo, EnsemblePlan, Progress, Readback,
+};
+use pendulum_atlas_core::reduce::{
     AttractorMap, AttractorRule, InstanceResult, ReduceOptions, attractor_map, basin_map,
 };
 use serde::Serialize;
@@ -209,7 +211,7 @@ pub fn host_bytes_estimate(spec: &MapSpec) -> u64 {
 /// shard plans the whole map, so sharding does not shrink it).
 pub fn check_host_memory(spec: &MapSpec) -> Result<(), EngineError> {
     use crate::machine::memory_available;
-    use crate::text::bytes;
+    use pendulum_atlas_core::text::bytes;
     let need = host_bytes_estimate(spec);
     match memory_available() {
         Some(available) if need > available / 2 => Err(EngineError::HostMemory {
@@ -234,7 +236,7 @@ pub fn run_map(spec: &MapSpec, engine: &Engine, progress: Progress) -> Result<Ma
 /// starts where its neighbour ended).
 fn check_shardable(spec: &MapSpec) -> Result<(), EngineError> {
     let refused = |key: &str, reason: &str| {
-        Err(crate::config::ConfigError::Inconsistent {
+        Err(pendulum_atlas_core::config::ConfigError::Inconsistent {
             key: key.into(),
             reason: reason.into(),
         }
@@ -309,7 +311,7 @@ fn run_map_part(
 
 /// A map that labels attractors (several starts per cell, or a basin picture with one): every
 /// (cell, start) run in the one ensemble with the stroboscopic tail its fingerprint needs,
-/// then the attractor stage ([`crate::reduce::attractors`]) groups and labels the runs and
+/// then the attractor stage ([`pendulum_atlas_core::reduce::attractors`]) groups and labels the runs and
 /// picks each cell's representative.
 fn run_starts(
     plan: EnsemblePlan,
@@ -409,7 +411,7 @@ impl StageTotals {
 fn run_continued(
     plan: EnsemblePlan,
     spec: &MapSpec,
-    cs: &crate::config::ContinuationSpec,
+    cs: &pendulum_atlas_core::config::ContinuationSpec,
     engine: &Engine,
     progress: Progress,
     t0: Instant,
@@ -473,7 +475,7 @@ fn run_continued(
 /// `engine`; times, dispatches and early stops add up over the stages.
 fn run_refined(
     plan: EnsemblePlan,
-    rs: &crate::config::RefineSpec,
+    rs: &pendulum_atlas_core::config::RefineSpec,
     spec: &MapSpec,
     engine: &Engine,
     progress: Progress,

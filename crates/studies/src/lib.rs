@@ -12,8 +12,3 @@ pub mod bench;
 pub mod calibrate;
 pub mod harvest;
 pub mod reproduce;
-
-// The stages below, by the names they have there: `crate::engine::Engine` here is
-// `pendulum_atlas_core::engine::Engine`, `crate::map::run_plan` is `pendulum_atlas_map`'s.
-use pendulum_atlas_core::{analysis, config, engine, model, reduce, text};
-use pendulum_atlas_map::{map, output, render};

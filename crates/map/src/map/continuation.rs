@@ -18,9 +18,9 @@
 //!    the other did not. Consecutive differing cells of a line form a band, reported with its
 //!    ends in the axis's unit.
 
-use crate::config::{ContinuationSpec, Direction, MapSpec, c_order_index};
-use crate::engine::EngineError;
-use crate::reduce::{AttractorRule, Fingerprint, InstanceResult};
+use pendulum_atlas_core::config::{ContinuationSpec, Direction, MapSpec, c_order_index};
+use pendulum_atlas_core::engine::EngineError;
+use pendulum_atlas_core::reduce::{AttractorRule, Fingerprint, InstanceResult};
 use serde::Serialize;
 
 /// What one ensemble of a path's step brings back, in the order of its cells.

@@ -11,9 +11,9 @@
 //!    reductions and the transfers); the finest grid within [`TARGET_S`] is taken, the
 //!    coarsest when none is.
 
-use crate::config::{ConfigError, DEFAULT_MAP_TOML, map_from_toml};
-use crate::engine::{Engine, EngineError, EnsemblePlan, Readback, no_progress};
-use crate::reduce::ReduceOptions;
+use pendulum_atlas_core::config::{ConfigError, DEFAULT_MAP_TOML, map_from_toml};
+use pendulum_atlas_core::engine::{Engine, EngineError, EnsemblePlan, Readback, no_progress};
+use pendulum_atlas_core::reduce::ReduceOptions;
 
 /// Grids (frequency count × amplitude count) from coarse to fine.
 pub const GRIDS: [(usize, usize); 3] = [(64, 48), (128, 96), (256, 192)];

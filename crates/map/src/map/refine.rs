@@ -26,9 +26,9 @@
 //! a period-3 tongue holds none), which the audit measures, and a block holding one wrong
 //! audited point would not find the others.
 
-use crate::config::{MapSpec, RefineFollow, RefineSpec, c_order_index};
-use crate::engine::EngineError;
-use crate::reduce::{InstanceResult, Regime};
+use pendulum_atlas_core::config::{MapSpec, RefineFollow, RefineSpec, c_order_index};
+use pendulum_atlas_core::engine::EngineError;
+use pendulum_atlas_core::reduce::{InstanceResult, Regime};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
@@ -432,7 +432,7 @@ pub fn refine(
         .find(|&a| grid.active(a) && !(grid.shape[a] - 1).is_multiple_of(rs.spacing as usize))
     {
         return Err(EngineError::Config(
-            crate::config::ConfigError::Inconsistent {
+            pendulum_atlas_core::config::ConfigError::Inconsistent {
                 key: "map.refine_spacing".into(),
                 reason: format!(
                     "spacing {} does not divide the {} intervals of axis {}",
@@ -554,8 +554,8 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::map_from_toml;
-    use crate::model::Status;
+    use pendulum_atlas_core::config::map_from_toml;
+    use pendulum_atlas_core::model::Status;
 
     /// A 17 × 17 grid (spacing 8) and the regime map `truth` over it.
     fn grid_and(truth: impl Fn(usize, usize) -> (Regime, f64)) -> (MapSpec, Vec<InstanceResult>) {

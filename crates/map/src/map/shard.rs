@@ -1,6 +1,6 @@
 //! `--shard I/N`: which instances a shard integrates, and the hash that ties shards to a map.
 
-use crate::config::MapSpec;
+use pendulum_atlas_core::config::MapSpec;
 use serde::Serialize;
 use sha2::{Digest, Sha256};
 use std::str::FromStr;

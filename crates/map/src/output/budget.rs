@@ -12,7 +12,7 @@
 
 use super::Row;
 use crate::machine::{free_space, memory_available};
-use crate::text::bytes;
+use pendulum_atlas_core::text::bytes;
 use std::path::Path;
 
 /// The share of available memory a run may plan to use.
@@ -50,7 +50,7 @@ pub enum TooLarge {
     },
     /// A run shorter than half a step.
     #[error(
-        "integration.duration_s = {} s is shorter than half a step (dt = {dt_s:e} s): the run would take no step; lengthen integration.duration_s or shorten integration.dt_s", crate::text::num(*duration_s)
+        "integration.duration_s = {} s is shorter than half a step (dt = {dt_s:e} s): the run would take no step; lengthen integration.duration_s or shorten integration.dt_s", pendulum_atlas_core::text::num(*duration_s)
     )]
     NoStep {
         /// The scene's duration (s).
@@ -88,8 +88,8 @@ impl RunSize {
     /// The size of a single run of `scene` over `plan` (the trajectory's columns with the
     /// piezo's when it is on); refused when it takes no step or more than the engines count.
     pub fn of_run(
-        scene: &crate::config::Scene,
-        plan: &crate::engine::StepPlan,
+        scene: &pendulum_atlas_core::config::Scene,
+        plan: &pendulum_atlas_core::engine::StepPlan,
     ) -> Result<RunSize, TooLarge> {
         let duration_s = scene.integration.duration_s;
         let columns = super::row_columns(scene.piezo_params().is_some()).len();

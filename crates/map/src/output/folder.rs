@@ -308,7 +308,7 @@ fn is_map_file(name: &str) -> bool {
         Some((m, n)) if !n.is_empty() && n.chars().all(|c| c.is_ascii_digit()) => m,
         _ => stem,
     };
-    crate::config::Metric::ALL
+    pendulum_atlas_core::config::Metric::ALL
         .iter()
         .any(|m| m.name() == metric)
 }

@@ -161,8 +161,9 @@ impl MapManifest {
             path: shown.clone(),
             reason: e.to_string(),
         })?;
-        let manifest: MapManifest = serde_json::from_str(&text)
-            .map_err(|e| ManifestError::Damaged(crate::text::json_damage(&shown, &e)))?;
+        let manifest: MapManifest = serde_json::from_str(&text).map_err(|e| {
+            ManifestError::Damaged(pendulum_atlas_core::text::json_damage(&shown, &e))
+        })?;
         if let Some(name) = manifest.files.iter().find(|n| !is_plain_name(n)) {
             return Err(ManifestError::ForeignFile {
                 path: shown,

@@ -3,17 +3,17 @@
 //! a 3-D grid), and `bifurcation.png`.
 
 use super::manifest::{ManifestAxis, MapManifest, StepRange};
-use crate::config::{MapSpec, Metric};
 use crate::map::MapRun;
 use crate::map::continuation::ContinuationRun;
-use crate::model::Status;
 use crate::output::OutputError;
 use crate::output::files::{AtomicFile, create_dir, draw, write_json, write_toml};
 use crate::output::npy::{write_npy_f64, write_npy_i8, write_npy_i32, write_npy_u8};
-use crate::reduce::Regime;
 use crate::render::{
     Axis, Category, CellMarks, Palette, RGBColor, Series, heatmap, scatter, scatter_groups,
 };
+use pendulum_atlas_core::config::{MapSpec, Metric};
+use pendulum_atlas_core::model::Status;
+use pendulum_atlas_core::reduce::Regime;
 use serde_json::{Value, json};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -23,7 +23,7 @@ pub type Column = (
     &'static str,
     Metric,
     &'static str,
-    fn(&crate::reduce::InstanceResult) -> f64,
+    fn(&pendulum_atlas_core::reduce::InstanceResult) -> f64,
 );
 
 /// Every stored array of a map, in `grid.csv` order, with its unit ("1": dimensionless).
@@ -319,7 +319,7 @@ type Points = (Vec<f64>, Vec<f64>);
 /// stroboscopic samples of every `ok` cell.
 fn bifurcation_points(
     values: &[f64],
-    results: &[crate::reduce::InstanceResult],
+    results: &[pendulum_atlas_core::reduce::InstanceResult],
     tails: &[Vec<f64>],
     n: usize,
 ) -> Points {
@@ -349,7 +349,7 @@ pub fn map_manifest(spec: &MapSpec, run: &MapRun, files: &[String]) -> MapManife
                 key: a.key.clone(),
                 values: a.values.clone(),
                 scale: word(&a.scale),
-                unit: crate::config::key_unit(&a.key).map(String::from),
+                unit: pendulum_atlas_core::config::key_unit(&a.key).map(String::from),
                 label: a.label(),
             })
             .collect(),
@@ -370,7 +370,7 @@ pub fn map_manifest(spec: &MapSpec, run: &MapRun, files: &[String]) -> MapManife
         method_reason: run.plan.method_reason.clone(),
         imex_matrix_sets: run.plan.imex_matrix_sets,
         method_steps_of_base_scene: json!(
-            crate::engine::method::MethodSteps::of_scene(&spec.scene).ok()
+            pendulum_atlas_core::engine::method::MethodSteps::of_scene(&spec.scene).ok()
         ),
         damping_of_base_scene: json!(spec.scene.damping_report().ok()),
         dt_s: StepRange {
@@ -497,7 +497,7 @@ fn steps_json(run: &MapRun) -> serde_json::Value {
 /// `map.json`'s `regime`: the cells of each verdict and the rule's thresholds (`null` when
 /// the regime was not asked for).
 fn regime_json(spec: &MapSpec, run: &MapRun) -> serde_json::Value {
-    use crate::reduce::regime::{REGIME_FLAT_PER_PERIOD, REGIME_K_CHAOS, REGIME_Z};
+    use pendulum_atlas_core::reduce::regime::{REGIME_FLAT_PER_PERIOD, REGIME_K_CHAOS, REGIME_Z};
     if !spec.wants(Metric::Regime) {
         return serde_json::Value::Null;
     }
@@ -515,7 +515,7 @@ fn regime_json(spec: &MapSpec, run: &MapRun) -> serde_json::Value {
             "z": REGIME_Z,
             "flat_per_period": REGIME_FLAT_PER_PERIOD,
             "k_chaos": REGIME_K_CHAOS,
-            "k_firm_samples": crate::analysis::ZERO_ONE_COMFORTABLE_SAMPLES,
+            "k_firm_samples": pendulum_atlas_core::analysis::ZERO_ONE_COMFORTABLE_SAMPLES,
             "doc": "docs/analysis.md, section 10",
         },
     })
@@ -537,7 +537,7 @@ fn lyapunov_json(spec: &MapSpec, run: &MapRun) -> serde_json::Value {
         "window_s": spec.lyapunov.window_s,
         "window_periods": {"min": windows.clone().min(), "max": windows.max()},
         "align_periods": spec.lyapunov.align_periods,
-        "blocks": crate::reduce::lyapunov::LYAPUNOV_BLOCKS,
+        "blocks": pendulum_atlas_core::reduce::lyapunov::LYAPUNOV_BLOCKS,
         "renormalised": "every forcing period, at the stroboscopic phase",
         "unit": "1/s",
     })
@@ -573,8 +573,8 @@ pub fn metric_style(m: Metric, spec: &MapSpec) -> Style {
             format!(
                 "phase synchronisation R ({} convention)",
                 match spec.phase_convention {
-                    crate::analysis::PhaseConvention::Standard => "standard",
-                    crate::analysis::PhaseConvention::Paper => "paper",
+                    pendulum_atlas_core::analysis::PhaseConvention::Standard => "standard",
+                    pendulum_atlas_core::analysis::PhaseConvention::Paper => "paper",
                 }
             ),
             Some((0.0, 1.0)),
@@ -708,7 +708,7 @@ fn draw_attractors(
     dir: &Path,
     spec: &MapSpec,
     run: &MapRun,
-    a: &crate::reduce::AttractorMap,
+    a: &pendulum_atlas_core::reduce::AttractorMap,
 ) -> Result<Vec<PathBuf>, OutputError> {
     let mut out = Vec::new();
     if a.starts > 1 {
@@ -732,7 +732,10 @@ fn draw_attractors(
 }
 
 /// The style of an attractor-label picture: `what` it shows, a colour per family.
-pub fn attractor_style(what: &str, families: &[crate::reduce::attractors::Family]) -> Style {
+pub fn attractor_style(
+    what: &str,
+    families: &[pendulum_atlas_core::reduce::attractors::Family],
+) -> Style {
     Style {
         label: format!("{what} (Pp: period p; wells + α > 0, − α < 0, ± both)"),
         palette: attractor_palette(families),
@@ -764,7 +767,7 @@ const ATTRACTOR_COLOURS: [RGBColor; 9] = [
 
 /// One category per family, named by its fingerprint (`0: P1 +`); families
 /// beyond the colours share the last one.
-fn attractor_palette(families: &[crate::reduce::attractors::Family]) -> Palette {
+fn attractor_palette(families: &[pendulum_atlas_core::reduce::attractors::Family]) -> Palette {
     let last = ATTRACTOR_COLOURS.len() - 1;
     let mut c: Vec<Category> = families
         .iter()
@@ -787,8 +790,8 @@ fn attractor_palette(families: &[crate::reduce::attractors::Family]) -> Palette 
 
 /// A family in a few characters: its regime or period and its wells (`P2 +`: period 2 in the
 /// α > 0 well).
-pub fn family_words(f: &crate::reduce::Fingerprint) -> String {
-    use crate::reduce::attractors::Wells;
+pub fn family_words(f: &pendulum_atlas_core::reduce::Fingerprint) -> String {
+    use pendulum_atlas_core::reduce::attractors::Wells;
     let wells = match f.wells {
         Wells::Positive => "+",
         Wells::Negative => "−",

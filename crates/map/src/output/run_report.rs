@@ -1,13 +1,15 @@
 //! `run.json` of a single run: the scene, how it was integrated, how it ended, λ1 and the
 //! paper's analysis. `simulate` writes it; the Python package's `simulate` carries it.
 
-use crate::analysis::{AnalysisError, RecordAnalysis, analyze_record};
-use crate::config::{DampingReport, Scene};
-use crate::engine::Outcome;
-use crate::engine::method::MethodSteps;
-use crate::engine::{DtSource, Integrator, Precision, RunLyapunov, SceneRun, StepPlan};
-use crate::model::{Modes, Status};
 use crate::output::Row;
+use pendulum_atlas_core::analysis::{AnalysisError, RecordAnalysis, analyze_record};
+use pendulum_atlas_core::config::{DampingReport, Scene};
+use pendulum_atlas_core::engine::Outcome;
+use pendulum_atlas_core::engine::method::MethodSteps;
+use pendulum_atlas_core::engine::{
+    DtSource, Integrator, Precision, RunLyapunov, SceneRun, StepPlan,
+};
+use pendulum_atlas_core::model::{Modes, Status};
 use serde::Serialize;
 
 /// Everything `run.json` says about a single run.

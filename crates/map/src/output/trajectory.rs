@@ -1,9 +1,9 @@
 //! Recording a trajectory at the output rows and writing it as CSV.
 
-use crate::engine::Observer;
-use crate::model::{CartState, Chain, Real, Workspace};
 use crate::output::OutputError;
 use crate::output::files::{commit_csv, create_csv, csv_error};
+use pendulum_atlas_core::engine::Observer;
+use pendulum_atlas_core::model::{CartState, Chain, Real, Workspace};
 use std::ops::ControlFlow;
 use std::path::Path;
 

@@ -383,8 +383,8 @@ pub fn heatmap(
     {
         bad_input!(
             "heatmap: invalid colour range from {} to {}: give finite ends, the first below the second",
-            crate::text::num(*a),
-            crate::text::num(*b)
+            pendulum_atlas_core::text::num(*a),
+            pendulum_atlas_core::text::num(*b)
         );
     }
     let bad = |k: usize| invalid.get(k).copied().unwrap_or(false);

@@ -8,16 +8,16 @@
 //! - `scene.toml`: the map scene as given (the `--set` overrides are in the manifest);
 //! - `shard.json`: the manifest, written last.
 
-use crate::config::MapSpec;
-use crate::engine::EngineInfo;
 use crate::map::shard::{Shard, map_hash};
 use crate::map::{MapRun, MapTimings};
-use crate::model::Status;
 use crate::output::OutputError;
 use crate::output::files::{create_dir, write_bytes, write_json};
 use crate::output::npy::{read_npy, write_npy_f64};
-use crate::reduce::{InstanceResult, Regime};
-use crate::text::num;
+use pendulum_atlas_core::config::MapSpec;
+use pendulum_atlas_core::engine::EngineInfo;
+use pendulum_atlas_core::model::Status;
+use pendulum_atlas_core::reduce::{InstanceResult, Regime};
+use pendulum_atlas_core::text::num;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -193,13 +193,13 @@ pub fn read_shard(dir: &Path) -> Result<ShardData, ShardReadError> {
         })
     };
     let manifest: ShardManifest = serde_json::from_str(&text("shard.json")?)
-        .map_err(|e| fail(crate::text::json_damage("shard.json", &e)))?;
+        .map_err(|e| fail(pendulum_atlas_core::text::json_damage("shard.json", &e)))?;
     let scene_text = text("scene.toml")?;
     let (shape, rows) = read_npy(&dir.join("shard_results.npy")).map_err(&fail)?;
     if shape != [manifest.members, RESULT_COLUMNS.len()] {
         return Err(fail(format!(
             "shard_results.npy has shape {}, the manifest says {} rows of {}",
-            crate::text::shape(&shape),
+            pendulum_atlas_core::text::shape(&shape),
             manifest.members,
             RESULT_COLUMNS.len()
         )));
@@ -216,7 +216,7 @@ pub fn read_shard(dir: &Path) -> Result<ShardData, ShardReadError> {
         if shape != [manifest.members, manifest.strobe_tail] {
             return Err(fail(format!(
                 "shard_strobe.npy has shape {}, the manifest says {} × {}",
-                crate::text::shape(&shape),
+                pendulum_atlas_core::text::shape(&shape),
                 manifest.members,
                 manifest.strobe_tail
             )));

@@ -2,10 +2,10 @@
 //! their results put back in grid order.
 
 use super::files::{ShardData, ShardReadError, read_shard};
-use crate::config::{ConfigError, MapSpec, map_from_toml};
-use crate::engine::{EngineError, EnsemblePlan};
 use crate::map::shard::map_hash;
 use crate::map::{MapPart, MapRun, assemble};
+use pendulum_atlas_core::config::{ConfigError, MapSpec, map_from_toml};
+use pendulum_atlas_core::engine::{EngineError, EnsemblePlan};
 use std::path::PathBuf;
 
 /// Why shards do not make one map.
@@ -135,7 +135,7 @@ pub fn merge_shards(dirs: &[PathBuf]) -> Result<Merged, MergeError> {
 }
 
 /// Every row of shard `s` obeys the rules of the engines' own results
-/// ([`crate::reduce::InstanceResult::check`]) and names an instance of the grid.
+/// ([`pendulum_atlas_core::reduce::InstanceResult::check`]) and names an instance of the grid.
 fn check_rows(s: &ShardData, spec: &MapSpec) -> Result<(), MergeError> {
     let bad = |instance: usize, reason: String| MergeError::BadRow {
         dir: s.dir.display().to_string(),
@@ -161,8 +161,8 @@ fn same_map(a: &ShardData, b: &ShardData) -> Result<(), MergeError> {
         ("the map hash", mb.map_hash.clone(), ma.map_hash.clone()),
         (
             "the grid shape",
-            crate::text::shape(&mb.shape),
-            crate::text::shape(&ma.shape),
+            pendulum_atlas_core::text::shape(&mb.shape),
+            pendulum_atlas_core::text::shape(&ma.shape),
         ),
         (
             "the shard count",

@@ -2,9 +2,9 @@
 //! `peer_case_N{n}.json`.
 
 use super::cpu_throughput::{CpuThroughputReport, ThroughputRow};
-use crate::engine::{CpuLoop, Precision};
-use crate::output::OutputError;
-use crate::output::files::{create_dir, write_bytes, write_json};
+use pendulum_atlas_core::engine::{CpuLoop, Precision};
+use pendulum_atlas_map::output::OutputError;
+use pendulum_atlas_map::output::files::{create_dir, write_bytes, write_json};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 

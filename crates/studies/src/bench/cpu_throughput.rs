@@ -14,10 +14,12 @@
 
 use super::flops::{self, FlopCount};
 use super::peer_case::{PeerCase, PeerCaseError, default_map_plan, peer_case};
-use crate::config::{DEFAULT_MAP_TOML, map_from_toml};
-use crate::engine::{CpuLoop, Engine, EngineError, EnsemblePlan, Precision, Readback, no_progress};
-use crate::map::run_map;
-use crate::reduce::ReduceOptions;
+use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, map_from_toml};
+use pendulum_atlas_core::engine::{
+    CpuLoop, Engine, EngineError, EnsemblePlan, Precision, Readback, no_progress,
+};
+use pendulum_atlas_core::reduce::ReduceOptions;
+use pendulum_atlas_map::map::run_map;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -398,7 +400,7 @@ pub(crate) fn read_peer_files<T: serde::de::DeserializeOwned>(
                 let name = p
                     .file_name()
                     .map_or_else(String::new, |n| n.to_string_lossy().into());
-                (p.clone(), crate::text::json_damage(&name, &e))
+                (p.clone(), pendulum_atlas_core::text::json_damage(&name, &e))
             })
         })
         .collect()

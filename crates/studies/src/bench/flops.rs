@@ -5,9 +5,9 @@
 //! whose floating-point operations [`SIN_COS_FLOP`] counts (its integer and blend operations are
 //! not flops and not counted).
 
-use crate::engine::imex::{Imex, ImexMatrices};
-use crate::engine::rk4::{Rk4Scratch, rk4_step};
-use crate::model::{Chain, Lane, ModelParams};
+use pendulum_atlas_core::engine::imex::{Imex, ImexMatrices};
+use pendulum_atlas_core::engine::rk4::{Rk4Scratch, rk4_step};
+use pendulum_atlas_core::model::{Chain, Lane, ModelParams};
 use serde::Serialize;
 use std::cell::Cell;
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};

@@ -1,9 +1,9 @@
 //! Files of `bench --throughput`: `GPU.md` and `gpu_throughput.json`.
 
 use super::gpu_throughput::{GpuPeerRow, LadderRow, MetricRow, ThroughputReport, ThroughputScene};
-use crate::engine::method::Method;
-use crate::output::OutputError;
-use crate::output::files::{create_dir, write_bytes, write_json};
+use pendulum_atlas_core::engine::method::Method;
+use pendulum_atlas_map::output::OutputError;
+use pendulum_atlas_map::output::files::{create_dir, write_bytes, write_json};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 

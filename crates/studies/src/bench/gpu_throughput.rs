@@ -18,12 +18,12 @@
 
 use super::flops::{self, FlopCount};
 use super::peer_case::PeerCaseError;
-use crate::config::{DEFAULT_MAP_TOML, Metric, map_from_toml};
-use crate::engine::method::Method;
-use crate::engine::{
+use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, Metric, map_from_toml};
+use pendulum_atlas_core::engine::method::Method;
+use pendulum_atlas_core::engine::{
     CpuLoop, Engine, EngineError, EngineKind, EnsemblePlan, Precision, Readback, no_progress,
 };
-use crate::reduce::ReduceOptions;
+use pendulum_atlas_core::reduce::ReduceOptions;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Instant;

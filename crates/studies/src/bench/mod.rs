@@ -26,14 +26,14 @@ pub mod stiff_report;
 pub mod verdict;
 pub mod verdict_report;
 
-use crate::config::{Metric, Scene, TimeStep};
-use crate::engine::{
+use pendulum_atlas_core::config::{Metric, Scene, TimeStep};
+use pendulum_atlas_core::engine::{
     Engine, EngineError, EngineKind, EnsembleOptions, EnsemblePlan, Instance, Observer, Precision,
     Readback, ReferenceOptions, StepPlan, integrate_reference, no_progress,
 };
-use crate::map::{MapRun, run_plan};
-use crate::model::{CartState, Chain, Status, Workspace};
-use crate::reduce::{InstanceResult, ReduceOptions};
+use pendulum_atlas_core::model::{CartState, Chain, Status, Workspace};
+use pendulum_atlas_core::reduce::{InstanceResult, ReduceOptions};
+use pendulum_atlas_map::map::{MapRun, run_plan};
 use serde::Serialize;
 use std::time::Instant;
 use thiserror::Error;
@@ -189,10 +189,11 @@ pub fn study_scenes(quick: bool) -> Result<Vec<Scene>, EngineError> {
 fn bench_scene(n: usize, edit: impl FnOnce(&mut Scene)) -> Scene {
     let mut s = Scene::paper();
     s.beam.segments = n;
-    s.beam.damping =
-        crate::config::BeamDamping::Ratio(crate::config::EARLIER_READING_DAMPING_RATIO);
-    s.limiter.damping_law = crate::config::ContactDamping::KelvinVoigt;
-    s.integration.method = crate::config::MethodChoice::Rk4;
+    s.beam.damping = pendulum_atlas_core::config::BeamDamping::Ratio(
+        pendulum_atlas_core::config::EARLIER_READING_DAMPING_RATIO,
+    );
+    s.limiter.damping_law = pendulum_atlas_core::config::ContactDamping::KelvinVoigt;
+    s.integration.method = pendulum_atlas_core::config::MethodChoice::Rk4;
     edit(&mut s);
     s
 }
@@ -308,7 +309,8 @@ fn map_scenes(n: usize, factor: Option<f64>, quick: bool) -> Result<Vec<Scene>, 
                 if let Some(dt) = dt {
                     s.integration.dt_s = TimeStep::Seconds(dt);
                 }
-                s.excitation.kind = crate::model::ExcitationKind::Harmonic { frequency_hz: f };
+                s.excitation.kind =
+                    pendulum_atlas_core::model::ExcitationKind::Harmonic { frequency_hz: f };
                 s.excitation.amplitude_m = a;
             }));
         }
@@ -575,7 +577,8 @@ fn k_only_scenes() -> Vec<Scene> {
         for j in 0..8 {
             let f = 4.0 + i as f64;
             scenes.push(bench_scene(3, |s| {
-                s.excitation.kind = crate::model::ExcitationKind::Harmonic { frequency_hz: f };
+                s.excitation.kind =
+                    pendulum_atlas_core::model::ExcitationKind::Harmonic { frequency_hz: f };
                 s.excitation.amplitude_m = 0.004 + 0.002 * j as f64;
                 timing(s, 5.0 + MAP_PERIODS / f, 5.0);
             }));
@@ -594,14 +597,16 @@ fn per_step_cost(quick: bool) -> Result<Vec<(usize, f64, f64)>, EngineError> {
     let mut out = Vec::new();
     for &n in ns {
         let scene = bench_scene(n, |s| {
-            s.beam.damping = crate::config::BeamDamping::TimeS(0.0);
+            s.beam.damping = pendulum_atlas_core::config::BeamDamping::TimeS(0.0);
             s.integration.dt_s = TimeStep::Seconds(1e-6);
-            s.excitation.kind = crate::model::ExcitationKind::Harmonic { frequency_hz: 50.0 };
+            s.excitation.kind =
+                pendulum_atlas_core::model::ExcitationKind::Harmonic { frequency_hz: 50.0 };
             timing(s, 0.04, 0.02);
         });
         let plan = EnsemblePlan::from_scenes(&[scene], &options(vec![Metric::Hops]))?;
         let t0 = Instant::now();
-        let raw = crate::engine::cpu::run_instance::<f64>(&plan.instances[0], false, false);
+        let raw =
+            pendulum_atlas_core::engine::cpu::run_instance::<f64>(&plan.instances[0], false, false);
         let ns_step = t0.elapsed().as_secs_f64() * 1e9 / raw.tally.steps as f64;
         out.push((n, ns_step, ns_step / n as f64));
     }
@@ -621,7 +626,8 @@ fn scaling(quick: bool, cpu: &Engine, progress: &dyn Fn(&str)) -> Result<Scaling
             .map(|i| {
                 bench_scene(3, |s| {
                     let f = 5.0 + 7.0 * i as f64 / count as f64;
-                    s.excitation.kind = crate::model::ExcitationKind::Harmonic { frequency_hz: f };
+                    s.excitation.kind =
+                        pendulum_atlas_core::model::ExcitationKind::Harmonic { frequency_hz: f };
                     timing(s, duration, 1.0);
                 })
             })

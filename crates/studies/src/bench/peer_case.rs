@@ -5,10 +5,10 @@
 //! Written as JSON (`peer_case_N{n}.json`) by `bench --cpu-throughput`; the peers tile its
 //! instances to the instance count they are timed at.
 
-use crate::config::{ConfigError, DEFAULT_MAP_TOML, map_from_toml};
-use crate::engine::cpu::run_steps_f64;
-use crate::engine::{EngineError, EnsemblePlan};
-use crate::model::ModelParams;
+use pendulum_atlas_core::config::{ConfigError, DEFAULT_MAP_TOML, map_from_toml};
+use pendulum_atlas_core::engine::cpu::run_steps_f64;
+use pendulum_atlas_core::engine::{EngineError, EnsemblePlan};
+use pendulum_atlas_core::model::ModelParams;
 use serde::Serialize;
 
 /// Steps of the check trajectory (short enough that rounding has not yet separated peers).

@@ -17,11 +17,13 @@
 //! free; and the share of cells with a neighbour of another regime (a refinement that
 //! computes exactly the boundary cells gets every regime right at that cost).
 
-use crate::config::{DEFAULT_MAP_TOML, MapSpec, RefineFollow, RefineSpec, map_from_toml};
-use crate::engine::{Engine, EngineError, no_progress};
-use crate::map::refine::{agree, refine};
-use crate::map::{MapRun, run_map};
-use crate::reduce::{InstanceResult, Regime};
+use pendulum_atlas_core::config::{
+    DEFAULT_MAP_TOML, MapSpec, RefineFollow, RefineSpec, map_from_toml,
+};
+use pendulum_atlas_core::engine::{Engine, EngineError, no_progress};
+use pendulum_atlas_core::reduce::{InstanceResult, Regime};
+use pendulum_atlas_map::map::refine::{agree, refine};
+use pendulum_atlas_map::map::{MapRun, run_map};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -176,7 +178,7 @@ pub fn run_refine(opts: &RefineOptions, log: &dyn Fn(String)) -> Result<RefineRe
     } else {
         REFINE_GRID
     };
-    let cpu = Engine::cpu(crate::engine::Precision::F64);
+    let cpu = Engine::cpu(pendulum_atlas_core::engine::Precision::F64);
     let mut engines = vec![&cpu];
     engines.extend(opts.gpu);
     let shipped_spec = spec(grid, true, true)?;
@@ -312,8 +314,8 @@ fn ceilings(full: &[InstanceResult], shape: (usize, usize)) -> Ceilings {
 pub fn write_refine(
     dir: &std::path::Path,
     r: &RefineReport,
-) -> Result<Vec<std::path::PathBuf>, crate::output::OutputError> {
-    use crate::output::files::{create_dir, write_bytes, write_json};
+) -> Result<Vec<std::path::PathBuf>, pendulum_atlas_map::output::OutputError> {
+    use pendulum_atlas_map::output::files::{create_dir, write_bytes, write_json};
     create_dir(dir)?;
     Ok(vec![
         write_bytes(&dir.join("REFINE.md"), markdown(r).as_bytes())?,

@@ -1,9 +1,9 @@
 //! Files of a study: `bench.json`, `work_precision.png`, `map_error.png`, `BENCHMARKS.md`.
 
 use super::{BenchReport, ConfigResult};
-use crate::output::OutputError;
-use crate::output::files::{create_dir, draw, write_bytes, write_json};
-use crate::render::{Series, line_chart};
+use pendulum_atlas_map::output::OutputError;
+use pendulum_atlas_map::output::files::{create_dir, draw, write_bytes, write_json};
+use pendulum_atlas_map::render::{Series, line_chart};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

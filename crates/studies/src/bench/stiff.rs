@@ -12,15 +12,17 @@
 //! period agree, and the wall times.
 
 use super::{AlphaRows, BenchError, SAMPLES_PER_PERIOD, options, run_map_scenes, timing};
-use crate::config::{BeamDamping, ContactDamping, MethodChoice, Metric, Scene, TimeStep};
-use crate::engine::method::{Method, MethodSteps};
-use crate::engine::{
+use pendulum_atlas_core::config::{
+    BeamDamping, ContactDamping, MethodChoice, Metric, Scene, TimeStep,
+};
+use pendulum_atlas_core::engine::method::{Method, MethodSteps};
+use pendulum_atlas_core::engine::{
     Engine, EngineError, EngineKind, EnsemblePlan, Instance, Precision, Readback, ReferenceOptions,
     StepPlan, integrate_reference, no_progress,
 };
-use crate::map::MapRun;
-use crate::model::Status;
-use crate::reduce::ReduceOptions;
+use pendulum_atlas_core::model::Status;
+use pendulum_atlas_core::reduce::ReduceOptions;
+use pendulum_atlas_map::map::MapRun;
 use serde::Serialize;
 use std::time::Instant;
 
@@ -51,7 +53,8 @@ impl Reading {
 
     fn apply(self, s: &mut Scene) {
         if self == Reading::Earlier {
-            s.beam.damping = BeamDamping::Ratio(crate::config::EARLIER_READING_DAMPING_RATIO);
+            s.beam.damping =
+                BeamDamping::Ratio(pendulum_atlas_core::config::EARLIER_READING_DAMPING_RATIO);
             s.limiter.damping_law = ContactDamping::KelvinVoigt;
         }
     }
@@ -301,7 +304,8 @@ fn map_scenes(cells: &[(f64, f64)], n: usize, method: Method) -> Result<Vec<Scen
         .iter()
         .map(|&(f, a)| {
             let mut s = scene(n, Reading::Library);
-            s.excitation.kind = crate::model::ExcitationKind::Harmonic { frequency_hz: f };
+            s.excitation.kind =
+                pendulum_atlas_core::model::ExcitationKind::Harmonic { frequency_hz: f };
             s.excitation.amplitude_m = a;
             timing(&mut s, 2.0 + 100.0 / f, 2.0);
             with_method(s, method, 1.0)

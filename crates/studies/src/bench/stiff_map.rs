@@ -16,10 +16,10 @@
 //! over the settled ones.
 
 use super::{run_map_scenes, timing};
-use crate::config::{MethodChoice, Metric, Scene, TimeStep};
-use crate::engine::method::{Method, MethodSteps};
-use crate::engine::{Engine, EngineError, EngineKind, Precision};
-use crate::model::{ExcitationKind, Status};
+use pendulum_atlas_core::config::{MethodChoice, Metric, Scene, TimeStep};
+use pendulum_atlas_core::engine::method::{Method, MethodSteps};
+use pendulum_atlas_core::engine::{Engine, EngineError, EngineKind, Precision};
+use pendulum_atlas_core::model::{ExcitationKind, Status};
 use serde::Serialize;
 use std::time::Instant;
 

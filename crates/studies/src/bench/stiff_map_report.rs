@@ -2,8 +2,8 @@
 //! `STIFF_MAP.md`.
 
 use super::stiff_map::{Agreement, StiffMapReport, TWIN_RATE_DEG_S};
-use crate::output::OutputError;
-use crate::output::files::{
+use pendulum_atlas_map::output::OutputError;
+use pendulum_atlas_map::output::files::{
     commit_csv, create_csv, create_dir, csv_error, write_bytes, write_json,
 };
 use std::fmt::Write as _;
@@ -154,7 +154,7 @@ fn cell_table(s: &mut String, r: &StiffMapReport) {
     for (c, (f, a)) in r.cells.iter().enumerate() {
         let _ = write!(s, "| {f} | {:.1} |", a * 1e3);
         for m in &r.maps {
-            let _ = if m.status[c] == crate::model::Status::Ok {
+            let _ = if m.status[c] == pendulum_atlas_core::model::Status::Ok {
                 write!(s, " {:.2} / {} |", m.k[c], m.period[c])
             } else {
                 write!(s, " {} |", m.status[c])

@@ -1,11 +1,11 @@
 //! Files of the stiff-chain study: `stiff.json`, `stiff_work_precision.png`, `STIFF.md`.
 
 use super::stiff::{HorizonRow, Reading, StiffReport};
-use crate::engine::method::Method;
-use crate::engine::{EngineKind, Precision};
-use crate::output::OutputError;
-use crate::output::files::{create_dir, draw, write_bytes, write_json};
-use crate::render::{Series, line_chart};
+use pendulum_atlas_core::engine::method::Method;
+use pendulum_atlas_core::engine::{EngineKind, Precision};
+use pendulum_atlas_map::output::OutputError;
+use pendulum_atlas_map::output::files::{create_dir, draw, write_bytes, write_json};
+use pendulum_atlas_map::render::{Series, line_chart};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 

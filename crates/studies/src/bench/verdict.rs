@@ -17,10 +17,10 @@
 //! 4. **Cost**: the whole default map with today's metrics (no λ1) against the same map with
 //!    the verdict, on the engine the study runs on.
 
-use crate::config::{DEFAULT_MAP_TOML, MapSpec, map_from_toml};
-use crate::engine::{Engine, EngineError, EngineKind, Precision, no_progress};
-use crate::map::{MapRun, run_map};
-use crate::reduce::Regime;
+use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, MapSpec, map_from_toml};
+use pendulum_atlas_core::engine::{Engine, EngineError, EngineKind, Precision, no_progress};
+use pendulum_atlas_core::reduce::Regime;
+use pendulum_atlas_map::map::{MapRun, run_map};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -256,10 +256,10 @@ fn reference(quick: bool, thin: usize) -> Result<Reference, EngineError> {
 }
 
 /// The verdict of a cell under `decider`.
-fn verdict(r: &crate::reduce::InstanceResult, decider: Decider) -> Regime {
+fn verdict(r: &pendulum_atlas_core::reduce::InstanceResult, decider: Decider) -> Regime {
     match decider {
         Decider::Rule => r.regime,
-        Decider::KAndPeriod if r.status != crate::model::Status::Ok => Regime::Failed,
+        Decider::KAndPeriod if r.status != pendulum_atlas_core::model::Status::Ok => Regime::Failed,
         Decider::KAndPeriod if r.k >= 0.5 => Regime::Chaotic,
         Decider::KAndPeriod if r.period > 0.0 => Regime::Periodic,
         Decider::KAndPeriod => Regime::Regular,

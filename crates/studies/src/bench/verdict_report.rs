@@ -1,9 +1,9 @@
 //! Files of `bench --verdict`: `verdict.json` and `VERDICT.md`.
 
 use super::verdict::{REFERENCE_PERIOD_TOL_RAD, REFERENCE_PERIOD_WINDOW, Score, VerdictReport};
-use crate::output::OutputError;
-use crate::output::files::{create_dir, write_bytes, write_json};
-use crate::reduce::Regime;
+use pendulum_atlas_core::reduce::Regime;
+use pendulum_atlas_map::output::OutputError;
+use pendulum_atlas_map::output::files::{create_dir, write_bytes, write_json};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 

@@ -4,13 +4,13 @@
 
 use super::run::{CalibrationRun, Candidate};
 use super::spec::CalibrationSpec;
-use crate::config::axis_label;
-use crate::config::set_key;
-use crate::output::OutputError;
-use crate::output::files::{
+use pendulum_atlas_core::config::axis_label;
+use pendulum_atlas_core::config::set_key;
+use pendulum_atlas_map::output::OutputError;
+use pendulum_atlas_map::output::files::{
     commit_csv, create_csv, csv_error, draw, write_bytes, write_json, write_toml,
 };
-use crate::render::{Axis, CellMarks, Palette, heatmap};
+use pendulum_atlas_map::render::{Axis, CellMarks, Palette, heatmap};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use toml::Value;

@@ -16,8 +16,8 @@
 //! an observation. The observation is **matched** when at least `agreement` of the runs that
 //! ended ok match it; its distance is the median of theirs.
 
-use crate::model::Status;
-use crate::reduce::InstanceResult;
+use pendulum_atlas_core::model::Status;
+use pendulum_atlas_core::reduce::InstanceResult;
 use serde::Serialize;
 
 /// What was observed in one case.

@@ -7,10 +7,10 @@
 
 use super::observe::{Judgement, judge};
 use super::spec::CalibrationSpec;
-use crate::config::{ConfigError, Metric, neighbours, point_key as key};
-use crate::engine::{Engine, EngineError, EnsembleOptions, EnsemblePlan, Progress};
-use crate::map::run_plan;
-use crate::reduce::{InstanceResult, ReduceOptions};
+use pendulum_atlas_core::config::{ConfigError, Metric, neighbours, point_key as key};
+use pendulum_atlas_core::engine::{Engine, EngineError, EnsembleOptions, EnsemblePlan, Progress};
+use pendulum_atlas_core::reduce::{InstanceResult, ReduceOptions};
+use pendulum_atlas_map::map::run_plan;
 use serde::Serialize;
 use std::collections::HashSet;
 
@@ -165,7 +165,7 @@ pub fn options(spec: &CalibrationSpec) -> (EnsembleOptions, ReduceOptions) {
         samples_per_period: spec.samples_per_period,
         strobe_phase: 0.0,
         r_max_samples: 1024,
-        early_stop: Some(crate::engine::EarlyStop::DEFAULT),
+        early_stop: Some(pendulum_atlas_core::engine::EarlyStop::DEFAULT),
         lyapunov: Default::default(),
     };
     let red = ReduceOptions {

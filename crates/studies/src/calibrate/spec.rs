@@ -29,11 +29,11 @@
 //! ```
 
 use super::observe::Observation;
-use crate::analysis::PhaseConvention;
-use crate::config::{
+use pendulum_atlas_core::analysis::PhaseConvention;
+use pendulum_atlas_core::config::{
     ConfigError, MAX_INSTANCES, Range, Reader, Scene, SweepList, SweptKey, set_key, split_section,
 };
-use crate::reduce::ReduceOptions;
+use pendulum_atlas_core::reduce::ReduceOptions;
 use serde::Serialize;
 use toml::{Table, Value};
 
@@ -140,7 +140,7 @@ pub fn load_calibration(
     path: &std::path::Path,
     sets: &[String],
 ) -> Result<CalibrationSpec, ConfigError> {
-    let text = crate::config::read_scene_file(path)?;
+    let text = pendulum_atlas_core::config::read_scene_file(path)?;
     calibration_from_toml(&text, &path.display().to_string(), sets)
 }
 

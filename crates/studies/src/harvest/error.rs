@@ -7,14 +7,14 @@ use thiserror::Error;
 pub enum HarvestError {
     /// A design or instance scene is invalid.
     #[error(transparent)]
-    Config(#[from] crate::config::ConfigError),
+    Config(#[from] pendulum_atlas_core::config::ConfigError),
     /// A batch could not be integrated.
     #[error("{stage}: {source}")]
     Engine {
         /// The stage whose batch failed (`baseline`, `grid`, `refine 1`, ...).
         stage: String,
         /// The engine's reason.
-        source: crate::engine::EngineError,
+        source: pendulum_atlas_core::engine::EngineError,
     },
     /// The linear baseline has no stable mode to zoom on.
     #[error("the clamped baseline has no stable mode")]
@@ -32,5 +32,5 @@ pub enum HarvestError {
     Toml(toml::ser::Error),
     /// A file could not be written.
     #[error(transparent)]
-    Output(#[from] crate::output::OutputError),
+    Output(#[from] pendulum_atlas_map::output::OutputError),
 }

@@ -3,8 +3,8 @@
 
 use super::search::SearchRun;
 use super::spec::SearchSpec;
-use crate::render::RenderError;
-use crate::render::{
+use pendulum_atlas_map::render::RenderError;
+use pendulum_atlas_map::render::{
     AxisSpec, Chart, PALETTE, Series, build_chart, canvas, draw_legend, line_chart, plot_value,
 };
 
@@ -15,7 +15,7 @@ use std::path::Path;
 /// A design variable's value in a few characters: the usual symbol and unit for the keys of
 /// issue 7, the last part of the key otherwise.
 fn short_value(key: &str, x: f64) -> String {
-    let n = crate::render::fmt_num;
+    let n = pendulum_atlas_map::render::fmt_num;
     match key {
         "limiter.clearance_deg" => format!("θc={}°", n(x)),
         "limiter.contact_arc_m" => format!("s_b={} m", n(x)),
@@ -72,7 +72,7 @@ pub fn pareto_figure(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<
         &ya,
         &format!(
             "{word} bandwidth (Hz) where P ≥ {} W",
-            crate::render::fmt_num(run.threshold_w)
+            pendulum_atlas_map::render::fmt_num(run.threshold_w)
         ),
         &format!(
             "{word} band-averaged power (W), {}–{} Hz",

@@ -7,8 +7,10 @@ use super::figures::{pareto_figure, power_figure};
 use super::search::{DesignResult, SearchRun};
 use super::spec::{BaseExcitation, SearchSpec};
 use super::verify::Verification;
-use crate::output::OutputError;
-use crate::output::files::{AtomicFile, create_dir, draw, write_bytes, write_json, write_toml};
+use pendulum_atlas_map::output::OutputError;
+use pendulum_atlas_map::output::files::{
+    AtomicFile, create_dir, draw, write_bytes, write_json, write_toml,
+};
 use serde_json::json;
 use std::fmt::Write as _;
 use std::io::Write;
@@ -49,7 +51,7 @@ fn short_design(spec: &SearchSpec, values: &[f64]) -> String {
     spec.variables
         .iter()
         .zip(values)
-        .map(|(v, &x)| format!("`{}` = {}", v.key, crate::render::fmt_num(x)))
+        .map(|(v, &x)| format!("`{}` = {}", v.key, pendulum_atlas_map::render::fmt_num(x)))
         .collect::<Vec<_>>()
         .join(", ")
 }
@@ -298,7 +300,7 @@ fn best_design_toml(
         ("initial.rate_deg_s", inst.initial.rate_deg_s),
         ("initial.voltage_v", inst.initial.voltage_v),
     ] {
-        crate::config::set_key(&mut t, k, toml::Value::Float(v))?;
+        pendulum_atlas_core::config::set_key(&mut t, k, toml::Value::Float(v))?;
     }
     let mut out = String::new();
     let _ = writeln!(

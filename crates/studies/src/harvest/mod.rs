@@ -8,7 +8,7 @@
 //!    excitation (constant acceleration or constant amplitude), initial states, threshold.
 //! 2. [`search`]: the linear baseline, the grid of designs and the refinement rounds, each
 //!    one batch of designs × initial states × frequencies on the ensemble engine
-//!    ([`crate::map::run_plan`] on the engine the caller opened once), reduced to P(f) curves and ranked.
+//!    ([`pendulum_atlas_map::map::run_plan`] on the engine the caller opened once), reduced to P(f) curves and ranked.
 //! 3. [`band`]: the band metric of a P(f) curve: bandwidth above a threshold, band-averaged
 //!    power, peak; robust (smallest over initial states) and mean curves.
 //! 4. [`verify`]: the best design re-simulated with `simulate`'s own engine and step.

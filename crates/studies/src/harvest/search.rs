@@ -15,11 +15,13 @@
 use super::band::{BandMetrics, band_metrics, mean_curve, robust_curve};
 use super::error::HarvestError;
 use super::spec::{InitialState, Objective, SearchSpec, Weighting, describe_design};
-use crate::config::{ConfigError, Metric, Scene, neighbours, point_key};
-use crate::engine::{Engine, EngineInfo, EnsembleOptions, EnsemblePlan, ProgressUnit};
-use crate::map::run_plan;
-use crate::model::Status;
-use crate::reduce::{InstanceResult, ReduceOptions};
+use pendulum_atlas_core::config::{ConfigError, Metric, Scene, neighbours, point_key};
+use pendulum_atlas_core::engine::{
+    Engine, EngineInfo, EnsembleOptions, EnsemblePlan, ProgressUnit,
+};
+use pendulum_atlas_core::model::Status;
+use pendulum_atlas_core::reduce::{InstanceResult, ReduceOptions};
+use pendulum_atlas_map::map::run_plan;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::HashSet;
@@ -234,8 +236,8 @@ pub fn ensemble_options(spec: &SearchSpec) -> EnsembleOptions {
         strobe_phase: 0.0,
         // R is not computed: the shortest series keeps the GPU's work buffer small.
         r_max_samples: 32,
-        // A confirmed orbit's power is its cycle's (crate::engine::early).
-        early_stop: Some(crate::engine::EarlyStop::DEFAULT),
+        // A confirmed orbit's power is its cycle's (pendulum_atlas_core::engine::early).
+        early_stop: Some(pendulum_atlas_core::engine::EarlyStop::DEFAULT),
         lyapunov: Default::default(),
     }
 }
@@ -436,7 +438,7 @@ fn evaluate_baseline(
     let scene0 = Scene::from_table(table.clone())?;
     let first_natural_hz = scene0
         .modes()
-        .map_err(crate::config::ConfigError::from)?
+        .map_err(pendulum_atlas_core::config::ConfigError::from)?
         .frequencies_hz
         .first()
         .copied()

@@ -21,7 +21,7 @@
 //! key by key with [`Reader`], so a typo in `[search]` is an unknown key, and every design
 //! variable is checked against the scene schema before any integration starts.
 
-use crate::config::{
+use pendulum_atlas_core::config::{
     ConfigError, ExcitationKind, Range, Reader, Scene, SweepList, SweptKey, refuse_sets_on_swept,
     scene_text, set_key, split_section,
 };
@@ -630,7 +630,7 @@ fn read_weighting(r: &mut Reader, named: bool) -> Result<Weighting, ConfigError>
 /// clearance (a `well` in (−1, 1)), the rate within ±[`BASIN_RATE_DEG_S`].
 fn sampled_states(starts: usize, seed: u64) -> Vec<InitialState> {
     let rate = (-BASIN_RATE_DEG_S, BASIN_RATE_DEG_S);
-    crate::config::latin_hypercube(starts, (-1.0, 1.0), rate, seed)
+    pendulum_atlas_core::config::latin_hypercube(starts, (-1.0, 1.0), rate, seed)
         .into_iter()
         .enumerate()
         .map(|(i, s)| InitialState {

@@ -6,9 +6,9 @@
 use super::error::HarvestError;
 use super::search::DesignResult;
 use super::spec::SearchSpec;
-use crate::analysis::{ZeroOneOptions, stroboscopic, zero_one_test};
-use crate::engine::{Instance, Observer, StepPlan, integrate};
-use crate::model::{CartState, Chain, Real, Status, Workspace};
+use pendulum_atlas_core::analysis::{ZeroOneOptions, stroboscopic, zero_one_test};
+use pendulum_atlas_core::engine::{Instance, Observer, StepPlan, integrate};
+use pendulum_atlas_core::model::{CartState, Chain, Real, Status, Workspace};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
@@ -135,8 +135,10 @@ pub struct Resimulated {
 }
 
 /// One instance integrated as `simulate` integrates it.
-pub fn simulate_power(scene: &crate::config::Scene) -> Result<Resimulated, HarvestError> {
-    let linear = |e| HarvestError::Config(crate::config::ConfigError::from(e));
+pub fn simulate_power(
+    scene: &pendulum_atlas_core::config::Scene,
+) -> Result<Resimulated, HarvestError> {
+    let linear = |e| HarvestError::Config(pendulum_atlas_core::config::ConfigError::from(e));
     let plan = StepPlan::for_scene(scene).map_err(linear)?;
     let inst = Instance::<f64>::from_scene(scene).map_err(linear)?;
     let mut meter = PowerMeter {

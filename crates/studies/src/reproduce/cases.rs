@@ -2,7 +2,7 @@
 //! and the numbers the paper publishes for it, transcribed from `shared/seed/paper.txt`.
 
 use super::error::ReproduceError;
-use crate::config::Scene;
+use pendulum_atlas_core::config::Scene;
 use serde::Serialize;
 
 /// What a case is in the paper.

@@ -1,7 +1,7 @@
 //! What can stop `reproduce`, each variant naming the case or file involved.
 
-use crate::analysis::AnalysisError;
-use crate::config::ConfigError;
+use pendulum_atlas_core::analysis::AnalysisError;
+use pendulum_atlas_core::config::ConfigError;
 use thiserror::Error;
 
 /// Everything that can go wrong while reproducing the paper.
@@ -23,7 +23,7 @@ pub enum ReproduceError {
         /// Case identifier.
         case: String,
         /// `diverged` or `non-finite`.
-        status: crate::model::Status,
+        status: pendulum_atlas_core::model::Status,
         /// Simulated time at which the failure was detected (s).
         at_s: f64,
     },
@@ -47,7 +47,7 @@ pub enum ReproduceError {
     },
     /// A file or figure could not be written.
     #[error(transparent)]
-    Output(#[from] crate::output::OutputError),
+    Output(#[from] pendulum_atlas_map::output::OutputError),
 }
 
 impl ReproduceError {

@@ -5,8 +5,8 @@ use super::cases::PaperCase;
 use super::error::ReproduceError;
 use super::indicators::{StationaryAnalysis, SweepAnalysis};
 use super::run::Simulation;
-use crate::analysis::{Spectrum, ZeroOneResult};
-use crate::render::{self, Panel, Series};
+use pendulum_atlas_core::analysis::{Spectrum, ZeroOneResult};
+use pendulum_atlas_map::render::{self, Panel, Series};
 use std::path::{Path, PathBuf};
 
 /// Length of the time window of Fig. 10 (s), as the paper's experimental records.
@@ -15,9 +15,9 @@ pub const FIG10_WINDOW_S: f64 = 8.0;
 /// Draw a figure at `path` (through a temporary file), the error naming the file.
 fn drawn(
     path: PathBuf,
-    render: impl FnOnce(&Path) -> Result<(), crate::render::RenderError>,
+    render: impl FnOnce(&Path) -> Result<(), pendulum_atlas_map::render::RenderError>,
 ) -> Result<PathBuf, ReproduceError> {
-    Ok(crate::output::files::draw(&path, render)?)
+    Ok(pendulum_atlas_map::output::files::draw(&path, render)?)
 }
 
 /// The bins of `spec` up to `f_max_hz`, as (frequency, amplitude) slices.

@@ -3,15 +3,15 @@
 
 use super::error::ReproduceError;
 use super::run::Simulation;
-use crate::analysis::{
+use pendulum_atlas_core::analysis::{
     AnalysisError, K01Method, PhaseConvention, PhaseHistogram, RatioReport, SpectralPeak, Spectrum,
     WaveletOptions, WaveletResult, ZeroOneOptions, ZeroOneResult, amplitude_spectrum,
     detect_period, dominant_peak, hops, lag1_autocorrelation, local_extrema, morlet_cwt,
     phase_histogram, phase_sync, ratio_to_forcing, significance_ar1, stroboscopic_uniform,
     zero_one_test,
 };
-use crate::config::ExcitationKind;
-use crate::output::Row;
+use pendulum_atlas_core::config::ExcitationKind;
+use pendulum_atlas_map::output::Row;
 use serde::Serialize;
 
 /// K at or above this is called chaotic, below it regular (the paper calls 0.67 and 0.70
@@ -515,7 +515,7 @@ fn sweep_wavelet(
         .map(|c| c.iter().sum::<f64>() / factor as f64)
         .collect();
     let dt = factor as f64 / rate_hz;
-    let lambda = crate::analysis::morlet_fourier_factor();
+    let lambda = pendulum_atlas_core::analysis::morlet_fourier_factor();
     let s0 = 2.0 * dt / lambda;
     let dj = 1.0 / 12.0;
     let j = ((SWEEP_MAX_PERIOD_S / (2.0 * dt)).log2() / dj)

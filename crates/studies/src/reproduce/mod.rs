@@ -36,7 +36,7 @@ pub use report::{CaseResult, ReportInput, report_markdown};
 pub use run::{RunStats, Simulation, simulate};
 pub use table::{CaseRow, table2_document, table2_markdown};
 
-use crate::config::Scene;
+use pendulum_atlas_core::config::Scene;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -357,7 +357,10 @@ fn file_names(paths: &[PathBuf]) -> Vec<String> {
 /// Write `text` to `out/name`; returns the path.
 fn write_text(out: &Path, name: &str, text: &str) -> Result<PathBuf, ReproduceError> {
     let p = out.join(name);
-    Ok(crate::output::files::write_bytes(&p, text.as_bytes())?)
+    Ok(pendulum_atlas_map::output::files::write_bytes(
+        &p,
+        text.as_bytes(),
+    )?)
 }
 
 /// `table2.csv`, `table2.md` and `experiments.csv`; returns their paths in that order.
@@ -455,7 +458,7 @@ fn first_clamped_hz(case: &PaperCase, opts: &ReproduceOptions) -> Result<f64, Re
     let scene = case.scene(opts.quick, &[])?;
     let omega = scene
         .model_params()
-        .and_then(|p| crate::model::linear::clamped_first_omega(&p))
+        .and_then(|p| pendulum_atlas_core::model::linear::clamped_first_omega(&p))
         .map_err(|e| ReproduceError::Scene {
             case: case.id.to_string(),
             source: e.into(),
@@ -480,7 +483,7 @@ fn settings_text(opts: &ReproduceOptions, sims: &[Simulation]) -> String {
     };
     let first = sims.first().map(|s| &s.scene);
     let method = first
-        .and_then(|s| crate::engine::StepPlan::for_scene(s).ok())
+        .and_then(|s| pendulum_atlas_core::engine::StepPlan::for_scene(s).ok())
         .map_or("–", |p| p.method.name());
     let damping = first.map_or("–".into(), |s| {
         let Ok(d) = s.damping_report() else {
@@ -492,8 +495,8 @@ fn settings_text(opts: &ReproduceOptions, sims: &[Simulation]) -> String {
             d.joint_damping_nms,
             d.first_mode_damping_ratio,
             match s.limiter.damping_law {
-                crate::config::ContactDamping::Loading => "on loading only",
-                crate::config::ContactDamping::KelvinVoigt => "Kelvin–Voigt",
+                pendulum_atlas_core::config::ContactDamping::Loading => "on loading only",
+                pendulum_atlas_core::config::ContactDamping::KelvinVoigt => "Kelvin–Voigt",
             }
         )
     });

@@ -1,9 +1,9 @@
 //! Integrating one scene with the RK4 engine (f64, automatic step) and keeping its rows.
 
 use super::error::ReproduceError;
-use crate::config::Scene;
-use crate::engine::{Instance, StepPlan, integrate};
-use crate::output::{Row, TrajectoryRecorder};
+use pendulum_atlas_core::config::Scene;
+use pendulum_atlas_core::engine::{Instance, StepPlan, integrate};
+use pendulum_atlas_map::output::{Row, TrajectoryRecorder};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -53,7 +53,7 @@ impl Simulation {
 pub fn simulate(case: &str, scene: &Scene) -> Result<Simulation, ReproduceError> {
     let invalid = |e| ReproduceError::Scene {
         case: case.into(),
-        source: crate::config::ConfigError::from(e),
+        source: pendulum_atlas_core::config::ConfigError::from(e),
     };
     let plan = StepPlan::for_scene(scene).map_err(invalid)?;
     let inst = Instance::<f64>::from_scene(scene).map_err(invalid)?;

@@ -211,7 +211,7 @@ fn top_design_row(run: &SearchRun, d: &DesignResult) -> String {
     let bm = &run.baseline.metrics;
     let mut row = format!("| {} | {} |", d.rank, d.id);
     for x in &d.values {
-        let _ = write!(row, " {} |", crate::render::fmt_num(*x));
+        let _ = write!(row, " {} |", pendulum_atlas_map::render::fmt_num(*x));
     }
     let _ = write!(
         row,
@@ -369,7 +369,7 @@ fn verification_over_band(s: &mut String, spec: &SearchSpec, run: &SearchRun, v:
         100.0 * v.median_rel_diff,
         100.0 * v.max_rel_diff,
         v.max_rel_diff_at_hz,
-        if run.engine.precision == crate::engine::Precision::F32 {
+        if run.engine.precision == pendulum_atlas_core::engine::Precision::F32 {
             "and integrates in f32 on the GPU"
         } else {
             "in f64"
