@@ -33,6 +33,6 @@ pub use scene::{
 };
 pub use starts::{MAX_START_RATE_DEG_S, MAX_STARTS, Start, StartSet, StartSource, latin_hypercube};
 pub use sweep::{
-    AxisScale, MapAxis, SweepList, SweptKey, axis_label, key_unit, lookup_key, neighbours,
-    point_key,
+    AxisScale, MapAxis, SweepList, SweptKey, axis_label, entry_tables, key_unit, lookup_key,
+    neighbours, point_key,
 };

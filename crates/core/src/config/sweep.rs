@@ -225,18 +225,11 @@ impl SweepList {
                 reason: format!("{}, found {}", self.needs, items.len()),
             });
         }
-        items
-            .into_iter()
-            .enumerate()
-            .map(|(i, item)| match item {
-                Value::Table(t) => Ok(t),
-                _ => Err(ConfigError::WrongType {
-                    key: format!("{section}[{}]", i + 1),
-                    expected: "a table with key, start, end, count (or values)".into(),
-                    found: "a value".into(),
-                }),
-            })
-            .collect()
+        entry_tables(
+            section,
+            items,
+            "a table with key, start, end, count (or values)",
+        )
     }
 
     /// The scene key an entry at `prefix` sweeps: a string that `refusal` accepts, not
@@ -278,6 +271,27 @@ impl SweepList {
             None => Ok(key),
         }
     }
+}
+
+/// The entries of the TOML array of tables `key` (`[[key]]`), each required to be a table
+/// (`expected` says what one holds, for the message naming the entry that is not).
+pub fn entry_tables(
+    key: &str,
+    items: Vec<Value>,
+    expected: &str,
+) -> Result<Vec<Table>, ConfigError> {
+    items
+        .into_iter()
+        .enumerate()
+        .map(|(i, item)| match item {
+            Value::Table(t) => Ok(t),
+            _ => Err(ConfigError::WrongType {
+                key: format!("{key}[{}]", i + 1),
+                expected: expected.into(),
+                found: "a value".into(),
+            }),
+        })
+        .collect()
 }
 
 /// Whether `key` holds an integer: a key of [`INTEGER_KEYS`], or one the base scene table

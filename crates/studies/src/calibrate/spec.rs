@@ -31,7 +31,8 @@
 use super::observe::Observation;
 use pendulum_atlas_core::analysis::PhaseConvention;
 use pendulum_atlas_core::config::{
-    ConfigError, MAX_INSTANCES, Range, Reader, Scene, SweepList, SweptKey, set_key, split_section,
+    ConfigError, MAX_INSTANCES, Range, Reader, Scene, SweepList, SweptKey, entry_tables, set_key,
+    split_section,
 };
 use pendulum_atlas_core::reduce::ReduceOptions;
 use serde::Serialize;
@@ -240,18 +241,7 @@ fn tables(v: Option<Value>, key: &str, what: &str) -> Result<Vec<Table>, ConfigE
             });
         }
     };
-    items
-        .into_iter()
-        .enumerate()
-        .map(|(i, item)| match item {
-            Value::Table(t) => Ok(t),
-            _ => Err(ConfigError::WrongType {
-                key: format!("{key}[{}]", i + 1),
-                expected: "a table".into(),
-                found: "a value".into(),
-            }),
-        })
-        .collect()
+    entry_tables(key, items, "a table")
 }
 
 /// Keys a calibration sets itself.
