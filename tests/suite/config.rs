@@ -358,3 +358,52 @@ fn map_axes_are_read_by_the_one_swept_key_reader() {
         "{e}"
     );
 }
+
+/// A map planned from typed fields gives every run the scene its own table gives, whether the
+/// swept keys are fields (frequency, tip mass, several starts) or not (the clearance, which
+/// the default start follows).
+#[test]
+fn a_map_planned_once_gives_every_run_the_scene_of_its_table() {
+    let maps: [&[&str]; 3] = [
+        &[
+            "map.axes=[{key=\"excitation.frequency_hz\",values=[6.0,8.5]},{key=\"tip.mass_kg\",values=[0.005,0.02]}]",
+            "map.initial_states=3",
+        ],
+        &[
+            "map.axes=[{key=\"excitation.amplitude_m\",values=[0.002,0.03]},{key=\"initial.rate_deg_s\",values=[-40.0,0.0,40.0]}]",
+        ],
+        &[
+            "map.axes=[{key=\"limiter.clearance_deg\",values=[10.0,25.0]},{key=\"excitation.phase_deg\",values=[0.0,180.0]}]",
+        ],
+    ];
+    for sets in maps {
+        let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+        let spec = pendulum_atlas_core::config::load_map(None, &sets).unwrap();
+        let scenes = spec.run_scenes().unwrap();
+        assert_eq!(scenes.len(), spec.instances() * spec.starts_per_cell());
+        for (i, s) in scenes.iter().enumerate() {
+            assert_eq!(s, &spec.run_scene(i).unwrap(), "{sets:?}, run {i}");
+        }
+    }
+}
+
+/// An axis value that makes the scene invalid is refused with its key and value, whichever
+/// way the map is planned.
+#[test]
+fn an_invalid_axis_value_is_named_with_its_key() {
+    for (axes, named) in [
+        (
+            "[{key=\"excitation.frequency_hz\",values=[6.0,8.0]},{key=\"excitation.phase_deg\",values=[0.0,400.0]}]",
+            "excitation.phase_deg",
+        ),
+        (
+            "[{key=\"limiter.clearance_deg\",values=[10.0,95.0]}]",
+            "limiter.clearance_deg",
+        ),
+    ] {
+        let spec =
+            pendulum_atlas_core::config::load_map(None, &[format!("map.axes={axes}")]).unwrap();
+        let e = spec.run_scenes().expect_err("refused").to_string();
+        assert!(e.contains(named) && e.contains("invalid scene"), "{e}");
+    }
+}

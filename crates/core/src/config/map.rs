@@ -16,12 +16,14 @@
 
 use super::continuation::ContinuationSpec;
 use super::error::ConfigError;
+use super::field::SceneField;
 use super::reader::{Range, Reader, apply_override, parse_toml, set_key};
 use super::scene::{ExcitationKind, Scene};
 use super::starts::StartSet;
 use super::sweep::{MapAxis, SweepList, lookup_key};
 use crate::analysis::PhaseConvention;
 use crate::text::num;
+use rayon::prelude::*;
 use serde::Serialize;
 use toml::{Table, Value};
 
@@ -298,19 +300,18 @@ impl MapSpec {
     /// and `initial.rate_deg_s` of the start (the cell's own with one start per cell).
     pub fn start_table(&self, k: usize, s: usize) -> Result<Table, ConfigError> {
         let mut table = self.instance_table(k)?;
-        if let Some(start) = self.starts.as_ref().and_then(|set| set.states.get(s)) {
-            set_key(
-                &mut table,
-                "initial.angle_deg",
-                Value::Float(start.angle_deg),
-            )?;
-            set_key(
-                &mut table,
-                "initial.rate_deg_s",
-                Value::Float(start.rate_deg_s),
-            )?;
-        }
+        self.set_start(&mut table, s)?;
         Ok(table)
+    }
+
+    /// Write start `s`'s `initial.angle_deg` and `initial.rate_deg_s` into `table` (nothing
+    /// with one start per cell).
+    fn set_start(&self, table: &mut Table, s: usize) -> Result<(), ConfigError> {
+        if let Some(start) = self.starts.as_ref().and_then(|set| set.states.get(s)) {
+            set_key(table, "initial.angle_deg", Value::Float(start.angle_deg))?;
+            set_key(table, "initial.rate_deg_s", Value::Float(start.rate_deg_s))?;
+        }
+        Ok(())
     }
 
     /// The validated scene of run `i` of the map's ensemble: start `i % k` of cell `i / k`
@@ -328,6 +329,91 @@ impl MapSpec {
                 i / k
             ),
         })
+    }
+
+    /// The validated scene of every run of the map's ensemble, in order: what
+    /// [`MapSpec::run_scene`] gives for each.
+    ///
+    /// Where every swept key (and the starts' keys) is a [`SceneField`] of the base scene, the
+    /// map is planned once: each swept value is validated once by the reader, on the base
+    /// scene, and each run's scene is the validated base with its values set in typed fields
+    /// (`config/field.rs` says why that is exact). Otherwise each run's table is read.
+    pub fn run_scenes(&self) -> Result<Vec<Scene>, ConfigError> {
+        let runs = self.instances() * self.starts_per_cell();
+        match self.typed_fields()? {
+            Some(fields) => Ok((0..runs)
+                .into_par_iter()
+                .map(|i| self.typed_run_scene(&fields, i))
+                .collect()),
+            None => (0..runs)
+                .into_par_iter()
+                .map(|i| self.run_scene(i))
+                .collect(),
+        }
+    }
+
+    /// The axes' fields, when every axis key and the starts' keys are fields that apply to
+    /// the base scene, after checking every axis value and every start on the base scene.
+    fn typed_fields(&self) -> Result<Option<Vec<SceneField>>, ConfigError> {
+        let Some(fields) = self
+            .axes
+            .iter()
+            .map(|a| SceneField::of_key(&a.key).filter(|f| f.applies(&self.scene)))
+            .collect::<Option<Vec<_>>>()
+        else {
+            return Ok(None);
+        };
+        for axis in &self.axes {
+            for &v in &axis.values {
+                self.check_axis_value(axis, v)?;
+            }
+        }
+        if let Some(set) = &self.starts {
+            for s in 0..set.len() {
+                self.check_start(s)?;
+            }
+        }
+        Ok(Some(fields))
+    }
+
+    /// The reader's verdict on one axis value, set alone on the base scene's table.
+    fn check_axis_value(&self, axis: &MapAxis, v: f64) -> Result<(), ConfigError> {
+        let mut table = self.base_table.clone();
+        set_number(&mut table, &axis.key, v)?;
+        Scene::from_table(table).map_err(|e| ConfigError::Inconsistent {
+            key: "map.axes".into(),
+            reason: format!(
+                "the grid points with {} = {} give an invalid scene: {e}",
+                axis.key,
+                num(v)
+            ),
+        })?;
+        Ok(())
+    }
+
+    /// The reader's verdict on start `s` of `map.initial_states`, on the base scene's table.
+    fn check_start(&self, s: usize) -> Result<(), ConfigError> {
+        let mut table = self.base_table.clone();
+        self.set_start(&mut table, s)?;
+        Scene::from_table(table).map_err(|e| ConfigError::Inconsistent {
+            key: "map.initial_states".into(),
+            reason: format!("start {s} gives an invalid scene: {e}"),
+        })?;
+        Ok(())
+    }
+
+    /// Run `i`'s scene from the validated base and the typed fields of its axes.
+    fn typed_run_scene(&self, fields: &[SceneField], i: usize) -> Scene {
+        let k = self.starts_per_cell();
+        let mut scene = self.scene.clone();
+        for (f, v) in fields.iter().zip(self.values_of(i / k)) {
+            f.set(&mut scene, v);
+        }
+        if let Some(start) = self.starts.as_ref().and_then(|set| set.states.get(i % k)) {
+            SceneField::AngleDeg.set(&mut scene, start.angle_deg);
+            SceneField::RateDegS.set(&mut scene, start.rate_deg_s);
+        }
+        scene
     }
 
     /// The validated scene of instance `k`: the base scene with the axis keys set.

@@ -6,6 +6,7 @@
 
 mod continuation;
 mod error;
+mod field;
 mod map;
 mod physics;
 mod reader;
@@ -15,6 +16,7 @@ mod sweep;
 
 pub use continuation::{ContinuationSpec, Direction, Sweep};
 pub use error::ConfigError;
+pub use field::SceneField;
 pub use map::{
     DEFAULT_MAP_TOML, LyapunovSettings, MAX_INSTANCES, MapSpec, Metric, Perturbation, RefineFollow,
     RefineSpec, SEPARATION_MAX, c_order_index, grid_point, load_map, map_from_toml,

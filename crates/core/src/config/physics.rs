@@ -73,6 +73,18 @@ impl Scene {
         }
     }
 
+    /// Whether `other` has the same model coefficients as this scene but for the cart's
+    /// motion: the same beam, tip, bumpers, gravity, pivot and piezo (what
+    /// [`Scene::model_params`] reads besides the excitation).
+    pub fn same_structure(&self, other: &Scene) -> bool {
+        self.beam == other.beam
+            && self.tip == other.tip
+            && self.limiter == other.limiter
+            && self.gravity == other.gravity
+            && self.pivot == other.pivot
+            && self.piezo == other.piezo
+    }
+
     /// Every coefficient of the equations of motion, the joint dampers set from the scene's
     /// damping key (`beam.damping_ratio` solves one small eigenproblem for ω1).
     /// `Err` only when `beam.damping_ratio`'s eigenproblem cannot be solved.

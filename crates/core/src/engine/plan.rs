@@ -201,11 +201,7 @@ const MIN_STROBE_PERIOD: u32 = 20;
 impl EnsemblePlan {
     /// Plan every instance of a map: validate its scene, choose its step and sampling.
     pub fn new(spec: &MapSpec) -> Result<EnsemblePlan, EngineError> {
-        let scenes: Vec<Scene> = (0..spec.instances() * spec.starts_per_cell())
-            .into_par_iter()
-            .map(|i| spec.run_scene(i))
-            .collect::<Result<_, _>>()?;
-        EnsemblePlan::from_scenes(&scenes, &EnsembleOptions::from_spec(spec))
+        EnsemblePlan::from_scenes(&spec.run_scenes()?, &EnsembleOptions::from_spec(spec))
     }
 
     /// Plan an ensemble of arbitrary validated scenes (a grid, a list of designs × frequencies
@@ -217,18 +213,20 @@ impl EnsemblePlan {
     ) -> Result<EnsemblePlan, EngineError> {
         let first = scenes.first().ok_or(EngineError::Empty)?;
         check_shared_structure(scenes)?;
-        let params: Vec<ModelParams> = scenes
+        let seed = Solved::seeded(first)?;
+        let limits: Vec<MethodSteps> = scenes
             .par_iter()
-            .map(Scene::model_params)
-            .collect::<Result<_, _>>()?;
-        let limits = step_limits(scenes, &params)?;
+            .map_init(|| seed.clone(), |solved, s| solved.steps(s))
+            .collect::<Result<_, LinearError>>()?;
         let (method, method_reason) = ensemble_method(scenes, &limits);
         let mut instances: Vec<InstancePlan> = scenes
             .par_iter()
-            .zip(params)
             .zip(&limits)
-            .map(|((s, p), lim)| plan_instance(opts, s, p, lim.auto_s(method)))
-            .collect::<Result<_, _>>()?;
+            .map_init(
+                || seed.clone(),
+                |solved, (s, lim)| plan_instance(opts, s, solved.params(s)?, lim.auto_s(method)),
+            )
+            .collect::<Result<_, EngineError>>()?;
         let imex_matrix_sets = if method == Method::Imex {
             attach_imex_matrices(&mut instances)
         } else {
@@ -360,29 +358,59 @@ fn check_shared_structure(scenes: &[Scene]) -> Result<(), EngineError> {
     Ok(())
 }
 
-/// Both methods' automatic steps for every instance. They depend on the structure, not on the
-/// cart: one set of eigenproblems per distinct structure (and step safety factor).
-fn step_limits(scenes: &[Scene], params: &[ModelParams]) -> Result<Vec<MethodSteps>, LinearError> {
-    let key = |k: usize| {
-        let mut bits = params[k].structure_bits();
-        bits.push(scenes[k].integration.dt_safety.to_bits());
-        bits
-    };
-    let mut first_of: HashMap<Vec<u64>, usize> = HashMap::new();
-    let owner: Vec<usize> = (0..scenes.len())
-        .map(|k| *first_of.entry(key(k)).or_insert(k))
-        .collect();
-    let reps: Vec<usize> = first_of.into_values().collect();
-    let solved: HashMap<usize, MethodSteps> = reps
-        .par_iter()
-        .map(|&k| {
-            Ok((
-                k,
-                MethodSteps::of(&params[k], scenes[k].integration.dt_safety)?,
-            ))
-        })
-        .collect::<Result<_, LinearError>>()?;
-    Ok(owner.iter().map(|k| solved[k]).collect())
+/// The model coefficients and both methods' automatic steps of the last few distinct
+/// structures solved. Neither depends on the cart ([`Scene::same_structure`]), so a scene
+/// that shares its structure (and step safety factor) with one already solved takes that
+/// one's coefficients with its own cart: a map over the forcing plane solves its eigenproblems
+/// once, not once per cell.
+#[derive(Clone)]
+struct Solved<'a> {
+    reps: Vec<(&'a Scene, ModelParams, MethodSteps)>,
+}
+
+impl<'a> Solved<'a> {
+    /// Structures remembered (the oldest is forgotten first).
+    const REMEMBERED: usize = 16;
+
+    /// Remembering `first`'s structure.
+    fn seeded(first: &'a Scene) -> Result<Solved<'a>, LinearError> {
+        let mut solved = Solved { reps: Vec::new() };
+        solved.solve(first)?;
+        Ok(solved)
+    }
+
+    /// The coefficients of `s`.
+    fn params(&mut self, s: &'a Scene) -> Result<ModelParams, LinearError> {
+        let (p, _) = self.solve(s)?;
+        Ok(p.with_cart(s.cart_motion()))
+    }
+
+    /// The automatic steps of `s`.
+    fn steps(&mut self, s: &'a Scene) -> Result<MethodSteps, LinearError> {
+        Ok(self.solve(s)?.1)
+    }
+
+    /// The coefficients (with the cart of the scene that was solved) and steps of `s`'s
+    /// structure, solved now if it is not remembered.
+    fn solve(&mut self, s: &'a Scene) -> Result<(&ModelParams, MethodSteps), LinearError> {
+        let same = |(rep, _, _): &(&Scene, ModelParams, MethodSteps)| {
+            rep.same_structure(s) && rep.integration.dt_safety == s.integration.dt_safety
+        };
+        let at = match self.reps.iter().position(same) {
+            Some(at) => at,
+            None => {
+                let p = s.model_params()?;
+                let steps = MethodSteps::of(&p, s.integration.dt_safety)?;
+                if self.reps.len() == Self::REMEMBERED {
+                    self.reps.remove(0);
+                }
+                self.reps.push((s, p, steps));
+                self.reps.len() - 1
+            }
+        };
+        let (_, p, steps) = &self.reps[at];
+        Ok((p, *steps))
+    }
 }
 
 /// The warning when some instances give the 0–1 test fewer samples than it needs to be reliable
@@ -498,16 +526,15 @@ fn plan_instance(
     let blocks = spp / u64::from(opts.samples_per_period);
     let total_periods = (scene.integration.duration_s * f).round().max(1.0) as u64;
     let transient_periods = ((scene.integration.transient_s * f).round() as u64).max(1);
-    let at = format!(
-        "f = {} Hz, duration {} s, transient {} s",
-        num(f),
-        num(scene.integration.duration_s),
-        num(scene.integration.transient_s)
-    );
-    let short = |reason: String| EngineError::TooShort {
-        at: at.clone(),
-        reason,
+    let at = || {
+        format!(
+            "f = {} Hz, duration {} s, transient {} s",
+            num(f),
+            num(scene.integration.duration_s),
+            num(scene.integration.transient_s)
+        )
     };
+    let short = |reason: String| EngineError::TooShort { at: at(), reason };
     if transient_periods >= total_periods {
         return Err(short(
             "the transient leaves no forcing period to analyse".into(),
@@ -516,15 +543,17 @@ fn plan_instance(
     let total_steps = total_periods.saturating_mul(spp);
     if total_steps > u64::from(u32::MAX) {
         return Err(EngineError::TooManySteps {
-            at,
+            at: at(),
             steps: total_steps,
         });
     }
     let strobe_offset = ((opts.strobe_phase * spp as f64).round() as u64) % spp;
-    let mut strobe_count = 0u64;
-    while (transient_periods + strobe_count) * spp + strobe_offset <= total_steps {
-        strobe_count += 1;
-    }
+    // Samples at steps (transient_periods + c)·spp + strobe_offset ≤ total_steps, c = 0, 1, …
+    let first_strobe = transient_periods * spp + strobe_offset;
+    let strobe_count = match total_steps.checked_sub(first_strobe) {
+        Some(room) => room / spp + 1,
+        None => 0,
+    };
     let (need, what) = if opts.wants(Metric::K) {
         (MIN_STROBE_K, "the 0-1 test (K) needs")
     } else if opts.wants(Metric::Period) {

@@ -233,6 +233,14 @@ impl ModelParams {
         self
     }
 
+    /// The same pendulum driven by another cart motion.
+    pub fn with_cart(&self, cart: CartMotion) -> ModelParams {
+        ModelParams {
+            cart,
+            ..self.clone()
+        }
+    }
+
     /// Length of the first-order state vector: N angles, N rates, one voltage slot.
     pub fn state_len(&self) -> usize {
         2 * self.segments + 1
