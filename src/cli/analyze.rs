@@ -1,19 +1,17 @@
 //! `pendulum-atlas analyze`: the paper's indicators for a measured (or simulated) CSV record.
+//! The flags become the library's options; the record is read by
+//! `pendulum_atlas_map::record` and its files written by `pendulum_atlas_map::output::analysis`.
 
-use anyhow::{Context, bail};
+use anyhow::bail;
 use pendulum_atlas_core::analysis::{
-    AnalysisError, GAP_MEDIAN_STEPS, K01Method, Lag1Choice, Lag1Estimator, MORLET_OMEGA0_MIN,
-    MotherWavelet, PhaseConvention, RECORD_MIN_SAMPLES, RecordAnalysis, RecordOptions, Sampling,
-    TimeGap, WaveletSettings, ZeroOneOptions, analyze_record, check_uniform_time, median_step,
-    resample_uniform, time_gaps,
+    AnalysisError, K01Method, Lag1Choice, Lag1Estimator, MORLET_OMEGA0_MIN, MotherWavelet,
+    PhaseConvention, RecordAnalysis, RecordOptions, Sampling, WaveletSettings, ZeroOneOptions,
+    analyze_record,
 };
-use pendulum_atlas_map::output::files::write_json;
+use pendulum_atlas_map::output::analysis::{RecordInput, write_record_analysis};
 use pendulum_atlas_map::output::folder::Product;
-use std::path::{Path, PathBuf};
-
-/// Relative tolerance within which every time step must equal the median step for the record
-/// to count as uniformly sampled.
-const UNIFORM_STEP_REL_TOL: f64 = 1e-3;
+use pendulum_atlas_map::record::{Record, RecordSource, TimeAxis, read_record};
+use std::path::PathBuf;
 
 /// Arguments of `analyze`.
 #[derive(Debug, clap::Args)]
@@ -174,161 +172,6 @@ fn parse_lag1(s: &str) -> Result<Lag1Choice, String> {
     }
 }
 
-/// A CSV as named numeric columns.
-pub struct Table {
-    path: PathBuf,
-    names: Vec<String>,
-    columns: Vec<Vec<f64>>,
-    lines: Vec<u64>,
-}
-
-/// A record must be a regular file whose values fit in memory: its parsed columns take at
-/// most about its size again.
-fn check_record_file(path: &Path) -> anyhow::Result<()> {
-    let shown = path.display();
-    let meta = std::fs::metadata(path).with_context(|| format!("cannot read {shown}"))?;
-    if !meta.is_file() {
-        bail!("{shown} is not a regular file; give the CSV file to analyse");
-    }
-    if let Some(available) = pendulum_atlas_map::machine::memory_available()
-        && meta.len() > available / 2
-    {
-        bail!(
-            "{shown} has {} and {} of memory is available: analyse a shorter record, or split it",
-            pendulum_atlas_core::text::bytes(meta.len()),
-            pendulum_atlas_core::text::bytes(available)
-        );
-    }
-    Ok(())
-}
-
-impl Table {
-    /// Read a CSV with a header; every cell of the requested columns must be a finite number.
-    /// Every error names the file.
-    pub fn read(path: &Path, wanted: &[&str]) -> anyhow::Result<Table> {
-        let shown = path.display();
-        if path.is_dir() {
-            bail!("{shown} is a directory; give the CSV file to analyse");
-        }
-        check_record_file(path)?;
-        let mut rdr = csv::ReaderBuilder::new()
-            .trim(csv::Trim::All)
-            .comment(Some(b'#'))
-            .from_path(path)
-            .with_context(|| format!("cannot read {shown}"))?;
-        let header: Vec<String> = rdr
-            .headers()
-            .with_context(|| format!("cannot read the header line of {shown}"))?
-            .iter()
-            .map(str::to_string)
-            .collect();
-        if header.iter().all(String::is_empty) {
-            bail!("{shown} is empty: expected a header line naming the columns, then data rows");
-        }
-        ensure_unique_names(path, &header)?;
-        let idx = wanted
-            .iter()
-            .map(|w| column_index(path, &header, w))
-            .collect::<anyhow::Result<Vec<_>>>()?;
-        let mut table = Table {
-            path: path.to_path_buf(),
-            names: wanted.iter().map(|s| s.to_string()).collect(),
-            columns: vec![Vec::new(); wanted.len()],
-            lines: Vec::new(),
-        };
-        for rec in rdr.records() {
-            let rec = rec.with_context(|| format!("{shown}: malformed row"))?;
-            table.push_row(&rec, &idx)?;
-        }
-        if table.lines.is_empty() {
-            bail!("{shown} has a header but no data rows");
-        }
-        Ok(table)
-    }
-
-    /// Parse the wanted cells of one record.
-    fn push_row(&mut self, rec: &csv::StringRecord, idx: &[usize]) -> anyhow::Result<()> {
-        let line = rec.position().map_or(0, |p| p.line());
-        for (k, &i) in idx.iter().enumerate() {
-            let cell = rec.get(i).unwrap_or("");
-            let at = || {
-                format!(
-                    "{}: line {line}, column `{}`",
-                    self.path.display(),
-                    self.names[k]
-                )
-            };
-            let v: f64 = cell
-                .parse()
-                .map_err(|_| anyhow::anyhow!("{}: `{cell}` is not a number", at()))?;
-            if !v.is_finite() {
-                bail!(
-                    "{}: {cell} is not finite (NaN/inf); clean or cut the record first",
-                    at()
-                );
-            }
-            self.columns[k].push(v);
-        }
-        self.lines.push(line);
-        Ok(())
-    }
-
-    /// A column by name.
-    pub fn col(&self, name: &str) -> &[f64] {
-        let i = self
-            .names
-            .iter()
-            .position(|n| n == name)
-            .expect("requested column");
-        &self.columns[i]
-    }
-
-    /// Number of data rows.
-    pub fn rows(&self) -> usize {
-        self.lines.len()
-    }
-
-    /// The file line of data row `row` (0-based).
-    fn line(&self, row: usize) -> u64 {
-        self.lines.get(row).copied().unwrap_or(0)
-    }
-}
-
-/// Refuses a header in which a name appears twice (which column was meant is unknowable).
-fn ensure_unique_names(path: &Path, header: &[String]) -> anyhow::Result<()> {
-    for (i, name) in header.iter().enumerate() {
-        if let Some(j) = header[i + 1..].iter().position(|n| n == name) {
-            bail!(
-                "{}: column `{name}` appears twice in the header (columns {} and {}); rename one",
-                path.display(),
-                i + 1,
-                i + j + 2
-            );
-        }
-    }
-    Ok(())
-}
-
-/// Position of column `want` in the header, or an error listing the columns.
-fn column_index(path: &Path, header: &[String], want: &str) -> anyhow::Result<usize> {
-    header.iter().position(|n| n == want).ok_or_else(|| {
-        // At most twelve names, each cut short: a header can be anything.
-        let mut names: Vec<String> = header
-            .iter()
-            .take(12)
-            .map(|n| pendulum_atlas_core::config::shorten_lines(&n.replace('\n', " ")))
-            .collect();
-        if header.len() > 12 {
-            names.push(format!("… ({} columns)", header.len()));
-        }
-        anyhow::anyhow!(
-            "{}: no column `{want}`; the columns are: {}",
-            path.display(),
-            pendulum_atlas_core::config::shorten_lines(&names.join(", "))
-        )
-    })
-}
-
 /// What the command tells the user besides the numbers: notes (choices made for them) and
 /// warnings (something about the data they should look at).
 #[derive(Default)]
@@ -337,32 +180,29 @@ struct Messages {
     warnings: Vec<String>,
 }
 
-/// A uniformly sampled record, ready for the analysis.
-struct Record {
-    signal: Vec<f64>,
-    reference: Option<Vec<f64>>,
-    rate: f64,
-    start: f64,
-    resampled: bool,
-    gaps: Vec<TimeGap>,
-}
-
 /// Run the analysis and write analysis.json, the arrays and the pictures.
 pub fn run(a: AnalyzeArgs) -> anyhow::Result<()> {
     validate_args(&a)?;
-    let mut wanted = vec![a.signal.as_str()];
-    wanted.extend(a.reference.as_deref());
-    wanted.extend(a.time.as_deref());
-    let table = Table::read(&a.data, &wanted)?;
-    if table.rows() < RECORD_MIN_SAMPLES {
-        bail!(
-            "{} has {} data row(s); the analysis needs at least {RECORD_MIN_SAMPLES}",
-            a.data.display(),
-            table.rows()
-        );
-    }
-    let mut msgs = Messages::default();
-    let record = uniform_record(&a, &table, &mut msgs)?;
+    let time = match (&a.time, a.sample_rate_hz) {
+        (Some(name), _) => Some(TimeAxis::Column {
+            name: name.clone(),
+            unit: a.time_unit.clone(),
+            resample: a.resample,
+            allow_gaps: a.allow_gaps,
+        }),
+        (None, Some(rate)) => Some(TimeAxis::Rate(rate)),
+        (None, None) => None,
+    };
+    let record = read_record(&RecordSource {
+        path: &a.data,
+        signal: &a.signal,
+        reference: a.reference.as_deref(),
+        time,
+    })?;
+    let mut msgs = Messages {
+        notes: record.notes.clone(),
+        warnings: record.warnings.clone(),
+    };
     let opts = record_options(&a, &mut msgs)?;
     super::claim_out_reading(Product::Analyze, &a.out, a.force, &[&a.data])?;
     let mut result = analyze_record(
@@ -378,9 +218,25 @@ pub fn run(a: AnalyzeArgs) -> anyhow::Result<()> {
     result.warnings.extend(msgs.warnings.iter().cloned());
     result.warnings.extend(msgs.notes.iter().cloned());
     msgs.warnings.extend(printed);
-    write_outputs(&a, &result, &record)?;
+    write_record_analysis(&a.out, &result, &record, record_input(&a, &record))?;
     print_summary(&a, &result, &msgs);
     Ok(())
+}
+
+/// `input` of analysis.json: the file, its columns and the record analysed.
+fn record_input(a: &AnalyzeArgs, record: &Record) -> RecordInput {
+    RecordInput {
+        file: a.data.display().to_string(),
+        signal: a.signal.clone(),
+        reference: a.reference.clone(),
+        time: a.time.clone(),
+        time_unit: a.time_unit.clone(),
+        sample_rate_hz: record.rate,
+        start_s: record.start,
+        samples: record.signal.len(),
+        resampled: record.resampled,
+        gaps: record.gaps.clone(),
+    }
 }
 
 /// Checks every option against its range, naming the flag.
@@ -450,144 +306,6 @@ fn validate_time_unit(unit: &str) -> anyhow::Result<()> {
         bail!("--time-unit must be a printable label of 1 to 16 characters, got `{unit}`");
     }
     Ok(())
-}
-
-/// The signal (and reference) on a uniform grid, from the time column or the sample rate.
-fn uniform_record(a: &AnalyzeArgs, table: &Table, msgs: &mut Messages) -> anyhow::Result<Record> {
-    let signal = table.col(&a.signal).to_vec();
-    let reference = a.reference.as_ref().map(|r| table.col(r).to_vec());
-    match (&a.time, a.sample_rate_hz) {
-        (Some(tc), _) => from_time_column(a, table, tc, signal, reference, msgs),
-        (None, Some(rate)) => Ok(Record {
-            signal,
-            reference,
-            rate,
-            start: 0.0,
-            resampled: false,
-            gaps: Vec::new(),
-        }),
-        (None, None) => {
-            bail!("give the time column (--time COL) or the sample rate (--sample-rate-hz F)")
-        }
-    }
-}
-
-/// Uses a uniform time column as it is; resamples a non-uniform one at its median rate when
-/// --resample is given, refusing gaps unless --allow-gaps.
-fn from_time_column(
-    a: &AnalyzeArgs,
-    table: &Table,
-    tc: &str,
-    signal: Vec<f64>,
-    reference: Option<Vec<f64>>,
-    msgs: &mut Messages,
-) -> anyhow::Result<Record> {
-    let t = table.col(tc);
-    let at = || format!("{}: time column `{tc}`", table.path.display());
-    let gaps = time_gaps(t, GAP_MEDIAN_STEPS).map_err(|e| time_error(e, table, &at()))?;
-    let unit = &a.time_unit;
-    match check_uniform_time(t, UNIFORM_STEP_REL_TOL) {
-        Ok(dt) => Ok(Record {
-            signal,
-            reference,
-            rate: 1.0 / dt,
-            start: t[0],
-            resampled: false,
-            gaps,
-        }),
-        Err(e) if !a.resample => bail!(
-            "{}{}; pass --resample to interpolate onto a uniform grid (linear), or fix the time \
-             column",
-            time_error(e, table, &at()),
-            gap_text(&gaps, unit)
-        ),
-        Err(_) if !gaps.is_empty() && !a.allow_gaps => bail!(
-            "{}{}; resampling would bridge each gap with a straight line: cut the record, or \
-             pass --allow-gaps to interpolate across them",
-            at(),
-            gap_text(&gaps, unit)
-        ),
-        Err(_) => resampled(t, signal, reference, gaps, unit, msgs),
-    }
-}
-
-/// Resample at the median rate, noting every bridged gap.
-fn resampled(
-    t: &[f64],
-    signal: Vec<f64>,
-    reference: Option<Vec<f64>>,
-    gaps: Vec<TimeGap>,
-    unit: &str,
-    msgs: &mut Messages,
-) -> anyhow::Result<Record> {
-    let rate = 1.0 / median_step(t)?;
-    for g in &gaps {
-        msgs.warnings.push(format!(
-            "gap of {} {unit} after t = {} {unit} bridged by linear interpolation",
-            g.length_s, g.start_s
-        ));
-    }
-    msgs.notes.push(format!(
-        "time stamps are not uniform; resampled by linear interpolation at their median rate, \
-         {rate} samples per {unit}"
-    ));
-    let (tt, s) = resample_uniform(t, &signal, rate)?;
-    let reference = match reference {
-        Some(r) => Some(resample_uniform(t, &r, rate)?.1),
-        None => None,
-    };
-    Ok(Record {
-        signal: s,
-        reference,
-        rate,
-        start: tt[0],
-        resampled: true,
-        gaps,
-    })
-}
-
-/// " with 2 gaps longer than 5 median steps: 1 s after t = 5 s, …", or nothing.
-fn gap_text(gaps: &[TimeGap], unit: &str) -> String {
-    if gaps.is_empty() {
-        return String::new();
-    }
-    let list: Vec<String> = gaps
-        .iter()
-        .take(5)
-        .map(|g| format!("{} {unit} after t = {} {unit}", g.length_s, g.start_s))
-        .collect();
-    let more = if gaps.len() > 5 { ", …" } else { "" };
-    format!(
-        "; it has {} gap(s) longer than {GAP_MEDIAN_STEPS} median steps: {}{more}",
-        gaps.len(),
-        list.join(", ")
-    )
-}
-
-/// A time-axis error with the file line instead of the sample index.
-fn time_error(e: AnalysisError, table: &Table, at: &str) -> anyhow::Error {
-    match e {
-        AnalysisError::NonIncreasingTime {
-            index,
-            previous_s,
-            current_s,
-        } => anyhow::anyhow!(
-            "{at}: time stamps must increase strictly, but line {} has {current_s} after \
-             {previous_s}",
-            table.line(index)
-        ),
-        AnalysisError::NonUniformTime {
-            index,
-            step_s,
-            expected_s,
-            rel_tol,
-        } => anyhow::anyhow!(
-            "{at}: time stamps are not uniform: the step before line {} is {step_s}, the median \
-             step {expected_s} (relative tolerance {rel_tol})",
-            table.line(index)
-        ),
-        other => anyhow::anyhow!("{at}: {other}"),
-    }
 }
 
 /// The analysis options, choosing the 0–1 test's sampling when none is given.
@@ -668,35 +386,6 @@ fn explain(e: AnalysisError, a: &AnalyzeArgs) -> anyhow::Error {
         _ => "",
     };
     anyhow::anyhow!("{}: column `{}`: {e}{hint}", a.data.display(), a.signal)
-}
-
-/// analysis.json, spectrum.csv, the arrays and the pictures.
-fn write_outputs(a: &AnalyzeArgs, result: &RecordAnalysis, record: &Record) -> anyhow::Result<()> {
-    super::report::write_analysis(
-        &a.out,
-        result,
-        &record.signal,
-        record.reference.as_deref(),
-        record.rate,
-        record.start,
-    )?;
-    let mut json = serde_json::to_value(result)?;
-    json["time_unit"] = serde_json::json!(a.time_unit);
-    json["input"] = serde_json::json!({
-        "file": a.data.display().to_string(),
-        "signal": a.signal,
-        "reference": a.reference,
-        "time": a.time,
-        "time_unit": a.time_unit,
-        "sample_rate_hz": record.rate,
-        "start_s": record.start,
-        "samples": record.signal.len(),
-        "resampled": record.resampled,
-        "gaps": record.gaps,
-    });
-    // The manifest last: its presence means the folder is complete.
-    write_json(&a.out.join("analysis.json"), &json)?;
-    Ok(())
 }
 
 /// K and R on one line, then the notes and anything left out.

@@ -2,6 +2,7 @@
 
 use super::engine::{EngineArgs, hint};
 use pendulum_atlas_map::output::folder::Product;
+use pendulum_atlas_studies::about::StudyAbout;
 use pendulum_atlas_studies::calibrate::{load_calibration, run_calibration, write_calibration};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -46,12 +47,7 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
     })?;
     bar.finish_and_clear();
     let wall = started.elapsed().as_secs_f64();
-    let about = serde_json::json!({
-        "scene": a.scene.display().to_string(),
-        "sets": a.sets,
-        "engine": engine.info(),
-        "wall_s": wall,
-    });
+    let about = StudyAbout::new(&a.scene, &a.sets, engine.info().clone(), wall);
     let files = write_calibration(&a.out, &spec, &run, &about)?;
     let best = run.best();
     let values: Vec<String> = spec

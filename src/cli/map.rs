@@ -196,11 +196,7 @@ pub(super) fn read_map(
 
 /// No more shards than instances (`flag` names the option in the message).
 pub(super) fn check_shard_count(flag: &str, count: u32, spec: &MapSpec) -> anyhow::Result<()> {
-    if spec.refine.is_some() {
-        anyhow::bail!(
-            "{flag}: a refined map (map.refine = true) cannot be split: each refinement level chooses its cells from the results of the one before, so its shards would not be independent; run it in one process, or set map.refine = false to shard the full grid"
-        );
-    }
+    pendulum_atlas_map::map::check_shardable(spec).map_err(|e| anyhow::anyhow!("{flag}: {e}"))?;
     if count as usize > spec.instances() {
         anyhow::bail!(
             "{flag}: {count} shards of a map of {} instances; use at most {} shards",

@@ -8,7 +8,6 @@ mod engine;
 mod explore;
 mod map;
 mod modes;
-mod report;
 mod reproduce;
 mod search;
 mod simulate;

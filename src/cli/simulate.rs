@@ -2,7 +2,6 @@
 
 use super::SceneArgs;
 use indicatif::{ProgressBar, ProgressStyle};
-use pendulum_atlas_core::analysis::RecordAnalysis;
 use pendulum_atlas_core::config::Scene;
 use pendulum_atlas_core::engine::{
     Integrator, Outcome, Precision as EnginePrecision, RunLyapunov, SceneRun, StepPlan, run_scene,
@@ -11,9 +10,9 @@ use pendulum_atlas_core::model::Status;
 use pendulum_atlas_map::output::budget::RunSize;
 use pendulum_atlas_map::output::files::write_json;
 use pendulum_atlas_map::output::folder::Product;
-use pendulum_atlas_map::output::{Row, RunFacts, RunReport, record_analysis, run_warnings};
+use pendulum_atlas_map::output::run_analysis::write_run_analysis;
+use pendulum_atlas_map::output::{RunFacts, RunReport, record_analysis, run_warnings};
 use pendulum_atlas_map::output::{TrajectoryRecorder, write_trajectory_csv};
-use pendulum_atlas_map::render::{self, Panel, Series};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -93,7 +92,7 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     let analysis = match run.outcome.status {
         Status::Ok => match record_analysis(&scene, &plan, &rec.rows) {
             Ok(r) => {
-                write_analysis_files(&scene, &plan, &rec.rows, &r, &a.out)?;
+                write_run_analysis(&scene, &plan, &rec.rows, &r, &a.out)?;
                 Some(r)
             }
             Err(e) => {
@@ -242,85 +241,4 @@ fn progress_bar(plan: &StepPlan, segments: usize, integ: IntegratorChoice) -> Op
             .expect("valid template"),
     );
     Some(bar)
-}
-
-/// The files of the paper's analysis of one run (holder angle against cart position, after
-/// the transient): its arrays and pictures, and the time series figure.
-fn write_analysis_files(
-    scene: &Scene,
-    plan: &StepPlan,
-    rows: &[Row],
-    r: &RecordAnalysis,
-    out: &std::path::Path,
-) -> anyhow::Result<()> {
-    let rate = plan.row_rate_hz;
-    let alpha: Vec<f64> = rows.iter().map(|r| r.alpha_rad).collect();
-    let cart: Vec<f64> = rows.iter().map(|r| r.x0_m).collect();
-    super::report::write_analysis(out, r, &alpha, Some(&cart), rate, 0.0)?;
-    time_series_figure(scene, rate, rows, out)
-}
-
-/// The paper's Figs. 3–5 for one run: cart, holder angle and chord reduction with the spectra.
-fn time_series_figure(
-    scene: &Scene,
-    rate: f64,
-    rows: &[Row],
-    out: &std::path::Path,
-) -> anyhow::Result<()> {
-    let t: Vec<f64> = rows.iter().map(|r| r.t_s).collect();
-    let col = |f: fn(&Row) -> f64| -> Vec<f64> { rows.iter().map(f).collect() };
-    let x0 = col(|r| r.x0_m * 1e3);
-    let alpha = col(|r| r.alpha_rad);
-    let chord = col(|r| r.chord_m * 1e3);
-    let skip = ((scene.integration.transient_s * rate).ceil() as usize).min(rows.len());
-    let spec_a = pendulum_atlas_core::analysis::amplitude_spectrum(&alpha[skip..], rate)?;
-    let spec_c = pendulum_atlas_core::analysis::amplitude_spectrum(&chord[skip..], rate)?;
-    // Show the band of the paper's spectra: up to six times the forcing frequency.
-    let f_max = 6.0 * scene.excitation.reference_frequency_hz();
-    let keep = spec_a
-        .frequency_hz
-        .iter()
-        .take_while(|&&f| f <= f_max)
-        .count();
-    let line = |name, x, y| Panel {
-        x_label: "time (s)",
-        y_label: name,
-        series: vec![Series { name, x, y }],
-        log_y: false,
-    };
-    let path = out.join("time_series.png");
-    pendulum_atlas_map::output::files::draw(&path, |p| {
-        render::stacked_panels(
-            p,
-            &format!(
-                "f = {} Hz, A = {} mm, N = {}",
-                scene.excitation.reference_frequency_hz(),
-                scene.excitation.amplitude_m * 1e3,
-                scene.beam.segments
-            ),
-            &[
-                line("cart x0 (mm)", &t, &x0),
-                line("holder angle α (rad)", &t, &alpha),
-                line("chord reduction (mm)", &t, &chord),
-                Panel {
-                    x_label: "frequency (Hz)",
-                    y_label: "amplitude",
-                    series: vec![
-                        Series {
-                            name: "α (rad)",
-                            x: &spec_a.frequency_hz[..keep],
-                            y: &spec_a.amplitude[..keep],
-                        },
-                        Series {
-                            name: "chord (mm)",
-                            x: &spec_c.frequency_hz[..keep],
-                            y: &spec_c.amplitude[..keep],
-                        },
-                    ],
-                    log_y: true,
-                },
-            ],
-        )
-    })?;
-    Ok(())
 }

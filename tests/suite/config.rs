@@ -407,3 +407,37 @@ fn an_invalid_axis_value_is_named_with_its_key() {
         assert!(e.contains(named) && e.contains("invalid scene"), "{e}");
     }
 }
+
+/// Every map has one mode, read from its keys: plain, attractors, basin, continuation or
+/// refined; only the plain map can be split.
+#[test]
+fn a_map_has_one_mode_read_from_its_keys() {
+    let f = "{key=\"excitation.frequency_hz\",start=6.0,end=12.0,count=9}";
+    let a = "{key=\"excitation.amplitude_m\",start=0.004,end=0.02,count=9}";
+    let angle = "{key=\"initial.angle_deg\",values=[-10.0,10.0]}";
+    let rate = "{key=\"initial.rate_deg_s\",values=[-20.0,20.0]}";
+    for (sets, mode, shardable) in [
+        (vec![format!("map.axes=[{f},{a}]")], "plain", true),
+        (
+            vec![format!("map.axes=[{f},{a}]"), "map.initial_states=3".into()],
+            "attractors",
+            false,
+        ),
+        (vec![format!("map.axes=[{f},{angle}]")], "attractors", false),
+        (vec![format!("map.axes=[{angle},{rate}]")], "basin", false),
+        (
+            vec![format!("map.axes=[{f}]"), "map.continuation=both".into()],
+            "continuation",
+            false,
+        ),
+        (
+            vec![format!("map.axes=[{f},{a}]"), "map.refine=true".into()],
+            "refined",
+            false,
+        ),
+    ] {
+        let spec = pendulum_atlas_core::config::load_map(None, &sets).unwrap();
+        assert_eq!(spec.mode.name(), mode, "{sets:?}");
+        assert_eq!(spec.mode.unshardable().is_none(), shardable, "{sets:?}");
+    }
+}

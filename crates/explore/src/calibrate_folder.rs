@@ -5,13 +5,15 @@
 
 use super::error::ExploreError;
 use super::folder::{
-    Axis, Column, Csv, RunFolder, Source, bad, grid_cell, listed_files, num, read_json, read_text,
+    Axis, Column, Csv, RunFolder, Source, bad, grid_cell, num, read_manifest, read_text,
 };
 use super::sources::{Calibration, Judged};
 use pendulum_atlas_core::config::{Scene, axis_label};
 use pendulum_atlas_map::output::folder::Product;
 use pendulum_atlas_map::render::Palette;
-use pendulum_atlas_studies::calibrate::{CalibrationSpec, calibration_from_toml};
+use pendulum_atlas_studies::calibrate::{
+    CalibrateManifest, CalibrationSpec, calibration_from_toml,
+};
 use std::path::Path;
 
 /// The grid rows of `candidates.csv`: matched in all, distance, and the judgements per case.
@@ -23,7 +25,7 @@ struct Grid {
 
 /// Read a calibration folder.
 pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
-    let manifest = read_json(&dir.join("calibrate.json"))?;
+    let manifest: CalibrateManifest = read_manifest(dir)?;
     let text = read_text(
         dir,
         "calibrate_scene.toml",
@@ -50,8 +52,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         starts: Vec::new(),
         dir: dir.to_path_buf(),
         product: Product::Calibrate,
-        files: listed_files(&manifest),
-        manifest,
+        files: manifest.files.clone(),
         axes,
         columns,
         status: vec![0; cells],
@@ -63,6 +64,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
             .segments,
         source: Source::Calibrate(Box::new(Calibration {
             spec,
+            manifest,
             judged: grid.judged,
         })),
     })

@@ -423,7 +423,7 @@ fn map_values(folder: &RunFolder, k: usize) -> BTreeMap<String, Option<f64>> {
 /// What a calibration or a search found for cell `k` run as variant `v`.
 fn notes(folder: &RunFolder, k: usize, v: usize) -> Vec<String> {
     match &folder.source {
-        Source::Map(spec, _) if v == 0 => match &spec.continuation {
+        Source::Map(spec, _) if v == 0 => match spec.continuation() {
             Some(c) => vec![format!(
                 "this map ran by continuation along {}: each cell started from the state its neighbour ended in, and this run starts from the scene's own state, so it may land on another attractor (where hysteresis.npy is 1, the two sweeps did)",
                 c.key

@@ -15,7 +15,7 @@ use super::error::ExploreError;
 use super::sources::{Calibration, Search};
 use pendulum_atlas_core::config::{MapSpec, c_order_index, grid_point};
 use pendulum_atlas_map::output::folder::Product;
-use pendulum_atlas_map::output::manifest::MapManifest;
+use pendulum_atlas_map::output::manifest::{Manifest, ManifestError, MapManifest};
 use pendulum_atlas_map::render::Palette;
 use pendulum_atlas_studies::calibrate::CalibrationSpec;
 use pendulum_atlas_studies::harvest::spec::SearchSpec;
@@ -63,8 +63,6 @@ pub struct RunFolder {
     pub dir: PathBuf,
     /// Which command wrote it.
     pub product: Product,
-    /// Its manifest as written.
-    pub manifest: serde_json::Value,
     /// The grid's axes (C order: the last varies fastest).
     pub axes: Vec<Axis>,
     /// The quantities per cell, the first shown first.
@@ -181,7 +179,20 @@ pub fn parse_index(given: &str, count: usize, what: &'static str) -> Result<usiz
         })
 }
 
-/// The manifest of `dir` as JSON.
+/// The manifest `M` of `dir`, read by the type its writer fills ([`Manifest::read`]): a
+/// missing one is a missing file, a damaged one a bad file.
+pub fn read_manifest<M: Manifest>(dir: &Path) -> Result<M, ExploreError> {
+    let path = dir.join(M::NAME);
+    M::read(&path).map_err(|e| match e {
+        ManifestError::Unreadable { .. } => ExploreError::MissingFile {
+            path: path.display().to_string(),
+            hint: e.to_string(),
+        },
+        other => bad(&path, other.to_string()),
+    })
+}
+
+/// A JSON file of the folder that is not its manifest (`attractors.json`).
 pub fn read_json(path: &Path) -> Result<serde_json::Value, ExploreError> {
     let text = std::fs::read_to_string(path).map_err(|e| bad(path, e.to_string()))?;
     serde_json::from_str(&text).map_err(|e| bad(path, format!("not JSON: {e}")))
@@ -194,18 +205,6 @@ pub fn read_text(dir: &Path, name: &str, hint: &str) -> Result<String, ExploreEr
         path: path.display().to_string(),
         hint: hint.into(),
     })
-}
-
-/// The file names a manifest lists under `files`.
-pub fn listed_files(manifest: &serde_json::Value) -> Vec<String> {
-    manifest["files"]
-        .as_array()
-        .map(|a| {
-            a.iter()
-                .filter_map(|f| f.as_str().map(String::from))
-                .collect()
-        })
-        .unwrap_or_default()
 }
 
 /// A CSV file of the folder: its header and records.

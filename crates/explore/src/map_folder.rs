@@ -2,11 +2,13 @@
 //! each shaped like the grid.
 
 use super::error::ExploreError;
-use super::folder::{Axis, CellAttractor, Column, RunFolder, Source, bad, read_json, read_text};
+use super::folder::{
+    Axis, CellAttractor, Column, RunFolder, Source, bad, read_json, read_manifest, read_text,
+};
 use pendulum_atlas_core::config::{MapSpec, Metric, map_from_toml};
 use pendulum_atlas_core::reduce::attractors::Family;
 use pendulum_atlas_map::output::folder::Product;
-use pendulum_atlas_map::output::manifest::{MAP_JSON, ManifestError, MapManifest};
+use pendulum_atlas_map::output::manifest::MapManifest;
 use pendulum_atlas_map::output::map::{
     COLUMNS, attractor_style, metric_style, regime_shade, shown_label, shown_value,
 };
@@ -15,14 +17,7 @@ use std::path::Path;
 
 /// Read a map folder.
 pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
-    let manifest_path = dir.join(MAP_JSON);
-    let manifest = MapManifest::read(&manifest_path).map_err(|e| match e {
-        ManifestError::Unreadable { .. } => ExploreError::MissingFile {
-            path: manifest_path.display().to_string(),
-            hint: e.to_string(),
-        },
-        other => bad(&manifest_path, other.to_string()),
-    })?;
+    let manifest: MapManifest = read_manifest(dir)?;
     let text = read_text(
         dir,
         "map_scene.toml",
@@ -34,7 +29,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         .map_err(|e| bad(&path, e.to_string()))?;
     check_shape(dir, &spec, &manifest)?;
     let mut columns = metric_columns(dir, &spec, "")?;
-    if let Some(c) = &spec.continuation {
+    if let Some(c) = spec.continuation() {
         let first = c.sweep.directions()[0].name();
         for col in &mut columns {
             col.label = format!("{}, sweeping {first}", col.label);
@@ -73,7 +68,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         Some(f) if spec.starts_per_cell() > 1 => cell_attractors(dir, &spec, f)?,
         _ => Vec::new(),
     };
-    let variants = match (&spec.starts, cell_attractors.is_empty()) {
+    let variants = match (spec.starts(), cell_attractors.is_empty()) {
         (Some(set), false) => start_variants(set),
         _ => Vec::new(),
     };
@@ -83,8 +78,6 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         starts,
         cell_attractors,
         files: manifest.files.clone(),
-        manifest: serde_json::to_value(&manifest)
-            .map_err(|e| bad(&manifest_path, e.to_string()))?,
         axes: spec
             .axes
             .iter()
@@ -129,7 +122,7 @@ fn metric_columns(dir: &Path, spec: &MapSpec, suffix: &str) -> Result<Vec<Column
 /// A map run by continuation both ways: the down sweep's metrics (`NAME_down`) and where the
 /// two sweeps differ (`hysteresis`); nothing for any other map.
 fn continuation_columns(dir: &Path, spec: &MapSpec) -> Result<Vec<Column>, ExploreError> {
-    let Some(c) = &spec.continuation else {
+    let Some(c) = spec.continuation() else {
         return Ok(Vec::new());
     };
     if c.sweep != pendulum_atlas_core::config::Sweep::Both {

@@ -5,12 +5,13 @@
 
 use super::error::ExploreError;
 use super::folder::{
-    Axis, Column, Csv, RunFolder, Source, bad, grid_cell, listed_files, num, read_json, read_text,
+    Axis, Column, Csv, RunFolder, Source, bad, grid_cell, num, read_manifest, read_text,
 };
 use super::sources::{Found, InstanceKey, Search};
 use pendulum_atlas_core::config::axis_label;
 use pendulum_atlas_map::output::folder::Product;
 use pendulum_atlas_map::render::Palette;
+use pendulum_atlas_studies::harvest::SearchManifest;
 use pendulum_atlas_studies::harvest::spec::{SearchSpec, search_from_toml};
 use std::collections::HashMap;
 use std::path::Path;
@@ -42,7 +43,7 @@ const DESIGN_COLUMNS: [(&str, &str); 9] = [
 
 /// Read a search folder.
 pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
-    let manifest = read_json(&dir.join("search.json"))?;
+    let manifest: SearchManifest = read_manifest(dir)?;
     let text = read_text(
         dir,
         "search_scene.toml",
@@ -79,8 +80,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         starts: Vec::new(),
         dir: dir.to_path_buf(),
         product: Product::Search,
-        files: listed_files(&manifest),
-        manifest,
+        files: manifest.files.clone(),
         axes,
         columns,
         status: vec![0; cells],
@@ -89,6 +89,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         segments: spec.scene.beam.segments,
         source: Source::Search(Box::new(Search {
             spec,
+            manifest,
             design,
             instances,
         })),

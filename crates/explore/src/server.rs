@@ -102,7 +102,6 @@ fn asset(kind: &'static str, body: &'static str) -> Response {
 
 async fn map_info(State(app): Shared) -> Response {
     let f = &app.folder;
-    let m = &f.manifest;
     let (nx, ny) = page_shape(f);
     let axes: Vec<_> = f
         .axes
@@ -120,12 +119,20 @@ async fn map_info(State(app): Shared) -> Response {
             "segments": f.segments, "method": mm.method, "backend": mm.backend,
             "adapter": mm.adapter, "precision": mm.precision,
         }),
-        Source::Calibrate(_) | Source::Search(_) => json!({
-            "segments": f.segments,
-            "backend": m["about"]["engine"]["kind"],
-            "adapter": m["about"]["engine"]["device"],
-            "precision": m["about"]["engine"]["precision"],
-        }),
+        Source::Calibrate(c) => {
+            let e = &c.manifest.about.engine;
+            json!({
+                "segments": f.segments, "backend": e.kind, "adapter": e.device,
+                "precision": e.precision,
+            })
+        }
+        Source::Search(s) => {
+            let m = &s.manifest;
+            json!({
+                "segments": f.segments, "backend": m.backend, "adapter": m.adapter,
+                "precision": m.precision,
+            })
+        }
     };
     axum::Json(json!({
         "kind": f.product.command(),
@@ -137,7 +144,10 @@ async fn map_info(State(app): Shared) -> Response {
         "variants": f.variants,
         "cells": f.cells(),
         "run": run,
-        "status_counts": m["status_counts"],
+        "status_counts": match &f.source {
+            Source::Map(_, mm) => json!(mm.status_counts),
+            Source::Calibrate(_) | Source::Search(_) => serde_json::Value::Null,
+        },
         "bifurcation": pictures.iter().any(|n| n.as_str() == "bifurcation.png"),
         "pictures": pictures,
         "scalogram_bar": sequential_bar(),

@@ -23,6 +23,8 @@ pub struct Judged {
 pub struct Calibration {
     /// The calibration, rebuilt from `calibrate_scene.toml`.
     pub spec: CalibrationSpec,
+    /// Its `calibrate.json`.
+    pub manifest: pendulum_atlas_studies::calibrate::CalibrateManifest,
     /// Per cell and case, the observations judged (empty where the grid has no candidate).
     pub judged: Vec<Vec<Vec<Judged>>>,
 }
@@ -47,6 +49,8 @@ pub type InstanceKey = (String, String, usize);
 pub struct Search {
     /// The search, rebuilt from `search_scene.toml`.
     pub spec: SearchSpec,
+    /// Its `search.json`.
+    pub manifest: pendulum_atlas_studies::harvest::SearchManifest,
     /// Per cell: its design's id in `instances.csv`.
     pub design: Vec<Option<String>>,
     /// What the search found per instance.

@@ -9,12 +9,17 @@
 //!    files one run writes.
 //! 3. [`output`]: what leaves the program: trajectories as CSV, arrays as `.npy`, the map's
 //!    folder and manifest, every file written whole or not at all.
-//! 4. [`render`]: the PNG pictures (heat maps with axes and colour bars, line charts, panels,
-//!    scalograms).
+//! 4. [`record`]: measured records: a CSV file's columns as a uniformly sampled signal for
+//!    the analysis.
+//! 5. [`render`]: the PNG pictures (heat maps with axes and colour bars, line charts, panels,
+//!    scalograms); behind the `pictures` feature (on by default), with the folder writers
+//!    that draw.
 #![warn(missing_docs)]
 
 pub mod machine;
 pub mod map;
 pub mod output;
+pub mod record;
+#[cfg(feature = "pictures")]
 pub mod render;
 pub mod shard;

@@ -6,7 +6,7 @@ pub mod hardware_default;
 pub mod refine;
 pub mod shard;
 
-use pendulum_atlas_core::config::MapSpec;
+use pendulum_atlas_core::config::{MapMode, MapSpec};
 use pendulum_atlas_core::engine::gpu::GpuTimings;
 use pendulum_atlas_core::engine::{
     Engine, EngineError, EngineInfo, EnsemblePlan, Progress, Readback,
@@ -231,30 +231,17 @@ pub fn run_map(spec: &MapSpec, engine: &Engine, progress: Progress) -> Result<Ma
     run_map_part(spec, Cow::Owned(plan), None, engine, progress, t0)
 }
 
-/// Refuse to split a map whose cells cannot run apart, before any planning: a map that labels
-/// attractors (its starts are matched across neighbouring cells) and a continuation (each cell
-/// starts where its neighbour ended).
-fn check_shardable(spec: &MapSpec) -> Result<(), EngineError> {
-    let refused = |key: &str, reason: &str| {
-        Err(pendulum_atlas_core::config::ConfigError::Inconsistent {
+/// Refuse to split a map whose cells cannot run apart ([`MapMode::unshardable`]), before any
+/// planning: a map that labels attractors, a continuation, a refined map.
+pub fn check_shardable(spec: &MapSpec) -> Result<(), EngineError> {
+    match spec.mode.unshardable() {
+        Some((key, reason)) => Err(pendulum_atlas_core::config::ConfigError::Inconsistent {
             key: key.into(),
             reason: reason.into(),
         }
-        .into())
-    };
-    if spec.labels_attractors() {
-        return refused(
-            "map.initial_states",
-            "a map that labels attractors cannot be sharded yet: run it in one piece (drop --shard and --devices)",
-        );
+        .into()),
+        None => Ok(()),
     }
-    if spec.continuation.is_some() {
-        return refused(
-            "map.continuation",
-            "a map run by continuation cannot be sharded: its cells run one after another (drop --shard and --devices)",
-        );
-    }
-    Ok(())
 }
 
 /// Keep `shard`'s instances of the whole map's `plan` (all without one), integrate and reduce
@@ -270,18 +257,21 @@ fn run_map_part(
     if shard.is_some() {
         check_shardable(spec)?;
     }
-    if spec.labels_attractors() {
-        return run_starts(plan.into_owned(), spec, engine, progress, t0);
-    }
-    if let Some(cs) = &spec.continuation {
-        return run_continued(plan.into_owned(), spec, cs, engine, progress, t0);
-    }
-    if let (Some(rs), None) = (&spec.refine, shard) {
-        let plan_s = t0.elapsed().as_secs_f64();
-        let mut run = run_refined(plan.into_owned(), rs, spec, engine, progress)?;
-        run.timings.plan_s = plan_s;
-        run.timings.total_s += plan_s;
-        return Ok(run);
+    match &spec.mode {
+        MapMode::Attractors { .. } => {
+            return run_starts(plan.into_owned(), spec, engine, progress, t0);
+        }
+        MapMode::Continuation(cs) => {
+            return run_continued(plan.into_owned(), spec, cs, engine, progress, t0);
+        }
+        MapMode::Refined(rs) => {
+            let plan_s = t0.elapsed().as_secs_f64();
+            let mut run = run_refined(plan.into_owned(), rs, spec, engine, progress)?;
+            run.timings.plan_s = plan_s;
+            run.timings.total_s += plan_s;
+            return Ok(run);
+        }
+        MapMode::Plain => {}
     }
     let plan = match shard {
         Some(s) => {

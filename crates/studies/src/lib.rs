@@ -6,8 +6,10 @@
 //! - [`reproduce`]: the paper's cases, figures and report in one call.
 //! - [`harvest`]: the broadband-harvesting design search (`pendulum-atlas search`).
 //! - [`calibrate`]: which values of the unknown parameters reproduce what was observed.
+//! - [`about`]: what ran a study, as its manifest states it.
 #![warn(missing_docs)]
 
+pub mod about;
 pub mod bench;
 pub mod calibrate;
 pub mod harvest;

@@ -17,6 +17,7 @@
 use super::continuation::ContinuationSpec;
 use super::error::ConfigError;
 use super::field::SceneField;
+use super::mode::{MapMode, ModeKeys};
 use super::reader::{Range, Reader, apply_override, parse_toml, set_key};
 use super::scene::{ExcitationKind, Scene};
 use super::starts::StartSet;
@@ -158,13 +159,9 @@ pub struct MapSpec {
     pub early_stop_tol: Option<f64>,
     /// How λ1's twin runs (used when `lyapunov` is among the metrics).
     pub lyapunov: LyapunovSettings,
-    /// Adaptive refinement (`map.refine`), when asked for.
-    pub refine: Option<RefineSpec>,
-    /// Several starts per cell (`map.initial_states`); `None`: the scene's own start.
-    pub starts: Option<StartSet>,
-    /// Continuation along one axis (`map.continuation`); `None`: every cell from the
-    /// scene's own start, all at once.
-    pub continuation: Option<ContinuationSpec>,
+    /// How the cells run: plain, several starts (attractors, basins), continuation or
+    /// refinement, one of them.
+    pub mode: MapMode,
 }
 
 /// What refinement compares between neighbouring cells.
@@ -271,29 +268,45 @@ impl MapSpec {
         Ok(table)
     }
 
+    /// Adaptive refinement's settings, in a refined map.
+    pub fn refine(&self) -> Option<&RefineSpec> {
+        match &self.mode {
+            MapMode::Refined(r) => Some(r),
+            _ => None,
+        }
+    }
+
+    /// The continuation, in a map run by continuation.
+    pub fn continuation(&self) -> Option<&ContinuationSpec> {
+        match &self.mode {
+            MapMode::Continuation(c) => Some(c),
+            _ => None,
+        }
+    }
+
+    /// The starts of `map.initial_states`, when given.
+    pub fn starts(&self) -> Option<&StartSet> {
+        match &self.mode {
+            MapMode::Attractors { starts, .. } => starts.as_ref(),
+            _ => None,
+        }
+    }
+
     /// Whether the map labels attractors: several starts per cell, or a basin picture (an
     /// axis over the start itself, `initial.angle_deg` or `initial.rate_deg_s`).
     pub fn labels_attractors(&self) -> bool {
-        self.starts.is_some()
-            || self
-                .axes
-                .iter()
-                .any(|a| START_KEYS.contains(&a.key.as_str()))
+        matches!(self.mode, MapMode::Attractors { .. })
     }
 
     /// Whether the map is a basin picture: every axis a key of the start, so that every cell
     /// runs the same scene from another start.
     pub fn is_basin_picture(&self) -> bool {
-        self.starts.is_none()
-            && self
-                .axes
-                .iter()
-                .all(|a| START_KEYS.contains(&a.key.as_str()))
+        matches!(self.mode, MapMode::Attractors { basin: true, .. })
     }
 
     /// Runs per cell: the starts of `map.initial_states`, or 1.
     pub fn starts_per_cell(&self) -> usize {
-        self.starts.as_ref().map_or(1, StartSet::len)
+        self.starts().map_or(1, StartSet::len)
     }
 
     /// The scene table of start `s` of cell `k`: the cell's table with `initial.angle_deg`
@@ -307,7 +320,7 @@ impl MapSpec {
     /// Write start `s`'s `initial.angle_deg` and `initial.rate_deg_s` into `table` (nothing
     /// with one start per cell).
     fn set_start(&self, table: &mut Table, s: usize) -> Result<(), ConfigError> {
-        if let Some(start) = self.starts.as_ref().and_then(|set| set.states.get(s)) {
+        if let Some(start) = self.starts().and_then(|set| set.states.get(s)) {
             set_key(table, "initial.angle_deg", Value::Float(start.angle_deg))?;
             set_key(table, "initial.rate_deg_s", Value::Float(start.rate_deg_s))?;
         }
@@ -368,7 +381,7 @@ impl MapSpec {
                 self.check_axis_value(axis, v)?;
             }
         }
-        if let Some(set) = &self.starts {
+        if let Some(set) = self.starts() {
             for s in 0..set.len() {
                 self.check_start(s)?;
             }
@@ -409,7 +422,7 @@ impl MapSpec {
         for (f, v) in fields.iter().zip(self.values_of(i / k)) {
             f.set(&mut scene, v);
         }
-        if let Some(start) = self.starts.as_ref().and_then(|set| set.states.get(i % k)) {
+        if let Some(start) = self.starts().and_then(|set| set.states.get(i % k)) {
             SceneField::AngleDeg.set(&mut scene, start.angle_deg);
             SceneField::RateDegS.set(&mut scene, start.rate_deg_s);
         }
@@ -629,18 +642,14 @@ fn read_map(
         (cells, MAX_INSTANCES),
         &axis_keys,
     )?;
-    let labels = starts.is_some() || axis_keys.iter().any(|k| START_KEYS.contains(k));
-    if labels && refine.is_some() {
-        return Err(ConfigError::Inconsistent {
-            key: "map.refine".into(),
-            reason: "refinement of a map that labels attractors (map.initial_states, or an axis over initial.angle_deg or initial.rate_deg_s) is not supported yet: set map.refine = false".into(),
-        });
-    }
-    let continuation = super::continuation::read_continuation(&mut r, &axes)?;
-    if continuation.is_some() {
-        refuse_with_continuation(labels, refine.is_some())?;
-    }
-    let metrics = if labels {
+    let mode = MapMode::of(ModeKeys {
+        starts,
+        start_axis: axis_keys.iter().any(|k| START_KEYS.contains(k)),
+        all_start_axes: axis_keys.iter().all(|k| START_KEYS.contains(k)),
+        continuation: super::continuation::read_continuation(&mut r, &axes)?,
+        refine,
+    })?;
+    let metrics = if matches!(mode, MapMode::Attractors { .. }) {
         with_attractor_metrics(metrics, &scene)
     } else {
         metrics
@@ -667,30 +676,11 @@ fn read_map(
         early_stop,
         early_stop_tol,
         lyapunov,
-        refine,
-        starts,
-        continuation,
+        mode,
     };
     // Every axis key must be a scene key that takes this kind of value: check the first point.
     spec.instance_scene(0)?;
     Ok(spec)
-}
-
-/// What continuation cannot be combined with: several starts per cell or a basin picture
-/// (continuation has one start, the neighbour's state), and refinement (every cell of the
-/// path runs).
-fn refuse_with_continuation(labels: bool, refine: bool) -> Result<(), ConfigError> {
-    let reason = if labels {
-        "continuation starts each cell from its neighbour's final state, one start per cell: drop map.initial_states and the axes over initial.angle_deg and initial.rate_deg_s, or drop map.continuation"
-    } else if refine {
-        "continuation runs every cell of its path: set map.refine = false"
-    } else {
-        return Ok(());
-    };
-    Err(ConfigError::Inconsistent {
-        key: "map.continuation".into(),
-        reason: reason.into(),
-    })
 }
 
 /// `map.refine` and its keys: refused before any work when there is nothing to follow, the

@@ -8,6 +8,7 @@ mod continuation;
 mod error;
 mod field;
 mod map;
+mod mode;
 mod physics;
 mod reader;
 mod scene;
@@ -22,6 +23,7 @@ pub use map::{
     RefineSpec, SEPARATION_MAX, c_order_index, grid_point, load_map, map_from_toml,
     refuse_sets_on_swept, scene_text, split_section,
 };
+pub use mode::{MapMode, ModeKeys};
 pub use physics::DampingReport;
 pub use reader::{
     MAX_SCENE_BYTES, Range, Reader, apply_override, parse_override_value, parse_toml,

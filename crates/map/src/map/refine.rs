@@ -588,7 +588,7 @@ mod tests {
     #[test]
     fn a_uniform_map_is_its_coarse_lattice_and_one_audit_round() {
         let (spec, truth) = grid_and(|_, _| (Regime::Chaotic, 0.0));
-        let rs = spec.refine.expect("refine");
+        let rs = *spec.refine().expect("refine");
         let out = run(&spec, &rs, &truth);
         assert_eq!(out.report.computed_per_level, vec![9]);
         assert_eq!(out.report.audit.rounds.len(), 1);
@@ -613,7 +613,7 @@ mod tests {
         });
         let rs = RefineSpec {
             audit_share: 0.5,
-            ..spec.refine.expect("refine")
+            ..*spec.refine().expect("refine")
         };
         let out = run(&spec, &rs, &truth);
         let audit = &out.report.audit;

@@ -98,7 +98,16 @@ pub enum OutputError {
         /// The output folder.
         dir: String,
     },
+    /// What a picture shows could not be computed (a spectrum of too short a record).
+    #[error("cannot draw `{path}`: {source}")]
+    Figure {
+        /// The picture.
+        path: String,
+        /// Why.
+        source: pendulum_atlas_core::analysis::AnalysisError,
+    },
     /// A picture could not be drawn.
+    #[cfg(feature = "pictures")]
     #[error("cannot draw `{path}`: {source}")]
     Render {
         /// The picture.

@@ -136,6 +136,7 @@ pub fn csv_error(path: &Path) -> impl Fn(csv::Error) -> OutputError + '_ {
 }
 
 /// Draw a picture at `path` through its temporary sibling (the renderers write directly).
+#[cfg(feature = "pictures")]
 pub fn draw(
     path: &Path,
     render: impl FnOnce(&Path) -> Result<(), crate::render::RenderError>,

@@ -316,14 +316,8 @@ fn is_map_file(name: &str) -> bool {
 /// The files a manifest lists under `files`, if it is readable and has that list.
 fn listed_files(manifest: &Path) -> Option<Vec<String>> {
     let text = std::fs::read_to_string(manifest).ok()?;
-    let json: serde_json::Value = serde_json::from_str(&text).ok()?;
-    let files = json.get("files")?.as_array()?;
-    Some(
-        files
-            .iter()
-            .filter_map(|f| f.as_str().map(str::to_string))
-            .collect(),
-    )
+    let list: super::manifest::FileList = serde_json::from_str(&text).ok()?;
+    Some(list.files)
 }
 
 /// The advisory lock of an output folder, held by a run from its check to its end (the lock

@@ -1,12 +1,15 @@
-//! `map.json`, typed: [`MapManifest`] is what the writer fills ([`super::map::map_manifest`])
-//! and what every reader parses (the explorer, the Python package through
-//! [`MapManifest::read`]), so that a field is named once and a damaged or foreign file is
-//! refused in words.
+//! Manifests, typed: each command's manifest is one struct that its writer fills and every
+//! reader parses through [`Manifest::read`] (the explorer, merge, the Python package), so that
+//! a field is named once and a damaged or foreign file is refused in words. `map.json` is
+//! [`MapManifest`] ([`super::map::map_manifest`] fills it); `shard.json`, `run.json`,
+//! `analysis.json`, `search.json`, `calibrate.json` and `bench.json` have theirs beside their
+//! writers.
 //!
 //! The fields a reader acts on are typed (axes, shape, engine, counts, files); the blocks that
 //! describe the run for people (steps, timings, the verdict's tallies, sampling, refinement,
 //! attractors, continuation, the scene) are kept as JSON values as the writer made them.
 
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::collections::BTreeMap;
@@ -52,6 +55,10 @@ pub struct MapManifest {
     pub instances: usize,
     /// How flat indices map onto the grid.
     pub order: String,
+    /// How the cells ran: `plain`, `attractors`, `basin`, `continuation` or `refined`
+    /// (`MapMode::name`).
+    #[serde(default)]
+    pub mode: String,
     /// Metrics asked for.
     pub metrics: Vec<String>,
     /// Engine kind (`cpu` or `gpu`).
@@ -151,20 +158,35 @@ pub enum ManifestError {
     },
 }
 
-impl MapManifest {
-    /// Read and check the `map.json` at `path`: the fields this version writes, and files
+/// A manifest: the JSON file a command writes last into its folder (its presence means the
+/// folder is complete), with the one type its writer fills and every reader parses.
+pub trait Manifest: Serialize + DeserializeOwned {
+    /// The file's name in its folder.
+    const NAME: &'static str;
+
+    /// The files of the folder it lists by name (none where it lists none).
+    fn listed(&self) -> &[String] {
+        &[]
+    }
+
+    /// Read and check the manifest in `dir`: the fields this version writes, and files
     /// listed by plain name (no folder, no `..`), so that nothing outside the folder is read
     /// through it.
-    pub fn read(path: &Path) -> Result<MapManifest, ManifestError> {
+    fn read_in(dir: &Path) -> Result<Self, ManifestError> {
+        Self::read(&dir.join(Self::NAME))
+    }
+
+    /// [`Manifest::read_in`] of the manifest at `path`.
+    fn read(path: &Path) -> Result<Self, ManifestError> {
         let shown = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|e| ManifestError::Unreadable {
             path: shown.clone(),
             reason: e.to_string(),
         })?;
-        let manifest: MapManifest = serde_json::from_str(&text).map_err(|e| {
+        let manifest: Self = serde_json::from_str(&text).map_err(|e| {
             ManifestError::Damaged(pendulum_atlas_core::text::json_damage(&shown, &e))
         })?;
-        if let Some(name) = manifest.files.iter().find(|n| !is_plain_name(n)) {
+        if let Some(name) = manifest.listed().iter().find(|n| !is_plain_name(n)) {
             return Err(ManifestError::ForeignFile {
                 path: shown,
                 name: name.clone(),
@@ -172,6 +194,22 @@ impl MapManifest {
         }
         Ok(manifest)
     }
+}
+
+impl Manifest for MapManifest {
+    const NAME: &'static str = MAP_JSON;
+
+    fn listed(&self) -> &[String] {
+        &self.files
+    }
+}
+
+/// The list of files any manifest keeps under `files` (and nothing else of it): what a
+/// rerun with `--force` may delete ([`super::folder`]).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct FileList {
+    /// The files, by name in the folder.
+    pub files: Vec<String>,
 }
 
 /// A file name with no folder in it: not empty, no separator, not `.` or `..`.

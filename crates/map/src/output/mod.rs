@@ -1,6 +1,8 @@
 //! What leaves the program: trajectories as CSV, arrays as `.npy`, maps and their pictures,
 //! every file written whole or not at all ([`files`]).
 
+#[cfg(feature = "pictures")]
+pub mod analysis;
 pub mod budget;
 mod error;
 pub mod files;
@@ -8,6 +10,8 @@ pub mod folder;
 pub mod manifest;
 pub mod map;
 pub mod npy;
+#[cfg(feature = "pictures")]
+pub mod run_analysis;
 mod run_report;
 mod trajectory;
 

@@ -70,6 +70,10 @@ pub struct ShardManifest {
     pub strobe_tail: usize,
 }
 
+impl crate::output::manifest::Manifest for ShardManifest {
+    const NAME: &'static str = "shard.json";
+}
+
 impl<'de> Deserialize<'de> for Shard {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Shard, D::Error> {
         #[derive(Deserialize)]
@@ -165,9 +169,12 @@ pub fn write_shard(
         stopped_early: run.stopped_early,
         strobe_tail: tail,
     };
-    written.push(write_json(&dir.join("shard.json"), &manifest)?);
+    written.push(write_json(&dir.join(SHARD_JSON), &manifest)?);
     Ok(written)
 }
+
+/// The shard's manifest in its folder.
+const SHARD_JSON: &str = <ShardManifest as crate::output::manifest::Manifest>::NAME;
 
 /// Why a shard folder cannot be read.
 #[derive(Debug, thiserror::Error)]
@@ -192,8 +199,8 @@ pub fn read_shard(dir: &Path) -> Result<ShardData, ShardReadError> {
             ))
         })
     };
-    let manifest: ShardManifest = serde_json::from_str(&text("shard.json")?)
-        .map_err(|e| fail(pendulum_atlas_core::text::json_damage("shard.json", &e)))?;
+    let manifest: ShardManifest = serde_json::from_str(&text(SHARD_JSON)?)
+        .map_err(|e| fail(pendulum_atlas_core::text::json_damage(SHARD_JSON, &e)))?;
     let scene_text = text("scene.toml")?;
     let (shape, rows) = read_npy(&dir.join("shard_results.npy")).map_err(&fail)?;
     if shape != [manifest.members, RESULT_COLUMNS.len()] {

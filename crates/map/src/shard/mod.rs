@@ -21,6 +21,6 @@ pub mod merge;
 pub mod slurm;
 
 pub use crate::map::shard::{MAX_SHARDS, Shard, ShardSpecError, map_hash};
-pub use files::{ShardData, read_shard, write_shard};
+pub use files::{ShardData, ShardManifest, read_shard, write_shard};
 pub use merge::{MergeError, merge_shards};
 pub use slurm::{SlurmJob, SlurmSpecError, check_partition, check_time};

@@ -182,7 +182,7 @@ pub fn run_refine(opts: &RefineOptions, log: &dyn Fn(String)) -> Result<RefineRe
     let mut engines = vec![&cpu];
     engines.extend(opts.gpu);
     let shipped_spec = spec(grid, true, true)?;
-    let shipped = shipped_spec.refine.expect("refinement asked for");
+    let shipped = *shipped_spec.refine().expect("refinement asked for");
     let mut rows = Vec::new();
     let mut cpu_maps: Option<(MapRun, MapRun, MapRun)> = None;
     for engine in engines {

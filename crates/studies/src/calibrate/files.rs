@@ -4,13 +4,16 @@
 
 use super::run::{CalibrationRun, Candidate};
 use super::spec::CalibrationSpec;
+use crate::about::StudyAbout;
 use pendulum_atlas_core::config::axis_label;
 use pendulum_atlas_core::config::set_key;
 use pendulum_atlas_map::output::OutputError;
 use pendulum_atlas_map::output::files::{
     commit_csv, create_csv, csv_error, draw, write_bytes, write_json, write_toml,
 };
+use pendulum_atlas_map::output::manifest::Manifest;
 use pendulum_atlas_map::render::{Axis, CellMarks, Palette, heatmap};
+use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use toml::Value;
@@ -20,7 +23,7 @@ pub fn write_calibration(
     dir: &Path,
     spec: &CalibrationSpec,
     run: &CalibrationRun,
-    about: &serde_json::Value,
+    about: &StudyAbout,
 ) -> Result<Vec<PathBuf>, OutputError> {
     let mut files = vec![
         write_candidates(&dir.join("candidates.csv"), spec, run)?,
@@ -40,24 +43,68 @@ pub fn write_calibration(
     let names: Vec<String> = files
         .iter()
         .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
-        .chain(["calibrate.json".to_string()])
+        .chain([CalibrateManifest::NAME.to_string()])
         .collect();
-    let json = serde_json::json!({
-        "about": about,
-        "unknowns": spec.unknowns,
-        "cases": spec.cases,
-        "initial_states": spec.initial_states,
-        "initial_spread_deg": spec.initial_spread_deg,
-        "agreement": spec.agreement,
-        "refine": spec.refine,
-        "observations": run.observations,
-        "instances": run.instances,
-        "best": run.best(),
-        "never_matched": never_matched(spec, run),
-        "files": names,
-    });
-    files.push(write_json(&dir.join("calibrate.json"), &json)?);
+    let manifest = CalibrateManifest {
+        about: about.clone(),
+        unknowns: json(&spec.unknowns),
+        cases: json(&spec.cases),
+        initial_states: spec.initial_states,
+        initial_spread_deg: spec.initial_spread_deg,
+        agreement: json(&spec.agreement),
+        refine: json(&spec.refine),
+        observations: json(&run.observations),
+        instances: json(&run.instances),
+        best: json(run.best()),
+        never_matched: never_matched(spec, run),
+        files: names,
+    };
+    files.push(write_json(&dir.join(CalibrateManifest::NAME), &manifest)?);
     Ok(files)
+}
+
+/// A block of a manifest as JSON (`null` if it cannot be one, which the types written here
+/// never are).
+fn json<T: Serialize + ?Sized>(v: &T) -> serde_json::Value {
+    serde_json::to_value(v).unwrap_or_default()
+}
+
+/// `calibrate.json`: what ran, the unknowns and cases, every candidate's agreement and the
+/// best, and the files of the folder. Written last; the explorer reads it back.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CalibrateManifest {
+    /// What ran the calibration.
+    pub about: StudyAbout,
+    /// The unknowns and their grids.
+    pub unknowns: serde_json::Value,
+    /// The observed cases.
+    pub cases: serde_json::Value,
+    /// Starts per case.
+    pub initial_states: u32,
+    /// Spread of the starts (deg).
+    pub initial_spread_deg: f64,
+    /// How agreement is scored.
+    pub agreement: serde_json::Value,
+    /// The refinement rounds' settings.
+    pub refine: serde_json::Value,
+    /// Each observation, named.
+    pub observations: serde_json::Value,
+    /// Instances run.
+    pub instances: serde_json::Value,
+    /// The best candidate.
+    pub best: serde_json::Value,
+    /// Observations no candidate matched.
+    pub never_matched: Vec<String>,
+    /// The files of the folder, by name.
+    pub files: Vec<String>,
+}
+
+impl Manifest for CalibrateManifest {
+    const NAME: &'static str = "calibrate.json";
+
+    fn listed(&self) -> &[String] {
+        &self.files
+    }
 }
 
 /// The name of observation `o` of case `c`, for headers and reports.

@@ -18,7 +18,7 @@ pub mod observe;
 pub mod run;
 pub mod spec;
 
-pub use files::write_calibration;
+pub use files::{CalibrateManifest, write_calibration};
 pub use observe::{Judgement, Observation, judge};
 pub use run::{CalibrateError, CalibrationRun, Candidate, grid_points, run_calibration};
 pub use spec::{CalibrationSpec, Case, Refine, Unknown, calibration_from_toml, load_calibration};

@@ -7,10 +7,13 @@ use super::figures::{pareto_figure, power_figure};
 use super::search::{DesignResult, SearchRun};
 use super::spec::{BaseExcitation, SearchSpec};
 use super::verify::Verification;
+use pendulum_atlas_core::engine::{EngineKind, Precision};
 use pendulum_atlas_map::output::OutputError;
 use pendulum_atlas_map::output::files::{
     AtomicFile, create_dir, draw, write_bytes, write_json, write_toml,
 };
+use pendulum_atlas_map::output::manifest::Manifest;
+use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::fmt::Write as _;
 use std::io::Write;
@@ -97,8 +100,13 @@ pub fn write_search(
     written.push(draw(&dir.join("power_vs_frequency.png"), |p| {
         power_figure(p, spec, run)
     })?);
-    let json = search_json(spec, run, verification, origin);
-    written.push(write_json(&dir.join("search.json"), &json)?);
+    let files = written
+        .iter()
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .chain([SearchManifest::NAME.to_string()])
+        .collect();
+    let manifest = search_manifest(spec, run, verification, origin, files);
+    written.push(write_json(&dir.join(SearchManifest::NAME), &manifest)?);
     Ok(written)
 }
 
@@ -322,12 +330,13 @@ fn best_design_toml(
 }
 
 /// `search.json`: settings, baseline, threshold, counts, timings, backend, best design.
-fn search_json(
+fn search_manifest(
     spec: &SearchSpec,
     run: &SearchRun,
     verification: Option<&Verification>,
     origin: &str,
-) -> serde_json::Value {
+    files: Vec<String>,
+) -> SearchManifest {
     let best = run.best();
     let excitation = match spec.band.excitation {
         BaseExcitation::Acceleration { acceleration_m_s2 } => {
@@ -338,25 +347,26 @@ fn search_json(
         }
     };
     let failed: usize = run.designs.iter().map(|d| d.failed).sum();
-    json!({
-        "scene_origin": origin,
-        "settings": spec,
-        "excitation": excitation,
-        "backend": run.engine.kind,
-        "backend_reason": run.engine.reason,
-        "adapter": run.engine.device,
-        "precision": run.engine.precision,
-        "threshold_w": run.threshold_w,
-        "period_test": super::search::period_test_possible(spec),
-        "baseline": {
+    SearchManifest {
+        scene_origin: origin.to_string(),
+        settings: json!(spec),
+        excitation,
+        backend: run.engine.kind,
+        backend_reason: run.engine.reason.clone(),
+        adapter: run.engine.device.clone(),
+        precision: run.engine.precision,
+        threshold_w: run.threshold_w,
+        period_test: super::search::period_test_possible(spec),
+        files,
+        baseline: json!({
             "first_natural_hz": run.baseline.first_natural_hz,
             "metrics": run.baseline.metrics,
             "band_grid_metrics": run.baseline.band_metrics,
             "frequencies_hz": run.baseline.frequencies_hz,
             "power_w": run.baseline.power_w,
             "failed_instances": run.baseline.failed,
-        },
-        "counts": {
+        }),
+        counts: json!({
             "designs": run.designs.len(),
             "grid_designs": spec.grid_designs(),
             "refined_designs": run.designs.len() - spec.grid_designs(),
@@ -364,13 +374,13 @@ fn search_json(
             "instances": run.stages.iter().map(|s| s.instances).sum::<usize>(),
             "instance_steps": run.stages.iter().map(|s| s.instance_steps).sum::<u64>(),
             "failed_instances": failed,
-        },
-        "timings_s": {
+        }),
+        timings_s: json!({
             "total": run.total_s,
             "stages": run.stages,
             "verification": verification.map(|v| v.wall_s),
-        },
-        "best": {
+        }),
+        best: json!({
             "id": best.id,
             "values": spec.variables.iter().zip(&best.values)
                 .map(|(v, x)| (v.key.clone(), json!(x)))
@@ -381,8 +391,8 @@ fn search_json(
             "robust_w": best.robust_w,
             "mean_w": best.mean_w,
             "top_attractor": (!best.top_attractor.is_empty()).then_some(&best.top_attractor),
-        },
-        "ranked_by": {
+        }),
+        ranked_by: json!({
             "weighting": spec.weighting,
             "in_words": spec.weighting.describe(spec.initial_states.len()),
             "curve": match spec.weighting {
@@ -393,7 +403,55 @@ fn search_json(
                 "per frequency, the starts within {} % of the most powerful start's power and of its period; basin_fraction counts them among all starts",
                 100.0 * crate::harvest::TOP_POWER_SHARE
             ),
-        },
-        "verification": verification,
-    })
+        }),
+        verification: json!(verification),
+    }
+}
+
+/// `search.json`: the settings, the engine, the baseline, the counts and timings, the best
+/// design and how designs were ranked, and the files of the folder. Written last; the
+/// explorer reads it back.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct SearchManifest {
+    /// The scene file (or the embedded default) the search read.
+    pub scene_origin: String,
+    /// The search's settings.
+    pub settings: serde_json::Value,
+    /// The base excitation: an acceleration or an amplitude.
+    pub excitation: serde_json::Value,
+    /// Engine kind.
+    pub backend: EngineKind,
+    /// Why this engine.
+    pub backend_reason: String,
+    /// The device (adapter name, or the CPU's threads and loop).
+    pub adapter: String,
+    /// Float type.
+    pub precision: Precision,
+    /// Power above which a frequency counts toward the bandwidth (W).
+    pub threshold_w: f64,
+    /// Whether the runs are long enough for the period test.
+    pub period_test: bool,
+    /// The baseline design.
+    pub baseline: serde_json::Value,
+    /// Designs, instances and steps.
+    pub counts: serde_json::Value,
+    /// Wall time per stage (s).
+    pub timings_s: serde_json::Value,
+    /// The best design.
+    pub best: serde_json::Value,
+    /// How designs were ranked.
+    pub ranked_by: serde_json::Value,
+    /// The verification of the best design (null without it).
+    pub verification: serde_json::Value,
+    /// The files of the folder, by name (empty in searches written before it was kept).
+    #[serde(default)]
+    pub files: Vec<String>,
+}
+
+impl Manifest for SearchManifest {
+    const NAME: &'static str = "search.json";
+
+    fn listed(&self) -> &[String] {
+        &self.files
+    }
 }

@@ -25,7 +25,7 @@ pub mod verify;
 
 pub use band::{BandMetrics, band_average_w, band_metrics, bandwidth_hz, mean_curve, robust_curve};
 pub use error::HarvestError;
-pub use files::write_search;
+pub use files::{SearchManifest, write_search};
 pub use search::{
     Baseline, DesignResult, SearchProgress, SearchRun, StageReport, TOP_POWER_SHARE, TopAttractor,
     run_search,

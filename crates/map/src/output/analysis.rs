@@ -1,11 +1,15 @@
-//! Files of a record analysis: arrays a numpy user loads directly (`.npy`, `numpy.load`), and
-//! the pictures, every axis labelled in the record's time unit.
+//! Files of a record analysis (`pendulum-atlas analyze`, and the analysis of a single run):
+//! arrays a numpy user loads directly (`.npy`, `numpy.load`), the pictures, every axis
+//! labelled in the record's time unit, and `analysis.json` last.
 
-use anyhow::Context;
+use crate::output::OutputError;
+use crate::output::files::{commit_csv, create_csv, csv_error, draw, write_json};
+use crate::output::npy::write_npy_f64;
+use crate::record::Record;
+use crate::render::{self, Series};
+use pendulum_atlas_core::analysis::TimeGap;
 use pendulum_atlas_core::analysis::{RecordAnalysis, pq_path};
-use pendulum_atlas_map::output::files::{commit_csv, create_csv, draw};
-use pendulum_atlas_map::output::npy::write_npy_f64;
-use pendulum_atlas_map::render::{self, Series};
+use serde::Serialize;
 use std::path::Path;
 
 /// Write spectrum.csv, the wavelet and phase arrays (.npy) and the PNGs of an analysis of the
@@ -17,7 +21,7 @@ pub fn write_analysis(
     reference: Option<&[f64]>,
     rate_hz: f64,
     start_s: f64,
-) -> anyhow::Result<()> {
+) -> Result<(), OutputError> {
     let unit = r.options.time_unit.as_str();
     write_spectrum(out, r, unit)?;
     write_wavelet(out, r, unit)?;
@@ -41,32 +45,29 @@ fn frequency_label(unit: &str) -> String {
 }
 
 /// Writes one array as `.npy`, naming the file in any error.
-fn npy(out: &Path, name: &str, shape: &[usize], data: &[f64]) -> anyhow::Result<()> {
-    let path = out.join(name);
-    write_npy_f64(&path, shape, data).with_context(|| format!("cannot write {}", path.display()))
+fn npy(out: &Path, name: &str, shape: &[usize], data: &[f64]) -> Result<(), OutputError> {
+    write_npy_f64(&out.join(name), shape, data).map(drop)
 }
 
 /// A 2-D `[rows][cols]` array as one row-major `.npy`.
-fn npy_2d(out: &Path, name: &str, rows: &[Vec<f64>]) -> anyhow::Result<()> {
+fn npy_2d(out: &Path, name: &str, rows: &[Vec<f64>]) -> Result<(), OutputError> {
     let cols = rows.first().map_or(0, Vec::len);
     let flat: Vec<f64> = rows.iter().flatten().copied().collect();
     npy(out, name, &[rows.len(), cols], &flat)
 }
 
 /// spectrum.csv and spectrum.png.
-fn write_spectrum(out: &Path, r: &RecordAnalysis, unit: &str) -> anyhow::Result<()> {
+fn write_spectrum(out: &Path, r: &RecordAnalysis, unit: &str) -> Result<(), OutputError> {
     let spec = &r.spectrum_full;
     let path = out.join("spectrum.csv");
-    let write = || -> anyhow::Result<()> {
-        let mut w = create_csv(&path)?;
-        w.write_record(["frequency_hz", "amplitude"])?;
-        for (f, a) in spec.frequency_hz.iter().zip(&spec.amplitude) {
-            w.write_record([f.to_string(), a.to_string()])?;
-        }
-        commit_csv(w, &path)?;
-        Ok(())
-    };
-    write().with_context(|| format!("cannot write {}", path.display()))?;
+    let mut w = create_csv(&path)?;
+    w.write_record(["frequency_hz", "amplitude"])
+        .map_err(csv_error(&path))?;
+    for (f, a) in spec.frequency_hz.iter().zip(&spec.amplitude) {
+        w.write_record([f.to_string(), a.to_string()])
+            .map_err(csv_error(&path))?;
+    }
+    commit_csv(w, &path)?;
     let freq_unit = if unit == "s" {
         "Hz".to_string()
     } else {
@@ -95,11 +96,10 @@ fn write_spectrum(out: &Path, r: &RecordAnalysis, unit: &str) -> anyhow::Result<
         )
     })
     .map(drop)
-    .with_context(|| format!("cannot write {}", png.display()))
 }
 
 /// The wavelet arrays, their significance and scalogram.png.
-fn write_wavelet(out: &Path, r: &RecordAnalysis, unit: &str) -> anyhow::Result<()> {
+fn write_wavelet(out: &Path, r: &RecordAnalysis, unit: &str) -> Result<(), OutputError> {
     let wt = &r.wavelet_full;
     let cols = wt.power.first().map_or(0, Vec::len);
     let times: Vec<f64> = (0..cols)
@@ -155,11 +155,10 @@ fn write_wavelet(out: &Path, r: &RecordAnalysis, unit: &str) -> anyhow::Result<(
         )
     })
     .map(drop)
-    .with_context(|| format!("cannot write {}", png.display()))
 }
 
 /// zero_one.png: the (p, q) path for the c whose K_c is closest to the median, and K_c(c).
-fn zero_one_picture(out: &Path, r: &RecordAnalysis) -> anyhow::Result<()> {
+fn zero_one_picture(out: &Path, r: &RecordAnalysis) -> Result<(), OutputError> {
     let Some(zo) = &r.zero_one_full else {
         return Ok(());
     };
@@ -177,7 +176,6 @@ fn zero_one_picture(out: &Path, r: &RecordAnalysis) -> anyhow::Result<()> {
         render::zero_one_figure(path, &p, &q, &zo.c_values, &zo.k_c, zo.k)
     })
     .map(drop)
-    .with_context(|| format!("cannot write {}", png.display()))
 }
 
 /// phase_hist.png and portrait.png, when a reference was given.
@@ -188,7 +186,7 @@ fn phase_pictures(
     reference: Option<&[f64]>,
     rate_hz: f64,
     start_s: f64,
-) -> anyhow::Result<()> {
+) -> Result<(), OutputError> {
     if let (Some(h), Some(ps)) = (&r.phase_hist, &r.phase_sync) {
         let png = out.join("phase_hist.png");
         draw(&png, |p| {
@@ -204,8 +202,7 @@ fn phase_pictures(
                 "probability density (1/rad)",
             )
         })
-        .map(drop)
-        .with_context(|| format!("cannot write {}", png.display()))?;
+        .map(drop)?;
     }
     if let Some(reference) = reference {
         let skip =
@@ -222,8 +219,7 @@ fn phase_pictures(
                 true,
             )
         })
-        .map(drop)
-        .with_context(|| format!("cannot write {}", png.display()))?;
+        .map(drop)?;
     }
     Ok(())
 }
@@ -234,4 +230,71 @@ fn ratio_text(r: &RecordAnalysis) -> String {
         (Some(l), Some(x)) => format!(" = {x:.3} × forcing ({l})"),
         _ => String::new(),
     }
+}
+
+/// Where an analysed record came from (`input` of `analysis.json`).
+#[derive(Debug, Clone, Serialize)]
+pub struct RecordInput {
+    /// The CSV file.
+    pub file: String,
+    /// The column analysed.
+    pub signal: String,
+    /// The reference column.
+    pub reference: Option<String>,
+    /// The time column.
+    pub time: Option<String>,
+    /// The time unit's name.
+    pub time_unit: String,
+    /// Samples per time unit of the analysed (uniform) record.
+    pub sample_rate_hz: f64,
+    /// Time of its first sample.
+    pub start_s: f64,
+    /// Its samples.
+    pub samples: usize,
+    /// Whether it was resampled.
+    pub resampled: bool,
+    /// Gaps of the time column.
+    pub gaps: Vec<TimeGap>,
+}
+
+/// `analysis.json`: every number, setting and warning of the analysis, its time unit and its
+/// input. Written last: its presence means the folder is complete.
+#[derive(Debug, Clone, Serialize)]
+pub struct AnalysisManifest<'a> {
+    /// The analysis.
+    #[serde(flatten)]
+    pub analysis: &'a RecordAnalysis,
+    /// The name of the time unit.
+    pub time_unit: &'a str,
+    /// The record analysed.
+    pub input: RecordInput,
+}
+
+impl AnalysisManifest<'_> {
+    /// The manifest's name in its folder.
+    pub const NAME: &'static str = "analysis.json";
+}
+
+/// Every file of the analysis of `record` into `out`: [`write_analysis`], then
+/// `analysis.json` ([`AnalysisManifest`]).
+pub fn write_record_analysis(
+    out: &Path,
+    analysis: &RecordAnalysis,
+    record: &Record,
+    input: RecordInput,
+) -> Result<(), OutputError> {
+    write_analysis(
+        out,
+        analysis,
+        &record.signal,
+        record.reference.as_deref(),
+        record.rate,
+        record.start,
+    )?;
+    let manifest = AnalysisManifest {
+        analysis,
+        time_unit: &analysis.options.time_unit,
+        input,
+    };
+    write_json(&out.join(AnalysisManifest::NAME), &manifest).map(drop)
 }
