@@ -11,7 +11,6 @@ as the ``pendulum-atlas`` command, returned as ``xarray`` datasets.
 
 from __future__ import annotations
 
-import json
 from typing import Callable, Optional
 
 import numpy as np
@@ -32,6 +31,7 @@ __all__ = [
     "map",
     "simulate",
     "analyze",
+    "read_record",
     "open_run",
     "__version__",
 ]
@@ -69,7 +69,7 @@ def map(
         out = _native.run_map_scene(
             scene.text, scene.origin, scene.sets, backend, precision, bar.update
         )
-    return map_dataset(json.loads(out["manifest"]), out["arrays"])
+    return map_dataset(out["manifest"], out["arrays"])
 
 
 def simulate(
@@ -95,7 +95,7 @@ def simulate(
         out = _native.run_single_scene(
             scene.text, scene.origin, scene.sets, integrator, precision, bar.update
         )
-    return run_dataset(out["columns"], out["units"], json.loads(out["report"]))
+    return run_dataset(out["columns"], out["units"], out["report"])
 
 
 def analyze(
@@ -131,7 +131,7 @@ def analyze(
         ref = np.ascontiguousarray(reference, dtype=np.float64)
         if ref.shape != x.shape:
             raise ValueError(f"reference has shape {ref.shape}, the signal {x.shape}: give one value per sample")
-    text = _native.analyze_signal(
+    return _native.analyze_signal(
         x,
         float(sample_rate_hz),
         forcing_hz,
@@ -141,7 +141,6 @@ def analyze(
         clearance_deg,
         sampling,
     )
-    return json.loads(text)
 
 
 class _Bar:
@@ -168,3 +167,28 @@ class _Bar:
     def __exit__(self, *exc) -> None:
         if self._bar is not None:
             self._bar.close()
+
+
+def read_record(
+    path,
+    signal: str,
+    reference: Optional[str] = None,
+    time: Optional[str] = None,
+    time_unit: str = "s",
+    sample_rate_hz: Optional[float] = None,
+    resample: bool = False,
+    allow_gaps: bool = False,
+) -> dict:
+    """A measured CSV record read exactly as ``pendulum-atlas analyze`` reads it: the columns
+    ``signal`` (and ``reference``) on a uniform grid, from the ``time`` column (resampled
+    linearly at its median rate with ``resample=True``; gaps refused unless ``allow_gaps``) or
+    at ``sample_rate_hz``.
+
+    Returns a dict with ``signal`` and ``reference`` (NumPy arrays; ``reference`` may be
+    ``None``), ``sample_rate_hz``, ``start_s``, ``resampled``, and the ``notes`` and
+    ``warnings`` the command would print. Pass them on to :func:`analyze`. A file the command
+    refuses raises ``ValueError`` with the same message.
+    """
+    return _native.read_record(
+        str(path), signal, reference, time, time_unit, sample_rate_hz, resample, allow_gaps
+    )

@@ -131,7 +131,7 @@ def open_run(folder: str | os.PathLike) -> xr.Dataset:
         )
     # Read and checked by the type the command writes it with: a damaged map.json, or one
     # listing a path outside the folder, raises ValueError naming the problem.
-    manifest = json.loads(_native.read_map_manifest(str(manifest_path)))
+    manifest = _native.read_map_manifest(str(manifest_path))
     arrays = {}
     for name in manifest.get("files", []):
         if name.endswith(".npy"):

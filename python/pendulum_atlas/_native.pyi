@@ -4,7 +4,7 @@ Users call the package's functions (``pendulum_atlas.map``, ``simulate``, ``anal
 convert what these return into xarray datasets and dicts.
 """
 
-from typing import Callable, Literal, Optional, TypedDict
+from typing import Any, Callable, Literal, Optional, TypedDict
 
 import numpy as np
 import numpy.typing as npt
@@ -23,12 +23,12 @@ Progress = Callable[[int, int, str], None]
 
 class MapResult(TypedDict):
     arrays: dict[str, npt.NDArray[np.generic]]
-    manifest: str
+    manifest: dict[str, Any]
 
 class RunResult(TypedDict):
     columns: dict[str, npt.NDArray[np.float64]]
     units: dict[str, str]
-    report: str
+    report: dict[str, Any]
 
 def set_arg(key: str, value: object) -> str:
     """``key=value`` with the value written as TOML (a ``--set`` argument)."""
@@ -54,7 +54,7 @@ def run_single_scene(
     precision: Optional[Literal["f32", "f64"]] = None,
     progress: Optional[Progress] = None,
 ) -> RunResult:
-    """Integrate one scene: its columns, their units and ``run.json`` as text."""
+    """Integrate one scene: its columns, their units and ``run.json`` as a dict."""
 
 def analyze_signal(
     signal: npt.NDArray[np.float64],
@@ -65,8 +65,29 @@ def analyze_signal(
     start_s: float = 0.0,
     clearance_deg: Optional[float] = None,
     sampling: Optional[Literal["stroboscopic", "extrema", "uniform"]] = None,
-) -> str:
-    """The paper's indicators of a record, as the JSON text ``analyze`` writes."""
+) -> dict[str, Any]:
+    """The paper's indicators of a record, as ``analyze`` writes them to ``analysis.json``."""
 
-def read_map_manifest(path: str) -> str:
-    """A map folder's ``map.json``, read and checked (fields, files by name only), as JSON text."""
+class RecordResult(TypedDict):
+    signal: npt.NDArray[np.float64]
+    reference: Optional[npt.NDArray[np.float64]]
+    sample_rate_hz: float
+    start_s: float
+    resampled: bool
+    notes: list[str]
+    warnings: list[str]
+
+def read_record(
+    path: str,
+    signal: str,
+    reference: Optional[str] = None,
+    time: Optional[str] = None,
+    time_unit: str = "s",
+    sample_rate_hz: Optional[float] = None,
+    resample: bool = False,
+    allow_gaps: bool = False,
+) -> RecordResult:
+    """A measured CSV record read as ``pendulum-atlas analyze`` reads it, on a uniform grid."""
+
+def read_map_manifest(path: str) -> dict[str, Any]:
+    """A map folder's ``map.json``, read and checked (fields, files by name only), as a dict."""

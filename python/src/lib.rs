@@ -1,11 +1,13 @@
 //! `pendulum_atlas._native`: the library's scenes, maps, single runs and record analysis for
 //! Python. Every number comes from the `pendulum-atlas` crate; this module only converts
-//! (TOML values in, NumPy arrays and JSON text out) and runs the engine off the interpreter
+//! (TOML values in, NumPy arrays and Python dicts out) and runs the engine off the interpreter
 //! ([`poll`]). The Python package (`python/pendulum_atlas/`) turns what it returns into
 //! `xarray` datasets.
 
+mod convert;
 mod poll;
 
+use convert::serialised;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pendulum_atlas_core::analysis::{RecordOptions, Sampling, analyze_record};
 use pendulum_atlas_core::config::{
@@ -17,11 +19,12 @@ use pendulum_atlas_core::model::Status;
 use pendulum_atlas_map::machine::memory_available;
 use pendulum_atlas_map::map::run_map;
 use pendulum_atlas_map::output::budget::RunSize;
-use pendulum_atlas_map::output::manifest::MapManifest;
+use pendulum_atlas_map::output::manifest::{Manifest, MapManifest};
 use pendulum_atlas_map::output::map::{ArrayData, MapArray, map_arrays, map_manifest};
 use pendulum_atlas_map::output::{
     RunFacts, RunReport, TrajectoryRecorder, record_analysis, row_columns, run_warnings,
 };
+use pendulum_atlas_map::record::{RecordSource, TimeAxis, read_record as read_record_file};
 use poll::run_polled;
 use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
@@ -137,12 +140,11 @@ fn toml_value(v: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
 
 /// `key=value` as `--set` takes it, from a Python value.
 /// A map folder's `map.json`, read and checked by the one type the command writes it with
-/// (every field it needs, files listed by name only), as JSON text.
+/// (every field it needs, files listed by name only), as a dict.
 #[pyfunction]
-fn read_map_manifest(path: std::path::PathBuf) -> PyResult<String> {
+fn read_map_manifest(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Bound<'_, PyAny>> {
     let manifest = MapManifest::read(&path).map_err(|e| PyValueError::new_err(e.to_string()))?;
-    serde_json::to_string(&manifest)
-        .map_err(|e| PyRuntimeError::new_err(format!("map.json of the map: {e}")))
+    serialised(py, &manifest)
 }
 
 #[pyfunction]
@@ -246,16 +248,14 @@ fn run_map_scene<'py>(
     }
     let d = PyDict::new(py);
     d.set_item("arrays", arrays)?;
-    let manifest = serde_json::to_string(&out.manifest)
-        .map_err(|e| PyRuntimeError::new_err(format!("map.json of the map: {e}")))?;
-    d.set_item("manifest", manifest)?;
+    d.set_item("manifest", serialised(py, &out.manifest)?)?;
     Ok(d)
 }
 
 /// A single run off the interpreter: its columns, units and `run.json`.
 struct RunOut {
     columns: Vec<(&'static str, &'static str, Vec<f64>)>,
-    report: String,
+    report: serde_json::Value,
 }
 
 /// Why a single run gave no result.
@@ -331,7 +331,7 @@ fn simulate_work(
         .collect();
     Ok(RunOut {
         columns,
-        report: serde_json::to_string(&report).map_err(WorkError::Report)?,
+        report: serde_json::to_value(&report).map_err(WorkError::Report)?,
     })
 }
 
@@ -343,7 +343,7 @@ fn check_run_size(scene: &Scene, plan: &StepPlan) -> PyResult<()> {
 }
 
 /// Run a plain scene once: `{"columns": {name: ndarray}, "units": {name: unit}, "report":
-/// run.json text}`.
+/// run.json as a dict}`.
 #[pyfunction]
 #[pyo3(signature = (text, origin, sets, integrator="engine", precision=None, progress=None))]
 fn run_single_scene<'py>(
@@ -384,17 +384,17 @@ fn run_single_scene<'py>(
     let d = PyDict::new(py);
     d.set_item("columns", columns)?;
     d.set_item("units", units)?;
-    d.set_item("report", out.report)?;
+    d.set_item("report", convert::to_python(py, &out.report)?)?;
     Ok(d)
 }
 
-/// The paper's indicators of a record (`docs/analysis.md`), as JSON text.
+/// The paper's indicators of a record (`docs/analysis.md`), as a dict.
 // Keyword arguments of one Python function: a struct would only move them.
 #[allow(clippy::too_many_arguments)]
 #[pyfunction]
 #[pyo3(signature = (signal, sample_rate_hz, forcing_hz=None, reference=None, transient_s=0.0, start_s=0.0, clearance_deg=None, sampling=None))]
-fn analyze_signal(
-    py: Python<'_>,
+fn analyze_signal<'py>(
+    py: Python<'py>,
     signal: PyReadonlyArray1<'_, f64>,
     sample_rate_hz: f64,
     forcing_hz: Option<f64>,
@@ -403,7 +403,7 @@ fn analyze_signal(
     start_s: f64,
     clearance_deg: Option<f64>,
     sampling: Option<&str>,
-) -> PyResult<String> {
+) -> PyResult<Bound<'py, PyAny>> {
     let sampling = match sampling {
         None => Sampling::default_for(forcing_hz),
         Some(name) => Sampling::from_name(name).ok_or_else(|| {
@@ -439,7 +439,68 @@ fn analyze_signal(
             )
         })
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
-    serde_json::to_string(&analysis).map_err(|e| PyRuntimeError::new_err(e.to_string()))
+    serialised(py, &analysis)
+}
+
+/// A measured CSV record as `analyze` reads it (`pendulum_atlas_map::record`): `{"signal",
+/// "reference" (ndarray or None), "sample_rate_hz", "start_s", "resampled", "notes",
+/// "warnings"}`. Exactly one of `time` (a column) and `sample_rate_hz` is given.
+// Keyword arguments of one Python function: a struct would only move them.
+#[allow(clippy::too_many_arguments)]
+#[pyfunction]
+#[pyo3(signature = (path, signal, reference=None, time=None, time_unit="s", sample_rate_hz=None, resample=false, allow_gaps=false))]
+fn read_record<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    signal: &str,
+    reference: Option<&str>,
+    time: Option<String>,
+    time_unit: &str,
+    sample_rate_hz: Option<f64>,
+    resample: bool,
+    allow_gaps: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let time = match (time, sample_rate_hz) {
+        (Some(_), Some(_)) => {
+            return Err(PyValueError::new_err(
+                "give the time column (time=...) or the sample rate (sample_rate_hz=...), not both",
+            ));
+        }
+        (Some(name), None) => Some(TimeAxis::Column {
+            name,
+            unit: time_unit.to_string(),
+            resample,
+            allow_gaps,
+        }),
+        (None, Some(rate)) if rate.is_finite() && rate > 0.0 => Some(TimeAxis::Rate(rate)),
+        (None, Some(rate)) => {
+            return Err(PyValueError::new_err(format!(
+                "sample_rate_hz must lie in (0, inf) Hz, got {rate}"
+            )));
+        }
+        (None, None) => None,
+    };
+    let source = RecordSource {
+        path: &path,
+        signal,
+        reference,
+        time,
+    };
+    let record = py
+        .detach(|| read_record_file(&source))
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let d = PyDict::new(py);
+    d.set_item("signal", PyArray1::from_vec(py, record.signal))?;
+    match record.reference {
+        Some(r) => d.set_item("reference", PyArray1::from_vec(py, r))?,
+        None => d.set_item("reference", py.None())?,
+    }
+    d.set_item("sample_rate_hz", record.rate)?;
+    d.set_item("start_s", record.start)?;
+    d.set_item("resampled", record.resampled)?;
+    d.set_item("notes", record.notes)?;
+    d.set_item("warnings", record.warnings)?;
+    Ok(d)
 }
 
 #[pymodule]
@@ -456,5 +517,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(run_map_scene, m)?)?;
     m.add_function(wrap_pyfunction!(run_single_scene, m)?)?;
     m.add_function(wrap_pyfunction!(analyze_signal, m)?)?;
+    m.add_function(wrap_pyfunction!(read_record, m)?)?;
     Ok(())
 }

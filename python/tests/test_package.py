@@ -328,3 +328,37 @@ def test_a_map_run_both_ways_has_both_directions_and_their_hysteresis():
     assert ds["regime_down"].attrs["flag_meanings"] == ds["regime"].attrs["flag_meanings"]
     bands = json.loads(ds.attrs["map_json"])["continuation"]["hysteresis"]["bands"]
     assert [(b["from"], b["to"]) for b in bands] == [(10.0, 12.0)]
+
+
+def test_a_record_read_and_analysed_in_python_equals_the_cli_analysis(tmp_path):
+    # Jittered time stamps: the reader resamples at the median rate, as the command does.
+    rate, f = 200.0, 5.0
+    rng = np.random.default_rng(3)
+    t = np.arange(2000) / rate + rng.uniform(-2e-4, 2e-4, 2000)
+    x = 0.3 * np.sin(2 * np.pi * f * t + 0.4)
+    cart = 0.01 * np.sin(2 * np.pi * f * t)
+    data = tmp_path / "rig.csv"
+    rows = "\n".join(f"{a!r},{b!r},{c!r}" for a, b, c in zip(t, x, cart))
+    data.write_text("t_s,x_rad,cart_m\n" + rows + "\n")
+    out = tmp_path / "cli"
+    run_cli("analyze", data, "--signal", "x_rad", "--reference", "cart_m", "--time", "t_s",
+            "--resample", "--forcing-hz", str(f), "--out", out)
+    cli = json.loads((out / "analysis.json").read_text())
+    rec = pa.read_record(data, "x_rad", reference="cart_m", time="t_s", resample=True)
+    assert rec["resampled"] and rec["notes"], rec["notes"]
+    assert rec["sample_rate_hz"] == cli["input"]["sample_rate_hz"]
+    got = pa.analyze(rec["signal"], rec["sample_rate_hz"], forcing_hz=f,
+                     reference=rec["reference"], start_s=rec["start_s"])
+    assert got["zero_one"]["K"] == cli["zero_one"]["K"]
+    assert got["phase_sync"]["R"] == cli["phase_sync"]["R"]
+
+
+def test_a_record_the_cli_refuses_raises_the_same_message(tmp_path):
+    data = tmp_path / "bad.csv"
+    times = [0.1 * k for k in range(60)]
+    times[10] = times[9]
+    data.write_text("t_s,x_rad\n" + "".join(f"{t!r},{k}\n" for k, t in enumerate(times)))
+    with pytest.raises(ValueError, match="increase strictly"):
+        pa.read_record(data, "x_rad", time="t_s")
+    with pytest.raises(ValueError, match="no column `y`"):
+        pa.read_record(data, "y", sample_rate_hz=10.0)
