@@ -11,14 +11,34 @@ as the ``pendulum-atlas`` command, returned as ``xarray`` datasets.
 
 from __future__ import annotations
 
+import os
+import tempfile
 from typing import Callable, Optional
 
 import numpy as np
 import xarray as xr
 
-from . import _native
-from ._dataset import map_dataset, open_run, run_dataset
-from ._scene import Scene
+
+def _quiet_headless_vulkan() -> None:
+    """Give the Vulkan loader a runtime folder where the session has none (a server, a
+    container), as the command does: without one it prints "error: XDG_RUNTIME_DIR is invalid
+    or not set" on every map, which is no error of the user's."""
+    if os.environ.get("XDG_RUNTIME_DIR"):
+        return
+    user = os.environ.get("USER", "user")
+    folder = os.path.join(tempfile.gettempdir(), f"pendulum-atlas-runtime-{user}")
+    try:
+        os.makedirs(folder, mode=0o700, exist_ok=True)
+    except OSError:
+        return
+    os.environ["XDG_RUNTIME_DIR"] = folder
+
+
+_quiet_headless_vulkan()
+
+from . import _native  # noqa: E402  (after the runtime folder is set)
+from ._dataset import map_dataset, open_run, run_dataset  # noqa: E402
+from ._scene import Scene  # noqa: E402
 
 __version__ = _native.__version__
 SceneError = _native.SceneError

@@ -101,9 +101,23 @@ fn parse_integrator(name: &str) -> PyResult<Integrator> {
     }
 }
 
+/// How deeply lists and dicts may nest in a scene value (the deepest scene key, an entry of
+/// `map.axes`, nests two levels).
+const MAX_VALUE_DEPTH: usize = 32;
+
 /// A Python value as a TOML value: bool, int, float, str, and lists, tuples or dicts (inline
-/// tables, e.g. the entries of `map.axes`) of them.
+/// tables, e.g. the entries of `map.axes`) of them, nested at most [`MAX_VALUE_DEPTH`] deep.
 fn toml_value(v: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
+    toml_value_at(v, 0)
+}
+
+fn toml_value_at(v: &Bound<'_, PyAny>, depth: usize) -> PyResult<toml::Value> {
+    if depth > MAX_VALUE_DEPTH {
+        return Err(SceneError::new_err(format!(
+            "a scene value nests lists or dicts more than {MAX_VALUE_DEPTH} levels deep; no scene key takes that"
+        )));
+    }
+    let inner = |item: &Bound<'_, PyAny>| toml_value_at(item, depth + 1);
     if v.is_instance_of::<PyBool>() {
         return Ok(toml::Value::Boolean(v.extract()?));
     }
@@ -122,13 +136,13 @@ fn toml_value(v: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
     if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
         let items: Vec<Bound<'_, PyAny>> = v.try_iter()?.collect::<PyResult<_>>()?;
         return Ok(toml::Value::Array(
-            items.iter().map(toml_value).collect::<PyResult<_>>()?,
+            items.iter().map(inner).collect::<PyResult<_>>()?,
         ));
     }
     if let Ok(d) = v.cast::<PyDict>() {
         let mut table = toml::Table::new();
         for (k, item) in d.iter() {
-            table.insert(k.extract::<String>()?, toml_value(&item)?);
+            table.insert(k.extract::<String>()?, inner(&item)?);
         }
         return Ok(toml::Value::Table(table));
     }
@@ -138,7 +152,6 @@ fn toml_value(v: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
     )))
 }
 
-/// `key=value` as `--set` takes it, from a Python value.
 /// A map folder's `map.json`, read and checked by the one type the command writes it with
 /// (every field it needs, files listed by name only), as a dict.
 #[pyfunction]
@@ -147,8 +160,21 @@ fn read_map_manifest(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Bound
     serialised(py, &manifest)
 }
 
+/// `key=value` as `--set` takes it, from a Python value. The key must be a dotted scene key
+/// (letters, digits, `_` and `-` between dots): anything else, an `=` or a `#` above all, would
+/// let the key carry a value of its own.
 #[pyfunction]
 fn set_arg(key: &str, value: &Bound<'_, PyAny>) -> PyResult<String> {
+    let part_ok = |p: &str| {
+        !p.is_empty()
+            && p.chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    };
+    if !key.split('.').all(part_ok) {
+        return Err(SceneError::new_err(format!(
+            "{key:?} is not a scene key: a key is names of letters, digits, `_` and `-` joined by dots, e.g. \"excitation.frequency_hz\""
+        )));
+    }
     Ok(format!("{key}={}", toml_value(value)?))
 }
 

@@ -362,3 +362,42 @@ def test_a_record_the_cli_refuses_raises_the_same_message(tmp_path):
         pa.read_record(data, "x_rad", time="t_s")
     with pytest.raises(ValueError, match="no column `y`"):
         pa.read_record(data, "y", sample_rate_hz=10.0)
+
+
+def test_a_scene_key_cannot_carry_a_value_of_its_own():
+    scene = pa.Scene.paper()
+    for key in ["beam.segments=5 #", "beam.segments #", "beam..segments", ""]:
+        with pytest.raises(pa.SceneError, match="not a scene key"):
+            scene.set(key, 3)
+    assert scene.set("beam.segments", 3) is not None
+
+
+def test_a_value_nested_deeper_than_any_key_takes_is_refused_not_a_crash():
+    value: list = []
+    for _ in range(12_000):
+        value = [value]
+    with pytest.raises(pa.SceneError, match="levels deep"):
+        pa.Scene.default_map().set("map.axes", value)
+
+
+@pytest.mark.parametrize("clearance", [0.0, float("nan"), -20.0, 200.0, 90.0])
+def test_analyze_refuses_a_clearance_outside_zero_to_ninety_degrees(clearance):
+    rate = 100.0
+    x = np.sin(2 * np.pi * 2.0 * np.arange(2000) / rate)
+    with pytest.raises(ValueError, match=r"\(0, 90\) deg"):
+        pa.analyze(x, rate, clearance_deg=clearance)
+
+
+def test_a_map_on_a_machine_without_a_session_prints_no_runtime_folder_error(small_map_file):
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "XDG_RUNTIME_DIR"}
+    code = (
+        "import pendulum_atlas as pa, sys;"
+        f"s = pa.Scene.from_toml({str(small_map_file)!r}).set('beam.segments', 2);"
+        f"pa.map(s, backend={gpu_backends()[-1]!r}, progress=False)"
+    )
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert "XDG_RUNTIME_DIR" not in done.stderr, done.stderr

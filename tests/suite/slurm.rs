@@ -169,3 +169,35 @@ fn a_four_shard_array_and_its_merge_job_on_slurm_equal_the_unsharded_map() {
     ok(&map(&["--out", whole.to_str().unwrap()]));
     assert_same_map(&whole, &merged);
 }
+
+/// `slurm` refuses, before writing any job, every map whose cells cannot run apart (one rule,
+/// `MapMode::unshardable`), without needing a cluster.
+#[test]
+fn slurm_refuses_a_map_that_cannot_be_sharded_before_writing_jobs() {
+    let f = "map.axes=[{key=\"excitation.frequency_hz\",values=[7.0,8.0,9.0]}]";
+    let basin = "map.axes=[{key=\"initial.angle_deg\",values=[-10.0,10.0]},{key=\"initial.rate_deg_s\",values=[0.0,20.0]}]";
+    for (sets, key) in [
+        (vec![f, "map.initial_states=2"], "map.initial_states"),
+        (vec![basin], "map.initial_states"),
+        (vec![f, "map.continuation=up"], "map.continuation"),
+    ] {
+        let job = out_dir(&format!("slurm-refused-{}", key.replace('.', "_")));
+        let mut cmd = bin();
+        cmd.args(["slurm", "--backend", "cpu", "--shards", "2", "--out"])
+            .arg(&job);
+        for s in &sets {
+            cmd.args(["--set", s]);
+        }
+        let o = cmd.output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{sets:?}: {err}");
+        assert!(
+            err.contains("cannot be sharded") && err.contains(key),
+            "{sets:?}: {err}"
+        );
+        assert!(
+            !job.join("array.sbatch").exists(),
+            "{sets:?}: a job was written"
+        );
+    }
+}

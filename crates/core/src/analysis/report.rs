@@ -421,6 +421,14 @@ fn validate_record_input(
     if let Some(f) = opts.forcing_hz {
         ensure_forcing_resolved(f, sample_rate_hz)?;
     }
+    if let Some(c) = opts.clearance_rad
+        && !(c.is_finite() && c > 0.0 && c < std::f64::consts::FRAC_PI_2)
+    {
+        return Err(AnalysisError::InvalidArgument(format!(
+            "the clearance must lie in the open interval (0, 90) deg, got {} deg",
+            c.to_degrees()
+        )));
+    }
     validate_wavelet_settings(&opts.wavelet)
 }
 
