@@ -734,3 +734,121 @@ fn a_shard_of_a_map_that_cannot_be_split_is_refused_before_planning() {
         assert!(!err.contains("grid point"), "{mode}: {err}");
     }
 }
+
+/// The files of a map folder, the lock file aside, sorted.
+fn folder_files(dir: &std::path::Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n != ".pendulum-atlas.lock")
+        .collect();
+    names.sort();
+    names
+}
+
+/// `--force` deletes exactly the files the earlier map's own `map.json` lists, whatever
+/// feature wrote them (attractors, basins, starts), so that none is left beside a new map.
+#[test]
+fn force_replaces_every_file_the_earlier_maps_manifest_lists() {
+    let out = out_dir("force-starts");
+    let small = [
+        "--set",
+        "beam.segments=3",
+        "--set",
+        "integration.duration_s=30",
+        "--set",
+        "integration.transient_s=15",
+        "--set",
+        "map.axes=[{key=\"excitation.frequency_hz\",values=[7.8,8.0]}]",
+    ];
+    let run = |extra: &[&str]| {
+        let o = bin()
+            .args(["map", "--backend", "cpu", "--quiet", "--out"])
+            .arg(&out)
+            .args(small)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    run(&["--set", "map.initial_states=3"]);
+    let first = folder_files(&out);
+    for name in [
+        "attractors.json",
+        "basin_fraction.npy",
+        "start.npy",
+        "attractor.png",
+    ] {
+        assert!(first.contains(&name.to_string()), "{name} in {first:?}");
+    }
+    run(&["--force"]);
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("map.json")).unwrap()).unwrap();
+    let mut listed: Vec<String> = manifest["files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f.as_str().unwrap().to_string())
+        .chain(["map.json".to_string()])
+        .collect();
+    listed.sort();
+    assert_eq!(
+        folder_files(&out),
+        listed,
+        "only the new map's files are left"
+    );
+}
+
+/// A map killed before its manifest leaves files and temporary files of every feature: the
+/// earlier-run check knows them by the names the map's writer gives (and leaves the user's
+/// own files alone).
+#[test]
+fn a_killed_maps_files_and_temporary_files_are_found_by_their_names() {
+    let out = out_dir("force-killed");
+    std::fs::create_dir_all(&out).unwrap();
+    let left = [
+        "basin_fraction.npy",
+        "K_down.npy",
+        "regime_down.png",
+        "hysteresis.png",
+        "attractors.json",
+        "start.npy",
+        ".attractor.tmp-4242.npy",
+        ".failed_fraction.tmp-7.npy",
+    ];
+    for name in left.iter().chain(&["notes.txt", "rig_photo.png"]) {
+        std::fs::write(out.join(name), b"x").unwrap();
+    }
+    let map = |force: bool| {
+        let mut cmd = bin();
+        cmd.args(["map", "--backend", "cpu", "--quiet", "--out"])
+            .arg(&out)
+            .args(TINY);
+        if force {
+            cmd.arg("--force");
+        }
+        cmd.output().unwrap()
+    };
+    let o = map(false);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains(&format!("{} file(s)", left.len())), "{err}");
+    let o = map(true);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let now = folder_files(&out);
+    for name in left.iter().filter(|n| !n.starts_with('.')) {
+        let listed: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("map.json")).unwrap()).unwrap();
+        let written = listed["files"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|f| f == name);
+        assert!(
+            written || !now.contains(&name.to_string()),
+            "{name} left in {now:?}"
+        );
+    }
+    assert!(now.iter().all(|n| !n.contains(".tmp-")), "{now:?}");
+    assert!(now.contains(&"notes.txt".to_string()) && now.contains(&"rig_photo.png".to_string()));
+}

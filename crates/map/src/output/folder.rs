@@ -216,17 +216,7 @@ impl Product {
                 command: self.command(),
             });
         }
-        let listed = listed_files(&dir.join(self.manifest()));
-        let ours: Vec<PathBuf> = self
-            .files_in(dir)?
-            .into_iter()
-            .filter(|p| match (&listed, file_name(p)) {
-                (Some(list), Some(n)) => {
-                    n == self.manifest() || temp_target(&n).is_some() || list.contains(&n)
-                }
-                _ => true,
-            })
-            .collect();
+        let ours = self.earlier_run(dir)?;
         if ours.is_empty() {
             return Ok(0);
         }
@@ -242,6 +232,28 @@ impl Product {
             std::fs::remove_file(p).map_err(|e| OutputError::io(p, e))?;
         }
         Ok(ours.len())
+    }
+
+    /// The files of an earlier run in `dir`, sorted by name. Where its manifest lists its
+    /// files, they are exactly those (the writer's own list, whatever their names), the
+    /// manifest, and the temporary files of a killed run. Without a readable list (a run
+    /// killed before its manifest), the names this product writes ([`Product::writes`]).
+    fn earlier_run(self, dir: &Path) -> Result<Vec<PathBuf>, OutputError> {
+        let Some(list) = listed_files(&dir.join(self.manifest())) else {
+            return self.files_in(dir);
+        };
+        let mut found: Vec<PathBuf> = plain_files(dir)?
+            .into_iter()
+            .filter(|p| {
+                file_name(p).is_some_and(|n| {
+                    n == self.manifest()
+                        || list.contains(&n)
+                        || temp_target(&n).is_some_and(|t| list.contains(&t) || self.writes(&t))
+                })
+            })
+            .collect();
+        found.sort();
+        Ok(found)
     }
 
     /// Refuse `inputs` (files the command reads) that lie in `dir` under a name this product
@@ -294,23 +306,37 @@ const ANALYSIS_FILES: [&str; 16] = [
     "wavelet_global_signif.npy",
 ];
 
-/// A map's arrays (`K.npy`, `regime.npy`, `axis0.npy`, ...) and pictures (`K.png`,
-/// `K_slice003.png`, ...).
+/// A map's files: its arrays (`K.npy`, `regime.npy`, `basin_fraction.npy`, `axis0.npy`,
+/// `K_down.npy`, ...), its pictures (`K.png`, `K_slice003.png`, `hysteresis.png`, ...) and
+/// `attractors.json`, by the stems the map's writer names them with
+/// ([`super::map::stem`], [`super::map::COLUMNS`]).
 fn is_map_file(name: &str) -> bool {
-    if let Some(stem) = name.strip_suffix(".npy") {
-        return super::map::COLUMNS.iter().any(|c| c.0 == stem)
-            || ["regime", "status", "inferred", "axis0", "axis1", "axis2"].contains(&stem);
+    use super::map::{ATTRACTORS_JSON, COLUMNS, stem};
+    if name == ATTRACTORS_JSON {
+        return true;
     }
-    let Some(stem) = name.strip_suffix(".png") else {
+    let Some((stem_of, ext)) = name.rsplit_once('.') else {
         return false;
     };
-    let metric = match stem.split_once("_slice") {
-        Some((m, n)) if !n.is_empty() && n.chars().all(|c| c.is_ascii_digit()) => m,
-        _ => stem,
+    let base = match stem_of.split_once("_slice") {
+        Some((m, n)) if ext == "png" && !n.is_empty() && n.chars().all(|c| c.is_ascii_digit()) => m,
+        _ => stem_of,
     };
-    pendulum_atlas_core::config::Metric::ALL
+    // The second direction of a continuation: `K_down.npy`, `regime_up.png`, ...
+    let base = ["_up", "_down"]
         .iter()
-        .any(|m| m.name() == metric)
+        .find_map(|d| base.strip_suffix(d))
+        .unwrap_or(base);
+    let named = COLUMNS.iter().any(|c| c.0 == base)
+        || stem::ALL.contains(&base)
+        || pendulum_atlas_core::config::Metric::ALL
+            .iter()
+            .any(|m| m.name() == base);
+    match ext {
+        "npy" => named || ["axis0", "axis1", "axis2"].contains(&base),
+        "png" => named,
+        _ => false,
+    }
 }
 
 /// The files a manifest lists under `files`, if it is readable and has that list.

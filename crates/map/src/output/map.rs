@@ -67,6 +67,50 @@ pub enum ArrayData {
     I32(Vec<i32>),
 }
 
+/// The stems of a map's arrays besides the metric columns ([`COLUMNS`]) and the axes
+/// (`axis0`, ...): every name [`map_arrays`] gives, and what the folder check recognises as a
+/// map's own where no `map.json` lists the files (a killed map), so that a new array named
+/// here is known to both. The second direction of a continuation adds `_down` to the metric
+/// columns, `regime` and `status`; `hysteresis` and the attractors' stems are also pictures.
+pub mod stem {
+    /// Regime codes.
+    pub const REGIME: &str = "regime";
+    /// Status codes.
+    pub const STATUS: &str = "status";
+    /// Refinement's inferred flags.
+    pub const INFERRED: &str = "inferred";
+    /// Distinct attractors per cell.
+    pub const ATTRACTORS: &str = "attractors";
+    /// The most likely attractor's label.
+    pub const ATTRACTOR: &str = "attractor";
+    /// Share of failed starts.
+    pub const FAILED_FRACTION: &str = "failed_fraction";
+    /// The representative start.
+    pub const START: &str = "start";
+    /// The first start of each attractor.
+    pub const ATTRACTOR_START: &str = "attractor_start";
+    /// Basin fraction per attractor.
+    pub const BASIN_FRACTION: &str = "basin_fraction";
+    /// Where up and down ended on different attractors.
+    pub const HYSTERESIS: &str = "hysteresis";
+    /// Every one of them.
+    pub const ALL: [&str; 10] = [
+        REGIME,
+        STATUS,
+        INFERRED,
+        ATTRACTORS,
+        ATTRACTOR,
+        FAILED_FRACTION,
+        START,
+        ATTRACTOR_START,
+        BASIN_FRACTION,
+        HYSTERESIS,
+    ];
+}
+
+/// The file of a map's attractor table.
+pub const ATTRACTORS_JSON: &str = "attractors.json";
+
 /// One array of a map: its name (the `.npy` file's stem), shape and values (C order).
 #[derive(Debug, Clone, PartialEq)]
 pub struct MapArray {
@@ -95,19 +139,22 @@ pub fn map_arrays(spec: &MapSpec, run: &MapRun) -> Vec<MapArray> {
         .collect();
     if spec.wants(Metric::Regime) {
         let codes = run.results.iter().map(|r| r.regime.code()).collect();
-        arrays.push(grid("regime", ArrayData::I8(codes)));
+        arrays.push(grid(stem::REGIME, ArrayData::I8(codes)));
     }
     let status = run.results.iter().map(|r| r.status.code()).collect();
-    arrays.push(grid("status", ArrayData::U8(status)));
+    arrays.push(grid(stem::STATUS, ArrayData::U8(status)));
     if !run.inferred.is_empty() {
         let flags = run.inferred.iter().map(|&i| u8::from(i)).collect();
-        arrays.push(grid("inferred", ArrayData::U8(flags)));
+        arrays.push(grid(stem::INFERRED, ArrayData::U8(flags)));
     }
     if let Some(a) = &run.attractors {
         let count = a.count.iter().map(|&n| i32::from(n)).collect();
-        arrays.push(grid("attractors", ArrayData::I32(count)));
-        arrays.push(grid("attractor", ArrayData::I32(a.most_likely.clone())));
-        arrays.push(grid("failed_fraction", ArrayData::F64(a.failed.clone())));
+        arrays.push(grid(stem::ATTRACTORS, ArrayData::I32(count)));
+        arrays.push(grid(stem::ATTRACTOR, ArrayData::I32(a.most_likely.clone())));
+        arrays.push(grid(
+            stem::FAILED_FRACTION,
+            ArrayData::F64(a.failed.clone()),
+        ));
         // Arrays with one value per (label, cell): shape (labels, *grid).
         let per_label = |name: &str, data| MapArray {
             name: name.to_string(),
@@ -118,12 +165,12 @@ pub fn map_arrays(spec: &MapSpec, run: &MapRun) -> Vec<MapArray> {
         };
         if a.starts > 1 {
             let start = a.representative.iter().map(|&s| s as i32).collect();
-            arrays.push(grid("start", ArrayData::I32(start)));
+            arrays.push(grid(stem::START, ArrayData::I32(start)));
             let firsts = ArrayData::I32(a.first_starts().concat());
-            arrays.push(per_label("attractor_start", firsts));
+            arrays.push(per_label(stem::ATTRACTOR_START, firsts));
         }
         arrays.push(per_label(
-            "basin_fraction",
+            stem::BASIN_FRACTION,
             ArrayData::F64(a.fractions.concat()),
         ));
     }
@@ -158,14 +205,14 @@ fn continuation_arrays(spec: &MapSpec, c: &ContinuationRun) -> Vec<MapArray> {
         }
         if spec.wants(Metric::Regime) {
             let codes = ArrayData::I8(rs.iter().map(|r| r.regime.code()).collect());
-            arrays.push(grid(format!("regime_{suffix}"), codes));
+            arrays.push(grid(format!("{}_{suffix}", stem::REGIME), codes));
         }
         let status = ArrayData::U8(rs.iter().map(|r| r.status.code()).collect());
-        arrays.push(grid(format!("status_{suffix}"), status));
+        arrays.push(grid(format!("{}_{suffix}", stem::STATUS), status));
     }
     if let Some(h) = &c.hysteresis {
         let flags = ArrayData::U8(h.differs.iter().map(|&d| u8::from(d)).collect());
-        arrays.push(grid("hysteresis".into(), flags));
+        arrays.push(grid(stem::HYSTERESIS.into(), flags));
     }
     arrays
 }

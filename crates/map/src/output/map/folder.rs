@@ -3,7 +3,9 @@
 //! and `map.json` last.
 
 use super::ArrayData;
-use super::{COLUMNS, MapSpec, Metric, Regime, Status, map_arrays, map_manifest};
+use super::{
+    ATTRACTORS_JSON, COLUMNS, MapSpec, Metric, Regime, Status, map_arrays, map_manifest, stem,
+};
 use crate::map::MapRun;
 use crate::output::OutputError;
 use crate::output::files::{AtomicFile, create_dir, draw, write_json, write_toml};
@@ -40,11 +42,18 @@ pub fn write_map(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf
             palette: Palette::Sequential(Some((0.0, 1.0))),
         };
         let value = |k: usize| f64::from(u8::from(h.differs[k]));
-        written.extend(draw_values(dir, spec, run, "hysteresis", &style, &value)?);
+        written.extend(draw_values(
+            dir,
+            spec,
+            run,
+            stem::HYSTERESIS,
+            &style,
+            &value,
+        )?);
     }
     if let Some(a) = &run.attractors {
         written.push(write_json(
-            &dir.join("attractors.json"),
+            &dir.join(ATTRACTORS_JSON),
             &json!({ "starts": spec.starts(), "attractors": a }),
         )?);
         written.extend(draw_attractors(dir, spec, run, a)?);
@@ -357,7 +366,7 @@ fn draw_attractors(
             label: format!("distinct attractors among {} starts", a.starts),
             palette: Palette::Sequential(None),
         };
-        out = draw_values(dir, spec, run, "attractors", &count, &|k| {
+        out = draw_values(dir, spec, run, stem::ATTRACTORS, &count, &|k| {
             f64::from(a.count[k])
         })?;
     }
@@ -368,7 +377,14 @@ fn draw_attractors(
     };
     let labels = attractor_style(what, &a.families);
     let shown = |k: usize| shown_label(a.most_likely[k]);
-    out.extend(draw_values(dir, spec, run, "attractor", &labels, &shown)?);
+    out.extend(draw_values(
+        dir,
+        spec,
+        run,
+        stem::ATTRACTOR,
+        &labels,
+        &shown,
+    )?);
     Ok(out)
 }
 
