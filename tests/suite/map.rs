@@ -852,3 +852,49 @@ fn a_killed_maps_files_and_temporary_files_are_found_by_their_names() {
     assert!(now.iter().all(|n| !n.contains(".tmp-")), "{now:?}");
     assert!(now.contains(&"notes.txt".to_string()) && now.contains(&"rig_photo.png".to_string()));
 }
+
+/// An output the map cannot write (`R.npy` a folder) is refused before any work, naming it.
+#[test]
+fn an_output_that_is_a_folder_is_refused_before_the_run() {
+    let out = out_dir("blocked-output");
+    std::fs::create_dir_all(out.join("R.npy")).unwrap();
+    let o = bin()
+        .args(["map", "--backend", "cpu", "--quiet", "--out"])
+        .arg(&out)
+        .args(TINY)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("R.npy") && err.contains("is a folder"),
+        "{err}"
+    );
+    assert!(!out.join("map.json").exists() && !out.join("K.npy").exists());
+}
+
+/// A lock file replaced by a symlink to a FIFO is refused at once: never followed, never
+/// waited on.
+#[cfg(unix)]
+#[test]
+fn a_lock_file_that_is_a_symlink_to_a_fifo_is_refused_without_hanging() {
+    let out = out_dir("fifo-lock");
+    std::fs::create_dir_all(&out).unwrap();
+    let fifo = out.with_extension("fifo");
+    let _ = std::fs::remove_file(&fifo);
+    let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    std::os::unix::fs::symlink(&fifo, out.join(".pendulum-atlas.lock")).unwrap();
+    let o = Command::new("timeout")
+        .arg("60")
+        .arg(env!("CARGO_BIN_EXE_pendulum-atlas"))
+        .args(["map", "--backend", "cpu", "--quiet", "--out"])
+        .arg(&out)
+        .args(TINY)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("lock file is not a regular file"), "{err}");
+    let _ = std::fs::remove_file(&fifo);
+}

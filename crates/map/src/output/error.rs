@@ -48,6 +48,19 @@ pub enum OutputError {
     /// The output folder is a file.
     #[error("--out `{0}` is a file; give a folder (it is created if needed)")]
     NotAFolder(String),
+    /// Something that is not a regular file stands where the command writes one (`R.npy` a
+    /// folder): refused before any work, not after it.
+    #[error(
+        "`{path}` is {what}, where `{command}` writes a file: remove or rename it, or choose another --out"
+    )]
+    Blocked {
+        /// The entry.
+        path: String,
+        /// What it is ("a folder", "a symlink", ...).
+        what: &'static str,
+        /// The command asked to write there.
+        command: &'static str,
+    },
     /// The output folder holds files of an earlier run of the same command.
     #[error(
         "--out `{dir}` already holds {count} file(s) of an earlier `{command}` run ({examples}): choose a new folder, or pass --force to delete those files first"

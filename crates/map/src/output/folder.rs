@@ -216,6 +216,7 @@ impl Product {
                 command: self.command(),
             });
         }
+        self.refuse_blocked(dir)?;
         let ours = self.earlier_run(dir)?;
         if ours.is_empty() {
             return Ok(0);
@@ -232,6 +233,34 @@ impl Product {
             std::fs::remove_file(p).map_err(|e| OutputError::io(p, e))?;
         }
         Ok(ours.len())
+    }
+
+    /// Refuse an entry of `dir` that is not a regular file (a folder, a symlink, a FIFO) under
+    /// a name this product writes: the write would fail only after the whole run.
+    fn refuse_blocked(self, dir: &Path) -> Result<(), OutputError> {
+        let entries = std::fs::read_dir(dir).map_err(|e| OutputError::io(dir, e))?;
+        for entry in entries.filter_map(Result::ok) {
+            let name = entry.file_name().to_string_lossy().into_owned();
+            let Ok(kind) = entry.file_type() else {
+                continue;
+            };
+            if kind.is_file() || name == LOCK_FILE || !self.writes(&name) {
+                continue;
+            }
+            let what = if kind.is_dir() {
+                "a folder"
+            } else if kind.is_symlink() {
+                "a symlink"
+            } else {
+                "not a regular file"
+            };
+            return Err(OutputError::Blocked {
+                path: entry.path().display().to_string(),
+                what,
+                command: self.command(),
+            });
+        }
+        Ok(())
     }
 
     /// The files of an earlier run in `dir`, sorted by name. Where its manifest lists its
@@ -358,14 +387,37 @@ pub const LOCK_FILE: &str = ".pendulum-atlas.lock";
 
 impl FolderLock {
     /// Lock `dir` (which exists) for a run of `command`; refused while another run holds it.
+    /// The lock file is opened without following a symlink and without blocking, and must be
+    /// a regular file: a symlink or a FIFO planted in its place is refused, not followed or
+    /// waited on.
     pub fn take(dir: &Path, command: &'static str) -> Result<FolderLock, OutputError> {
         let path = dir.join(LOCK_FILE);
-        let file = std::fs::OpenOptions::new()
-            .create(true)
-            .truncate(false)
-            .write(true)
-            .open(&path)
-            .map_err(|e| OutputError::io(&path, e))?;
+        let mut options = std::fs::OpenOptions::new();
+        options.create(true).truncate(false).write(true);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::OpenOptionsExt;
+            options.custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK);
+        }
+        let not_a_file = || {
+            OutputError::io(
+                &path,
+                std::io::Error::other(
+                    "the lock file is not a regular file (a symlink, a FIFO or a folder): remove it",
+                ),
+            )
+        };
+        let file = options.open(&path).map_err(|e| {
+            // O_NOFOLLOW on a symlink fails with ELOOP.
+            if path.symlink_metadata().is_ok_and(|m| !m.is_file()) {
+                not_a_file()
+            } else {
+                OutputError::io(&path, e)
+            }
+        })?;
+        if !file.metadata().is_ok_and(|m| m.is_file()) {
+            return Err(not_a_file());
+        }
         match file.try_lock() {
             Ok(()) => Ok(FolderLock { _file: file }),
             Err(std::fs::TryLockError::WouldBlock) => Err(OutputError::Busy {
