@@ -1179,3 +1179,48 @@ fn a_reference_run_says_it_ran_dop853_and_why() {
         "{reason}"
     );
 }
+
+/// The automatic step resolves the forcing as a given step must: a 2000 Hz forcing gets at
+/// least 16 steps per period (with a warning that says so), so the cart moves.
+#[test]
+fn the_automatic_step_resolves_a_fast_forcing() {
+    let out = out_dir("fast-forcing");
+    let o = small_simulate(
+        &out,
+        &[
+            "--set",
+            "excitation.frequency_hz=2000",
+            "--set",
+            "excitation.amplitude_m=1e-7",
+            "--set",
+            "output.sample_rate_hz=8000",
+            "--set",
+            "integration.duration_s=0.05",
+            "--set",
+            "integration.transient_s=0",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let run: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("run.json")).unwrap()).unwrap();
+    let dt = run["dt_s"].as_f64().unwrap();
+    assert!(dt * 2000.0 <= 1.0 / 16.0 + 1e-12, "dt = {dt}");
+    let warned = run["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|w| w.as_str().unwrap().contains("automatic step is shortened"));
+    assert!(warned, "{:?}", run["warnings"]);
+    let csv = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+    let x0: Vec<f64> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect();
+    let span =
+        x0.iter().cloned().fold(f64::MIN, f64::max) - x0.iter().cloned().fold(f64::MAX, f64::min);
+    assert!(
+        span > 1.5e-7,
+        "the cart moves through its stroke: span {span}"
+    );
+}

@@ -55,7 +55,17 @@ impl StepPlan {
         let mut warnings = Vec::new();
         let (dt_s, sample_every, dt_source) = match scene.integration.dt_s {
             TimeStep::Auto => {
-                let dt0 = steps.auto_s(chosen.method).min(out_dt);
+                let f_max = scene.excitation.kind.max_frequency_hz();
+                let dt_forcing = 1.0 / (AUTO_STEPS_PER_FORCING_PERIOD * f_max);
+                let dt_model = steps.auto_s(chosen.method);
+                if dt_forcing < dt_model.min(out_dt) {
+                    warnings.push(format!(
+                        "the automatic step is shortened to {dt_forcing:e} s (from {:e} s) to take {AUTO_STEPS_PER_FORCING_PERIOD} steps per period of the {} Hz forcing",
+                        dt_model.min(out_dt),
+                        crate::text::num(f_max)
+                    ));
+                }
+                let dt0 = dt_model.min(out_dt).min(dt_forcing);
                 let per_row = (out_dt / dt0 - 1e-9).ceil().max(1.0);
                 (out_dt / per_row, per_row as u64, DtSource::Auto)
             }
@@ -96,6 +106,11 @@ impl StepPlan {
         (self.steps / self.sample_every) as usize + 1
     }
 }
+
+/// Fewest steps per period of the fastest forcing an automatic step takes: below two the
+/// cart's motion aliases (a given step that coarse is refused, `integration.dt_s`), and 16 is
+/// what a map takes at least (`map.samples_per_period`'s default).
+pub const AUTO_STEPS_PER_FORCING_PERIOD: f64 = 16.0;
 
 /// The warning for a given step beyond what `method` handles: RK4's stable limit, or the IMEX
 /// method's automatic step at safety 1 (its explicit stability and accuracy bound).
