@@ -273,6 +273,35 @@ fn merge_refuses_shard_rows_no_engine_could_have_written() {
         assert!(e.lines().count() <= 3, "{e}");
         assert_eq!(width, shape[1]);
     }
+    // Rows that pass every range but break the rule that ties them to their map and to their
+    // own numbers: a chaotic row (λ1 > 0, no period; every cell of this map is one) is edited.
+    let row = (0..shape[0])
+        .find(|&i| clean[i * width + col("regime")] == 3.0)
+        .expect("a chaotic row");
+    let at = |name: &str| row * width + col(name);
+    let rule_cases: [(&[(&str, f64)], &str); 7] = [
+        (&[("K", 1e308)], "K = 1e308 is outside"),
+        (&[("hops", 2.5)], "hops = 2.5"),
+        (&[("period", 40.0)], "above map.period_max = 8"),
+        (&[("lyapunov_per_s", 1e300)], "lambda1 = 1e300"),
+        (&[("period", 2.0)], "regime `chaotic` with period 2"),
+        (
+            &[("K", 1.0), ("regime", 2.0)],
+            "regime `regular`, but its own lambda1, period and K give `chaotic`",
+        ),
+        (&[("regime_confidence", f64::NAN)], "regime confidence NaN"),
+    ];
+    for (edits, says) in rule_cases {
+        let mut rows = clean.clone();
+        for (name, value) in edits {
+            rows[at(name)] = *value;
+        }
+        write_npy_f64(&path, &shape, &rows).unwrap();
+        let o = merge(&[&a, &b], &root.join("merged"));
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{edits:?}: {e}");
+        assert!(e.contains(says), "{edits:?}: {e}");
+    }
     write_npy_f64(&path, &shape, &clean).unwrap();
     ok(&merge(&[&a, &b], &root.join("merged")));
 }

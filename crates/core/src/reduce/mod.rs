@@ -30,9 +30,28 @@ pub use regime::{Evidence, Regime, Verdict, verdict};
 pub use series::{Series, k_of, line_of, period_of, r_of, reduce_series};
 pub use tally::{Span, Tally};
 
+/// The natural log of the span of positive f64 values (`ln(f64::MAX / f64::MIN_POSITIVE)`): no
+/// twin measures a growth per renormalisation beyond it.
+pub const LN_F64_RANGE: f64 = 1418.2;
+
+/// What a result read back is held to besides its own ranges ([`InstanceResult::check_rule`]).
+#[derive(Debug, Clone, Copy)]
+pub struct RowRule {
+    /// `map.period_max`.
+    pub period_max: u32,
+    /// The instance's forcing period (s).
+    pub period_s: f64,
+    /// The stroboscopic samples its K comes from.
+    pub k_samples: u32,
+    /// The verdict was formed in f64 from the stored numbers (the CPU engine; the GPU forms
+    /// it in f32 in the shader).
+    pub exact_verdict: bool,
+}
+
 use crate::analysis::{K01Method, PhaseConvention, ZeroOneOptions};
 use crate::config::{MapSpec, Metric};
 use crate::model::Status;
+use crate::text::num;
 use serde::Serialize;
 
 /// The numbers a map shows for one grid point. Metrics not requested, and every metric of an
@@ -124,7 +143,7 @@ impl InstanceResult {
         ];
         if !self.status.is_ok() {
             if let Some((name, v)) = fields.iter().find(|(_, v)| !v.is_nan()) {
-                return Err(format!("status `{}` but {name} = {v}", self.status));
+                return Err(format!("status `{}` but {name} = {}", self.status, num(*v)));
             }
             if self.regime != Regime::Failed {
                 return Err(format!(
@@ -141,18 +160,96 @@ impl InstanceResult {
         for m in metrics {
             let v = self.metric(*m);
             if !v.is_finite() {
-                return Err(format!("status `ok` but {} = {v}", m.name()));
+                return Err(format!("status `ok` but {} = {}", m.name(), num(v)));
             }
         }
         for (name, v) in fields.iter().filter(|(_, v)| !v.is_nan()) {
             if !value_in_range(name, *v) {
-                return Err(format!("{name} = {v} is outside its range"));
+                return Err(format!("{name} = {} is outside its range", num(*v)));
             }
         }
         if self.alpha_min_rad > self.alpha_max_rad {
             return Err(format!(
                 "alpha_min_rad = {} above alpha_max_rad = {}",
-                self.alpha_min_rad, self.alpha_max_rad
+                num(self.alpha_min_rad),
+                num(self.alpha_max_rad)
+            ));
+        }
+        Ok(())
+    }
+
+    /// [`InstanceResult::check`], and the rules that tie a result to its map and its own
+    /// numbers (what a shard row read back must obey): a period at most `period_max`; λ1
+    /// within what a twin in f64 can measure (|λ1|·T at most [`LN_F64_RANGE`] per forcing
+    /// period); a verdict whose shape fits the period (periodic cells have one, regular and
+    /// chaotic cells none); a confidence that is the one its regime and λ1 give; and, where
+    /// the verdict was formed in f64 from these very numbers (`rule.exact_verdict`: the CPU
+    /// engine), the regime they give.
+    pub fn check_rule(
+        &self,
+        metrics: &[crate::config::Metric],
+        rule: &RowRule,
+    ) -> Result<(), String> {
+        self.check(metrics)?;
+        if !self.status.is_ok() {
+            return Ok(());
+        }
+        if self.period > f64::from(rule.period_max) {
+            return Err(format!(
+                "period = {} is above map.period_max = {}",
+                num(self.period),
+                rule.period_max
+            ));
+        }
+        if (self.lyapunov_per_s * rule.period_s).abs() > LN_F64_RANGE {
+            return Err(format!(
+                "lambda1 = {} 1/s is beyond what a twin in f64 can measure ({} per forcing period at most)",
+                num(self.lyapunov_per_s),
+                num(LN_F64_RANGE)
+            ));
+        }
+        if metrics.contains(&crate::config::Metric::Regime) {
+            self.check_verdict(rule)?;
+        }
+        Ok(())
+    }
+
+    /// The verdict's part of [`InstanceResult::check_rule`].
+    fn check_verdict(&self, rule: &RowRule) -> Result<(), String> {
+        let name = self.regime.name();
+        let fits = match self.regime {
+            Regime::Periodic => self.period > 0.0,
+            Regime::Chaotic | Regime::Regular => self.period == 0.0,
+            Regime::Undecided | Regime::Failed => true,
+        };
+        if !fits {
+            return Err(format!("regime `{name}` with period {}", num(self.period)));
+        }
+        let e = self.evidence(rule.period_s, rule.k_samples);
+        if rule.exact_verdict {
+            // Whether K's samples count as firm only moves a cell between a class and
+            // `undecided`: a regime both readings agree on is the verdict.
+            let (firm, loose) = (
+                regime::regime_of(&Evidence {
+                    k_samples: u32::MAX,
+                    ..e
+                }),
+                regime::regime_of(&Evidence { k_samples: 0, ..e }),
+            );
+            if firm == loose && firm != self.regime {
+                return Err(format!(
+                    "regime `{name}`, but its own lambda1, period and K give `{}`",
+                    firm.name()
+                ));
+            }
+        }
+        let c = regime::confidence(self.regime, &e);
+        let same = c == self.regime_confidence || (c.is_nan() && self.regime_confidence.is_nan());
+        if !same {
+            return Err(format!(
+                "regime confidence {} for `{name}`, but its own lambda1 gives {}",
+                num(self.regime_confidence),
+                num(c)
             ));
         }
         Ok(())
@@ -204,9 +301,8 @@ fn value_in_range(name: &str, v: f64) -> bool {
         "K" => (-1.0..=1.0).contains(&v),
         "R" | "regime_confidence" => (0.0..=1.0).contains(&v),
         "period" => v >= 0.0 && whole && v.is_finite(),
-        "hops" | "impacts_per_s" | "power_w" | "line_ratio" | "lyapunov_se" => {
-            v >= 0.0 && v.is_finite()
-        }
+        "hops" => v >= 0.0 && whole && v.is_finite(),
+        "impacts_per_s" | "power_w" | "line_ratio" | "lyapunov_se" => v >= 0.0 && v.is_finite(),
         "alpha_min_rad" | "alpha_max_rad" => v.abs() <= std::f64::consts::PI,
         _ => v.is_finite(),
     }

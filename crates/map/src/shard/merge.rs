@@ -5,7 +5,8 @@ use super::files::{ShardData, ShardReadError, read_shard};
 use crate::map::shard::map_hash;
 use crate::map::{MapPart, MapRun, assemble};
 use pendulum_atlas_core::config::{ConfigError, MapSpec, map_from_toml};
-use pendulum_atlas_core::engine::{EngineError, EnsemblePlan};
+use pendulum_atlas_core::engine::{EngineError, EngineKind, EnsemblePlan};
+use pendulum_atlas_core::reduce::RowRule;
 use std::path::PathBuf;
 
 /// Why shards do not make one map.
@@ -126,17 +127,18 @@ pub fn merge_shards(dirs: &[PathBuf]) -> Result<Merged, MergeError> {
     if map_hash(&spec) != first.manifest.map_hash {
         return Err(MergeError::SceneChanged(first.dir.display().to_string()));
     }
-    for s in &shards {
-        check_rows(s, &spec)?;
-    }
     let plan = EnsemblePlan::new(&spec)?;
+    for s in &shards {
+        check_rows(s, &spec, &plan)?;
+    }
     let run = assemble(plan, shards.iter().map(part).collect());
     Ok(Merged { spec, run })
 }
 
-/// Every row of shard `s` obeys the rules of the engines' own results
-/// ([`pendulum_atlas_core::reduce::InstanceResult::check`]) and names an instance of the grid.
-fn check_rows(s: &ShardData, spec: &MapSpec) -> Result<(), MergeError> {
+/// Every row of shard `s` names an instance of the grid and obeys the rules of the engines'
+/// own results, its verdict re-derived from its own numbers
+/// ([`pendulum_atlas_core::reduce::InstanceResult::check_rule`]).
+fn check_rows(s: &ShardData, spec: &MapSpec, plan: &EnsemblePlan) -> Result<(), MergeError> {
     let bad = |instance: usize, reason: String| MergeError::BadRow {
         dir: s.dir.display().to_string(),
         instance,
@@ -149,7 +151,15 @@ fn check_rows(s: &ShardData, spec: &MapSpec) -> Result<(), MergeError> {
                 format!("the grid has {} instances", spec.instances()),
             ));
         }
-        r.check(&spec.metrics).map_err(|reason| bad(k, reason))?;
+        let p = &plan.instances[k];
+        let rule = RowRule {
+            period_max: spec.period_max,
+            period_s: 1.0 / p.frequency_hz,
+            k_samples: p.strobe_count,
+            exact_verdict: s.manifest.engine.kind == EngineKind::Cpu,
+        };
+        r.check_rule(&spec.metrics, &rule)
+            .map_err(|reason| bad(k, reason))?;
     }
     Ok(())
 }
