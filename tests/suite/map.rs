@@ -250,13 +250,26 @@ fn lambda1_settings_that_cannot_work_are_refused_before_any_work() {
     assert!(
         e.contains("lambda1")
             && e.contains("map.lyapunov_window_s = 30")
-            && e.contains("lengthen integration.duration_s by"),
+            && e.contains("lengthen integration.duration_s by")
+            && e.contains("ask for a window of at most"),
         "{e}"
     );
     let e = map_error(&["map.lyapunov_align_periods=90"]);
     assert!(e.contains("lambda1") && e.contains("90 to align"), "{e}");
     let e = map_error(&["map.lyapunov_window_s=2"]);
     assert!(e.contains("at least 16 renormalisations"), "{e}");
+    assert!(e.contains("ask for a window of at least 16 periods"), "{e}");
+    for sets in [
+        &["map.lyapunov_window_s=30"][..],
+        &["map.lyapunov_window_s=2"],
+        &["map.lyapunov_align_periods=90"],
+    ] {
+        let e = map_error(sets);
+        assert!(
+            !e.contains("by 0.00 s") && !e.contains("by 0.0 s") && !e.contains("16 to 16"),
+            "a refusal proposes a change that changes nothing: {e}"
+        );
+    }
     let e = map_error(&["map.lyapunov_perturbation=0.5"]);
     assert!(
         e.contains("map.lyapunov_perturbation") && e.contains("0.001"),

@@ -604,6 +604,48 @@ fn plan_instance(
     })
 }
 
+/// Why λ1's window of `window` forcing periods does not fit a run with `room` periods left
+/// after the transient and the alignment, and the change that makes it fit: a longer run
+/// when even the shortest window does not fit, a window within the room when the asked one
+/// is too long, a longer window when it is below [`LYAPUNOV_MIN_WINDOW`].
+fn window_refusal(
+    s: &LyapunovSettings,
+    window: u32,
+    room: u32,
+    strobe_count: u32,
+    f: f64,
+) -> String {
+    let align = s.align_periods;
+    let asked = match s.window_s {
+        Some(w) => format!("map.lyapunov_window_s = {w} s gives {window} forcing periods"),
+        None => format!("{room} forcing periods are left for its window"),
+    };
+    let lengthen = |periods: u32| {
+        let need = periods + align + 1;
+        format!(
+            "lengthen integration.duration_s by {:.2} s (or shorten the transient)",
+            f64::from(need.saturating_sub(strobe_count)) / f
+        )
+    };
+    let fix = if room < LYAPUNOV_MIN_WINDOW {
+        lengthen(window.max(LYAPUNOV_MIN_WINDOW))
+    } else if window > room {
+        format!(
+            "ask for a window of at most {room} periods ({:.2} s), or {}",
+            f64::from(room) / f,
+            lengthen(window)
+        )
+    } else {
+        format!(
+            "ask for a window of at least {LYAPUNOV_MIN_WINDOW} periods ({:.2} s)",
+            f64::from(LYAPUNOV_MIN_WINDOW) / f
+        )
+    };
+    format!(
+        "lambda1 needs at least {LYAPUNOV_MIN_WINDOW} renormalisations (forcing periods) in its window after {align} to align (map.lyapunov_align_periods): {asked}, and the run has {strobe_count} stroboscopic samples after the transient; {fix}"
+    )
+}
+
 /// The twin of λ1 of an instance with `strobe_count` stroboscopic samples after the transient:
 /// it ends at the last one, after `align` renormalisations and a window of `window_s` (or of
 /// every remaining forcing period); refused, with the duration to add, when the run is too
@@ -617,16 +659,7 @@ fn twin_plan(s: &LyapunovSettings, scene: &Scene, strobe_count: u32) -> Result<T
         None => room,
     };
     if window < LYAPUNOV_MIN_WINDOW || window > room {
-        let need = window.max(LYAPUNOV_MIN_WINDOW) + align + 1;
-        let more_s = f64::from(need.saturating_sub(strobe_count)) / f;
-        let asked = match s.window_s {
-            Some(w) => format!("map.lyapunov_window_s = {w} s gives {window} forcing periods"),
-            None => format!("{room} forcing periods are left for its window"),
-        };
-        return Err(format!(
-            "lambda1 needs at least {LYAPUNOV_MIN_WINDOW} renormalisations (forcing periods) in its window after {align} to align (map.lyapunov_align_periods): {asked}, and the run has {strobe_count} stroboscopic samples after the transient; lengthen integration.duration_s by {more_s:.1} s, shorten the transient, or ask for a window of {LYAPUNOV_MIN_WINDOW} to {} periods",
-            room.max(LYAPUNOV_MIN_WINDOW)
-        ));
+        return Err(window_refusal(s, window, room, strobe_count, f));
     }
     let omega = std::f64::consts::TAU * f;
     let volt_weight = match &scene.piezo {
