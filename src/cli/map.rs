@@ -79,7 +79,7 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
     {
         eprintln!("{}", choice.reason);
         let sets = [a.sets.clone(), choice.sets].concat();
-        spec = read_map(None, &sets)?.1;
+        spec = pendulum_atlas_core::config::load_map(None, &sets)?;
     }
     let product = if a.shard.is_some() {
         Product::Shard
@@ -191,6 +191,9 @@ pub(super) fn read_map(
 ) -> anyhow::Result<(String, MapSpec)> {
     let (text, origin) = scene_text(scene, DEFAULT_MAP_TOML, "configs/maps/default.toml")?;
     let spec = map_from_toml(&text, &origin, sets)?;
+    for note in &spec.notes {
+        eprintln!("warning: {note}");
+    }
     Ok((text, spec))
 }
 

@@ -911,3 +911,51 @@ fn a_lock_file_that_is_a_symlink_to_a_fifo_is_refused_without_hanging() {
     assert!(err.contains("lock file is not a regular file"), "{err}");
     let _ = std::fs::remove_file(&fifo);
 }
+
+/// A map key of a feature that is switched off is accepted and named, as a scene key of a
+/// part that is off is: on stderr and in `map.json`'s warnings.
+#[test]
+fn map_keys_of_a_switched_off_feature_are_named_as_unused() {
+    let out = out_dir("unused-map-keys");
+    let o = bin()
+        .args(["map", "--backend", "cpu", "--quiet", "--out"])
+        .arg(&out)
+        .args(TINY)
+        .args([
+            "--set",
+            "map.metrics=[\"K\",\"period\"]",
+            "--set",
+            "map.refine_spacing=4",
+            "--set",
+            "map.lyapunov_window_s=5",
+            "--set",
+            "map.initial_seed=3",
+            "--set",
+            "map.early_stop=false",
+            "--set",
+            "map.early_stop_tol=1e-3",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("map.json")).unwrap()).unwrap();
+    let warnings = manifest["warnings"].to_string();
+    for (key, why) in [
+        ("map.refine_spacing", "map.refine is not true"),
+        ("map.lyapunov_window_s", "lambda1 is not among map.metrics"),
+        (
+            "map.initial_seed",
+            "map.initial_states does not draw starts",
+        ),
+        ("map.early_stop_tol", "map.early_stop = false"),
+    ] {
+        let said = format!("{key} is set but not used: {why}");
+        assert!(err.contains(&said), "stderr lacks `{said}`: {err}");
+        assert!(
+            warnings.contains(&said),
+            "map.json lacks `{said}`: {warnings}"
+        );
+    }
+}

@@ -162,6 +162,9 @@ pub struct MapSpec {
     /// How the cells run: plain, several starts (attractors, basins), continuation or
     /// refinement, one of them.
     pub mode: MapMode,
+    /// Keys set but not used (the base scene's and the map's own), for the user.
+    #[serde(skip)]
+    pub notes: Vec<String>,
 }
 
 /// What refinement compares between neighbouring cells.
@@ -654,6 +657,9 @@ fn read_map(
     } else {
         metrics
     };
+    note_switched_off(&mut r, &mode, &metrics, early_stop)?;
+    let mut notes = scene.notes.clone();
+    notes.extend(r.take_notes());
     r.finish()?;
 
     let spec = MapSpec {
@@ -677,10 +683,70 @@ fn read_map(
         early_stop_tol,
         lyapunov,
         mode,
+        notes,
     };
     // Every axis key must be a scene key that takes this kind of value: check the first point.
     spec.instance_scene(0)?;
     Ok(spec)
+}
+
+/// The map's keys of a feature that is switched off are accepted, and each one set is named in
+/// a note, as the scene's are ([`super::scene::note_unused`]).
+fn note_switched_off(
+    r: &mut Reader,
+    mode: &MapMode,
+    metrics: &[Metric],
+    early_stop: bool,
+) -> Result<(), ConfigError> {
+    use super::scene::note_unused;
+    if !matches!(mode, MapMode::Refined(_)) {
+        note_unused(
+            r,
+            &[
+                "map.refine_spacing",
+                "map.refine_follow",
+                "map.refine_threshold",
+                "map.refine_audit",
+                "map.refine_audit_min",
+                "map.refine_seed",
+            ],
+            "map.refine is not true",
+        )?;
+    }
+    if !matches!(
+        mode,
+        MapMode::Attractors {
+            starts: Some(_),
+            ..
+        }
+    ) {
+        note_unused(
+            r,
+            &[
+                "map.initial_angle_min_deg",
+                "map.initial_angle_max_deg",
+                "map.initial_rate_min_deg_s",
+                "map.initial_rate_max_deg_s",
+                "map.initial_seed",
+            ],
+            "map.initial_states does not draw starts",
+        )?;
+    }
+    if !metrics.contains(&Metric::Lyapunov) {
+        note_unused(
+            r,
+            &[
+                "map.lyapunov_window_s",
+                "map.lyapunov_align_periods",
+                "map.lyapunov_perturbation",
+            ],
+            "lambda1 is not among map.metrics",
+        )?;
+    }
+    if !early_stop {
+        note_unused(r, &["map.early_stop_tol"], "map.early_stop = false")?;
+    }
+    Ok(())
 }
 
 /// `map.refine` and its keys: refused before any work when there is nothing to follow, the

@@ -495,7 +495,7 @@ fn read_beam_damping(r: &mut Reader, library_beta_s: f64) -> Result<BeamDamping,
 /// The one rule for keys of a part that is switched off (the limiter, the piezo, a sweep under
 /// a harmonic forcing): they are accepted, and each one the scene sets is named in a note
 /// (printed as a warning) saying it is not used.
-fn note_unused(r: &mut Reader, keys: &[&str], why: &str) -> Result<(), ConfigError> {
+pub(super) fn note_unused(r: &mut Reader, keys: &[&str], why: &str) -> Result<(), ConfigError> {
     for k in keys {
         if r.given(k)? {
             r.note(format!("{k} is set but not used: {why}"));

@@ -303,7 +303,12 @@ pub fn map_manifest(spec: &MapSpec, run: &MapRun, files: &[String]) -> MapManife
             .continuation
             .as_ref()
             .map_or(Value::Null, |c| continuation_json(spec, c)),
-        warnings: run.plan.warnings.clone(),
+        warnings: spec
+            .notes
+            .iter()
+            .chain(&run.plan.warnings)
+            .cloned()
+            .collect(),
         shards: json!(run.shards),
         scene: json!(spec.scene),
         files: files.to_vec(),
