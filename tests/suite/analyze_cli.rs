@@ -404,6 +404,19 @@ fn wavelet_settings_are_options_and_written_out() {
         let e = failure(&analyze(&data, &[&A[..], &[flag, value]].concat(), &d));
         assert!(e.contains(flag) && e.contains(range), "{flag} {value}: {e}");
     }
+    // A huge omega0 needs scales longer than the record: the message says so, instead of an
+    // empty range for s0 ("[1591.5, 20]").
+    let e = failure(&analyze(
+        &data,
+        &[&A[..], &["--wavelet-omega0", "1e6", "--force"]].concat(),
+        &d,
+    ));
+    assert!(
+        e.contains("omega0 = 1000000")
+            && e.contains("lower omega0")
+            && !e.contains("must lie in ["),
+        "{e}"
+    );
 }
 
 #[test]

@@ -614,6 +614,12 @@ fn scale_ladder(n: usize, dt_s: f64, options: &WaveletOptions) -> Result<Vec<f64
     let s0_min = 2.0 * dt_s / lambda;
     let s0 = options.s0.unwrap_or(s0_min);
     let span = n as f64 * dt_s;
+    if s0_min > span {
+        let MotherWavelet::Morlet { omega0 } = options.mother;
+        return Err(AnalysisError::InvalidArgument(format!(
+            "the Morlet wavelet with omega0 = {omega0} resolves two steps of {dt_s} s only at              scales of {s0_min} s and longer, beyond the {span} s record: lower omega0 (its              default is 6) or analyse a longer record"
+        )));
+    }
     if !(s0.is_finite() && s0 >= s0_min * (1.0 - 1e-12) && s0 <= span) {
         return Err(AnalysisError::InvalidArgument(format!(
             "the smallest wavelet scale s0 must lie in [{s0_min}, {span}] s (a Fourier period \
