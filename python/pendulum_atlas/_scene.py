@@ -85,13 +85,18 @@ class Scene:
     def cell(self, **coords: float) -> "Scene":
         """One cell of a map scene as a plain scene: the map's base scene with each axis key
         set to the given value, e.g. ``scene.cell(frequency_hz=8.0, amplitude_m=0.02)``
-        (an axis by its full key works too: ``**{"excitation.frequency_hz": 8.0}``)."""
+        (an axis by its full key works too: ``**{"excitation.frequency_hz": 8.0}``).
+
+        The integration method, the step and the row rate the map took for that cell are
+        pinned (``integration.method``, ``integration.dt_s``, ``output.sample_rate_hz``), as
+        the explorer pins them, so that :func:`pendulum_atlas.simulate` runs what the map ran."""
         if not self.is_map:
             raise ValueError("cell() takes a map scene (one with a [map] section)")
         single = Scene(self._base, f"{self._origin} (a cell of the map)")
         for name, value in coords.items():
             single.set(_full_key(name, self._resolved), value)
-        return single
+        pins = _native.cell_pins(self._text, self._origin, list(self._sets), list(single._sets))
+        return single.update(pins)
 
     # -- what it is ---------------------------------------------------------------------
     @property

@@ -11,12 +11,15 @@ use convert::serialised;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pendulum_atlas_core::analysis::{RecordOptions, Sampling, analyze_record};
 use pendulum_atlas_core::config::{
-    ConfigError, DEFAULT_MAP_TOML, MapSpec, PAPER_SCENE_TOML, Scene, apply_override, map_from_toml,
-    parse_toml,
+    ConfigError, DEFAULT_MAP_TOML, MapSpec, PAPER_SCENE_TOML, Scene, apply_override, lookup_key,
+    map_from_toml, parse_toml, set_key,
 };
-use pendulum_atlas_core::engine::{Backend, Engine, EngineError, Integrator, Precision, StepPlan};
+use pendulum_atlas_core::engine::{
+    Backend, Engine, EngineError, EnsembleOptions, EnsemblePlan, Integrator, Precision, StepPlan,
+};
 use pendulum_atlas_core::model::Status;
 use pendulum_atlas_map::machine::memory_available;
+use pendulum_atlas_map::map::cell::pinned_cell;
 use pendulum_atlas_map::map::run_map;
 use pendulum_atlas_map::output::budget::RunSize;
 use pendulum_atlas_map::output::manifest::{Manifest, MapManifest};
@@ -529,6 +532,49 @@ fn read_record<'py>(
     Ok(d)
 }
 
+/// The keys that pin one cell of a map to what the map ran: `{"integration.method",
+/// "integration.dt_s", "output.sample_rate_hz"}` for the map `text` (with `sets`) at the cell
+/// whose axis keys `cell_sets` set (`pendulum_atlas_map::map::cell`, as the explorer's).
+#[pyfunction]
+fn cell_pins<'py>(
+    py: Python<'py>,
+    text: &str,
+    origin: &str,
+    sets: Vec<String>,
+    cell_sets: Vec<String>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let spec = map_from_toml(text, origin, &sets).map_err(scene_error)?;
+    let mut table = spec.base_table.clone();
+    for s in &cell_sets {
+        apply_override(&mut table, s).map_err(scene_error)?;
+    }
+    let pinned = py
+        .detach(|| -> Result<toml::Table, EngineError> {
+            let method = EnsemblePlan::new(&spec)?.method;
+            set_key(
+                &mut table,
+                "integration.method",
+                toml::Value::String(method.name().into()),
+            )?;
+            pinned_cell(table, &EnsembleOptions::from_spec(&spec))
+        })
+        .map_err(engine_error)?;
+    let d = PyDict::new(py);
+    for key in [
+        "integration.method",
+        "integration.dt_s",
+        "output.sample_rate_hz",
+    ] {
+        let value = lookup_key(&pinned, key)
+            .ok_or_else(|| PyRuntimeError::new_err(format!("{key} was not pinned")))?;
+        d.set_item(
+            key,
+            convert::to_python(py, &serde_json::to_value(value).unwrap_or_default())?,
+        )?;
+    }
+    Ok(d)
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
@@ -544,5 +590,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(run_single_scene, m)?)?;
     m.add_function(wrap_pyfunction!(analyze_signal, m)?)?;
     m.add_function(wrap_pyfunction!(read_record, m)?)?;
+    m.add_function(wrap_pyfunction!(cell_pins, m)?)?;
     Ok(())
 }

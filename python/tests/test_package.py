@@ -401,3 +401,18 @@ def test_a_map_on_a_machine_without_a_session_prints_no_runtime_folder_error(sma
     done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert "XDG_RUNTIME_DIR" not in done.stderr, done.stderr
+
+
+def test_a_cell_of_a_map_runs_with_the_maps_method_and_step(small_map_file):
+    scene = pa.Scene.from_toml(small_map_file).set("beam.segments", 2)
+    ds = pa.map(scene, backend="cpu", progress=False)
+    manifest = json.loads(ds.attrs["map_json"])
+    f = float(ds["frequency_hz"][1])
+    a = float(ds["amplitude_m"][0])
+    cell = scene.cell(frequency_hz=f, amplitude_m=a)
+    run = json.loads(pa.simulate(cell).attrs["run_json"])
+    assert run["method"] == manifest["method"]
+    # The map's step: a whole number of steps per forcing period, a multiple of its 16 samples.
+    spp = 1.0 / (run["dt_s"] * f)
+    assert abs(spp - round(spp)) < 1e-6 and round(spp) % 16 == 0, spp
+    assert manifest["dt_s"]["min"] <= run["dt_s"] <= manifest["dt_s"]["max"]

@@ -11,9 +11,7 @@ use super::folder::{RunFolder, Source};
 use super::search_folder::split_variant;
 use pendulum_atlas_core::analysis::{RecordAnalysis, stroboscopic};
 use pendulum_atlas_core::config::{Scene, set_key};
-use pendulum_atlas_core::engine::{
-    EnsembleOptions, EnsemblePlan, Instance, Outcome, StepPlan, integrate,
-};
+use pendulum_atlas_core::engine::{EnsembleOptions, Instance, Outcome, StepPlan, integrate};
 use pendulum_atlas_core::model::Status;
 use pendulum_atlas_core::model::linear::LinearError;
 use pendulum_atlas_core::text::bytes;
@@ -96,22 +94,8 @@ pub fn cell_scene(folder: &RunFolder, k: usize, v: usize) -> Result<CellScene, E
             )
         }
     };
-    let scene = Scene::from_table(table.clone()).map_err(|e| fail(e.to_string()))?;
-    let plan = EnsemblePlan::from_scenes(std::slice::from_ref(&scene), &opts)
+    table = pendulum_atlas_map::map::cell::pinned_cell(table, &opts)
         .map_err(|e| fail(e.to_string()))?;
-    let p = &plan.instances[0];
-    // Rows at a whole number of steps, so the record's sample rate is exact.
-    let every = (f64::from(p.spp) * p.frequency_hz / scene.output.sample_rate_hz)
-        .round()
-        .max(1.0);
-    let rate = p.frequency_hz * f64::from(p.spp) / every;
-    set(
-        &mut table,
-        "integration.method",
-        Value::String(plan.method.name().into()),
-    )?;
-    set(&mut table, "integration.dt_s", Value::Float(p.dt_s))?;
-    set(&mut table, "output.sample_rate_hz", Value::Float(rate))?;
     let scene = Scene::from_table(table.clone()).map_err(|e| fail(e.to_string()))?;
     Ok(CellScene {
         scene,

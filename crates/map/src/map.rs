@@ -1,6 +1,7 @@
 //! A map from start to finish: plan the instances of a [`MapSpec`], run them on an opened
 //! [`Engine`], keep what the pictures need. [`crate::output::map`] writes the files.
 
+pub mod cell;
 pub mod continuation;
 pub mod hardware_default;
 pub mod refine;
