@@ -441,3 +441,33 @@ fn a_map_has_one_mode_read_from_its_keys() {
         assert_eq!(spec.mode.unshardable().is_none(), shardable, "{sets:?}");
     }
 }
+
+/// Starts lie within the bumpers of every cell: where an axis sweeps the clearance, they are
+/// held to its smallest value, not to the base scene's.
+#[test]
+fn starts_lie_within_the_bumpers_of_every_swept_cell() {
+    let axes = "map.axes=[{key=\"excitation.frequency_hz\",values=[7.0,8.0]},{key=\"limiter.clearance_deg\",values=[2.0,20.0]}]";
+    let err = |starts: &str| {
+        pendulum_atlas_core::config::load_map(None, &[axes.to_string(), starts.to_string()])
+            .expect_err("refused")
+            .to_string()
+    };
+    let e = err("map.initial_states=[{angle_deg=16.0,rate_deg_s=0.0}]");
+    assert!(
+        e.contains("map.initial_states[0].angle_deg") && e.contains("[-2, 2]"),
+        "{e}"
+    );
+    let e = err("map.initial_angle_max_deg=10");
+    assert!(e.contains("map.initial_angle_max_deg"), "{e}");
+    let spec = pendulum_atlas_core::config::load_map(
+        None,
+        &[axes.to_string(), "map.initial_states=6".to_string()],
+    )
+    .unwrap();
+    let starts = spec.starts().expect("starts");
+    assert!(
+        starts.states.iter().all(|s| s.angle_deg.abs() <= 2.0),
+        "{:?}",
+        starts.states
+    );
+}

@@ -638,13 +638,8 @@ fn read_map(
     let refine = read_refine(&mut r, &axes, &metrics, bifurcation)?;
     let cells = axes.iter().map(|a| a.values.len()).product();
     let axis_keys: Vec<&str> = axes.iter().map(|a| a.key.as_str()).collect();
-    let starts = super::starts::read_starts(
-        &mut r,
-        starts_value,
-        &scene,
-        (cells, MAX_INSTANCES),
-        &axis_keys,
-    )?;
+    let starts =
+        super::starts::read_starts(&mut r, starts_value, &scene, (cells, MAX_INSTANCES), &axes)?;
     let mode = MapMode::of(ModeKeys {
         starts,
         start_axis: axis_keys.iter().any(|k| START_KEYS.contains(k)),

@@ -11,6 +11,7 @@
 use super::error::ConfigError;
 use super::reader::{Range, Reader};
 use super::scene::Scene;
+use super::sweep::SweptKey;
 use crate::text::num;
 use rand::seq::SliceRandom;
 use rand::{RngExt, SeedableRng};
@@ -72,32 +73,34 @@ impl StartSet {
 }
 
 /// `map.initial_states` and its ranges, checked against the scene (starts within the bumpers'
-/// reach), the grid (at most `max_runs` runs in all, the map's instance limit) and the axes
-/// (no axis may set the start itself). `None` when the key is absent: one start per cell, the
-/// scene's own.
+/// reach in every cell: the smallest clearance where an axis sweeps it), the grid (at most
+/// `max_runs` runs in all, the map's instance limit) and the axes (no axis may set the start
+/// itself). `None` when the key is absent: one start per cell, the scene's own.
 pub fn read_starts(
     r: &mut Reader,
     value: Option<Value>,
     scene: &Scene,
     (cells, max_runs): (usize, usize),
-    axis_keys: &[&str],
+    axes: &[SweptKey],
 ) -> Result<Option<StartSet>, ConfigError> {
-    let reach = if scene.limiter.enabled {
-        scene.limiter.clearance_deg
-    } else {
-        89.0
+    let axis_keys: Vec<&str> = axes.iter().map(|a| a.key.as_str()).collect();
+    let swept_clearance = axes.iter().find(|a| a.key == "limiter.clearance_deg");
+    let reach = match (scene.limiter.enabled, swept_clearance) {
+        (false, _) => 89.0,
+        (true, Some(axis)) => axis.lo(),
+        (true, None) => scene.limiter.clearance_deg,
     };
     let angle_lo = r.number(
         "map.initial_angle_min_deg",
         -reach,
         Range::Closed(-reach, reach),
-        "deg (within the bumpers' reach, ±limiter.clearance_deg)",
+        "deg (within the bumpers' reach, ±limiter.clearance_deg, the smallest of the map's cells)",
     )?;
     let angle_hi = r.number(
         "map.initial_angle_max_deg",
         reach,
         Range::Closed(-reach, reach),
-        "deg (within the bumpers' reach, ±limiter.clearance_deg)",
+        "deg (within the bumpers' reach, ±limiter.clearance_deg, the smallest of the map's cells)",
     )?;
     let rate_range = Range::Closed(-MAX_START_RATE_DEG_S, MAX_START_RATE_DEG_S);
     let rate_lo = r.number("map.initial_rate_min_deg_s", -200.0, rate_range, "deg/s")?;
