@@ -17,7 +17,8 @@
 use super::continuation::ContinuationSpec;
 use super::error::ConfigError;
 use super::field::SceneField;
-use super::mode::{MapMode, ModeKeys};
+use super::metric::Metric;
+use super::mode::{MapMode, ModeKeys, RefineFollow, RefineSpec};
 use super::reader::{Range, Reader, apply_override, parse_toml, set_key};
 use super::scene::{ExcitationKind, Scene};
 use super::starts::StartSet;
@@ -33,86 +34,6 @@ pub const DEFAULT_MAP_TOML: &str = include_str!("../../../../configs/maps/defaul
 
 /// Largest grid accepted (instances). Beyond this the results alone need gigabytes.
 pub const MAX_INSTANCES: usize = 4_000_000;
-
-/// A per-instance quantity a map can show.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
-pub enum Metric {
-    /// 0–1 test K on the stroboscopic samples.
-    #[serde(rename = "K")]
-    K,
-    /// Phase-synchronisation index R of holder angle vs cart position.
-    #[serde(rename = "R")]
-    R,
-    /// Period of the stroboscopic section (0 = none found).
-    #[serde(rename = "period")]
-    Period,
-    /// Hops between the wells after the transient.
-    #[serde(rename = "hops")]
-    Hops,
-    /// Bumper contact onsets per second after the transient.
-    #[serde(rename = "impacts_per_s")]
-    ImpactsPerS,
-    /// Smallest and largest holder angle after the transient.
-    #[serde(rename = "alpha_range")]
-    AlphaRange,
-    /// Mean harvested power v²/R_L after the transient (needs `piezo.enabled`).
-    #[serde(rename = "power")]
-    Power,
-    /// Dominant line of α's spectrum as a multiple of the forcing frequency (1/3: a third).
-    #[serde(rename = "line")]
-    Line,
-    /// Largest Lyapunov exponent λ1 (1/s) with its standard error, from a twin trajectory.
-    #[serde(rename = "lyapunov")]
-    Lyapunov,
-    /// One verdict per cell (periodic, regular, chaotic, undecided, failed) from λ1, the
-    /// period and K, which it brings in.
-    #[serde(rename = "regime")]
-    Regime,
-}
-
-impl Metric {
-    /// Every metric, in output order.
-    pub const ALL: [Metric; 10] = [
-        Metric::K,
-        Metric::R,
-        Metric::Period,
-        Metric::Hops,
-        Metric::ImpactsPerS,
-        Metric::AlphaRange,
-        Metric::Power,
-        Metric::Line,
-        Metric::Lyapunov,
-        Metric::Regime,
-    ];
-
-    /// The metrics this one is formed from (the verdict needs K, the period and λ1).
-    pub fn needs(self) -> &'static [Metric] {
-        match self {
-            Metric::Regime => &[Metric::K, Metric::Period, Metric::Lyapunov],
-            _ => &[],
-        }
-    }
-
-    /// The name used in scenes and file names.
-    pub fn name(self) -> &'static str {
-        match self {
-            Metric::K => "K",
-            Metric::R => "R",
-            Metric::Period => "period",
-            Metric::Hops => "hops",
-            Metric::ImpactsPerS => "impacts_per_s",
-            Metric::AlphaRange => "alpha_range",
-            Metric::Power => "power",
-            Metric::Line => "line",
-            Metric::Lyapunov => "lyapunov",
-            Metric::Regime => "regime",
-        }
-    }
-
-    fn parse(s: &str) -> Option<Metric> {
-        Metric::ALL.into_iter().find(|m| m.name() == s)
-    }
-}
 
 /// A validated map scene.
 #[derive(Debug, Clone, Serialize)]
@@ -165,39 +86,6 @@ pub struct MapSpec {
     /// Keys set but not used (the base scene's and the map's own), for the user.
     #[serde(skip)]
     pub notes: Vec<String>,
-}
-
-/// What refinement compares between neighbouring cells.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum RefineFollow {
-    /// The regime, and the period of periodic cells.
-    Regime,
-    /// One metric: neighbours differ when their values differ by more than `threshold` (or
-    /// one is NaN and the other not).
-    Metric {
-        /// The metric.
-        metric: Metric,
-        /// Largest absolute difference read as equal (the metric's unit).
-        threshold: f64,
-    },
-}
-
-/// `map.refine_*`: the coarse lattice, what is followed, and the audit
-/// (`docs/analysis.md`, "Adaptive refinement").
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct RefineSpec {
-    /// Cells between neighbouring points of the coarse lattice (a power of two dividing every
-    /// axis's count − 1).
-    pub spacing: u32,
-    /// What neighbouring cells are compared by.
-    pub follow: RefineFollow,
-    /// Share of the inferred cells computed to check them, in (0, 1].
-    pub audit_share: f64,
-    /// Agreement of the audit below which the blocks of its disagreeing cells are computed.
-    pub audit_min: f64,
-    /// Seed of the audit's draw.
-    pub audit_seed: u64,
 }
 
 /// The size of the twin's separation, `d0` in the weighted state norm (`docs/analysis.md`, §9).

@@ -8,6 +8,7 @@ mod continuation;
 mod error;
 mod field;
 mod map;
+mod metric;
 mod mode;
 mod physics;
 mod reader;
@@ -19,11 +20,12 @@ pub use continuation::{ContinuationSpec, Direction, Sweep};
 pub use error::ConfigError;
 pub use field::SceneField;
 pub use map::{
-    DEFAULT_MAP_TOML, LyapunovSettings, MAX_INSTANCES, MapSpec, Metric, Perturbation, RefineFollow,
-    RefineSpec, SEPARATION_MAX, c_order_index, grid_point, load_map, map_from_toml,
-    refuse_sets_on_swept, scene_text, split_section,
+    DEFAULT_MAP_TOML, LyapunovSettings, MAX_INSTANCES, MapSpec, Perturbation, SEPARATION_MAX,
+    c_order_index, grid_point, load_map, map_from_toml, refuse_sets_on_swept, scene_text,
+    split_section,
 };
-pub use mode::{MapMode, ModeKeys};
+pub use metric::Metric;
+pub use mode::{MapMode, ModeKeys, RefineFollow, RefineSpec};
 pub use physics::DampingReport;
 pub use reader::{
     MAX_SCENE_BYTES, Range, Reader, apply_override, parse_override_value, parse_toml,

@@ -14,7 +14,7 @@
 
 use super::continuation::ContinuationSpec;
 use super::error::ConfigError;
-use super::map::RefineSpec;
+use super::metric::Metric;
 use super::starts::StartSet;
 use serde::Serialize;
 
@@ -115,4 +115,37 @@ impl MapMode {
             MapMode::Plain => None,
         }
     }
+}
+
+/// What refinement compares between neighbouring cells.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RefineFollow {
+    /// The regime, and the period of periodic cells.
+    Regime,
+    /// One metric: neighbours differ when their values differ by more than `threshold` (or
+    /// one is NaN and the other not).
+    Metric {
+        /// The metric.
+        metric: Metric,
+        /// Largest absolute difference read as equal (the metric's unit).
+        threshold: f64,
+    },
+}
+
+/// `map.refine_*`: the coarse lattice, what is followed, and the audit
+/// (`docs/analysis.md`, "Adaptive refinement").
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RefineSpec {
+    /// Cells between neighbouring points of the coarse lattice (a power of two dividing every
+    /// axis's count − 1).
+    pub spacing: u32,
+    /// What neighbouring cells are compared by.
+    pub follow: RefineFollow,
+    /// Share of the inferred cells computed to check them, in (0, 1].
+    pub audit_share: f64,
+    /// Agreement of the audit below which the blocks of its disagreeing cells are computed.
+    pub audit_min: f64,
+    /// Seed of the audit's draw.
+    pub audit_seed: u64,
 }
