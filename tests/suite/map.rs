@@ -764,27 +764,17 @@ fn folder_files(dir: &std::path::Path) -> Vec<String> {
 #[test]
 fn force_replaces_every_file_the_earlier_maps_manifest_lists() {
     let out = out_dir("force-starts");
-    let small = [
-        "--set",
-        "beam.segments=3",
-        "--set",
-        "integration.duration_s=30",
-        "--set",
-        "integration.transient_s=15",
-        "--set",
-        "map.axes=[{key=\"excitation.frequency_hz\",values=[7.8,8.0]}]",
-    ];
-    let run = |extra: &[&str]| {
+    let run = |sets: &[&str], extra: &[&str]| {
         let o = bin()
             .args(["map", "--backend", "cpu", "--quiet", "--out"])
             .arg(&out)
-            .args(small)
+            .args(sets)
             .args(extra)
             .output()
             .unwrap();
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     };
-    run(&["--set", "map.initial_states=3"]);
+    run(&crate::STARTS_MAP_SETS, &[]);
     let first = folder_files(&out);
     for name in [
         "attractors.json",
@@ -794,7 +784,7 @@ fn force_replaces_every_file_the_earlier_maps_manifest_lists() {
     ] {
         assert!(first.contains(&name.to_string()), "{name} in {first:?}");
     }
-    run(&["--force"]);
+    run(&TINY, &["--force"]);
     let manifest: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("map.json")).unwrap()).unwrap();
     let mut listed: Vec<String> = manifest["files"]
