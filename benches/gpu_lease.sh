@@ -11,10 +11,11 @@
 #       benches/gpu_lease.sh run
 #   benches/gpu_lease.sh unpack FILE      # here: the results into docs/bench/gpu/<adapter>/
 #
-# `run` checks that a hardware adapter is listed (not only llvmpipe), runs the GPU peers
-# (benches/peers/run_gpu_peers.sh: the CUDA kernel and JAX on the same GPU) and then
-# `bench --throughput --peers` (GPU rows only: the CPU rows are the committed lavapipe file's),
-# then the default map (N = 17 and the grid a probe picks on a hardware GPU). Each step's log
+# `run` checks that a hardware adapter is listed (not only llvmpipe), runs the default map
+# (N = 17 and the grid a probe picks on a hardware GPU), the map as written (N = 3, 64 x 48)
+# on the GPU and on the CPU engine for parity, the GPU peers (benches/peers/run_gpu_peers.sh:
+# the CUDA kernel and JAX on the same GPU, at most 150 s) and then `bench --throughput --peers`
+# (GPU rows only: the CPU rows are the committed lavapipe file's). Each step's log
 # and results go under $OUT as they finish, so a call cut short still brings back what it had;
 # the whole is one tarball, gpu_lease.tar.gz, plus GPU.md and the log to read at once.
 # Budget: one call of under 10 minutes on an H100 (the study's rows are each bounded by
@@ -33,27 +34,36 @@ prepare() {
   RUSTFLAGS="-C target-cpu=x86-64-v3" CARGO_TARGET_DIR=target/portable \
     cargo build --release --bin pendulum-atlas
   cp target/portable/release/pendulum-atlas "$kit/pendulum-atlas"
-  (cd "$kit/gl" && apt-get download libvulkan1)
+  # The Vulkan loader and the GL dispatch libraries NVIDIA's ICD (libGLX_nvidia) loads.
+  (cd "$kit/gl" && apt-get download libvulkan1 libegl1 libglvnd0 libopengl0 libgl1 libglx0 libgles2)
   du -sh "$kit"
 }
 
 # The Vulkan loader from the kit when the machine has none, and NVIDIA's ICD where the
 # driver mount keeps it.
 vulkan_env() {
-  if ! ldconfig -p | grep -q libvulkan.so.1; then
-    for f in "$kit"/gl/*.deb; do dpkg -x "$f" /; done
-    ldconfig
-  fi
-  local icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-  if [ -f "$icd" ] && [ -z "${VK_DRIVER_FILES:-}" ]; then
-    export VK_DRIVER_FILES=$icd
-  fi
+  for f in "$kit"/gl/*.deb; do dpkg -x "$f" /; done
+  ldconfig
+  local icd
+  for icd in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json \
+    /usr/share/vulkan/icd.d/nvidia_icd.json /etc/vulkan/icd.d/nvidia_icd.json; do
+    if [ -f "$icd" ] && [ -z "${VK_DRIVER_FILES:-}" ]; then
+      export VK_DRIVER_FILES=$icd
+    fi
+  done
+  local egl=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
+  [ -f "$egl" ] && export __EGL_VENDOR_LIBRARY_FILENAMES=$egl
+  echo "VK_DRIVER_FILES=${VK_DRIVER_FILES:-unset}"
 }
+
+# One step's output into the tarball as soon as it is written, so a call cut short still
+# brings back what it had.
+pack() { tar -czf "$out/gpu_lease.tar.gz" -C "$work" . ; }
 
 run() {
   local dry=${1:-}
-  local out=${OUT:-/tmp/gpu_lease_out}
-  local work=/tmp/gpu_lease
+  out=${OUT:-/tmp/gpu_lease_out}
+  work=/tmp/gpu_lease
   local bin=$kit/pendulum-atlas
   [ -x "$bin" ] || { echo "no $bin: run 'benches/gpu_lease.sh prepare' here and carry .gpu-kit" >&2; exit 2; }
   rm -rf "$work"; mkdir -p "$work" "$out"
@@ -66,36 +76,50 @@ run() {
     echo "no hardware adapter listed: Vulkan loader or ICD missing (see .library/device/README.md)" >&2
     exit 3
   fi
-  local study=(--no-cpu --row-budget-s 30)
+  local small=(--set 'map.axes=[{key="excitation.frequency_hz",start=11.0,end=12.0,count=4},{key="excitation.amplitude_m",start=0.004,end=0.025,count=4}]')
+  echo "== default map"
+  SECONDS=0
+  if [ -n "$dry" ]; then
+    "$bin" map "${small[@]}" --backend gpu --out "$work/map" --force
+  else
+    "$bin" map --backend gpu --out "$work/map" --force
+  fi
+  echo "default map: ${SECONDS} s"
+  rm -f "$work/map"/*.npy "$work/map"/*.csv
+  pack
+  # Parity on this hardware: the map as written (N = 3, 64 x 48) on the GPU and on the CPU
+  # engine in f64; their .npy files come back to be compared cell by cell.
+  echo "== parity map"
+  local parity=(--set beam.segments=3)
+  [ -z "$dry" ] || parity+=("${small[@]}")
+  SECONDS=0
+  "$bin" map --backend gpu "${parity[@]}" --out "$work/parity_gpu" --force
+  echo "parity map, GPU: ${SECONDS} s"
+  SECONDS=0
+  "$bin" map --backend cpu "${parity[@]}" --out "$work/parity_cpu" --force
+  echo "parity map, CPU f64: ${SECONDS} s"
+  rm -f "$work"/parity_*/*.png "$work"/parity_*/*.csv
+  pack
+  local study=(--no-cpu --row-budget-s 20)
   local peers_rc=0
   if [ -n "$dry" ]; then
     study=(--no-cpu --segments 3 --max-instances 1000 --row-budget-s 5)
   else
-    echo "== peers"
+    echo "== peers (at most 150 s)"
     SECONDS=0
-    benches/peers/run_gpu_peers.sh docs/bench/cpu "$work/peers" || peers_rc=$?
+    timeout 150 benches/peers/run_gpu_peers.sh docs/bench/cpu "$work/peers" || peers_rc=$?
     [ "$peers_rc" -eq 0 ] || echo "peers failed (rc $peers_rc): the study runs with what they wrote"
     rm -f "$work/peers/rk4_chain"
     echo "peers: ${SECONDS} s"
     study+=(--peers "$work/peers")
+    pack
   fi
   echo "== bench --throughput ${study[*]}"
   SECONDS=0
   "$bin" bench --throughput "${study[@]}" --out "$work/gpu" --force
   echo "study: ${SECONDS} s"
   cp "$work/gpu/GPU.md" "$out/GPU.md"
-  tar -czf "$out/gpu_lease.tar.gz" -C "$work" .
-  echo "== default map"
-  SECONDS=0
-  if [ -n "$dry" ]; then
-    "$bin" map --set 'map.axes=[{key="excitation.frequency_hz",start=11.0,end=12.0,count=4},{key="excitation.amplitude_m",start=0.004,end=0.025,count=4}]' \
-      --backend gpu --out "$work/map" --force
-  else
-    "$bin" map --backend gpu --out "$work/map" --force
-  fi
-  echo "default map: ${SECONDS} s"
-  rm -f "$work/map"/*.npy
-  tar -czf "$out/gpu_lease.tar.gz" -C "$work" .
+  pack
   ls -la "$out"
   if [ "$peers_rc" -ne 0 ]; then
     echo "the peers failed (rc $peers_rc); everything else was written" >&2
@@ -114,6 +138,9 @@ unpack() {
   cp -r "$tmp/gpu/." "$dest/"
   [ -d "$tmp/peers" ] && cp -r "$tmp/peers" "$dest/peers"
   [ -d "$tmp/map" ] && cp "$tmp/map/map.json" "$dest/default_map.json"
+  for side in gpu cpu; do
+    [ -d "$tmp/parity_$side" ] && cp -r "$tmp/parity_$side" "$dest/parity_$side"
+  done
   cp "$tmp/adapters.txt" "$dest/adapters.txt"
   rm -rf "$tmp"
   echo "results in $dest"
