@@ -5,8 +5,9 @@
 //! there it takes about ten seconds. A hardware GPU has the throughput for the paper's chain,
 //! so `map` without a scene asks this module for overrides:
 //! 1. none when the user set `beam.segments` or `map.axes` (their choice stands);
-//! 2. else a probe: [`PROBE_INSTANCES`] instances of the map at N = 17 over one period of its
-//!    lowest frequency, α range only, gives the adapter's rate r (instance-steps/s);
+//! 2. else a probe: [`PROBE_INSTANCES`] instances of the map at N = 17 over two periods of its
+//!    lowest frequency (the first is the shortest transient a plan allows), α range only,
+//!    gives the adapter's rate r (instance-steps/s);
 //! 3. the estimate of a grid is its planned instance-steps / r × [`REDUCE_MARGIN`] (the
 //!    reductions and the transfers); the finest grid within [`TARGET_S`] is taken, the
 //!    coarsest when none is.
@@ -77,6 +78,16 @@ pub fn choose_grid(steps_per_grid: &[u64], rate: f64) -> (usize, Vec<f64>) {
     (pick, est)
 }
 
+/// The probe's overrides: [`PROBE_INSTANCES`] cells over two periods of 4 Hz, α range only.
+fn probe_sets() -> Vec<String> {
+    vec![
+        axes_set((128, PROBE_INSTANCES / 128)),
+        "integration.transient_s=0.0".into(),
+        "integration.duration_s=0.5".into(),
+        "map.metrics=[\"alpha_range\"]".into(),
+    ]
+}
+
 /// Probe `engine` (a hardware GPU) and choose N = 17 with the finest grid that fits.
 pub fn hardware_default(
     engine: &Engine,
@@ -93,13 +104,7 @@ pub fn hardware_default(
         let spec = map_from_toml(DEFAULT_MAP_TOML, "configs/maps/default.toml", &sets)?;
         Ok(EnsemblePlan::new(&spec)?)
     };
-    let probe_grid = (128, PROBE_INSTANCES / 128);
-    let probe = plan_of(&[
-        axes_set(probe_grid),
-        "integration.transient_s=0.0".into(),
-        "integration.duration_s=0.3".into(),
-        "map.metrics=[\"alpha_range\"]".into(),
-    ])?;
+    let probe = plan_of(&probe_sets())?;
     engine.run(
         &probe,
         &ReduceOptions::default(),
@@ -157,6 +162,15 @@ mod tests {
         assert!(!applies(&["beam.segments=5".into()]));
         assert!(!applies(&[axes_set((8, 8))]));
         assert!(!applies(&["map.axes[0].count = 8".into()]));
+    }
+
+    #[test]
+    fn the_probe_is_a_valid_plan() {
+        let mut sets = vec![format!("beam.segments={PAPER_SEGMENTS}")];
+        sets.extend(probe_sets());
+        let spec = map_from_toml(DEFAULT_MAP_TOML, "default", &sets).unwrap();
+        let plan = EnsemblePlan::new(&spec).unwrap();
+        assert_eq!(plan.instances.len(), PROBE_INSTANCES);
     }
 
     #[test]
