@@ -127,6 +127,30 @@ run() {
   fi
 }
 
+# A short second call: the default map as the README runs it (auto backend, the hardware
+# probe's choice printed) and the N = 17 rows of the study, with the peers of an earlier call.
+followup() {
+  out=${OUT:-/tmp/gpu_lease_out}
+  work=/tmp/gpu_lease
+  local bin=$kit/pendulum-atlas peers=${1:?folder of the peers an earlier call wrote}
+  rm -rf "$work"; mkdir -p "$work" "$out"
+  exec > >(tee "$out/log.txt") 2>&1
+  vulkan_env
+  export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp/xdg}; mkdir -p -m700 "$XDG_RUNTIME_DIR"
+  echo "== default map (auto)"
+  SECONDS=0
+  timeout 90 "$bin" map --out "$work/map" --force || echo "default map: rc $?"
+  echo "default map: ${SECONDS} s"
+  rm -f "$work/map"/*.npy "$work/map"/*.csv "$work/map"/*.png
+  pack
+  echo "== bench --throughput N = 17"
+  SECONDS=0
+  timeout 150 "$bin" bench --throughput --no-cpu --segments 17 --row-budget-s 6 --peers "$peers" \
+    --out "$work/gpu" --force || echo "study: rc $?"
+  echo "study: ${SECONDS} s"
+  pack
+}
+
 unpack() {
   local file=${1:?the gpu_lease.tar.gz a run brought back}
   local tmp; tmp=$(mktemp -d)
@@ -149,6 +173,7 @@ unpack() {
 case "${1:-}" in
   prepare) prepare ;;
   run) run "${2:+dry}" ;;
+  followup) followup "${2:-}" ;;
   unpack) unpack "${2:-}" ;;
   *) echo "usage: benches/gpu_lease.sh prepare | run [--dry] | unpack FILE" >&2; exit 2 ;;
 esac

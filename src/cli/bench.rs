@@ -64,8 +64,8 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 1_000_000, requires = "throughput",
           value_parser = clap::value_parser!(u64).range(1000..=1_000_000))]
     pub max_instances: u64,
-    /// The longest a --throughput row may take, estimated from the rate measured so far
-    /// (seconds, 0.1 to 3600); longer rungs are listed as skipped.
+    /// The longest a --throughput row may take (seconds, 0.1 to 3600): a rung still running
+    /// then is stopped and gives the rate of the steps it took; its larger rungs are skipped.
     #[arg(long, default_value_t = 20.0, requires = "throughput", value_parser = budget_s)]
     pub row_budget_s: f64,
     /// The GPU adapter's FP32 peak (TFLOP/s, above 0 and at most 10000) where the built-in

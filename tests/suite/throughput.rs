@@ -11,6 +11,37 @@ use pendulum_atlas_studies::bench::gpu_throughput::{
 };
 use std::process::Command;
 
+/// A rung still running at the row budget is stopped there with the rate of the steps it
+/// took, and the larger rungs of its ladder are skipped (CPU engine: 10⁵ instances take about
+/// a second, far over a budget of 0.05 s).
+#[test]
+fn a_rung_over_the_budget_is_stopped_and_the_larger_ones_skipped() {
+    let opts = ThroughputOptions {
+        gpu: None,
+        cpu: true,
+        max_instances: 100_000,
+        row_budget_s: 0.05,
+        peak_flop_per_s: None,
+        peers: None,
+        segments: vec![3],
+    };
+    let r = run_throughput(&opts, &|_| {}).unwrap();
+    assert_eq!(r.rows.len(), 4 * 3, "2 methods × 2 scenes × 3 rungs");
+    for ladder in r.rows.chunks(3) {
+        let stopped: Vec<usize> = (0..3).filter(|&i| ladder[i].stopped_at.is_some()).collect();
+        assert_eq!(stopped.len(), 1, "one rung reaches the budget: {ladder:?}");
+        let s = &ladder[stopped[0]];
+        let share = s.stopped_at.unwrap();
+        assert!(share > 0.0 && share < 1.0, "{share}");
+        let rate = s.instance_steps_per_s.unwrap();
+        assert!((rate * s.integrate_s.unwrap() - s.instance_steps as f64).abs() < 1e-6 * rate);
+        assert!(s.instance_steps < (s.steps_per_instance * s.instances as f64) as u64);
+        for (i, row) in ladder.iter().enumerate() {
+            assert_eq!(row.skipped.is_some(), i > stopped[0], "{row:?}");
+        }
+    }
+}
+
 #[test]
 fn the_ladder_measures_or_skips_every_rung_and_the_report_shows_it() {
     let gpu = gpu();

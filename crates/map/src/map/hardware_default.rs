@@ -1,16 +1,21 @@
 //! The embedded default map on a hardware GPU: the paper's N = 17 and the finest grid of
-//! [`GRIDS`] that a probe on the adapter says finishes within [`TARGET_S`].
+//! [`GRIDS`] that a probe on the adapter says finishes within [`TARGET_S`], or the map as
+//! written when none does.
 //!
 //! The CPU engine and the software adapter keep the embedded map as it is (N = 3, 64 × 48):
-//! there it takes about ten seconds. A hardware GPU has the throughput for the paper's chain,
-//! so `map` without a scene asks this module for overrides:
+//! there it takes about ten seconds. A hardware GPU may have the throughput for the paper's
+//! chain, so `map` without a scene asks this module for overrides:
 //! 1. none when the user set `beam.segments` or `map.axes` (their choice stands);
-//! 2. else a probe: [`PROBE_INSTANCES`] instances of the map at N = 17 over two periods of its
-//!    lowest frequency (the first is the shortest transient a plan allows), α range only,
-//!    gives the adapter's rate r (instance-steps/s);
-//! 3. the estimate of a grid is its planned instance-steps / r × [`REDUCE_MARGIN`] (the
-//!    reductions and the transfers); the finest grid within [`TARGET_S`] is taken, the
-//!    coarsest when none is.
+//! 2. else, grid by grid from coarse to fine, a probe: the grid's own cells at N = 17 over two
+//!    periods of 4 Hz (the first is the shortest transient a plan allows), α range only,
+//!    gives the adapter's rate r(n) (instance-steps/s) at that grid's instance count n. The
+//!    rate depends on n: a map of a few thousand instances fills a large GPU only partly (on
+//!    an H200, 3072 instances of N = 17 ran 10× slower per instance-step than 16 384);
+//! 3. the estimate of a grid is its work (the planned steps plus λ1's twin steps) / r(n) ×
+//!    [`REDUCE_MARGIN`] (the reductions and the transfers). r(n)/n cannot grow with n, so the
+//!    estimates grow with the grid and the probes stop at the first grid over the target;
+//! 4. the finest grid within [`TARGET_S`] is taken; when even the coarsest is over it, the
+//!    embedded map runs as written, and the message says what N = 17 would have cost.
 
 use pendulum_atlas_core::config::{ConfigError, DEFAULT_MAP_TOML, map_from_toml};
 use pendulum_atlas_core::engine::{Engine, EngineError, EnsemblePlan, Readback, no_progress};
@@ -21,9 +26,6 @@ pub const GRIDS: [(usize, usize); 3] = [(64, 48), (128, 96), (256, 192)];
 
 /// The wall time a default map should stay within (s).
 pub const TARGET_S: f64 = 60.0;
-
-/// Instances of the probe.
-pub const PROBE_INSTANCES: usize = 16_384;
 
 /// Factor on the integration estimate for the reductions and transfers.
 pub const REDUCE_MARGIN: f64 = 1.3;
@@ -45,10 +47,21 @@ pub enum HardwareDefaultError {
 /// The overrides chosen for a hardware GPU and why.
 #[derive(Debug, Clone, PartialEq)]
 pub struct HardwareDefault {
-    /// `--set` overrides to append.
+    /// `--set` overrides to append (none: the map as written).
     pub sets: Vec<String>,
-    /// One line for the user: the probe's rate and each grid's estimate.
+    /// One line for the user: each probed grid's rate and estimate, and the choice.
     pub reason: String,
+}
+
+/// One probed grid: its rate at its own instance count and its estimated wall time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GridEstimate {
+    /// Frequency count × amplitude count.
+    pub grid: (usize, usize),
+    /// Instance-steps per second of the probe at this grid's instance count.
+    pub rate: f64,
+    /// Work / rate × [`REDUCE_MARGIN`] (s).
+    pub seconds: f64,
 }
 
 /// The `--set` override of the default map's axes on `grid`.
@@ -67,28 +80,42 @@ pub fn applies(user_sets: &[String]) -> bool {
     })
 }
 
-/// The finest grid whose estimate (instance-steps / rate × margin) is within [`TARGET_S`],
-/// else the coarsest; with each grid's estimate (s).
-pub fn choose_grid(steps_per_grid: &[u64], rate: f64) -> (usize, Vec<f64>) {
-    let est: Vec<f64> = steps_per_grid
+/// The finest probed grid within [`TARGET_S`] (estimates from coarse to fine), or `None`.
+pub fn choose_grid(estimates: &[GridEstimate]) -> Option<(usize, usize)> {
+    estimates
         .iter()
-        .map(|&s| s as f64 / rate * REDUCE_MARGIN)
-        .collect();
-    let pick = est.iter().rposition(|&t| t <= TARGET_S).unwrap_or(0);
-    (pick, est)
+        .rev()
+        .find(|e| e.seconds <= TARGET_S)
+        .map(|e| e.grid)
 }
 
-/// The probe's overrides: [`PROBE_INSTANCES`] cells over two periods of 4 Hz, α range only.
-fn probe_sets() -> Vec<String> {
+/// The probe's overrides on `grid`: its cells over two periods of 4 Hz, α range only.
+fn probe_sets(grid: (usize, usize)) -> Vec<String> {
     vec![
-        axes_set((128, PROBE_INSTANCES / 128)),
+        axes_set(grid),
         "integration.transient_s=0.0".into(),
         "integration.duration_s=0.5".into(),
         "map.metrics=[\"alpha_range\"]".into(),
     ]
 }
 
-/// Probe `engine` (a hardware GPU) and choose N = 17 with the finest grid that fits.
+/// Steps a plan integrates: every instance's steps, plus its λ1 twin's over the twin's
+/// periods (the twin is a second state integrated beside the main one).
+pub fn work_steps(plan: &EnsemblePlan) -> u64 {
+    plan.instances
+        .iter()
+        .map(|p| {
+            let twin = p
+                .twin
+                .as_ref()
+                .map_or(0, |t| u64::from(t.align + t.window) * u64::from(p.spp));
+            p.total_steps() + twin
+        })
+        .sum()
+}
+
+/// Probe `engine` (a hardware GPU) and choose N = 17 with the finest grid that fits, or the
+/// map as written.
 pub fn hardware_default(
     engine: &Engine,
     user_sets: &[String],
@@ -104,56 +131,124 @@ pub fn hardware_default(
         let spec = map_from_toml(DEFAULT_MAP_TOML, "configs/maps/default.toml", &sets)?;
         Ok(EnsemblePlan::new(&spec)?)
     };
-    let probe = plan_of(&probe_sets())?;
-    engine.run(
-        &probe,
-        &ReduceOptions::default(),
-        Readback::default(),
-        &no_progress,
-    )?;
-    let run = engine.run(
-        &probe,
-        &ReduceOptions::default(),
-        Readback::default(),
-        &no_progress,
-    )?;
-    let rate = probe.total_steps as f64 / run.integration_s().max(1e-9);
-    let steps: Vec<u64> = GRIDS
+    let run = |plan: &EnsemblePlan| {
+        engine.run(
+            plan,
+            &ReduceOptions::default(),
+            Readback::default(),
+            &no_progress,
+        )
+    };
+    // The rate counts the integration dispatches alone, not the kernels' compilation.
+    let mut estimates = Vec::new();
+    for grid in GRIDS {
+        let probe = plan_of(&probe_sets(grid))?;
+        let rate = probe.total_steps as f64 / run(&probe)?.integration_s().max(1e-9);
+        let work = work_steps(&plan_of(&[axes_set(grid)])?);
+        let seconds = work as f64 / rate * REDUCE_MARGIN;
+        estimates.push(GridEstimate {
+            grid,
+            rate,
+            seconds,
+        });
+        if seconds > TARGET_S {
+            break;
+        }
+    }
+    Ok(Some(choice(&estimates, &n_set)))
+}
+
+/// The overrides and the message for the probed `estimates`.
+fn choice(estimates: &[GridEstimate], n_set: &str) -> HardwareDefault {
+    let listed: Vec<String> = estimates
         .iter()
-        .map(|&g| plan_of(&[axes_set(g)]).map(|p| p.total_steps))
-        .collect::<Result<_, _>>()?;
-    let (pick, est) = choose_grid(&steps, rate);
-    let (nf, na) = GRIDS[pick];
-    let listed: Vec<String> = GRIDS
-        .iter()
-        .zip(&est)
-        .map(|((f, a), t)| format!("{f}x{a} ~{t:.0} s"))
+        .map(|e| {
+            format!(
+                "{}x{} ~{:.0} s at {:.2e} instance-steps/s",
+                e.grid.0, e.grid.1, e.seconds, e.rate
+            )
+        })
         .collect();
-    Ok(Some(HardwareDefault {
-        sets: vec![n_set, axes_set((nf, na))],
-        reason: format!(
-            "hardware GPU: the default map runs at the paper's N = {PAPER_SEGMENTS} on a {nf} x {na} grid \
-(probe: {rate:.3e} instance-steps/s at N = {PAPER_SEGMENTS}; estimates {}; target {TARGET_S:.0} s; \
---set beam.segments or map.axes to choose yourself)",
-            listed.join(", ")
-        ),
-    }))
+    let probes = format!(
+        "probes at N = {PAPER_SEGMENTS}: {}; target {TARGET_S:.0} s",
+        listed.join(", ")
+    );
+    match choose_grid(estimates) {
+        Some((nf, na)) => HardwareDefault {
+            sets: vec![n_set.to_string(), axes_set((nf, na))],
+            reason: format!(
+                "hardware GPU: the default map runs at the paper's N = {PAPER_SEGMENTS} on a {nf} x {na} grid \
+({probes}; --set beam.segments or map.axes to choose yourself)"
+            ),
+        },
+        None => HardwareDefault {
+            sets: Vec::new(),
+            reason: format!(
+                "hardware GPU: the paper's N = {PAPER_SEGMENTS} would not finish within the target on this \
+adapter ({probes}), so the default map runs as written (N = 3, 64 x 48); \
+--set beam.segments=17 runs the paper's chain anyway"
+            ),
+        },
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    fn estimates(seconds: &[f64]) -> Vec<GridEstimate> {
+        GRIDS
+            .iter()
+            .zip(seconds)
+            .map(|(&grid, &seconds)| GridEstimate {
+                grid,
+                rate: 1e8,
+                seconds,
+            })
+            .collect()
+    }
+
     #[test]
     fn the_finest_grid_within_the_target_is_chosen() {
-        let steps = [1_000_000_u64, 4_000_000, 16_000_000];
-        // 1e5 instance-steps/s: 13, 52 and 208 s (× 1.3) → the middle grid.
-        let (pick, est) = choose_grid(&steps, 1e5);
-        assert_eq!(pick, 1);
-        assert!((est[0] - 13.0).abs() < 1e-9 && (est[2] - 208.0).abs() < 1e-9);
-        assert_eq!(choose_grid(&steps, 1e7).0, 2);
-        // Nothing fits: the coarsest.
-        assert_eq!(choose_grid(&steps, 1e3).0, 0);
+        assert_eq!(
+            choose_grid(&estimates(&[13.0, 52.0, 208.0])),
+            Some(GRIDS[1])
+        );
+        assert_eq!(choose_grid(&estimates(&[5.0, 20.0, 59.0])), Some(GRIDS[2]));
+        // The probes stopped at the first grid over the target.
+        assert_eq!(choose_grid(&estimates(&[13.0, 75.0])), Some(GRIDS[0]));
+    }
+
+    #[test]
+    fn nothing_within_the_target_runs_the_map_as_written() {
+        let c = choice(&estimates(&[290.0]), "beam.segments=17");
+        assert!(c.sets.is_empty(), "{c:?}");
+        assert!(
+            c.reason.contains("as written") && c.reason.contains("~290 s"),
+            "{}",
+            c.reason
+        );
+        let c = choice(&estimates(&[30.0, 90.0]), "beam.segments=17");
+        assert_eq!(
+            c.sets,
+            vec!["beam.segments=17".to_string(), axes_set(GRIDS[0])]
+        );
+    }
+
+    #[test]
+    fn the_work_counts_the_twin() {
+        let plan = |sets: &[&str]| {
+            let mut all = vec![format!("beam.segments=3"), axes_set((4, 2))];
+            all.extend(sets.iter().map(|s| s.to_string()));
+            EnsemblePlan::new(&map_from_toml(DEFAULT_MAP_TOML, "default", &all).unwrap()).unwrap()
+        };
+        let without = plan(&["map.metrics=[\"K\"]"]);
+        assert_eq!(work_steps(&without), without.total_steps);
+        let with = plan(&[]);
+        assert!(
+            work_steps(&with) > with.total_steps,
+            "the default map has λ1"
+        );
     }
 
     #[test]
@@ -167,10 +262,10 @@ mod tests {
     #[test]
     fn the_probe_is_a_valid_plan() {
         let mut sets = vec![format!("beam.segments={PAPER_SEGMENTS}")];
-        sets.extend(probe_sets());
+        sets.extend(probe_sets(GRIDS[0]));
         let spec = map_from_toml(DEFAULT_MAP_TOML, "default", &sets).unwrap();
         let plan = EnsemblePlan::new(&spec).unwrap();
-        assert_eq!(plan.instances.len(), PROBE_INSTANCES);
+        assert_eq!(plan.instances.len(), GRIDS[0].0 * GRIDS[0].1);
     }
 
     #[test]

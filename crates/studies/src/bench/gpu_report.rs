@@ -58,7 +58,7 @@ pub fn markdown(r: &ThroughputReport) -> String {
 fn flops_section(md: &mut String, r: &ThroughputReport) {
     md.push_str(
         "## Counted work per step\n\nCounted by running the engine's own step (`rk4_step`, \
-`Imex::step_with`) on a number type that counts its operations (src/bench/flops.rs), with a \
+`Imex::step_with`) on a number type that counts its operations (crates/studies/src/bench/flops.rs), with a \
 bumper pressed; a sin/cos pair counts as 26 flop, a division as 1.\n\n\
 | method | N | flop per step | flop per segment-step | sin/cos pairs | divisions |\n\
 |---|---|---|---|---|---|\n",
@@ -83,6 +83,9 @@ fn ladder_section(md: &mut String, rows: &[LadderRow]) {
         "## Integration throughput\n\nOne forcing period per instance from rest in the well \
 (the default map's plane at 11-12 Hz; the paper's scene at 7.5-8.5 Hz, 8-10 mm), α range \
 only, so the integration kernel is what is timed (one untimed pilot of 64 instances first). \
+A rung runs until it ends or passes the row budget; one stopped there (its integration time \
+marked with the share of its steps taken) gives the rate of the steps it took, and the larger \
+rungs are skipped. \
 RK4 on the earlier damping reading (ζ1 = 0.0035), IMEX on the library reading. Memory: the \
 per-instance device buffers; a rung they would make larger than the adapter binds runs in \
 consecutive batches, and its memory is that of the largest batch.\n\n\
@@ -113,7 +116,10 @@ instance-steps/s | segment-steps/s | GFLOP/s | of peak | memory (MiB) |\n\
             r.method.name(),
             r.instances,
             r.steps_per_instance,
-            opt(r.integrate_s, |v| format!("{v:.3}")),
+            opt(r.integrate_s, |v| match r.stopped_at {
+                Some(f) => format!("{v:.3} (stopped at {:.0} %)", 100.0 * f),
+                None => format!("{v:.3}"),
+            }),
             opt(r.instance_steps_per_s, |v| format!("{v:.3e}")),
             opt(r.segment_steps_per_s, |v| format!("{v:.3e}")),
             opt(r.flop_per_s, |v| format!("{:.1}", v / 1e9)),

@@ -7,9 +7,13 @@
 //!    earlier reading of the damping, ζ1 = 0.0035, where RK4's step is the chain's and not the
 //!    joint dampers') and the IMEX method (on the library reading); one forcing period per
 //!    instance from rest in the well, α range only: the integration kernel is what is timed;
-//! 2. the instance ladder 10³ … 10⁶ ([`LADDER`]) per workload and engine: a pilot of
-//!    [`PILOT`] instances gives a rate, and each rung runs when the rate so far says it fits
-//!    the row budget, else it is listed as skipped with its estimate;
+//! 2. the instance ladder 10³ … 10⁶ ([`LADDER`]) per workload and engine, after an untimed
+//!    pilot of [`PILOT`] instances that compiles the kernels: each rung runs until it ends or
+//!    its wall time passes the row budget; a rung stopped there gives the rate of the steps it
+//!    took, and the larger rungs are listed as skipped. (No rung is skipped on an estimate:
+//!    a GPU's rate grows with the instance count until the device is full, so a small run's
+//!    rate says little about a large one's. On an H200 a pilot's rate scaled up would have
+//!    skipped rungs that take seconds.);
 //! 3. flop per step counted by [`flops`] (the engine's own RK4 and IMEX steps on a counting
 //!    number type), FLOP/s against the adapter's FP32 peak ([`peak_flop_per_s`]);
 //! 4. K only against all metrics ([`metric_rows`]): a slice of the default map at its real
@@ -45,7 +49,8 @@ pub struct ThroughputOptions<'a> {
     pub cpu: bool,
     /// Largest rung of the ladder.
     pub max_instances: usize,
-    /// Longest estimated time of one row (s); rungs beyond it are skipped.
+    /// Longest wall time of one row (s): a rung that passes it is stopped there, and the
+    /// larger rungs of its ladder are skipped.
     pub row_budget_s: f64,
     /// The FP32 peak of the GPU adapter (flop/s), where the built-in table does not know it.
     pub peak_flop_per_s: Option<f64>,
@@ -131,8 +136,12 @@ pub struct LadderRow {
     pub share_of_peak: Option<f64>,
     /// Device memory of the run's per-instance buffers (GPU; bytes).
     pub device_bytes: Option<u64>,
-    /// Why the row was not run (its estimated time over the budget).
+    /// Why the row was not run (the rung before it reached the row budget).
     pub skipped: Option<String>,
+    /// The share of the run's steps taken when the row budget stopped it (`None`: it ran
+    /// to the end); the rate is that of the steps taken.
+    #[serde(default)]
+    pub stopped_at: Option<f64>,
 }
 
 /// K only against all metrics on one engine at one N.
@@ -342,7 +351,8 @@ struct LadderCtx<'a> {
     peak: Option<f64>,
 }
 
-/// The ladder of one workload on one engine: the pilot, then each rung that fits the budget.
+/// The ladder of one workload on one engine: the pilot, then each rung until one reaches the
+/// row budget.
 fn ladder(
     c: &LadderCtx,
     opts: &ThroughputOptions,
@@ -350,11 +360,10 @@ fn ladder(
 ) -> Result<Vec<LadderRow>, ThroughputError> {
     let pilot = workload(c.scene, c.n, c.method, PILOT)?;
     run_integration(c.engine, &pilot)?; // compiles the kernels' specialisation
-    let mut rate = pilot.total_steps as f64 / run_integration(c.engine, &pilot)?.0;
+    let steps_per_instance = pilot.total_steps as f64 / PILOT as f64;
     let mut rows = Vec::new();
+    let mut reached: Option<usize> = None;
     for &count in LADDER.iter().filter(|&&k| k <= opts.max_instances) {
-        let steps_per_instance = pilot.total_steps as f64 / PILOT as f64;
-        let estimate = steps_per_instance * count as f64 / rate;
         let mut row = LadderRow {
             engine: c.engine.info().device.clone(),
             kind: c.engine.info().kind,
@@ -372,44 +381,94 @@ fn ladder(
             share_of_peak: None,
             device_bytes: None,
             skipped: None,
+            stopped_at: None,
         };
-        if estimate > opts.row_budget_s {
+        if let Some(prev) = reached {
             row.skipped = Some(format!(
-                "estimated {estimate:.0} s at {rate:.3e} instance-steps/s, over the {} s row budget",
+                "the rung of {prev} instances reached the {} s row budget",
                 opts.row_budget_s
             ));
             rows.push(row);
             continue;
         }
         let plan = workload(c.scene, c.n, c.method, count)?;
-        let (seconds, device_bytes) = run_integration(c.engine, &plan)?;
-        rate = plan.total_steps as f64 / seconds;
-        fill(&mut row, &plan, seconds, device_bytes, c.peak);
+        let capped = run_capped(c.engine, &plan, opts.row_budget_s)?;
+        fill(&mut row, &plan, &capped, c.peak);
+        if capped.stopped_at.is_some() {
+            reached = Some(count);
+        }
         progress(&format!(
-            "throughput: {} {} N = {} {} {count} instances: {rate:.3e} instance-steps/s",
+            "throughput: {} {} N = {} {} {count} instances: {:.3e} instance-steps/s{}",
             row.engine,
             c.scene.name(),
             c.n,
-            c.method.name()
+            c.method.name(),
+            capped.steps as f64 / capped.seconds,
+            capped.stopped_at.map_or(String::new(), |f| format!(
+                " (stopped at the row budget, {:.0} % of the steps)",
+                100.0 * f
+            ))
         ));
         rows.push(row);
     }
     Ok(rows)
 }
 
-/// The measured figures of a row.
-fn fill(
-    row: &mut LadderRow,
-    plan: &EnsemblePlan,
+/// A run of a rung, whole or stopped at the row budget.
+struct Capped {
+    /// Integration time (s): the GPU's dispatches, or the wall time until the stop.
     seconds: f64,
+    /// Instance-steps taken.
+    steps: u64,
+    /// Device memory (GPU).
     device_bytes: Option<u64>,
-    peak: Option<f64>,
-) {
-    let rate = plan.total_steps as f64 / seconds;
+    /// The share of the steps taken when the budget stopped it.
+    stopped_at: Option<f64>,
+}
+
+/// Run `plan`, stopping once its wall time passes `budget_s`: the engine's progress (steps of
+/// the GPU's dispatches, or the CPU's finished instances) says how much was done by then.
+fn run_capped(engine: &Engine, plan: &EnsemblePlan, budget_s: f64) -> Result<Capped, EngineError> {
+    let start = Instant::now();
+    let last = std::sync::Mutex::new((0.0_f64, 0.0_f64));
+    let watch = |done: u64, total: u64, _| {
+        let elapsed = start.elapsed().as_secs_f64();
+        if let Ok(mut l) = last.lock() {
+            *l = (done as f64 / total.max(1) as f64, elapsed);
+        }
+        if elapsed > budget_s {
+            std::ops::ControlFlow::Break(())
+        } else {
+            std::ops::ControlFlow::Continue(())
+        }
+    };
+    match engine.run(plan, &ReduceOptions::default(), Readback::default(), &watch) {
+        Ok(run) => Ok(Capped {
+            seconds: run.integration_s().max(1e-9),
+            steps: plan.total_steps,
+            device_bytes: run.timings.gpu.as_ref().map(|g| g.device_bytes),
+            stopped_at: None,
+        }),
+        Err(EngineError::Cancelled) => {
+            let (share, seconds) = *last.lock().unwrap_or_else(|e| e.into_inner());
+            Ok(Capped {
+                seconds: seconds.max(1e-9),
+                steps: (share * plan.total_steps as f64) as u64,
+                device_bytes: None,
+                stopped_at: Some(share),
+            })
+        }
+        Err(e) => Err(e),
+    }
+}
+
+/// The measured figures of a row.
+fn fill(row: &mut LadderRow, plan: &EnsemblePlan, run: &Capped, peak: Option<f64>) {
+    let rate = run.steps as f64 / run.seconds;
     let flop_per_s = rate * row.flop_per_step as f64;
-    row.instance_steps = plan.total_steps;
+    row.instance_steps = run.steps;
     row.steps_per_instance = plan.total_steps as f64 / plan.instances.len() as f64;
-    row.integrate_s = Some(seconds);
+    row.integrate_s = Some(run.seconds);
     row.instance_steps_per_s = Some(rate);
     row.segment_steps_per_s = Some(rate * row.segments as f64);
     row.flop_per_s = Some(flop_per_s);
@@ -417,7 +476,8 @@ fn fill(
         EngineKind::Gpu => peak.map(|p| flop_per_s / p),
         EngineKind::Cpu => None,
     };
-    row.device_bytes = device_bytes;
+    row.device_bytes = run.device_bytes;
+    row.stopped_at = run.stopped_at;
 }
 
 /// Integration time of one run of `plan` (s) and the device memory it used.
@@ -461,14 +521,15 @@ fn metric_rows(
             k_only: None,
             skipped: None,
         };
-        let skip = match best_rate(ladder, &row.engine, n, method) {
+        let skip = match smallest_rung(ladder, &row.engine, n, method) {
             None => Some(format!(
                 "no measured rate at N = {n} with {} (every rung of its ladder was over the \
 row budget)",
                 method.name()
             )),
-            Some(rate) => {
-                let estimate = 8.0 * plan.total_steps as f64 / rate;
+            Some((rung, rate)) => {
+                let scale = (rung as f64 / plan.instances.len() as f64).max(1.0);
+                let estimate = 8.0 * plan.total_steps as f64 * scale / rate;
                 (estimate > opts.row_budget_s).then(|| {
                     format!(
                         "estimated {estimate:.0} s for 8 runs, over the {} s row budget",
@@ -509,8 +570,16 @@ fn metric_plan(n: usize, extra: &[&str]) -> Result<EnsemblePlan, PeerCaseError> 
     Ok(plan.select(&members))
 }
 
-/// The best measured rate of the default scene's ladder at N with `method` on `engine`.
-fn best_rate(ladder: &[LadderRow], engine: &str, n: usize, method: Method) -> Option<f64> {
+/// The smallest measured rung of the default scene's ladder at N with `method` on `engine`:
+/// (instances, rate). A GPU runs fewer instances at no higher rate per instance, so
+/// `instance_steps × max(1, rung / instances) / rate` bounds the time of a smaller run from
+/// above, where the best rung's rate would bound it from below.
+fn smallest_rung(
+    ladder: &[LadderRow],
+    engine: &str,
+    n: usize,
+    method: Method,
+) -> Option<(usize, f64)> {
     ladder
         .iter()
         .filter(|r| {
@@ -519,8 +588,7 @@ fn best_rate(ladder: &[LadderRow], engine: &str, n: usize, method: Method) -> Op
                 && r.method == method
                 && r.scene == ThroughputScene::Default
         })
-        .filter_map(|r| r.instance_steps_per_s)
-        .reduce(f64::max)
+        .find_map(|r| r.instance_steps_per_s.map(|rate| (r.instances, rate)))
 }
 
 /// Integration and reductions of the metric slice with `metrics`: one untimed run (no first
