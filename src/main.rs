@@ -8,6 +8,7 @@ fn main() {
     quiet_headless_vulkan();
     let args = cli::Cli::parse();
     if let Err(e) = cli::run(args) {
+        cli::abandon_out();
         eprintln!("error: {}", message(&e));
         let failed_run = e.downcast_ref::<cli::RunFailed>().is_some();
         std::process::exit(if failed_run { 3 } else { 2 });

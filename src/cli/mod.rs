@@ -81,6 +81,31 @@ pub enum Command {
     Explore(explore::ExploreArgs),
 }
 
+/// The output folder this process created when it claimed it (none when it existed before).
+static CREATED_OUT: std::sync::Mutex<Option<std::path::PathBuf>> = std::sync::Mutex::new(None);
+
+/// After a failed command: remove the output folder it created, when nothing but its lock
+/// file is in it, so that a failed run leaves no empty folder behind. A folder that existed
+/// before, or that holds anything else, is left as it is.
+pub fn abandon_out() {
+    let Some(dir) = CREATED_OUT.lock().unwrap_or_else(|e| e.into_inner()).take() else {
+        return;
+    };
+    let Ok(entries) = std::fs::read_dir(&dir) else {
+        return;
+    };
+    let names: Vec<std::ffi::OsString> = entries
+        .filter_map(|e| e.ok().map(|e| e.file_name()))
+        .collect();
+    if names
+        .iter()
+        .all(|n| n == pendulum_atlas_map::output::folder::LOCK_FILE)
+    {
+        let _ = std::fs::remove_file(dir.join(pendulum_atlas_map::output::folder::LOCK_FILE));
+        let _ = std::fs::remove_dir(&dir);
+    }
+}
+
 /// Make `out` the command's output folder before any work (see `output::folder`): refused when
 /// it holds an earlier run, unless `force`, which deletes that run's files (and says so).
 fn claim_out(product: Product, out: &Path, force: bool) -> anyhow::Result<()> {
@@ -96,7 +121,11 @@ fn claim_out_reading(
     inputs: &[&Path],
 ) -> anyhow::Result<()> {
     product.refuse_inputs(out, inputs)?;
+    let created = !out.exists();
     let (lock, cleared) = product.claim(out, force)?;
+    if created {
+        *CREATED_OUT.lock().unwrap_or_else(|e| e.into_inner()) = Some(out.to_path_buf());
+    }
     // Held until the process ends: no other run writes into `out` meanwhile.
     std::mem::forget(lock);
     if cleared > 0 {

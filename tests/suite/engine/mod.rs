@@ -11,6 +11,7 @@ mod attractors;
 mod batches;
 mod cases;
 mod continuation;
+mod faults;
 mod lanes;
 mod layout;
 mod skip;

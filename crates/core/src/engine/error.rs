@@ -170,6 +170,25 @@ pub enum EngineError {
         /// wgpu's message.
         message: String,
     },
+    /// The GPU device failed during a run: lost, out of memory, rejected the work or stopped
+    /// answering. Raised within seconds, never as a panic or a hang.
+    #[error(
+        "the GPU ({adapter}) {kind} during a run of {instances} instances at N = {segments} ({mib:.1} MiB of buffers): {message}; {}", kind.hint()
+    )]
+    GpuFault {
+        /// Adapter name.
+        adapter: String,
+        /// What happened.
+        kind: GpuFaultKind,
+        /// wgpu's (or the failpoint's) message.
+        message: String,
+        /// Instances of the batch that was running.
+        instances: usize,
+        /// Segments N.
+        segments: usize,
+        /// Device memory of the batch's buffers (MiB).
+        mib: f64,
+    },
     /// The GPU handed back an instance that is not what the dispatches should have left:
     /// a status code the engines do not define, or an `ok` instance short of its last step.
     #[error(
@@ -181,4 +200,43 @@ pub enum EngineError {
         /// What is wrong with it.
         what: String,
     },
+}
+
+/// What a GPU device did to end a run ([`EngineError::GpuFault`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GpuFaultKind {
+    /// The device was lost (driver reset, a kernel stopped by a watchdog, the device removed).
+    Lost,
+    /// An allocation failed.
+    OutOfMemory,
+    /// The device refused the work as invalid.
+    Validation,
+    /// The device did not finish a submission within the engine's bound.
+    Timeout,
+}
+
+impl GpuFaultKind {
+    /// What the user can do about it.
+    pub fn hint(self) -> &'static str {
+        match self {
+            GpuFaultKind::OutOfMemory => {
+                "use a smaller map (fewer cells, a shorter run, fewer R samples), or --backend cpu"
+            }
+            GpuFaultKind::Lost | GpuFaultKind::Timeout => {
+                "try again (the device may need a moment to recover), or use --backend cpu"
+            }
+            GpuFaultKind::Validation => "please report this, and use --backend cpu meanwhile",
+        }
+    }
+}
+
+impl std::fmt::Display for GpuFaultKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            GpuFaultKind::Lost => "was lost",
+            GpuFaultKind::OutOfMemory => "ran out of memory",
+            GpuFaultKind::Validation => "refused the work",
+            GpuFaultKind::Timeout => "stopped answering",
+        })
+    }
 }

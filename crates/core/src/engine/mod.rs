@@ -36,7 +36,7 @@ pub mod twin;
 
 pub use cpu::{CpuEngine, CpuLoop};
 pub use early_rule::EarlyStop;
-pub use error::EngineError;
+pub use error::{EngineError, GpuFaultKind};
 pub use gpu::{GpuContext, GpuEngine};
 pub use plan::{EnsembleOptions, EnsemblePlan, InstancePlan};
 pub use reference::{ReferenceOptions, integrate_reference};

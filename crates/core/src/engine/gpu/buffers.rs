@@ -1,7 +1,7 @@
 //! The buffers of one GPU run: sized and checked against the adapter before anything is
 //! allocated, filled from the plan, bound once.
 
-use crate::engine::error::EngineError;
+use crate::engine::error::{EngineError, GpuFaultKind};
 use crate::engine::gpu::ReduceSettings;
 use crate::engine::gpu::context::GpuContext;
 use crate::engine::gpu::kernels::{KernelKey, WG};
@@ -11,7 +11,6 @@ use crate::engine::method::Method;
 use crate::engine::plan::EnsemblePlan;
 use crate::model::{CHECK_EVERY, Chain};
 use bytemuck::Zeroable;
-use wgpu::util::DeviceExt;
 
 /// Loop iterations one invocation may run on a software adapter (lavapipe stops at 65535).
 const SOFTWARE_LOOP_BUDGET: usize = 60_000;
@@ -337,7 +336,9 @@ pub struct Buffers {
 }
 
 impl Buffers {
-    /// Create and fill every buffer of `plan` (λ1's twins at separation `twin_d0`).
+    /// Create and fill every buffer of `plan` (λ1's twins at separation `twin_d0`). The
+    /// buffers are created empty inside out-of-memory and validation error scopes, checked,
+    /// and only then filled through the queue: a failed allocation is an error, not a panic.
     pub fn upload(
         ctx: &GpuContext,
         plan: &EnsemblePlan,
@@ -345,24 +346,7 @@ impl Buffers {
         sizes: &Sizes,
         control: &GpuControl,
         twin_d0: f64,
-    ) -> Buffers {
-        let dev = &ctx.device;
-        let sto = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
-        let init = |label: &str, contents: &[u8], usage| {
-            dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage,
-            })
-        };
-        let empty = |label: &str, size: u64| {
-            dev.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size,
-                usage: sto,
-                mapped_at_creation: false,
-            })
-        };
+    ) -> Result<Buffers, EngineError> {
         let (mats, offsets) = imex_matrices(plan);
         let params: Vec<GpuInstanceParams> = plan
             .instances
@@ -371,27 +355,49 @@ impl Buffers {
             .map(|(p, &off)| GpuInstanceParams::from_plan(p, off, twin_d0))
             .collect();
         let (state, accum) = initial_state(plan, sizes);
-        let params = init("params", bytemuck::cast_slice(&params), sto);
-        let state = init("state", bytemuck::cast_slice(&state), sto);
-        let accum = init("accum", bytemuck::cast_slice(&accum), sto);
-        let strobe = empty("strobe", sizes.strobe_bytes);
-        let rwork = empty("rwork", sizes.rwork_bytes);
-        let kc = empty("kc", sizes.kc_bytes);
-        let turns = init("c_turns", bytemuck::cast_slice(&c_turns(reduce)), sto);
-        let imex = init("imex_mats", bytemuck::cast_slice(&mats), sto);
-        let early = empty("early", sizes.early_bytes);
         let all: Vec<u32> = (0..sizes.n_inst as u32).collect();
-        let active = init(
-            "active",
-            bytemuck::cast_slice(&all),
-            sto | wgpu::BufferUsages::COPY_DST,
-        );
-        let done = init("done", bytemuck::cast_slice(&vec![0u32; sizes.n_inst]), sto);
-        let control = init(
-            "control",
-            bytemuck::bytes_of(control),
-            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        );
+        let turns = c_turns(reduce);
+        let zeros = vec![0u32; sizes.n_inst];
+        let filled: [(&str, &[u8]); 7] = [
+            ("params", bytemuck::cast_slice(&params)),
+            ("state", bytemuck::cast_slice(&state)),
+            ("accum", bytemuck::cast_slice(&accum)),
+            ("c_turns", bytemuck::cast_slice(&turns)),
+            ("imex_mats", bytemuck::cast_slice(&mats)),
+            ("active", bytemuck::cast_slice(&all)),
+            ("done", bytemuck::cast_slice(&zeros)),
+        ];
+        let dev = &ctx.device;
+        let oom = dev.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let invalid = dev.push_error_scope(wgpu::ErrorFilter::Validation);
+        let sto = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST;
+        let create = |label: &str, size: u64, usage| {
+            dev.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: size.max(16).next_multiple_of(4),
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let [params, state, accum, turns, imex, active, done] =
+            filled.map(|(label, bytes)| create(label, bytes.len() as u64, sto));
+        let strobe = create("strobe", sizes.strobe_bytes, sto);
+        let rwork = create("rwork", sizes.rwork_bytes, sto);
+        let kc = create("kc", sizes.kc_bytes, sto);
+        let early = create("early", sizes.early_bytes, sto);
+        let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
+        let control_buf = create("control", size_of::<GpuControl>() as u64, uniform);
+        let invalid = pollster::block_on(invalid.pop());
+        let oom = pollster::block_on(oom.pop());
+        allocation_checked(ctx, oom, invalid)?;
+        let targets = [&params, &state, &accum, &turns, &imex, &active, &done];
+        for (buffer, (_, bytes)) in targets.iter().zip(&filled) {
+            write_padded(ctx, buffer, bytes);
+        }
+        ctx.queue
+            .write_buffer(&control_buf, 0, bytemuck::bytes_of(control));
         let bind = dev.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("ensemble"),
             layout: &ctx.bind_layout,
@@ -402,7 +408,7 @@ impl Buffers {
                 entry(3, &strobe),
                 entry(4, &rwork),
                 entry(5, &turns),
-                entry(6, &control),
+                entry(6, &control_buf),
                 entry(7, &kc),
                 entry(8, &imex),
                 entry(9, &early),
@@ -410,16 +416,49 @@ impl Buffers {
                 entry(11, &done),
             ],
         });
-        Buffers {
+        Ok(Buffers {
             active,
             done,
             state,
             accum,
             strobe,
             rwork,
-            control,
+            control: control_buf,
             bind,
-        }
+        })
+    }
+}
+
+/// The allocation's outcome: an out-of-memory or validation error its scopes caught, or the
+/// `oom` failpoint ([`super::fault`]), as a fault.
+fn allocation_checked(
+    ctx: &GpuContext,
+    oom: Option<wgpu::Error>,
+    invalid: Option<wgpu::Error>,
+) -> Result<(), EngineError> {
+    if let Some(e) = oom {
+        return Err(ctx.fault(GpuFaultKind::OutOfMemory, e.to_string()));
+    }
+    if super::fault::failpoint()? == Some(super::fault::Failpoint::Oom) {
+        return Err(ctx.fault(
+            GpuFaultKind::OutOfMemory,
+            format!("injected by {}=oom", super::fault::GPU_FAULT_ENV),
+        ));
+    }
+    if let Some(e) = invalid {
+        return Err(ctx.fault(GpuFaultKind::Validation, e.to_string()));
+    }
+    ctx.health()
+}
+
+/// Fill `buffer` with `bytes` (the queue writes whole 4-byte words).
+fn write_padded(ctx: &GpuContext, buffer: &wgpu::Buffer, bytes: &[u8]) {
+    if bytes.len() % 4 == 0 {
+        ctx.queue.write_buffer(buffer, 0, bytes);
+    } else {
+        let mut padded = bytes.to_vec();
+        padded.resize(bytes.len().next_multiple_of(4), 0);
+        ctx.queue.write_buffer(buffer, 0, &padded);
     }
 }
 

@@ -1,7 +1,7 @@
 //! The GPU device, opened once by the caller, with the kernels it has compiled: every batch of
 //! a search, a bench or a reproduction reuses them.
 
-use crate::engine::error::EngineError;
+use crate::engine::error::{EngineError, GpuFaultKind};
 use crate::engine::gpu::kernels::{KernelKey, Kernels, shader_source};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -58,6 +58,14 @@ pub fn list_adapters() -> Vec<AdapterListing> {
         .collect()
 }
 
+/// What the device reported outside an error scope: its loss (the device-lost callback) and
+/// the first error no scope caught (the uncaptured-error handler, which otherwise panics).
+#[derive(Debug, Default)]
+struct Health {
+    lost: Option<String>,
+    error: Option<String>,
+}
+
 /// A wgpu device ready for the ensemble kernels, and the kernels compiled on it so far.
 pub struct GpuContext {
     pub(crate) device: wgpu::Device,
@@ -74,6 +82,7 @@ pub struct GpuContext {
     /// One shader module per segment count (its arrays are sized by N).
     modules: Mutex<HashMap<usize, Arc<wgpu::ShaderModule>>>,
     kernels: Mutex<HashMap<KernelKey, Arc<Kernels>>>,
+    health: Arc<Mutex<Health>>,
 }
 
 impl GpuContext {
@@ -93,6 +102,8 @@ impl GpuContext {
             adapter: info.name.clone(),
             message: e.to_string(),
         })?;
+        let health = Arc::new(Mutex::new(Health::default()));
+        watch_health(&device, &health);
         let bind_layout = bind_group_layout(&device);
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("ensemble"),
@@ -110,7 +121,51 @@ impl GpuContext {
             pipeline_layout,
             modules: Mutex::new(HashMap::new()),
             kernels: Mutex::new(HashMap::new()),
+            health,
         })
+    }
+
+    /// The device's loss or an uncaptured error, as a fault (sized by the caller).
+    pub(crate) fn health(&self) -> Result<(), EngineError> {
+        let h = self.health.lock().unwrap_or_else(|e| e.into_inner());
+        let fault = |kind, message: &String| EngineError::GpuFault {
+            adapter: self.adapter_name.clone(),
+            kind,
+            message: message.clone(),
+            instances: 0,
+            segments: 0,
+            mib: 0.0,
+        };
+        if let Some(m) = &h.lost {
+            return Err(fault(GpuFaultKind::Lost, m));
+        }
+        if let Some(m) = &h.error {
+            let kind = if m.contains("out of memory") || m.contains("Out of Memory") {
+                GpuFaultKind::OutOfMemory
+            } else {
+                GpuFaultKind::Validation
+            };
+            return Err(fault(kind, m));
+        }
+        Ok(())
+    }
+
+    /// A fault of `kind` on this device (sized by the caller).
+    pub(crate) fn fault(&self, kind: GpuFaultKind, message: String) -> EngineError {
+        EngineError::GpuFault {
+            adapter: self.adapter_name.clone(),
+            kind,
+            message,
+            instances: 0,
+            segments: 0,
+            mib: 0.0,
+        }
+    }
+
+    /// Lose the device on purpose (the `lose_device` failpoint): wgpu destroys it, and its
+    /// device-lost callback and every later wait see a lost device.
+    pub(crate) fn lose(&self) {
+        self.device.destroy();
     }
 
     /// The kernels of `key`, compiled on first use and cached.
@@ -151,6 +206,29 @@ impl GpuContext {
     pub fn compiled_kernel_sets(&self) -> usize {
         self.kernels.lock().map_or(0, |c| c.len())
     }
+}
+
+/// Record the device's loss and the errors no scope catches in `health`, instead of wgpu's
+/// default handler (a panic).
+fn watch_health(device: &wgpu::Device, health: &Arc<Mutex<Health>>) {
+    let h = health.clone();
+    device.set_device_lost_callback(move |reason, message| {
+        let mut h = h.lock().unwrap_or_else(|e| e.into_inner());
+        let reason = match reason {
+            wgpu::DeviceLostReason::Destroyed => "the device was destroyed",
+            _ => "the driver reported the device lost",
+        };
+        h.lost.get_or_insert(if message.is_empty() {
+            reason.to_string()
+        } else {
+            format!("{reason}: {message}")
+        });
+    });
+    let h = health.clone();
+    device.on_uncaptured_error(Arc::new(move |error: wgpu::Error| {
+        let mut h = h.lock().unwrap_or_else(|e| e.into_inner());
+        h.error.get_or_insert(error.to_string());
+    }));
 }
 
 /// The adapter of highest rank that `choice` allows.

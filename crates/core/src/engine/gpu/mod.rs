@@ -11,6 +11,7 @@
 
 mod buffers;
 mod context;
+pub mod fault;
 pub mod kernels;
 pub mod layout;
 
@@ -18,7 +19,7 @@ pub use context::{AdapterChoice, AdapterListing, GpuContext, list_adapters};
 
 use crate::analysis::PhaseConvention;
 use crate::config::Metric;
-use crate::engine::error::EngineError;
+use crate::engine::error::{EngineError, GpuFaultKind};
 use crate::engine::plan::EnsemblePlan;
 use crate::engine::{EngineRun, EngineTimings, EnsembleEngine, Progress, ProgressUnit, Readback};
 use crate::model::Status;
@@ -36,6 +37,14 @@ pub const REQUIRE_GPU_ENV: &str = "PENDULUM_ATLAS_REQUIRE_GPU";
 
 /// Target wall time of one integration dispatch.
 const DISPATCH_TARGET: Duration = Duration::from_millis(100);
+
+/// How long one poll of the device blocks before the device's health is checked again.
+const POLL_SLICE: Duration = Duration::from_millis(250);
+
+/// The longest one submission may run before the device is declared unresponsive: far above
+/// any dispatch the engine sizes (integration aims at [`DISPATCH_TARGET`]; lavapipe's longest
+/// reduction of a 257 × 193 map takes under a minute).
+const WAIT_LIMIT: Duration = Duration::from_secs(600);
 
 /// Wall time of each stage of a GPU run (s).
 #[derive(Debug, Clone, Default, Serialize, serde::Deserialize)]
@@ -224,9 +233,41 @@ fn run_batch(
     batch: &Batch,
     progress: Progress,
 ) -> Result<EngineRun, EngineError> {
+    let sizes = Sizes::new(ctx, plan, batch.key)?;
+    run_sized(ctx, plan, batch, &sizes, progress).map_err(|e| sized(e, plan, &sizes))
+}
+
+/// A GPU fault with the size of the batch that was running.
+fn sized(e: EngineError, plan: &EnsemblePlan, sizes: &Sizes) -> EngineError {
+    match e {
+        EngineError::GpuFault {
+            adapter,
+            kind,
+            message,
+            ..
+        } => EngineError::GpuFault {
+            adapter,
+            kind,
+            message,
+            instances: sizes.n_inst,
+            segments: plan.segments,
+            mib: sizes.device_bytes() as f64 / f64::from(1 << 20),
+        },
+        other => other,
+    }
+}
+
+/// [`run_batch`] once its buffer sizes are known.
+fn run_sized(
+    ctx: &GpuContext,
+    plan: &EnsemblePlan,
+    batch: &Batch,
+    sizes: &Sizes,
+    progress: Progress,
+) -> Result<EngineRun, EngineError> {
     let (reduce, key, readback) = (batch.reduce, batch.key, batch.readback);
+    let sizes = *sizes;
     let t_all = Instant::now();
-    let sizes = Sizes::new(ctx, plan, key)?;
     let budget = software_step_budget(ctx, plan, key, reduce)?;
     let mut timings = GpuTimings {
         device_bytes: sizes.device_bytes(),
@@ -249,7 +290,7 @@ fn run_batch(
         ..GpuControl::zeroed()
     }
     .with_early(plan);
-    let bufs = Buffers::upload(ctx, plan, reduce, &sizes, &control, batch.twin_d0);
+    let bufs = Buffers::upload(ctx, plan, reduce, &sizes, &control, batch.twin_d0)?;
     timings.upload_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
     let dispatches = integrate(ctx, &kernels, &bufs, plan, &mut control, budget, progress)?;
@@ -310,6 +351,7 @@ fn integrate(
         .unwrap_or(0);
     let mut active: Vec<u32> = (0..n as u32).collect();
     let (mut done, mut chunk, mut dispatches) = (0u64, 64u64, 0u32);
+    let lose = fault::failpoint()? == Some(fault::Failpoint::LoseDevice);
     while !active.is_empty() && done < max_steps {
         let this = chunk.min(max_steps - done).min(budget.unwrap_or(u64::MAX));
         control.steps_per_dispatch = this as u32;
@@ -323,6 +365,9 @@ fn integrate(
             &bufs.bind,
             (active.len() as u32).div_ceil(WG),
         );
+        if lose {
+            ctx.lose();
+        }
         wait(ctx)?;
         let took = started.elapsed();
         dispatches += 1;
@@ -546,14 +591,38 @@ fn submit(ctx: &GpuContext, pipeline: &wgpu::ComputePipeline, bind: &wgpu::BindG
     ctx.queue.submit([enc.finish()]);
 }
 
+/// Wait for the device's work, in polls of [`POLL_SLICE`] with its health checked between
+/// them: a lost device or an uncaptured error ends the wait at once, and a submission still
+/// running after [`WAIT_LIMIT`] ends it as unresponsive. Never blocks without bound.
 fn wait(ctx: &GpuContext) -> Result<(), EngineError> {
-    ctx.device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| EngineError::Gpu {
-            stage: "wait",
-            message: e.to_string(),
-        })?;
-    Ok(())
+    let started = Instant::now();
+    loop {
+        ctx.health()?;
+        let poll = ctx.device.poll(wgpu::PollType::Wait {
+            submission_index: None,
+            timeout: Some(POLL_SLICE),
+        });
+        match poll {
+            Ok(_) => return ctx.health(),
+            Err(wgpu::PollError::Timeout) if started.elapsed() < WAIT_LIMIT => {}
+            Err(wgpu::PollError::Timeout) => {
+                return Err(ctx.fault(
+                    GpuFaultKind::Timeout,
+                    format!(
+                        "a submission was still running after {} s",
+                        WAIT_LIMIT.as_secs()
+                    ),
+                ));
+            }
+            Err(e) => {
+                ctx.health()?;
+                return Err(EngineError::Gpu {
+                    stage: "wait",
+                    message: e.to_string(),
+                });
+            }
+        }
+    }
 }
 
 /// Copy a storage buffer to the host.
