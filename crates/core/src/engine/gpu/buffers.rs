@@ -453,7 +453,7 @@ fn allocation_checked(
 
 /// Fill `buffer` with `bytes` (the queue writes whole 4-byte words).
 fn write_padded(ctx: &GpuContext, buffer: &wgpu::Buffer, bytes: &[u8]) {
-    if bytes.len() % 4 == 0 {
+    if bytes.len().is_multiple_of(4) {
         ctx.queue.write_buffer(buffer, 0, bytes);
     } else {
         let mut padded = bytes.to_vec();
