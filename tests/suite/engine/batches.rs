@@ -83,3 +83,41 @@ fn a_plan_run_in_batches_equals_one_run_bit_for_bit() {
         whole.dispatches
     );
 }
+
+/// The GPU's round trips: the 0–1 test's passes go in one submission whatever the number of c
+/// values, and the run reports its submissions and the bytes it read back (issue 44).
+#[test]
+fn the_zero_one_passes_take_one_submission_and_the_run_counts_its_round_trips() {
+    let Some(engine) = gpu() else {
+        return;
+    };
+    let plan = plan();
+    let counts = |n_c: usize| {
+        let mut reduce = ReduceOptions::default();
+        reduce.zero_one.n_c = n_c;
+        let run = engine
+            .run(&plan, &reduce, Readback::default(), &|_, _, _| {
+                std::ops::ControlFlow::Continue(())
+            })
+            .unwrap();
+        let g = run.timings.gpu.expect("a GPU run has GPU timings");
+        (g.submissions, g.read_back_bytes, run.dispatches)
+    };
+    // Each integration dispatch (their number follows the wall time) is one submission and
+    // one read of the 11 instances' `done` flags; the rest is the reductions and results.
+    let rest = |(subs, bytes, dispatches): (u64, u64, u32)| {
+        let d = u64::from(dispatches);
+        assert!(
+            subs >= 2 * d && bytes >= 44 * d,
+            "{subs} submissions, {bytes} bytes"
+        );
+        (subs - 2 * d, bytes - 44 * d)
+    };
+    let (few, bytes_few) = rest(counts(10));
+    let (many, bytes_many) = rest(counts(100));
+    assert_eq!(few, many, "10 and 100 c values take the same submissions");
+    assert!(few <= 12, "{few} submissions besides the integration");
+    // The accumulators of every instance come back, and no more with more c values.
+    assert!(bytes_few >= 11 * 64, "{bytes_few} bytes");
+    assert_eq!(bytes_few, bytes_many);
+}

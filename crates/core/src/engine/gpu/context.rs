@@ -4,6 +4,7 @@
 use crate::engine::error::{EngineError, GpuFaultKind};
 use crate::engine::gpu::kernels::{KernelKey, Kernels, shader_source};
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 /// Which adapters [`GpuContext::new`] may pick.
@@ -83,6 +84,32 @@ pub struct GpuContext {
     modules: Mutex<HashMap<usize, Arc<wgpu::ShaderModule>>>,
     kernels: Mutex<HashMap<KernelKey, Arc<Kernels>>>,
     health: Arc<Mutex<Health>>,
+    /// The read-back buffer, kept across dispatches and runs and grown when too small.
+    pub(crate) staging: Mutex<Option<wgpu::Buffer>>,
+    /// Queue submissions made on this device so far.
+    submissions: AtomicU64,
+    /// Bytes copied back to the host so far.
+    read_back: AtomicU64,
+}
+
+/// What a device has done so far: submissions and bytes read back (a run reports the
+/// difference over it).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct DeviceCounts {
+    /// Queue submissions.
+    pub submissions: u64,
+    /// Bytes copied back to the host.
+    pub read_back_bytes: u64,
+}
+
+impl DeviceCounts {
+    /// The work done since `before`.
+    pub fn since(self, before: DeviceCounts) -> DeviceCounts {
+        DeviceCounts {
+            submissions: self.submissions - before.submissions,
+            read_back_bytes: self.read_back_bytes - before.read_back_bytes,
+        }
+    }
 }
 
 impl GpuContext {
@@ -122,7 +149,29 @@ impl GpuContext {
             modules: Mutex::new(HashMap::new()),
             kernels: Mutex::new(HashMap::new()),
             health,
+            staging: Mutex::new(None),
+            submissions: AtomicU64::new(0),
+            read_back: AtomicU64::new(0),
         })
+    }
+
+    /// Submit `commands` to the queue, counted.
+    pub(crate) fn submit(&self, commands: wgpu::CommandBuffer) {
+        self.submissions.fetch_add(1, Ordering::Relaxed);
+        self.queue.submit([commands]);
+    }
+
+    /// Count `bytes` copied back to the host.
+    pub(crate) fn count_read_back(&self, bytes: u64) {
+        self.read_back.fetch_add(bytes, Ordering::Relaxed);
+    }
+
+    /// Submissions and bytes read back on this device so far.
+    pub fn counts(&self) -> DeviceCounts {
+        DeviceCounts {
+            submissions: self.submissions.load(Ordering::Relaxed),
+            read_back_bytes: self.read_back.load(Ordering::Relaxed),
+        }
     }
 
     /// The device's loss or an uncaptured error, as a fault (sized by the caller).

@@ -15,7 +15,7 @@ pub mod fault;
 pub mod kernels;
 pub mod layout;
 
-pub use context::{AdapterChoice, AdapterListing, GpuContext, list_adapters};
+pub use context::{AdapterChoice, AdapterListing, DeviceCounts, GpuContext, list_adapters};
 
 use crate::analysis::PhaseConvention;
 use crate::config::Metric;
@@ -62,6 +62,12 @@ pub struct GpuTimings {
     /// Device memory of the run's per-instance buffers (parameters, state, accumulators,
     /// series, work space, K_c values; bytes).
     pub device_bytes: u64,
+    /// Queue submissions of the run (every batch's together).
+    #[serde(default)]
+    pub submissions: u64,
+    /// Bytes the run copied back to the host (results, `done` flags, kept series).
+    #[serde(default)]
+    pub read_back_bytes: u64,
 }
 
 impl GpuTimings {
@@ -74,6 +80,8 @@ impl GpuTimings {
             reduce_s: self.reduce_s + next.reduce_s,
             readback_s: self.readback_s + next.readback_s,
             device_bytes: self.device_bytes.max(next.device_bytes),
+            submissions: self.submissions + next.submissions,
+            read_back_bytes: self.read_back_bytes + next.read_back_bytes,
         }
     }
 }
@@ -268,6 +276,7 @@ fn run_sized(
     let (reduce, key, readback) = (batch.reduce, batch.key, batch.readback);
     let sizes = *sizes;
     let t_all = Instant::now();
+    let counts_before = ctx.counts();
     let budget = software_step_budget(ctx, plan, key, reduce)?;
     let mut timings = GpuTimings {
         device_bytes: sizes.device_bytes(),
@@ -314,6 +323,9 @@ fn run_sized(
     let accum: Vec<GpuAccum> = read_buffer(ctx, &bufs.accum, sizes.accum_bytes)?;
     timings.readback_s += t0.elapsed().as_secs_f64();
     let accum = &accum[..sizes.n_inst];
+    let counts = ctx.counts().since(counts_before);
+    timings.submissions = counts.submissions;
+    timings.read_back_bytes = counts.read_back_bytes;
     Ok(EngineRun {
         results: results(plan, accum)?,
         strobe,
@@ -473,18 +485,23 @@ fn run_reductions(
         wait(ctx)?;
     }
     if let Some(r) = &kernels.r {
+        let mut enc = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("R") });
         for p in r {
-            submit(ctx, p, &bufs.bind, groups);
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: None,
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(p);
+            pass.set_bind_group(0, &bufs.bind, &[]);
+            pass.dispatch_workgroups(groups, 1, 1);
         }
+        ctx.submit(enc.finish());
         wait(ctx)?;
     }
     if let Some(p) = &kernels.k_pass {
-        for ci in 0..sizes.n_c as u32 {
-            control.c_index = ci;
-            ctx.queue
-                .write_buffer(&bufs.control, 0, bytemuck::bytes_of(control));
-            submit(ctx, p, &bufs.bind, groups);
-        }
+        k_passes(ctx, p, bufs, sizes, control, groups);
         wait(ctx)?;
     }
     if let Some(p) = &kernels.k_final {
@@ -501,6 +518,44 @@ fn run_reductions(
         wait(ctx)?;
     }
     Ok(())
+}
+
+/// The 0–1 test's passes, one per c value, in one encoder and one submission: before each
+/// pass a copy sets the control block's `c_index` (copies and passes run in encoder order).
+fn k_passes(
+    ctx: &GpuContext,
+    pipeline: &wgpu::ComputePipeline,
+    bufs: &Buffers,
+    sizes: &Sizes,
+    control: &GpuControl,
+    groups: u32,
+) {
+    let indices: Vec<u32> = (0..sizes.n_c as u32).collect();
+    let src = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("c indices"),
+        size: 4 * indices.len().max(1) as u64,
+        usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    ctx.queue
+        .write_buffer(&src, 0, bytemuck::cast_slice(&indices));
+    ctx.queue
+        .write_buffer(&bufs.control, 0, bytemuck::bytes_of(control));
+    let field = std::mem::offset_of!(GpuControl, c_index) as u64;
+    let mut enc = ctx
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("K") });
+    for ci in 0..sizes.n_c as u64 {
+        enc.copy_buffer_to_buffer(&src, 4 * ci, &bufs.control, field, 4);
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: None,
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &bufs.bind, &[]);
+        pass.dispatch_workgroups(groups, 1, 1);
+    }
+    ctx.submit(enc.finish());
 }
 
 /// The status of instance `index` as the GPU left it, checked: a defined code, and an `ok`
@@ -588,7 +643,7 @@ fn submit(ctx: &GpuContext, pipeline: &wgpu::ComputePipeline, bind: &wgpu::BindG
         pass.set_bind_group(0, bind, &[]);
         pass.dispatch_workgroups(groups, 1, 1);
     }
-    ctx.queue.submit([enc.finish()]);
+    ctx.submit(enc.finish());
 }
 
 /// Wait for the device's work, in polls of [`POLL_SLICE`] with its health checked between
@@ -625,7 +680,8 @@ fn wait(ctx: &GpuContext) -> Result<(), EngineError> {
     }
 }
 
-/// Copy a storage buffer to the host.
+/// Copy the first `size` bytes of a storage buffer to the host, through the device's
+/// read-back buffer (kept across calls, grown when too small).
 fn read_buffer<T: bytemuck::Pod>(
     ctx: &GpuContext,
     src: &wgpu::Buffer,
@@ -635,19 +691,23 @@ fn read_buffer<T: bytemuck::Pod>(
         stage: "readback",
         message,
     };
-    let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("readback"),
-        size,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
+    let mut slot = ctx.staging.lock().unwrap_or_else(|e| e.into_inner());
+    if slot.as_ref().is_none_or(|b| b.size() < size) {
+        *slot = Some(ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: size.next_power_of_two().max(size),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        }));
+    }
+    let staging = slot.as_ref().expect("a read-back buffer was just made");
     let mut enc = ctx
         .device
         .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-    enc.copy_buffer_to_buffer(src, 0, &staging, 0, size);
-    ctx.queue.submit([enc.finish()]);
+    enc.copy_buffer_to_buffer(src, 0, staging, 0, size);
+    ctx.submit(enc.finish());
     let (tx, rx) = std::sync::mpsc::channel();
-    staging.map_async(wgpu::MapMode::Read, .., move |r| {
+    staging.map_async(wgpu::MapMode::Read, ..size, move |r| {
         let _ = tx.send(r);
     });
     wait(ctx)?;
@@ -655,10 +715,11 @@ fn read_buffer<T: bytemuck::Pod>(
         .map_err(|_| failed("the read-back was dropped".into()))?
         .map_err(|e| failed(e.to_string()))?;
     let view = staging
-        .get_mapped_range(..)
+        .get_mapped_range(..size)
         .map_err(|e| failed(format!("the read-back buffer cannot be mapped: {e}")))?;
     let out = bytemuck::cast_slice::<u8, T>(&view).to_vec();
     drop(view);
     staging.unmap();
+    ctx.count_read_back(size);
     Ok(out)
 }
