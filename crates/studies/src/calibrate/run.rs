@@ -17,9 +17,6 @@ use std::collections::HashSet;
 /// Largest distance counted per observation in the tie-break.
 pub const DISTANCE_CAP: f64 = 5.0;
 
-/// Instances per ensemble run (the GPU's buffers stay small).
-const BATCH: usize = 2048;
-
 /// One candidate: values of the unknowns and how it fares on every observation.
 #[derive(Debug, Clone, Serialize)]
 pub struct Candidate {
@@ -193,11 +190,9 @@ fn evaluate(
         }
     }
     let (ens, red) = options(spec);
-    let mut results: Vec<InstanceResult> = Vec::with_capacity(scenes.len());
-    for chunk in scenes.chunks(BATCH) {
-        let plan = EnsemblePlan::from_scenes(chunk, &ens)?;
-        results.extend(run_plan(plan, &red, None, engine, progress)?.results);
-    }
+    // One ensemble: the GPU engine splits it by the adapter's limits.
+    let plan = EnsemblePlan::from_scenes(&scenes, &ens)?;
+    let results: Vec<InstanceResult> = run_plan(plan, &red, None, engine, progress)?.results;
     let per_case = offsets.len();
     let per_candidate = per_case * spec.cases.len();
     Ok(values

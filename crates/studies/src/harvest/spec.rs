@@ -275,10 +275,15 @@ pub struct SearchSpec {
     pub baseline_zoom: BaselineZoom,
     /// Re-simulate the best design with the single-run engine of `simulate`.
     pub verify: bool,
-    /// Most instances in one ensemble: larger batches run as several chunks (also bounded by
-    /// the GPU's buffer size).
+    /// Most instances in one ensemble: larger batches run as several chunks. By default a
+    /// stage's instances go to the engine together (up to [`MAX_BATCH_INSTANCES`]), and the
+    /// GPU engine splits them by the adapter's limits; a smaller value bounds the host memory
+    /// one ensemble takes.
     pub max_batch_instances: usize,
 }
+
+/// The default and the largest `search.max_batch_instances`.
+pub const MAX_BATCH_INSTANCES: usize = 4_000_000;
 
 impl SearchSpec {
     /// Number of designs in the initial grid.
@@ -490,8 +495,12 @@ fn read_search(
         count: r.integer("search.baseline.zoom_count", 41, 0, 10_000)? as usize,
     };
     let verify = r.boolean("search.verify", true)?;
-    let max_batch_instances =
-        r.integer("search.max_batch_instances", 16_384, 1, 4_000_000)? as usize;
+    let max_batch_instances = r.integer(
+        "search.max_batch_instances",
+        MAX_BATCH_INSTANCES as i64,
+        1,
+        MAX_BATCH_INSTANCES as i64,
+    )? as usize;
     r.finish()?;
     let spec = SearchSpec {
         scene,
