@@ -12,10 +12,11 @@
 #   benches/gpu_lease.sh unpack FILE      # here: the results into docs/bench/gpu/<adapter>/
 #
 # `run` checks that a hardware adapter is listed (not only llvmpipe), runs the default map
-# (N = 17 and the grid a probe picks on a hardware GPU), the map as written (N = 3, 64 x 48)
-# on the GPU and on the CPU engine for parity, the GPU peers (benches/peers/run_gpu_peers.sh:
-# the CUDA kernel and JAX on the same GPU, at most 150 s) and then `bench --throughput --peers`
-# (GPU rows only: the CPU rows are the committed lavapipe file's). Each step's log
+# (what the hardware probe picks), the map as written (N = 3, 64 x 48) on the GPU in both state
+# layouts (gpu.layout) and on the CPU engine for parity, the GPU peers
+# (benches/peers/run_gpu_peers.sh: the CUDA kernel and JAX on the same GPU, at most 150 s) and
+# then `bench --throughput --peers` at N = 3 and 17 in each layout (GPU rows only: the CPU rows
+# are the committed lavapipe file's). About 6 minutes on an H200. Each step's log
 # and results go under $OUT as they finish, so a call cut short still brings back what it had;
 # the whole is one tarball, gpu_lease.tar.gz, plus GPU.md and the log to read at once.
 # Budget: one call of under 10 minutes on an H100 (the study's rows are each bounded by
@@ -63,8 +64,9 @@ pack() { tar -czf "$out/gpu_lease.tar.gz" -C "$work" . ; }
 run() {
   local dry=${1:-}
   out=${OUT:-/tmp/gpu_lease_out}
-  work=/tmp/gpu_lease
-  local bin=$kit/pendulum-atlas
+  work=${GPU_LEASE_WORK:-/tmp/gpu_lease}
+  # PENDULUM_ATLAS_KIT_BIN: another binary (the test of `run --dry` passes the one cargo built).
+  local bin=${PENDULUM_ATLAS_KIT_BIN:-$kit/pendulum-atlas}
   [ -x "$bin" ] || { echo "no $bin: run 'benches/gpu_lease.sh prepare' here and carry .gpu-kit" >&2; exit 2; }
   rm -rf "$work"; mkdir -p "$work" "$out"
   exec > >(tee "$out/log.txt") 2>&1
@@ -87,20 +89,23 @@ run() {
   echo "default map: ${SECONDS} s"
   rm -f "$work/map"/*.npy "$work/map"/*.csv
   pack
-  # Parity on this hardware: the map as written (N = 3, 64 x 48) on the GPU and on the CPU
-  # engine in f64; their .npy files come back to be compared cell by cell.
-  echo "== parity map"
+  # Parity on this hardware: the map as written (N = 3, 64 x 48) on the GPU in both state
+  # layouts and on the CPU engine in f64; their .npy files come back to be compared cell by cell.
+  echo "== parity maps"
   local parity=(--set beam.segments=3)
   [ -z "$dry" ] || parity+=("${small[@]}")
-  SECONDS=0
-  "$bin" map --backend gpu "${parity[@]}" --out "$work/parity_gpu" --force
-  echo "parity map, GPU: ${SECONDS} s"
+  for layout in private global; do
+    SECONDS=0
+    "$bin" map --backend gpu "${parity[@]}" --set "gpu.layout=\"$layout\"" \
+      --out "$work/parity_gpu_$layout" --force
+    echo "parity map, GPU ($layout): ${SECONDS} s"
+  done
   SECONDS=0
   "$bin" map --backend cpu "${parity[@]}" --out "$work/parity_cpu" --force
   echo "parity map, CPU f64: ${SECONDS} s"
   rm -f "$work"/parity_*/*.png "$work"/parity_*/*.csv
   pack
-  local study=(--no-cpu --row-budget-s 20)
+  local study=(--no-cpu --segments 3,17 --row-budget-s 8)
   local peers_rc=0
   if [ -n "$dry" ]; then
     study=(--no-cpu --segments 3 --max-instances 1000 --row-budget-s 5)
@@ -114,12 +119,15 @@ run() {
     study+=(--peers "$work/peers")
     pack
   fi
-  echo "== bench --throughput ${study[*]}"
-  SECONDS=0
-  "$bin" bench --throughput "${study[@]}" --out "$work/gpu" --force
-  echo "study: ${SECONDS} s"
-  cp "$work/gpu/GPU.md" "$out/GPU.md"
-  pack
+  # The occupancy sweep (10^3 to 10^6 instances at N = 3 and 17) in both state layouts.
+  for layout in private global; do
+    echo "== bench --throughput --gpu-layout $layout ${study[*]}"
+    SECONDS=0
+    "$bin" bench --throughput --gpu-layout "$layout" "${study[@]}" --out "$work/gpu_$layout" --force
+    echo "study ($layout): ${SECONDS} s"
+    cp "$work/gpu_$layout/GPU.md" "$out/GPU_$layout.md"
+    pack
+  done
   ls -la "$out"
   if [ "$peers_rc" -ne 0 ]; then
     echo "the peers failed (rc $peers_rc); everything else was written" >&2
@@ -155,16 +163,15 @@ unpack() {
   local file=${1:?the gpu_lease.tar.gz a run brought back}
   local tmp; tmp=$(mktemp -d)
   tar -xzf "$file" -C "$tmp"
-  local name; name=$(sed -n 's/^# Ensemble throughput on //p' "$tmp/gpu/GPU.md" | head -1)
+  local report; report=$(ls "$tmp"/gpu*/GPU.md | head -1)
+  local name; name=$(sed -n 's/^# Ensemble throughput on //p' "$report" | head -1 | sed 's/ \[.*//')
   local slug; slug=$(echo "$name" | tr '[:upper:]' '[:lower:]' | tr -cs 'a-z0-9' '-' | sed 's/^-//; s/-$//')
   local dest=docs/bench/gpu/$slug
   mkdir -p "$dest"
-  cp -r "$tmp/gpu/." "$dest/"
+  for d in "$tmp"/gpu*/; do cp -r "$d" "$dest/$(basename "$d")"; done
   [ -d "$tmp/peers" ] && cp -r "$tmp/peers" "$dest/peers"
   [ -d "$tmp/map" ] && cp "$tmp/map/map.json" "$dest/default_map.json"
-  for side in gpu cpu; do
-    [ -d "$tmp/parity_$side" ] && cp -r "$tmp/parity_$side" "$dest/parity_$side"
-  done
+  for d in "$tmp"/parity_*/; do cp -r "$d" "$dest/$(basename "$d")"; done
   cp "$tmp/adapters.txt" "$dest/adapters.txt"
   rm -rf "$tmp"
   echo "results in $dest"

@@ -141,3 +141,46 @@ fn throughput_refuses_bad_options_with_the_accepted_range() {
         assert!(!err.contains("panicked"), "{err}");
     }
 }
+
+/// `benches/gpu_lease.sh run --dry`, the device call's script on whatever adapter there is
+/// (lavapipe here): every step runs and packs its results, both state layouts included.
+#[test]
+fn the_gpu_lease_script_runs_dry_on_this_adapter() {
+    if crate::engine::gpu().is_none() {
+        return;
+    }
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let tmp = std::env::temp_dir().join(format!("pa-gpu-lease-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&tmp);
+    let out = tmp.join("out");
+    let o = Command::new("bash")
+        .arg(root.join("benches/gpu_lease.sh"))
+        .args(["run", "--dry"])
+        .env("OUT", &out)
+        .env("GPU_LEASE_WORK", tmp.join("work"))
+        .env(
+            "PENDULUM_ATLAS_KIT_BIN",
+            env!("CARGO_BIN_EXE_pendulum-atlas"),
+        )
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{log}");
+    for f in [
+        "log.txt",
+        "gpu_lease.tar.gz",
+        "GPU_private.md",
+        "GPU_global.md",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing: {log}");
+    }
+    let global = std::fs::read_to_string(out.join("GPU_global.md")).unwrap();
+    assert!(global.contains("[gpu.layout = global]"), "{global}");
+    for d in ["parity_gpu_private", "parity_gpu_global", "parity_cpu"] {
+        assert!(
+            tmp.join("work").join(d).join("K.npy").is_file(),
+            "{d}: {log}"
+        );
+    }
+    std::fs::remove_dir_all(&tmp).ok();
+}

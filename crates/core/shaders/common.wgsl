@@ -27,6 +27,22 @@ override WANT_EARLY: bool = false;  // the early stop of confirmed orbits (shade
 const TAU: f32 = 6.2831853071795864;
 const PI: f32 = 3.1415926535897932;
 
+// sin and cos of 2π·x for any x: the turn is reduced to [-1/2, 1/2] first, so the argument
+// stays within [-π, π], where WGSL bounds the error of sin and cos.
+fn sin_turn(x: f32) -> f32 {
+    return sin(TAU * (x - round(x)));
+}
+
+fn cos_turn(x: f32) -> f32 {
+    return cos(TAU * (x - round(x)));
+}
+
+// NaN or ±inf, read from the bits: WGSL lets an implementation assume that no float is NaN,
+// so a comparison (`!(x > 0.0)`) cannot be trusted to catch one.
+fn not_finite(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7f800000u) == 0x7f800000u;
+}
+
 // ---- data ------------------------------------------------------------------------------
 // Mirrors `GpuInstanceParams` in src/engine/gpu/layout.rs (a test compares the layouts).
 struct InstanceParams {

@@ -7,7 +7,7 @@
 // src/model/excitation.rs (exact phase, never t += dt).
 fn cart_acc(phase_steps: u32, frac: f32) -> f32 {
     let ph = (f32(phase_steps) + frac) / f32(P.spp) + P.phase0;
-    return -P.acc_amp * sin(TAU * ph);
+    return -P.acc_amp * sin_turn(ph);
 }
 
 // Bumper forces at the stage state: the horizontal force fl − fr on the beam. On the main
@@ -51,7 +51,7 @@ fn bumper_force(delta: f32, rate: f32) -> f32 {
 // The branch of the scene's law a bumper is on (branch_of of src/model/chain.rs): bit 0 it
 // pushes, bit 1 its damper takes part.
 fn branch_of(delta: f32, rate: f32) -> u32 {
-    if !(delta > 0.0) {
+    if not_finite(delta) || delta <= 0.0 {
         return 0u;
     }
     if P.contact_law == CONTACT_LOADING {
@@ -232,9 +232,6 @@ fn rk4_step(ph: u32, dt: f32) {
     }
 }
 
-fn not_finite(x: f32) -> bool {
-    return (bitcast<u32>(x) & 0x7f800000u) == 0x7f800000u;
-}
 
 // Stored energy (inertial frame) at the step's state, as Chain::energy computes it.
 fn energy(cart_v: f32) -> f32 {
@@ -281,6 +278,8 @@ fn energy(cart_v: f32) -> f32 {
 
 // Guard::check of src/model/health.rs: non-finite state, holder escaped over a bumper, folded
 // chain, or runaway energy.
+// The chain's angles reach sin and cos unreduced: a healthy state keeps |θ_0| ≤ π/2 and every
+// bend within the guard, so they stay near [-π, π]; a state that leaves it is stopped here.
 fn health(ph: u32) -> u32 {
     for (var i = 0u; i < N_SEG; i++) {
         if not_finite(th[i]) || not_finite(om[i]) {
@@ -298,7 +297,7 @@ fn health(ph: u32) -> u32 {
             return STATUS_DIVERGED;
         }
     }
-    let cart_v = P.vel_amp * cos(TAU * (f32(ph) / f32(P.spp) + P.phase0));
+    let cart_v = P.vel_amp * cos_turn(f32(ph) / f32(P.spp) + P.phase0);
     let e = energy(cart_v);
     if not_finite(e) || abs(e) > P.guard_energy {
         return STATUS_DIVERGED;
@@ -435,7 +434,7 @@ fn twin_sample(j: u32, a: ptr<function, Accum>) {
     let dv = tw_volt - volt;
     d2 += P.twin_volt_w * dv * dv;
     let d = sqrt(d2);
-    if !(d > 0.0) || not_finite(d) {
+    if not_finite(d) || d <= 0.0 {
         (*a).twin_flags = TWIN_BROKEN;
         return;
     }

@@ -5,7 +5,7 @@
 // cos and sin of (j · c) from the fixed-point turn fraction: exact modular phase.
 fn turn_cos_sin(j: u32, turns: u32) -> vec2<f32> {
     let frac = f32(j * turns) * 2.3283064365386963e-10; // 2^-32
-    let ang = TAU * frac;
+    let ang = TAU * (frac - round(frac)); // within [-π, π]
     return vec2<f32>(cos(ang), sin(ang));
 }
 
@@ -31,7 +31,8 @@ fn k_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
     mean /= f32(n);
     var k_c = 0.0;
     // A constant series is the most regular motion there is: K_c = 0.
-    if !(hi - lo <= 1e-12 * max(abs(lo), abs(hi))) {
+    let spread = hi - lo;
+    if not_finite(spread) || spread > 1e-12 * max(abs(lo), abs(hi)) {
         let turns = cturns[ctl.c_index];
         var sp = 0.0;
         var sq = 0.0;
@@ -151,7 +152,8 @@ fn detect_period(inst: u32, n: u32) -> u32 {
         }
         var fits = true;
         for (var k = n - m; k < n; k++) {
-            if !(abs(strobe[at(inst, k)] - strobe[at(inst, k - p)]) <= bound) {
+            let diff = abs(strobe[at(inst, k)] - strobe[at(inst, k - p)]);
+            if not_finite(diff) || diff > bound {
                 fits = false;
                 break;
             }

@@ -105,7 +105,7 @@ fn line(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     mean /= f32(n);
     for (var j = 0u; j < n; j++) {
-        let w = 0.5 * (1.0 - cos(TAU * f32(j) / f32(n)));
+        let w = 0.5 * (1.0 - cos_turn(f32(j) / f32(n)));
         rwork[at(inst, n + j)] = vec2<f32>((rwork[at(inst, j)].x - mean) * w, 0.0);
     }
     fft(inst, n, n, -1.0);
@@ -119,7 +119,7 @@ fn line(@builtin(global_invocation_id) gid: vec3<u32>) {
             c = a;
         }
     }
-    if !(c > 0.0) {
+    if not_finite(c) || c <= 0.0 {
         acc[inst].line = nan;
         return;
     }
@@ -161,7 +161,7 @@ fn r_cart(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var j = 0u; j < n; j++) {
         let s = p.r_start + j * p.r_every;
         let ph = f32(s % p.spp) / f32(p.spp) + p.phase0;
-        rwork[at(inst, n + j)] = vec2<f32>(p.pos_amp * sin(TAU * ph), 0.0);
+        rwork[at(inst, n + j)] = vec2<f32>(p.pos_amp * sin_turn(ph), 0.0);
     }
     analytic(inst, n, n);
 }
@@ -186,6 +186,8 @@ fn r_phase(@builtin(global_invocation_id) gid: vec3<u32>) {
         if PAPER_CONVENTION {
             d = d - PI * floor((d + 0.5 * PI) / PI);
         }
+        // d is within [-2π, 2π]: reduced to [-π, π] for sin and cos.
+        d = d - TAU * round(d / TAU);
         sum_c += cos(d);
         sum_s += sin(d);
     }

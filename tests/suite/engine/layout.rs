@@ -4,6 +4,7 @@
 
 use pendulum_atlas_core::engine::gpu::kernels::{SHADER_STAGES, shader_header, shader_source};
 use pendulum_atlas_core::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams};
+use pendulum_atlas_core::engine::gpu::state_layout::StateLayout;
 use pendulum_atlas_core::model::{CHECK_EVERY, Status};
 
 /// Member offsets of a Rust struct, by name.
@@ -18,7 +19,11 @@ fn module() -> naga::Module {
 }
 
 fn module_for(segments: usize) -> naga::Module {
-    let src = shader_source(segments);
+    module_in(segments, StateLayout::Private)
+}
+
+fn module_in(segments: usize, layout: StateLayout) -> naga::Module {
+    let src = shader_source(segments, layout);
     naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{}", e.emit_to_string(&src)))
 }
 
@@ -95,6 +100,20 @@ fn the_assembled_shader_validates_without_an_adapter() {
     )
     .validate(&module())
     .unwrap_or_else(|e| panic!("{e:?}"));
+    // The global layout's source (the working arrays in a storage buffer) validates too, at
+    // the smallest and the largest N, and has no working array left in private memory.
+    for n in [1, 17, 64] {
+        let m = module_in(n, StateLayout::Global);
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::default(),
+        )
+        .validate(&m)
+        .unwrap_or_else(|e| panic!("global layout, N = {n}: {e:?}"));
+        let src = shader_source(n, StateLayout::Global);
+        assert!(!src.contains("array<f32, MAX_SEG>;"), "N = {n}");
+        assert!(src.contains("var<storage, read_write> work"), "N = {n}");
+    }
     // Every stage file of shaders/ is part of the assembly, and nothing else is there.
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/core/shaders");
     let mut on_disk: Vec<String> = std::fs::read_dir(&dir)

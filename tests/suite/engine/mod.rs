@@ -14,6 +14,7 @@ mod continuation;
 mod faults;
 mod lanes;
 mod layout;
+mod layout_parity;
 mod skip;
 mod verdict;
 
@@ -33,6 +34,8 @@ pub enum Eng {
     SimdF32,
     /// The GPU engine (f32).
     Gpu,
+    /// The GPU engine with its working arrays in a storage buffer (`gpu.layout = "global"`).
+    GpuGlobal,
 }
 
 /// An engine and an integration method.
@@ -57,12 +60,13 @@ impl Under {
             Eng::SimdF64 => Some(SIMD64.get_or_init(|| Engine::cpu(Precision::F64))),
             Eng::SimdF32 => Some(SIMD32.get_or_init(|| Engine::cpu(Precision::F32))),
             Eng::Gpu => gpu(),
+            Eng::GpuGlobal => gpu_global(),
         }
     }
 
     /// Single precision: the looser parity tolerances apply.
     pub fn is_f32(self) -> bool {
-        matches!(self.eng, Eng::SimdF32 | Eng::Gpu)
+        matches!(self.eng, Eng::SimdF32 | Eng::Gpu | Eng::GpuGlobal)
     }
 
     /// The CPU engine in f64 with the same method: the reference of the comparisons.
@@ -97,6 +101,20 @@ pub fn gpu() -> Option<&'static Engine> {
         );
     }
     e.as_ref()
+}
+
+/// A GPU engine of its own that runs every plan in the global layout, or `None` as [`gpu`].
+pub fn gpu_global() -> Option<&'static Engine> {
+    static GPU: OnceLock<Option<Engine>> = OnceLock::new();
+    gpu()?;
+    GPU.get_or_init(|| {
+        let mut e = Engine::open(Backend::Gpu, None).ok()?;
+        e.set_gpu_layout(Some(
+            pendulum_atlas_core::engine::gpu::state_layout::StateLayout::Global,
+        ));
+        Some(e)
+    })
+    .as_ref()
 }
 
 /// The same tests of `cases` (a module of this suite) for one engine and one method.
@@ -167,6 +185,39 @@ mod skip_suite {
     engine_suite!(skip:
         a_map_with_the_early_stop_equals_the_map_without_it,
         a_refined_map_keeps_its_computed_cells_and_fills_only_uniform_blocks,
+    );
+}
+
+/// The parity cases again on the GPU with its working arrays in a storage buffer
+/// (`gpu.layout = "global"`), both methods. The rest of the suite runs on the private layout
+/// only: lavapipe integrates the global layout about 16× slower, and `layout_parity.rs`
+/// checks that the two layouts give the same results bit for bit.
+mod global_layout_suite {
+    use super::cases;
+    use super::{Eng, Under};
+    engine_method!(
+        cases,
+        gpu_global_rk4,
+        GpuGlobal,
+        Rk4,
+        [
+            holder_angle_over_a_short_horizon_matches_the_reference_integrator,
+            reductions_equal_the_analysis_library_on_the_engines_own_series,
+            maps_agree_with_the_f64_cpu_engine_on_classes_r_and_statuses,
+            diverging_instances_are_flagged_like_on_the_f64_cpu_engine
+        ]
+    );
+    engine_method!(
+        cases,
+        gpu_global_imex,
+        GpuGlobal,
+        Imex,
+        [
+            holder_angle_over_a_short_horizon_matches_the_reference_integrator,
+            reductions_equal_the_analysis_library_on_the_engines_own_series,
+            maps_agree_with_the_f64_cpu_engine_on_classes_r_and_statuses,
+            diverging_instances_are_flagged_like_on_the_f64_cpu_engine
+        ]
     );
 }
 

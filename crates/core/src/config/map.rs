@@ -17,6 +17,7 @@
 use super::continuation::ContinuationSpec;
 use super::error::ConfigError;
 use super::field::SceneField;
+use super::gpu::LayoutChoice;
 use super::metric::Metric;
 use super::mode::{MapMode, ModeKeys, RefineFollow, RefineSpec};
 use super::reader::{Range, Reader, apply_override, parse_toml, set_key};
@@ -86,6 +87,8 @@ pub struct MapSpec {
     /// Keys set but not used (the base scene's and the map's own), for the user.
     #[serde(skip)]
     pub notes: Vec<String>,
+    /// `gpu.layout`: where the GPU engine keeps an invocation's working arrays.
+    pub gpu_layout: LayoutChoice,
 }
 
 /// The size of the twin's separation, `d0` in the weighted state norm (`docs/analysis.md`, §9).
@@ -461,7 +464,7 @@ pub fn load_map(path: Option<&std::path::Path>, sets: &[String]) -> Result<MapSp
 
 /// Parse a map scene from TOML text.
 pub fn map_from_toml(text: &str, origin: &str, sets: &[String]) -> Result<MapSpec, ConfigError> {
-    let (table, map) = split_section(
+    let (mut table, map) = split_section(
         text,
         origin,
         sets,
@@ -469,8 +472,13 @@ pub fn map_from_toml(text: &str, origin: &str, sets: &[String]) -> Result<MapSpe
         "a map scene names its axes in [[map.axes]] (see configs/maps/)",
     )?;
     refuse_sets_on_swept(sets, &map, "axes", "an axis of this map")?;
+    // [gpu] is the engine's, not the scene's: read with the map's keys.
+    let gpu = table.remove("gpu");
     let mut source_table = table.clone();
     source_table.insert("map".into(), Value::Table(map.clone()));
+    if let Some(g) = &gpu {
+        source_table.insert("gpu".into(), g.clone());
+    }
     let scene = Scene::from_table(table.clone())?;
     if !matches!(scene.excitation.kind, ExcitationKind::Harmonic { .. }) {
         return Err(ConfigError::Inconsistent {
@@ -480,14 +488,14 @@ pub fn map_from_toml(text: &str, origin: &str, sets: &[String]) -> Result<MapSpe
                     .into(),
         });
     }
-    read_map(map, scene, table, source_table)
+    read_map(map, gpu, scene, (table, source_table))
 }
 
 fn read_map(
     mut map: Table,
+    gpu: Option<Value>,
     scene: Scene,
-    base_table: Table,
-    source_table: Table,
+    (base_table, source_table): (Table, Table),
 ) -> Result<MapSpec, ConfigError> {
     let axes_value = map.remove("axes");
     let metrics_value = map.remove("metrics");
@@ -496,7 +504,13 @@ fn read_map(
     if !map.is_empty() {
         wrapped.insert("map".into(), Value::Table(map));
     }
+    if let Some(g) = gpu {
+        wrapped.insert("gpu".into(), g);
+    }
     let mut r = Reader::new(wrapped);
+    let gpu_layout =
+        LayoutChoice::from_name(&r.choice("gpu.layout", "auto", &LayoutChoice::NAMES)?)
+            .expect("a name the reader accepted");
 
     let axes = MAP_AXES.read(axes_value, None, axis_refusal)?;
     let metrics = read_metrics(metrics_value, &scene)?;
@@ -567,6 +581,7 @@ fn read_map(
         lyapunov,
         mode,
         notes,
+        gpu_layout,
     };
     // Every axis key must be a scene key that takes this kind of value: check the first point.
     spec.instance_scene(0)?;

@@ -10,12 +10,14 @@
 //! need: the stroboscopic α (K, period, bifurcation) and a power-of-two uniform α series at
 //! `samples_per_period` per period (R). Trajectories are never stored.
 
+use crate::config::LayoutChoice;
 use crate::config::{
     LyapunovSettings, MapSpec, MethodChoice, Metric, Perturbation, Scene, TimeStep,
 };
 use crate::engine::Precision;
 use crate::engine::early_rule::EarlyStop;
 use crate::engine::error::EngineError;
+use crate::engine::gpu::state_layout::{StateLayout, resolve};
 use crate::engine::imex::ImexMatrices;
 use crate::engine::method::{Method, MethodSteps};
 use crate::engine::step_plan::given_step_warning;
@@ -146,6 +148,9 @@ pub struct EnsemblePlan {
     /// The twins' separation d0, when λ1 is asked for (resolved per float type by the engine:
     /// [`EnsemblePlan::twin_separation`]).
     pub perturbation: Option<Perturbation>,
+    /// Where the GPU engine keeps an invocation's working arrays (a map's `gpu.layout`;
+    /// `auto`, resolved, for other ensembles).
+    pub gpu_layout: StateLayout,
 }
 
 /// How the instances of an ensemble are sampled, and what they record.
@@ -201,7 +206,10 @@ const MIN_STROBE_PERIOD: u32 = 20;
 impl EnsemblePlan {
     /// Plan every instance of a map: validate its scene, choose its step and sampling.
     pub fn new(spec: &MapSpec) -> Result<EnsemblePlan, EngineError> {
-        EnsemblePlan::from_scenes(&spec.run_scenes()?, &EnsembleOptions::from_spec(spec))
+        let mut plan =
+            EnsemblePlan::from_scenes(&spec.run_scenes()?, &EnsembleOptions::from_spec(spec))?;
+        plan.gpu_layout = resolve(spec.gpu_layout);
+        Ok(plan)
     }
 
     /// Plan an ensemble of arbitrary validated scenes (a grid, a list of designs × frequencies
@@ -336,6 +344,7 @@ impl EnsemblePlan {
             perturbation: opts
                 .wants(Metric::Lyapunov)
                 .then_some(opts.lyapunov.perturbation),
+            gpu_layout: resolve(LayoutChoice::Auto),
             instances,
         }
     }

@@ -4,8 +4,9 @@
 use crate::engine::error::{EngineError, GpuFaultKind};
 use crate::engine::gpu::ReduceSettings;
 use crate::engine::gpu::context::GpuContext;
-use crate::engine::gpu::kernels::{KernelKey, WG};
+use crate::engine::gpu::kernels::{KernelKey, WG, work_rows_per_instance};
 use crate::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams};
+use crate::engine::gpu::state_layout::StateLayout;
 use crate::engine::imex::ImexMatrices;
 use crate::engine::method::Method;
 use crate::engine::plan::EnsemblePlan;
@@ -29,6 +30,7 @@ pub struct Sizes {
     pub rwork_bytes: u64,
     pub kc_bytes: u64,
     pub early_bytes: u64,
+    pub work_bytes: u64,
 }
 
 impl Sizes {
@@ -42,6 +44,7 @@ impl Sizes {
             + self.rwork_bytes
             + self.kc_bytes
             + self.early_bytes
+            + self.work_bytes
             + 8 * n
     }
 }
@@ -80,6 +83,7 @@ impl Sizes {
             rwork_bytes: bytes(f.rwork)?,
             kc_bytes: bytes(f.kc)?,
             early_bytes: bytes(f.early)?,
+            work_bytes: bytes(f.work)?,
         })
     }
 }
@@ -97,6 +101,7 @@ struct Footprint {
     rwork: (&'static str, u64),
     kc: (&'static str, u64),
     early: (&'static str, u64),
+    work: (&'static str, u64),
 }
 
 impl Footprint {
@@ -139,10 +144,17 @@ impl Footprint {
                     4 * u64::from(GpuControl::zeroed().with_early(plan).1),
                 ),
             ),
+            work: (
+                "working arrays (gpu.layout = global)",
+                on(
+                    key.layout == StateLayout::Global,
+                    4 * (work_rows_per_instance() * plan.segments.max(1)) as u64,
+                ),
+            ),
         }
     }
 
-    fn buffers(&self) -> [(&'static str, u64); 7] {
+    fn buffers(&self) -> [(&'static str, u64); 8] {
         [
             self.params,
             self.state,
@@ -151,6 +163,7 @@ impl Footprint {
             self.rwork,
             self.kc,
             self.early,
+            self.work,
         ]
     }
 }
@@ -387,6 +400,7 @@ impl Buffers {
         let rwork = create("rwork", sizes.rwork_bytes, sto);
         let kc = create("kc", sizes.kc_bytes, sto);
         let early = create("early", sizes.early_bytes, sto);
+        let work = create("work", sizes.work_bytes, sto);
         let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
         let control_buf = create("control", size_of::<GpuControl>() as u64, uniform);
         let invalid = pollster::block_on(invalid.pop());
@@ -414,6 +428,7 @@ impl Buffers {
                 entry(9, &early),
                 entry(10, &active),
                 entry(11, &done),
+                entry(12, &work),
             ],
         });
         Ok(Buffers {

@@ -3,6 +3,7 @@
 
 use crate::engine::error::{EngineError, GpuFaultKind};
 use crate::engine::gpu::kernels::{KernelKey, Kernels, shader_source};
+use crate::engine::gpu::state_layout::StateLayout;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
@@ -80,8 +81,8 @@ pub struct GpuContext {
     pub(crate) limits: wgpu::Limits,
     pub(crate) bind_layout: wgpu::BindGroupLayout,
     pipeline_layout: wgpu::PipelineLayout,
-    /// One shader module per segment count (its arrays are sized by N).
-    modules: Mutex<HashMap<usize, Arc<wgpu::ShaderModule>>>,
+    /// One shader module per segment count (its arrays are sized by N) and state layout.
+    modules: Mutex<HashMap<(usize, StateLayout), Arc<wgpu::ShaderModule>>>,
     kernels: Mutex<HashMap<KernelKey, Arc<Kernels>>>,
     health: Arc<Mutex<Health>>,
     /// The read-back buffer, kept across dispatches and runs and grown when too small.
@@ -155,10 +156,10 @@ impl GpuContext {
         })
     }
 
-    /// Submit `commands` to the queue, counted.
-    pub(crate) fn submit(&self, commands: wgpu::CommandBuffer) {
+    /// Submit `commands` to the queue, counted; the index to wait for.
+    pub(crate) fn submit(&self, commands: wgpu::CommandBuffer) -> wgpu::SubmissionIndex {
         self.submissions.fetch_add(1, Ordering::Relaxed);
-        self.queue.submit([commands]);
+        self.queue.submit([commands])
     }
 
     /// Count `bytes` copied back to the host.
@@ -223,7 +224,7 @@ impl GpuContext {
         cache
             .entry(*key)
             .or_insert_with(|| {
-                let module = self.module(key.segments);
+                let module = self.module(key.segments, key.layout);
                 Arc::new(Kernels::compile(
                     &self.device,
                     &self.pipeline_layout,
@@ -234,17 +235,19 @@ impl GpuContext {
             .clone()
     }
 
-    /// The shader module of chains of `segments` segments, compiled on first use.
-    fn module(&self, segments: usize) -> Arc<wgpu::ShaderModule> {
+    /// The shader module of chains of `segments` segments in `layout`, compiled on first use.
+    fn module(&self, segments: usize, layout: StateLayout) -> Arc<wgpu::ShaderModule> {
         let mut modules = self.modules.lock().unwrap_or_else(|e| e.into_inner());
         modules
-            .entry(segments)
+            .entry((segments, layout))
             .or_insert_with(|| {
                 Arc::new(
                     self.device
                         .create_shader_module(wgpu::ShaderModuleDescriptor {
                             label: Some("ensemble kernels"),
-                            source: wgpu::ShaderSource::Wgsl(shader_source(segments).into()),
+                            source: wgpu::ShaderSource::Wgsl(
+                                shader_source(segments, layout).into(),
+                            ),
                         }),
                 )
             })
@@ -308,7 +311,8 @@ fn pick_adapter(choice: AdapterChoice) -> Result<wgpu::Adapter, EngineError> {
         })
 }
 
-/// Bindings 0–11 of the kernels (see `shaders/common.wgsl`).
+/// Bindings 0–12 of the kernels (see `shaders/common.wgsl`; 12 is the global layout's work
+/// buffer, a placeholder in the private layout).
 fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
         binding,
@@ -344,6 +348,7 @@ fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             storage(9, false),
             storage(10, true),
             storage(11, false),
+            storage(12, false),
             uniform,
         ],
     })

@@ -8,6 +8,7 @@
 //! the shader never carries its own copy of a rule or coefficient defined in Rust.
 
 use crate::engine::gpu::layout::{TWIN_BROKEN, TWIN_RUNNING};
+use crate::engine::gpu::state_layout::{StateLayout, globalise, work_rows};
 use crate::engine::imex::{AE, AI, B, C, GAMMA};
 use crate::engine::method::Method;
 use crate::model::{CHECK_EVERY, ContactDamping, Status};
@@ -102,9 +103,24 @@ pub fn shader_header(segments: usize) -> String {
     h
 }
 
-/// The complete WGSL source of the ensemble kernels for chains of `segments` segments.
-pub fn shader_source(segments: usize) -> String {
-    shader_header(segments) + SHADER_BODY
+/// The complete WGSL source of the ensemble kernels for chains of `segments` segments, with
+/// the working arrays in `layout`.
+pub fn shader_source(segments: usize, layout: StateLayout) -> String {
+    let body = match layout {
+        StateLayout::Private => SHADER_BODY.to_string(),
+        StateLayout::Global => globalise(SHADER_BODY, &INSTANCE_LINES),
+    };
+    shader_header(segments) + &body
+}
+
+/// The lines where an entry point learns its instance (the global layout's `G_INST` is set
+/// after each).
+const INSTANCE_LINES: [&str; 2] = ["let inst = live[gid.x];", "let inst = gid.x;"];
+
+/// Rows of `MAX_SEG` words of the working arrays of one instance (the global layout's share
+/// of the work buffer).
+pub fn work_rows_per_instance() -> usize {
+    work_rows(SHADER_BODY)
 }
 
 /// Everything the kernels are specialised on (their override constants): one compiled set of
@@ -139,6 +155,8 @@ pub struct KernelKey {
     pub want_twin: bool,
     /// The early stop of confirmed orbits.
     pub want_early: bool,
+    /// Where the working arrays live.
+    pub layout: StateLayout,
 }
 
 /// Workgroup size of the integration and R kernels.

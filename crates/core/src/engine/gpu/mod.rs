@@ -14,6 +14,7 @@ mod context;
 pub mod fault;
 pub mod kernels;
 pub mod layout;
+pub mod state_layout;
 
 pub use context::{AdapterChoice, AdapterListing, DeviceCounts, GpuContext, list_adapters};
 
@@ -30,6 +31,7 @@ use bytemuck::Zeroable;
 use kernels::{KernelKey, Kernels, WG};
 use layout::{GPU_MAX_SEGMENTS, GpuAccum, GpuControl};
 use serde::Serialize;
+use state_layout::StateLayout;
 use std::time::{Duration, Instant};
 
 /// Environment variable that turns "no GPU adapter" from a skip into a test failure.
@@ -118,6 +120,7 @@ impl ReduceSettings {
 pub struct GpuEngine {
     ctx: GpuContext,
     max_batch: Option<usize>,
+    layout: Option<StateLayout>,
 }
 
 impl GpuEngine {
@@ -126,7 +129,14 @@ impl GpuEngine {
         GpuEngine {
             ctx,
             max_batch: None,
+            layout: None,
         }
+    }
+
+    /// Run every plan with its working arrays in `layout` (`None`: each plan's own
+    /// `gpu_layout`, from the map's `gpu.layout`). For tests and benches.
+    pub fn set_layout(&mut self, layout: Option<StateLayout>) {
+        self.layout = layout;
     }
 
     /// Run at most `max` instances at a time (`None`: as many as the adapter's limits allow),
@@ -149,12 +159,21 @@ impl EnsembleEngine for GpuEngine {
         readback: Readback,
         progress: Progress,
     ) -> Result<EngineRun, EngineError> {
-        run_gpu(&self.ctx, plan, reduce, readback, self.max_batch, progress)
+        let layout = self.layout.unwrap_or(plan.gpu_layout);
+        run_gpu(
+            &self.ctx,
+            plan,
+            reduce,
+            readback,
+            layout,
+            self.max_batch,
+            progress,
+        )
     }
 }
 
-/// The specialisation a plan needs.
-fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings) -> KernelKey {
+/// The specialisation a plan needs, with its working arrays in `layout`.
+fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings, layout: StateLayout) -> KernelKey {
     let want = |m: Metric| plan.metrics.contains(&m);
     KernelKey {
         segments: plan.segments,
@@ -171,6 +190,7 @@ fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings) -> KernelKey {
         method: plan.method,
         want_twin: want(Metric::Lyapunov),
         want_early: plan.early_stop.is_some(),
+        layout,
     }
 }
 
@@ -182,6 +202,7 @@ pub fn run_gpu(
     plan: &EnsemblePlan,
     opts: &ReduceOptions,
     readback: Readback,
+    layout: StateLayout,
     max_batch: Option<usize>,
     progress: Progress,
 ) -> Result<EngineRun, EngineError> {
@@ -196,7 +217,7 @@ pub fn run_gpu(
     }
     let twin_d0 = plan.twin_separation(crate::engine::Precision::F32)?;
     let reduce = ReduceSettings::from_options(opts);
-    let key = kernel_key(plan, &reduce);
+    let key = kernel_key(plan, &reduce, layout);
     let n = plan.instances.len();
     let cap = batch_capacity(ctx, plan, &key)?.min(max_batch.unwrap_or(usize::MAX));
     let batch = Batch {
@@ -304,8 +325,8 @@ fn run_sized(
     let t0 = Instant::now();
     let dispatches = integrate(ctx, &kernels, &bufs, plan, &mut control, budget, progress)?;
     if let Some(finish) = &kernels.early_finish {
-        submit(ctx, finish, &bufs.bind, (sizes.n_inst as u32).div_ceil(WG));
-        wait(ctx)?;
+        let done = submit(ctx, finish, &bufs.bind, (sizes.n_inst as u32).div_ceil(WG));
+        wait(ctx, done)?;
     }
     timings.integrate_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
@@ -371,7 +392,7 @@ fn integrate(
         ctx.queue
             .write_buffer(&bufs.control, 0, bytemuck::bytes_of(control));
         let started = Instant::now();
-        submit(
+        let submitted = submit(
             ctx,
             &kernels.integrate,
             &bufs.bind,
@@ -380,7 +401,7 @@ fn integrate(
         if lose {
             ctx.lose();
         }
-        wait(ctx)?;
+        wait(ctx, submitted)?;
         let took = started.elapsed();
         dispatches += 1;
         done += this;
@@ -481,8 +502,8 @@ fn run_reductions(
 ) -> Result<(), EngineError> {
     let groups = (sizes.n_inst as u32).div_ceil(WG);
     if let Some(p) = &kernels.line {
-        submit(ctx, p, &bufs.bind, groups);
-        wait(ctx)?;
+        let done = submit(ctx, p, &bufs.bind, groups);
+        wait(ctx, done)?;
     }
     if let Some(r) = &kernels.r {
         let mut enc = ctx
@@ -497,25 +518,21 @@ fn run_reductions(
             pass.set_bind_group(0, &bufs.bind, &[]);
             pass.dispatch_workgroups(groups, 1, 1);
         }
-        ctx.submit(enc.finish());
-        wait(ctx)?;
+        let done = ctx.submit(enc.finish());
+        wait(ctx, done)?;
     }
     if let Some(p) = &kernels.k_pass {
-        k_passes(ctx, p, bufs, sizes, control, groups);
-        wait(ctx)?;
+        let done = k_passes(ctx, p, bufs, sizes, control, groups);
+        wait(ctx, done)?;
     }
     if let Some(p) = &kernels.k_final {
-        submit(
-            ctx,
-            p,
-            &bufs.bind,
-            (sizes.n_inst as u32).div_ceil(key.wg_k()),
-        );
-        wait(ctx)?;
+        let groups_k = (sizes.n_inst as u32).div_ceil(key.wg_k());
+        let done = submit(ctx, p, &bufs.bind, groups_k);
+        wait(ctx, done)?;
     }
     if let Some(p) = &kernels.verdict {
-        submit(ctx, p, &bufs.bind, groups);
-        wait(ctx)?;
+        let done = submit(ctx, p, &bufs.bind, groups);
+        wait(ctx, done)?;
     }
     Ok(())
 }
@@ -529,7 +546,7 @@ fn k_passes(
     sizes: &Sizes,
     control: &GpuControl,
     groups: u32,
-) {
+) -> wgpu::SubmissionIndex {
     let indices: Vec<u32> = (0..sizes.n_c as u32).collect();
     let src = ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("c indices"),
@@ -555,7 +572,7 @@ fn k_passes(
         pass.set_bind_group(0, &bufs.bind, &[]);
         pass.dispatch_workgroups(groups, 1, 1);
     }
-    ctx.submit(enc.finish());
+    ctx.submit(enc.finish())
 }
 
 /// The status of instance `index` as the GPU left it, checked: a defined code, and an `ok`
@@ -630,7 +647,12 @@ fn results(plan: &EnsemblePlan, accum: &[GpuAccum]) -> Result<Vec<InstanceResult
         .collect()
 }
 
-fn submit(ctx: &GpuContext, pipeline: &wgpu::ComputePipeline, bind: &wgpu::BindGroup, groups: u32) {
+fn submit(
+    ctx: &GpuContext,
+    pipeline: &wgpu::ComputePipeline,
+    bind: &wgpu::BindGroup,
+    groups: u32,
+) -> wgpu::SubmissionIndex {
     let mut enc = ctx
         .device
         .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
@@ -643,18 +665,19 @@ fn submit(ctx: &GpuContext, pipeline: &wgpu::ComputePipeline, bind: &wgpu::BindG
         pass.set_bind_group(0, bind, &[]);
         pass.dispatch_workgroups(groups, 1, 1);
     }
-    ctx.submit(enc.finish());
+    ctx.submit(enc.finish())
 }
 
-/// Wait for the device's work, in polls of [`POLL_SLICE`] with its health checked between
+/// Wait for submission `index` (this thread's own: other threads may submit to the same
+/// device meanwhile), in polls of [`POLL_SLICE`] with the device's health checked between
 /// them: a lost device or an uncaptured error ends the wait at once, and a submission still
 /// running after [`WAIT_LIMIT`] ends it as unresponsive. Never blocks without bound.
-fn wait(ctx: &GpuContext) -> Result<(), EngineError> {
+fn wait(ctx: &GpuContext, index: wgpu::SubmissionIndex) -> Result<(), EngineError> {
     let started = Instant::now();
     loop {
         ctx.health()?;
         let poll = ctx.device.poll(wgpu::PollType::Wait {
-            submission_index: None,
+            submission_index: Some(index.clone()),
             timeout: Some(POLL_SLICE),
         });
         match poll {
@@ -705,12 +728,12 @@ fn read_buffer<T: bytemuck::Pod>(
         .device
         .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
     enc.copy_buffer_to_buffer(src, 0, staging, 0, size);
-    ctx.submit(enc.finish());
+    let copied = ctx.submit(enc.finish());
     let (tx, rx) = std::sync::mpsc::channel();
     staging.map_async(wgpu::MapMode::Read, ..size, move |r| {
         let _ = tx.send(r);
     });
-    wait(ctx)?;
+    wait(ctx, copied)?;
     rx.recv()
         .map_err(|_| failed("the read-back was dropped".into()))?
         .map_err(|e| failed(e.to_string()))?;

@@ -1,0 +1,85 @@
+//! The two GPU state layouts (`gpu.layout`) run the same arithmetic. With RK4 every result of
+//! a map and the series read back are equal bit for bit (λ1's twin and the early stop on).
+//! With the IMEX method they agree to f32 rounding on the periodic and regular cells (on
+//! lavapipe the two compiled kernels round differently, presumably where the compiler fuses
+//! a·b + c, which SPIR-V allows unless told otherwise), and chaotic cells, which amplify any
+//! rounding, keep their regime; undecided ones (hopping, λ1 near 0) are compared only on it.
+
+use super::{gpu, gpu_global};
+use pendulum_atlas_core::config::map_from_toml;
+use pendulum_atlas_core::engine::{EnsemblePlan, Readback, no_progress};
+use pendulum_atlas_core::reduce::{InstanceResult, ReduceOptions, Regime};
+
+fn bits(r: &InstanceResult) -> Vec<u64> {
+    [
+        r.k,
+        r.r,
+        r.period,
+        r.line,
+        r.alpha_min_rad,
+        r.alpha_max_rad,
+        r.impacts_per_s,
+        r.lyapunov_per_s,
+        r.lyapunov_se_per_s,
+        r.regime_confidence,
+    ]
+    .iter()
+    .map(|v| v.to_bits())
+    .collect()
+}
+
+#[test]
+fn the_global_layout_gives_the_private_layouts_results() {
+    let (Some(private), Some(global)) = (gpu(), gpu_global()) else {
+        return;
+    };
+    for method in ["rk4", "imex"] {
+        let text = format!(
+            "[beam]\nsegments = 3\n[integration]\nduration_s = 20.0\ntransient_s = 2.0\n\
+method = \"{method}\"\n[map]\nlyapunov_window_s = 6.0\n\
+[[map.axes]]\nkey = \"excitation.frequency_hz\"\nstart = 6.0\nend = 11.0\ncount = 3\n\
+[[map.axes]]\nkey = \"excitation.amplitude_m\"\nvalues = [0.006, 0.012]\n"
+        );
+        let spec = map_from_toml(&text, "<test>", &[]).expect("map");
+        let plan = EnsemblePlan::new(&spec).expect("plan");
+        let readback = Readback {
+            strobe: true,
+            r_series: true,
+            ..Readback::default()
+        };
+        let opts = ReduceOptions::from_spec(&spec);
+        let a = private
+            .run(&plan, &opts, readback, &no_progress)
+            .expect("private");
+        let b = global
+            .run(&plan, &opts, readback, &no_progress)
+            .expect("global");
+        let mut compared = 0;
+        for (i, (x, y)) in a.results.iter().zip(&b.results).enumerate() {
+            assert_eq!(x.status, y.status, "{method} {i}");
+            assert_eq!(x.regime, y.regime, "{method} {i}");
+            if method == "rk4" {
+                assert_eq!(bits(x), bits(y), "{method} {i}: {x:?} vs {y:?}");
+                compared += 1;
+            } else if matches!(x.regime, Regime::Periodic | Regime::Regular) {
+                let close = (x.alpha_min_rad - y.alpha_min_rad).abs() < 1e-5
+                    && (x.alpha_max_rad - y.alpha_max_rad).abs() < 1e-5
+                    && (x.r - y.r).abs() < 1e-4;
+                assert!(close, "{method} {i}: {x:?} vs {y:?}");
+                compared += 1;
+            }
+        }
+        assert!(compared > 0, "{method}: no cell compared");
+        if method == "rk4" {
+            assert_eq!(a.strobe, b.strobe, "{method}: stroboscopic samples");
+            assert_eq!(a.r_series, b.r_series, "{method}: R series");
+        }
+        let bytes = |r: &pendulum_atlas_core::engine::EngineRun| {
+            r.timings.gpu.as_ref().map_or(0, |g| g.device_bytes)
+        };
+        assert!(
+            bytes(&b) > bytes(&a),
+            "the global layout holds its work buffer"
+        );
+    }
+}
