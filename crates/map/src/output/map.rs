@@ -246,6 +246,8 @@ pub fn map_manifest(spec: &MapSpec, run: &MapRun, files: &[String]) -> MapManife
         backend_reason: run.engine.reason.clone(),
         adapter: run.engine.device.clone(),
         precision: word(&run.engine.precision),
+        gpu_layout: (run.engine.kind == pendulum_atlas_core::engine::EngineKind::Gpu)
+            .then(|| run.plan.gpu_layout.name().to_string()),
         segments: run.plan.segments,
         method: word(&run.plan.method),
         method_reason: run.plan.method_reason.clone(),
