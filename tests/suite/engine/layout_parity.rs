@@ -38,7 +38,7 @@ fn the_global_layout_gives_the_private_layouts_results() {
             "[beam]\nsegments = 3\n[integration]\nduration_s = 20.0\ntransient_s = 2.0\n\
 method = \"{method}\"\n[map]\nlyapunov_window_s = 6.0\n\
 [[map.axes]]\nkey = \"excitation.frequency_hz\"\nstart = 6.0\nend = 11.0\ncount = 3\n\
-[[map.axes]]\nkey = \"excitation.amplitude_m\"\nvalues = [0.006, 0.012]\n"
+[[map.axes]]\nkey = \"excitation.amplitude_m\"\nvalues = [0.001, 0.012]\n"
         );
         let spec = map_from_toml(&text, "<test>", &[]).expect("map");
         let plan = EnsemblePlan::new(&spec).expect("plan");

@@ -6,8 +6,13 @@
 //! per-instance results (plus, when asked, the recorded series) come back.
 //!
 //! Stages of [`GpuEngine::run`]: the kernels of the plan's [`KernelKey`] (compiled once per
-//! [`GpuContext`]), buffers sized against the adapter ([`buffers`]), integration dispatches
-//! sized by wall time, the R and K reductions, the read-back.
+//! [`GpuContext`], in the plan's [`state_layout`]), buffers sized against the adapter and
+//! allocated in error scopes ([`buffers`]), integration dispatches sized by wall time, the R
+//! and K reductions (one submission each), the read-back through one kept buffer.
+//!
+//! Every wait is bounded and checks the device's health: a lost device, an allocation that
+//! fails or work the device refuses ends the run with [`EngineError::GpuFault`], never a panic
+//! or a hang ([`fault`] injects both for the tests).
 
 mod buffers;
 mod context;
