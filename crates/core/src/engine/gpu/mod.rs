@@ -515,13 +515,7 @@ fn run_reductions(
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("R") });
         for p in r {
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: None,
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(p);
-            pass.set_bind_group(0, &bufs.bind, &[]);
-            pass.dispatch_workgroups(groups, 1, 1);
+            record_pass(&mut enc, p, &bufs.bind, groups);
         }
         let done = ctx.submit(enc.finish());
         wait(ctx, done)?;
@@ -569,13 +563,7 @@ fn k_passes(
         .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("K") });
     for ci in 0..sizes.n_c as u64 {
         enc.copy_buffer_to_buffer(&src, 4 * ci, &bufs.control, field, 4);
-        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: None,
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, &bufs.bind, &[]);
-        pass.dispatch_workgroups(groups, 1, 1);
+        record_pass(&mut enc, pipeline, &bufs.bind, groups);
     }
     ctx.submit(enc.finish())
 }
@@ -661,16 +649,24 @@ fn submit(
     let mut enc = ctx
         .device
         .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-    {
-        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: None,
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, bind, &[]);
-        pass.dispatch_workgroups(groups, 1, 1);
-    }
+    record_pass(&mut enc, pipeline, bind, groups);
     ctx.submit(enc.finish())
+}
+
+/// One compute pass of `pipeline` over `groups` workgroups, recorded into `enc`.
+fn record_pass(
+    enc: &mut wgpu::CommandEncoder,
+    pipeline: &wgpu::ComputePipeline,
+    bind: &wgpu::BindGroup,
+    groups: u32,
+) {
+    let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: None,
+        timestamp_writes: None,
+    });
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, bind, &[]);
+    pass.dispatch_workgroups(groups, 1, 1);
 }
 
 /// Wait for submission `index` (this thread's own: other threads may submit to the same
