@@ -513,6 +513,7 @@ fn run_engine(
     let t_all = Instant::now();
     let readback = Readback {
         strobe: strobe_tail.is_some(),
+        strobe_last: strobe_tail.map(|k| k as u32),
         r_series: false,
         final_state,
     };

@@ -121,3 +121,41 @@ fn the_zero_one_passes_take_one_submission_and_the_run_counts_its_round_trips() 
     assert!(bytes_few >= 11 * 64, "{bytes_few} bytes");
     assert_eq!(bytes_few, bytes_many);
 }
+
+/// Only what is kept is read back: asking for each instance's last 8 stroboscopic samples
+/// gives exactly the tails of the whole series, and copies fewer bytes back.
+#[test]
+fn a_strobe_tail_is_the_end_of_the_whole_series_and_costs_fewer_bytes() {
+    let Some(engine) = gpu() else {
+        return;
+    };
+    let plan = plan();
+    let run = |last: Option<u32>| {
+        let readback = Readback {
+            strobe: true,
+            strobe_last: last,
+            ..Readback::default()
+        };
+        engine
+            .run(&plan, &ReduceOptions::default(), readback, &|_, _, _| {
+                std::ops::ControlFlow::Continue(())
+            })
+            .unwrap()
+    };
+    let whole = run(None);
+    let tail = run(Some(8));
+    for (i, (w, t)) in whole.strobe.iter().zip(&tail.strobe).enumerate() {
+        assert!(w.len() > 8, "instance {i}: {} samples", w.len());
+        assert_eq!(t.as_slice(), &w[w.len() - 8..], "instance {i}");
+    }
+    let bytes = |r: &pendulum_atlas_core::engine::EngineRun| {
+        let g = r.timings.gpu.as_ref().unwrap();
+        g.read_back_bytes - 44 * u64::from(r.dispatches)
+    };
+    assert!(
+        bytes(&tail) < bytes(&whole),
+        "{} vs {}",
+        bytes(&tail),
+        bytes(&whole)
+    );
+}

@@ -157,6 +157,9 @@ pub fn no_progress(_: u64, _: u64, _: ProgressUnit) -> ControlFlow<()> {
 pub struct Readback {
     /// The stroboscopic α of every instance (bifurcation diagrams, tests).
     pub strobe: bool,
+    /// Of those, only each instance's last this many samples (`None`: all). The GPU engine
+    /// copies back only the rows that hold them.
+    pub strobe_last: Option<u32>,
     /// The uniform α series of R (tests, the bench's trajectory errors).
     pub r_series: bool,
     /// Every instance's state `[θ; θ̇; v]` where it ended (continuation starts the next cell
@@ -448,9 +451,15 @@ impl Engine {
         readback: Readback,
         progress: Progress,
     ) -> Result<EngineRun, EngineError> {
-        match &self.inner {
+        let mut run = match &self.inner {
             EngineImpl::Cpu(c) => EnsembleEngine::run(c, plan, reduce, readback, progress),
             EngineImpl::Gpu(g) => EnsembleEngine::run(g.as_ref(), plan, reduce, readback, progress),
+        }?;
+        if let Some(k) = readback.strobe_last {
+            for s in &mut run.strobe {
+                s.drain(..s.len().saturating_sub(k as usize));
+            }
         }
+        Ok(run)
     }
 }

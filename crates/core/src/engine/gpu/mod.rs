@@ -464,19 +464,37 @@ fn read_series(
     }
     let mut strobe = Vec::new();
     if readback.strobe && plan.want_strobe {
-        let raw: Vec<f32> = read_buffer(ctx, &bufs.strobe, sizes.strobe_bytes)?;
-        strobe = plan
-            .instances
-            .iter()
-            .enumerate()
-            .map(|(i, p)| {
-                (0..p.strobe_count as usize)
-                    .map(|j| f64::from(raw[sample_major(sizes, i, j)]))
-                    .collect()
-            })
-            .collect();
+        strobe = read_strobe(ctx, bufs, plan, sizes, readback.strobe_last)?;
     }
     Ok((strobe, r_series))
+}
+
+/// The stroboscopic α of every instance, or only its last `last` samples: the buffer is
+/// sample-major (row j holds sample j of every instance), so only the rows from the earliest
+/// kept sample to the longest series are copied back.
+fn read_strobe(
+    ctx: &GpuContext,
+    bufs: &Buffers,
+    plan: &EnsemblePlan,
+    sizes: &Sizes,
+    last: Option<u32>,
+) -> Result<Vec<Vec<f64>>, EngineError> {
+    let keep = |count: u32| last.map_or(0, |k| count.saturating_sub(k))..count;
+    let counts = plan.instances.iter().map(|p| p.strobe_count);
+    let lo = counts.clone().map(|c| keep(c).start).min().unwrap_or(0) as usize;
+    let hi = counts.max().unwrap_or(0) as usize;
+    let row = 4 * sizes.n_inst as u64;
+    let raw: Vec<f32> = read_range(ctx, &bufs.strobe, lo as u64 * row, (hi - lo) as u64 * row)?;
+    Ok(plan
+        .instances
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            keep(p.strobe_count)
+                .map(|j| f64::from(raw[sample_major(sizes, i, j as usize - lo)]))
+                .collect()
+        })
+        .collect())
 }
 
 /// Every instance's main state `[θ; θ̇; v]` where it ended (the state buffer is
@@ -704,13 +722,26 @@ fn wait(ctx: &GpuContext, index: wgpu::SubmissionIndex) -> Result<(), EngineErro
     }
 }
 
-/// Copy the first `size` bytes of a storage buffer to the host, through the device's
-/// read-back buffer (kept across calls, grown when too small).
+/// Copy the first `size` bytes of a storage buffer to the host.
 fn read_buffer<T: bytemuck::Pod>(
     ctx: &GpuContext,
     src: &wgpu::Buffer,
     size: u64,
 ) -> Result<Vec<T>, EngineError> {
+    read_range(ctx, src, 0, size)
+}
+
+/// Copy `size` bytes of a storage buffer from `offset` to the host, through the device's
+/// read-back buffer (kept across calls, grown when too small).
+fn read_range<T: bytemuck::Pod>(
+    ctx: &GpuContext,
+    src: &wgpu::Buffer,
+    offset: u64,
+    size: u64,
+) -> Result<Vec<T>, EngineError> {
+    if size == 0 {
+        return Ok(Vec::new());
+    }
     let failed = |message: String| EngineError::Gpu {
         stage: "readback",
         message,
@@ -728,7 +759,7 @@ fn read_buffer<T: bytemuck::Pod>(
     let mut enc = ctx
         .device
         .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-    enc.copy_buffer_to_buffer(src, 0, staging, 0, size);
+    enc.copy_buffer_to_buffer(src, offset, staging, 0, size);
     let copied = ctx.submit(enc.finish());
     let (tx, rx) = std::sync::mpsc::channel();
     staging.map_async(wgpu::MapMode::Read, ..size, move |r| {
