@@ -16,7 +16,8 @@
 # layouts (gpu.layout) and on the CPU engine for parity, the GPU peers
 # (benches/peers/run_gpu_peers.sh: the CUDA kernel and JAX on the same GPU, at most 150 s) and
 # then `bench --throughput --peers` at N = 3 and 17 in each layout (GPU rows only: the CPU rows
-# are the committed lavapipe file's). About 6 minutes on an H200. Each step's log
+# are the committed lavapipe file's). Estimated at 5 to 8 minutes on an H200 from the first
+# call's steps (the global layout's rows there are unmeasured; each row stops at its budget). Each step's log
 # and results go under $OUT as they finish, so a call cut short still brings back what it had;
 # the whole is one tarball, gpu_lease.tar.gz, plus GPU.md and the log to read at once.
 # Budget: one call of under 10 minutes on an H100 (the study's rows are each bounded by

@@ -4,8 +4,8 @@
 use crate::engine::error::{EngineError, GpuFaultKind};
 use crate::engine::gpu::kernels::{KernelKey, Kernels, shader_source};
 use crate::engine::gpu::state_layout::StateLayout;
+use std::cell::Cell;
 use std::collections::HashMap;
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 /// Which adapters [`GpuContext::new`] may pick.
@@ -87,14 +87,19 @@ pub struct GpuContext {
     health: Arc<Mutex<Health>>,
     /// The read-back buffer, kept across dispatches and runs and grown when too small.
     pub(crate) staging: Mutex<Option<wgpu::Buffer>>,
-    /// Queue submissions made on this device so far.
-    submissions: AtomicU64,
-    /// Bytes copied back to the host so far.
-    read_back: AtomicU64,
 }
 
-/// What a device has done so far: submissions and bytes read back (a run reports the
-/// difference over it).
+thread_local! {
+    /// Queue submissions this thread has made (a run's GPU work happens on its calling
+    /// thread, so its counts are not mixed with those of runs on other threads sharing the
+    /// device).
+    static SUBMISSIONS: Cell<u64> = const { Cell::new(0) };
+    /// Bytes this thread has copied back to the host.
+    static READ_BACK: Cell<u64> = const { Cell::new(0) };
+}
+
+/// What the calling thread has done on GPU devices so far: submissions and bytes read back
+/// (a run reports the difference over it).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct DeviceCounts {
     /// Queue submissions.
@@ -151,27 +156,25 @@ impl GpuContext {
             kernels: Mutex::new(HashMap::new()),
             health,
             staging: Mutex::new(None),
-            submissions: AtomicU64::new(0),
-            read_back: AtomicU64::new(0),
         })
     }
 
     /// Submit `commands` to the queue, counted; the index to wait for.
     pub(crate) fn submit(&self, commands: wgpu::CommandBuffer) -> wgpu::SubmissionIndex {
-        self.submissions.fetch_add(1, Ordering::Relaxed);
+        SUBMISSIONS.with(|c| c.set(c.get() + 1));
         self.queue.submit([commands])
     }
 
     /// Count `bytes` copied back to the host.
     pub(crate) fn count_read_back(&self, bytes: u64) {
-        self.read_back.fetch_add(bytes, Ordering::Relaxed);
+        READ_BACK.with(|c| c.set(c.get() + bytes));
     }
 
-    /// Submissions and bytes read back on this device so far.
+    /// Submissions and bytes read back by the calling thread so far.
     pub fn counts(&self) -> DeviceCounts {
         DeviceCounts {
-            submissions: self.submissions.load(Ordering::Relaxed),
-            read_back_bytes: self.read_back.load(Ordering::Relaxed),
+            submissions: SUBMISSIONS.with(Cell::get),
+            read_back_bytes: READ_BACK.with(Cell::get),
         }
     }
 
