@@ -949,3 +949,35 @@ fn map_keys_of_a_switched_off_feature_are_named_as_unused() {
         );
     }
 }
+
+/// A locked `--out` deleted and made again while the map runs is not written into: the run
+/// fails naming it, and the new folder holds none of its files (two maps never mix).
+#[test]
+fn a_folder_deleted_and_made_again_during_the_run_is_not_written_into() {
+    let out = out_dir("replaced-folder");
+    let child = bin()
+        .args(["map", "--backend", "cpu", "--quiet", "--out"])
+        .arg(&out)
+        .args(TINY)
+        .args(["--set", "integration.duration_s=400.0"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let lock = out.join(".pendulum-atlas.lock");
+    let started = std::time::Instant::now();
+    while !lock.exists() {
+        assert!(
+            started.elapsed().as_secs() < 60,
+            "the map never locked its folder"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    std::fs::remove_dir_all(&out).unwrap();
+    std::fs::create_dir(&out).unwrap();
+    std::fs::write(out.join("notes.txt"), b"another run's folder").unwrap();
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains("was deleted or replaced"), "{err}");
+    assert_eq!(folder_files(&out), ["notes.txt"], "{err}");
+}

@@ -315,3 +315,47 @@ fn half_a_period_of_phase_and_the_mirrored_start_mirror_every_row() {
     }
     assert!(scene_error(&["excitation.phase_deg=360"]).contains("excitation.phase_deg"));
 }
+
+/// A recorder whose caller stops the run at the first chance after `after_step` (a cancel or a
+/// time limit), counting the rows it saw.
+fn stopping_recorder(after_step: u64) -> TrajectoryRecorder {
+    TrajectoryRecorder {
+        on_row: Some(Box::new(move |step| {
+            if step >= after_step {
+                std::ops::ControlFlow::Break(())
+            } else {
+                std::ops::ControlFlow::Continue(())
+            }
+        })),
+        ..Default::default()
+    }
+}
+
+#[test]
+fn a_cancel_between_sparse_rows_is_seen_within_a_bounded_number_of_steps() {
+    use pendulum_atlas_core::engine::POLL_STEPS;
+    // One row every 500 s of a 1000 s run: before, a cancel waited for the row at 500 s.
+    let s = scene(&[
+        "beam.segments=3",
+        "integration.duration_s=1000",
+        "output.sample_rate_hz=0.002",
+    ]);
+    let plan = StepPlan::for_scene(&s).unwrap();
+    assert!(plan.sample_every > 100 * POLL_STEPS, "{plan:?}");
+    let inst = Instance::<f64>::from_scene(&s).unwrap();
+    let mut rec = stopping_recorder(1);
+    let o = integrate(&inst, &plan, &mut rec);
+    assert!(rec.stopped);
+    assert_eq!(o.status, Status::Ok);
+    assert_eq!(
+        o.steps_done, POLL_STEPS,
+        "the engine stops at its first poll"
+    );
+    assert_eq!(rec.rows.len(), 1, "only the row at t = 0 was written");
+    // The reference stops at its first poll too: one poll interval of simulated time.
+    let mut rec = stopping_recorder(1);
+    let o = integrate_reference(&inst, &plan, &ReferenceOptions::default(), &mut rec).unwrap();
+    assert!(rec.stopped);
+    assert!(o.steps_done <= POLL_STEPS + 1, "{o:?}");
+    assert_eq!(rec.rows.len(), 1);
+}

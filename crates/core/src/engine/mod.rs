@@ -42,7 +42,7 @@ pub use plan::{EnsembleOptions, EnsemblePlan, InstancePlan};
 pub use reference::{ReferenceOptions, integrate_reference};
 pub use scene_run::{Integrator, RunLyapunov, SceneRun, run_scene};
 pub use single::{
-    Instance, NoObserver, Observer, Outcome, SingleTwin, integrate, integrate_batch,
+    Instance, NoObserver, Observer, Outcome, POLL_STEPS, SingleTwin, integrate, integrate_batch,
     integrate_with, integrate_with_twin,
 };
 pub use step_plan::{DtSource, StepPlan};

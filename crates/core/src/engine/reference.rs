@@ -14,7 +14,7 @@
 //! immune, since the weights a_ij alone then determine every stage.
 
 use crate::engine::error::EngineError;
-use crate::engine::single::{Instance, Observer, Outcome};
+use crate::engine::single::{Instance, Observer, Outcome, POLL_STEPS};
 use crate::engine::step_plan::StepPlan;
 use crate::model::{BumperMode, CartMotion, Chain, ContactLaw, Status, Workspace};
 use nalgebra::DVector;
@@ -149,7 +149,9 @@ fn run_piece(
     Ok((t, y))
 }
 
-/// Integrate one instance with the event-locating DOP853, observing the same rows as RK4.
+/// Integrate one instance with the event-locating DOP853, observing the same rows as RK4. A
+/// piece ends at the next row, at a contact switch, or after [`POLL_STEPS`] steps' time,
+/// where the observer is polled (a cancel between sparse rows).
 pub fn integrate_reference<O: Observer<f64>>(
     inst: &Instance<f64>,
     plan: &StepPlan,
@@ -182,14 +184,24 @@ pub fn integrate_reference<O: Observer<f64>>(
     let rows = plan.steps / plan.sample_every;
     let row_dt = plan.sample_every as f64 * plan.dt_s;
     let mut t = 0.0;
+    let poll_s = POLL_STEPS as f64 * plan.dt_s;
     for row in 1..=rows {
         let t_row = row as f64 * row_dt;
         while t < t_row {
+            if t > 0.0 && obs.poll((t / plan.dt_s) as u64) {
+                return Ok(Outcome {
+                    status: Status::Ok,
+                    steps_done: (t / plan.dt_s) as u64,
+                    impacts,
+                    failed_at_s: None,
+                });
+            }
             piece.watch = true;
-            let (t_end, y_end) = run_piece(&mut piece, t, &y, t_row, opts)?;
+            let t_goal = t_row.min(t + poll_s);
+            let (t_end, y_end) = run_piece(&mut piece, t, &y, t_goal, opts)?;
             match piece.switched.take() {
                 None => {
-                    t = t_row.max(t_end);
+                    t = t_goal.max(t_end);
                     y = y_end;
                 }
                 Some((t_hit, _)) => {

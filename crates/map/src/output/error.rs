@@ -99,6 +99,14 @@ pub enum OutputError {
         /// The command asked to write there.
         command: &'static str,
     },
+    /// The locked output folder was deleted or replaced while the run was writing there.
+    #[error(
+        "--out `{dir}` was deleted or replaced by another folder while this run was writing there; nothing more is written (the new folder may belong to another run): run again"
+    )]
+    FolderReplaced {
+        /// The folder.
+        dir: String,
+    },
     /// An input of the run lies in the output folder under a name the command writes.
     #[error(
         "`{input}` is an input of this run, and `{command}` writes a file of that name into --out `{dir}` (--force would delete it, the run overwrite it): choose another --out, or move the input"

@@ -21,6 +21,14 @@ pub fn temp_path(target: &Path) -> PathBuf {
     target.with_file_name(format!(".{name}.tmp-{}{ext}", std::process::id()))
 }
 
+/// [`super::folder::check_held`] on `target`'s folder.
+fn check_folder(target: &Path) -> Result<(), OutputError> {
+    match target.parent() {
+        Some(dir) => super::folder::check_held(dir),
+        None => Ok(()),
+    }
+}
+
 /// Create `dir` and its parents.
 pub fn create_dir(dir: &Path) -> Result<(), OutputError> {
     std::fs::create_dir_all(dir).map_err(|e| OutputError::io(dir, e))
@@ -37,6 +45,7 @@ pub struct AtomicFile {
 impl AtomicFile {
     /// Start writing `target`.
     pub fn create(target: &Path) -> Result<AtomicFile, OutputError> {
+        check_folder(target)?;
         let tmp = temp_path(target);
         let file = File::create(&tmp).map_err(|e| OutputError::io(target, e))?;
         Ok(AtomicFile {
@@ -55,6 +64,11 @@ impl AtomicFile {
     /// file is removed and the target left as it was.
     pub fn commit(mut self) -> Result<PathBuf, OutputError> {
         let out = self.out.take().expect("not yet committed");
+        if let Err(e) = check_folder(&self.target) {
+            drop(out);
+            let _ = std::fs::remove_file(&self.tmp);
+            return Err(e);
+        }
         let done = out
             .into_inner()
             .map_err(|e| e.into_error())

@@ -85,8 +85,9 @@ pub struct TrajectoryRecorder {
     pub rows: Vec<Row>,
     /// Load resistance (Ω) when the piezo is on.
     pub load_ohm: Option<f64>,
-    /// Called after each row with its step (e.g. to move a progress bar); `Break` stops the
-    /// run there (a cancel), and [`TrajectoryRecorder::stopped`] says so afterwards.
+    /// Called with the step after each row and every [`POLL_STEPS`](pendulum_atlas_core::engine::POLL_STEPS) steps between rows (to
+    /// move a progress bar, to check a cancel or a time limit); `Break` stops the run there,
+    /// and [`TrajectoryRecorder::stopped`] says so afterwards.
     pub on_row: Option<Box<dyn FnMut(u64) -> ControlFlow<()> + Send>>,
     /// Whether `on_row` asked the run to stop.
     pub stopped: bool,
@@ -126,6 +127,13 @@ impl<T: Real> Observer<T> for TrajectoryRecorder {
     }
 
     fn stopped(&self) -> bool {
+        self.stopped
+    }
+
+    fn poll(&mut self, step: u64) -> bool {
+        if let Some(f) = self.on_row.as_mut() {
+            self.stopped |= f(step).is_break();
+        }
         self.stopped
     }
 }
