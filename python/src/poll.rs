@@ -31,6 +31,7 @@ impl Ticker {
         let code = match unit {
             ProgressUnit::Steps => 0,
             ProgressUnit::Instances => 1,
+            ProgressUnit::Planned => 2,
         };
         self.unit.store(code, Ordering::Relaxed);
         if self.cancel.load(Ordering::Relaxed) {
@@ -43,14 +44,15 @@ impl Ticker {
     fn unit_name(&self) -> &'static str {
         match self.unit.load(Ordering::Relaxed) {
             0 => ProgressUnit::Steps.name(),
-            _ => ProgressUnit::Instances.name(),
+            1 => ProgressUnit::Instances.name(),
+            _ => ProgressUnit::Planned.name(),
         }
     }
 }
 
 /// Run `work` on its own thread; call `progress(done, total, unit)` on this thread as it
 /// goes. Ctrl-C (or an exception raised by `progress`) cancels the work, which stops at its
-/// next progress point (a map's instance or dispatch, a single run's output row); the call
+/// next progress point (a few thousand runs planned, a map's instance or dispatch, a single run's output row); the call
 /// waits for that and then raises.
 pub fn run_polled<T: Send + 'static>(
     py: Python<'_>,

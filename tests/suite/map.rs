@@ -981,3 +981,37 @@ fn a_folder_deleted_and_made_again_during_the_run_is_not_written_into() {
     assert!(err.contains("was deleted or replaced"), "{err}");
     assert_eq!(folder_files(&out), ["notes.txt"], "{err}");
 }
+
+/// Planning a huge map reports its progress every few thousand runs, and a cancel there
+/// (Ctrl-C in `pa.map`) stops it at once with `Cancelled`, before the ensemble is built.
+#[test]
+fn a_cancel_while_a_map_is_planned_stops_the_planning() {
+    use pendulum_atlas_core::config::map_from_toml;
+    use pendulum_atlas_core::engine::{EngineError, EnsemblePlan, ProgressUnit};
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let spec = map_from_toml(
+        "[beam]\nsegments = 3\n[integration]\nduration_s = 30.0\ntransient_s = 5.0\n\
+         [map]\nmetrics = [\"K\"]\n\
+         [[map.axes]]\nkey = \"excitation.frequency_hz\"\nstart = 4.0\nend = 12.0\ncount = 512\n\
+         [[map.axes]]\nkey = \"excitation.amplitude_m\"\nstart = 0.001\nend = 0.02\ncount = 512\n",
+        "<test>",
+        &[],
+    )
+    .unwrap();
+    let calls = AtomicUsize::new(0);
+    let cancel = |done: u64, total: u64, unit: ProgressUnit| {
+        assert_eq!(unit, ProgressUnit::Planned);
+        assert_eq!(total, 512 * 512);
+        assert!(
+            done < total,
+            "the planning ran to its end before the first report"
+        );
+        calls.fetch_add(1, Ordering::SeqCst);
+        std::ops::ControlFlow::Break(())
+    };
+    let err = EnsemblePlan::new_with(&spec, &cancel).expect_err("a cancelled plan");
+    assert!(matches!(err, EngineError::Cancelled), "{err}");
+    let (calls, threads) = (calls.load(Ordering::SeqCst), rayon::current_num_threads());
+    // 64 checks in all; after the cancel, only the checks already in flight report again.
+    assert!(calls <= 2 * threads + 1, "{calls} reports after the cancel");
+}

@@ -100,20 +100,49 @@ pub struct CellAttractor {
     pub start: usize,
 }
 
+/// The largest picture served (bytes): far above any map's PNG.
+pub const PICTURE_MAX_BYTES: u64 = 256 << 20;
+
+/// How many names the file of `meta` has.
+fn links(meta: &std::fs::Metadata) -> u64 {
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::MetadataExt::nlink(meta)
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = meta;
+        1
+    }
+}
+
 impl RunFolder {
-    /// The path of picture `name` when it may be served: listed in the manifest, a `.png`,
-    /// a regular file (not a link) that resolves inside the folder.
-    pub fn served_path(&self, name: &str) -> Option<PathBuf> {
+    /// The bytes of picture `name` when it may be served: listed in the manifest (by plain
+    /// name), a `.png`, and, as opened, a regular file with one link, at most
+    /// [`PICTURE_MAX_BYTES`]. The file is opened without following a symlink and without
+    /// blocking, and the checks are made on the opened handle, so a picture swapped for a
+    /// symlink or a FIFO between a check and the read is never followed. A hard link (a
+    /// second name of a file that may lie outside the folder) is refused: the pictures a
+    /// command writes have one name.
+    pub fn read_picture(&self, name: &str) -> Option<Vec<u8>> {
         if !name.ends_with(".png") || !self.files.iter().any(|f| f == name) {
             return None;
         }
-        let path = self.dir.join(name);
-        let meta = std::fs::symlink_metadata(&path).ok()?;
-        let inside = path
-            .canonicalize()
-            .ok()?
-            .starts_with(self.dir.canonicalize().ok()?);
-        (meta.file_type().is_file() && inside).then_some(path)
+        let mut options = std::fs::OpenOptions::new();
+        options.read(true);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::OpenOptionsExt;
+            options.custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK);
+        }
+        let mut file = options.open(self.dir.join(name)).ok()?;
+        let meta = file.metadata().ok()?;
+        if !meta.is_file() || meta.len() > PICTURE_MAX_BYTES || links(&meta) != 1 {
+            return None;
+        }
+        let mut bytes = Vec::with_capacity(meta.len() as usize);
+        std::io::Read::read_to_end(&mut file, &mut bytes).ok()?;
+        Some(bytes)
     }
 
     /// Shape of the grid.

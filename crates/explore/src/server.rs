@@ -262,13 +262,12 @@ fn job_id(j: &str) -> Result<u64, ExploreError> {
 }
 
 async fn file(State(app): Shared, Path(name): Path<String>) -> Result<Response, ExploreError> {
-    let Some(path) = app.folder.served_path(&name) else {
-        return Err(ExploreError::NotServed(name));
-    };
-    let bytes = tokio::task::spawn_blocking(move || std::fs::read(path))
+    let folder = app.folder.clone();
+    let asked = name.clone();
+    let bytes = tokio::task::spawn_blocking(move || folder.read_picture(&asked))
         .await
         .ok()
-        .and_then(Result::ok)
+        .flatten()
         .ok_or(ExploreError::NotServed(name))?;
     Ok(([(header::CONTENT_TYPE, "image/png")], bytes).into_response())
 }

@@ -228,7 +228,7 @@ pub fn check_host_memory(spec: &MapSpec) -> Result<(), EngineError> {
 /// Plan, integrate and reduce a map on an opened engine.
 pub fn run_map(spec: &MapSpec, engine: &Engine, progress: Progress) -> Result<MapRun, EngineError> {
     let t0 = Instant::now();
-    let plan = EnsemblePlan::new(spec)?;
+    let plan = EnsemblePlan::new_with(spec, progress)?;
     run_map_part(spec, Cow::Owned(plan), None, engine, progress, t0)
 }
 
@@ -624,7 +624,7 @@ pub fn run_map_on_devices(
     let n = engines.len() as u32;
     let t0 = Instant::now();
     check_shardable(spec)?;
-    let plan = EnsemblePlan::new(spec)?;
+    let plan = EnsemblePlan::new_with(spec, progress)?;
     let plan_s = t0.elapsed().as_secs_f64();
     let runs: Vec<Result<MapPart, EngineError>> = std::thread::scope(|s| {
         let handles: Vec<_> = engines
@@ -683,6 +683,6 @@ pub fn run_map_shard(
 ) -> Result<MapRun, EngineError> {
     check_shardable(spec)?;
     let t0 = Instant::now();
-    let plan = EnsemblePlan::new(spec)?;
+    let plan = EnsemblePlan::new_with(spec, progress)?;
     run_map_part(spec, Cow::Owned(plan), Some(shard), engine, progress, t0)
 }

@@ -349,8 +349,22 @@ fn the_folder_of_another_command_is_named() {
     refused(&d, &[], "`pendulum-atlas simulate`");
 }
 
+/// The listed pictures of the small map other than `K.png` and `R.png`, sorted.
+fn other_pictures(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".png") && n != "K.png" && n != "R.png")
+        .collect();
+    names.sort();
+    names
+}
+
+/// A listed picture replaced by a symlink, a hard link to a file outside the folder, or a
+/// FIFO is never served: the file is opened without following links or blocking, and its
+/// handle checked (a regular file with one name).
 #[test]
-fn a_listed_picture_that_is_a_link_out_of_the_folder_is_not_served() {
+fn a_listed_picture_that_is_a_link_or_a_fifo_is_not_served() {
     let dir = scratch("linked_map");
     std::fs::create_dir_all(&dir).unwrap();
     for entry in std::fs::read_dir(small_map()).unwrap() {
@@ -364,10 +378,22 @@ fn a_listed_picture_that_is_a_link_out_of_the_folder_is_not_served() {
     std::fs::write(&outside, b"not for the browser").unwrap();
     std::fs::remove_file(dir.join("K.png")).unwrap();
     std::os::unix::fs::symlink(&outside, dir.join("K.png")).unwrap();
+    let others = other_pictures(&dir);
+    assert!(others.len() >= 2, "{others:?}");
+    std::fs::remove_file(dir.join(&others[0])).unwrap();
+    std::fs::hard_link(&outside, dir.join(&others[0])).unwrap();
+    std::fs::remove_file(dir.join(&others[1])).unwrap();
+    let made = std::process::Command::new("mkfifo")
+        .arg(dir.join(&others[1]))
+        .status()
+        .unwrap();
+    assert!(made.success());
     let s = Server::start(&dir, &[]);
-    let (status, body) = request(&s, "GET", "/files/K.png");
-    assert_eq!(status, 404, "{body}");
-    assert!(!body.contains("not for the browser"));
+    for name in ["K.png", &others[0], &others[1]] {
+        let (status, body) = request(&s, "GET", &format!("/files/{name}"));
+        assert_eq!(status, 404, "{name}: {body}");
+        assert!(!body.contains("not for the browser"), "{name}");
+    }
     let (status, _) = fetch(&s, "GET", "/files/R.png");
     assert_eq!(status, 200, "the folder's own pictures are still served");
 }

@@ -127,6 +127,9 @@ impl Default for LyapunovSettings {
     }
 }
 
+/// Runs between two checks of [`MapSpec::run_scenes_while`]'s `go_on` (a few ms of planning).
+pub const PLAN_CHECK_RUNS: usize = 4096;
+
 impl MapSpec {
     /// Shape of the grid (one entry per axis).
     pub fn shape(&self) -> Vec<usize> {
@@ -246,15 +249,30 @@ impl MapSpec {
     /// scene, and each run's scene is the validated base with its values set in typed fields
     /// (`config/field.rs` says why that is exact). Otherwise each run's table is read.
     pub fn run_scenes(&self) -> Result<Vec<Scene>, ConfigError> {
+        Ok(self
+            .run_scenes_while(&|_| true)?
+            .expect("planning that always goes on ends"))
+    }
+
+    /// [`MapSpec::run_scenes`], asking `go_on(run)` at every [`PLAN_CHECK_RUNS`]-th run
+    /// whether to go on; `None` when it said no (a cancel while a huge map is planned).
+    pub fn run_scenes_while(
+        &self,
+        go_on: &(dyn Fn(u64) -> bool + Sync),
+    ) -> Result<Option<Vec<Scene>>, ConfigError> {
         let runs = self.instances() * self.starts_per_cell();
+        let goes_on = |i: usize| !i.is_multiple_of(PLAN_CHECK_RUNS) || go_on(i as u64);
         match self.typed_fields()? {
             Some(fields) => Ok((0..runs)
                 .into_par_iter()
-                .map(|i| self.typed_run_scene(&fields, i))
+                .map(|i| goes_on(i).then(|| self.typed_run_scene(&fields, i)))
                 .collect()),
             None => (0..runs)
                 .into_par_iter()
-                .map(|i| self.run_scene(i))
+                .map(|i| match goes_on(i) {
+                    true => self.run_scene(i).map(Some),
+                    false => Ok(None),
+                })
                 .collect(),
         }
     }

@@ -130,14 +130,17 @@ pub enum ProgressUnit {
     Steps,
     /// Finished instances (CPU).
     Instances,
+    /// Runs of a map planned (their scenes read and checked), before any integration.
+    Planned,
 }
 
 impl ProgressUnit {
-    /// "steps" or "instances".
+    /// "steps", "instances" or "planned".
     pub fn name(self) -> &'static str {
         match self {
             ProgressUnit::Steps => "steps",
             ProgressUnit::Instances => "instances",
+            ProgressUnit::Planned => "planned",
         }
     }
 }

@@ -14,13 +14,13 @@ use crate::config::LayoutChoice;
 use crate::config::{
     LyapunovSettings, MapSpec, MethodChoice, Metric, Perturbation, Scene, TimeStep,
 };
-use crate::engine::Precision;
 use crate::engine::early_rule::EarlyStop;
 use crate::engine::error::EngineError;
 use crate::engine::gpu::state_layout::{StateLayout, resolve};
 use crate::engine::imex::ImexMatrices;
 use crate::engine::method::{Method, MethodSteps};
 use crate::engine::step_plan::given_step_warning;
+use crate::engine::{Precision, Progress, ProgressUnit, no_progress};
 use crate::model::linear::LinearError;
 use crate::model::{CartState, ExcitationKind, Guard, ModelParams};
 use crate::reduce::TwinPlan;
@@ -206,8 +206,22 @@ const MIN_STROBE_PERIOD: u32 = 20;
 impl EnsemblePlan {
     /// Plan every instance of a map: validate its scene, choose its step and sampling.
     pub fn new(spec: &MapSpec) -> Result<EnsemblePlan, EngineError> {
-        let mut plan =
-            EnsemblePlan::from_scenes(&spec.run_scenes()?, &EnsembleOptions::from_spec(spec))?;
+        EnsemblePlan::new_with(spec, &no_progress)
+    }
+
+    /// [`EnsemblePlan::new`], reporting the runs planned to `progress` (unit
+    /// [`ProgressUnit::Planned`]) every few thousand runs; a `Break` stops the planning with
+    /// [`EngineError::Cancelled`] (Ctrl-C while a huge map is planned).
+    pub fn new_with(spec: &MapSpec, progress: Progress) -> Result<EnsemblePlan, EngineError> {
+        let total = (spec.instances() * spec.starts_per_cell()) as u64;
+        let go_on = |run: u64| progress(run, total, ProgressUnit::Planned).is_continue();
+        let scenes = spec
+            .run_scenes_while(&go_on)?
+            .ok_or(EngineError::Cancelled)?;
+        if !go_on(total) {
+            return Err(EngineError::Cancelled);
+        }
+        let mut plan = EnsemblePlan::from_scenes(&scenes, &EnsembleOptions::from_spec(spec))?;
         plan.gpu_layout = resolve(spec.gpu_layout);
         Ok(plan)
     }
