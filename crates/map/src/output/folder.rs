@@ -445,9 +445,11 @@ fn identity(dir: &Path) -> Option<(u64, u64)> {
     }
 }
 
-/// The folders this process has locked, each with the identity it had when locked.
-static HELD: std::sync::Mutex<Vec<(PathBuf, Option<(u64, u64)>)>> =
-    std::sync::Mutex::new(Vec::new());
+/// A folder this process has locked, with the identity it had when locked.
+type Held = (PathBuf, Option<(u64, u64)>);
+
+/// The folders this process has locked.
+static HELD: std::sync::Mutex<Vec<Held>> = std::sync::Mutex::new(Vec::new());
 
 /// Remember `dir`'s identity as this process's lock of it.
 fn hold(dir: &Path) {
