@@ -233,6 +233,9 @@ fn map_work(
         }
         Entry::Vacant(e) => e.insert(Engine::open(backend, precision)?),
     };
+    if let Some(accepted) = pendulum_atlas_map::map::size::check_map_size(spec, 1, engine)? {
+        eprintln!("{accepted}");
+    }
     let run = run_map(spec, engine, &|d, t, u| ticker.report(d, t, u))?;
     Ok(MapOut {
         arrays: map_arrays(spec, &run),

@@ -7,6 +7,7 @@ use pendulum_atlas_core::engine::gpu::list_adapters;
 use pendulum_atlas_core::engine::{Engine, no_progress};
 use pendulum_atlas_core::model::Status;
 use pendulum_atlas_map::map::hardware_default::hardware_default;
+use pendulum_atlas_map::map::size::check_map_size;
 use pendulum_atlas_map::map::{
     MapRun, check_host_memory, run_map, run_map_on_devices, run_map_shard,
 };
@@ -44,6 +45,10 @@ pub struct MapArgs {
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Run a huge map (over a million runs, 4 GiB of memory or 1e11 instance-steps), which
+    /// is otherwise refused with its estimated size and time (same as map.accept_huge = true).
+    #[arg(long)]
+    pub yes: bool,
 }
 
 /// Arguments of `merge`.
@@ -62,7 +67,11 @@ pub struct MergeArgs {
 
 /// Run `map`.
 pub fn run(a: MapArgs) -> anyhow::Result<()> {
-    let (text, mut spec) = read_map(a.scene.as_deref(), &a.sets)?;
+    let mut sets = a.sets.clone();
+    if a.yes {
+        sets.push("map.accept_huge=true".into());
+    }
+    let (text, mut spec) = read_map(a.scene.as_deref(), &sets)?;
     check_host_memory(&spec).map_err(hint)?;
     if let Some(s) = a.shard {
         check_shard_count("--shard", s.count, &spec)?;
@@ -71,14 +80,15 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
         return run_on_devices(&a, d, &spec);
     }
     let engine = a.engine.open()?;
+    check_size(&spec, a.shard.map_or(1, |s| s.count), &engine)?;
     let hardware = a.scene.is_none() && a.shard.is_none() && engine.is_hardware_gpu();
     if let Some(choice) = hardware
-        .then(|| hardware_default(&engine, &a.sets))
+        .then(|| hardware_default(&engine, &sets))
         .transpose()?
         .flatten()
     {
         eprintln!("{}", choice.reason);
-        let sets = [a.sets.clone(), choice.sets].concat();
+        let sets = [sets.clone(), choice.sets].concat();
         spec = pendulum_atlas_core::config::load_map(None, &sets)?;
     }
     let product = if a.shard.is_some() {
@@ -97,7 +107,7 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
         Some(s) => {
             bar.set_message(format!("shard {}/{} of a map", s.index, s.count));
             let run = run_map_shard(&spec, s, &engine, &progress).map_err(hint)?;
-            let files = write_shard(&a.out, &spec, &text, &a.sets, s, &run)?;
+            let files = write_shard(&a.out, &spec, &text, &sets, s, &run)?;
             (run, files)
         }
         None => {
@@ -111,6 +121,15 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
     report(&run, files.len(), &a.out)
 }
 
+/// Refuse a huge map (or each of `shards` shards) that is not accepted (`--yes`), with its
+/// figures; say them when accepted.
+fn check_size(spec: &MapSpec, shards: u32, engine: &Engine) -> anyhow::Result<()> {
+    if let Some(accepted) = check_map_size(spec, shards, engine).map_err(hint)? {
+        eprintln!("{accepted}");
+    }
+    Ok(())
+}
+
 /// `map --devices`: one process, one engine per adapter, one shard each, assembled.
 fn run_on_devices(a: &MapArgs, devices: &str, spec: &MapSpec) -> anyhow::Result<()> {
     let indices = device_indices(devices)?;
@@ -119,6 +138,7 @@ fn run_on_devices(a: &MapArgs, devices: &str, spec: &MapSpec) -> anyhow::Result<
         .iter()
         .map(|&i| Engine::gpu_adapter(i).map_err(hint))
         .collect::<Result<_, _>>()?;
+    check_size(spec, engines.len() as u32, &engines[0])?;
     let inputs: Vec<&std::path::Path> = a.scene.iter().map(|p| p.as_path()).collect();
     super::claim_out_reading(Product::Map, &a.out, a.force, &inputs)?;
     if !a.quiet {

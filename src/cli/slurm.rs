@@ -1,6 +1,7 @@
 //! `pendulum-atlas slurm`: the sbatch scripts of a sharded map, and optionally their submission.
 
-use super::engine::BackendArg;
+use super::engine::{BackendArg, hint};
+use pendulum_atlas_map::map::size::MapSize;
 use pendulum_atlas_map::output::files::{create_dir, write_bytes, write_json};
 use pendulum_atlas_map::output::folder::Product;
 use pendulum_atlas_map::shard::{SlurmJob, check_partition, check_time};
@@ -39,12 +40,26 @@ pub struct SlurmArgs {
     /// Replace the scripts of an earlier `slurm` run in --out.
     #[arg(long)]
     pub force: bool,
+    /// Shards that are huge (see `map --yes`) run: every shard gets map.accept_huge = true.
+    #[arg(long)]
+    pub yes: bool,
 }
 
 /// Run `slurm`.
-pub fn run(a: SlurmArgs) -> anyhow::Result<()> {
+pub fn run(mut a: SlurmArgs) -> anyhow::Result<()> {
+    if a.yes {
+        a.sets.push("map.accept_huge=true".into());
+    }
     let (text, spec) = super::map::read_map(a.scene.as_deref(), &a.sets)?;
     super::map::check_shard_count("--shards", a.shards, &spec)?;
+    let size = MapSize::of_shard(&spec, a.shards).map_err(hint)?;
+    if size.is_huge() {
+        let verdict = size.verdict(spec.accept_huge, None);
+        if !spec.accept_huge {
+            return Err(hint(verdict));
+        }
+        eprintln!("{verdict}");
+    }
     if let Some(p) = &a.partition {
         check_partition(p)?;
     }

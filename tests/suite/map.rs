@@ -1015,3 +1015,52 @@ fn a_cancel_while_a_map_is_planned_stops_the_planning() {
     // 64 checks in all; after the cancel, only the checks already in flight report again.
     assert!(calls <= 2 * threads + 1, "{calls} reports after the cancel");
 }
+
+/// A huge map is refused before it is planned, with its runs, memory and estimated time and
+/// how to accept it; accepted (`map.accept_huge`, what `--yes` sets), it passes the check with
+/// the same figures.
+#[test]
+fn a_huge_map_is_refused_with_its_figures_unless_accepted() {
+    use pendulum_atlas_core::config::map_from_toml;
+    use pendulum_atlas_map::map::size::check_map_size;
+    let grid = "map.axes=[{key=\"excitation.frequency_hz\",start=4.0,end=12.0,count=1001},\
+                {key=\"excitation.amplitude_m\",start=0.004,end=0.025,count=1000}]";
+    let out = out_dir("huge-map");
+    let o = bin()
+        .args(["map", "--backend", "cpu", "--quiet", "--out"])
+        .arg(&out)
+        .args(["--set", grid])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    for part in [
+        "1001000 runs",
+        "instance-steps",
+        "of memory",
+        "--yes",
+        "map.accept_huge",
+    ] {
+        assert!(err.contains(part), "{part}: {err}");
+    }
+    assert!(!out.exists(), "nothing is written for a refused map");
+    let accepted = map_from_toml(
+        pendulum_atlas_core::config::DEFAULT_MAP_TOML,
+        "default",
+        &[grid.to_string(), "map.accept_huge=true".into()],
+    )
+    .unwrap();
+    let engine =
+        pendulum_atlas_core::engine::Engine::cpu(pendulum_atlas_core::engine::Precision::F32);
+    let figures = check_map_size(&accepted, 1, &engine)
+        .unwrap()
+        .expect("a huge map");
+    assert!(figures.to_string().contains("accepted"), "{figures}");
+    let small = map_from_toml(
+        pendulum_atlas_core::config::DEFAULT_MAP_TOML,
+        "default",
+        &[],
+    )
+    .unwrap();
+    assert!(check_map_size(&small, 1, &engine).unwrap().is_none());
+}

@@ -201,3 +201,37 @@ fn slurm_refuses_a_map_that_cannot_be_sharded_before_writing_jobs() {
         );
     }
 }
+
+/// `slurm` refuses shards that would each be huge before writing jobs, with their figures;
+/// with `--yes` it writes them and every shard carries the acceptance, so that no array task
+/// is refused on the cluster.
+#[test]
+fn slurm_asks_before_huge_shards_and_passes_the_acceptance_to_every_shard() {
+    let grid = "map.axes=[{key=\"excitation.frequency_hz\",start=4.0,end=12.0,count=2001},\
+                {key=\"excitation.amplitude_m\",start=0.004,end=0.025,count=1000}]";
+    let slurm = |name: &str, yes: bool| {
+        let job = out_dir(name);
+        let mut cmd = bin();
+        cmd.args(["slurm", "--backend", "cpu", "--shards", "2", "--out"])
+            .arg(&job)
+            .args(["--set", grid]);
+        if yes {
+            cmd.arg("--yes");
+        }
+        (job, cmd.output().unwrap())
+    };
+    let (job, o) = slurm("slurm-huge", false);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("each of the 2 shards")
+            && err.contains("1000500 runs")
+            && err.contains("--yes"),
+        "{err}"
+    );
+    assert!(!job.join("array.sbatch").exists(), "a job was written");
+    let (job, o) = slurm("slurm-huge-yes", true);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let array = std::fs::read_to_string(job.join("array.sbatch")).unwrap();
+    assert!(array.contains("map.accept_huge=true"), "{array}");
+}

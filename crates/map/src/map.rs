@@ -6,6 +6,7 @@ pub mod continuation;
 pub mod hardware_default;
 pub mod refine;
 pub mod shard;
+pub mod size;
 
 use pendulum_atlas_core::config::{MapMode, MapSpec};
 use pendulum_atlas_core::engine::gpu::GpuTimings;

@@ -81,6 +81,8 @@ pub struct MapSpec {
     pub early_stop_tol: Option<f64>,
     /// How λ1's twin runs (used when `lyapunov` is among the metrics).
     pub lyapunov: LyapunovSettings,
+    /// `map.accept_huge`: run a map above the size at which `map` asks first (`--yes`).
+    pub accept_huge: bool,
     /// How the cells run: plain, several starts (attractors, basins), continuation or
     /// refinement, one of them.
     pub mode: MapMode,
@@ -555,6 +557,7 @@ fn read_map(
     let early_stop = r.boolean("map.early_stop", true)?;
     let early_stop_tol = read_early_stop_tol(&mut r)?;
     let lyapunov = read_lyapunov(&mut r)?;
+    let accept_huge = r.boolean("map.accept_huge", false)?;
     let refine = read_refine(&mut r, &axes, &metrics, bifurcation)?;
     let cells = axes.iter().map(|a| a.values.len()).product();
     let axis_keys: Vec<&str> = axes.iter().map(|a| a.key.as_str()).collect();
@@ -597,6 +600,7 @@ fn read_map(
         early_stop,
         early_stop_tol,
         lyapunov,
+        accept_huge,
         mode,
         notes,
         gpu_layout,

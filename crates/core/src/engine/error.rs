@@ -53,6 +53,15 @@ pub enum EngineError {
         /// Memory available, readable.
         available: String,
     },
+    /// A map (or each shard of it) above the size at which `map` asks first, not accepted;
+    /// or, accepted, the figures said to the user.
+    #[error("{figures}; {advice}")]
+    HugeMap {
+        /// Its runs, steps, memory and, where probed, time.
+        figures: String,
+        /// What to do: accept it, or that it was accepted.
+        advice: String,
+    },
     /// An ensemble needs at least one instance.
     #[error("an ensemble needs at least one instance")]
     Empty,
