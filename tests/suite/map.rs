@@ -1064,3 +1064,46 @@ fn a_huge_map_is_refused_with_its_figures_unless_accepted() {
     .unwrap();
     assert!(check_map_size(&small, 1, &engine).unwrap().is_none());
 }
+
+/// Continuation down a clearance axis: the state a cell ended in, leaning on its 4° bumper,
+/// lies 2° inside the next cell's bumper, so that cell starts from the scene's state (counted
+/// and said); up the axis, a state leaning on a 2° bumper fits within 4° and is carried on.
+#[test]
+fn continuation_never_starts_a_cell_beyond_its_bumpers() {
+    use pendulum_atlas_core::config::map_from_toml;
+    use pendulum_atlas_core::engine::{Engine, Precision, no_progress};
+    use pendulum_atlas_map::map::run_map;
+    let run = |direction: &str| {
+        let spec = map_from_toml(
+            pendulum_atlas_core::config::DEFAULT_MAP_TOML,
+            "default",
+            &[
+                "map.axes=[{key=\"limiter.clearance_deg\",values=[2.0,4.0]}]".into(),
+                format!("map.continuation=\"{direction}\""),
+                "map.metrics=[\"alpha_range\"]".into(),
+                "map.bifurcation=false".into(),
+                "excitation.frequency_hz=4.0".into(),
+                "excitation.amplitude_m=0.0002".into(),
+                "initial.angle_deg=1.5".into(),
+                "integration.duration_s=10.0".into(),
+                "integration.transient_s=5.0".into(),
+            ],
+        )
+        .unwrap();
+        run_map(&spec, &Engine::cpu(Precision::F64), &no_progress).unwrap()
+    };
+    let down = run("down");
+    let leg = &down.continuation.as_ref().unwrap().legs[0];
+    assert_eq!((leg.beyond_bumpers, leg.restarted), (1, 1), "{leg:?}");
+    assert!(
+        down.plan
+            .warnings
+            .iter()
+            .any(|w| w.contains("beyond their bumpers")),
+        "{:?}",
+        down.plan.warnings
+    );
+    let up = run("up");
+    let leg = &up.continuation.as_ref().unwrap().legs[0];
+    assert_eq!((leg.beyond_bumpers, leg.restarted), (0, 0), "{leg:?}");
+}

@@ -415,7 +415,10 @@ fn run_continued(
     let steps = (spec.axes[cs.axis].values.len() * cs.sweep.directions().len()) as u64;
     let mut step = 0u64;
     let mut totals = StageTotals::default();
-    let mut cont = continuation::continue_map(spec, cs, |cells, starts| {
+    let fits = |k: usize, p: usize, y: &[f64]| {
+        continuation::carried_state_fits(&plan.instances[p].params, &plan.instances[k].params, y)
+    };
+    let mut cont = continuation::continue_map(spec, cs, fits, |cells, starts| {
         let mut part = plan.select(cells);
         for (inst, start) in part.instances.iter_mut().zip(starts) {
             if let Some(y) = start {
@@ -437,6 +440,13 @@ fn run_continued(
     let (mut timings, counts) = totals.finish(engine, &t_all);
     timings.plan_s = plan_s;
     timings.total_s += plan_s;
+    let beyond: Vec<String> = cont.legs.iter().filter(|l| l.beyond_bumpers > 0).map(|l| {
+        format!(
+            "continuation {}: {} cell(s) started from the scene's state, because the state their neighbour ended in lay beyond their bumpers (a smaller limiter.clearance_deg)",
+            l.direction.name(),
+            l.beyond_bumpers
+        )
+    }).collect();
     let first = &mut cont.legs[0];
     let strobe_tail = if spec.bifurcation {
         let n = spec.bifurcation_samples as usize;
@@ -450,6 +460,7 @@ fn run_continued(
     };
     let mut plan = plan;
     plan.warnings = std::mem::take(&mut totals.warnings);
+    plan.warnings.extend(beyond);
     let results = first.results.clone();
     let mut run = MapRun::new(
         results,

@@ -178,7 +178,9 @@ impl EnsembleOptions {
     pub fn from_spec(spec: &MapSpec) -> EnsembleOptions {
         EnsembleOptions {
             metrics: spec.metrics.clone(),
-            keep_strobe: spec.bifurcation,
+            // A continuation compares the cells' attractors by their stroboscopic tails.
+            keep_strobe: spec.bifurcation
+                || matches!(spec.mode, crate::config::MapMode::Continuation(_)),
             samples_per_period: spec.samples_per_period,
             strobe_phase: spec.strobe_phase,
             r_max_samples: spec.r_max_samples,

@@ -12,7 +12,9 @@
 //!    `[θ; θ̇; v]` its predecessor on the line ended in, at a whole number of forcing periods,
 //!    so the forcing phase carries on too (`excitation.phase_deg` is the same for both). A
 //!    cell whose predecessor failed starts from the scene's state again and is counted as
-//!    restarted.
+//!    restarted; so does a cell whose bumpers the carried state lies beyond, deeper than it
+//!    lay beyond its predecessor's ([`carried_state_fits`]: a step to a smaller clearance),
+//!    counted as restarted and as `beyond_bumpers`.
 //! 3. **Hysteresis** (both directions): a cell's two runs differ when their fingerprints
 //!    ([`Fingerprint`], the rule of [`AttractorRule`]) are not one attractor, or one failed and
 //!    the other did not. Consecutive differing cells of a line form a band, reported with its
@@ -20,6 +22,7 @@
 
 use pendulum_atlas_core::config::{ContinuationSpec, Direction, MapSpec, c_order_index};
 use pendulum_atlas_core::engine::EngineError;
+use pendulum_atlas_core::model::{Chain, ModelParams};
 use pendulum_atlas_core::reduce::{AttractorRule, Fingerprint, InstanceResult};
 use serde::Serialize;
 
@@ -44,8 +47,11 @@ pub struct Leg {
     /// Per grid point, its stroboscopic tail.
     #[serde(skip)]
     pub strobe_tail: Vec<Vec<f64>>,
-    /// Cells that started from the scene's state because their predecessor failed.
+    /// Cells that started from the scene's state because their predecessor failed or ended
+    /// beyond their bumpers.
     pub restarted: usize,
+    /// Of those, the cells whose predecessor's final state lay beyond their bumpers.
+    pub beyond_bumpers: usize,
 }
 
 /// A stretch of one grid line along the axis where the two directions differ.
@@ -86,18 +92,37 @@ pub struct ContinuationRun {
     pub hysteresis: Option<Hysteresis>,
 }
 
+/// Whether a state `y` that a cell of `prev` ended in may start a cell of `next`: on each
+/// side, it lies no deeper beyond `next`'s bumper than it lay beyond `prev`'s (or not beyond
+/// it at all). A state leaning on its bumper is carried on; one that a smaller clearance would
+/// put inside the bumper is not (the penalty contact would start from a penetration no motion
+/// of the beam produced).
+pub fn carried_state_fits(prev: &ModelParams, next: &ModelParams, y: &[f64]) -> bool {
+    let depth = |p: &ModelParams| Chain::<f64>::new(p).penetrations(y);
+    match (depth(prev), depth(next)) {
+        (Some((pr, pl)), Some((nr, nl))) => {
+            let tol = 1e-12;
+            nr <= pr.max(0.0) + tol && nl <= pl.max(0.0) + tol
+        }
+        _ => true,
+    }
+}
+
 /// Run `spec`'s continuation: `run(cells, starts)` integrates and reduces the grid points
-/// `cells` together, each from its start (`None`: the scene's state).
+/// `cells` together, each from its start (`None`: the scene's state); `fits(cell,
+/// predecessor, state)` says whether a predecessor's final state may start the cell
+/// ([`carried_state_fits`] of their parameters).
 pub fn continue_map(
     spec: &MapSpec,
     cs: &ContinuationSpec,
+    fits: impl Fn(usize, usize, &[f64]) -> bool,
     mut run: impl FnMut(&[usize], Vec<Option<Vec<f64>>>) -> Result<StepRun, EngineError>,
 ) -> Result<ContinuationRun, EngineError> {
     let legs = cs
         .sweep
         .directions()
         .iter()
-        .map(|&d| run_leg(spec, cs, d, &mut run))
+        .map(|&d| run_leg(spec, cs, d, &fits, &mut run))
         .collect::<Result<Vec<Leg>, EngineError>>()?;
     let hysteresis = (legs.len() == 2).then(|| hysteresis(spec, cs, &legs[0], &legs[1]));
     Ok(ContinuationRun {
@@ -129,6 +154,7 @@ fn run_leg(
     spec: &MapSpec,
     cs: &ContinuationSpec,
     direction: Direction,
+    fits: &impl Fn(usize, usize, &[f64]) -> bool,
     run: &mut impl FnMut(&[usize], Vec<Option<Vec<f64>>>) -> Result<StepRun, EngineError>,
 ) -> Result<Leg, EngineError> {
     let shape = spec.shape();
@@ -137,13 +163,18 @@ fn run_leg(
     let mut results: Vec<Option<InstanceResult>> = vec![None; n];
     let mut tails = vec![Vec::new(); n];
     let mut finals: Vec<Option<Vec<f64>>> = vec![None; n];
-    let mut restarted = 0;
+    let (mut restarted, mut beyond_bumpers) = (0, 0);
     for j in 0..order.len() {
         let pairs = step_cells(&shape, cs.axis, &order, j);
         let cells: Vec<usize> = pairs.iter().map(|p| p.0).collect();
         let starts: Vec<Option<Vec<f64>>> = pairs
             .iter()
-            .map(|&(_, prev)| prev.and_then(|p| finals[p].clone()))
+            .map(|&(k, prev)| {
+                let (p, y) = (prev?, finals[prev?].clone()?);
+                let fit = fits(k, p, &y);
+                beyond_bumpers += usize::from(!fit);
+                fit.then_some(y)
+            })
             .collect();
         restarted += pairs
             .iter()
@@ -166,6 +197,7 @@ fn run_leg(
             .collect(),
         strobe_tail: tails,
         restarted,
+        beyond_bumpers,
     })
 }
 
