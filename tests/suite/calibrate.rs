@@ -217,10 +217,24 @@ fn a_calibration_where_every_run_fails_says_so_and_exits_3() {
         err.contains("no run of any of the") && err.contains("candidates ended ok"),
         "{err}"
     );
-    assert!(
-        dir.join("out").join("candidates.csv").is_file(),
-        "the files are written"
-    );
+    // The files say so too: the report first, the manifest, and every candidate's row.
+    let out = dir.join("out");
+    let report = std::fs::read_to_string(out.join("REPORT.md")).unwrap();
+    assert!(report.contains("**Every run failed.**"), "{report}");
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("calibrate.json")).unwrap())
+            .unwrap();
+    assert_eq!(manifest["usable"], false, "{manifest}");
+    let csv = std::fs::read_to_string(out.join("candidates.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let judged = header
+        .iter()
+        .position(|h| *h == "judged")
+        .expect("a judged column");
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert!(!rows.is_empty(), "{csv}");
+    assert!(rows.iter().all(|r| r[judged] == "0"), "{csv}");
 }
 
 #[test]

@@ -57,6 +57,7 @@ pub fn write_calibration(
         instances: json(&run.instances),
         best: json(run.best()),
         never_matched: never_matched(spec, run),
+        usable: run.usable(),
         files: names,
     };
     files.push(write_json(&dir.join(CalibrateManifest::NAME), &manifest)?);
@@ -95,8 +96,18 @@ pub struct CalibrateManifest {
     pub best: serde_json::Value,
     /// Observations no candidate matched.
     pub never_matched: Vec<String>,
+    /// Whether any run of any candidate ended ok (false: every run failed, and nothing could
+    /// be compared with the observations).
+    #[serde(default = "earlier_usable")]
+    pub usable: bool,
     /// The files of the folder, by name.
     pub files: Vec<String>,
+}
+
+/// A folder written before `usable` was recorded: only usable calibrations were kept then
+/// without an error, so it is taken as usable.
+fn earlier_usable() -> bool {
+    true
 }
 
 impl Manifest for CalibrateManifest {
@@ -122,8 +133,9 @@ fn observation_ids(spec: &CalibrationSpec) -> Vec<(usize, usize)> {
         .collect()
 }
 
-/// One row per candidate, best first: rank, stage, the unknowns, the score, then per
-/// observation whether it matched, the share of runs that matched and the distance.
+/// One row per candidate, best first: rank, stage, the unknowns, the score (observations
+/// matched, of all, judged: with at least one run that ended ok), then per observation whether
+/// it matched, the share of runs that matched and the distance.
 fn write_candidates(
     path: &Path,
     spec: &CalibrationSpec,
@@ -134,7 +146,12 @@ fn write_candidates(
     let ids = observation_ids(spec);
     let mut header: Vec<String> = vec!["rank".into(), "stage".into()];
     header.extend(spec.unknowns.iter().map(|u| u.key.clone()));
-    header.extend(["matched".into(), "observations".into(), "distance".into()]);
+    header.extend([
+        "matched".into(),
+        "observations".into(),
+        "judged".into(),
+        "distance".into(),
+    ]);
     for &(c, o) in &ids {
         let name = observation_name(spec, c, o);
         header.extend([
@@ -151,6 +168,7 @@ fn write_candidates(
         row.extend([
             cand.matched.to_string(),
             run.observations.to_string(),
+            cand.judged().to_string(),
             cand.distance.to_string(),
         ]);
         for &(c, o) in &ids {
@@ -197,6 +215,14 @@ fn never_matched(spec: &CalibrationSpec, run: &CalibrationRun) -> Vec<String> {
 fn report(spec: &CalibrationSpec, run: &CalibrationRun) -> String {
     let best = run.best();
     let mut s = String::from("# Calibration\n\n");
+    if !run.usable() {
+        s.push_str(
+            "**Every run failed.** No run of any candidate ended ok (each diverged, turned \
+             non-finite or escaped), so nothing could be compared with the observations: the \
+             ranking below is the evaluation order, not a finding. Check the scene's ranges \
+             and steps (`pendulum-atlas simulate` one candidate to see how it fails).\n\n",
+        );
+    }
     let _ = writeln!(
         s,
         "{} candidates ({} instances: candidates × {} cases × {} initial states).\n",

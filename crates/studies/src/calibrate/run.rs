@@ -32,6 +32,17 @@ pub struct Candidate {
     pub distance: f64,
 }
 
+impl Candidate {
+    /// Observations judged: those with at least one run of this candidate that ended ok.
+    pub fn judged(&self) -> usize {
+        self.judgements
+            .iter()
+            .flatten()
+            .filter(|j| j.distance.is_finite())
+            .count()
+    }
+}
+
 /// A finished calibration.
 #[derive(Debug, Clone, Serialize)]
 pub struct CalibrationRun {
