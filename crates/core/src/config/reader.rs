@@ -12,28 +12,40 @@ pub const MAX_SCENE_BYTES: u64 = 1 << 20;
 /// Longest line of a message quoted from the input (characters).
 const MAX_QUOTED_LINE: usize = 160;
 
-/// Read a scene file: a regular file of at most [`MAX_SCENE_BYTES`], in UTF-8.
+/// Read a scene file of at most [`MAX_SCENE_BYTES`], in UTF-8: a regular file, or a stream
+/// (a pipe, `/dev/stdin`, `<(...)`) read up to that size, so that an endless one (`/dev/zero`)
+/// is refused once it passes it. A folder is refused.
 pub fn read_scene_file(path: &std::path::Path) -> Result<String, ConfigError> {
+    use std::io::Read;
     let shown = path.display().to_string();
     let io = |source| ConfigError::Io {
         path: shown.clone(),
         source,
     };
-    let meta = std::fs::metadata(path).map_err(io)?;
     let refuse = |reason: String| ConfigError::NotAScene {
         path: shown.clone(),
         reason,
     };
-    if !meta.is_file() {
-        return Err(refuse("not a regular file (a scene is a TOML file)".into()));
+    if std::fs::metadata(path).map_err(io)?.is_dir() {
+        return Err(refuse(
+            "a folder, not a file (a scene is a TOML file)".into(),
+        ));
     }
-    if meta.len() > MAX_SCENE_BYTES {
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_SCENE_BYTES + 1).read_to_end(&mut bytes))
+        .map_err(io)?;
+    if bytes.len() as u64 > MAX_SCENE_BYTES {
         return Err(refuse(format!(
-            "{} bytes, more than the {MAX_SCENE_BYTES} a scene file may have",
-            meta.len()
+            "more than the {MAX_SCENE_BYTES} bytes a scene file may have"
         )));
     }
-    std::fs::read_to_string(path).map_err(io)
+    String::from_utf8(bytes).map_err(|e| {
+        io(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("not UTF-8 text ({e})"),
+        ))
+    })
 }
 
 /// `message` with every line cut to [`MAX_QUOTED_LINE`] characters, so that an error quoting

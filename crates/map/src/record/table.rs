@@ -17,16 +17,33 @@ impl Table {
     /// Read the columns `wanted` of the CSV at `path`. Every error names the file (and the line
     /// and column of a bad cell).
     pub fn read(path: &Path, wanted: &[&str]) -> Result<Table, RecordError> {
-        check_record_file(path)?;
+        use std::io::Read;
+        let cap = record_cap(path)?;
         let file_error = |reason: String| RecordError::File {
             path: path.display().to_string(),
             reason,
         };
+        let mut file =
+            std::fs::File::open(path).map_err(|e| file_error(format!("cannot read it: {e}")))?;
+        let mut head = Vec::new();
+        (&mut file)
+            .take(MAX_HEADER_BYTES)
+            .read_to_end(&mut head)
+            .map_err(|e| file_error(format!("cannot read it: {e}")))?;
+        if head.len() as u64 == MAX_HEADER_BYTES && !head.contains(&b'\n') {
+            return Err(file_error(format!(
+                "no line ends within its first {}: a CSV record starts with a header line naming the columns",
+                pendulum_atlas_core::text::bytes(MAX_HEADER_BYTES)
+            )));
+        }
         let mut rdr = csv::ReaderBuilder::new()
             .trim(csv::Trim::All)
             .comment(Some(b'#'))
-            .from_path(path)
-            .map_err(|e| file_error(format!("cannot read it: {e}")))?;
+            .from_reader(
+                std::io::Cursor::new(head)
+                    .chain(file)
+                    .take(cap.saturating_add(1)),
+            );
         let header: Vec<String> = rdr
             .headers()
             .map_err(|e| file_error(format!("cannot read the header line: {e}")))?
@@ -53,6 +70,13 @@ impl Table {
         for rec in rdr.records() {
             let rec = rec.map_err(|e| file_error(format!("malformed row: {e}")))?;
             table.push_row(&rec, &idx)?;
+        }
+        if rdr.position().byte() > cap {
+            return Err(file_error(format!(
+                "it goes on past {}: a record read from a pipe may have at most {} (save it to a file), and a file must not grow while it is read",
+                pendulum_atlas_core::text::bytes(cap),
+                pendulum_atlas_core::text::bytes(MAX_STREAM_BYTES)
+            )));
         }
         if table.lines.is_empty() {
             return Err(file_error("it has a header but no data rows".into()));
@@ -107,9 +131,18 @@ impl Table {
     }
 }
 
-/// A record must be a regular file whose values fit in memory: its parsed columns take at
-/// most about its size again.
-fn check_record_file(path: &Path) -> Result<(), RecordError> {
+/// Longest first line read before a record is refused as not CSV (bytes): a header names a
+/// few columns.
+pub const MAX_HEADER_BYTES: u64 = 1 << 20;
+
+/// Largest record read from a stream (a pipe, `/dev/stdin`, `<(...)`): its size is not known
+/// before it is read, so it is read up to this and refused beyond it (bytes).
+pub const MAX_STREAM_BYTES: u64 = 256 << 20;
+
+/// How many bytes of the record at `path` may be read: a regular file whose values fit in
+/// memory (its parsed columns take at most about its size again) is read whole; a stream is
+/// read up to [`MAX_STREAM_BYTES`]; a folder is refused.
+fn record_cap(path: &Path) -> Result<u64, RecordError> {
     let file_error = |reason: String| RecordError::File {
         path: path.display().to_string(),
         reason,
@@ -121,9 +154,7 @@ fn check_record_file(path: &Path) -> Result<(), RecordError> {
         ));
     }
     if !meta.is_file() {
-        return Err(file_error(
-            "it is not a regular file; give the CSV file to analyse".into(),
-        ));
+        return Ok(MAX_STREAM_BYTES);
     }
     if let Some(available) = crate::machine::memory_available()
         && meta.len() > available / 2
@@ -134,7 +165,7 @@ fn check_record_file(path: &Path) -> Result<(), RecordError> {
             pendulum_atlas_core::text::bytes(available)
         )));
     }
-    Ok(())
+    Ok(meta.len())
 }
 
 /// Refuses a header in which a name appears twice (which column was meant is unknowable).
