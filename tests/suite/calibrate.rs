@@ -250,4 +250,7 @@ fn a_spread_that_takes_the_starts_past_the_bumpers_reach_names_the_spread() {
         .to_string();
     assert!(e.contains("calibrate.initial_spread_deg"), "{e}");
     assert!(!e.contains("`initial.angle_deg`"), "{e}");
+    // The range named is the binding one: the start follows the clearance, so the 20 deg
+    // end of the unknown's range binds (70), not the 10 deg end met first (80).
+    assert!(e.contains("[0, 70) deg"), "{e}");
 }

@@ -475,6 +475,8 @@ fn check_scenes(spec: &CalibrationSpec) -> Result<(), ConfigError> {
             })
             .collect()
     };
+    // The case and angle whose starts come closest to ±90 deg bind the spread.
+    let mut widest: Option<(&Case, f64)> = None;
     for case in &spec.cases {
         for values in [ends(false), ends(true)] {
             let scene = spec
@@ -483,14 +485,21 @@ fn check_scenes(spec: &CalibrationSpec) -> Result<(), ConfigError> {
                     key: "calibrate.cases".into(),
                     reason: format!("case `{}` gives an invalid scene: {e}", case.name),
                 })?;
-            check_spread(spec, case, scene.initial.angle_deg)?;
+            let angle = scene.initial.angle_deg;
+            if widest.is_none_or(|(_, a)| angle.abs() > a.abs()) {
+                widest = Some((case, angle));
+            }
         }
     }
-    Ok(())
+    match widest {
+        Some((case, angle)) => check_spread(spec, case, angle),
+        None => Ok(()),
+    }
 }
 
 /// The starts of a case, its initial angle ± the spread, must stay inside (−90, 90) deg: a
-/// spread that leaves it is the spread's fault, and named so.
+/// spread that leaves it is the spread's fault, and named so, with the bound of the case whose
+/// angle is widest (the binding one, so that one refusal gives the range that holds).
 fn check_spread(spec: &CalibrationSpec, case: &Case, angle_deg: f64) -> Result<(), ConfigError> {
     let spread = spec.initial_spread_deg;
     if spec.initial_states > 1 && angle_deg.abs() + spread >= 90.0 {
@@ -498,7 +507,7 @@ fn check_spread(spec: &CalibrationSpec, case: &Case, angle_deg: f64) -> Result<(
             key: "calibrate.initial_spread_deg".into(),
             value: spread,
             range: format!(
-                "[0, {}) deg: case `{}` starts at {angle_deg} deg, and its starts must stay within ±90 deg",
+                "[0, {}) deg: case `{}` starts at {angle_deg} deg (the widest start of the cases over the unknowns' ranges), and its starts must stay within ±90 deg",
                 90.0 - angle_deg.abs(),
                 case.name
             ),
