@@ -316,11 +316,46 @@ pub fn cell_colour(value: f64, invalid: bool, range: (f64, f64)) -> RGBColor {
     Palette::Sequential(None).colour(value, invalid, range)
 }
 
-/// A categorical legend in `area`: a swatch and a name per entry, the label above them.
+/// `text` broken at spaces into lines no wider than `width` px in the font of `px` pixels (a
+/// word wider than that stands on a line of its own).
+pub fn wrap_text(text: &str, px: u32, width: u32) -> Result<Vec<String>> {
+    super::ensure_font()?;
+    let fits = |line: &str| -> Result<bool> {
+        let (w, _) = font(px)
+            .font
+            .box_size(line)
+            .map_err(|e| super::error::RenderError::Draw(format!("text size: {e:?}")))?;
+        Ok(w <= width)
+    };
+    let mut lines: Vec<String> = Vec::new();
+    for word in text.split_whitespace() {
+        match lines.last_mut() {
+            Some(line) if fits(&format!("{line} {word}"))? => {
+                line.push(' ');
+                line.push_str(word);
+            }
+            _ => lines.push(word.to_string()),
+        }
+    }
+    Ok(lines)
+}
+
+/// A categorical legend in `area`: a swatch and a name per entry, the label above them,
+/// wrapped to the column's width.
 fn legend_box(area: &Area, label: &str, entries: &[(&str, RGBColor)]) -> Result<()> {
-    area.draw(&Text::new(label.to_string(), (10, 30), font(LABEL_PX)))?;
+    let width = area.dim_in_pixel().0.saturating_sub(20);
+    let lines = wrap_text(label, LABEL_PX, width)?;
+    let line_px = LABEL_PX as i32 + 4;
+    for (i, line) in lines.iter().enumerate() {
+        area.draw(&Text::new(
+            line.clone(),
+            (10, 16 + line_px * i as i32),
+            font(LABEL_PX),
+        ))?;
+    }
+    let top = 16 + line_px * lines.len() as i32 + 14;
     for (k, (name, c)) in entries.iter().enumerate() {
-        let y = 64 + 26 * k as i32;
+        let y = top + 26 * k as i32;
         area.draw(&Rectangle::new([(10, y), (28, y + 18)], c.filled()))?;
         area.draw(&Rectangle::new([(10, y), (28, y + 18)], BLACK))?;
         area.draw(&Text::new(name.to_string(), (34, y), font(TICK_PX)))?;
@@ -435,4 +470,24 @@ pub fn heatmap(
     }
     root.present()?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::ensure_font;
+    use super::*;
+
+    #[test]
+    fn a_legend_label_is_wrapped_to_the_colour_bar_column() {
+        let label = "most likely attractor (Pp: period p; wells + α > 0, − α < 0, ± both)";
+        let width = BAR_COL - 20;
+        let lines = wrap_text(label, LABEL_PX, width).unwrap();
+        ensure_font().unwrap();
+        assert!(lines.len() > 1, "{lines:?}");
+        for line in &lines {
+            let (w, _) = font(LABEL_PX).font.box_size(line).unwrap();
+            assert!(w <= width || !line.contains(' '), "{line:?} is {w} px wide");
+        }
+        assert_eq!(lines.join(" "), label);
+    }
 }
