@@ -45,12 +45,18 @@ create_exception!(
     PyValueError,
     "A scene that the library refuses; the message names the key and its accepted range."
 );
-create_exception!(
-    pendulum_atlas,
-    EngineError_,
-    PyRuntimeError,
-    "The engine could not run (no GPU adapter, a run too long for it, ...)."
-);
+/// The Python exceptions whose names are also the library's Rust types.
+mod py_errors {
+    use pyo3::create_exception;
+    use pyo3::exceptions::PyRuntimeError;
+
+    create_exception!(
+        pendulum_atlas,
+        EngineError,
+        PyRuntimeError,
+        "The engine could not run (no GPU adapter, a run too long for it, ...)."
+    );
+}
 
 fn scene_error(e: ConfigError) -> PyErr {
     SceneError::new_err(e.to_string())
@@ -68,7 +74,7 @@ fn engine_error(e: EngineError) -> PyErr {
     };
     match e {
         EngineError::Config(c) => scene_error(c),
-        other => EngineError_::new_err(format!("{other}{mend}")),
+        other => py_errors::EngineError::new_err(format!("{other}{mend}")),
     }
 }
 
@@ -582,7 +588,7 @@ fn cell_pins<'py>(
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add("SceneError", py.get_type::<SceneError>())?;
-    m.add("EngineError", py.get_type::<EngineError_>())?;
+    m.add("EngineError", py.get_type::<py_errors::EngineError>())?;
     m.add("DEFAULT_MAP_TOML", DEFAULT_MAP_TOML)?;
     m.add("PAPER_SCENE_TOML", PAPER_SCENE_TOML)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

@@ -162,8 +162,11 @@ def test_bad_scenes_and_arguments_raise_before_any_work():
         pa.map(pa.Scene(SMALL_MAP), precision="f16", progress=False)
     with pytest.raises(pa.EngineError, match="f32"):
         pa.map(pa.Scene(SMALL_MAP), backend="gpu", precision="f64", progress=False)
-    with pytest.raises(pa.EngineError, match="f64"):
+    with pytest.raises(pa.EngineError, match="f64") as raised:
         pa.simulate(pa.Scene.paper(), integrator="reference", precision="f32")
+    # The exception is named as the package exports it, in tracebacks too.
+    assert type(raised.value).__name__ == "EngineError"
+    assert type(raised.value).__module__ == "pendulum_atlas"
 
 
 def test_a_scene_round_trips_through_its_toml_and_cli_arguments(tmp_path):

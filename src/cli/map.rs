@@ -9,7 +9,7 @@ use pendulum_atlas_core::model::Status;
 use pendulum_atlas_map::map::hardware_default::hardware_default;
 use pendulum_atlas_map::map::size::check_map_size;
 use pendulum_atlas_map::map::{
-    MapRun, check_host_memory, run_map, run_map_on_devices, run_map_shard,
+    MapRun, check_host_memory, check_shardable, run_map, run_map_on_devices, run_map_shard,
 };
 use pendulum_atlas_map::output::folder::Product;
 use pendulum_atlas_map::output::map::write_map;
@@ -75,6 +75,9 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
     check_host_memory(&spec).map_err(hint)?;
     if let Some(s) = a.shard {
         check_shard_count("--shard", s.count, &spec)?;
+    }
+    if a.shard.is_some() || a.devices.is_some() {
+        check_shardable(&spec).map_err(hint)?;
     }
     if let Some(d) = &a.devices {
         return run_on_devices(&a, d, &spec);

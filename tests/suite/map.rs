@@ -723,6 +723,7 @@ fn a_shard_of_a_map_that_cannot_be_split_is_refused_before_planning() {
         ("map.initial_states=2", "map.initial_states"),
         ("map.continuation=up", "map.continuation"),
     ] {
+        let out = out_dir(&format!("unsplittable-{key}"));
         let o = bin()
             .args([
                 "map",
@@ -733,7 +734,7 @@ fn a_shard_of_a_map_that_cannot_be_split_is_refused_before_planning() {
                 "0/2",
                 "--out",
             ])
-            .arg(out_dir(&format!("unsplittable-{key}")))
+            .arg(&out)
             .args(["--set", "integration.dt_s=1e-3", "--set", bad_cell])
             .args(["--set", mode])
             .output()
@@ -745,6 +746,7 @@ fn a_shard_of_a_map_that_cannot_be_split_is_refused_before_planning() {
             "{mode}: {err}"
         );
         assert!(!err.contains("grid point"), "{mode}: {err}");
+        assert!(!out.exists(), "{mode}: refused before its folder is made");
     }
 }
 
