@@ -254,6 +254,19 @@ fn merge_refuses_shard_rows_no_engine_could_have_written() {
     let width = RESULT_COLUMNS.len();
     // Row 0 is an ok instance (the bifurcation map's cells all end ok).
     assert_eq!(clean[col("status")], 0.0);
+    // A plausible K written over the shard's own is refused by the values' hash.
+    let mut rows = clean.clone();
+    rows[col("K")] = if clean[col("K")] > 0.5 { 0.1 } else { 0.9 };
+    write_npy_f64(&path, &shape, &rows).unwrap();
+    let o = merge(&[&a, &b], &root.join("merged"));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("SHA-256 differs"), "{e}");
+    // Beyond the hash (a forger who rewrites it too), every rule below still holds.
+    let write = |rows: &[f64]| {
+        write_npy_f64(&path, &shape, rows).unwrap();
+        rehash(&b, rows);
+    };
     let cases: [(&str, f64, &str); 6] = [
         ("K", 7.5, "K = 7.5"),
         ("R", f64::NAN, "R = NaN"),
@@ -265,7 +278,7 @@ fn merge_refuses_shard_rows_no_engine_could_have_written() {
     for (name, value, says) in cases {
         let mut rows = clean.clone();
         rows[col(name)] = value;
-        write_npy_f64(&path, &shape, &rows).unwrap();
+        write(&rows);
         let o = merge(&[&a, &b], &root.join("merged"));
         let e = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{name} = {value}: {e}");
@@ -296,12 +309,29 @@ fn merge_refuses_shard_rows_no_engine_could_have_written() {
         for (name, value) in edits {
             rows[at(name)] = *value;
         }
-        write_npy_f64(&path, &shape, &rows).unwrap();
+        write(&rows);
         let o = merge(&[&a, &b], &root.join("merged"));
         let e = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{edits:?}: {e}");
         assert!(e.contains(says), "{edits:?}: {e}");
     }
-    write_npy_f64(&path, &shape, &clean).unwrap();
+    write(&clean);
     ok(&merge(&[&a, &b], &root.join("merged")));
+}
+
+/// Set shard `dir`'s `values_sha256` to the hash of `rows` and its stroboscopic tails.
+fn rehash(dir: &Path, rows: &[f64]) {
+    use pendulum_atlas_map::output::npy::read_npy;
+    use pendulum_atlas_map::shard::files::values_sha256;
+    let strobe = dir.join("shard_strobe.npy");
+    let tails: Vec<f64> = if strobe.exists() {
+        read_npy(&strobe).unwrap().1
+    } else {
+        Vec::new()
+    };
+    let manifest = dir.join("shard.json");
+    let mut m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&manifest).unwrap()).unwrap();
+    m["values_sha256"] = values_sha256(&[rows, &tails]).into();
+    std::fs::write(&manifest, serde_json::to_string_pretty(&m).unwrap()).unwrap();
 }

@@ -68,6 +68,22 @@ pub struct ShardManifest {
     pub stopped_early: usize,
     /// Stroboscopic samples kept per instance for the bifurcation diagram (0: none).
     pub strobe_tail: usize,
+    /// SHA-256 of the shard's values (`shard_results.npy`, then `shard_strobe.npy`) as
+    /// little-endian f64 ([`values_sha256`]): `merge` refuses a shard whose files no longer
+    /// hold what its run wrote.
+    pub values_sha256: String,
+}
+
+/// SHA-256 (hex) of `parts`' values as little-endian f64, one after another.
+pub fn values_sha256(parts: &[&[f64]]) -> String {
+    use sha2::{Digest, Sha256};
+    let mut h = Sha256::new();
+    for part in parts {
+        for v in *part {
+            h.update(v.to_le_bytes());
+        }
+    }
+    h.finalize().iter().map(|b| format!("{b:02x}")).collect()
 }
 
 impl crate::output::manifest::Manifest for ShardManifest {
@@ -148,8 +164,8 @@ pub fn write_shard(
     write_npy_f64(&p, &[members.len(), RESULT_COLUMNS.len()], &data)?;
     written.push(p);
     let tail = run.strobe_tail.first().map_or(0, Vec::len);
+    let flat: Vec<f64> = run.strobe_tail.iter().flatten().copied().collect();
     if tail > 0 {
-        let flat: Vec<f64> = run.strobe_tail.iter().flatten().copied().collect();
         let p = dir.join("shard_strobe.npy");
         write_npy_f64(&p, &[members.len(), tail], &flat)?;
         written.push(p);
@@ -168,6 +184,7 @@ pub fn write_shard(
         dispatches: run.dispatches,
         stopped_early: run.stopped_early,
         strobe_tail: tail,
+        values_sha256: values_sha256(&[&data, &flat]),
     };
     written.push(write_json(&dir.join(SHARD_JSON), &manifest)?);
     Ok(written)
@@ -211,28 +228,22 @@ pub fn read_shard(dir: &Path) -> Result<ShardData, ShardReadError> {
             RESULT_COLUMNS.len()
         )));
     }
+    let strobe = read_strobe(dir, &manifest).map_err(&fail)?;
+    if values_sha256(&[&rows, &strobe]) != manifest.values_sha256 {
+        return Err(fail(
+            "its values are not those its run wrote (their SHA-256 differs from shard.json's values_sha256): a file was changed or damaged; rerun the shard".into(),
+        ));
+    }
     let mut members = Vec::with_capacity(manifest.members);
     let mut results = Vec::with_capacity(manifest.members);
     for r in rows.chunks_exact(RESULT_COLUMNS.len()) {
         members.push(r[0] as usize);
         results.push(result_of(r).map_err(&fail)?);
     }
-    let mut strobe_tail = Vec::new();
-    if manifest.strobe_tail > 0 {
-        let (shape, flat) = read_npy(&dir.join("shard_strobe.npy")).map_err(&fail)?;
-        if shape != [manifest.members, manifest.strobe_tail] {
-            return Err(fail(format!(
-                "shard_strobe.npy has shape {}, the manifest says {} × {}",
-                pendulum_atlas_core::text::shape(&shape),
-                manifest.members,
-                manifest.strobe_tail
-            )));
-        }
-        strobe_tail = flat
-            .chunks_exact(manifest.strobe_tail)
-            .map(<[f64]>::to_vec)
-            .collect();
-    }
+    let strobe_tail = match manifest.strobe_tail {
+        0 => Vec::new(),
+        k => strobe.chunks_exact(k).map(<[f64]>::to_vec).collect(),
+    };
     Ok(ShardData {
         dir: dir.to_path_buf(),
         manifest,
@@ -241,6 +252,24 @@ pub fn read_shard(dir: &Path) -> Result<ShardData, ShardReadError> {
         results,
         strobe_tail,
     })
+}
+
+/// The shard's stroboscopic tails, flat (none when it kept none), checked against the
+/// manifest's shape.
+fn read_strobe(dir: &Path, manifest: &ShardManifest) -> Result<Vec<f64>, String> {
+    if manifest.strobe_tail == 0 {
+        return Ok(Vec::new());
+    }
+    let (shape, flat) = read_npy(&dir.join("shard_strobe.npy"))?;
+    if shape != [manifest.members, manifest.strobe_tail] {
+        return Err(format!(
+            "shard_strobe.npy has shape {}, the manifest says {} × {}",
+            pendulum_atlas_core::text::shape(&shape),
+            manifest.members,
+            manifest.strobe_tail
+        ));
+    }
+    Ok(flat)
 }
 
 /// A shard row as a result; its index, codes and steps must be whole numbers.
