@@ -87,6 +87,12 @@ pub struct GpuContext {
     health: Arc<Mutex<Health>>,
     /// The read-back buffer, kept across dispatches and runs and grown when too small.
     pub(crate) staging: Mutex<Option<wgpu::Buffer>>,
+    /// Held around every submit and poll of this device. wgpu-core 30 reads the fence and
+    /// then retires finished submissions without a lock between: when one thread's bounded
+    /// wait times out just as its submission ends, and another thread's submit or poll retires
+    /// it in between, the first thread's poll panics ("the current submission index should be
+    /// at least the wait submission index"). Seen with two test threads sharing lavapipe.
+    poll_lock: Mutex<()>,
 }
 
 thread_local! {
@@ -156,13 +162,22 @@ impl GpuContext {
             kernels: Mutex::new(HashMap::new()),
             health,
             staging: Mutex::new(None),
+            poll_lock: Mutex::new(()),
         })
     }
 
     /// Submit `commands` to the queue, counted; the index to wait for.
     pub(crate) fn submit(&self, commands: wgpu::CommandBuffer) -> wgpu::SubmissionIndex {
         SUBMISSIONS.with(|c| c.set(c.get() + 1));
+        let _held = self.poll_lock.lock().unwrap_or_else(|e| e.into_inner());
         self.queue.submit([commands])
+    }
+
+    /// Poll the device as `poll` says, alone among this process's submits and polls of it
+    /// (see `poll_lock`).
+    pub(crate) fn poll(&self, poll: wgpu::PollType) -> Result<wgpu::PollStatus, wgpu::PollError> {
+        let _held = self.poll_lock.lock().unwrap_or_else(|e| e.into_inner());
+        self.device.poll(poll)
     }
 
     /// Count `bytes` copied back to the host.
