@@ -146,6 +146,9 @@ struct Control {
     period_window: u32,
     period_tol: f32,
     c_index: u32,
+    // The instances [slice_first, slice_end) a reduction dispatch covers.
+    slice_first: u32,
+    slice_end: u32,
     n_active: u32,
     e_p_max: u32,
     e_window: u32,
@@ -154,6 +157,8 @@ struct Control {
     e_period_off: u32,
     e_r_off: u32,
     e_r_len: u32,
+    pad0: u32,
+    pad1: u32,
 }
 
 @group(0) @binding(0) var<storage, read> params: array<InstanceParams>;

@@ -13,8 +13,8 @@ fn turn_cos_sin(j: u32, turns: u32) -> vec2<f32> {
 // K_c for the c value `ctl.c_index` (one dispatch per c), into kc[inst * N_C + c_index].
 @compute @workgroup_size(WG)
 fn k_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let inst = gid.x;
-    if inst >= ctl.n_inst || acc[inst].status != STATUS_OK {
+    let inst = ctl.slice_first + gid.x;
+    if inst >= ctl.slice_end || acc[inst].status != STATUS_OK {
         return;
     }
     let n = params[inst].strobe_count;
@@ -101,8 +101,8 @@ var<workgroup> kc_rows: array<f32, WG_K * N_C>;
 // K = median of K_c, and the period of the stroboscopic section.
 @compute @workgroup_size(WG_K)
 fn k_final(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
-    let inst = gid.x;
-    if inst >= ctl.n_inst {
+    let inst = ctl.slice_first + gid.x;
+    if inst >= ctl.slice_end {
         return;
     }
     if acc[inst].status != STATUS_OK {

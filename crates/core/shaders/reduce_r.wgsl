@@ -88,8 +88,8 @@ fn one_sided(inst: u32, off: u32, k: u32, n: u32) -> f32 {
 // lies at k·(samples per period)/n forcing frequencies.
 @compute @workgroup_size(WG)
 fn line(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let inst = gid.x;
-    if inst >= ctl.n_inst {
+    let inst = ctl.slice_first + gid.x;
+    if inst >= ctl.slice_end {
         return;
     }
     let nan = bitcast<f32>(0x7fc00000u);
@@ -143,8 +143,8 @@ fn line(@builtin(global_invocation_id) gid: vec3<u32>) {
 // loop iterations): the analytic signal of α, that of the cart, then R.
 @compute @workgroup_size(WG)
 fn r_alpha(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let inst = gid.x;
-    if inst >= ctl.n_inst || acc[inst].status != STATUS_OK {
+    let inst = ctl.slice_first + gid.x;
+    if inst >= ctl.slice_end || acc[inst].status != STATUS_OK {
         return;
     }
     analytic(inst, 0u, params[inst].r_count);
@@ -152,8 +152,8 @@ fn r_alpha(@builtin(global_invocation_id) gid: vec3<u32>) {
 
 @compute @workgroup_size(WG)
 fn r_cart(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let inst = gid.x;
-    if inst >= ctl.n_inst || acc[inst].status != STATUS_OK {
+    let inst = ctl.slice_first + gid.x;
+    if inst >= ctl.slice_end || acc[inst].status != STATUS_OK {
         return;
     }
     let p = params[inst];
@@ -168,8 +168,8 @@ fn r_cart(@builtin(global_invocation_id) gid: vec3<u32>) {
 
 @compute @workgroup_size(WG)
 fn r_phase(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let inst = gid.x;
-    if inst >= ctl.n_inst {
+    let inst = ctl.slice_first + gid.x;
+    if inst >= ctl.slice_end {
         return;
     }
     if acc[inst].status != STATUS_OK {

@@ -62,8 +62,8 @@ fn lyap_estimate(a: ptr<function, Accum>, w: u32, t: f32) -> vec3<f32> {
 
 @compute @workgroup_size(WG)
 fn verdict(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let inst = gid.x;
-    if inst >= ctl.n_inst {
+    let inst = ctl.slice_first + gid.x;
+    if inst >= ctl.slice_end {
         return;
     }
     var a = acc[inst];

@@ -6,8 +6,14 @@ use pendulum_atlas_core::config::{Metric, PAPER_SCENE_TOML, Scene};
 use pendulum_atlas_core::engine::{Backend, Engine, EnsembleOptions, EnsemblePlan, Readback};
 use pendulum_atlas_core::reduce::ReduceOptions;
 
-/// Eleven paper scenes across 6–11 Hz at N = 3, short enough for a test, every metric.
+/// Eleven paper scenes across 6–11 Hz at N = 3, short enough for a test, the first six
+/// metrics.
 fn plan() -> EnsemblePlan {
+    plan_with(&Metric::ALL[..6])
+}
+
+/// [`plan`] with `metrics`.
+fn plan_with(metrics: &[Metric]) -> EnsemblePlan {
     let scenes: Vec<Scene> = (0..11)
         .map(|i| {
             let sets = vec![
@@ -20,7 +26,7 @@ fn plan() -> EnsemblePlan {
         })
         .collect();
     let opts = EnsembleOptions {
-        metrics: Metric::ALL[..6].to_vec(),
+        metrics: metrics.to_vec(),
         keep_strobe: true,
         samples_per_period: 16,
         strobe_phase: 0.0,
@@ -158,4 +164,61 @@ fn a_strobe_tail_is_the_end_of_the_whole_series_and_costs_fewer_bytes() {
         bytes(&tail),
         bytes(&whole)
     );
+}
+
+/// The reductions run in slices (dispatches over part of the instances, `slices.rs`): with
+/// slices of three instances, and with the first pass timed over four and the slices sized
+/// from it, every metric equals that of unsliced dispatches, bit for bit.
+#[test]
+fn reductions_in_slices_equal_unsliced_reductions_bit_for_bit() {
+    use pendulum_atlas_core::engine::gpu::slices::Slicing;
+    if gpu().is_none() {
+        return;
+    }
+    let plan = plan_with(&Metric::ALL);
+    let run = |slicing: Option<Slicing>| {
+        let mut engine = Engine::open(Backend::Gpu, None).unwrap();
+        engine.set_gpu_reduce_slice(slicing);
+        engine
+            .run(
+                &plan,
+                &ReduceOptions::default(),
+                Readback::default(),
+                &|_, _, _| std::ops::ControlFlow::Continue(()),
+            )
+            .unwrap()
+            .results
+    };
+    let bits = |r: &pendulum_atlas_core::reduce::InstanceResult| {
+        [
+            r.k,
+            r.r,
+            r.period,
+            r.hops,
+            r.alpha_min_rad,
+            r.alpha_max_rad,
+            r.line,
+            r.lyapunov_per_s,
+            r.lyapunov_se_per_s,
+            r.regime_confidence,
+        ]
+        .map(f64::to_bits)
+    };
+    let whole = run(None);
+    assert!(
+        whole
+            .iter()
+            .any(|r| r.k.is_finite() && r.lyapunov_per_s.is_finite())
+    );
+    for slicing in [Slicing::Fixed(3), Slicing::Probe(4)] {
+        let sliced = run(Some(slicing));
+        for (i, (a, b)) in whole.iter().zip(&sliced).enumerate() {
+            assert_eq!(
+                bits(a),
+                bits(b),
+                "{slicing:?}, instance {i}: results differ"
+            );
+            assert_eq!(a.regime, b.regime, "{slicing:?}, instance {i}");
+        }
+    }
 }

@@ -342,6 +342,14 @@ impl Engine {
         }
     }
 
+    /// On the GPU engine, slice each reduction pass as `slicing` says (`None`: above a size,
+    /// by a timed probe to the dispatch target). For tests: results do not depend on it.
+    pub fn set_gpu_reduce_slice(&mut self, slicing: Option<gpu::slices::Slicing>) {
+        if let EngineImpl::Gpu(g) = &mut self.inner {
+            g.set_reduce_slice(slicing);
+        }
+    }
+
     /// On the GPU engine, keep every plan's working arrays in `layout` (`None`: each plan's
     /// own, from the map's `gpu.layout`), and say so in the engine's name (`info().device`),
     /// so that a bench's rows name the layout. For tests and benches.

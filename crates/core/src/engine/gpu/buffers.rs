@@ -22,7 +22,6 @@ const SOFTWARE_LOOP_BUDGET: usize = 60_000;
 pub struct Sizes {
     pub n_inst: usize,
     pub state_len: usize,
-    pub n_c: usize,
     pub strobe_stride: u32,
     pub rwork_stride: u32,
     pub accum_bytes: u64,
@@ -75,7 +74,6 @@ impl Sizes {
         Ok(Sizes {
             n_inst,
             state_len: f.state_len,
-            n_c: key.n_c,
             strobe_stride: f.strobe_stride,
             rwork_stride: f.rwork_stride,
             accum_bytes: bytes(f.accum)?,

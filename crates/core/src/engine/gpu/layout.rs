@@ -333,6 +333,10 @@ pub struct GpuControl {
     pub period_tol: f32,
     /// The c value the `k_pass` kernel works on.
     pub c_index: u32,
+    /// The first instance a reduction dispatch covers (its slice, `slices.rs`).
+    pub slice_first: u32,
+    /// One past the last instance a reduction dispatch covers (`n_inst` when unsliced).
+    pub slice_end: u32,
     /// Instances in the `active` list (the integration kernel's range).
     pub n_active: u32,
     /// The early stop: longest period tried (0 without the early stop).
@@ -349,6 +353,10 @@ pub struct GpuControl {
     pub e_r_off: u32,
     /// Length of that ring (1 when unused).
     pub e_r_len: u32,
+    /// Padding to a multiple of 16 bytes (a uniform block).
+    pub pad0: u32,
+    /// See `pad0`.
+    pub pad1: u32,
 }
 
 /// Words of one tally in the early stop's period ring (hops, impacts, Σ v²/R_L, α min, max).

@@ -19,6 +19,7 @@ mod context;
 pub mod fault;
 pub mod kernels;
 pub mod layout;
+pub mod slices;
 pub mod state_layout;
 
 pub use context::{AdapterChoice, AdapterListing, DeviceCounts, GpuContext, list_adapters};
@@ -36,21 +37,22 @@ use bytemuck::Zeroable;
 use kernels::{KernelKey, Kernels, WG};
 use layout::{GPU_MAX_SEGMENTS, GpuAccum, GpuControl};
 use serde::Serialize;
+use slices::{Pass, Slicing, run_passes};
 use state_layout::StateLayout;
 use std::time::{Duration, Instant};
 
 /// Environment variable that turns "no GPU adapter" from a skip into a test failure.
 pub const REQUIRE_GPU_ENV: &str = "PENDULUM_ATLAS_REQUIRE_GPU";
 
-/// Target wall time of one integration dispatch.
+/// Target wall time of one dispatch: the integration's, and each slice of a reduction's.
 const DISPATCH_TARGET: Duration = Duration::from_millis(100);
 
 /// How long one poll of the device blocks before the device's health is checked again.
 const POLL_SLICE: Duration = Duration::from_millis(250);
 
 /// The longest one submission may run before the device is declared unresponsive: far above
-/// any dispatch the engine sizes (integration aims at [`DISPATCH_TARGET`]; lavapipe's longest
-/// reduction of a 257 × 193 map takes under a minute).
+/// any dispatch the engine sizes (integration and reduction slices aim at [`DISPATCH_TARGET`];
+/// one submission holds at most a stage's passes).
 const WAIT_LIMIT: Duration = Duration::from_secs(600);
 
 /// Wall time of each stage of a GPU run (s).
@@ -124,8 +126,18 @@ impl ReduceSettings {
 /// The GPU engine on an opened device.
 pub struct GpuEngine {
     ctx: GpuContext,
-    max_batch: Option<usize>,
+    limits: GpuLimits,
     layout: Option<StateLayout>,
+}
+
+/// How the engine splits its work, where a caller sets it (tests and benches).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct GpuLimits {
+    /// At most this many instances at a time (`None`: as many as the adapter's limits allow).
+    pub max_batch: Option<usize>,
+    /// How the reductions are sliced (`None`: above a size, by a timed probe to
+    /// [`DISPATCH_TARGET`], `slices.rs`).
+    pub reduce_slice: Option<Slicing>,
 }
 
 impl GpuEngine {
@@ -133,7 +145,7 @@ impl GpuEngine {
     pub fn new(ctx: GpuContext) -> GpuEngine {
         GpuEngine {
             ctx,
-            max_batch: None,
+            limits: GpuLimits::default(),
             layout: None,
         }
     }
@@ -147,7 +159,13 @@ impl GpuEngine {
     /// Run at most `max` instances at a time (`None`: as many as the adapter's limits allow),
     /// to bound the device memory a run takes.
     pub fn set_max_batch(&mut self, max: Option<usize>) {
-        self.max_batch = max.map(|m| m.max(1));
+        self.limits.max_batch = max.map(|m| m.max(1));
+    }
+
+    /// Slice each reduction pass as `slicing` says (`None`: the default). For tests: the
+    /// results do not depend on it.
+    pub fn set_reduce_slice(&mut self, slicing: Option<Slicing>) {
+        self.limits.reduce_slice = slicing;
     }
 
     /// The device and its compiled kernels.
@@ -171,7 +189,7 @@ impl EnsembleEngine for GpuEngine {
             reduce,
             readback,
             layout,
-            self.max_batch,
+            self.limits,
             progress,
         )
     }
@@ -200,15 +218,15 @@ fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings, layout: StateLayout)
 }
 
 /// Integrate and reduce every instance of `plan` on the GPU of `ctx`: in one run when the
-/// plan fits the adapter's limits (and `max_batch`), else in consecutive batches of the most
-/// instances that fit ([`buffers::batch_capacity`]), their results joined in plan order.
+/// plan fits the adapter's limits (and `limits.max_batch`), else in consecutive batches of the
+/// most instances that fit ([`buffers::batch_capacity`]), their results joined in plan order.
 pub fn run_gpu(
     ctx: &GpuContext,
     plan: &EnsemblePlan,
     opts: &ReduceOptions,
     readback: Readback,
     layout: StateLayout,
-    max_batch: Option<usize>,
+    limits: GpuLimits,
     progress: Progress,
 ) -> Result<EngineRun, EngineError> {
     if plan.segments > GPU_MAX_SEGMENTS {
@@ -224,12 +242,13 @@ pub fn run_gpu(
     let reduce = ReduceSettings::from_options(opts);
     let key = kernel_key(plan, &reduce, layout);
     let n = plan.instances.len();
-    let cap = batch_capacity(ctx, plan, &key)?.min(max_batch.unwrap_or(usize::MAX));
+    let cap = batch_capacity(ctx, plan, &key)?.min(limits.max_batch.unwrap_or(usize::MAX));
     let batch = Batch {
         reduce: &reduce,
         key: &key,
         twin_d0: twin_d0.unwrap_or(0.0),
         readback,
+        reduce_slice: limits.reduce_slice,
     };
     if n <= cap {
         return run_batch(ctx, plan, &batch, progress);
@@ -258,6 +277,8 @@ struct Batch<'a> {
     /// λ1's twin separation (0 without λ1).
     twin_d0: f64,
     readback: Readback,
+    /// How the reductions are sliced ([`GpuLimits::reduce_slice`]).
+    reduce_slice: Option<Slicing>,
 }
 
 /// One run of `plan`, which fits the adapter.
@@ -321,6 +342,8 @@ fn run_sized(
         period_window: reduce.period_window,
         period_tol: reduce.period_tol_rad as f32,
         c_index: 0,
+        slice_first: 0,
+        slice_end: sizes.n_inst as u32,
         n_active: sizes.n_inst as u32,
         ..GpuControl::zeroed()
     }
@@ -343,7 +366,7 @@ fn run_sized(
     };
     timings.readback_s += t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
-    run_reductions(ctx, &kernels, &bufs, key, &sizes, &mut control)?;
+    run_reductions(ctx, &kernels, &bufs, key, &control, batch.reduce_slice)?;
     timings.reduce_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
     let accum: Vec<GpuAccum> = read_buffer(ctx, &bufs.accum, sizes.accum_bytes)?;
@@ -513,77 +536,50 @@ fn read_final_state(
         .collect())
 }
 
-/// R (three kernels), then the 0–1 test (one pass per c value) and the median and period,
-/// then λ1 and the regime.
+/// One pass of `pipeline` (workgroups of `wg`) with `c_index` 0.
+fn one(pipeline: &wgpu::ComputePipeline, wg: u32) -> Pass<'_> {
+    Pass {
+        pipeline,
+        wg,
+        c_index: 0,
+    }
+}
+
+/// The dominant line, R (three kernels), then the 0–1 test (one pass per c value), the
+/// median and period, then λ1 and the regime: each stage's passes sliced over the instances
+/// and submitted together ([`slices::run_passes`]).
 fn run_reductions(
     ctx: &GpuContext,
     kernels: &Kernels,
     bufs: &Buffers,
     key: &KernelKey,
-    sizes: &Sizes,
-    control: &mut GpuControl,
+    control: &GpuControl,
+    slicing: Option<Slicing>,
 ) -> Result<(), EngineError> {
-    let groups = (sizes.n_inst as u32).div_ceil(WG);
+    let run = |passes: &[Pass<'_>]| run_passes(ctx, bufs, control, passes, slicing);
     if let Some(p) = &kernels.line {
-        let done = submit(ctx, p, &bufs.bind, groups);
-        wait(ctx, done)?;
+        run(&[one(p, WG)])?;
     }
     if let Some(r) = &kernels.r {
-        let mut enc = ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("R") });
-        for p in r {
-            record_pass(&mut enc, p, &bufs.bind, groups);
-        }
-        let done = ctx.submit(enc.finish());
-        wait(ctx, done)?;
+        run(&r.iter().map(|p| one(p, WG)).collect::<Vec<_>>())?;
     }
     if let Some(p) = &kernels.k_pass {
-        let done = k_passes(ctx, p, bufs, sizes, control, groups);
-        wait(ctx, done)?;
+        let passes: Vec<Pass<'_>> = (0..key.n_c as u32)
+            .map(|c| Pass {
+                pipeline: p,
+                wg: WG,
+                c_index: c,
+            })
+            .collect();
+        run(&passes)?;
     }
     if let Some(p) = &kernels.k_final {
-        let groups_k = (sizes.n_inst as u32).div_ceil(key.wg_k());
-        let done = submit(ctx, p, &bufs.bind, groups_k);
-        wait(ctx, done)?;
+        run(&[one(p, key.wg_k())])?;
     }
     if let Some(p) = &kernels.verdict {
-        let done = submit(ctx, p, &bufs.bind, groups);
-        wait(ctx, done)?;
+        run(&[one(p, WG)])?;
     }
     Ok(())
-}
-
-/// The 0–1 test's passes, one per c value, in one encoder and one submission: before each
-/// pass a copy sets the control block's `c_index` (copies and passes run in encoder order).
-fn k_passes(
-    ctx: &GpuContext,
-    pipeline: &wgpu::ComputePipeline,
-    bufs: &Buffers,
-    sizes: &Sizes,
-    control: &GpuControl,
-    groups: u32,
-) -> wgpu::SubmissionIndex {
-    let indices: Vec<u32> = (0..sizes.n_c as u32).collect();
-    let src = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("c indices"),
-        size: 4 * indices.len().max(1) as u64,
-        usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    ctx.queue
-        .write_buffer(&src, 0, bytemuck::cast_slice(&indices));
-    ctx.queue
-        .write_buffer(&bufs.control, 0, bytemuck::bytes_of(control));
-    let field = std::mem::offset_of!(GpuControl, c_index) as u64;
-    let mut enc = ctx
-        .device
-        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("K") });
-    for ci in 0..sizes.n_c as u64 {
-        enc.copy_buffer_to_buffer(&src, 4 * ci, &bufs.control, field, 4);
-        record_pass(&mut enc, pipeline, &bufs.bind, groups);
-    }
-    ctx.submit(enc.finish())
 }
 
 /// The status of instance `index` as the GPU left it, checked: a defined code, and an `ok`
@@ -695,7 +691,7 @@ fn wait(ctx: &GpuContext, index: wgpu::SubmissionIndex) -> Result<(), EngineErro
     let started = Instant::now();
     loop {
         ctx.health()?;
-        let poll = ctx.device.poll(wgpu::PollType::Wait {
+        let poll = ctx.poll(wgpu::PollType::Wait {
             submission_index: Some(index.clone()),
             timeout: Some(POLL_SLICE),
         });
