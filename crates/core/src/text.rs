@@ -61,9 +61,27 @@ pub fn bytes(n: u64) -> String {
     }
 }
 
+/// `seconds` in the largest unit that keeps it readable: `42 s`, `12 min`, `3.2 h`, `4.1 d`.
+pub fn duration(seconds: f64) -> String {
+    match seconds {
+        s if s < 120.0 => format!("{s:.0} s"),
+        s if s < 7200.0 => format!("{:.0} min", s / 60.0),
+        s if s < 172_800.0 => format!("{:.1} h", s / 3600.0),
+        s => format!("{:.1} d", s / 86_400.0),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn durations_read_in_the_unit_that_fits() {
+        assert_eq!(duration(42.0), "42 s");
+        assert_eq!(duration(720.0), "12 min");
+        assert_eq!(duration(3.2 * 3600.0), "3.2 h");
+        assert_eq!(duration(4.1 * 86_400.0), "4.1 d");
+    }
 
     #[test]
     fn numbers_stay_short_at_every_magnitude() {

@@ -4,7 +4,7 @@
 //! otherwise it is refused with these figures before it is planned.
 //!
 //! The time is estimated by a probe on the engine that would run the map: its first runs
-//! ([`PROBE_RUNS_CPU`] on the CPU, [`PROBE_RUNS_GPU`] on a GPU) over two forcing periods with
+//! ([`PROBE_RUNS_CPU`] on the CPU, [`PROBE_RUNS_GPU`] on a GPU) over [`PROBE_PERIODS`] forcing periods with
 //! no transient and one cheap metric give the engine's rate (instance-steps/s); the map's
 //! instance-steps over that rate is the estimate. A GPU's rate grows with the instance count,
 //! so there the estimate is an upper bound.
@@ -15,7 +15,7 @@ use pendulum_atlas_core::engine::{
     Engine, EngineError, EnsembleOptions, EnsemblePlan, Readback, StepPlan, no_progress,
 };
 use pendulum_atlas_core::reduce::ReduceOptions;
-use pendulum_atlas_core::text::bytes;
+use pendulum_atlas_core::text::{bytes, duration};
 
 /// Runs (cells × starts) above which a map asks first.
 pub const HUGE_RUNS: usize = 1_000_000;
@@ -26,6 +26,9 @@ pub const HUGE_MEMORY: u64 = 4 << 30;
 /// Instance-steps above which a map asks first (about 2 h of the 2-core machine's CPU
 /// engine at N = 3).
 pub const HUGE_WORK: f64 = 1e11;
+
+/// Forcing periods each probe run integrates (with no transient).
+pub const PROBE_PERIODS: f64 = 8.0;
 
 /// Runs of the timing probe on the CPU engine.
 pub const PROBE_RUNS_CPU: usize = 64;
@@ -122,12 +125,24 @@ pub fn check_map_size(
     shards: u32,
     engine: &Engine,
 ) -> Result<Option<EngineError>, EngineError> {
-    let size = MapSize::of_shard(spec, shards)?;
+    let first = MapSize::of_shard(spec, shards)?;
+    if !first.is_huge() {
+        return Ok(None);
+    }
+    let probe = probe_rate(spec, engine)?;
+    // The probe's plan has the map's own steps (a whole number per forcing period), which
+    // the single-run plan of the first estimate only approaches.
+    let size = MapSize {
+        steps: (probe.steps_per_s * spec.scene.integration.duration_s).round() as u64,
+        ..first
+    };
     if !size.is_huge() {
         return Ok(None);
     }
-    let (runs, rate) = probe_rate(spec, engine)?;
-    let verdict = size.verdict(spec.accept_huge, Some((rate, runs, &engine.info().device)));
+    let verdict = size.verdict(
+        spec.accept_huge,
+        Some((probe.rate, probe.runs, &engine.info().device)),
+    );
     if spec.accept_huge {
         Ok(Some(verdict))
     } else {
@@ -135,9 +150,19 @@ pub fn check_map_size(
     }
 }
 
-/// The engine's rate (instance-steps/s) on the map's first runs, each over two periods of
-/// its forcing with no transient and the α range alone, and how many runs it took.
-fn probe_rate(spec: &MapSpec, engine: &Engine) -> Result<(usize, f64), EngineError> {
+/// What the probe found.
+struct Probe {
+    /// Runs it took.
+    runs: usize,
+    /// The engine's rate (instance-steps/s).
+    rate: f64,
+    /// The mean steps per simulated second of those runs, as the map plans them.
+    steps_per_s: f64,
+}
+
+/// The engine's rate on the map's first runs, each over [`PROBE_PERIODS`] periods of its
+/// forcing with no transient and the α range alone.
+fn probe_rate(spec: &MapSpec, engine: &Engine) -> Result<Probe, EngineError> {
     let cap = match engine.gpu_context() {
         Some(_) => PROBE_RUNS_GPU,
         None => PROBE_RUNS_CPU,
@@ -147,7 +172,7 @@ fn probe_rate(spec: &MapSpec, engine: &Engine) -> Result<(usize, f64), EngineErr
         .map(|i| {
             let mut s = spec.run_scene(i)?;
             s.integration.transient_s = 0.0;
-            s.integration.duration_s = 2.0 / s.excitation.reference_frequency_hz();
+            s.integration.duration_s = PROBE_PERIODS / s.excitation.reference_frequency_hz();
             Ok(s)
         })
         .collect::<Result<Vec<_>, EngineError>>()?;
@@ -164,31 +189,16 @@ fn probe_rate(spec: &MapSpec, engine: &Engine) -> Result<(usize, f64), EngineErr
         Readback::default(),
         &no_progress,
     )?;
-    Ok((
+    let steps_per_s = plan
+        .instances
+        .iter()
+        .zip(&scenes)
+        .map(|(p, s)| p.total_steps() as f64 / s.integration.duration_s)
+        .sum::<f64>()
+        / runs.max(1) as f64;
+    Ok(Probe {
         runs,
-        plan.total_steps as f64 / run.integration_s().max(1e-9),
-    ))
-}
-
-/// `seconds` in the largest unit that keeps it readable: `42 s`, `12 min`, `3.2 h`, `4.1 d`.
-pub fn duration(seconds: f64) -> String {
-    match seconds {
-        s if s < 120.0 => format!("{s:.0} s"),
-        s if s < 7200.0 => format!("{:.0} min", s / 60.0),
-        s if s < 172_800.0 => format!("{:.1} h", s / 3600.0),
-        s => format!("{:.1} d", s / 86_400.0),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn durations_read_in_the_unit_that_fits() {
-        assert_eq!(duration(42.0), "42 s");
-        assert_eq!(duration(720.0), "12 min");
-        assert_eq!(duration(3.2 * 3600.0), "3.2 h");
-        assert_eq!(duration(4.1 * 86_400.0), "4.1 d");
-    }
+        rate: plan.total_steps as f64 / run.integration_s().max(1e-9),
+        steps_per_s,
+    })
 }
