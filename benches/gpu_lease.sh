@@ -12,14 +12,14 @@
 #   benches/gpu_lease.sh unpack FILE      # here: the results into docs/bench/gpu/<adapter>/
 #
 # `run` checks that a hardware adapter is listed (not only llvmpipe), runs the default map
-# (what the hardware probe picks), the map as written (N = 3, 64 x 48) on the GPU in both state
-# layouts (gpu.layout) and on the CPU engine for parity, the GPU peers
-# (benches/peers/run_gpu_peers.sh: the CUDA kernel and JAX on the same GPU, at most 150 s) and
-# then `bench --throughput --peers` at N = 3 and 17 in each layout (GPU rows only: the CPU rows
-# are the committed lavapipe file's). Estimated at 5 to 8 minutes on an H200 from the first
-# call's steps (the global layout's rows there are unmeasured; each row stops at its budget). Each step's log
-# and results go under $OUT as they finish, so a call cut short still brings back what it had;
-# the whole is one tarball, gpu_lease.tar.gz, plus GPU.md and the log to read at once.
+# (what the hardware probe picks), then `bench --throughput` at N = 3 and 17 in each state layout
+# (gpu.layout; GPU rows only, each row within 6 s), the map as written (N = 3, 64 x 48) on the
+# GPU in both layouts and on the CPU engine for parity, and last the GPU peers
+# (benches/peers/run_gpu_peers.sh: the CUDA kernel and JAX on the same GPU, at most 120 s).
+# On an NVIDIA H100 (2026-11-26) the whole took 280 s (docs/bench/gpu/nvidia-h100-80gb-hbm3/).
+# Each step is bounded by `timeout`; its log and results go under $OUT as they finish, so a
+# call cut short still brings back what it had: one tarball, gpu_lease.tar.gz, plus each
+# layout's GPU.md and the log to read at once.
 # Budget: one call of under 10 minutes on an H100 (the study's rows are each bounded by
 # --row-budget-s); give the call timeout_s 600.
 #
@@ -80,16 +80,30 @@ run() {
     exit 3
   fi
   local small=(--set 'map.axes=[{key="excitation.frequency_hz",start=11.0,end=12.0,count=4},{key="excitation.amplitude_m",start=0.004,end=0.025,count=4}]')
+  # Order: what the lease is for first (the two layouts' occupancy sweep), the peers last; each
+  # step is bounded by `timeout`, so the whole call stays under 8 minutes on an H100.
   echo "== default map"
   SECONDS=0
   if [ -n "$dry" ]; then
     "$bin" map "${small[@]}" --backend gpu --out "$work/map" --force
   else
-    "$bin" map --backend gpu --out "$work/map" --force
+    timeout 90 "$bin" map --backend gpu --out "$work/map" --force || echo "default map: rc $?"
   fi
   echo "default map: ${SECONDS} s"
   rm -f "$work/map"/*.npy "$work/map"/*.csv
   pack
+  # The occupancy sweep (10^3 to 10^6 instances at N = 3 and 17) in both state layouts.
+  local study=(--no-cpu --segments 3,17 --row-budget-s 6)
+  [ -z "$dry" ] || study=(--no-cpu --segments 3 --max-instances 1000 --row-budget-s 5)
+  for layout in private global; do
+    echo "== bench --throughput --gpu-layout $layout ${study[*]}"
+    SECONDS=0
+    timeout 150 "$bin" bench --throughput --gpu-layout "$layout" "${study[@]}" \
+      --out "$work/gpu_$layout" --force || echo "study ($layout): rc $?"
+    echo "study ($layout): ${SECONDS} s"
+    [ -f "$work/gpu_$layout/GPU.md" ] && cp "$work/gpu_$layout/GPU.md" "$out/GPU_$layout.md"
+    pack
+  done
   # Parity on this hardware: the map as written (N = 3, 64 x 48) on the GPU in both state
   # layouts and on the CPU engine in f64; their .npy files come back to be compared cell by cell.
   echo "== parity maps"
@@ -97,38 +111,26 @@ run() {
   [ -z "$dry" ] || parity+=("${small[@]}")
   for layout in private global; do
     SECONDS=0
-    "$bin" map --backend gpu "${parity[@]}" --set "gpu.layout=\"$layout\"" \
-      --out "$work/parity_gpu_$layout" --force
+    timeout 60 "$bin" map --backend gpu "${parity[@]}" --set "gpu.layout=\"$layout\"" \
+      --out "$work/parity_gpu_$layout" --force || echo "parity map ($layout): rc $?"
     echo "parity map, GPU ($layout): ${SECONDS} s"
   done
   SECONDS=0
-  "$bin" map --backend cpu "${parity[@]}" --out "$work/parity_cpu" --force
+  timeout 60 "$bin" map --backend cpu "${parity[@]}" --out "$work/parity_cpu" --force \
+    || echo "parity map (CPU): rc $?"
   echo "parity map, CPU f64: ${SECONDS} s"
   rm -f "$work"/parity_*/*.png "$work"/parity_*/*.csv
   pack
-  local study=(--no-cpu --segments 3,17 --row-budget-s 8)
   local peers_rc=0
-  if [ -n "$dry" ]; then
-    study=(--no-cpu --segments 3 --max-instances 1000 --row-budget-s 5)
-  else
-    echo "== peers (at most 150 s)"
+  if [ -z "$dry" ]; then
+    echo "== peers (at most 120 s)"
     SECONDS=0
-    timeout 150 benches/peers/run_gpu_peers.sh docs/bench/cpu "$work/peers" || peers_rc=$?
-    [ "$peers_rc" -eq 0 ] || echo "peers failed (rc $peers_rc): the study runs with what they wrote"
+    timeout 120 benches/peers/run_gpu_peers.sh docs/bench/cpu "$work/peers" || peers_rc=$?
+    [ "$peers_rc" -eq 0 ] || echo "peers failed (rc $peers_rc): what they wrote comes back"
     rm -f "$work/peers/rk4_chain"
     echo "peers: ${SECONDS} s"
-    study+=(--peers "$work/peers")
     pack
   fi
-  # The occupancy sweep (10^3 to 10^6 instances at N = 3 and 17) in both state layouts.
-  for layout in private global; do
-    echo "== bench --throughput --gpu-layout $layout ${study[*]}"
-    SECONDS=0
-    "$bin" bench --throughput --gpu-layout "$layout" "${study[@]}" --out "$work/gpu_$layout" --force
-    echo "study ($layout): ${SECONDS} s"
-    cp "$work/gpu_$layout/GPU.md" "$out/GPU_$layout.md"
-    pack
-  done
   ls -la "$out"
   if [ "$peers_rc" -ne 0 ]; then
     echo "the peers failed (rc $peers_rc); everything else was written" >&2
@@ -174,6 +176,7 @@ unpack() {
   [ -d "$tmp/map" ] && cp "$tmp/map/map.json" "$dest/default_map.json"
   for d in "$tmp"/parity_*/; do cp -r "$d" "$dest/$(basename "$d")"; done
   cp "$tmp/adapters.txt" "$dest/adapters.txt"
+  find "$dest" -name .pendulum-atlas.lock -delete   # the run's folder locks, not results
   rm -rf "$tmp"
   echo "results in $dest"
 }

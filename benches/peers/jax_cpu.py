@@ -698,7 +698,8 @@ def main(a):
         "host": platform.node(),
         "machine": platform.machine(),
     }
-    print(f"jax_cpu {a.variant} {a.precision} N={n} M={a.instances} S={a.steps}: "
+    # The backend JAX ran on (cpu or gpu): jax_gpu.py runs this same loop on a GPU.
+    print(f"jax ({devices[0].platform}) {a.variant} {a.precision} N={n} M={a.instances} S={a.steps}: "
           f"median {med:.4f} s of {a.repeat} -> {ips:.4e} instance-steps/s, "
           f"{ips * n:.4e} segment-steps/s (compile {compile_s:.1f} s, "
           f"{len(devices)} device(s), {finite}/{a.instances} finite)", flush=True)

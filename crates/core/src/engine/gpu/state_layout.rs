@@ -14,9 +14,10 @@
 //! operation for operation: RK4 gives the same results bit for bit, and the IMEX method the
 //! same to f32 rounding (the compiler may fuse a·b + c differently in the two kernels).
 //!
-//! `gpu.layout = "auto"` ([`LayoutChoice::Auto`]) takes [`StateLayout::Private`]: it is the layout measured faster on
-//! lavapipe (the only adapter both have run on; `docs/model.md` §14), and the global layout
-//! has not yet run on a hardware GPU.
+//! `gpu.layout = "auto"` ([`LayoutChoice::Auto`]) takes [`StateLayout::Private`] on every
+//! adapter: it is the layout measured faster on both adapters the engine has run on, lavapipe
+//! (16.5×) and an NVIDIA H100 (global at 0.39–0.88 of private's rate in all 29 rows measured
+//! in both; `docs/model.md` §14, `docs/bench/gpu/nvidia-h100-80gb-hbm3/`).
 
 pub use crate::config::LayoutChoice;
 use serde::{Deserialize, Serialize};
