@@ -90,8 +90,8 @@ struct InstanceParams {
     twin_align: u32,
     twin_window: u32,
     twin_d0: f32,
-    twin_rate_w: f32,
-    twin_volt_w: f32,
+    twin_rigid_w: f32,
+    twin_scale: f32,
     period_s: f32,
     levers: array<f32, 64>,
 }

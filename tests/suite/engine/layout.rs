@@ -70,7 +70,7 @@ fn parameter_structs_have_the_same_layout_in_rust_and_wgsl() {
             acc_amp, dt, guard_energy, guard_bend, theta0, omega0, volt0, half_clearance,
             guard_holder, phase0, n_levers, piezo_last, spp, transient_periods, total_periods, strobe_offset,
             strobe_count, r_every, r_count, r_start, imex_offset, contact_law, twin_start,
-            twin_align, twin_window, twin_d0, twin_rate_w, twin_volt_w, period_s, levers),
+            twin_align, twin_window, twin_d0, twin_rigid_w, twin_scale, period_s, levers),
         size_of::<GpuInstanceParams>(),
     );
     assert_same_layout(

@@ -43,7 +43,7 @@ fn cells_map(under: Under, extra: &str, freqs: &[f64], amps: &[f64], metrics: &s
 }
 
 /// The clamped beam without bumpers, forced so gently that it responds linearly.
-const LINEAR: &str = "[pivot]\nmode = \"clamped\"\n[limiter]\nenabled = false\n[initial]\nangle_deg = 0.0\n[integration]\nduration_s = 16.0\ntransient_s = 2.0";
+const LINEAR: &str = "[pivot]\nmode = \"clamped\"\n[limiter]\nenabled = false\n[initial]\nangle_deg = 0.0\n[integration]\nduration_s = 34.0\ntransient_s = 10.0";
 
 /// The largest real part of the eigenvalues of the damped linearisation (1/s), from
 /// nalgebra's eigen-solver on the first-order Jacobian of `linear`.
@@ -55,10 +55,25 @@ fn least_damped_rate(scene: &Scene) -> f64 {
         .fold(f64::NEG_INFINITY, f64::max)
 }
 
+/// The forcing frequencies of the linear λ1 check: 20 from 4 to 12 Hz.
+fn linear_frequencies() -> Vec<f64> {
+    (0..20).map(|k| 4.0 + 8.0 * f64::from(k) / 19.0).collect()
+}
+
+/// λ1 of the linear clamped cantilever is its least-damped eigenvalue, within 1 % at every
+/// forcing frequency from 4 to 12 Hz with the default map's window (34 s, 10 s of transient,
+/// λ1 from the last 12 s), with and without gravity, with and without the early stop. Over the
+/// map's own window its SE covers the truth (|error| ≤ 2 SE) in at least 18 of the 20 cells.
+/// The early stop measures λ1 over 16 periods of the confirmed orbit instead, where the
+/// energy's ripple within a cycle is not averaged out (`docs/analysis.md`, "Norm"): only the
+/// 1 % holds there. The energy norm of the twin makes this hold in f32 as in f64
+/// (`src/reduce/lyapunov.rs`; the earlier diagonal norm was up to 6 % off).
 pub fn lyapunov_of_a_linear_response_is_the_least_damped_eigenvalue(under: Under) {
-    for g in [0.0, 9.81] {
+    for (g, early) in [(0.0, true), (9.81, true), (0.0, false), (9.81, false)] {
         let extra = format!("{LINEAR}\n[gravity]\ng_m_s2 = {g}");
-        let spec = cells_map(under, &extra, &[8.0, 11.0], &[1e-6], "[\"lyapunov\"]");
+        // The map's keys go in after `metrics =` (cells_map writes the [map] table).
+        let metrics = format!("[\"lyapunov\"]\nlyapunov_window_s = 12.0\nearly_stop = {early}");
+        let spec = cells_map(under, &extra, &linear_frequencies(), &[1e-4], &metrics);
         let Some(run) = map_on(under, &spec) else {
             return;
         };
@@ -75,13 +90,19 @@ pub fn lyapunov_of_a_linear_response_is_the_least_damped_eigenvalue(under: Under
                 -zeta_omega
             );
         }
+        let mut covered = 0;
         for (k, r) in run.results.iter().enumerate() {
             let (l, se) = (r.lyapunov_per_s, r.lyapunov_se_per_s);
             assert!(
-                (l - want).abs() <= 0.01 * want.abs() + 2.0 * se,
-                "{under:?} g = {g}, cell {k}: λ1 = {l} ± {se}, the linearisation's {want}"
+                (l - want).abs() <= 0.01 * want.abs(),
+                "{under:?} g = {g}, early stop {early}, cell {k}: λ1 = {l} ± {se}, the linearisation's {want}"
             );
+            covered += usize::from((l - want).abs() <= 2.0 * se);
         }
+        assert!(
+            early || covered >= 18,
+            "{under:?} g = {g}: the SE covers the truth in {covered} of 20 cells"
+        );
     }
 }
 

@@ -25,6 +25,7 @@ use crate::model::linear::LinearError;
 use crate::model::{CartState, ExcitationKind, Guard, ModelParams};
 use crate::reduce::TwinPlan;
 use crate::reduce::lyapunov::LYAPUNOV_MIN_WINDOW;
+use crate::reduce::lyapunov::TwinNorm;
 use crate::text::num;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -604,7 +605,7 @@ fn plan_instance(
     }
     let r_start = total_steps - (r_count - 1) * r_every;
     let twin = if opts.wants(Metric::Lyapunov) {
-        Some(twin_plan(&opts.lyapunov, scene, strobe_count as u32).map_err(short)?)
+        Some(twin_plan(&opts.lyapunov, scene, &params, strobe_count as u32).map_err(short)?)
     } else {
         None
     };
@@ -675,7 +676,12 @@ fn window_refusal(
 /// it ends at the last one, after `align` renormalisations and a window of `window_s` (or of
 /// every remaining forcing period); refused, with the duration to add, when the run is too
 /// short for [`LYAPUNOV_MIN_WINDOW`] renormalisations in the window.
-fn twin_plan(s: &LyapunovSettings, scene: &Scene, strobe_count: u32) -> Result<TwinPlan, String> {
+fn twin_plan(
+    s: &LyapunovSettings,
+    scene: &Scene,
+    params: &ModelParams,
+    strobe_count: u32,
+) -> Result<TwinPlan, String> {
     let f = scene.excitation.reference_frequency_hz();
     let align = s.align_periods;
     let room = strobe_count.saturating_sub(1 + align);
@@ -686,19 +692,11 @@ fn twin_plan(s: &LyapunovSettings, scene: &Scene, strobe_count: u32) -> Result<T
     if window < LYAPUNOV_MIN_WINDOW || window > room {
         return Err(window_refusal(s, window, room, strobe_count, f));
     }
-    let omega = std::f64::consts::TAU * f;
-    let volt_weight = match &scene.piezo {
-        p if p.enabled && p.coupling_nm_per_v != 0.0 => {
-            (p.capacitance_f / p.coupling_nm_per_v).powi(2)
-        }
-        _ => 0.0,
-    };
     Ok(TwinPlan {
         start_sample: strobe_count - 1 - align - window,
         align,
         window,
-        rate_weight: 1.0 / (omega * omega),
-        volt_weight,
+        norm: TwinNorm::of(params, std::f64::consts::TAU * f),
         period_s: 1.0 / f,
     })
 }

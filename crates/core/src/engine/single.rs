@@ -12,7 +12,7 @@ use crate::engine::stepper::{CartClock, StepHook, Stepper, run_steps};
 use crate::engine::twin::TwinTracker;
 use crate::model::linear::LinearError;
 use crate::model::{CartMotion, CartState, Chain, Guard, ModelParams, Real, Status, Workspace};
-use crate::reduce::lyapunov::LYAPUNOV_MIN_WINDOW;
+use crate::reduce::lyapunov::{LYAPUNOV_MIN_WINDOW, TwinNorm};
 use crate::reduce::{Lyapunov, TwinPlan};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -182,20 +182,13 @@ impl SingleTwin {
                 LYAPUNOV_MIN_WINDOW + align + 1
             ));
         }
-        let omega = std::f64::consts::TAU * f;
-        let volt_weight = match &scene.piezo {
-            p if p.enabled && p.coupling_nm_per_v != 0.0 => {
-                (p.capacitance_f / p.coupling_nm_per_v).powi(2)
-            }
-            _ => 0.0,
-        };
+        let params = scene.model_params().map_err(|e| e.to_string())?;
         Ok(SingleTwin {
             plan: TwinPlan {
                 start_sample: 0,
                 align,
                 window: window as u32,
-                rate_weight: 1.0 / (omega * omega),
-                volt_weight,
+                norm: TwinNorm::of(&params, std::f64::consts::TAU * f),
                 period_s: every as f64 * plan.dt_s,
             },
             every,

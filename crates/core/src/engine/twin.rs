@@ -102,7 +102,7 @@ impl TwinTracker {
         transient_periods: u32,
     ) -> TwinTracker {
         TwinTracker {
-            dir: plan.direction(segments, dim),
+            dir: plan.norm.direction(segments, dim),
             start_abs: plan.start_sample + transient_periods,
             original: (plan.start_sample + transient_periods, plan.window),
             plan,
@@ -185,7 +185,9 @@ impl TwinTracker {
             return;
         }
         let dim = self.dir.len();
-        let d = p.distance(self.segments, dim, |k| (twin.at(k) - y.at(k)).wide());
+        let d = p
+            .norm
+            .distance(self.segments, dim, |k| (twin.at(k) - y.at(k)).wide());
         let r = j - start;
         let g = (d / self.d0).ln();
         if r > p.align {

@@ -17,11 +17,31 @@
 //! `align` growths are not averaged: they turn the separation into the most unstable direction
 //! (its component along any faster-contracting direction shrinks by their ratio every period).
 //!
-//! **Norm.** `‖Δy‖_w² = Σ Δθ_i² + Σ (Δθ̇_i / Ω)² + (C_p Δv / Θ)²` with `Ω = 2πf`: angles in
-//! rad, rates over one forcing radian, the voltage as the rotation ψ that would charge it
-//! (left out without a piezo or without coupling). λ1 itself does not depend on the norm;
-//! the finite-time growths do, and this one weighs a period's worth of rate like an angle.
-//! The initial separation has the same share in every weighted component ([`TwinPlan::direction`]).
+//! **Norm.** The energy of the separation in the chain linearised about the straight beam,
+//! so that a linear free motion keeps its size through every oscillation and only its damping
+//! shows in the growths ([`TwinNorm`]):
+//!
+//! ```text
+//! ‖Δy‖² = s · ( Δθ̇ᵀ M₀ Δθ̇  +  Δθᵀ K_s Δθ  +  w_r (uᵀ M₀ Δθ)²  +  C_p Δv² )
+//! M₀   mass matrix at θ = 0 (segments, tip, holder)      K_s   joint and root springs
+//! u    the rigid rotation (1, …, 1)                       Q = uᵀ M₀ u, its inertia about the pivot
+//! w_r  Ω²/Q with a hinged root (no root spring), else 0   s = 1/(Ω² Q)
+//! ```
+//!
+//! With a clamped root `K_s` is positive definite and the norm is twice the linear chain's
+//! energy without gravity. A hinged root leaves the rigid rotation without a spring, so `w_r`
+//! gives it the stiffness `Ω² Q` of an oscillation at the forcing frequency; the flexible modes
+//! are M₀-orthogonal to u and keep their energy exactly. The scale `s` makes a rigid rotation
+//! of δ rad at Ω measure δ, as the rates over one forcing radian of the earlier diagonal norm
+//! did. Gravity and the bumpers are left out: gravity makes `K` indefinite on a hinged chain,
+//! and the bumpers act only in contact. On the linear clamped cantilever the growth of a mode
+//! is then `−ζω T` per period up to an O(ζ) ripple that does not add up over the window (the
+//! growths telescope), where the earlier norm `Σ Δθ² + Σ (Δθ̇/Ω)²` swung by a factor (ω₁/Ω)²
+//! within every period. The voltage enters as the capacitor's energy, and only when the patch
+//! is coupled (an uncoupled circuit decays on its own and is not the chain's motion).
+//! λ1 itself does not depend on the norm; the finite-time growths and their SE do.
+//! The initial separation is `(1, …, 1; Ω, …, Ω; Θ/C_p)` scaled to unit norm
+//! ([`TwinNorm::direction`]).
 //!
 //! **Standard error.** The W growths are cut into [`LYAPUNOV_BLOCKS`] consecutive blocks
 //! (block of growth `k` = ⌊k·B/W⌋, sizes differing by at most one); with the block rates
@@ -41,6 +61,7 @@
 //! holds λ1 of an impacting periodic orbit against its Floquet multiplier computed without a
 //! twin, and λ1 against changes of `d0` over decades.
 
+use crate::model::ModelParams;
 use serde::Serialize;
 
 /// Blocks of consecutive growths over which the standard error of λ1 is formed.
@@ -74,7 +95,7 @@ pub const SEPARATION_F64_MIN: f64 = 1e-10;
 pub use crate::config::SEPARATION_MAX;
 
 /// How an instance's twin runs: when it starts, how long it aligns and measures, and the
-/// weights of its state norm.
+/// norm it measures its separation in.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct TwinPlan {
     /// Stroboscopic sample (index after the transient) at which the twin starts.
@@ -83,10 +104,8 @@ pub struct TwinPlan {
     pub align: u32,
     /// Renormalisations averaged into λ1 (one per forcing period).
     pub window: u32,
-    /// Weight 1/Ω² of the rates in the norm (s²).
-    pub rate_weight: f64,
-    /// Weight (C_p/Θ)² of the voltage in the norm (rad²/V²; 0 without a piezo).
-    pub volt_weight: f64,
+    /// The norm of the separation.
+    pub norm: TwinNorm,
     /// Time between renormalisations: the forcing period (s).
     pub period_s: f64,
 }
@@ -96,40 +115,120 @@ impl TwinPlan {
     pub fn last_sample(&self) -> u32 {
         self.start_sample + self.align + self.window
     }
+}
 
-    /// The weight of component `k` of the state `[θ; θ̇; v]` of a chain of `n` segments.
-    #[inline]
-    pub fn weight(&self, k: usize, n: usize) -> f64 {
-        if k < n {
-            1.0
-        } else if k < 2 * n {
-            self.rate_weight
-        } else {
-            self.volt_weight
+/// The energy norm of the twin's separation (see the module's documentation): the chain's
+/// inertias and springs, the rigid rotation's weight, the capacitance and the scale.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TwinNorm {
+    /// Segment length ℓ (m).
+    pub seg_len_m: f64,
+    /// Segment mass (kg).
+    pub seg_mass_kg: f64,
+    /// Segment moment of inertia about its centre (kg m²).
+    pub seg_inertia_kgm2: f64,
+    /// Tip mass (kg).
+    pub tip_mass_kg: f64,
+    /// Holder inertia on the first segment (kg m²).
+    pub holder_inertia_kgm2: f64,
+    /// Joint stiffness (N m/rad).
+    pub joint_stiffness_nm: f64,
+    /// Root stiffness (N m/rad; 0 with a hinged root).
+    pub root_stiffness_nm: f64,
+    /// `w_r = Ω²/Q` (1/s² per kg m²) with a hinged root, else 0.
+    pub rigid_weight: f64,
+    /// The capacitance `C_p` (F) of a coupled piezo patch, else 0.
+    pub volt_weight: f64,
+    /// `s = 1/(Ω² Q)` (1/J).
+    pub scale: f64,
+    /// Ω = 2πf (rad/s), the rates' share of the initial separation.
+    pub omega: f64,
+}
+
+impl TwinNorm {
+    /// The norm of a chain `p` forced at `omega` (rad/s).
+    pub fn of(p: &ModelParams, omega: f64) -> TwinNorm {
+        let mut norm = TwinNorm {
+            seg_len_m: p.seg_length_m,
+            seg_mass_kg: p.seg_mass_kg,
+            seg_inertia_kgm2: p.seg_inertia_kgm2,
+            tip_mass_kg: p.tip_mass_kg,
+            holder_inertia_kgm2: p.holder_inertia_kgm2,
+            joint_stiffness_nm: p.joint_stiffness_nm,
+            root_stiffness_nm: p.root_stiffness_nm,
+            rigid_weight: 0.0,
+            volt_weight: p
+                .piezo
+                .as_ref()
+                .filter(|z| z.coupling_nm_per_v != 0.0)
+                .map_or(0.0, |z| z.capacitance_f),
+            scale: 1.0,
+            omega,
+        };
+        let q = norm.rigid_inertia(p.segments);
+        if p.root_stiffness_nm == 0.0 {
+            norm.rigid_weight = omega * omega / q;
         }
+        norm.scale = 1.0 / (omega * omega * q);
+        norm
     }
 
-    /// `‖Δy‖_w` from the component differences `diff(k)`, `k < dim`.
+    /// `Q = uᵀ M₀ u` (kg m²): the straight chain's inertia about its pivot.
+    pub fn rigid_inertia(&self, n: usize) -> f64 {
+        self.inertia_form(n, |_| 1.0, |_| 1.0)
+    }
+
+    /// `aᵀ M₀ b` in O(N), the kinetic energy's form at θ = 0 (as `Chain::energy` sums it):
+    /// horizontal velocities of the segment centres and the tip, plus the rotations.
+    fn inertia_form(&self, n: usize, a: impl Fn(usize) -> f64, b: impl Fn(usize) -> f64) -> f64 {
+        let l = self.seg_len_m;
+        let (mut va, mut vb, mut sum) = (0.0, 0.0, 0.0);
+        for i in 0..n {
+            let (ai, bi) = (a(i), b(i));
+            let (ca, cb) = (va + 0.5 * l * ai, vb + 0.5 * l * bi);
+            sum += self.seg_mass_kg * ca * cb + self.seg_inertia_kgm2 * ai * bi;
+            va += l * ai;
+            vb += l * bi;
+        }
+        sum + self.tip_mass_kg * va * vb + self.holder_inertia_kgm2 * a(0) * b(0)
+    }
+
+    /// `‖Δy‖` of a chain of `n` segments from the component differences `diff(k)`, `k < dim`
+    /// (state `[θ; θ̇; v]`).
     pub fn distance(&self, n: usize, dim: usize, diff: impl Fn(usize) -> f64) -> f64 {
-        (0..dim)
-            .map(|k| {
-                let d = diff(k);
-                self.weight(k, n) * d * d
-            })
-            .sum::<f64>()
-            .sqrt()
+        let kinetic = self.inertia_form(n, |i| diff(n + i), |i| diff(n + i));
+        let mut springs = self.root_stiffness_nm * diff(0) * diff(0);
+        for i in 1..n {
+            let bend = diff(i) - diff(i - 1);
+            springs += self.joint_stiffness_nm * bend * bend;
+        }
+        let rigid = if self.rigid_weight > 0.0 {
+            let p = self.inertia_form(n, |_| 1.0, &diff);
+            self.rigid_weight * p * p
+        } else {
+            0.0
+        };
+        let volt = if dim > 2 * n {
+            self.volt_weight * diff(2 * n) * diff(2 * n)
+        } else {
+            0.0
+        };
+        (self.scale * (kinetic + springs + rigid + volt)).sqrt()
     }
 
-    /// The initial separation of unit norm: the same share `1/√m` in each of the `m` weighted
-    /// components (a component of weight 0 is not perturbed).
+    /// The initial separation of unit norm: every angle 1, every rate Ω, the voltage (of a
+    /// coupled patch) 1/√(C_p s), scaled together.
     pub fn direction(&self, n: usize, dim: usize) -> Vec<f64> {
-        let m = (0..dim).filter(|&k| self.weight(k, n) > 0.0).count().max(1) as f64;
-        (0..dim)
-            .map(|k| {
-                let w = self.weight(k, n);
-                if w > 0.0 { 1.0 / (w * m).sqrt() } else { 0.0 }
+        let e: Vec<f64> = (0..dim)
+            .map(|k| match k {
+                k if k < n => 1.0,
+                k if k < 2 * n => self.omega,
+                _ if self.volt_weight > 0.0 => 1.0 / (self.volt_weight * self.scale).sqrt(),
+                _ => 0.0,
             })
-            .collect()
+            .collect();
+        let d = self.distance(n, dim, |k| e[k]);
+        e.into_iter().map(|x| x / d).collect()
     }
 }
 
@@ -258,17 +357,53 @@ mod tests {
 
     #[test]
     fn the_initial_separation_has_unit_norm() {
-        let plan = TwinPlan {
-            start_sample: 0,
-            align: 1,
-            window: 16,
-            rate_weight: 1.0 / 2500.0,
-            volt_weight: 0.0,
-            period_s: 0.125,
-        };
-        let (n, dim) = (3, 7);
-        let u = plan.direction(n, dim);
-        assert_eq!(u[6], 0.0);
-        assert!((plan.distance(n, dim, |k| u[k]) - 1.0).abs() < 1e-12);
+        let mut p = crate::config::Scene::paper().model_params().unwrap();
+        for root in [0.0, 50.0] {
+            p.root_stiffness_nm = root;
+            let norm = TwinNorm::of(&p, std::f64::consts::TAU * 8.0);
+            let (n, dim) = (p.segments, 2 * p.segments + 1);
+            let u = norm.direction(n, dim);
+            assert_eq!(
+                u[2 * n],
+                0.0,
+                "no coupled piezo: the voltage is not perturbed"
+            );
+            assert!((norm.distance(n, dim, |k| u[k]) - 1.0).abs() < 1e-12);
+        }
+    }
+
+    /// The O(N) forms of the norm against the dense matrices of the linearisation: the mass
+    /// matrix at θ = 0 (`model::dense`) and the spring pattern (`model::linear`).
+    #[test]
+    fn the_norm_is_the_energy_of_the_dense_linearisation() {
+        use crate::model::{dense, linear};
+        use nalgebra::DVector;
+        let scene = crate::config::Scene::paper();
+        let mut p = scene.model_params().unwrap();
+        for root in [0.0, 37.0] {
+            p.root_stiffness_nm = root;
+            let n = p.segments;
+            let omega = 50.0;
+            let norm = TwinNorm::of(&p, omega);
+            let m0 = dense::mass_matrix(&p, &vec![0.0; n]);
+            let ks = linear::spring_pattern(n, p.joint_stiffness_nm, root);
+            let u = DVector::from_element(n, 1.0);
+            let q = (u.transpose() * &m0 * &u)[(0, 0)];
+            assert!((norm.rigid_inertia(n) - q).abs() < 1e-12 * q);
+            let dy: Vec<f64> = (0..2 * n).map(|k| (0.37 * k as f64 + 0.1).sin()).collect();
+            let th = DVector::from_column_slice(&dy[..n]);
+            let om = DVector::from_column_slice(&dy[n..]);
+            let rigid = if root == 0.0 {
+                omega * omega / q * (u.transpose() * &m0 * &th)[(0, 0)].powi(2)
+            } else {
+                0.0
+            };
+            let dense = ((om.transpose() * &m0 * &om)[(0, 0)]
+                + (th.transpose() * &ks * &th)[(0, 0)]
+                + rigid)
+                / (omega * omega * q);
+            let fast = norm.distance(n, 2 * n, |k| dy[k]).powi(2);
+            assert!((fast - dense).abs() < 1e-12 * dense, "{fast} vs {dense}");
+        }
     }
 }

@@ -6,7 +6,7 @@
 
 use crate::engine::plan::{EnsemblePlan, InstancePlan};
 use crate::reduce::TwinPlan;
-use crate::reduce::lyapunov::LYAPUNOV_BLOCKS;
+use crate::reduce::lyapunov::{LYAPUNOV_BLOCKS, TwinNorm};
 use bytemuck::{Pod, Zeroable};
 
 /// Largest segment count the GPU kernel's per-invocation arrays hold.
@@ -104,10 +104,11 @@ pub struct GpuInstanceParams {
     pub twin_window: u32,
     /// The twin's separation d0.
     pub twin_d0: f32,
-    /// Weight of the rates in the twin's norm, 1/Ω² (s²).
-    pub twin_rate_w: f32,
-    /// Weight of the voltage in the twin's norm (rad²/V²).
-    pub twin_volt_w: f32,
+    /// The rigid rotation's weight in the twin's norm, [`TwinNorm::rigid_weight`].
+    pub twin_rigid_w: f32,
+    /// The scale of the twin's norm, [`TwinNorm::scale`] (the chain's inertias, springs and
+    /// the patch's capacitance are the instance's own).
+    pub twin_scale: f32,
     /// The forcing period T = 1/f (s).
     pub period_s: f32,
     /// Contact levers λ_i (m).
@@ -150,8 +151,7 @@ impl GpuInstanceParams {
             start_sample: 0,
             align: 0,
             window: 0,
-            rate_weight: 0.0,
-            volt_weight: 0.0,
+            norm: TwinNorm::of(m, w),
             period_s: 1.0 / p.frequency_hz,
         });
         GpuInstanceParams {
@@ -199,8 +199,8 @@ impl GpuInstanceParams {
             twin_align: twin.align,
             twin_window: twin.window,
             twin_d0: twin_d0 as f32,
-            twin_rate_w: twin.rate_weight as f32,
-            twin_volt_w: twin.volt_weight as f32,
+            twin_rigid_w: twin.norm.rigid_weight as f32,
+            twin_scale: twin.norm.scale as f32,
             period_s: (1.0 / p.frequency_hz) as f32,
             levers,
         }
