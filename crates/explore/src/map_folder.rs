@@ -13,6 +13,7 @@ use pendulum_atlas_map::output::map::{
     COLUMNS, attractor_style, metric_style, regime_shade, shown_label, shown_value,
 };
 use pendulum_atlas_map::output::npy::read_npy;
+use pendulum_atlas_map::render::Palette;
 use std::path::Path;
 
 /// Read a map folder.
@@ -112,11 +113,34 @@ fn metric_columns(dir: &Path, spec: &MapSpec, suffix: &str) -> Result<Vec<Column
     } else {
         Vec::new()
     };
-    Ok(spec
+    let mut columns: Vec<Column> = spec
         .metrics
         .iter()
         .map(|&m| metric_column(spec, m, &stored, &regime))
-        .collect())
+        .collect();
+    verdict_first(&mut columns, &stored);
+    Ok(columns)
+}
+
+/// The verdict first, where the map has one: the regime column, then its confidence
+/// (`regime_confidence.npy`: the probability that λ1 lies on the verdict's side, 0.5 to 1,
+/// grey where undecided), then the other metrics in the map's order. The page opens on the
+/// first column.
+fn verdict_first(columns: &mut Vec<Column>, stored: &[(&str, Metric, Vec<f64>)]) {
+    let Some(at) = columns.iter().position(|c| c.name == Metric::Regime.name()) else {
+        return;
+    };
+    let regime = columns.remove(at);
+    let confidence = stored
+        .iter()
+        .find(|s| s.0 == "regime_confidence")
+        .map(|s| Column {
+            name: "regime_confidence".into(),
+            label: "confidence of the verdict (0.5–1; grey: undecided)".into(),
+            palette: Palette::Sequential(Some((0.5, 1.0))),
+            values: s.2.clone(),
+        });
+    columns.splice(0..0, std::iter::once(regime).chain(confidence));
 }
 
 /// A map run by continuation both ways: the down sweep's metrics (`NAME_down`) and where the

@@ -23,16 +23,29 @@ fn the_map_and_its_fields_are_the_files_of_the_folder() {
     assert_eq!(
         names,
         [
+            "regime",
+            "regime_confidence",
             "K",
             "R",
             "period",
             "hops",
             "impacts_per_s",
             "alpha_range",
-            "lyapunov",
-            "regime"
+            "lyapunov"
         ]
     );
+    // The verdict first, with its confidence as stored (NaN where undecided, shown as null).
+    let conf = npy(dir, "regime_confidence");
+    let c = json(&s, "GET", "/api/field?metric=regime_confidence", 200);
+    let cells: Vec<usize> = serde_json::from_value(c["cells"].clone()).unwrap();
+    for (at, &cell) in cells.iter().enumerate() {
+        let want = conf[cell];
+        match c["values"][at].as_f64() {
+            Some(v) => assert_eq!(v, want, "confidence of cell {cell}"),
+            None => assert!(want.is_nan(), "cell {cell}: {want} shown as no data"),
+        }
+    }
+    assert_eq!(c["range"], serde_json::json!([0.5, 1.0]));
 
     let k = npy(dir, "K");
     let f = json(&s, "GET", "/api/field?metric=K", 200);

@@ -130,12 +130,25 @@ fn the_page_paints_the_map_and_a_click_shows_the_cell_as_simulate_runs_it() {
 
 async fn drive(c: &Client, server: &Server, dir: &Path) {
     c.goto(&format!("{}/", server.url)).await.unwrap();
+    c.wait()
+        .at_most(Duration::from_secs(30))
+        .for_element(Locator::Css("#map[data-ready='1'][data-metric='regime']"))
+        .await
+        .expect("the page opens on the verdict");
+    // Switch to K as a user does, with the metric menu.
+    c.execute(
+        "const m = document.getElementById('metric'); m.value = 'K'; \
+         m.dispatchEvent(new Event('change'));",
+        vec![],
+    )
+    .await
+    .unwrap();
     let canvas = c
         .wait()
         .at_most(Duration::from_secs(30))
-        .for_element(Locator::Css("#map[data-ready='1']"))
+        .for_element(Locator::Css("#map[data-metric='K']"))
         .await
-        .expect("the heat map is drawn");
+        .expect("the K map is drawn");
     // K is drawn over its fixed range 0..1, failed cells in the failure colour.
     let (k, status) = (npy(dir, "K"), npy_status(dir));
     let png = canvas.screenshot().await.unwrap();
