@@ -4,7 +4,7 @@
 use pendulum_atlas_core::analysis::amplitude_spectrum;
 use pendulum_atlas_core::config::ExcitationKind;
 use pendulum_atlas_studies::reproduce::{
-    CaseKind, QUICK_DURATION_S, QUICK_SEGMENTS, line_prominence, paper_cases,
+    CaseKind, QUICK_DURATION_S, QUICK_SEGMENTS, QUICK_TRANSIENT_S, line_prominence, paper_cases,
 };
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -195,6 +195,7 @@ fn quick_reproduction_writes_every_file_with_finite_numbers() {
     assert_eq!(summary["quick"], true);
     assert_eq!(summary["earlier_reading"].as_array().unwrap().len(), 9);
     assert_eq!(summary["sweep_windows"].as_array().unwrap().len(), 4);
+    check_basins(&summary, &rows, &report);
 
     for name in EXPECTED.iter().filter(|n| n.ends_with(".png")) {
         let img =
@@ -347,4 +348,106 @@ fn line_prominence_tells_a_line_from_a_band() {
     let p = line_prominence(&spec, 2.7);
     assert!(p > 0.2 && p < 5.0, "broadband prominence {p}");
     assert!(line_prominence(&spec, 0.0).is_nan());
+}
+
+/// The basins of the Table 2 cases in `summary.json`: 16 starts each, shares that add up with
+/// the failed ones to 1, the paper's class from Table 2's K, each case's sentence and the count
+/// in `REPORT.md`; and one case's shares equal those of `pendulum-atlas map` run by hand on
+/// the same scene with `map.initial_states = 16` (the attractor stage, not a copy of it).
+fn check_basins(summary: &serde_json::Value, table2: &[HashMap<String, String>], report: &str) {
+    let basins = summary["basins"]
+        .as_array()
+        .expect("basins in summary.json");
+    assert_eq!(basins.len(), 6);
+    let mut reached = 0;
+    for b in basins {
+        let (f, a) = (b["frequency_hz"].as_f64(), b["amplitude_mm"].as_f64());
+        let row = table2
+            .iter()
+            .find(|r| Some(number(r, "frequency_hz")) == f && Some(number(r, "amplitude_mm")) == a)
+            .unwrap_or_else(|| panic!("no Table 2 row for {}", b["id"]));
+        assert_eq!(b["starts"], 16);
+        let shares: Vec<f64> = b["attractors"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|a| a["fraction"].as_f64().unwrap())
+            .collect();
+        assert!(
+            shares.windows(2).all(|w| w[0] >= w[1]),
+            "most starts first: {shares:?}"
+        );
+        let total = shares.iter().sum::<f64>() + b["failed_fraction"].as_f64().unwrap();
+        assert!(
+            (total - 1.0).abs() < 1e-12,
+            "{}: shares add to {total}",
+            b["id"]
+        );
+        assert_eq!(
+            b["paper_chaotic"].as_bool(),
+            Some(number(row, "k_paper") >= 0.5),
+            "{}",
+            b["id"]
+        );
+        let has_class = b["attractors"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|a| a["paper_class"] == true);
+        reached += usize::from(has_class);
+        let head = format!(
+            "- {} Hz/{} mm: ",
+            b["frequency_hz"].as_f64().unwrap(),
+            b["amplitude_mm"].as_f64().unwrap()
+        );
+        assert!(report.contains(&head), "REPORT.md lacks {head:?}");
+    }
+    assert!(
+        report.contains(&format!("was reached in {reached} of 6 cases")),
+        "REPORT.md does not count the cases whose class was reached ({reached})"
+    );
+
+    let case = &basins[0];
+    let id = case["id"].as_str().unwrap();
+    let out = out_dir("basins-by-hand");
+    let f = case["frequency_hz"].as_f64().unwrap();
+    let o = bin()
+        .arg("map")
+        .arg(format!("configs/paper/{id}.toml"))
+        .args(["--backend", "cpu", "--quiet", "--out"])
+        .arg(&out)
+        .args(["--set", &format!("beam.segments={QUICK_SEGMENTS}")])
+        .args([
+            "--set",
+            &format!("integration.duration_s={QUICK_DURATION_S:?}"),
+        ])
+        .args([
+            "--set",
+            &format!("integration.transient_s={QUICK_TRANSIENT_S:?}"),
+        ])
+        .args(["--set", "map.initial_states=16"])
+        .args([
+            "--set",
+            r#"map.metrics=["K", "period", "alpha_range", "hops", "regime"]"#,
+        ])
+        .args([
+            "--set",
+            &format!(r#"map.axes=[{{key="excitation.frequency_hz",values=[{f:?}]}}]"#),
+        ])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (_, by_hand): (Vec<usize>, Vec<f64>) =
+        pendulum_atlas_map::output::npy::read_npy(&out.join("basin_fraction.npy")).unwrap();
+    let mut by_hand: Vec<f64> = by_hand.into_iter().filter(|&x| x > 0.0).collect();
+    by_hand.sort_by(|a, b| b.total_cmp(a));
+    let ours: Vec<f64> = case["attractors"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a["fraction"].as_f64().unwrap())
+        .collect();
+    assert_eq!(ours, by_hand, "{id}: reproduce's shares against the map's");
+    let _ = std::fs::remove_dir_all(&out);
 }

@@ -37,6 +37,14 @@ pub enum ReproduceError {
         /// The analysis error.
         source: AnalysisError,
     },
+    /// A case's map from several starts (the basins) could not run.
+    #[error("the basins of case `{case}` could not be computed: {reason}")]
+    Basins {
+        /// Case identifier.
+        case: String,
+        /// What the map engine said.
+        reason: String,
+    },
     /// A file or folder could not be written.
     #[error("cannot write `{path}`: {source}")]
     Io {

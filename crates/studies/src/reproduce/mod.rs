@@ -12,8 +12,10 @@
 //!    hops, twin divergence, wavelet windows;
 //! 4. [`CaseRow`]: `table2.csv`, `table2.md`, `experiments.csv`, `summary.json`;
 //! 5. the figures (`fig3a…fig12c`), one PNG per panel group;
-//! 6. [`report_markdown`]: `REPORT.md`, written from the numbers.
+//! 6. [`case_basins`]: each Table 2 case from several starts through the attractor stage;
+//! 7. [`report_markdown`]: `REPORT.md`, written from the numbers.
 
+mod basins;
 mod cases;
 mod error;
 mod figures;
@@ -22,6 +24,7 @@ mod report;
 mod run;
 mod table;
 
+pub use basins::{BASIN_STARTS, BasinAttractor, CaseBasins, case_basins};
 pub use cases::{
     CaseKind, PaperCase, QUICK_DURATION_S, QUICK_SEGMENTS, QUICK_TRANSIENT_S, paper_cases,
 };
@@ -60,6 +63,8 @@ pub struct Reproduction {
     pub experiments: Vec<CaseRow>,
     /// The sweep's windows.
     pub sweep_windows: Vec<SweepWindow>,
+    /// The Table 2 cases from several starts.
+    pub basins: Vec<CaseBasins>,
     /// Wall time of the whole reproduction (s).
     pub wall_s: f64,
 }
@@ -90,6 +95,7 @@ struct Summary<'a> {
     experiments: &'a [CaseRow],
     sweep_windows: &'a [SweepWindow],
     earlier_reading: &'a [CaseRow],
+    basins: &'a [CaseBasins],
     wall_s: f64,
 }
 
@@ -115,6 +121,8 @@ pub fn reproduce(
     let table2_rows: Vec<CaseRow> = sorted.table2.iter().map(|t| t.2.clone()).collect();
     let exp_rows: Vec<CaseRow> = sorted.experiments.iter().map(|t| t.2.clone()).collect();
     let earlier = earlier_reading_rows(&cases, opts, progress)?;
+    let tagged = |line: &str| progress(&format!("basins: {line}"));
+    let basins = case_basins(&cases, opts.quick, &tagged)?;
     let mut files = write_tables(out, &table2_rows, &exp_rows, &settings)?;
     let earlier_csv = out.join("earlier_reading.csv");
     table::write_csv(&earlier_csv, &earlier)?;
@@ -137,6 +145,7 @@ pub fn reproduce(
         sweep: sorted.sweep,
         figures: &names,
         earlier_reading: &earlier,
+        basins: &basins,
     };
     files.push(write_text(
         out,
@@ -157,6 +166,7 @@ pub fn reproduce(
         experiments: &exp_rows,
         sweep_windows: &sweep_windows,
         earlier_reading: &earlier,
+        basins: &basins,
         wall_s,
     };
     files.push(write_summary(out, &summary)?);
@@ -166,6 +176,7 @@ pub fn reproduce(
         table2: table2_rows,
         experiments: exp_rows,
         sweep_windows,
+        basins,
         wall_s,
     })
 }
