@@ -67,7 +67,7 @@ def map(
 
     Dimensions and coordinates are the map's axes (units in each coordinate's ``attrs``); one
     variable per stored metric (``K``, ``R``, ``period``, ..., ``lyapunov``,
-    ``regime_confidence``), ``regime`` (int8 codes, meanings in its ``flag_meanings``),
+    ``regime_confidence``, ``verdict_confidence``), ``regime`` (int8 codes, meanings in its ``flag_meanings``),
     ``status`` and, for refined maps, ``inferred``. The values equal the ``.npy`` files of
     ``pendulum-atlas map`` for the same scene bit for bit; ``attrs["map_json"]`` holds the
     ``map.json`` the command would write (without its file list).

@@ -209,6 +209,27 @@ fn the_verdict_study_scores_candidates_on_the_settled_cells_of_its_reference() {
             .iter()
             .any(|s| s.candidate.decider == Decider::Rule)
     );
+    // The reliability: every settled cell with a verdict is in one bin, the firm cells are
+    // those of the bins from 0.9, and every fitted accuracy is a share (or NaN: no cell).
+    let rel = &r.reliability;
+    for (name, rows, firm) in &rel.tables {
+        let binned: usize = rows.iter().map(|b| b.cells).sum();
+        assert!(
+            binned <= firm.settled,
+            "{name}: {binned} of {}",
+            firm.settled
+        );
+        let from_09: usize = rows.iter().filter(|b| b.from >= 0.9).map(|b| b.cells).sum();
+        assert_eq!(firm.cells, from_09, "{name}");
+        assert!(rows.iter().all(|b| b.right <= b.cells), "{name}");
+    }
+    assert_eq!(rel.tables[0].2.settled, f.settled);
+    assert_eq!(rel.tables[1].2.settled, r.second.settled);
+    for (_, t, _) in &rel.cross {
+        for v in [t.chaotic_all, t.chaotic_some, t.periodic_half, t.regular] {
+            assert!(v.is_nan() || (0.0..=1.0).contains(&v), "{t:?}");
+        }
+    }
     let dir = std::env::temp_dir().join(format!("pendulum-atlas-verdict-{}", std::process::id()));
     let files = write_verdict(&dir, &r).expect("files");
     let page = std::fs::read_to_string(dir.join("VERDICT.md")).unwrap();
@@ -217,6 +238,10 @@ fn the_verdict_study_scores_candidates_on_the_settled_cells_of_its_reference() {
         "{page}"
     );
     assert!(page.contains("λ1 + period + K (rule)"), "{page}");
+    assert!(
+        page.contains("## Reliability of `verdict_confidence`"),
+        "{page}"
+    );
     assert_eq!(files.len(), 2);
     std::fs::remove_dir_all(&dir).ok();
 }

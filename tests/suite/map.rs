@@ -66,7 +66,7 @@ fn check_map_dir(out: &std::path::Path, backend: &str) {
     let mut lines = csv.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "excitation.frequency_hz,limiter.clearance_deg,K,R,period,hops,impacts_per_s,alpha_min_rad,alpha_max_rad,power_w,line_ratio,lyapunov,lyapunov_se,regime_confidence,regime,status,inferred"
+        "excitation.frequency_hz,limiter.clearance_deg,K,R,period,hops,impacts_per_s,alpha_min_rad,alpha_max_rad,power_w,line_ratio,lyapunov,lyapunov_se,regime_confidence,verdict_confidence,regime,status,inferred"
     );
     let rows: Vec<&str> = lines.collect();
     assert_eq!(rows.len(), 6);
@@ -85,7 +85,7 @@ fn check_map_dir(out: &std::path::Path, backend: &str) {
         assert_eq!(cells[10], "nan", "the line was not asked for");
         let (lambda, se): (f64, f64) = (cells[11].parse().unwrap(), cells[12].parse().unwrap());
         assert!(lambda.is_finite() && se.is_finite() && se >= 0.0, "{r}");
-        let regime = cells[14];
+        let regime = cells[15];
         assert!(
             ["periodic", "regular", "chaotic", "undecided"].contains(&regime),
             "{r}"
@@ -100,7 +100,13 @@ fn check_map_dir(out: &std::path::Path, backend: &str) {
             confidence.is_nan() || (0.5..=1.0).contains(&confidence),
             "{r}"
         );
-        assert_eq!(cells[15], "ok");
+        assert_eq!(cells[16], "ok");
+        let verdict: f64 = cells[14].parse().unwrap_or(f64::NAN);
+        assert_eq!(verdict.is_nan(), confidence.is_nan(), "{r}");
+        assert!(
+            verdict.is_nan() || verdict <= confidence,
+            "capped by λ1's: {r}"
+        );
     }
     for f in [
         "K",
@@ -124,6 +130,7 @@ fn check_map_dir(out: &std::path::Path, backend: &str) {
         "lyapunov.npy",
         "lyapunov_se.npy",
         "regime_confidence.npy",
+        "verdict_confidence.npy",
         "regime.npy",
     ] {
         let bytes = std::fs::read(out.join(f)).unwrap();
@@ -136,11 +143,12 @@ fn check_map_dir(out: &std::path::Path, backend: &str) {
     let (shape, codes) =
         pendulum_atlas_map::output::npy::read_npy::<i8>(&out.join("regime.npy")).unwrap();
     assert_eq!(shape, vec![3, 2]);
-    let names: Vec<&str> = rows.iter().map(|r| r.split(',').nth(14).unwrap()).collect();
+    let names: Vec<&str> = rows.iter().map(|r| r.split(',').nth(15).unwrap()).collect();
     for (c, n) in codes.iter().zip(&names) {
         let r = pendulum_atlas_core::reduce::Regime::from_code(i64::from(*c)).expect("a code");
         assert_eq!(r.name(), *n);
     }
+    check_verdict_confidence(out, &codes, (3, 2));
     let counts = &json["regime"]["counts"];
     let total: u64 = ["failed", "undecided", "periodic", "regular", "chaotic"]
         .iter()
@@ -148,6 +156,49 @@ fn check_map_dir(out: &std::path::Path, backend: &str) {
         .sum();
     assert_eq!(total, 6, "{counts}");
     assert!(json["lyapunov"]["separation"].as_f64().unwrap() > 0.0);
+}
+
+/// `verdict_confidence.npy` of the `nx` × `ny` map in `out` is the shipped table's accuracy for
+/// each cell's verdict and the share of its neighbours (cells one step away along either axis
+/// or both) with the same verdict, capped by `regime_confidence`; counted here with plain
+/// loops over the grid.
+pub fn check_verdict_confidence(out: &std::path::Path, codes: &[i8], (nx, ny): (i64, i64)) {
+    use pendulum_atlas_core::reduce::Regime;
+    use pendulum_atlas_map::map::confidence::SHIPPED;
+    use pendulum_atlas_map::output::npy::read_npy;
+    let (_, got) = read_npy::<f64>(&out.join("verdict_confidence.npy")).unwrap();
+    let (_, lambda_conf) = read_npy::<f64>(&out.join("regime_confidence.npy")).unwrap();
+    for x in 0..nx {
+        for y in 0..ny {
+            let k = (x * ny + y) as usize;
+            let (mut same, mut all) = (0, 0);
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    let (u, v) = (x + dx, y + dy);
+                    if (dx, dy) == (0, 0) || u < 0 || v < 0 || u >= nx || v >= ny {
+                        continue;
+                    }
+                    all += 1;
+                    same += i32::from(codes[(u * ny + v) as usize] == codes[k]);
+                }
+            }
+            let a = f64::from(same) / f64::from(all);
+            let table = match Regime::from_code(i64::from(codes[k])).unwrap() {
+                Regime::Chaotic if a >= 1.0 => SHIPPED.chaotic_all,
+                Regime::Chaotic => SHIPPED.chaotic_some,
+                Regime::Periodic if a >= 0.5 => SHIPPED.periodic_half,
+                Regime::Periodic => SHIPPED.periodic_few,
+                Regime::Regular => SHIPPED.regular,
+                _ => f64::NAN,
+            };
+            let want = table.min(lambda_conf[k]);
+            assert!(
+                got[k] == want || (got[k].is_nan() && want.is_nan()),
+                "cell ({x}, {y}): verdict_confidence {} against {want} (agreement {a})",
+                got[k]
+            );
+        }
+    }
 }
 
 #[test]

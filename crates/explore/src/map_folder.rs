@@ -103,6 +103,10 @@ fn metric_columns(dir: &Path, spec: &MapSpec, suffix: &str) -> Result<Vec<Column
     let stored: Vec<(&str, Metric, Vec<f64>)> = COLUMNS
         .iter()
         .filter(|(_, m, _, _)| spec.wants(*m))
+        // Maps written before the confidence stage have no verdict_confidence.npy.
+        .filter(|(stem, _, _, _)| {
+            *stem != "verdict_confidence" || dir.join(format!("{stem}{suffix}.npy")).is_file()
+        })
         .map(|&(stem, m, _, _)| {
             let values = read_array::<f64>(dir, &format!("{stem}{suffix}.npy"), spec)?;
             Ok((stem, m, values))
@@ -123,23 +127,29 @@ fn metric_columns(dir: &Path, spec: &MapSpec, suffix: &str) -> Result<Vec<Column
 }
 
 /// The verdict first, where the map has one: the regime column, then its confidence
-/// (`regime_confidence.npy`: the probability that λ1 lies on the verdict's side, 0.5 to 1,
-/// grey where undecided), then the other metrics in the map's order. The page opens on the
-/// first column.
+/// (`verdict_confidence.npy`: the chance that the verdict is the converged one, from the map's
+/// confidence stage; `regime_confidence.npy`, the λ1 probability, for maps written before it),
+/// then the other metrics in the map's order. The page opens on the first column.
 fn verdict_first(columns: &mut Vec<Column>, stored: &[(&str, Metric, Vec<f64>)]) {
     let Some(at) = columns.iter().position(|c| c.name == Metric::Regime.name()) else {
         return;
     };
     let regime = columns.remove(at);
-    let confidence = stored
-        .iter()
-        .find(|s| s.0 == "regime_confidence")
-        .map(|s| Column {
-            name: "regime_confidence".into(),
-            label: "confidence of the verdict (0.5–1; grey: undecided)".into(),
-            palette: Palette::Sequential(Some((0.5, 1.0))),
-            values: s.2.clone(),
-        });
+    let of = |stem: &str| stored.iter().find(|s| s.0 == stem);
+    let confidence = match of("verdict_confidence") {
+        Some(s) => Some((
+            s,
+            "chance the verdict is the converged one (0–1; grey: undecided)",
+        )),
+        None => of("regime_confidence")
+            .map(|s| (s, "λ1 confidence of the verdict (0.5–1; grey: undecided)")),
+    }
+    .map(|(s, label)| Column {
+        name: s.0.into(),
+        label: label.into(),
+        palette: Palette::Sequential(Some((0.0, 1.0))),
+        values: s.2.clone(),
+    });
     columns.splice(0..0, std::iter::once(regime).chain(confidence));
 }
 

@@ -2,6 +2,7 @@
 //! [`Engine`], keep what the pictures need. [`crate::output::map`] writes the files.
 
 pub mod cell;
+pub mod confidence;
 pub mod continuation;
 pub mod hardware_default;
 pub mod refine;
@@ -230,7 +231,9 @@ pub fn check_host_memory(spec: &MapSpec) -> Result<(), EngineError> {
 pub fn run_map(spec: &MapSpec, engine: &Engine, progress: Progress) -> Result<MapRun, EngineError> {
     let t0 = Instant::now();
     let plan = EnsemblePlan::new_with(spec, progress)?;
-    run_map_part(spec, Cow::Owned(plan), None, engine, progress, t0)
+    let mut run = run_map_part(spec, Cow::Owned(plan), None, engine, progress, t0)?;
+    confidence::fill_run(&spec.shape(), &mut run);
+    Ok(run)
 }
 
 /// Refuse to split a map whose cells cannot run apart ([`MapMode::unshardable`]), before any
@@ -679,6 +682,7 @@ pub fn run_map_on_devices(
     });
     let parts: Vec<MapPart> = runs.into_iter().collect::<Result<_, _>>()?;
     let mut run = assemble(plan, parts);
+    confidence::fill_run(&spec.shape(), &mut run);
     run.timings.plan_s += plan_s;
     run.timings.total_s = t0.elapsed().as_secs_f64();
     Ok(run)

@@ -24,7 +24,7 @@ fn the_map_and_its_fields_are_the_files_of_the_folder() {
         names,
         [
             "regime",
-            "regime_confidence",
+            "verdict_confidence",
             "K",
             "R",
             "period",
@@ -35,8 +35,8 @@ fn the_map_and_its_fields_are_the_files_of_the_folder() {
         ]
     );
     // The verdict first, with its confidence as stored (NaN where undecided, shown as null).
-    let conf = npy(dir, "regime_confidence");
-    let c = json(&s, "GET", "/api/field?metric=regime_confidence", 200);
+    let conf = npy(dir, "verdict_confidence");
+    let c = json(&s, "GET", "/api/field?metric=verdict_confidence", 200);
     let cells: Vec<usize> = serde_json::from_value(c["cells"].clone()).unwrap();
     for (at, &cell) in cells.iter().enumerate() {
         let want = conf[cell];
@@ -45,7 +45,11 @@ fn the_map_and_its_fields_are_the_files_of_the_folder() {
             None => assert!(want.is_nan(), "cell {cell}: {want} shown as no data"),
         }
     }
-    assert_eq!(c["range"], serde_json::json!([0.5, 1.0]));
+    assert_eq!(c["range"], serde_json::json!([0.0, 1.0]));
+    // Its values are the confidence stage's, counted again over this 6 × 4 map's neighbours.
+    let (_, codes) =
+        pendulum_atlas_map::output::npy::read_npy::<i8>(&dir.join("regime.npy")).unwrap();
+    crate::map::check_verdict_confidence(dir, &codes, (6, 4));
 
     let k = npy(dir, "K");
     let f = json(&s, "GET", "/api/field?metric=K", 200);

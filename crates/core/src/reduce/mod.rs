@@ -85,8 +85,14 @@ pub struct InstanceResult {
     pub lyapunov_se_per_s: f64,
     /// The cell's verdict ([`Regime::Undecided`] when not asked for).
     pub regime: Regime,
-    /// Confidence of the verdict (NaN when undecided, failed or not asked for).
+    /// Confidence of the verdict (NaN when undecided, failed or not asked for): the
+    /// probability that λ1 lies on the verdict's side of its class boundary.
     pub regime_confidence: f64,
+    /// The chance that the verdict is the one a converged run gives, from the verdict and its
+    /// grid neighbours' (the map's confidence stage, `pendulum_atlas_map::map::confidence`,
+    /// calibrated in `docs/bench/VERDICT.md`); NaN outside a map, in a shard before its merge,
+    /// and where the verdict is undecided, failed or not asked for.
+    pub verdict_confidence: f64,
     /// How the integration ended.
     pub status: Status,
     /// Steps actually integrated (fewer than planned when the instance failed or stopped
@@ -116,6 +122,7 @@ impl InstanceResult {
                 Regime::Failed
             },
             regime_confidence: nan,
+            verdict_confidence: nan,
             status,
             steps,
         }
@@ -140,6 +147,7 @@ impl InstanceResult {
             ("lyapunov", self.lyapunov_per_s),
             ("lyapunov_se", self.lyapunov_se_per_s),
             ("regime_confidence", self.regime_confidence),
+            ("verdict_confidence", self.verdict_confidence),
         ];
         if !self.status.is_ok() {
             if let Some((name, v)) = fields.iter().find(|(_, v)| !v.is_nan()) {
@@ -299,7 +307,7 @@ fn value_in_range(name: &str, v: f64) -> bool {
     let whole = v.fract() == 0.0;
     match name {
         "K" => (-1.0..=1.0).contains(&v),
-        "R" | "regime_confidence" => (0.0..=1.0).contains(&v),
+        "R" | "regime_confidence" | "verdict_confidence" => (0.0..=1.0).contains(&v),
         "period" => v >= 0.0 && whole && v.is_finite(),
         "hops" => v >= 0.0 && whole && v.is_finite(),
         "impacts_per_s" | "power_w" | "line_ratio" | "lyapunov_se" => v >= 0.0 && v.is_finite(),

@@ -29,7 +29,7 @@ pub type Column = (
 );
 
 /// Every stored array of a map, in `grid.csv` order, with its unit ("1": dimensionless).
-pub const COLUMNS: [Column; 12] = [
+pub const COLUMNS: [Column; 13] = [
     ("K", Metric::K, "1", |r| r.k),
     ("R", Metric::R, "1", |r| r.r),
     ("period", Metric::Period, "forcing periods", |r| r.period),
@@ -51,6 +51,9 @@ pub const COLUMNS: [Column; 12] = [
     }),
     ("regime_confidence", Metric::Regime, "1", |r| {
         r.regime_confidence
+    }),
+    ("verdict_confidence", Metric::Regime, "1", |r| {
+        r.verdict_confidence
     }),
 ];
 

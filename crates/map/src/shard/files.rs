@@ -313,6 +313,8 @@ fn result_of(r: &[f64]) -> Result<InstanceResult, String> {
         lyapunov_se_per_s: r[13],
         regime,
         regime_confidence: r[15],
+        // The merge's confidence stage fills it: a shard's cells lack some neighbours.
+        verdict_confidence: f64::NAN,
         status,
         steps: r[11] as u64,
     })

@@ -131,7 +131,8 @@ pub fn merge_shards(dirs: &[PathBuf]) -> Result<Merged, MergeError> {
     for s in &shards {
         check_rows(s, &spec, &plan)?;
     }
-    let run = assemble(plan, shards.iter().map(part).collect());
+    let mut run = assemble(plan, shards.iter().map(part).collect());
+    crate::map::confidence::fill_run(&spec.shape(), &mut run);
     Ok(Merged { spec, run })
 }
 

@@ -18,6 +18,7 @@ pub mod gpu_report;
 pub mod gpu_throughput;
 pub mod peer_case;
 pub mod refine;
+pub mod reliability;
 pub mod report;
 pub mod stiff;
 pub mod stiff_map;

@@ -17,6 +17,7 @@
 //! 4. **Cost**: the whole default map with today's metrics (no λ1) against the same map with
 //!    the verdict, on the engine the study runs on.
 
+use super::reliability::{Reliability, reliability, score_subgrid};
 use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, MapSpec, map_from_toml};
 use pendulum_atlas_core::engine::{Engine, EngineError, EngineKind, Precision, no_progress};
 use pendulum_atlas_core::reduce::Regime;
@@ -168,10 +169,14 @@ pub struct VerdictReport {
     pub shape: [usize; 2],
     /// The reference.
     pub reference: Reference,
+    /// The reference of the second subgrid (from the `thin/2`th value), for the reliability.
+    pub second: Reference,
     /// One score per candidate.
     pub scores: Vec<Score>,
     /// The whole map's cost (not in `--quick`).
     pub cost: Option<Cost>,
+    /// Whether `verdict_confidence` predicts the verdict's error.
+    pub reliability: Reliability,
     /// Wall time of the study (s).
     pub total_s: f64,
 }
@@ -186,9 +191,20 @@ pub struct VerdictOptions<'a> {
 
 /// The default map with `sets` applied, thinned to every `thin`th value of each axis.
 fn subgrid(sets: &[String], thin: usize) -> Result<MapSpec, EngineError> {
+    subgrid_at(sets, thin, 0)
+}
+
+/// The same from the `offset`th value of each axis.
+fn subgrid_at(sets: &[String], thin: usize, offset: usize) -> Result<MapSpec, EngineError> {
     let mut spec = map_from_toml(DEFAULT_MAP_TOML, "the default map", sets)?;
     for axis in &mut spec.axes {
-        axis.values = axis.values.iter().step_by(thin).copied().collect();
+        axis.values = axis
+            .values
+            .iter()
+            .skip(offset)
+            .step_by(thin)
+            .copied()
+            .collect();
     }
     Ok(spec)
 }
@@ -208,8 +224,8 @@ fn timed(spec: &MapSpec, engine: &Engine) -> Result<(MapRun, f64), EngineError> 
     Ok((run, t0.elapsed().as_secs_f64()))
 }
 
-/// Stage 2: the reference runs and their agreement.
-fn reference(quick: bool, thin: usize) -> Result<Reference, EngineError> {
+/// Stage 2: the reference runs and their agreement, on the subgrid from `offset`.
+fn reference_run(quick: bool, thin: usize, offset: usize) -> Result<Reference, EngineError> {
     let short = if quick {
         REFERENCE_S / 10.0
     } else {
@@ -223,7 +239,7 @@ fn reference(quick: bool, thin: usize) -> Result<Reference, EngineError> {
         sets.push(format!("map.period_window={REFERENCE_PERIOD_WINDOW}"));
         sets.push(format!("map.period_tol_rad={REFERENCE_PERIOD_TOL_RAD}"));
         sets.push("map.lyapunov_window_s=\"whole\"".into());
-        let (run, s) = timed(&subgrid(&sets, thin)?, &engine)?;
+        let (run, s) = timed(&subgrid_at(&sets, thin, offset)?, &engine)?;
         wall += s;
         runs.push(run);
     }
@@ -350,8 +366,8 @@ fn candidates(quick: bool, backend: EngineKind) -> Vec<Candidate> {
     v
 }
 
-/// Stage 4: the whole default map without and with the verdict.
-fn cost(engine: &Engine) -> Result<Cost, EngineError> {
+/// Stage 4: the whole default map without and with the verdict; the latter's run too.
+fn cost(engine: &Engine) -> Result<(Cost, MapRun), EngineError> {
     let baseline = subgrid(
         &[
             "map.metrics=[\"K\", \"R\", \"period\", \"hops\", \"impacts_per_s\", \"alpha_range\"]"
@@ -361,14 +377,15 @@ fn cost(engine: &Engine) -> Result<Cost, EngineError> {
     )?;
     let shipped = subgrid(&[], 1)?;
     let (run, baseline_s) = timed(&baseline, engine)?;
-    let (_, verdict_s) = timed(&shipped, engine)?;
+    let (whole, verdict_s) = timed(&shipped, engine)?;
     let info = engine.info();
-    Ok(Cost {
+    let cost = Cost {
         engine: format!("{} {}", info.kind.name(), info.precision.name()),
         cells: run.results.len(),
         baseline_s,
         verdict_s,
-    })
+    };
+    Ok((cost, whole))
 }
 
 /// Run the study, reporting each stage through `progress`.
@@ -378,7 +395,7 @@ pub fn run_verdict(
 ) -> Result<VerdictReport, EngineError> {
     let t0 = Instant::now();
     let thin = if opts.quick { 2 * THIN } else { THIN };
-    let reference = reference(opts.quick, thin)?;
+    let reference = reference_run(opts.quick, thin, 0)?;
     progress(&format!(
         "reference: {} of {} cells change on doubling, {} settled ({:.0} s)",
         reference.changed, reference.cells, reference.settled, reference.wall_s
@@ -407,11 +424,34 @@ pub fn run_verdict(
             scores.push(s);
         }
     }
-    let cost = if opts.quick {
-        None
+    let cpu64 = Engine::cpu(Precision::F64);
+    let (cost, whole) = if opts.quick {
+        (None, run_map(&subgrid(&[], 1)?, &cpu64, &no_progress)?)
     } else {
-        Some(cost(&Engine::cpu(Precision::F64))?)
+        let (c, whole) = cost(&cpu64)?;
+        (Some(c), whole)
     };
+    let second = reference_run(opts.quick, thin, thin / 2)?;
+    progress(&format!(
+        "reference B (from value {}): {} of {} cells change on doubling, {} settled ({:.0} s)",
+        thin / 2 + 1,
+        second.changed,
+        second.cells,
+        second.settled,
+        second.wall_s
+    ));
+    let shape = subgrid(&[], 1)?.shape();
+    let score = |name, offset, r: &Reference| {
+        score_subgrid(
+            name,
+            &whole,
+            &shape,
+            (thin, offset),
+            &r.regime,
+            &r.is_settled,
+        )
+    };
+    let reliability = reliability(&score("A", 0, &reference), &score("B", thin / 2, &second));
     let shape = {
         let spec = subgrid(&[], thin)?;
         [spec.axes[0].values.len(), spec.axes[1].values.len()]
@@ -420,8 +460,10 @@ pub fn run_verdict(
         thin,
         shape,
         reference,
+        second,
         scores,
         cost,
+        reliability,
         total_s: t0.elapsed().as_secs_f64(),
     })
 }

@@ -1,7 +1,9 @@
 //! Files of `bench --verdict`: `verdict.json` and `VERDICT.md`.
 
+use super::reliability::{FIRM, Firm};
 use super::verdict::{REFERENCE_PERIOD_TOL_RAD, REFERENCE_PERIOD_WINDOW, Score, VerdictReport};
 use pendulum_atlas_core::reduce::Regime;
+use pendulum_atlas_map::map::confidence::{Calibration, SHIPPED};
 use pendulum_atlas_map::output::OutputError;
 use pendulum_atlas_map::output::files::{create_dir, write_bytes, write_json};
 use std::fmt::Write as _;
@@ -108,6 +110,125 @@ fn markdown(r: &VerdictReport) -> String {
             c.verdict_s / c.baseline_s
         );
     }
+    reliability(&mut s, r);
     let _ = writeln!(s, "\nStudy wall time {:.0} s.", r.total_s);
     s
+}
+
+/// `3rd`, `5th`.
+fn ordinal(n: usize) -> String {
+    let suffix = match (n % 10, n % 100) {
+        (_, 11..=13) => "th",
+        (1, _) => "st",
+        (2, _) => "nd",
+        (3, _) => "rd",
+        _ => "th",
+    };
+    format!("{n}{suffix}")
+}
+
+fn calibration_row(t: &Calibration) -> String {
+    format!(
+        "{} | {} | {} | {} | {} | {} | {}",
+        t.chaotic_all,
+        t.chaotic_some,
+        t.periodic_half,
+        t.periodic_few,
+        t.regular,
+        t.chaotic_mean,
+        t.periodic_mean
+    )
+}
+
+/// Stage 5: the reliability of `verdict_confidence` and the cross-fit of its table.
+fn reliability(s: &mut String, r: &VerdictReport) {
+    let rel = &r.reliability;
+    let g = &r.second;
+    let _ = writeln!(
+        s,
+        "\n## Reliability of `verdict_confidence`\n\n\
+         The default map as shipped, run whole (so that every cell has its neighbours), scored \
+         on subgrid A (the study's, above) and on subgrid B: every {}th value of each axis from \
+         the {}, with a reference of its own ({} s and {} s; {} of {} cells change on \
+         doubling, {} settled; wall time {:.0} s). Bins of `verdict_confidence` over the settled \
+         cells; undecided cells carry none and are in no bin.\n",
+        r.thin,
+        ordinal(r.thin / 2 + 1),
+        g.durations_s[0],
+        g.durations_s[1],
+        g.changed,
+        g.cells,
+        g.settled,
+        g.wall_s
+    );
+    let _ = writeln!(
+        s,
+        "| subgrid | confidence | cells | right | mean confidence |\n|---|---|---|---|---|"
+    );
+    for (name, rows, _) in &rel.tables {
+        for b in rows {
+            let (right, mean) = if b.cells == 0 {
+                ("–".to_string(), "–".to_string())
+            } else {
+                (
+                    format!(
+                        "{} ({:.1} %)",
+                        b.right,
+                        100.0 * b.right as f64 / b.cells as f64
+                    ),
+                    format!("{:.3}", b.mean_confidence),
+                )
+            };
+            let _ = writeln!(
+                s,
+                "| {name} | {:.2}–{:.2} | {} | {right} | {mean} |",
+                b.from, b.to, b.cells
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        "\nFirm verdicts (confidence ≥ {FIRM}), with the shipped table and with a table fitted on \
+         the other subgrid:\n\n| table | scored on | firm cells of settled | right of firm |\n|---|---|---|---|"
+    );
+    let firm_row = |s: &mut String, table: &str, on: &str, f: &Firm| {
+        let _ = writeln!(
+            s,
+            "| {table} | {on} | {}/{} ({:.1} %) | {}/{} ({:.1} %) |",
+            f.cells,
+            f.settled,
+            f.coverage_pct(),
+            f.right,
+            f.cells,
+            f.right_pct()
+        );
+    };
+    for (name, _, f) in &rel.tables {
+        firm_row(s, "shipped (fitted on A and B)", name, f);
+    }
+    for (name, _, f) in &rel.cross {
+        let (fit, on) = name.split_once(", scored on ").unwrap_or((name, ""));
+        firm_row(s, fit, on, f);
+    }
+    let _ = writeln!(
+        s,
+        "\nThe table (accuracy per class and neighbourhood; `crates/map/src/map/confidence.rs`):\n\n\
+         | fitted on | chaotic, all agree | chaotic, some not | periodic, ≥ ½ agree | periodic, < ½ | regular | chaotic, no neighbour | periodic, no neighbour |\n\
+         |---|---|---|---|---|---|---|---|"
+    );
+    for (name, t, _) in &rel.cross {
+        let fit = name.split_once(',').map_or(*name, |x| x.0);
+        let _ = writeln!(s, "| {fit} | {} |", calibration_row(t));
+    }
+    let _ = writeln!(
+        s,
+        "| A and B | {} |\n| shipped | {} |\n\nThe shipped table {} the fit on A and B.",
+        calibration_row(&rel.pooled),
+        calibration_row(&SHIPPED),
+        if rel.shipped_is_pooled {
+            "equals"
+        } else {
+            "differs from"
+        }
+    );
 }

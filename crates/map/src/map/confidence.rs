@@ -1,0 +1,275 @@
+//! The map's confidence stage: how likely each cell's verdict is the one a converged run gives
+//! (`verdict_confidence`), from the verdict and how many of its grid neighbours share it.
+//!
+//! The λ1 probability of the reductions (`regime_confidence`, `Φ(m/σ)`) answers "is λ1 on this
+//! side of its class boundary over this window". It is 1.0 on cells whose verdict is wrong:
+//! transient chaos near the periodic windows, orbits on a window's border. Those cells have
+//! neighbours with another verdict. So the stage looks up the accuracy measured against the
+//! converged reference of `pendulum-atlas bench --verdict` for the cell's class and its
+//! neighbourhood:
+//!
+//! ```text
+//! agreement a = (neighbours with the cell's verdict) / (neighbours)
+//!               neighbours: the cells one step away along any set of axes (8 in a plane)
+//! chaotic:  a = 1 → 0.987,  a < 1 → 0.406
+//! periodic: a ≥ ½ → 0.882,  a < ½ → 0.643
+//! regular:  0.971 (every a)
+//! no neighbour (a one-cell map): the class's mean, 0.918 / 0.813 / 0.971
+//! verdict_confidence = min(that, regime_confidence); NaN where undecided or failed
+//! ```
+//!
+//! The table pools the two 192-cell subgrids of the default map that the study scores (every
+//! 4th frequency and amplitude from the first and from the third): 361 settled cells
+//! (`docs/bench/VERDICT.md`, "Reliability"). It is measured on the default map's plane, N
+//! and run length, and a map far from those settings reads it as a guide, not a measurement.
+//! Cells at 0.9 or above were 75.1 % of those cells, and 98.5 % of them were right. Fitted
+//! on one subgrid and scored on the other: 96.6 % right on 82.8 % of the cells, and 98.6 % on
+//! 76.8 %.
+
+use pendulum_atlas_core::config::c_order_index;
+use pendulum_atlas_core::reduce::{InstanceResult, Regime};
+
+/// The accuracy of each class and neighbourhood, measured against a converged reference.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Calibration {
+    /// A chaotic verdict whose neighbours all agree.
+    pub chaotic_all: f64,
+    /// A chaotic verdict with a neighbour of another verdict.
+    pub chaotic_some: f64,
+    /// A periodic verdict shared by at least half of its neighbours.
+    pub periodic_half: f64,
+    /// A periodic verdict shared by fewer than half.
+    pub periodic_few: f64,
+    /// A regular verdict.
+    pub regular: f64,
+    /// A chaotic verdict over all neighbourhoods (a cell without neighbours).
+    pub chaotic_mean: f64,
+    /// A periodic verdict over all neighbourhoods.
+    pub periodic_mean: f64,
+}
+
+/// The map's table (see the module's documentation).
+pub const SHIPPED: Calibration = Calibration {
+    chaotic_all: 0.987,
+    chaotic_some: 0.406,
+    periodic_half: 0.882,
+    periodic_few: 0.643,
+    regular: 0.971,
+    chaotic_mean: 0.918,
+    periodic_mean: 0.813,
+};
+
+/// The bins of the table: (class, neighbourhood).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Bin {
+    /// Chaotic, every neighbour agreeing.
+    ChaoticAll,
+    /// Chaotic, some neighbour not.
+    ChaoticSome,
+    /// Periodic, at least half agreeing.
+    PeriodicHalf,
+    /// Periodic, fewer.
+    PeriodicFew,
+    /// Regular.
+    Regular,
+    /// Chaotic without neighbours.
+    ChaoticAlone,
+    /// Periodic without neighbours.
+    PeriodicAlone,
+}
+
+impl Bin {
+    /// The bin of `verdict` with neighbour agreement `agreement` (`None`: no neighbour);
+    /// `None` for undecided and failed cells.
+    pub fn of(verdict: Regime, agreement: Option<f64>) -> Option<Bin> {
+        Some(match (verdict, agreement) {
+            (Regime::Chaotic, None) => Bin::ChaoticAlone,
+            (Regime::Chaotic, Some(a)) if a >= 1.0 => Bin::ChaoticAll,
+            (Regime::Chaotic, Some(_)) => Bin::ChaoticSome,
+            (Regime::Periodic, None) => Bin::PeriodicAlone,
+            (Regime::Periodic, Some(a)) if a >= 0.5 => Bin::PeriodicHalf,
+            (Regime::Periodic, Some(_)) => Bin::PeriodicFew,
+            (Regime::Regular, _) => Bin::Regular,
+            _ => return None,
+        })
+    }
+}
+
+impl Calibration {
+    /// The accuracy of `bin`.
+    pub fn of(&self, bin: Bin) -> f64 {
+        match bin {
+            Bin::ChaoticAll => self.chaotic_all,
+            Bin::ChaoticSome => self.chaotic_some,
+            Bin::PeriodicHalf => self.periodic_half,
+            Bin::PeriodicFew => self.periodic_few,
+            Bin::Regular => self.regular,
+            Bin::ChaoticAlone => self.chaotic_mean,
+            Bin::PeriodicAlone => self.periodic_mean,
+        }
+    }
+
+    /// The table measured on `cells`: (bin, whether the verdict was right) of settled cells
+    /// with a neighbourhood; a bin without cells gets NaN.
+    pub fn fit(cells: &[(Bin, bool)]) -> Calibration {
+        let share = |keep: &dyn Fn(Bin) -> bool| {
+            let (n, right) = cells
+                .iter()
+                .filter(|(b, _)| keep(*b))
+                .fold((0usize, 0usize), |(n, r), (_, ok)| {
+                    (n + 1, r + usize::from(*ok))
+                });
+            if n == 0 {
+                f64::NAN
+            } else {
+                (1000.0 * right as f64 / n as f64).round() / 1000.0
+            }
+        };
+        Calibration {
+            chaotic_all: share(&|b| b == Bin::ChaoticAll),
+            chaotic_some: share(&|b| b == Bin::ChaoticSome),
+            periodic_half: share(&|b| b == Bin::PeriodicHalf),
+            periodic_few: share(&|b| b == Bin::PeriodicFew),
+            regular: share(&|b| b == Bin::Regular),
+            chaotic_mean: share(&|b| matches!(b, Bin::ChaoticAll | Bin::ChaoticSome)),
+            periodic_mean: share(&|b| matches!(b, Bin::PeriodicHalf | Bin::PeriodicFew)),
+        }
+    }
+}
+
+/// The calibrated accuracy of `verdict` with neighbour agreement `agreement` (`None`: no
+/// neighbour) in the map's table; NaN for undecided and failed cells.
+pub fn calibrated(verdict: Regime, agreement: Option<f64>) -> f64 {
+    Bin::of(verdict, agreement).map_or(f64::NAN, |b| SHIPPED.of(b))
+}
+
+/// The share of cell `k`'s neighbours on a grid of `shape` (C order) whose verdict is `v(k)`;
+/// `None` when it has none.
+pub fn agreement(shape: &[usize], k: usize, v: impl Fn(usize) -> Regime) -> Option<f64> {
+    let index = c_order_index(shape, k);
+    let (mut same, mut all) = (0usize, 0usize);
+    for offset in offsets(shape.len()) {
+        let Some(n) = neighbour(shape, &index, offset) else {
+            continue;
+        };
+        all += 1;
+        same += usize::from(v(n) == v(k));
+    }
+    (all > 0).then(|| same as f64 / all as f64)
+}
+
+/// The moves to the neighbours of a cell of a `dims`-axis grid, as [`neighbour`] reads them:
+/// every base-3 number of `dims` digits but the one whose digits are all 1 (no move).
+fn offsets(dims: usize) -> impl Iterator<Item = usize> {
+    let all = 3usize.pow(dims as u32);
+    (0..all).filter(move |&o| o != (all - 1) / 2)
+}
+
+/// The cell at `index` moved by `offset` read in base 3 (digit 0: −1, 1: 0, 2: +1 per axis),
+/// or `None` off the grid.
+fn neighbour(shape: &[usize], index: &[usize], mut offset: usize) -> Option<usize> {
+    let mut flat = 0usize;
+    for (&n, &i) in shape.iter().zip(index) {
+        let moved = (i + offset % 3).checked_sub(1).filter(|&j| j < n)?;
+        flat = flat * n + moved;
+        offset /= 3;
+    }
+    Some(flat)
+}
+
+/// Fill `verdict_confidence` of a whole map `run` of `shape`: its cells, and each leg of a
+/// continuation (the first leg's results are the cells).
+pub fn fill_run(shape: &[usize], run: &mut crate::map::MapRun) {
+    fill(shape, &mut run.results);
+    if let Some(c) = &mut run.continuation {
+        for leg in &mut c.legs {
+            fill(shape, &mut leg.results);
+        }
+    }
+}
+
+/// Fill `verdict_confidence` of every cell of a map of `shape` whose results hold a verdict.
+pub fn fill(shape: &[usize], results: &mut [InstanceResult]) {
+    let verdicts: Vec<Regime> = results.iter().map(|r| r.regime).collect();
+    for (k, r) in results.iter_mut().enumerate() {
+        let a = agreement(shape, k, |j| verdicts[j]);
+        r.verdict_confidence = calibrated(r.regime, a).min(r.regime_confidence);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn neighbours_are_the_cells_one_step_away_along_any_axes() {
+        // 3 × 4 plane: the centre-ish cell (1, 1) has 8, a corner 3, an edge 5.
+        let shape = [3, 4];
+        let count = |k: usize| {
+            let idx = c_order_index(&shape, k);
+            offsets(2)
+                .filter_map(|o| neighbour(&shape, &idx, o))
+                .count()
+        };
+        assert_eq!(count(5), 8);
+        let idx = c_order_index(&shape, 5);
+        assert!(
+            offsets(2)
+                .filter_map(|o| neighbour(&shape, &idx, o))
+                .all(|n| n != 5)
+        );
+        assert_eq!(count(0), 3);
+        assert_eq!(count(1), 5);
+        assert_eq!(count(11), 3);
+        // A line: 2 inside, 1 at the ends; a cube's inner cell 26.
+        let line = [5];
+        assert_eq!(
+            offsets(1).filter_map(|o| neighbour(&line, &[2], o)).count(),
+            2
+        );
+        assert_eq!(
+            offsets(1).filter_map(|o| neighbour(&line, &[0], o)).count(),
+            1
+        );
+        let cube = [3, 3, 3];
+        assert_eq!(
+            (1..27)
+                .filter_map(|o| neighbour(&cube, &[1, 1, 1], o))
+                .count(),
+            26
+        );
+    }
+
+    #[test]
+    fn agreement_counts_the_neighbours_with_the_same_verdict() {
+        use Regime::{Chaotic as C, Periodic as P};
+        // 3 × 3, periodic only in the middle row's left cell.
+        let grid = [C, C, C, P, C, C, C, C, C];
+        let a = |k| agreement(&[3, 3], k, |j| grid[j]);
+        assert_eq!(a(4), Some(7.0 / 8.0));
+        assert_eq!(a(3), Some(0.0));
+        assert_eq!(a(2), Some(1.0));
+        assert_eq!(agreement(&[1], 0, |_| C), None);
+        assert_eq!(calibrated(C, a(2)), SHIPPED.chaotic_all);
+        assert_eq!(calibrated(C, a(4)), SHIPPED.chaotic_some);
+        assert_eq!(calibrated(P, a(3)), SHIPPED.periodic_few);
+        assert!(calibrated(Regime::Undecided, a(4)).is_nan());
+    }
+
+    #[test]
+    fn a_fitted_table_is_the_share_right_per_bin() {
+        let cells = [
+            (Bin::ChaoticAll, true),
+            (Bin::ChaoticAll, true),
+            (Bin::ChaoticAll, false),
+            (Bin::ChaoticSome, false),
+            (Bin::Regular, true),
+        ];
+        let t = Calibration::fit(&cells);
+        assert_eq!(t.chaotic_all, 0.667);
+        assert_eq!(t.chaotic_some, 0.0);
+        assert_eq!(t.chaotic_mean, 0.5);
+        assert_eq!(t.regular, 1.0);
+        assert!(t.periodic_half.is_nan());
+    }
+}
