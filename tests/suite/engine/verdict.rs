@@ -69,8 +69,17 @@ fn linear_frequencies() -> Vec<f64> {
 /// 1 % holds there. The energy norm of the twin makes this hold in f32 as in f64
 /// (`src/reduce/lyapunov.rs`; the earlier diagonal norm was up to 6 % off).
 pub fn lyapunov_of_a_linear_response_is_the_least_damped_eigenvalue(under: Under) {
-    for (g, early) in [(0.0, true), (9.81, true), (0.0, false), (9.81, false)] {
-        let extra = format!("{LINEAR}\n[gravity]\ng_m_s2 = {g}");
+    // The last case couples the piezo patch: the norm's voltage term and the circuit's
+    // eigenvalue in the Jacobian.
+    let cases = [
+        (0.0, true, ""),
+        (9.81, true, ""),
+        (0.0, false, ""),
+        (9.81, false, ""),
+        (9.81, false, "\n[piezo]\nenabled = true"),
+    ];
+    for (g, early, piezo) in cases {
+        let extra = format!("{LINEAR}\n[gravity]\ng_m_s2 = {g}{piezo}");
         // The map's keys go in after `metrics =` (cells_map writes the [map] table).
         let metrics = format!("[\"lyapunov\"]\nlyapunov_window_s = 12.0\nearly_stop = {early}");
         let spec = cells_map(under, &extra, &linear_frequencies(), &[1e-4], &metrics);
@@ -95,13 +104,13 @@ pub fn lyapunov_of_a_linear_response_is_the_least_damped_eigenvalue(under: Under
             let (l, se) = (r.lyapunov_per_s, r.lyapunov_se_per_s);
             assert!(
                 (l - want).abs() <= 0.01 * want.abs(),
-                "{under:?} g = {g}, early stop {early}, cell {k}: λ1 = {l} ± {se}, the linearisation's {want}"
+                "{under:?} g = {g}, early stop {early}{piezo}, cell {k}: λ1 = {l} ± {se}, the linearisation's {want}"
             );
             covered += usize::from((l - want).abs() <= 2.0 * se);
         }
         assert!(
             early || covered >= 18,
-            "{under:?} g = {g}: the SE covers the truth in {covered} of 20 cells"
+            "{under:?} g = {g}{piezo}: the SE covers the truth in {covered} of 20 cells"
         );
     }
 }
