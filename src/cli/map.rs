@@ -339,6 +339,12 @@ fn report(run: &MapRun, files: usize, out: &std::path::Path) -> anyhow::Result<(
     if let Some(c) = &run.continuation {
         println!("{}", continuation_summary(c));
     }
+    if let Some(s) = &run.settle {
+        println!(
+            "settled: {} cells below confidence {} ran on to {} s ({} stopped on a confirmed orbit); {} verdicts changed, {} chaotic cells settled, in {:.1} s",
+            s.cells, s.firm, s.max_s, s.stopped_early, s.changed, s.chaos_settled, s.wall_s
+        );
+    }
     println!("wrote {files} files to {}", out.display());
     if ok == 0 {
         return Err(super::RunFailed(format!(

@@ -230,6 +230,39 @@ fn the_verdict_study_scores_candidates_on_the_settled_cells_of_its_reference() {
             assert!(v.is_nan() || (0.0..=1.0).contains(&v), "{t:?}");
         }
     }
+    // Settling: the transient-chaos cells are chaotic cells of the map, each stopped by the
+    // reference or run to its end; the curve starts unsettled, then runs cells on at 68 s.
+    let g = &r.settling;
+    let t = &g.transient;
+    assert_eq!(t.settled, f.settled + r.second.settled);
+    assert!(
+        t.settle_later <= t.chaotic && t.chaotic <= t.settled,
+        "{t:?}"
+    );
+    assert_eq!(t.stop_s.len() + t.not_stopped, t.settle_later);
+    let longest = f.durations_s[1];
+    assert!(t.stop_s.windows(2).all(|w| w[0] <= w[1]), "{t:?}");
+    assert!(t.stop_s.iter().all(|&x| x > 0.0 && x <= longest), "{t:?}");
+    assert_eq!(g.curve.len(), 2);
+    let (off, on) = (&g.curve[0], &g.curve[1]);
+    assert_eq!((off.settle_max_s, off.rerun, off.changed), (None, 0, 0));
+    assert_eq!(on.settle_max_s, Some(68.0));
+    assert!(on.rerun > 0 && on.changed <= on.rerun, "{on:?}");
+    for p in &g.curve {
+        assert_eq!(p.settled, t.settled);
+        assert!(
+            p.right <= p.settled && p.transient_right <= t.settle_later,
+            "{p:?}"
+        );
+        assert!(
+            p.firm.right <= p.firm.cells && p.firm.cells <= p.settled,
+            "{p:?}"
+        );
+    }
+    assert_eq!(
+        g.reliability.shipped,
+        pendulum_atlas_map::map::confidence::SETTLED
+    );
     let dir = std::env::temp_dir().join(format!("pendulum-atlas-verdict-{}", std::process::id()));
     let files = write_verdict(&dir, &r).expect("files");
     let page = std::fs::read_to_string(dir.join("VERDICT.md")).unwrap();
@@ -240,6 +273,10 @@ fn the_verdict_study_scores_candidates_on_the_settled_cells_of_its_reference() {
     assert!(page.contains("λ1 + period + K (rule)"), "{page}");
     assert!(
         page.contains("## Reliability of `verdict_confidence`"),
+        "{page}"
+    );
+    assert!(
+        page.contains("## Transient chaos and settling (`map.settle_max_s`)"),
         "{page}"
     );
     assert_eq!(files.len(), 2);

@@ -162,10 +162,21 @@ fn check_map_dir(out: &std::path::Path, backend: &str) {
 /// each cell's verdict and the share of its neighbours (cells one step away along either axis
 /// or both) with the same verdict, capped by `regime_confidence`; counted here with plain
 /// loops over the grid.
-pub fn check_verdict_confidence(out: &std::path::Path, codes: &[i8], (nx, ny): (i64, i64)) {
-    use pendulum_atlas_core::reduce::Regime;
+pub fn check_verdict_confidence(out: &std::path::Path, codes: &[i8], shape: (i64, i64)) {
     use pendulum_atlas_map::map::confidence::SHIPPED;
+    check_verdict_confidence_with(out, codes, shape, &SHIPPED);
+}
+
+/// [`check_verdict_confidence`] with the table `table`.
+pub fn check_verdict_confidence_with(
+    out: &std::path::Path,
+    codes: &[i8],
+    (nx, ny): (i64, i64),
+    table: &pendulum_atlas_map::map::confidence::Calibration,
+) {
+    use pendulum_atlas_core::reduce::Regime;
     use pendulum_atlas_map::output::npy::read_npy;
+    let t = table;
     let (_, got) = read_npy::<f64>(&out.join("verdict_confidence.npy")).unwrap();
     let (_, lambda_conf) = read_npy::<f64>(&out.join("regime_confidence.npy")).unwrap();
     for x in 0..nx {
@@ -184,11 +195,11 @@ pub fn check_verdict_confidence(out: &std::path::Path, codes: &[i8], (nx, ny): (
             }
             let a = f64::from(same) / f64::from(all);
             let table = match Regime::from_code(i64::from(codes[k])).unwrap() {
-                Regime::Chaotic if a >= 1.0 => SHIPPED.chaotic_all,
-                Regime::Chaotic => SHIPPED.chaotic_some,
-                Regime::Periodic if a >= 0.5 => SHIPPED.periodic_half,
-                Regime::Periodic => SHIPPED.periodic_few,
-                Regime::Regular => SHIPPED.regular,
+                Regime::Chaotic if a >= 1.0 => t.chaotic_all,
+                Regime::Chaotic => t.chaotic_some,
+                Regime::Periodic if a >= 0.5 => t.periodic_half,
+                Regime::Periodic => t.periodic_few,
+                Regime::Regular => t.regular,
                 _ => f64::NAN,
             };
             let want = table.min(lambda_conf[k]);
@@ -1159,4 +1170,189 @@ fn continuation_never_starts_a_cell_beyond_its_bumpers() {
     let up = run("up");
     let leg = &up.continuation.as_ref().unwrap().legs[0];
     assert_eq!((leg.beyond_bumpers, leg.restarted), (0, 0), "{leg:?}");
+}
+
+/// The default map's 6 × 4 corner by the periodic windows (10.4–11.8 Hz), in 34 s.
+const WINDOWS: &str = "map.axes=[{key=\"excitation.frequency_hz\",start=10.4,end=11.8,count=6},{key=\"excitation.amplitude_m\",start=0.01,end=0.025,count=4}]";
+
+fn npy_f64(dir: &std::path::Path, name: &str) -> Vec<f64> {
+    pendulum_atlas_map::output::npy::read_npy::<f64>(&dir.join(name))
+        .unwrap()
+        .1
+}
+
+fn map_json(dir: &std::path::Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("map.json")).unwrap()).unwrap()
+}
+
+fn run_windows(backend: &str, name: &str, extra: &[&str]) -> (std::path::PathBuf, String) {
+    let out = out_dir(&format!("{name}-{backend}"));
+    let mut cmd = bin();
+    cmd.args(["map", "--backend", backend, "--set", WINDOWS]);
+    for e in extra {
+        cmd.args(["--set", e]);
+    }
+    let o = cmd.arg("--out").arg(&out).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    (out, String::from_utf8_lossy(&o.stdout).into_owned())
+}
+
+#[test]
+fn settling_reruns_the_cells_that_are_not_firm_as_the_longer_map_runs_them() {
+    settling_case("cpu");
+}
+
+#[test]
+fn settling_runs_on_the_gpu_as_on_the_cpu() {
+    if crate::engine::gpu().is_none() {
+        return;
+    }
+    settling_case("gpu");
+}
+
+/// The settled map of [`WINDOWS`] on `backend` against its plain map and its 68-s map.
+fn settling_case(backend: &str) {
+    use pendulum_atlas_map::output::npy::read_npy;
+    let (plain, _) = run_windows(backend, "settle-plain", &[]);
+    let (settled, said) = run_windows(backend, "settle-68", &["map.settle_max_s=68.0"]);
+    // The same cells for 68 s, the indicators' window kept at 24 s: what a rerun must give.
+    let (long, _) = run_windows(
+        backend,
+        "settle-long",
+        &[
+            "integration.duration_s=68.0",
+            "integration.transient_s=44.0",
+        ],
+    );
+    let (_, before) = read_npy::<i8>(&plain.join("regime.npy")).unwrap();
+    let (_, after) = read_npy::<i8>(&settled.join("regime.npy")).unwrap();
+    let (_, longer) = read_npy::<i8>(&long.join("regime.npy")).unwrap();
+    let confidence = npy_f64(&plain, "verdict_confidence.npy");
+    // Not firm: below 0.9 or undecided (NaN); a failed cell (-1) is final.
+    let rerun: Vec<bool> = (0..24)
+        .map(|k| {
+            let firm = confidence[k] >= 0.9;
+            before[k] != -1 && !firm
+        })
+        .collect();
+    let n = rerun.iter().filter(|r| **r).count();
+    assert!(n > 0 && n < 24, "{n} cells not firm: pick another corner");
+    for name in ["K.npy", "R.npy", "period.npy", "lyapunov.npy", "hops.npy"] {
+        let (a, b, c) = (
+            npy_f64(&plain, name),
+            npy_f64(&settled, name),
+            npy_f64(&long, name),
+        );
+        for k in 0..24 {
+            let want = if rerun[k] { c[k] } else { a[k] };
+            assert!(
+                b[k] == want || (b[k].is_nan() && want.is_nan()),
+                "{name}, cell {k} (rerun {}): {} against {want}",
+                rerun[k],
+                b[k]
+            );
+        }
+    }
+    let changed = (0..24).filter(|&k| after[k] != before[k]).count();
+    for k in 0..24 {
+        assert_eq!(
+            after[k],
+            if rerun[k] { longer[k] } else { before[k] },
+            "cell {k}"
+        );
+    }
+    let chaos_settled = (0..24)
+        .filter(|&k| before[k] == 3 && (after[k] == 1 || after[k] == 2))
+        .count();
+    let j = map_json(&settled);
+    let report = &j["settle"];
+    assert_eq!(report["max_s"], 68.0);
+    assert_eq!(report["cells"].as_u64(), Some(n as u64), "{report}");
+    assert_eq!(report["changed"].as_u64(), Some(changed as u64), "{report}");
+    assert_eq!(
+        report["chaos_settled"].as_u64(),
+        Some(chaos_settled as u64),
+        "{report}"
+    );
+    assert!(map_json(&plain)["settle"].is_null());
+    assert!(
+        said.contains(&format!(
+            "settled: {n} cells below confidence 0.9 ran on to 68 s"
+        )),
+        "{said}"
+    );
+    // Steps: a rerun cell integrated both runs.
+    let steps = |d: &std::path::Path| {
+        map_json(d)["steps"]["integrated_instance_steps"]
+            .as_u64()
+            .unwrap()
+    };
+    assert!(
+        steps(&settled) > steps(&plain),
+        "{} {}",
+        steps(&settled),
+        steps(&plain)
+    );
+    // The settled map's confidence comes from the table measured on settled maps.
+    check_verdict_confidence_with(
+        &settled,
+        &after,
+        (6, 4),
+        &pendulum_atlas_map::map::confidence::SETTLED,
+    );
+    for d in [plain, settled, long] {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
+
+#[test]
+fn settling_is_refused_where_it_cannot_run() {
+    let cases: [(&[&str], &str); 5] = [
+        (&["map.settle_max_s=20.0"], "above integration.duration_s"),
+        (&["map.settle_max_s=1e6"], "100000"),
+        (
+            &["map.settle_max_s=68.0", "map.metrics=[\"K\", \"period\"]"],
+            "\"regime\" in map.metrics",
+        ),
+        (
+            &["map.settle_max_s=68.0", "map.early_stop=false"],
+            "map.early_stop = true",
+        ),
+        (
+            &["map.settle_max_s=68.0", "map.initial_states=4"],
+            "plain map",
+        ),
+    ];
+    for (sets, says) in cases {
+        let out = out_dir("settle-refused");
+        let mut cmd = bin();
+        cmd.args(["map", "--backend", "cpu", "--set", WINDOWS]);
+        for s in sets {
+            cmd.args(["--set", s]);
+        }
+        let o = cmd.arg("--out").arg(&out).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{sets:?}: {err}");
+        assert!(
+            err.contains("map.settle_max_s") && err.contains(says),
+            "{sets:?}: {err}"
+        );
+        assert!(!out.join("map.json").exists(), "{sets:?}");
+    }
+    // A shard cannot see its cells' neighbours.
+    let out = out_dir("settle-shard");
+    let o = bin()
+        .args(["map", "--backend", "cpu", "--set", WINDOWS])
+        .args(["--set", "map.settle_max_s=68.0", "--shard", "1/2"])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_ne!(o.status.code(), Some(0), "{err}");
+    assert!(
+        err.contains("map.settle_max_s") && err.contains("whole grid"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&out).ok();
 }

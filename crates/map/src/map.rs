@@ -6,6 +6,7 @@ pub mod confidence;
 pub mod continuation;
 pub mod hardware_default;
 pub mod refine;
+pub mod settle;
 pub mod shard;
 pub mod size;
 
@@ -109,6 +110,8 @@ pub struct MapRun {
     /// A map run by continuation: each direction's results (the first is `results`), and
     /// where up and down differ.
     pub continuation: Option<continuation::ContinuationRun>,
+    /// What the settling stage did, when `map.settle_max_s` is set.
+    pub settle: Option<settle::SettleReport>,
 }
 
 /// The size of a map's ensemble when cells ran several starts: what was integrated in all.
@@ -165,6 +168,7 @@ impl MapRun {
             attractors: None,
             runs: None,
             continuation: None,
+            settle: None,
         }
     }
 
@@ -233,6 +237,7 @@ pub fn run_map(spec: &MapSpec, engine: &Engine, progress: Progress) -> Result<Ma
     let plan = EnsemblePlan::new_with(spec, progress)?;
     let mut run = run_map_part(spec, Cow::Owned(plan), None, engine, progress, t0)?;
     confidence::fill_run(&spec.shape(), &mut run);
+    settle::settle(spec, &mut run, engine, progress)?;
     Ok(run)
 }
 
@@ -683,6 +688,7 @@ pub fn run_map_on_devices(
     let parts: Vec<MapPart> = runs.into_iter().collect::<Result<_, _>>()?;
     let mut run = assemble(plan, parts);
     confidence::fill_run(&spec.shape(), &mut run);
+    settle::settle(spec, &mut run, &engines[0], progress)?;
     run.timings.plan_s += plan_s;
     run.timings.total_s = t0.elapsed().as_secs_f64();
     Ok(run)
@@ -698,6 +704,13 @@ pub fn run_map_shard(
     progress: Progress,
 ) -> Result<MapRun, EngineError> {
     check_shardable(spec)?;
+    if spec.settle_max_s.is_some() {
+        return Err(pendulum_atlas_core::config::ConfigError::Inconsistent {
+            key: "map.settle_max_s".into(),
+            reason: "settling needs the whole grid (a cell's confidence counts its neighbours' verdicts): run the map in one piece or with --devices, or drop map.settle_max_s".into(),
+        }
+        .into());
+    }
     let t0 = Instant::now();
     let plan = EnsemblePlan::new_with(spec, progress)?;
     run_map_part(spec, Cow::Owned(plan), Some(shard), engine, progress, t0)

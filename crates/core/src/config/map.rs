@@ -79,6 +79,9 @@ pub struct MapSpec {
     pub early_stop: bool,
     /// Relative tolerance of the early-stop confirmation (`None`: by the float type).
     pub early_stop_tol: Option<f64>,
+    /// `map.settle_max_s`: rerun the cells whose verdict is not firm up to this time (s), with
+    /// the early stop ([`super::settle`]); `None`: the map's length is final.
+    pub settle_max_s: Option<f64>,
     /// How λ1's twin runs (used when `lyapunov` is among the metrics).
     pub lyapunov: LyapunovSettings,
     /// `map.accept_huge`: run a map above the size at which `map` asks first (`--yes`).
@@ -343,6 +346,20 @@ impl MapSpec {
         scene
     }
 
+    /// The same map run for `duration_s` seconds, the transient lengthened so that the
+    /// indicators keep their window (the settling stage's rerun, [`super::settle`]).
+    pub fn lengthened(&self, duration_s: f64) -> Result<MapSpec, ConfigError> {
+        let i = &self.scene.integration;
+        let transient_s = duration_s - (i.duration_s - i.transient_s);
+        let mut spec = self.clone();
+        let table = &mut spec.base_table;
+        set_key(table, "integration.duration_s", Value::Float(duration_s))?;
+        set_key(table, "integration.transient_s", Value::Float(transient_s))?;
+        spec.scene = Scene::from_table(spec.base_table.clone())?;
+        spec.settle_max_s = None;
+        Ok(spec)
+    }
+
     /// The validated scene of instance `k`: the base scene with the axis keys set.
     pub fn instance_scene(&self, k: usize) -> Result<Scene, ConfigError> {
         Scene::from_table(self.instance_table(k)?).map_err(|e| ConfigError::Inconsistent {
@@ -576,6 +593,16 @@ fn read_map(
         metrics
     };
     note_switched_off(&mut r, &mode, &metrics, early_stop)?;
+    let settle_max_s = super::settle::read_settle(
+        &mut r,
+        &scene,
+        super::settle::SettleContext {
+            metrics: &metrics,
+            early_stop,
+            mode: &mode,
+            axes: &axes,
+        },
+    )?;
     let mut notes = scene.notes.clone();
     notes.extend(r.take_notes());
     r.finish()?;
@@ -599,6 +626,7 @@ fn read_map(
         bifurcation_samples,
         early_stop,
         early_stop_tol,
+        settle_max_s,
         lyapunov,
         accept_huge,
         mode,

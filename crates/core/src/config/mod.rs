@@ -14,6 +14,7 @@ mod mode;
 mod physics;
 mod reader;
 mod scene;
+mod settle;
 mod starts;
 mod sweep;
 
@@ -39,6 +40,7 @@ pub use scene::{
     MAX_SEGMENTS, MethodChoice, Output, PAPER_SCENE_TOML, Piezo, Pivot, PivotMode, Scene, TimeStep,
     Tip, load_scene,
 };
+pub use settle::{FIRM, SETTLE_LIMIT_S};
 pub use starts::{MAX_START_RATE_DEG_S, MAX_STARTS, Start, StartSet, StartSource, latin_hypercube};
 pub use sweep::{
     AxisScale, MapAxis, SweepList, SweptKey, axis_label, entry_tables, key_unit, lookup_key,

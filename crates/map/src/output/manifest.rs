@@ -117,6 +117,9 @@ pub struct MapManifest {
     /// Adaptive refinement's rounds (null without it).
     #[serde(default)]
     pub refine: Value,
+    /// The settling stage (`map.settle_max_s`; null without it).
+    #[serde(default)]
+    pub settle: Value,
     /// The attractor stage (null without several starts).
     #[serde(default)]
     pub attractors: Value,

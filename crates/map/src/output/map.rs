@@ -289,6 +289,7 @@ pub fn map_manifest(spec: &MapSpec, run: &MapRun, files: &[String]) -> MapManife
             "period": {"max": spec.period_max, "window": spec.period_window, "tol_rad": spec.period_tol_rad},
         }),
         refine: json!(run.refine),
+        settle: json!(run.settle),
         attractors: run.attractors.as_ref().map_or(Value::Null, |a| json!({
             "starts": spec.starts(),
             "labels": a.families.len(),

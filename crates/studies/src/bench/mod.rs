@@ -20,6 +20,7 @@ pub mod peer_case;
 pub mod refine;
 pub mod reliability;
 pub mod report;
+pub mod settling;
 pub mod stiff;
 pub mod stiff_map;
 pub mod stiff_map_report;

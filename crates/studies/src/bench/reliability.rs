@@ -12,7 +12,7 @@
 use pendulum_atlas_core::config::c_order_index;
 use pendulum_atlas_core::reduce::Regime;
 use pendulum_atlas_map::map::MapRun;
-use pendulum_atlas_map::map::confidence::{Bin, Calibration, SHIPPED, agreement};
+use pendulum_atlas_map::map::confidence::{Bin, Calibration, agreement};
 use serde::Serialize;
 
 /// The confidence at or above which a verdict is called firm (the 0.9).
@@ -80,6 +80,8 @@ pub struct Reliability {
     pub cross: Vec<(&'static str, Calibration, Firm)>,
     /// Fitted on both (what the map should ship).
     pub pooled: Calibration,
+    /// The table the map applied.
+    pub shipped: Calibration,
     /// Whether the shipped table equals the pooled fit.
     pub shipped_is_pooled: bool,
 }
@@ -95,21 +97,13 @@ pub fn score_subgrid(
     reference: &[i8],
     settled: &[bool],
 ) -> Scored {
-    let sub: Vec<usize> = shape
-        .iter()
-        .map(|&n| (offset..n).step_by(thin).count())
-        .collect();
     let verdicts: Vec<Regime> = run.results.iter().map(|r| r.regime).collect();
     let mut cells = Vec::new();
     for (j, (&want, &ok)) in reference.iter().zip(settled).enumerate() {
         if !ok {
             continue;
         }
-        let idx = c_order_index(&sub, j);
-        let k = idx
-            .iter()
-            .zip(shape)
-            .fold(0, |flat, (&i, &n)| flat * n + offset + i * thin);
+        let k = grid_index(shape, (thin, offset), j);
         let r = &run.results[k];
         let bin = Bin::of(r.regime, agreement(shape, k, |m| verdicts[m]));
         cells.push((
@@ -124,6 +118,19 @@ pub fn score_subgrid(
         settled: cells.len(),
         cells,
     }
+}
+
+/// The grid index (C order, `shape`) of cell `j` of the subgrid that takes every `thin`th
+/// value of each axis from the `offset`th.
+pub fn grid_index(shape: &[usize], (thin, offset): (usize, usize), j: usize) -> usize {
+    let sub: Vec<usize> = shape
+        .iter()
+        .map(|&n| (offset..n).step_by(thin).count())
+        .collect();
+    c_order_index(&sub, j)
+        .iter()
+        .zip(shape)
+        .fold(0, |flat, (&i, &n)| flat * n + offset + i * thin)
 }
 
 /// The reliability table of confidences `conf` (NaN: undecided, in no bin).
@@ -148,7 +155,8 @@ fn table(cells: &[(f64, bool)]) -> Vec<BinRow> {
         .collect()
 }
 
-fn firm(cells: &[(f64, bool)], settled: usize) -> Firm {
+/// The firm verdicts among `cells` (confidence, right) of `settled` settled cells.
+pub fn firm_of(cells: &[(f64, bool)], settled: usize) -> Firm {
     let f: Vec<&(f64, bool)> = cells.iter().filter(|(c, _)| *c >= FIRM).collect();
     Firm {
         cells: f.len(),
@@ -178,28 +186,32 @@ fn fitted(s: &[&Scored]) -> Calibration {
     Calibration::fit(&cells)
 }
 
-/// Stage 5 on the two scored subgrids.
-pub fn reliability(a: &Scored, b: &Scored) -> Reliability {
+/// Stage 5 on the two scored subgrids of a map whose confidence came from `shipped`.
+pub fn reliability(a: &Scored, b: &Scored, applied: &Calibration) -> Reliability {
     let shipped = |s: &Scored| -> Vec<(f64, bool)> {
         s.cells.iter().map(|(_, c, _, ok)| (*c, *ok)).collect()
     };
     let both: Vec<(f64, bool)> = shipped(a).into_iter().chain(shipped(b)).collect();
     let tables = vec![
-        ("A", table(&shipped(a)), firm(&shipped(a), a.settled)),
-        ("B", table(&shipped(b)), firm(&shipped(b), b.settled)),
-        ("A and B", table(&both), firm(&both, a.settled + b.settled)),
+        ("A", table(&shipped(a)), firm_of(&shipped(a), a.settled)),
+        ("B", table(&shipped(b)), firm_of(&shipped(b), b.settled)),
+        (
+            "A and B",
+            table(&both),
+            firm_of(&both, a.settled + b.settled),
+        ),
     ];
     let (fa, fb) = (fitted(&[a]), fitted(&[b]));
     let cross = vec![
         (
             "fitted on A, scored on B",
             fa,
-            firm(&under(&fa, b), b.settled),
+            firm_of(&under(&fa, b), b.settled),
         ),
         (
             "fitted on B, scored on A",
             fb,
-            firm(&under(&fb, a), a.settled),
+            firm_of(&under(&fb, a), a.settled),
         ),
     ];
     let pooled = fitted(&[a, b]);
@@ -207,6 +219,7 @@ pub fn reliability(a: &Scored, b: &Scored) -> Reliability {
         tables,
         cross,
         pooled,
-        shipped_is_pooled: pooled == SHIPPED,
+        shipped: *applied,
+        shipped_is_pooled: pooled == *applied,
     }
 }

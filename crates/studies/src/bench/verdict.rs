@@ -16,11 +16,16 @@
 //!    whose period is the reference's, and the share of cells it leaves undecided.
 //! 4. **Cost**: the whole default map with today's metrics (no λ1) against the same map with
 //!    the verdict, on the engine the study runs on.
+//! 5. **Reliability** of `verdict_confidence` ([`super::reliability`]).
+//! 6. **Settling**: transient chaos, and `map.settle_max_s`'s accuracy against its cost
+//!    ([`super::settling`]).
 
 use super::reliability::{Reliability, reliability, score_subgrid};
+use super::settling::{Settling, Subgrid, settling};
 use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, MapSpec, map_from_toml};
 use pendulum_atlas_core::engine::{Engine, EngineError, EngineKind, Precision, no_progress};
 use pendulum_atlas_core::reduce::Regime;
+use pendulum_atlas_map::map::confidence::SHIPPED;
 use pendulum_atlas_map::map::{MapRun, run_map};
 use serde::Serialize;
 use std::time::Instant;
@@ -143,6 +148,8 @@ pub struct Reference {
     /// Whether a cell is settled.
     #[serde(skip)]
     pub is_settled: Vec<bool>,
+    /// The time the longer run's early stop stopped each cell at (s; NaN: it ran to its end).
+    pub stop_s: Vec<f64>,
     /// Verdict counts of the longer run, in code order (failed … chaotic).
     pub counts: [usize; 5],
 }
@@ -177,6 +184,8 @@ pub struct VerdictReport {
     pub cost: Option<Cost>,
     /// Whether `verdict_confidence` predicts the verdict's error.
     pub reliability: Reliability,
+    /// Transient chaos, and settling's accuracy against its cost.
+    pub settling: Settling,
     /// Wall time of the study (s).
     pub total_s: f64,
 }
@@ -267,8 +276,21 @@ fn reference_run(quick: bool, thin: usize, offset: usize) -> Result<Reference, E
         regime: b.iter().map(|r| r.regime.code()).collect(),
         period: b.iter().map(|r| r.period).collect(),
         is_settled,
+        stop_s: stop_times(&runs[1]),
         counts,
     })
+}
+
+/// When the early stop stopped each instance of `run` (s; NaN where it ran to its end).
+fn stop_times(run: &MapRun) -> Vec<f64> {
+    run.results
+        .iter()
+        .zip(&run.plan.instances)
+        .map(|(r, p)| match r.steps < p.total_steps() {
+            true => r.steps as f64 * p.dt_s,
+            false => f64::NAN,
+        })
+        .collect()
 }
 
 /// The verdict of a cell under `decider`.
@@ -451,7 +473,25 @@ pub fn run_verdict(
             &r.is_settled,
         )
     };
-    let reliability = reliability(&score("A", 0, &reference), &score("B", thin / 2, &second));
+    let reliability = reliability(
+        &score("A", 0, &reference),
+        &score("B", thin / 2, &second),
+        &SHIPPED,
+    );
+    let grids = [
+        Subgrid {
+            name: "A",
+            offset: 0,
+            reference: &reference,
+        },
+        Subgrid {
+            name: "B",
+            offset: thin / 2,
+            reference: &second,
+        },
+    ];
+    let spec_with = |sets: &[String]| subgrid(sets, 1);
+    let settling = settling(&whole, &spec_with, (&grids, thin), opts.quick, progress)?;
     let shape = {
         let spec = subgrid(&[], thin)?;
         [spec.axes[0].values.len(), spec.axes[1].values.len()]
@@ -464,6 +504,7 @@ pub fn run_verdict(
         scores,
         cost,
         reliability,
+        settling,
         total_s: t0.elapsed().as_secs_f64(),
     })
 }

@@ -1,9 +1,10 @@
 //! Files of `bench --verdict`: `verdict.json` and `VERDICT.md`.
 
-use super::reliability::{FIRM, Firm};
+use super::reliability::{FIRM, Firm, Reliability};
+use super::settling::{SETTLED_TABLE_S, Settling};
 use super::verdict::{REFERENCE_PERIOD_TOL_RAD, REFERENCE_PERIOD_WINDOW, Score, VerdictReport};
 use pendulum_atlas_core::reduce::Regime;
-use pendulum_atlas_map::map::confidence::{Calibration, SHIPPED};
+use pendulum_atlas_map::map::confidence::Calibration;
 use pendulum_atlas_map::output::OutputError;
 use pendulum_atlas_map::output::files::{create_dir, write_bytes, write_json};
 use std::fmt::Write as _;
@@ -111,6 +112,7 @@ fn markdown(r: &VerdictReport) -> String {
         );
     }
     reliability(&mut s, r);
+    settling(&mut s, &r.settling);
     let _ = writeln!(s, "\nStudy wall time {:.0} s.", r.total_s);
     s
 }
@@ -142,7 +144,6 @@ fn calibration_row(t: &Calibration) -> String {
 
 /// Stage 5: the reliability of `verdict_confidence` and the cross-fit of its table.
 fn reliability(s: &mut String, r: &VerdictReport) {
-    let rel = &r.reliability;
     let g = &r.second;
     let _ = writeln!(
         s,
@@ -161,6 +162,12 @@ fn reliability(s: &mut String, r: &VerdictReport) {
         g.settled,
         g.wall_s
     );
+    reliability_body(s, &r.reliability, "shipped");
+}
+
+/// The bins, the firm verdicts and the tables of one map's reliability `rel`, its applied
+/// table called `applied`.
+fn reliability_body(s: &mut String, rel: &Reliability, applied: &str) {
     let _ = writeln!(
         s,
         "| subgrid | confidence | cells | right | mean confidence |\n|---|---|---|---|---|"
@@ -204,7 +211,7 @@ fn reliability(s: &mut String, r: &VerdictReport) {
         );
     };
     for (name, _, f) in &rel.tables {
-        firm_row(s, "shipped (fitted on A and B)", name, f);
+        firm_row(s, &format!("{applied} (fitted on A and B)"), name, f);
     }
     for (name, _, f) in &rel.cross {
         let (fit, on) = name.split_once(", scored on ").unwrap_or((name, ""));
@@ -222,13 +229,91 @@ fn reliability(s: &mut String, r: &VerdictReport) {
     }
     let _ = writeln!(
         s,
-        "| A and B | {} |\n| shipped | {} |\n\nThe shipped table {} the fit on A and B.",
+        "| A and B | {} |\n| {applied} | {} |\n\nThe {applied} table {} the fit on A and B.",
         calibration_row(&rel.pooled),
-        calibration_row(&SHIPPED),
+        calibration_row(&rel.shipped),
         if rel.shipped_is_pooled {
             "equals"
         } else {
             "differs from"
         }
     );
+}
+
+/// Stage 6: transient chaos, the accuracy/cost curve of settling, the settled map's table.
+fn settling(s: &mut String, g: &Settling) {
+    let t = &g.transient;
+    let at = |q: f64| {
+        t.stop_s
+            .get(((t.stop_s.len() as f64 - 1.0) * q).round() as usize)
+    };
+    let _ = writeln!(
+        s,
+        "\n## Transient chaos and settling (`map.settle_max_s`)\n\n\
+         Of the {} settled cells of A and B, the default map as shipped calls {} chaotic. The \
+         reference settles **{} of those** as periodic or regular: chaos at 34 s that is a \
+         transient. The reference's early stop (orbit confirmed, λ1 shrinking) stopped {} of \
+         them, at {} s (median {} s, largest {} s); {} ran to the reference's end (regular, no \
+         period confirmed).\n",
+        t.settled,
+        t.chaotic,
+        t.settle_later,
+        t.stop_s.len(),
+        list_s(&t.stop_s),
+        at(0.5).map_or("–".into(), |x| format!("{x:.0}")),
+        at(1.0).map_or("–".into(), |x| format!("{x:.0}")),
+        t.not_stopped
+    );
+    let _ = writeln!(
+        s,
+        "The whole default map with `map.settle_max_s`: the cells below confidence {FIRM} (or \
+         undecided) run again for that long, with the early stop; the rest keep their verdict. \
+         Wall time of the whole map (one run each, the same engine); \"right\" over the settled \
+         cells of both subgrids; \"transient chaos right\" over the {} cells above; firm verdicts \
+         with the table the map applies (`SHIPPED` unsettled, `SETTLED` settled).\n\n\
+         | settle_max_s | wall (s) | × unsettled | cells run on | verdicts changed | right of settled | transient chaos right | firm of settled | right of firm |\n\
+         |---|---|---|---|---|---|---|---|---|",
+        t.settle_later
+    );
+    let base = g.curve.first().map_or(f64::NAN, |p| p.wall_s);
+    for p in &g.curve {
+        let _ = writeln!(
+            s,
+            "| {} | {:.1} | {:.2} | {} | {} | {}/{} ({:.1} %) | {}/{} | {}/{} ({:.1} %) | {}/{} ({:.1} %) |",
+            p.settle_max_s.map_or("off".into(), |x| format!("{x} s")),
+            p.wall_s,
+            p.wall_s / base,
+            p.rerun,
+            p.changed,
+            p.right,
+            p.settled,
+            100.0 * p.right as f64 / p.settled.max(1) as f64,
+            p.transient_right,
+            t.settle_later,
+            p.firm.cells,
+            p.firm.settled,
+            p.firm.coverage_pct(),
+            p.firm.right,
+            p.firm.cells,
+            p.firm.right_pct()
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\n### Reliability of the settled map ({SETTLED_TABLE_S} s)\n\n\
+         The map settled for {SETTLED_TABLE_S} s, scored as above; its confidence comes from \
+         the table `SETTLED`, fitted here.\n"
+    );
+    reliability_body(s, &g.reliability, "settled");
+}
+
+/// `12, 30, 41` (s), or "none".
+fn list_s(v: &[f64]) -> String {
+    if v.is_empty() {
+        return "none".into();
+    }
+    v.iter()
+        .map(|x| format!("{x:.0}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
