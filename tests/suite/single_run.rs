@@ -359,3 +359,130 @@ fn a_cancel_between_sparse_rows_is_seen_within_a_bounded_number_of_steps() {
     assert!(o.steps_done <= POLL_STEPS + 1, "{o:?}");
     assert_eq!(rec.rows.len(), 1);
 }
+
+/// A run of `s` with adaptive steps at relative tolerance `rtol` (absolute `rtol / 100`): its
+/// rows and what the controller did.
+fn run_adaptive(
+    sets: &[&str],
+    rtol: f64,
+) -> (
+    Vec<Row>,
+    pendulum_atlas_core::engine::adaptive::SubstepStats,
+) {
+    let tol = [
+        "integration.step=\"adaptive\"".to_string(),
+        format!("integration.rtol={rtol:e}"),
+        format!("integration.atol={:e}", rtol / 100.0),
+    ];
+    let all: Vec<&str> = sets
+        .iter()
+        .copied()
+        .chain(tol.iter().map(String::as_str))
+        .collect();
+    let s = scene(&all);
+    let plan = StepPlan::for_scene(&s).unwrap();
+    let inst = Instance::<f64>::from_scene(&s).unwrap();
+    let mut rec = TrajectoryRecorder::default();
+    let o = integrate(&inst, &plan, &mut rec);
+    assert_eq!(o.status, Status::Ok);
+    (
+        rec.rows,
+        o.substeps.expect("adaptive steps report their controller"),
+    )
+}
+
+#[test]
+fn adaptive_steps_follow_the_reference_through_impacts_and_converge_with_the_tolerance() {
+    for (n, fixed_evaluations) in [("beam.segments=3", None), ("beam.segments=17", Some(()))] {
+        let sets = [n, "integration.duration_s=0.3"];
+        let s = scene(&sets);
+        let truth = run_reference(&s);
+        assert!(
+            truth.iter().any(|r| r.contact_force_n.abs() > 1.0),
+            "{n}: no contact"
+        );
+        let (coarse, c) = run_adaptive(&sets, 1e-3);
+        let (fine, f) = run_adaptive(&sets, 1e-5);
+        // Every row on the sample grid, at the reference's instants.
+        for rows in [&coarse, &fine] {
+            assert_eq!(rows.len(), truth.len(), "{n}");
+            for (a, b) in rows.iter().zip(&truth) {
+                assert!((a.t_s - b.t_s).abs() < 1e-12, "{n}: {} vs {}", a.t_s, b.t_s);
+            }
+        }
+        let (ec, ef) = (
+            max_alpha_diff(&coarse, &truth),
+            max_alpha_diff(&fine, &truth),
+        );
+        assert!(
+            ec < 1e-4,
+            "{n}: default tolerance {ec:e} rad off the reference"
+        );
+        assert!(
+            ef < ec / 5.0,
+            "{n}: tighter tolerance {ef:e} against {ec:e}"
+        );
+        // The controller refined at the impacts and paid for the tighter tolerance.
+        assert!(c.rejected > 0 && c.smallest_s <= 1e-3 / 8.0, "{n}: {c:?}");
+        assert!(f.evaluations() > c.evaluations(), "{n}: {f:?} vs {c:?}");
+        assert_eq!(c.forced, 0, "{n}: {c:?}");
+        if fixed_evaluations.is_some() {
+            // The fixed IMEX step is set for the impacts and spent everywhere.
+            let plan = StepPlan::for_scene(&s).unwrap();
+            let fixed = 4 * plan.steps;
+            assert!(
+                2 * c.evaluations() < fixed,
+                "{n}: {} evaluations adaptive against {fixed} fixed",
+                c.evaluations()
+            );
+        }
+    }
+}
+
+#[test]
+fn adaptive_steps_without_an_embedded_solution_are_refused() {
+    let e = scene_error(&[
+        "integration.step=\"adaptive\"",
+        "integration.method=\"rk4\"",
+    ]);
+    assert!(
+        e.contains("integration.step") && e.contains("embedded"),
+        "{e}"
+    );
+}
+
+/// λ1's twin takes the main trajectory's sub-steps: on the linear clamped cantilever (no
+/// bumpers, 0.1 mm at 8 Hz, the default map's 34 s) λ1 of an adaptive run is the least-damped
+/// eigenvalue of the Jacobian, in f64 and f32.
+#[test]
+fn lambda1_of_an_adaptive_run_is_the_least_damped_eigenvalue_of_a_linear_chain() {
+    use pendulum_atlas_core::engine::{Integrator, Precision, RunLyapunov, run_scene};
+    let s = scene(&[
+        "beam.segments=3",
+        "pivot.mode=\"clamped\"",
+        "limiter.enabled=false",
+        "initial.angle_deg=0.0",
+        "excitation.amplitude_m=0.0001",
+        "integration.duration_s=34.0",
+        "integration.transient_s=10.0",
+        "integration.step=\"adaptive\"",
+    ]);
+    let want = pendulum_atlas_core::model::linear::jacobian_eigenvalues(&s.model_params().unwrap())
+        .unwrap()
+        .iter()
+        .map(|z| z.re)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let plan = StepPlan::for_scene(&s).unwrap();
+    for precision in [Precision::F64, Precision::F32] {
+        let mut rec = TrajectoryRecorder::default();
+        let run = run_scene(&s, &plan, Integrator::Engine, precision, &mut rec).unwrap();
+        assert!(run.outcome.substeps.is_some());
+        let RunLyapunov::Measured { per_s, .. } = run.lyapunov else {
+            panic!("{precision:?}: no λ1: {:?}", run.lyapunov);
+        };
+        assert!(
+            (per_s - want).abs() < 0.01 * want.abs(),
+            "{precision:?}: λ1 {per_s} against {want}"
+        );
+    }
+}

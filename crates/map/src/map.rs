@@ -555,7 +555,7 @@ fn run_engine(
         gpu: run.timings.gpu,
     };
     let counts = (run.dispatches, run.stopped_early);
-    let info = engine.info().clone();
+    let info = engine.info_for(&plan);
     let map_run = MapRun::new(run.results, plan, info, timings, counts, strobe_tail);
     Ok((map_run, states))
 }

@@ -35,10 +35,10 @@ pub use reader::{
     read_scene_file, set_key, shorten_lines,
 };
 pub use scene::{
-    Beam, BeamDamping, ContactDamping, EARLIER_READING_DAMPING_RATIO, Excitation, ExcitationKind,
-    Gravity, Initial, Integration, LIBRARY_JOINT_DAMPING_NMS, LIBRARY_SEGMENTS, Limiter,
-    MAX_SEGMENTS, MethodChoice, Output, PAPER_SCENE_TOML, Piezo, Pivot, PivotMode, Scene, TimeStep,
-    Tip, load_scene,
+    Beam, BeamDamping, ContactDamping, DEFAULT_ATOL, DEFAULT_RTOL, EARLIER_READING_DAMPING_RATIO,
+    Excitation, ExcitationKind, Gravity, Initial, Integration, LIBRARY_JOINT_DAMPING_NMS,
+    LIBRARY_SEGMENTS, Limiter, MAX_SEGMENTS, MethodChoice, Output, PAPER_SCENE_TOML, Piezo, Pivot,
+    PivotMode, Scene, StepControl, TimeStep, Tip, load_scene,
 };
 pub use settle::{FIRM, SETTLE_LIMIT_S};
 pub use starts::{MAX_START_RATE_DEG_S, MAX_STARTS, Start, StartSet, StartSource, latin_hypercube};

@@ -351,6 +351,50 @@ impl<T: Lane> Imex<T> {
         }
     }
 
+    /// Every stage of a step of `y` by the exact law, `y` left as it is: the bumpers' branches
+    /// at each stage (what a twin follows). [`Imex::finish`] then takes the step.
+    pub(crate) fn stages(
+        &mut self,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        y: &[T],
+        acc: &impl Fn(usize) -> T,
+    ) -> [Branches<T>; 4] {
+        std::array::from_fn(|i| {
+            let load = self.stage(chain, ws, y, i, acc(i), None);
+            load.map_or_else(Branches::free, |l| l.branches)
+        })
+    }
+
+    /// Every stage of a twin's step of `y` on the main stages' `branches`.
+    pub(crate) fn stages_on(
+        &mut self,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        y: &[T],
+        acc: &impl Fn(usize) -> T,
+        branches: &[Branches<T>; 4],
+    ) {
+        for (i, b) in branches.iter().enumerate() {
+            self.stage(chain, ws, y, i, acc(i), Some(*b));
+        }
+    }
+
+    /// Component `s` of the difference between the step's solution and the embedded
+    /// second-order one, `h Σ (b_i − b̂_i) f_i`, after [`Imex::stages`].
+    pub(crate) fn error_of(&self, s: usize) -> T {
+        let mut e = T::splat(0.0);
+        for (f, (&b, &bh)) in self.f.iter().zip(B.iter().zip(&B_HAT)) {
+            e += T::splat(b - bh) * f[s];
+        }
+        self.h * e
+    }
+
+    /// Hand the state's summation compensation to `other` (a change of step level).
+    pub(crate) fn pass_compensation(&mut self, other: &mut Imex<T>) {
+        std::mem::swap(&mut self.comp, &mut other.comp);
+    }
+
     /// Stage `i`: its state (the implicit solve for `i > 0`), the derivative there by the exact
     /// law or on the given branches, and L's part when later stages need it; the bumpers' load.
     #[inline]
@@ -382,7 +426,7 @@ impl<T: Lane> Imex<T> {
 
     /// `y += h Σ b_i f_i` with the state's compensation.
     #[inline]
-    fn finish(&mut self, y: &mut [T]) {
+    pub(crate) fn finish(&mut self, y: &mut [T]) {
         let h = self.h;
         for (s, (ys, cs)) in y.iter_mut().zip(&mut self.comp).enumerate() {
             let mut inc = T::splat(0.0);

@@ -16,6 +16,7 @@
 //! The health rules, status codes, check interval and cart motion are defined once in
 //! [`crate::model`]; the physics is written down in `docs/model.md`.
 
+pub mod adaptive;
 mod auto;
 pub mod cpu;
 pub mod early;
@@ -288,6 +289,15 @@ impl Engine {
         Engine::cpu_because(precision, "requested: the CPU engine".into())
     }
 
+    /// The CPU engine that `--backend auto` opens for adaptive steps, which the GPU kernels
+    /// do not take yet.
+    pub fn cpu_for_adaptive(precision: Precision) -> Engine {
+        Engine::cpu_because(
+            precision,
+            "auto: adaptive steps (integration.step = \"adaptive\") run on the CPU engine's scalar loop; the GPU kernels take fixed steps".into(),
+        )
+    }
+
     /// The CPU engine in `precision` with the loop `simd`.
     pub fn cpu_with(precision: Precision, simd: CpuLoop) -> Engine {
         let mut e = Engine::cpu(precision);
@@ -439,6 +449,23 @@ impl Engine {
     /// What this engine is.
     pub fn info(&self) -> &EngineInfo {
         &self.info
+    }
+
+    /// The engine's description for a run of `plan`: adaptive steps run the CPU engine's
+    /// scalar loop, whatever loop it was opened with.
+    pub fn info_for(&self, plan: &EnsemblePlan) -> EngineInfo {
+        let adaptive = plan
+            .instances
+            .iter()
+            .any(|p| p.control != crate::config::StepControl::Fixed);
+        if !adaptive || self.info.cpu_loop.is_none() {
+            return self.info.clone();
+        }
+        EngineInfo {
+            reason: self.info.reason.clone(),
+            open_s: self.info.open_s,
+            ..Engine::cpu_with(self.info.precision, CpuLoop::Scalar).info
+        }
     }
 
     /// Whether this is the GPU engine on a hardware adapter (not a software one like lavapipe).

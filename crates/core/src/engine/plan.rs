@@ -10,7 +10,7 @@
 //! need: the stroboscopic α (K, period, bifurcation) and a power-of-two uniform α series at
 //! `samples_per_period` per period (R). Trajectories are never stored.
 
-use crate::config::LayoutChoice;
+use crate::config::{LayoutChoice, StepControl};
 use crate::config::{
     LyapunovSettings, MapSpec, MethodChoice, Metric, Perturbation, Scene, TimeStep,
 };
@@ -73,6 +73,9 @@ pub struct InstancePlan {
     pub imex: Option<Arc<ImexMatrices>>,
     /// The twin of λ1, when λ1 is asked for.
     pub twin: Option<TwinPlan>,
+    /// Fixed steps, or error-controlled ones within each step `dt_s` (the ladder's base step,
+    /// [`crate::engine::adaptive`]; the CPU engine's scalar loop).
+    pub control: StepControl,
 }
 
 impl InstancePlan {
@@ -252,7 +255,8 @@ impl EnsemblePlan {
                 |solved, (s, lim)| plan_instance(opts, s, solved.params(s)?, lim.auto_s(method)),
             )
             .collect::<Result<_, EngineError>>()?;
-        let imex_matrix_sets = if method == Method::Imex {
+        let fixed = first.integration.step == StepControl::Fixed;
+        let imex_matrix_sets = if method == Method::Imex && fixed {
             attach_imex_matrices(&mut instances)
         } else {
             0
@@ -377,6 +381,8 @@ fn check_shared_structure(scenes: &[Scene]) -> Result<(), EngineError> {
         if s.limiter.enabled != first.limiter.enabled
             || s.piezo.enabled != first.piezo.enabled
             || s.beam.segments != first.beam.segments
+            || std::mem::discriminant(&s.integration.step)
+                != std::mem::discriminant(&first.integration.step)
         {
             return Err(EngineError::MixedStructure { index });
         }
@@ -461,6 +467,12 @@ fn short_k_warning(instances: &[InstancePlan]) -> Option<String> {
 /// given step, IMEX as soon as it is beyond RK4's stable limit for some instance).
 fn ensemble_method(scenes: &[Scene], limits: &[MethodSteps]) -> (Method, String) {
     // Every scene of an ensemble comes from one base scene: its choice applies.
+    if let StepControl::Adaptive { .. } = scenes[0].integration.step {
+        return (
+            Method::Imex,
+            "integration.step = \"adaptive\": the embedded solution of ARK3(2)4L[2]SA sets each step".into(),
+        );
+    }
     let choice = scenes[0].integration.method;
     match (choice, scenes[0].integration.dt_s) {
         (MethodChoice::Rk4, _) => (Method::Rk4, "integration.method = \"rk4\"".into()),
@@ -533,12 +545,18 @@ fn attach_imex_matrices(instances: &mut [InstancePlan]) -> usize {
 /// method's automatic step `dt_auto_s` (or the given step): the step is only ever shortened.
 fn steps_per_period(opts: &EnsembleOptions, scene: &Scene, period_s: f64, dt_auto_s: f64) -> u64 {
     let sp = u64::from(opts.samples_per_period);
-    let blocks = match scene.integration.dt_s {
-        TimeStep::Auto => (period_s / (sp as f64 * dt_auto_s) - 1e-9).ceil().max(1.0),
-        TimeStep::Seconds(dt) => (period_s / (sp as f64 * dt) - 1e-9).ceil().max(1.0),
-    } as u64;
+    let dt = match (scene.integration.step, scene.integration.dt_s) {
+        (StepControl::Adaptive { .. }, _) => ADAPTIVE_BASE_MAX_S,
+        (StepControl::Fixed, TimeStep::Auto) => dt_auto_s,
+        (StepControl::Fixed, TimeStep::Seconds(dt)) => dt,
+    };
+    let blocks = (period_s / (sp as f64 * dt) - 1e-9).ceil().max(1.0) as u64;
     sp * blocks
 }
+
+/// The longest base step of adaptive steps in an ensemble (s): the hook's per-step tallies
+/// (hops, α range, power) and λ1's renormalisations see the state this often at least.
+pub const ADAPTIVE_BASE_MAX_S: f64 = 1e-3;
 
 fn plan_instance(
     opts: &EnsembleOptions,
@@ -627,6 +645,7 @@ fn plan_instance(
         params,
         imex: None,
         twin,
+        control: scene.integration.step,
     })
 }
 

@@ -194,6 +194,7 @@ pub fn integrate_reference<O: Observer<f64>>(
                     steps_done: (t / plan.dt_s) as u64,
                     impacts,
                     failed_at_s: None,
+                    substeps: None,
                 });
             }
             piece.watch = true;
@@ -224,6 +225,7 @@ pub fn integrate_reference<O: Observer<f64>>(
                 steps_done: row * plan.sample_every,
                 impacts,
                 failed_at_s: Some(t_row),
+                substeps: None,
             });
         }
         obs.sample(
@@ -240,6 +242,7 @@ pub fn integrate_reference<O: Observer<f64>>(
                 steps_done: row * plan.sample_every,
                 impacts,
                 failed_at_s: None,
+                substeps: None,
             });
         }
     }
@@ -248,6 +251,7 @@ pub fn integrate_reference<O: Observer<f64>>(
         steps_done: rows * plan.sample_every,
         impacts,
         failed_at_s: None,
+        substeps: None,
     })
 }
 

@@ -3,7 +3,8 @@
 //! trajectories). Time is formed from the integer step count ([`CartMotion::at_step`]); a
 //! failed instance stops at the first health check that fails and is reported by its status.
 
-use crate::config::Scene;
+use crate::config::{Scene, StepControl};
+use crate::engine::adaptive::{AdaptiveImex, SubstepStats};
 use crate::engine::imex::{Imex, ImexMatrices};
 use crate::engine::method::Method;
 use crate::engine::rk4::Rk4;
@@ -78,6 +79,8 @@ pub struct Outcome {
     pub impacts: u64,
     /// Time at which the failure was detected (s), if any.
     pub failed_at_s: Option<f64>,
+    /// What the step controller did (adaptive steps only).
+    pub substeps: Option<SubstepStats>,
 }
 
 /// One independent instance: its chain, cart motion, initial state and health bounds.
@@ -262,6 +265,12 @@ pub fn integrate_with_twin<T: Real, O: Observer<T>>(
     obs: &mut O,
 ) -> (Outcome, Option<Lyapunov>) {
     let dim = inst.y0.len();
+    if let StepControl::Adaptive { rtol, atol } = plan.control {
+        let mut a = AdaptiveImex::new(&inst.params, plan.dt_s, (rtol, atol), dim);
+        let (mut outcome, l) = run_single(inst, plan, &mut a, twin, obs);
+        outcome.substeps = Some(a.stats());
+        return (outcome, l);
+    }
     match plan.method {
         Method::Rk4 => run_single(inst, plan, &mut Rk4::new(plan.dt_s, dim), twin, obs),
         Method::Imex => {
@@ -335,6 +344,7 @@ fn run_single<T: Real, S: Stepper<T>, O: Observer<T>>(
         steps_done: end.steps_done,
         impacts: rows.impacts,
         failed_at_s: (!end.status.is_ok()).then_some(end.steps_done as f64 * plan.dt_s),
+        substeps: None,
     };
     (outcome, lyapunov)
 }

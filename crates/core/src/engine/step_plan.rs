@@ -1,7 +1,7 @@
 //! The step plan of a single run: the method, its time step (automatic or given), the step
 //! count and the output cadence.
 
-use crate::config::{Scene, TimeStep};
+use crate::config::{Scene, StepControl, TimeStep};
 use crate::engine::method::{Method, MethodSteps, choose_method};
 use crate::model::linear::LinearError;
 use serde::Serialize;
@@ -41,6 +41,9 @@ pub struct StepPlan {
     pub method_steps: MethodSteps,
     /// Warnings about the step (an explicit dt beyond the stable limit, ...).
     pub warnings: Vec<String>,
+    /// Fixed steps, or error-controlled ones within each step `dt_s` of the plan (which is
+    /// then the ladder's base step, `crate::engine::adaptive`).
+    pub control: StepControl,
 }
 
 impl StepPlan {
@@ -50,6 +53,10 @@ impl StepPlan {
     /// the automatic steps, cannot be computed.
     pub fn for_scene(scene: &Scene) -> Result<StepPlan, LinearError> {
         let steps = MethodSteps::of_scene(scene)?;
+        let control = scene.integration.step;
+        if let StepControl::Adaptive { .. } = control {
+            return Ok(Self::adaptive(scene, steps));
+        }
         let chosen = choose_method(scene.integration.method, scene.integration.dt_s, &steps);
         let out_dt = 1.0 / scene.output.sample_rate_hz;
         let mut warnings = Vec::new();
@@ -98,7 +105,33 @@ impl StepPlan {
             dt_stable_s: steps.rk4_stable_s,
             method_steps: steps,
             warnings,
+            control,
         })
+    }
+
+    /// The plan of adaptive steps: the IMEX pair (the one with an embedded solution), its
+    /// base step the output interval, or a whole fraction of it short enough for
+    /// [`AUTO_STEPS_PER_FORCING_PERIOD`] per period of the fastest forcing; every row on a
+    /// base step, so every row's instant is hit exactly.
+    fn adaptive(scene: &Scene, steps: MethodSteps) -> StepPlan {
+        let out_dt = 1.0 / scene.output.sample_rate_hz;
+        let f_max = scene.excitation.kind.max_frequency_hz();
+        let dt0 = out_dt.min(1.0 / (AUTO_STEPS_PER_FORCING_PERIOD * f_max));
+        let per_row = (out_dt / dt0 - 1e-9).ceil().max(1.0);
+        let dt_s = out_dt / per_row;
+        StepPlan {
+            method: Method::Imex,
+            method_reason: "integration.step = \"adaptive\": the embedded solution of ARK3(2)4L[2]SA sets each step".into(),
+            dt_s,
+            steps: (scene.integration.duration_s / dt_s).round() as u64,
+            sample_every: per_row as u64,
+            row_rate_hz: scene.output.sample_rate_hz,
+            dt_source: DtSource::Auto,
+            dt_stable_s: steps.rk4_stable_s,
+            method_steps: steps,
+            warnings: Vec::new(),
+            control: scene.integration.step,
+        }
     }
 
     /// Number of output rows, including t = 0.

@@ -48,6 +48,13 @@ pub trait Stepper<T: Real> {
         clock: &C,
     ) where
         Self: Sized;
+
+    /// Bumper contact onsets inside the last step when the stepper counts them itself (an
+    /// adaptive step made of sub-steps, which also applies the twin's onset saltation at the
+    /// sub-step where a contact begins); `None`: the loop counts them at the step's end.
+    fn onsets_within(&mut self) -> Option<u32> {
+        None
+    }
 }
 
 /// `y += inc` with Kahan's compensation `comp` (one per state component, zero at the start).
@@ -111,21 +118,24 @@ pub fn run_steps<T: Real, S: Stepper<T>, C: CartClock, H: StepHook<T>>(
     let mut touching = chain.touching(y);
     let mut twin_stepper: Option<S> = None;
     for n in 0..steps {
-        let now = match hook.twin() {
-            None => {
-                stepper.step(chain, &mut ws, y, n, clock);
-                chain.touching(y)
-            }
+        let before = touching;
+        match hook.twin() {
+            None => stepper.step(chain, &mut ws, y, n, clock),
             Some(twin) => {
                 let ts = twin_stepper.get_or_insert_with(|| stepper.fresh());
                 stepper.step_twin(ts, chain, &mut ws, (&mut *y, &mut *twin), n, clock);
-                let now = chain.touching(y);
-                onset_saltation(chain, &mut ws, y, twin, onsets_of(touching, now));
-                now
+            }
+        }
+        touching = chain.touching(y);
+        let onsets = match stepper.onsets_within() {
+            Some(inside) => inside,
+            None => {
+                if let Some(twin) = hook.twin() {
+                    onset_saltation(chain, &mut ws, y, twin, onsets_of(before, touching));
+                }
+                u32::from(touching.0 && !before.0) + u32::from(touching.1 && !before.1)
             }
         };
-        let onsets = u32::from(now.0 && !touching.0) + u32::from(now.1 && !touching.1);
-        touching = now;
         let step = n + 1;
         if health_due(step, steps, hook.records(step)) {
             let status = guard.check(chain, y, clock.velocity(step));

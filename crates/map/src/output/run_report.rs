@@ -49,6 +49,9 @@ pub struct RunReport<'a> {
     pub failed_at_s: Option<f64>,
     /// Bumper contact onsets.
     pub impacts: u64,
+    /// Adaptive steps: the tolerances, and what the controller did (its sub-steps and the
+    /// chain evaluations they took); null for fixed steps.
+    pub adaptive: Option<serde_json::Value>,
     /// The linearised chain's frequencies and rates.
     pub modes: &'a Modes,
     /// The plan's warnings and the run's own.
@@ -111,6 +114,18 @@ impl<'a> RunReport<'a> {
             status: f.run.outcome.status,
             failed_at_s: f.run.outcome.failed_at_s,
             impacts: f.run.outcome.impacts,
+            adaptive: f.run.outcome.substeps.map(|st| {
+                serde_json::json!({
+                    "control": f.plan.control,
+                    "base_step_s": f.plan.dt_s,
+                    "accepted": st.accepted,
+                    "rejected": st.rejected,
+                    "forced": st.forced,
+                    "smallest_s": st.smallest_s,
+                    "largest_s": st.largest_s,
+                    "evaluations": st.evaluations(),
+                })
+            }),
             modes: f.modes,
             warnings,
             analysis,

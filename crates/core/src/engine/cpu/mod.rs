@@ -10,6 +10,8 @@ mod lanes;
 
 pub use hook::RawInstance;
 
+use crate::config::StepControl;
+use crate::engine::adaptive::AdaptiveImex;
 use crate::engine::early::EarlyStop;
 use crate::engine::imex::Imex;
 use crate::engine::plan::{EnsemblePlan, InstancePlan};
@@ -50,8 +52,20 @@ pub fn run_instance_with<T: Real>(
     let mut y: Vec<T> = plan.y0.iter().map(|&v| T::of(v)).collect();
     let mut hook = EnsembleHook::<T>::new(plan, want_strobe, want_rseries, early, separation);
     let (steps, clock) = (plan.total_steps(), PhaseClock(plan));
-    let end = match &plan.imex {
-        None => {
+    let end = match (&plan.imex, plan.control) {
+        (_, StepControl::Adaptive { rtol, atol }) => {
+            let mut a = AdaptiveImex::new(&plan.params, plan.dt_s, (rtol, atol), y.len());
+            run_steps(
+                &chain,
+                &plan.guard,
+                &mut y,
+                &mut a,
+                steps,
+                &clock,
+                &mut hook,
+            )
+        }
+        (None, StepControl::Fixed) => {
             let mut rk4 = Rk4::new(plan.dt_s, y.len());
             run_steps(
                 &chain,
@@ -63,7 +77,7 @@ pub fn run_instance_with<T: Real>(
                 &mut hook,
             )
         }
-        Some(m) => {
+        (Some(m), StepControl::Fixed) => {
             let mut imex = Imex::new(m, y.len());
             run_steps(
                 &chain,
@@ -173,7 +187,13 @@ impl CpuEngine {
     ) -> Result<EngineRun, EngineError> {
         let d0 = plan.twin_separation(self.precision)?;
         let t0 = Instant::now();
-        let raw = match (self.simd, self.precision) {
+        // Each instance's own steps: the scalar loop (the lanes step together).
+        let adaptive = plan
+            .instances
+            .iter()
+            .any(|p| p.control != StepControl::Fixed);
+        let simd = if adaptive { CpuLoop::Scalar } else { self.simd };
+        let raw = match (simd, self.precision) {
             (CpuLoop::Scalar, Precision::F64) => integrate_all::<f64>(plan, d0, progress),
             (CpuLoop::Scalar, Precision::F32) => integrate_all::<f32>(plan, d0, progress),
             (CpuLoop::Simd, Precision::F64) => lanes::integrate_lanes::<F64x4>(plan, d0, progress),
