@@ -18,7 +18,7 @@ $B map --backend cpu --quiet --set "$A" --set integration.rtol=1e-4 --set integr
 $B map configs/maps/default_subgrid.toml --backend cpu --quiet --out "$W/sub_fixed" >/dev/null 2>&1
 $B map configs/maps/default_subgrid.toml --backend cpu --quiet --set "$A" --out "$W/sub_adaptive" \
   >/dev/null 2>&1
-"$PY" - "$W" > "$OUT" <<'PYEOF'
+"$PY" - "$W" > "$W/out.md" <<'PYEOF'
 import json, sys, numpy as np
 w = sys.argv[1]
 def load(d):
@@ -54,4 +54,5 @@ same_p = (f["period"] == a["period"]).mean()
 print(f"\nAdaptive against fixed: the same K class in {100 * same_k:.1f} % of the cells, the same period in "
       f"{100 * same_p:.1f} %. Wall time adaptive / fixed: {ja['timings_s']['total_s'] / jf['timings_s']['total_s']:.2f}×.")
 PYEOF
+mv "$W/out.md" "$OUT"
 echo "wrote $OUT"

@@ -25,7 +25,7 @@ for N in 3 9 17; do
     echo "$N $1 $2 $d" >> "$rows"
   done
 done
-"$PY" - "$rows" "$W" > "$OUT" <<'PYEOF'
+"$PY" - "$rows" "$W" > "$W/out.md" <<'PYEOF'
 import json, sys, numpy as np
 rows, w = sys.argv[1], sys.argv[2]
 print("# Adaptive steps on single runs\n")
@@ -52,4 +52,5 @@ for line in open(rows):
         ev = s["evaluations"]
         print(f"| {n} | adaptive | {rtol} / {atol} | {err:.2e} | {ev} | {fixed[n] / ev:.2f} | {s['accepted']} / {s['rejected']} | {s['smallest_s']:.3g} |")
 PYEOF
+mv "$W/out.md" "$OUT"
 echo "wrote $OUT"

@@ -15,8 +15,8 @@ use pendulum_atlas_map::map::MapRun;
 use pendulum_atlas_map::map::confidence::{Bin, Calibration, agreement};
 use serde::Serialize;
 
-/// The confidence at or above which a verdict is called firm (the 0.9).
-pub const FIRM: f64 = 0.9;
+/// The confidence at or above which a verdict is called firm: the settling stage's threshold.
+pub use pendulum_atlas_core::config::FIRM;
 
 /// Edges of the reliability bins (the last bin includes 1).
 pub const EDGES: [f64; 6] = [0.0, 0.5, 0.7, 0.9, 0.95, 1.0];
