@@ -100,19 +100,6 @@ impl EngineArgs {
         Ok(engine)
     }
 
-    /// [`EngineArgs::open`] for a run of `scene`: the CPU engine when the backend is `auto` and
-    /// the scene takes adaptive steps, which the GPU kernels do not yet.
-    pub fn open_for(&self, scene: &pendulum_atlas_core::config::Scene) -> anyhow::Result<Engine> {
-        let adaptive = scene.integration.step != pendulum_atlas_core::config::StepControl::Fixed;
-        if adaptive && self.backend == BackendArg::Auto && self.adapter.is_none() {
-            let p = self
-                .precision
-                .map_or(pendulum_atlas_core::engine::Precision::F64, Into::into);
-            return Ok(Engine::cpu_for_adaptive(p));
-        }
-        self.open()
-    }
-
     /// The GPU engine on adapter `index`, refusing flags that contradict it.
     fn on_adapter(index: usize, a: &EngineArgs) -> anyhow::Result<Engine> {
         if a.backend == BackendArg::Cpu {

@@ -82,7 +82,7 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
     if let Some(d) = &a.devices {
         return run_on_devices(&a, d, &spec);
     }
-    let engine = a.engine.open_for(&spec.scene)?;
+    let engine = a.engine.open()?;
     check_size(&spec, a.shard.map_or(1, |s| s.count), &engine)?;
     let hardware = a.scene.is_none() && a.shard.is_none() && engine.is_hardware_gpu();
     if let Some(choice) = hardware

@@ -23,6 +23,7 @@ override N_C: u32 = 100u;           // number of c values of the 0–1 test
 override METHOD_IMEX: bool = false; // integrate with the IMEX method (else classical RK4)
 override WANT_TWIN: bool = false;   // λ1 asked for: a twin trajectory rides along
 override WANT_EARLY: bool = false;  // the early stop of confirmed orbits (shaders/early.wgsl)
+override ADAPTIVE: bool = false;    // adaptive IMEX steps on the ladder (integrate.wgsl's adaptive_step)
 
 const TAU: f32 = 6.2831853071795864;
 const PI: f32 = 3.1415926535897932;
@@ -93,6 +94,8 @@ struct InstanceParams {
     twin_rigid_w: f32,
     twin_scale: f32,
     period_s: f32,
+    rtol: f32,
+    atol: f32,
     levers: array<f32, 64>,
 }
 
@@ -133,7 +136,8 @@ struct Accum {
     e_seen: u32,
     e_last: u32,
     stopped: u32,
-    pad3: array<u32, 2>,
+    level: u32,
+    pad3: u32,
 }
 
 // Mirrors `GpuControl`.

@@ -1,7 +1,9 @@
 // The IMEX method of src/engine/imex.rs in f32: ARK3(2)4L[2]SA with the joint springs and
-// dampers implicit. Tableaux (IMEX_AE, IMEX_AI, IMEX_B, IMEX_C, IMEX_GAMMA) come from the
-// generated header; the matrices M0⁻¹, S⁻¹ and M0 of the instance's structure and step from
-// imex_mats at P.imex_offset (N × N each, row-major, in that order).
+// dampers implicit. Tableaux (IMEX_AE, IMEX_AI, IMEX_B, IMEX_B_HAT, IMEX_C, IMEX_GAMMA) come
+// from the generated header; the matrices M0⁻¹, S⁻¹ and M0 of the instance's structure and
+// step from imex_mats at P.imex_offset (N × N each, row-major, in that order). With adaptive
+// steps, S⁻¹ of the ladder's levels 1 … MAX_LEVEL follow (block 2 + k), and `imex_level`
+// picks the one of the step being taken (src/engine/adaptive.rs).
 
 // Stage derivatives: θ̇ (= U_ω), ω̇ and v̇ of each stage, and the ω-part of L U_j.
 var<private> f_th: array<array<f32, MAX_SEG>, 4>;
@@ -11,6 +13,8 @@ var<private> l_om: array<array<f32, MAX_SEG>, 4>;
 // Scratch: joint couples, the implicit right-hand side, R_θ.
 var<private> qv: array<f32, MAX_SEG>;
 var<private> rv: array<f32, MAX_SEG>;
+// The ladder level k of the step being taken (h = P.dt / 2^k): which S⁻¹ the solve reads.
+var<private> imex_level: u32;
 
 // qv = −(K θ + C ω) at the stage state (sth, som); the dampers only when `damp` is 1.
 fn imex_couples(damp: f32) {
@@ -25,9 +29,18 @@ fn imex_couples(damp: f32) {
     }
 }
 
-// Row i of the matrix `which` (0: M0⁻¹, 1: S⁻¹, 2: M0) times qv or rv.
+// The first word of row i of the matrix `which` (0: M0⁻¹, 1: S⁻¹ of the current level, 2: M0).
+fn mat_row_base(which: u32, i: u32) -> u32 {
+    var block = which;
+    if ADAPTIVE && which == 1u && imex_level > 0u {
+        block = 2u + imex_level;
+    }
+    return P.imex_offset + block * N_SEG * N_SEG + i * N_SEG;
+}
+
+// Row i of the matrix `which` times qv or rv.
 fn mat_row_q(which: u32, i: u32) -> f32 {
-    let base = P.imex_offset + which * N_SEG * N_SEG + i * N_SEG;
+    let base = mat_row_base(which, i);
     var s = 0.0;
     for (var j = 0u; j < N_SEG; j++) {
         s += imex_mats[base + j] * qv[j];
@@ -36,7 +49,7 @@ fn mat_row_q(which: u32, i: u32) -> f32 {
 }
 
 fn mat_row_r(which: u32, i: u32) -> f32 {
-    let base = P.imex_offset + which * N_SEG * N_SEG + i * N_SEG;
+    let base = mat_row_base(which, i);
     var s = 0.0;
     for (var j = 0u; j < N_SEG; j++) {
         s += imex_mats[base + j] * rv[j];
@@ -97,6 +110,13 @@ fn imex_implicit_stage(i: u32, h: f32) {
 
 // One IMEX step from phase `ph` within the forcing period.
 fn imex_step(ph: u32, h: f32) {
+    imex_stages(ph, 0.0, 1.0, h);
+    imex_finish(h);
+}
+
+// The four stages of a step of length h that starts at fraction `start` of the base step from
+// phase `ph` and spans `width` of it (0 and 1 for a whole step); the state is not advanced.
+fn imex_stages(ph: u32, start: f32, width: f32, h: f32) {
     for (var i = 0u; i < N_SEG; i++) {
         sth[i] = th[i];
         som[i] = om[i];
@@ -105,13 +125,17 @@ fn imex_step(ph: u32, h: f32) {
     // The stages written out, not looped: once the driver inlines, every tableau and stage
     // index is a constant, so the stage arrays stay in registers and the tableaux fold. With
     // a loop over the stages this step ran 4.1× slower on lavapipe at N = 3 (docs/bench/README.md).
-    imex_eval(0u, cart_acc(ph, IMEX_C[0]));
+    imex_eval(0u, cart_acc(ph, start + IMEX_C[0] * width));
     imex_implicit_stage(1u, h);
-    imex_eval(1u, cart_acc(ph, IMEX_C[1]));
+    imex_eval(1u, cart_acc(ph, start + IMEX_C[1] * width));
     imex_implicit_stage(2u, h);
-    imex_eval(2u, cart_acc(ph, IMEX_C[2]));
+    imex_eval(2u, cart_acc(ph, start + IMEX_C[2] * width));
     imex_implicit_stage(3u, h);
-    imex_eval(3u, cart_acc(ph, IMEX_C[3]));
+    imex_eval(3u, cart_acc(ph, start + IMEX_C[3] * width));
+}
+
+// The state advanced by the stages just computed: y += h Σ b_j f_j (compensated).
+fn imex_finish(h: f32) {
     for (var s = 0u; s < N_SEG; s++) {
         var dth = 0.0;
         var dom = 0.0;
@@ -135,4 +159,40 @@ fn imex_step(ph: u32, h: f32) {
         volt = v.x;
         volt_c = v.y;
     }
+}
+
+// The scaled error of the stages just computed (AdaptiveImex::error of src/engine/adaptive.rs):
+// max over the state of |h Σ (b_j − b̂_j) f_j| / (atol + rtol |y|), y the state before the step.
+// A NaN component is passed over, as f64::max does on the CPU.
+fn imex_error(h: f32) -> f32 {
+    var e = 0.0;
+    for (var s = 0u; s < N_SEG; s++) {
+        var dth = 0.0;
+        var dom = 0.0;
+        for (var j = 0u; j < 4u; j++) {
+            let w = IMEX_B[j] - IMEX_B_HAT[j];
+            dth += w * f_th[j][s];
+            dom += w * f_om[j][s];
+        }
+        e = scaled_max(e, h * dth, th[s]);
+        e = scaled_max(e, h * dom, om[s]);
+    }
+    if HAS_PIEZO {
+        var dv = 0.0;
+        for (var j = 0u; j < 4u; j++) {
+            dv += (IMEX_B[j] - IMEX_B_HAT[j]) * f_v[j];
+        }
+        e = scaled_max(e, h * dv, volt);
+    }
+    return e;
+}
+
+// max(e, |err| / (atol + rtol |y|)), a NaN ratio passed over (read from the bits, as
+// `not_finite` does).
+fn scaled_max(e: f32, err: f32, y: f32) -> f32 {
+    let r = abs(err) / (P.atol + P.rtol * abs(y));
+    if (bitcast<u32>(r) & 0x7fffffffu) > 0x7f800000u {
+        return e;
+    }
+    return max(e, r);
 }

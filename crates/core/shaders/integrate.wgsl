@@ -338,6 +338,61 @@ fn step_state(ph: u32, dt: f32) {
     }
 }
 
+// One base step of adaptive steps from phase `ph` (AdaptiveImex::base_step of
+// src/engine/adaptive.rs): sub-steps h_k = P.dt / 2^k on the ladder, the level carried in the
+// accumulators between base steps. A step whose scaled error exceeds 1 is taken again at the
+// next level; an accepted one advances the state, and the twin beside it on the main stages'
+// branches with its onset saltation; the level falls by one where the position is aligned to
+// the coarser step and the error is at most ADAPTIVE_GROW. Returns the contact onsets within.
+fn adaptive_step(ph: u32, twin_on: bool, a: ptr<function, Accum>) -> u32 {
+    let unit = 1u << MAX_LEVEL;
+    var pos = 0u;
+    var k = (*a).level;
+    var touching = touch_flags();
+    var onsets = 0u;
+    loop {
+        if pos >= unit {
+            break;
+        }
+        let span = unit >> k;
+        let start = f32(pos) / f32(unit);
+        let width = f32(span) / f32(unit);
+        let h = P.dt / f32(1u << k);
+        imex_level = k;
+        stage_n = 0u;
+        branch_bits = 0u;
+        imex_stages(ph, start, width, h);
+        let e = imex_error(h);
+        if e > 1.0 && k < MAX_LEVEL {
+            k += 1u;
+            continue;
+        }
+        imex_finish(h);
+        let now = touch_flags();
+        let new_on = now & ~touching;
+        onsets += countOneBits(new_on);
+        touching = now;
+        if twin_on {
+            swap_twin();
+            twin_mode = true;
+            stage_n = 0u;
+            imex_stages(ph, start, width, h);
+            imex_finish(h);
+            twin_mode = false;
+            swap_twin();
+            if HAS_CONTACT && new_on != 0u {
+                twin_saltation(new_on);
+            }
+        }
+        pos += span;
+        if k > 0u && pos % (span << 1u) == 0u && e <= ADAPTIVE_GROW {
+            k -= 1u;
+        }
+    }
+    (*a).level = k;
+    return onsets;
+}
+
 // Exchange the main state (and its compensation) with the twin's.
 fn swap_twin() {
     for (var i = 0u; i < N_SEG; i++) {
@@ -497,9 +552,10 @@ fn twin_sample(j: u32, a: ptr<function, Accum>) {
 }
 
 // The accumulators of the current period after a step to angle `alpha` with bumper flags
-// `now`: onsets, α range, hops (the well last visited is kept through the transient), power.
-fn accumulate(alpha: f32, now: u32, a: ptr<function, Accum>) {
-    (*a).p_impacts += countOneBits(now & ~(*a).touch);
+// `now` and `onsets` contacts begun within it: onsets, α range, hops (the well last visited is
+// kept through the transient), power.
+fn accumulate(alpha: f32, now: u32, onsets: u32, a: ptr<function, Accum>) {
+    (*a).p_impacts += onsets;
     (*a).p_amin = min((*a).p_amin, alpha);
     (*a).p_amax = max((*a).p_amax, alpha);
     var well = 0i;
@@ -626,10 +682,15 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
             break;
         }
         loop {
-            step_state(ph, dt);
             let twin_on = WANT_TWIN && (a.twin_flags & TWIN_RUNNING) != 0u;
-            if twin_on {
-                twin_step(ph, dt);
+            var onsets = 0u;
+            if ADAPTIVE {
+                onsets = adaptive_step(ph, twin_on, &a);
+            } else {
+                step_state(ph, dt);
+                if twin_on {
+                    twin_step(ph, dt);
+                }
             }
             s += 1u;
             ph += 1u;
@@ -642,10 +703,13 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
             let alpha = th[0];
             let now = touch_flags();
-            if twin_on && HAS_CONTACT && (now & ~a.touch) != 0u {
-                twin_saltation(now & ~a.touch);
+            if !ADAPTIVE {
+                onsets = countOneBits(now & ~a.touch);
+                if twin_on && HAS_CONTACT && (now & ~a.touch) != 0u {
+                    twin_saltation(now & ~a.touch);
+                }
             }
-            accumulate(alpha, now, &a);
+            accumulate(alpha, now, onsets, &a);
             if WANT_RSERIES && rph == r_phase && s >= P.r_start {
                 let j = (s - P.r_start) / P.r_every;
                 if j < P.r_count {

@@ -26,7 +26,7 @@ pub fn tiny_map(under: Under, extra: &str, map: &str) -> MapSpec {
         "[integration]\nduration_s = 21.0\ntransient_s = 2.0\n".to_string()
     };
     let text = format!("[beam]\nsegments = 3\n{integration}{extra}\n[map]\n{map}");
-    map_from_toml(&text, "<test>", &[under.method_set()]).expect("valid test map")
+    map_from_toml(&text, "<test>", &under.sets()).expect("valid test map")
 }
 
 const AXES: &str = r#"
@@ -282,7 +282,7 @@ fn stress_scene(under: Under, name: &str, sets: &[String]) -> MapSpec {
         .join("configs/stress")
         .join(name);
     let mut sets = sets.to_vec();
-    sets.push(under.method_set());
+    sets.extend(under.sets());
     pendulum_atlas_core::config::load_map(Some(&path), &sets).expect("valid stress scene")
 }
 
@@ -418,7 +418,7 @@ pub fn metrics_not_requested_are_not_computed(under: Under) {
         "[beam]\nsegments = 3\n[integration]\nduration_s = 3.0\ntransient_s = 0.5\n[map]\n\
          metrics = [\"hops\"]\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [5.0, 8.0]",
         "<stress>",
-        &[under.method_set()],
+        &under.sets(),
     )
     .expect("valid scene");
     let Some(run) = map_on(under, &s) else { return };
@@ -481,7 +481,7 @@ pub fn a_search_runs_end_to_end_and_agrees_with_single_runs(under: Under) {
     ]
     .iter()
     .map(|s| s.to_string())
-    .chain([under.method_set()])
+    .chain(under.sets())
     .collect();
     let spec = search_from_toml(
         pendulum_atlas_studies::harvest::DEFAULT_SEARCH_TOML,

@@ -70,7 +70,7 @@ fn parameter_structs_have_the_same_layout_in_rust_and_wgsl() {
             acc_amp, dt, guard_energy, guard_bend, theta0, omega0, volt0, half_clearance,
             guard_holder, phase0, n_levers, piezo_last, spp, transient_periods, total_periods, strobe_offset,
             strobe_count, r_every, r_count, r_start, imex_offset, contact_law, twin_start,
-            twin_align, twin_window, twin_d0, twin_rigid_w, twin_scale, period_s, levers),
+            twin_align, twin_window, twin_d0, twin_rigid_w, twin_scale, period_s, rtol, atol, levers),
         size_of::<GpuInstanceParams>(),
     );
     assert_same_layout(
@@ -79,7 +79,7 @@ fn parameter_structs_have_the_same_layout_in_rust_and_wgsl() {
         offsets!(GpuAccum; step, status, touch, well, hops, impacts, period, pad0, alpha_min,
             alpha_max, power_sum, power_comp, k, r, line, pad2, lyap_sums, lyap_n, twin_flags,
             lyap, lyap_se, regime, tw_start, tw_window, p_hops, p_impacts, p_power, p_amin, p_amax,
-            e_phase, e_p, e_until, e_seen, e_last, stopped, pad3),
+            e_phase, e_p, e_until, e_seen, e_last, stopped, level, pad3),
         size_of::<GpuAccum>(),
     );
     assert_same_layout(
@@ -241,6 +241,7 @@ fn one_gpu_device_compiles_each_kernel_set_once() {
         super::Under {
             eng: super::Eng::Gpu,
             method: pendulum_atlas_core::engine::method::Method::Rk4,
+            adaptive: false,
         },
         "",
         "metrics = [\"K\"]\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [5.0, 8.0]",
@@ -249,6 +250,7 @@ fn one_gpu_device_compiles_each_kernel_set_once() {
         super::Under {
             eng: super::Eng::Gpu,
             method: pendulum_atlas_core::engine::method::Method::Rk4,
+            adaptive: false,
         },
         "",
         "metrics = [\"hops\"]\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [5.0, 8.0]",

@@ -38,13 +38,15 @@ pub enum Eng {
     GpuGlobal,
 }
 
-/// An engine and an integration method.
+/// An engine, an integration method and a step control.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Under {
     /// The engine.
     pub eng: Eng,
     /// The method every scene of the case asks for.
     pub method: Method,
+    /// Adaptive steps (`integration.step = "adaptive"`, IMEX only) instead of fixed ones.
+    pub adaptive: bool,
 }
 
 impl Under {
@@ -69,17 +71,22 @@ impl Under {
         matches!(self.eng, Eng::SimdF32 | Eng::Gpu | Eng::GpuGlobal)
     }
 
-    /// The CPU engine in f64 with the same method: the reference of the comparisons.
+    /// The CPU engine in f64 with the same method and step control: the reference of the
+    /// comparisons.
     pub fn reference(self) -> Under {
         Under {
             eng: Eng::CpuF64,
-            method: self.method,
+            ..self
         }
     }
 
-    /// The scene override that selects the method.
-    pub fn method_set(self) -> String {
-        format!("integration.method={}", self.method.name())
+    /// The scene overrides that select the method and the step control.
+    pub fn sets(self) -> Vec<String> {
+        let mut sets = vec![format!("integration.method={}", self.method.name())];
+        if self.adaptive {
+            sets.push("integration.step=\"adaptive\"".into());
+        }
+        sets
     }
 }
 
@@ -123,7 +130,7 @@ macro_rules! engine_method {
         mod $module {
             use super::{Eng, Under};
             use pendulum_atlas_core::engine::method::Method;
-            const UNDER: Under = Under { eng: Eng::$eng, method: Method::$method };
+            const UNDER: Under = Under { eng: Eng::$eng, method: Method::$method, adaptive: false };
             $(#[test] fn $case() { super::$cases::$case(UNDER) })*
         }
     };
@@ -141,6 +148,71 @@ macro_rules! engine_suite {
         engine_method!($cases, simd_f32_imex, SimdF32, Imex, [$($case),*]);
         engine_method!($cases, gpu_imex, Gpu, Imex, [$($case),*]);
     };
+}
+
+/// The same tests of `cases` with adaptive steps (IMEX), one module per engine: the scalar
+/// loop in f64 (the reference) and f32 (the CPU engine runs adaptive steps on its scalar loop
+/// whatever loop it was opened with), and the GPU.
+macro_rules! engine_adaptive {
+    ($cases:ident: $($case:ident),* $(,)?) => {
+        mod cpu_f64_adaptive {
+            use super::{Eng, Under};
+            use pendulum_atlas_core::engine::method::Method;
+            const UNDER: Under = Under { eng: Eng::CpuF64, method: Method::Imex, adaptive: true };
+            $(#[test] fn $case() { super::$cases::$case(UNDER) })*
+        }
+        mod cpu_f32_adaptive {
+            use super::{Eng, Under};
+            use pendulum_atlas_core::engine::method::Method;
+            const UNDER: Under = Under { eng: Eng::SimdF32, method: Method::Imex, adaptive: true };
+            $(#[test] fn $case() { super::$cases::$case(UNDER) })*
+        }
+        mod gpu_adaptive {
+            use super::{Eng, Under};
+            use pendulum_atlas_core::engine::method::Method;
+            const UNDER: Under = Under { eng: Eng::Gpu, method: Method::Imex, adaptive: true };
+            $(#[test] fn $case() { super::$cases::$case(UNDER) })*
+        }
+    };
+}
+
+/// The parity cases and the features that ride on the step loop, with adaptive steps.
+mod adaptive_suite {
+    use super::{Eng, Under};
+    mod general {
+        use super::super::cases;
+        use super::{Eng, Under};
+        engine_adaptive!(cases:
+            holder_angle_over_a_short_horizon_matches_the_reference_integrator,
+            reductions_equal_the_analysis_library_on_the_engines_own_series,
+            maps_agree_with_the_f64_cpu_engine_on_classes_r_and_statuses,
+            metrics_not_requested_are_not_computed,
+            a_map_runs_end_to_end_into_its_files,
+        );
+    }
+    mod skip {
+        use super::super::skip;
+        use super::{Eng, Under};
+        engine_adaptive!(skip: a_map_with_the_early_stop_equals_the_map_without_it);
+    }
+    mod continuation {
+        use super::super::continuation;
+        use super::{Eng, Under};
+        engine_adaptive!(continuation: a_continued_cell_starts_exactly_where_its_neighbour_ended);
+    }
+    mod verdict {
+        use super::super::verdict;
+        use super::{Eng, Under};
+        engine_adaptive!(verdict:
+            lyapunov_of_a_linear_response_is_the_least_damped_eigenvalue,
+            lyapunov_agrees_with_the_f64_cpu_engine,
+        );
+    }
+    mod attractors {
+        use super::super::attractors;
+        use super::{Eng, Under};
+        engine_adaptive!(attractors: a_bistable_cell_shows_the_attractor_of_each_well);
+    }
 }
 
 /// The λ1 and verdict cases, in modules of their own beside the general cases.

@@ -289,15 +289,6 @@ impl Engine {
         Engine::cpu_because(precision, "requested: the CPU engine".into())
     }
 
-    /// The CPU engine that `--backend auto` opens for adaptive steps, which the GPU kernels
-    /// do not take yet.
-    pub fn cpu_for_adaptive(precision: Precision) -> Engine {
-        Engine::cpu_because(
-            precision,
-            "auto: adaptive steps (integration.step = \"adaptive\") run on the CPU engine's scalar loop; the GPU kernels take fixed steps".into(),
-        )
-    }
-
     /// The CPU engine in `precision` with the loop `simd`.
     pub fn cpu_with(precision: Precision, simd: CpuLoop) -> Engine {
         let mut e = Engine::cpu(precision);
@@ -454,11 +445,7 @@ impl Engine {
     /// The engine's description for a run of `plan`: adaptive steps run the CPU engine's
     /// scalar loop, whatever loop it was opened with.
     pub fn info_for(&self, plan: &EnsemblePlan) -> EngineInfo {
-        let adaptive = plan
-            .instances
-            .iter()
-            .any(|p| p.control != crate::config::StepControl::Fixed);
-        if !adaptive || self.info.cpu_loop.is_none() {
+        if !plan.is_adaptive() || self.info.cpu_loop.is_none() {
             return self.info.clone();
         }
         EngineInfo {

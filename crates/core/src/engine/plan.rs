@@ -286,6 +286,13 @@ impl EnsemblePlan {
         Ok(plan)
     }
 
+    /// Whether the instances take adaptive steps (a plan's instances share their step control).
+    pub fn is_adaptive(&self) -> bool {
+        self.instances
+            .first()
+            .is_some_and(|p| p.control != StepControl::Fixed)
+    }
+
     /// The twins' separation d0 for an engine in `precision` (`None` without λ1): the given
     /// one, or the measured default of the float type ([`crate::reduce::lyapunov`]); refused
     /// when smaller than the float type resolves.

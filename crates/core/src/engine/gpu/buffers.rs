@@ -1,6 +1,7 @@
 //! The buffers of one GPU run: sized and checked against the adapter before anything is
 //! allocated, filled from the plan, bound once.
 
+use crate::engine::adaptive::MAX_LEVEL;
 use crate::engine::error::{EngineError, GpuFaultKind};
 use crate::engine::gpu::ReduceSettings;
 use crate::engine::gpu::context::GpuContext;
@@ -9,7 +10,7 @@ use crate::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams};
 use crate::engine::gpu::state_layout::StateLayout;
 use crate::engine::imex::ImexMatrices;
 use crate::engine::method::Method;
-use crate::engine::plan::EnsemblePlan;
+use crate::engine::plan::{EnsemblePlan, InstancePlan};
 use crate::model::{CHECK_EVERY, Chain};
 use bytemuck::Zeroable;
 
@@ -359,6 +360,15 @@ impl Buffers {
         twin_d0: f64,
     ) -> Result<Buffers, EngineError> {
         let (mats, offsets) = imex_matrices(plan);
+        let limit = buffer_limit(ctx);
+        let mats_bytes = 4 * mats.len() as u64;
+        if mats_bytes > limit {
+            return Err(EngineError::BufferTooLarge {
+                what: "imex_mats",
+                bytes: mats_bytes,
+                limit,
+            });
+        }
         let params: Vec<GpuInstanceParams> = plan
             .instances
             .iter()
@@ -509,8 +519,12 @@ fn initial_state(plan: &EnsemblePlan, sizes: &Sizes) -> (Vec<f32>, Vec<GpuAccum>
 
 /// The IMEX matrices of every distinct (structure, step) set the instances share, as f32
 /// (M0⁻¹, S⁻¹, M0 per set), and each instance's offset into them; a 16-byte placeholder and
-/// zero offsets for RK4.
+/// zero offsets for RK4. Adaptive instances share a ladder per (structure, base step): S⁻¹ of
+/// levels 1 … [`MAX_LEVEL`] follow their set ([`ladder_matrices`]).
 pub fn imex_matrices(plan: &EnsemblePlan) -> (Vec<f32>, Vec<u32>) {
+    if plan.is_adaptive() {
+        return ladder_matrices(plan);
+    }
     let mut data: Vec<f32> = Vec::new();
     let mut seen: std::collections::HashMap<*const ImexMatrices, u32> = Default::default();
     let mut offsets = Vec::with_capacity(plan.instances.len());
@@ -522,15 +536,65 @@ pub fn imex_matrices(plan: &EnsemblePlan) -> (Vec<f32>, Vec<u32>) {
         let key = std::sync::Arc::as_ptr(m);
         let off = *seen.entry(key).or_insert_with(|| {
             let off = data.len() as u32;
-            for block in [&m.m0_inv, &m.s_inv, &m.m0] {
-                data.extend(block.iter().map(|&v| v as f32));
-            }
+            push_f32(&mut data, [&m.m0_inv, &m.s_inv, &m.m0]);
             off
         });
         offsets.push(off);
     }
     data.resize(data.len().max(4), 0.0);
     (data, offsets)
+}
+
+/// The ladders of adaptive steps ([`crate::engine::adaptive`]): per distinct structure and
+/// base step H, M0⁻¹, S⁻¹(H), M0, then S⁻¹(H / 2^k) for k = 1 … [`MAX_LEVEL`]
+/// (`imex.wgsl`'s `mat_row_base`), built once per ladder, in parallel.
+fn ladder_matrices(plan: &EnsemblePlan) -> (Vec<f32>, Vec<u32>) {
+    use rayon::prelude::*;
+    use std::collections::HashMap;
+    let key = |p: &InstancePlan| {
+        let mut bits = p.params.structure_bits();
+        bits.push(p.dt_s.to_bits());
+        bits
+    };
+    let mut first_of: HashMap<Vec<u64>, usize> = HashMap::new();
+    let mut order: Vec<Vec<u64>> = Vec::new();
+    for (i, p) in plan.instances.iter().enumerate() {
+        let k = key(p);
+        if !first_of.contains_key(&k) {
+            first_of.insert(k.clone(), i);
+            order.push(k);
+        }
+    }
+    let ladders: Vec<Vec<f32>> = order
+        .par_iter()
+        .map(|k| {
+            let p = &plan.instances[first_of[k]];
+            let base = ImexMatrices::new(&p.params, p.dt_s);
+            let mut data = Vec::new();
+            push_f32(&mut data, [&base.m0_inv, &base.s_inv, &base.m0]);
+            for level in 1..=MAX_LEVEL {
+                let h = p.dt_s / f64::from(1u32 << level);
+                push_f32(&mut data, [&ImexMatrices::new(&p.params, h).s_inv]);
+            }
+            data
+        })
+        .collect();
+    let mut data = Vec::new();
+    let mut offset_of: HashMap<&Vec<u64>, u32> = HashMap::new();
+    for (k, ladder) in order.iter().zip(&ladders) {
+        offset_of.insert(k, data.len() as u32);
+        data.extend_from_slice(ladder);
+    }
+    let offsets = plan.instances.iter().map(|p| offset_of[&key(p)]).collect();
+    data.resize(data.len().max(4), 0.0);
+    (data, offsets)
+}
+
+/// The blocks, in order, as f32.
+fn push_f32<const B: usize>(data: &mut Vec<f32>, blocks: [&Vec<f64>; B]) {
+    for block in blocks {
+        data.extend(block.iter().map(|&v| v as f32));
+    }
 }
 
 /// c / 2π of the 0–1 test as 32-bit fixed-point fractions of a turn (exact phase arithmetic).

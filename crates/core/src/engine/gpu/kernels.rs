@@ -2,14 +2,16 @@
 //! behind a header generated from the Rust definitions, and their specialisation.
 //!
 //! The header holds the status codes ([`Status::code`]), the health-check interval
-//! ([`CHECK_EVERY`]), the IMEX method's tableaux ([`crate::engine::imex`]), the regime codes and
+//! ([`CHECK_EVERY`]), the IMEX method's tableaux ([`crate::engine::imex`]) and the adaptive
+//! ladder's depth and growth bound ([`crate::engine::adaptive`]), the regime codes and
 //! thresholds ([`crate::reduce::regime`]), λ1's block count and twin flags, and the bound of the
 //! per-invocation arrays, the scene's N (so no private array is larger than the scene needs):
 //! the shader never carries its own copy of a rule or coefficient defined in Rust.
 
+use crate::engine::adaptive::{GROW, MAX_LEVEL};
 use crate::engine::gpu::layout::{TWIN_BROKEN, TWIN_RUNNING};
 use crate::engine::gpu::state_layout::{StateLayout, globalise, work_rows};
-use crate::engine::imex::{AE, AI, B, C, GAMMA};
+use crate::engine::imex::{AE, AI, B, B_HAT, C, GAMMA};
 use crate::engine::method::Method;
 use crate::model::{CHECK_EVERY, ContactDamping, Status};
 use crate::reduce::Regime;
@@ -97,6 +99,9 @@ pub fn shader_header(segments: usize) -> String {
     let _ = writeln!(h, "const IMEX_GAMMA: f32 = {GAMMA:e};");
     h.push_str(&wgsl_array("IMEX_C", &C));
     h.push_str(&wgsl_array("IMEX_B", &B));
+    h.push_str(&wgsl_array("IMEX_B_HAT", &B_HAT));
+    let _ = writeln!(h, "const MAX_LEVEL: u32 = {MAX_LEVEL}u;");
+    let _ = writeln!(h, "const ADAPTIVE_GROW: f32 = {GROW:e};");
     h.push_str(&wgsl_array("IMEX_AE", AE.as_flattened()));
     h.push_str(&wgsl_array("IMEX_AI", AI.as_flattened()));
     h.push('\n');
@@ -155,6 +160,8 @@ pub struct KernelKey {
     pub want_twin: bool,
     /// The early stop of confirmed orbits.
     pub want_early: bool,
+    /// Adaptive IMEX steps on the ladder ([`crate::engine::adaptive`]).
+    pub adaptive: bool,
     /// Where the working arrays live.
     pub layout: StateLayout,
 }
@@ -185,6 +192,7 @@ impl KernelKey {
             ("METHOD_IMEX", flag(self.method == Method::Imex)),
             ("WANT_TWIN", flag(self.want_twin)),
             ("WANT_EARLY", flag(self.want_early)),
+            ("ADAPTIVE", flag(self.adaptive)),
         ]
     }
 }

@@ -4,6 +4,7 @@
 //! [`GpuInstanceParams`] is filled from the one parameter struct, [`ModelParams`], and the
 //! instance's step plan: no physical coefficient is derived anywhere else.
 
+use crate::config::StepControl;
 use crate::engine::plan::{EnsemblePlan, InstancePlan};
 use crate::reduce::TwinPlan;
 use crate::reduce::lyapunov::{LYAPUNOV_BLOCKS, TwinNorm};
@@ -111,6 +112,10 @@ pub struct GpuInstanceParams {
     pub twin_scale: f32,
     /// The forcing period T = 1/f (s).
     pub period_s: f32,
+    /// Adaptive steps: the relative tolerance (0 for fixed steps).
+    pub rtol: f32,
+    /// Adaptive steps: the absolute tolerance (0 for fixed steps).
+    pub atol: f32,
     /// Contact levers λ_i (m).
     pub levers: [f32; GPU_MAX_SEGMENTS],
 }
@@ -147,6 +152,10 @@ impl GpuInstanceParams {
         };
         let n = m.segments;
         let w = std::f64::consts::TAU * p.frequency_hz;
+        let (rtol, atol) = match p.control {
+            StepControl::Adaptive { rtol, atol } => (rtol, atol),
+            StepControl::Fixed => (0.0, 0.0),
+        };
         let twin = p.twin.unwrap_or(TwinPlan {
             start_sample: 0,
             align: 0,
@@ -202,6 +211,8 @@ impl GpuInstanceParams {
             twin_rigid_w: twin.norm.rigid_weight as f32,
             twin_scale: twin.norm.scale as f32,
             period_s: (1.0 / p.frequency_hz) as f32,
+            rtol: rtol as f32,
+            atol: atol as f32,
             levers,
         }
     }
@@ -281,8 +292,10 @@ pub struct GpuAccum {
     pub e_last: u32,
     /// The period of the orbit the instance stopped on (0: it ran to its end).
     pub stopped: u32,
+    /// Adaptive steps: the ladder level k of the next sub-step (h = dt / 2^k).
+    pub level: u32,
     /// Padding.
-    pub pad3: [u32; 2],
+    pub pad3: u32,
 }
 
 /// `GpuAccum::twin_flags`: the twin runs (the kernel advances it).

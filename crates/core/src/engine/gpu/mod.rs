@@ -182,17 +182,6 @@ impl EnsembleEngine for GpuEngine {
         readback: Readback,
         progress: Progress,
     ) -> Result<EngineRun, EngineError> {
-        if plan
-            .instances
-            .iter()
-            .any(|p| p.control != crate::config::StepControl::Fixed)
-        {
-            return Err(crate::config::ConfigError::Inconsistent {
-                key: "integration.step".into(),
-                reason: "adaptive steps run on the CPU engine for now (--backend cpu); the GPU kernels take fixed steps".into(),
-            }
-            .into());
-        }
         let layout = self.layout.unwrap_or(plan.gpu_layout);
         run_gpu(
             &self.ctx,
@@ -224,6 +213,7 @@ fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings, layout: StateLayout)
         method: plan.method,
         want_twin: want(Metric::Lyapunov),
         want_early: plan.early_stop.is_some(),
+        adaptive: plan.is_adaptive(),
         layout,
     }
 }
