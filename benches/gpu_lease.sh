@@ -162,6 +162,77 @@ followup() {
   pack
 }
 
+# Issue 43 on a hardware GPU, in one call: fixed against adaptive steps on the GPU engine, the
+# default map (N = 3) at both steps and at a 10x tighter tolerance, the 192-cell subgrid at
+# N = 17 (configs/maps/default_subgrid.toml) at both steps and tighter, and the whole default
+# plane adaptive at N = 9 and 17. Each map keeps its map.json and grid.csv; `adaptive.txt`
+# lists the wall time of each. Compare locally with benches/adaptive_gpu.py.
+adaptive() {
+  out=${OUT:-/tmp/gpu_lease_out}
+  work=${GPU_LEASE_WORK:-/tmp/gpu_lease}
+  local bin=${PENDULUM_ATLAS_KIT_BIN:-$kit/pendulum-atlas} dry=${1:-}
+  [ -x "$bin" ] || { echo "no $bin: run 'benches/gpu_lease.sh prepare' here and carry .gpu-kit" >&2; exit 2; }
+  rm -rf "$work"; mkdir -p "$work" "$out"
+  exec > >(tee "$out/log.txt") 2>&1
+  [ -n "$dry" ] || vulkan_env
+  export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp/xdg}; mkdir -p -m700 "$XDG_RUNTIME_DIR"
+  echo "== machine"; nproc; (nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv || true)
+  echo "== adapters"; "$bin" adapters | tee "$work/adapters.txt"
+  local ad=(--set 'integration.step="adaptive"')
+  local tight=("${ad[@]}" --set integration.rtol=1e-4 --set integration.atol=1e-6)
+  local small=()
+  # --dry: a 4 x 4 corner, to check the plumbing on lavapipe
+  [ -z "$dry" ] || small=(--set 'map.axes=[{key="excitation.frequency_hz",start=11.0,end=12.0,count=4},{key="excitation.amplitude_m",start=0.004,end=0.025,count=4}]')
+  one() {  # name, timeout (s), then the map's arguments
+    local name=$1 limit=$2; shift 2
+    [ -z "$dry" ] || limit=20
+    SECONDS=0
+    local rc=0
+    timeout "$limit" "$bin" map --backend gpu "$@" "${small[@]}" --out "$work/$name" --force || rc=$?
+    echo "$name: ${SECONDS} s (rc $rc, limit $limit s)" | tee -a "$work/adaptive.txt"
+    rm -f "$work/$name"/*.png
+    pack
+  }
+  # Most wanted first; the limits add up to 580 s (give the call timeout_s 600).
+  local sub=configs/maps/default_subgrid.toml
+  one n3_fixed 30 --set beam.segments=3
+  one n3_adaptive 60 --set beam.segments=3 "${ad[@]}"
+  one sub17_adaptive 60 "$sub" --set beam.segments=17 "${ad[@]}"
+  one full17_adaptive 120 --set beam.segments=17 "${ad[@]}"
+  one sub17_fixed 130 "$sub" --set beam.segments=17
+  one n3_tight 60 --set beam.segments=3 "${tight[@]}"
+  one sub17_tight 60 "$sub" --set beam.segments=17 "${tight[@]}"
+  one full9_adaptive 60 --set beam.segments=9 "${ad[@]}"
+  cp "$work/adaptive.txt" "$out/adaptive.txt"
+  ls -la "$out"
+}
+
+# A second, shorter call when N = 17 does not finish in the first: the subgrid's upper half
+# (f 8.06-11.6 Hz, 8 x 12 = 96 cells) over 14 s with a 2 s transient (96 stroboscopic samples
+# at 8 Hz), fixed and adaptive, each within 150 s.
+adaptive17() {
+  out=${OUT:-/tmp/gpu_lease_out}
+  work=${GPU_LEASE_WORK:-/tmp/gpu_lease}
+  local bin=${PENDULUM_ATLAS_KIT_BIN:-$kit/pendulum-atlas}
+  rm -rf "$work"; mkdir -p "$work" "$out"
+  exec > >(tee "$out/log.txt") 2>&1
+  vulkan_env
+  export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp/xdg}; mkdir -p -m700 "$XDG_RUNTIME_DIR"
+  local half=(configs/maps/default_subgrid.toml --set beam.segments=17
+    --set 'map.axes=[{key="excitation.frequency_hz",values=[8.063492063492063,8.571428571428571,9.079365079365079,9.587301587301587,10.095238095238095,10.603174603174603,11.11111111111111,11.619047619047619]},{key="excitation.amplitude_m",values=[0.004,0.0057872340425531915,0.007574468085106383,0.009361702127659575,0.011148936170212766,0.012936170212765958,0.01472340425531915,0.01651063829787234,0.018297872340425535,0.020085106382978724,0.021872340425531916,0.023659574468085108]}]'
+    --set integration.duration_s=14.0 --set integration.transient_s=2.0)
+  local name rc
+  for name in half17_adaptive half17_fixed; do
+    local extra=()
+    [ "$name" = half17_adaptive ] && extra=(--set 'integration.step="adaptive"')
+    SECONDS=0; rc=0
+    timeout 150 "$bin" map --backend gpu "${half[@]}" "${extra[@]}" --out "$work/$name" --force || rc=$?
+    echo "$name: ${SECONDS} s (rc $rc, limit 150 s)" | tee -a "$work/adaptive.txt"
+    rm -f "$work/$name"/*.png
+    pack
+  done
+}
+
 unpack() {
   local file=${1:?the gpu_lease.tar.gz a run brought back}
   local tmp; tmp=$(mktemp -d)
@@ -185,6 +256,8 @@ case "${1:-}" in
   prepare) prepare ;;
   run) run "${2:+dry}" ;;
   followup) followup "${2:-}" ;;
+  adaptive) adaptive "${2:+dry}" ;;
+  adaptive17) adaptive17 ;;
   unpack) unpack "${2:-}" ;;
-  *) echo "usage: benches/gpu_lease.sh prepare | run [--dry] | unpack FILE" >&2; exit 2 ;;
+  *) echo "usage: benches/gpu_lease.sh prepare | run [--dry] | adaptive [--dry] | unpack FILE" >&2; exit 2 ;;
 esac

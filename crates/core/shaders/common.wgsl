@@ -108,7 +108,7 @@ struct Accum {
     hops: u32,
     impacts: u32,
     period: u32,
-    pad0: u32,
+    sub_pos: u32,
     alpha_min: f32,
     alpha_max: f32,
     power_sum: f32,
@@ -137,7 +137,7 @@ struct Accum {
     e_last: u32,
     stopped: u32,
     level: u32,
-    pad3: u32,
+    sub_onsets: u32,
 }
 
 // Mirrors `GpuControl`.
@@ -161,7 +161,7 @@ struct Control {
     e_period_off: u32,
     e_r_off: u32,
     e_r_len: u32,
-    pad0: u32,
+    pass_budget: u32,
     pad1: u32,
 }
 

@@ -162,10 +162,12 @@ fn imex_finish(h: f32) {
 }
 
 // The scaled error of the stages just computed (AdaptiveImex::error of src/engine/adaptive.rs):
-// max over the state of |h Σ (b_j − b̂_j) f_j| / (atol + rtol |y|), y the state before the step.
-// A NaN component is passed over, as f64::max does on the CPU.
+// the embedded error e = h Σ (b_j − b̂_j) f_j filtered through the implicit solve,
+// x = (I − hγL)⁻¹ e (Imex::filtered_error: S x_ω = M0 e_ω − hγ K e_θ, x_θ = e_θ + hγ x_ω; the
+// voltage unfiltered), then max over the state of |x| / (atol + rtol |y|), y the state before
+// the step. A NaN component is passed over, as f64::max does on the CPU. The stage state
+// (sth, som) serves as scratch: the stages are done with it.
 fn imex_error(h: f32) -> f32 {
-    var e = 0.0;
     for (var s = 0u; s < N_SEG; s++) {
         var dth = 0.0;
         var dom = 0.0;
@@ -174,8 +176,19 @@ fn imex_error(h: f32) -> f32 {
             dth += w * f_th[j][s];
             dom += w * f_om[j][s];
         }
-        e = scaled_max(e, h * dth, th[s]);
-        e = scaled_max(e, h * dom, om[s]);
+        sth[s] = h * dth;
+        rv[s] = h * dom;
+    }
+    let hg = h * IMEX_GAMMA;
+    imex_couples(0.0);
+    for (var s = 0u; s < N_SEG; s++) {
+        qv[s] = mat_row_r(2u, s) + hg * qv[s];
+    }
+    var e = 0.0;
+    for (var s = 0u; s < N_SEG; s++) {
+        let x_om = mat_row_q(1u, s);
+        e = scaled_max(e, sth[s] + hg * x_om, th[s]);
+        e = scaled_max(e, x_om, om[s]);
     }
     if HAS_PIEZO {
         var dv = 0.0;

@@ -338,59 +338,69 @@ fn step_state(ph: u32, dt: f32) {
     }
 }
 
-// One base step of adaptive steps from phase `ph` (AdaptiveImex::base_step of
-// src/engine/adaptive.rs): sub-steps h_k = P.dt / 2^k on the ladder, the level carried in the
-// accumulators between base steps. A step whose scaled error exceeds 1 is taken again at the
-// next level; an accepted one advances the state, and the twin beside it on the main stages'
-// branches with its onset saltation; the level falls by one where the position is aligned to
-// the coarser step and the error is at most ADAPTIVE_GROW. Returns the contact onsets within.
-fn adaptive_step(ph: u32, twin_on: bool, a: ptr<function, Accum>) -> u32 {
+// Where an invocation is within its base step of adaptive steps: the position in units of
+// the finest step, the ladder level k of the next sub-step (h = P.dt / 2^k), the bumper flags
+// after the last sub-step, and the contact onsets within the base step so far.
+struct Ladder {
+    pos: u32,
+    level: u32,
+    touching: u32,
+    onsets: u32,
+}
+
+// One sub-step tried within the base step from phase `ph` (AdaptiveImex::base_step of
+// src/engine/adaptive.rs, one pass of its loop): a step whose scaled error exceeds 1 is taken
+// again at the next level; an accepted one advances the state, and the twin beside it on the
+// main stages' branches with its onset saltation; the level falls by one where the position
+// is aligned to the coarser step and the error is at most ADAPTIVE_GROW. True once the base
+// step is complete (its onsets in `l.onsets`, the position back at 0).
+//
+// One sub-step per call, not one base step, so that the invocations of a warp stay busy: an
+// invocation in free flight completes its base step in one pass while one in contact takes
+// many, and the base step's bookkeeping is the only work they do apart.
+fn adaptive_substep(ph: u32, twin_on: bool, l: ptr<function, Ladder>) -> bool {
     let unit = 1u << MAX_LEVEL;
-    var pos = 0u;
-    var k = (*a).level;
-    var touching = touch_flags();
-    var onsets = 0u;
-    loop {
-        if pos >= unit {
-            break;
-        }
-        let span = unit >> k;
-        let start = f32(pos) / f32(unit);
-        let width = f32(span) / f32(unit);
-        let h = P.dt / f32(1u << k);
-        imex_level = k;
+    let k = (*l).level;
+    let span = unit >> k;
+    let start = f32((*l).pos) / f32(unit);
+    let width = f32(span) / f32(unit);
+    let h = P.dt / f32(1u << k);
+    imex_level = k;
+    stage_n = 0u;
+    branch_bits = 0u;
+    imex_stages(ph, start, width, h);
+    let e = imex_error(h);
+    if e > 1.0 && k < MAX_LEVEL {
+        (*l).level = k + 1u;
+        return false;
+    }
+    imex_finish(h);
+    let now = touch_flags();
+    let new_on = now & ~(*l).touching;
+    (*l).onsets += countOneBits(new_on);
+    (*l).touching = now;
+    if twin_on {
+        swap_twin();
+        twin_mode = true;
         stage_n = 0u;
-        branch_bits = 0u;
         imex_stages(ph, start, width, h);
-        let e = imex_error(h);
-        if e > 1.0 && k < MAX_LEVEL {
-            k += 1u;
-            continue;
-        }
         imex_finish(h);
-        let now = touch_flags();
-        let new_on = now & ~touching;
-        onsets += countOneBits(new_on);
-        touching = now;
-        if twin_on {
-            swap_twin();
-            twin_mode = true;
-            stage_n = 0u;
-            imex_stages(ph, start, width, h);
-            imex_finish(h);
-            twin_mode = false;
-            swap_twin();
-            if HAS_CONTACT && new_on != 0u {
-                twin_saltation(new_on);
-            }
-        }
-        pos += span;
-        if k > 0u && pos % (span << 1u) == 0u && e <= ADAPTIVE_GROW {
-            k -= 1u;
+        twin_mode = false;
+        swap_twin();
+        if HAS_CONTACT && new_on != 0u {
+            twin_saltation(new_on);
         }
     }
-    (*a).level = k;
-    return onsets;
+    let pos = (*l).pos + span;
+    if k > 0u && pos % (span << 1u) == 0u && e <= ADAPTIVE_GROW {
+        (*l).level = k - 1u;
+    }
+    if pos < unit {
+        (*l).pos = pos;
+        return false;
+    }
+    (*l).pos = 0u;
+    return true;
 }
 
 // Exchange the main state (and its compensation) with the twin's.
@@ -673,9 +683,18 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
     var rph = s % P.r_every;
     let r_phase = P.r_start % P.r_every;
     twin_mode = false;
-    // Steps without an event run in the inner loop; the events of a forcing period (its
-    // stroboscopic instant and its end: the early stop's watch, λ1's twin, the period's
-    // tally) are taken between its runs, out of the hot loop.
+    // Adaptive steps: the ladder goes on where the last dispatch left it (within a base step
+    // when it ran out of passes), and a dispatch tries at most ctl.pass_budget sub-steps.
+    var lad = Ladder(a.sub_pos, a.level, 0u, a.sub_onsets);
+    if ADAPTIVE {
+        lad.touching = touch_flags();
+    }
+    var passes = 0u;
+    var out_of_passes = false;
+    // Steps without an event run in the inner loop (with adaptive steps, one sub-step per
+    // pass); the events of a forcing period (its stroboscopic instant and its end: the early
+    // stop's watch, λ1's twin, the period's tally) are taken between its runs, out of the hot
+    // loop.
     var failed = false;
     loop {
         if s >= end {
@@ -685,7 +704,16 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
             let twin_on = WANT_TWIN && (a.twin_flags & TWIN_RUNNING) != 0u;
             var onsets = 0u;
             if ADAPTIVE {
-                onsets = adaptive_step(ph, twin_on, &a);
+                if passes == ctl.pass_budget {
+                    out_of_passes = true;
+                    break;
+                }
+                passes += 1u;
+                if !adaptive_substep(ph, twin_on, &lad) {
+                    continue;
+                }
+                onsets = lad.onsets;
+                lad.onsets = 0u;
             } else {
                 step_state(ph, dt);
                 if twin_on {
@@ -731,7 +759,7 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
                 break;
             }
         }
-        if failed {
+        if failed || out_of_passes {
             break;
         }
         if (WANT_EARLY || s >= transient) && ph == P.strobe_offset {
@@ -742,6 +770,9 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
     }
     a.step = s;
+    a.level = lad.level;
+    a.sub_pos = lad.pos;
+    a.sub_onsets = lad.onsets;
     for (var i = 0u; i < N_SEG; i++) {
         state[i * n_inst + inst] = th[i];
         state[(N_SEG + i) * n_inst + inst] = om[i];

@@ -76,10 +76,10 @@ fn parameter_structs_have_the_same_layout_in_rust_and_wgsl() {
     assert_same_layout(
         &m,
         "Accum",
-        offsets!(GpuAccum; step, status, touch, well, hops, impacts, period, pad0, alpha_min,
+        offsets!(GpuAccum; step, status, touch, well, hops, impacts, period, sub_pos, alpha_min,
             alpha_max, power_sum, power_comp, k, r, line, pad2, lyap_sums, lyap_n, twin_flags,
             lyap, lyap_se, regime, tw_start, tw_window, p_hops, p_impacts, p_power, p_amin, p_amax,
-            e_phase, e_p, e_until, e_seen, e_last, stopped, level, pad3),
+            e_phase, e_p, e_until, e_seen, e_last, stopped, level, sub_onsets),
         size_of::<GpuAccum>(),
     );
     assert_same_layout(
@@ -87,7 +87,7 @@ fn parameter_structs_have_the_same_layout_in_rust_and_wgsl() {
         "Control",
         offsets!(GpuControl; n_inst, steps_per_dispatch, strobe_stride, rwork_stride,
             period_max, period_window, period_tol, c_index, slice_first, slice_end, n_active,
-            e_p_max, e_window, e_tol, e_alpha_off, e_period_off, e_r_off, e_r_len, pad0, pad1),
+            e_p_max, e_window, e_tol, e_alpha_off, e_period_off, e_r_off, e_r_len, pass_budget, pad1),
         size_of::<GpuControl>(),
     );
 }

@@ -4,7 +4,9 @@
 //!
 //! ```text
 //! levels:   h_k = H / 2^k,  k = 0 … MAX_LEVEL;  S⁻¹ built once per level and reused
-//! error:    e = max_s |h Σ (b_i − b̂_i) f_i,s| / (atol + rtol·|y_s|)
+//! error:    e = max_s |x_s| / (atol + rtol·|y_s|),  x = (I − hγL)⁻¹ h Σ (b_i − b̂_i) f_i
+//!           (the embedded estimate filtered through the implicit solve: stiff joint modes that
+//!           the implicit part damps do not inflate it)
 //! accept:   e ≤ 1 (or k = MAX_LEVEL, counted as forced); then, where the position within H
 //!           is a multiple of h_{k−1} and e ≤ GROW, k ← k − 1 for the next step
 //! reject:   k ← k + 1, the same step again from the same state
@@ -16,7 +18,10 @@
 //! sub-step, and λ1's twin takes the main trajectory's sub-steps, on its stages' branches, with
 //! its onset saltation at the sub-step where a contact begins (`crate::engine::twin`).
 //!
-//! This is the scalar path (single runs); the ensemble engines take fixed steps.
+//! Single runs and the CPU engine take their steps here, one instance at a time (the SIMD
+//! lanes step together, so an adaptive plan runs on the scalar loop); the GPU kernel takes the
+//! same steps per invocation, one sub-step per pass of its loop (`shaders/integrate.wgsl`,
+//! `adaptive_substep`).
 
 use crate::engine::imex::{C, Imex, ImexMatrices};
 use crate::engine::stepper::{CartClock, Stepper};
@@ -74,6 +79,8 @@ pub struct AdaptiveImex<T> {
     level: usize,
     onsets: u32,
     stats: SubstepStats,
+    /// The error vector of the step being tried.
+    scratch: Vec<T>,
 }
 
 impl<T: Real> AdaptiveImex<T> {
@@ -90,6 +97,7 @@ impl<T: Real> AdaptiveImex<T> {
             level: 0,
             onsets: 0,
             stats: SubstepStats::default(),
+            scratch: Vec::new(),
         }
     }
 
@@ -127,10 +135,16 @@ impl<T: Real> AdaptiveImex<T> {
     /// The scaled error of the stages just computed at level `k` for a step from `y`.
     fn error(&mut self, k: usize, y: &[T]) -> f64 {
         let (rtol, atol) = (self.rtol, self.atol);
-        let imex = self.at(k);
-        (0..y.len())
-            .map(|s| imex.error_of(s).wide().abs() / (atol + rtol * y[s].wide().abs()))
-            .fold(0.0, f64::max)
+        let mut e = std::mem::take(&mut self.scratch);
+        e.resize(y.len(), T::of(0.0));
+        self.at(k).filtered_error(&mut e);
+        let worst = e
+            .iter()
+            .zip(y)
+            .map(|(es, ys)| es.wide().abs() / (atol + rtol * ys.wide().abs()))
+            .fold(0.0, f64::max);
+        self.scratch = e;
+        worst
     }
 
     /// One base step `step` of `y` (and of the twin's state beside it, with its stepper).

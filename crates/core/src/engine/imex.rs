@@ -390,6 +390,29 @@ impl<T: Lane> Imex<T> {
         self.h * e
     }
 
+    /// The embedded error filtered through the implicit solve, `(I − hγL)⁻¹ e` with
+    /// `e = h Σ (b_i − b̂_i) f_i` (Shampine's filter; Hairer & Wanner, *Solving ODEs II*, IV.8),
+    /// into `out` (the state's length), after [`Imex::stages`]: a stiff joint mode that the
+    /// implicit part damps no longer inflates the estimate, and the smooth components keep
+    /// theirs. The same solve as a stage's: `S x_ω = M0 e_ω − hγ K e_θ`, `x_θ = e_θ + hγ x_ω`;
+    /// the voltage is left as it is.
+    pub(crate) fn filtered_error(&mut self, out: &mut [T]) {
+        let n = self.n;
+        for (s, o) in out.iter_mut().enumerate() {
+            *o = self.error_of(s);
+        }
+        let j = self.joints();
+        j.couples(&out[..n], None, &mut self.q);
+        mat_vec(&self.m0, &out[n..2 * n], &mut self.r);
+        for s in 0..n {
+            self.r[s] += self.hg * self.q[s];
+        }
+        mat_vec(&self.s_inv, &self.r, &mut out[n..2 * n]);
+        for s in 0..n {
+            out[s] += self.hg * out[n + s];
+        }
+    }
+
     /// Hand the state's summation compensation to `other` (a change of step level).
     pub(crate) fn pass_compensation(&mut self, other: &mut Imex<T>) {
         std::mem::swap(&mut self.comp, &mut other.comp);

@@ -120,7 +120,12 @@ pub fn run_steps<T: Real, S: Stepper<T>, C: CartClock, H: StepHook<T>>(
     for n in 0..steps {
         let before = touching;
         match hook.twin() {
-            None => stepper.step(chain, &mut ws, y, n, clock),
+            None => {
+                // A twin that starts again (the early stop's restart, then its reset) starts
+                // with a fresh stepper, as it does in a run without the early stop.
+                twin_stepper = None;
+                stepper.step(chain, &mut ws, y, n, clock)
+            }
             Some(twin) => {
                 let ts = twin_stepper.get_or_insert_with(|| stepper.fresh());
                 stepper.step_twin(ts, chain, &mut ws, (&mut *y, &mut *twin), n, clock);

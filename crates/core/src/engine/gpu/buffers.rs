@@ -255,7 +255,7 @@ pub fn software_step_budget(
         .max()
         .unwrap_or(0);
     Ok(Some(steps_within_loop_budget(
-        key.method,
+        (key.method, key.adaptive),
         n_seg,
         max_lever,
         key.want_twin,
@@ -301,13 +301,13 @@ fn early_loops(plan: &EnsemblePlan, key: &KernelKey) -> (f64, f64) {
 /// per dispatch it is loaded and stored (`2 N`). The early stop adds `early` (per step,
 /// per dispatch: [`early_loops`]).
 fn steps_within_loop_budget(
-    method: Method,
+    (method, adaptive): (Method, bool),
     n: usize,
     levers: usize,
     twin: bool,
     early: (f64, f64),
 ) -> u64 {
-    let one = loops_per_step(method, n, levers) as f64;
+    let one = (loops_per_step(method, n, levers) + adaptive_loops(n, levers, adaptive)) as f64;
     let n = n as f64;
     let (per_step, fixed) = if twin {
         (2.0 * one + 9.0 * n + early.0, 2.0 * n + early.1)
@@ -332,6 +332,18 @@ fn loops_per_step(method: Method, n: usize, levers: usize) -> usize {
     match method {
         Method::Rk4 => 14 * n + 5 * levers + 1,
         Method::Imex => 9 * n * n + 51 * n + 5 * levers + 14,
+    }
+}
+
+/// Loop iterations a sub-step of adaptive steps adds to an IMEX step (with adaptive steps the
+/// budget counts sub-steps tried, each a pass of the kernel's loop): `imex_error` (its sums
+/// 5N, the couples N, two N × N products N² + N each, the piezo's 4) and the pass's own
+/// `touch_flags` (levers): `2 N² + 8 N + levers + 4`.
+fn adaptive_loops(n: usize, levers: usize, adaptive: bool) -> usize {
+    if adaptive {
+        2 * n * n + 8 * n + levers + 4
+    } else {
+        0
     }
 }
 

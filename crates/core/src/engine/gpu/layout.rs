@@ -236,8 +236,9 @@ pub struct GpuAccum {
     pub impacts: u32,
     /// Period of the stroboscopic section.
     pub period: u32,
-    /// Padding.
-    pub pad0: u32,
+    /// Adaptive steps: the position within the base step where the last dispatch stopped
+    /// (in units of the finest step; 0 at a base step's start).
+    pub sub_pos: u32,
     /// Smallest α after the transient (rad).
     pub alpha_min: f32,
     /// Largest α after the transient (rad).
@@ -294,8 +295,8 @@ pub struct GpuAccum {
     pub stopped: u32,
     /// Adaptive steps: the ladder level k of the next sub-step (h = dt / 2^k).
     pub level: u32,
-    /// Padding.
-    pub pad3: u32,
+    /// Adaptive steps: contact onsets within the base step so far.
+    pub sub_onsets: u32,
 }
 
 /// `GpuAccum::twin_flags`: the twin runs (the kernel advances it).
@@ -366,9 +367,10 @@ pub struct GpuControl {
     pub e_r_off: u32,
     /// Length of that ring (1 when unused).
     pub e_r_len: u32,
+    /// Adaptive steps: sub-steps an invocation may try per dispatch (a software adapter's loop
+    /// budget; `u32::MAX` on hardware). A dispatch may end within a base step.
+    pub pass_budget: u32,
     /// Padding to a multiple of 16 bytes (a uniform block).
-    pub pad0: u32,
-    /// See `pad0`.
     pub pad1: u32,
 }
 

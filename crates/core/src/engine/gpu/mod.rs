@@ -414,8 +414,14 @@ fn integrate(
     let mut active: Vec<u32> = (0..n as u32).collect();
     let (mut done, mut chunk, mut dispatches) = (0u64, 64u64, 0u32);
     let lose = fault::failpoint()? == Some(fault::Failpoint::LoseDevice);
-    while !active.is_empty() && done < max_steps {
-        let this = chunk.min(max_steps - done).min(budget.unwrap_or(u64::MAX));
+    // Adaptive steps: a dispatch may end within a base step (its sub-steps are bounded by the
+    // budget, not its base steps), so the run goes on until every instance has finished.
+    let adaptive = plan.is_adaptive();
+    control.pass_budget = budget.map_or(u32::MAX, |b| b.min(u64::from(u32::MAX)) as u32);
+    while !active.is_empty() && (adaptive || done < max_steps) {
+        // (Adaptive: not cut to the steps left, since an instance may lag behind `done`.)
+        let left = if adaptive { u64::MAX } else { max_steps - done };
+        let this = chunk.min(left).min(budget.unwrap_or(u64::MAX));
         control.steps_per_dispatch = this as u32;
         control.n_active = active.len() as u32;
         ctx.queue
@@ -433,7 +439,7 @@ fn integrate(
         wait(ctx, submitted)?;
         let took = started.elapsed();
         dispatches += 1;
-        done += this;
+        done = (done + this).min(max_steps);
         if progress(done, max_steps, ProgressUnit::Steps).is_break() {
             return Err(EngineError::Cancelled);
         }
