@@ -64,7 +64,8 @@ def pct(mask):
 runs = {n: load(n) for n in LIM}
 first = next(r for r in runs.values() if r is not None)
 print(f"# Adaptive steps on the GPU engine: {first[0]['adapter']}\n")
-print("Written by `benches/adaptive_gpu.py` from one call of `benches/gpu_lease.sh adaptive`. "
+print("Written by `benches/adaptive_gpu.py` from the calls of `benches/gpu_lease.sh adaptive` (and "
+      "`adaptive17`). "
       "One run each; wall times are each map's `timings_s.total_s` (the whole map: planning, "
       "pipelines, integration, reductions). Adaptive: rtol 1e-3 / atol 1e-5 (the defaults); "
       "tight: rtol 1e-4 / atol 1e-6.\n")
@@ -123,3 +124,13 @@ if ad:
         ratio = limit / ad[0]["timings_s"]["total_s"]
         print(f"\nThe fixed-step subgrid did not finish within {limit} s: fixed / adaptive wall time "
               f"> {ratio:.1f}×.")
+
+if "half17_fixed" in LIM or "half17_adaptive" in LIM:
+    print("\n## The subgrid's upper half at N = 17 (f 8.06–11.6 Hz, 8 × 12 = 96 cells, 14 s, 2 s transient)\n")
+    print("`benches/gpu_lease.sh adaptive17`, a second call when N = 17 did not finish in the first.\n")
+    print("| steps | wall (s) |")
+    print("|---|---:|")
+    for name, label in (("half17_fixed", "fixed (IMEX, automatic step 63 µs)"),
+                        ("half17_adaptive", "adaptive")):
+        if name in LIM:
+            print(f"| {label} | {wall(name, runs.get(name))} |")

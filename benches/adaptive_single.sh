@@ -33,7 +33,8 @@ print("Written by `benches/adaptive_single.sh`: the paper scene (library damping
       "through bumper impacts; the largest |α − α_ref| over the 1 kHz rows against the DOP853 reference "
       "at the same N, and the chain's right-hand-side evaluations (four per tried step, rejected ones "
       "included). Fixed: the engine's automatic method and step. Adaptive: ARK3(2)4L[2]SA with its "
-      "embedded estimate on the ladder H/2^k (H = 1 ms, the rows). CPU, f64, one instance.\n")
+      "embedded estimate, filtered through the implicit solve, on the ladder H/2^k (H = 1 ms, the rows). "
+      "CPU, f64, one instance.\n")
 print("| N | steps | rtol / atol | max \\|Δα\\| (rad) | evaluations | × fewer than fixed | accepted / rejected | smallest step (s) |")
 print("|---|---|---|---|---|---|---|---|")
 fixed = {}
