@@ -62,12 +62,14 @@ vulkan_env() {
 # brings back what it had.
 pack() { tar -czf "$out/gpu_lease.tar.gz" -C "$work" . ; }
 
-run() {
+# The start every lease mode shares: the output folders, the log, the Vulkan loader (not for
+# a dry run), the machine and its adapters. Sets out, work and bin.
+setup() {
   local dry=${1:-}
   out=${OUT:-/tmp/gpu_lease_out}
   work=${GPU_LEASE_WORK:-/tmp/gpu_lease}
   # PENDULUM_ATLAS_KIT_BIN: another binary (the test of `run --dry` passes the one cargo built).
-  local bin=${PENDULUM_ATLAS_KIT_BIN:-$kit/pendulum-atlas}
+  bin=${PENDULUM_ATLAS_KIT_BIN:-$kit/pendulum-atlas}
   [ -x "$bin" ] || { echo "no $bin: run 'benches/gpu_lease.sh prepare' here and carry .gpu-kit" >&2; exit 2; }
   rm -rf "$work"; mkdir -p "$work" "$out"
   exec > >(tee "$out/log.txt") 2>&1
@@ -75,6 +77,11 @@ run() {
   export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp/xdg}; mkdir -p -m700 "$XDG_RUNTIME_DIR"
   echo "== machine"; nproc; (nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv || true)
   echo "== adapters"; "$bin" adapters | tee "$work/adapters.txt"
+}
+
+run() {
+  local dry=${1:-}
+  setup "$dry"
   if [ -z "$dry" ] && ! grep -q -v "software" "$work/adapters.txt"; then
     echo "no hardware adapter listed: Vulkan loader or ICD missing (see .library/device/README.md)" >&2
     exit 3
@@ -168,16 +175,8 @@ followup() {
 # plane adaptive at N = 9 and 17. Each map keeps its map.json and grid.csv; `adaptive.txt`
 # lists the wall time of each. Compare locally with benches/adaptive_gpu.py.
 adaptive() {
-  out=${OUT:-/tmp/gpu_lease_out}
-  work=${GPU_LEASE_WORK:-/tmp/gpu_lease}
-  local bin=${PENDULUM_ATLAS_KIT_BIN:-$kit/pendulum-atlas} dry=${1:-}
-  [ -x "$bin" ] || { echo "no $bin: run 'benches/gpu_lease.sh prepare' here and carry .gpu-kit" >&2; exit 2; }
-  rm -rf "$work"; mkdir -p "$work" "$out"
-  exec > >(tee "$out/log.txt") 2>&1
-  [ -n "$dry" ] || vulkan_env
-  export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp/xdg}; mkdir -p -m700 "$XDG_RUNTIME_DIR"
-  echo "== machine"; nproc; (nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv || true)
-  echo "== adapters"; "$bin" adapters | tee "$work/adapters.txt"
+  local dry=${1:-}
+  setup "$dry"
   local ad=(--set 'integration.step="adaptive"')
   local tight=("${ad[@]}" --set integration.rtol=1e-4 --set integration.atol=1e-6)
   local small=()
@@ -211,13 +210,7 @@ adaptive() {
 # (f 8.06-11.6 Hz, 8 x 12 = 96 cells) over 14 s with a 2 s transient (96 stroboscopic samples
 # at 8 Hz), fixed and adaptive, each within 150 s.
 adaptive17() {
-  out=${OUT:-/tmp/gpu_lease_out}
-  work=${GPU_LEASE_WORK:-/tmp/gpu_lease}
-  local bin=${PENDULUM_ATLAS_KIT_BIN:-$kit/pendulum-atlas}
-  rm -rf "$work"; mkdir -p "$work" "$out"
-  exec > >(tee "$out/log.txt") 2>&1
-  vulkan_env
-  export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp/xdg}; mkdir -p -m700 "$XDG_RUNTIME_DIR"
+  setup
   local half=(configs/maps/default_subgrid.toml --set beam.segments=17
     --set 'map.axes=[{key="excitation.frequency_hz",values=[8.063492063492063,8.571428571428571,9.079365079365079,9.587301587301587,10.095238095238095,10.603174603174603,11.11111111111111,11.619047619047619]},{key="excitation.amplitude_m",values=[0.004,0.0057872340425531915,0.007574468085106383,0.009361702127659575,0.011148936170212766,0.012936170212765958,0.01472340425531915,0.01651063829787234,0.018297872340425535,0.020085106382978724,0.021872340425531916,0.023659574468085108]}]'
     --set integration.duration_s=14.0 --set integration.transient_s=2.0)
