@@ -445,7 +445,13 @@ impl Engine {
     /// The engine's description for a run of `plan`: adaptive steps run the CPU engine's
     /// scalar loop, whatever loop it was opened with.
     pub fn info_for(&self, plan: &EnsemblePlan) -> EngineInfo {
-        if !plan.is_adaptive() || self.info.cpu_loop.is_none() {
+        self.info_stepping(plan.is_adaptive())
+    }
+
+    /// The engine's description for runs with adaptive steps (`adaptive`) or fixed ones (see
+    /// [`Engine::info_for`]).
+    pub fn info_stepping(&self, adaptive: bool) -> EngineInfo {
+        if !adaptive || self.info.cpu_loop.is_none() {
             return self.info.clone();
         }
         EngineInfo {

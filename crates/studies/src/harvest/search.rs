@@ -15,7 +15,7 @@
 use super::band::{BandMetrics, band_metrics, mean_curve, robust_curve};
 use super::error::HarvestError;
 use super::spec::{InitialState, Objective, SearchSpec, Weighting, describe_design};
-use pendulum_atlas_core::config::{ConfigError, Metric, Scene, neighbours, point_key};
+use pendulum_atlas_core::config::{ConfigError, Metric, Scene, StepControl, neighbours, point_key};
 use pendulum_atlas_core::engine::{
     Engine, EngineInfo, EnsembleOptions, EnsemblePlan, ProgressUnit,
 };
@@ -632,7 +632,9 @@ pub fn run_search(
         designs,
         ranking,
         stages,
-        engine: engine.engine.info().clone(),
+        engine: engine
+            .engine
+            .info_stepping(spec.scene.integration.step != StepControl::Fixed),
         total_s: t_all.elapsed().as_secs_f64(),
     })
 }
