@@ -102,6 +102,14 @@ impl InstancePlan {
         self.params.cart.at_phase(cycles)
     }
 
+    /// What the IMEX matrices of this instance depend on: its structure and its (base) step.
+    /// Instances with equal keys share one set (and, with adaptive steps, one ladder).
+    pub fn imex_key(&self) -> Vec<u64> {
+        let mut bits = self.params.structure_bits();
+        bits.push(self.dt_s.to_bits());
+        bits
+    }
+
     /// The cart positions at the R samples: the reference signal of R.
     pub fn cart_series(&self) -> Vec<f64> {
         (0..u64::from(self.r_count))
@@ -526,11 +534,7 @@ fn ensemble_method(scenes: &[Scene], limits: &[MethodSteps]) -> (Method, String)
 /// Build the IMEX matrices once per distinct structure and step and hand every instance its
 /// set; returns the number of distinct sets.
 fn attach_imex_matrices(instances: &mut [InstancePlan]) -> usize {
-    let key = |p: &InstancePlan| {
-        let mut bits = p.params.structure_bits();
-        bits.push(p.dt_s.to_bits());
-        bits
-    };
+    let key = InstancePlan::imex_key;
     let mut first_of: HashMap<Vec<u64>, usize> = HashMap::new();
     for (k, p) in instances.iter().enumerate() {
         first_of.entry(key(p)).or_insert(k);

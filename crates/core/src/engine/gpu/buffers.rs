@@ -563,11 +563,7 @@ pub fn imex_matrices(plan: &EnsemblePlan) -> (Vec<f32>, Vec<u32>) {
 fn ladder_matrices(plan: &EnsemblePlan) -> (Vec<f32>, Vec<u32>) {
     use rayon::prelude::*;
     use std::collections::HashMap;
-    let key = |p: &InstancePlan| {
-        let mut bits = p.params.structure_bits();
-        bits.push(p.dt_s.to_bits());
-        bits
-    };
+    let key = InstancePlan::imex_key;
     let mut first_of: HashMap<Vec<u64>, usize> = HashMap::new();
     let mut order: Vec<Vec<u64>> = Vec::new();
     for (i, p) in plan.instances.iter().enumerate() {
