@@ -76,7 +76,8 @@ print("## The default map (64 × 48)\n")
 print("| N | steps | wall (s) | chaotic | periodic | regular | undecided |")
 print("|---|---|---:|---:|---:|---:|---:|")
 for name, n, label in (("n3_fixed", 3, "fixed (auto method and step)"),
-                       ("n3_adaptive", 3, "adaptive"), ("n3_tight", 3, "adaptive, tight"),
+                       ("n3_adaptive", 3, "adaptive"),
+                       ("n3_adaptive_imex", 3, "adaptive IMEX"), ("n3_tight", 3, "adaptive, tight"),
                        ("full9_adaptive", 9, "adaptive"), ("full17_fixed", 17, "fixed (IMEX, 63 µs)"),
                        ("full17_adaptive", 17, "adaptive")):
     if name not in LIM:
@@ -87,6 +88,7 @@ for name, n, label in (("n3_fixed", 3, "fixed (auto method and step)"),
         print(f"| {n} | {label} | {wall(name, r)} | | | | |")
         continue
     c = r[0]["regime"]["counts"]
+    label = f"{label} ({r[0]['method']})"
     print(f"| {n} | {label} | {wall(name, r)} | {c['chaotic']} | {c['periodic']} | "
           f"{c['regular']} | {c['undecided']} |")
 a, t = runs.get("n3_adaptive"), runs.get("n3_tight")

@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
-# Adaptive steps on maps (issue 43, first slice), on the CPU engine: the default map (N = 3) at
-# fixed steps (SIMD loop), at the default tolerances and at 10x tighter ones (scalar loop, each
-# cell its own steps); and the 192-cell subgrid at N = 17 (configs/maps/default_subgrid.toml),
-# fixed and adaptive. Verdict counts, period agreement, wall times.
+# Adaptive steps on maps (issue 43), on the CPU engine: the default map (N = 3) at fixed steps
+# (SIMD loop, and the scalar loop for a like-for-like time), then with each pair (the explicit
+# one, which `auto` picks at N = 3, and IMEX) at the default tolerances and at 10x tighter ones
+# (scalar loop, each cell its own steps); and the 192-cell subgrid at N = 17
+# (configs/maps/default_subgrid.toml), fixed and adaptive. Verdict counts, period agreement,
+# wall times. About 8 minutes on 2 cores.
 # Usage: benches/adaptive_maps.sh OUT.md   (needs numpy: PY=path/to/python)
 set -euo pipefail
 B=${PENDULUM_ATLAS:-target/release/pendulum-atlas}
@@ -11,10 +13,14 @@ OUT=${1:?output markdown}
 W=$(mktemp -d)
 trap 'rm -rf "$W"' EXIT
 A='integration.step="adaptive"'
+T=(--set integration.rtol=1e-4 --set integration.atol=1e-6)
 $B map --backend cpu --quiet --out "$W/fixed" >/dev/null 2>&1
-$B map --backend cpu --quiet --set "$A" --out "$W/adaptive" >/dev/null 2>&1
-$B map --backend cpu --quiet --set "$A" --set integration.rtol=1e-4 --set integration.atol=1e-6 \
-  --out "$W/tight" >/dev/null 2>&1
+$B map --backend cpu --cpu-loop scalar --quiet --out "$W/fixed_scalar" >/dev/null 2>&1
+for m in rk4 imex; do
+  M="integration.method=\"$m\""
+  $B map --backend cpu --quiet --set "$A" --set "$M" --out "$W/adaptive_$m" >/dev/null 2>&1
+  $B map --backend cpu --quiet --set "$A" --set "$M" "${T[@]}" --out "$W/tight_$m" >/dev/null 2>&1
+done
 $B map configs/maps/default_subgrid.toml --backend cpu --quiet --out "$W/sub_fixed" >/dev/null 2>&1
 $B map configs/maps/default_subgrid.toml --backend cpu --quiet --set "$A" --out "$W/sub_adaptive" \
   >/dev/null 2>&1
@@ -31,18 +37,27 @@ print("Written by `benches/adaptive_maps.sh` on the CPU engine in f64: fixed ste
 print("## The default map (N = 3, 64 × 48)\n")
 print("| steps | wall (s) | chaotic | periodic | regular | undecided | device |")
 print("|---|---|---|---|---|---|---|")
-runs = {d: load(d) for d in ("fixed", "adaptive", "tight")}
-names = {"fixed": "fixed (RK4, automatic step)", "adaptive": "adaptive, rtol 1e-3 / atol 1e-5",
-         "tight": "adaptive, rtol 1e-4 / atol 1e-6"}
+names = {"fixed": "fixed (RK4, automatic step)", "fixed_scalar": "fixed (RK4, automatic step), scalar loop",
+         "adaptive_rk4": "adaptive RK4(3), rtol 1e-3 / atol 1e-5",
+         "tight_rk4": "adaptive RK4(3), rtol 1e-4 / atol 1e-6",
+         "adaptive_imex": "adaptive IMEX, rtol 1e-3 / atol 1e-5",
+         "tight_imex": "adaptive IMEX, rtol 1e-4 / atol 1e-6"}
+runs = {d: load(d) for d in names}
 for d, (j, _) in runs.items():
     c = j["regime"]["counts"]
     print(f"| {names[d]} | {j['timings_s']['total_s']:.1f} | {c['chaotic']} | {c['periodic']} | "
           f"{c['regular']} | {c['undecided']} | {j['adapter']} |")
-pa, pt = runs["adaptive"][1]["period"], runs["tight"][1]["period"]
-both = (pa > 0) & (pt > 0)
-print(f"\nPeriods equal between the default tolerance and one 10× tighter on {int((pa[both] == pt[both]).sum())} "
-      f"of the {int(both.sum())} cells periodic in both ({100 * (pa[both] == pt[both]).mean():.1f} %). "
-      f"Wall time adaptive / fixed: {runs['adaptive'][0]['timings_s']['total_s'] / runs['fixed'][0]['timings_s']['total_s']:.2f}×.\n")
+wall = {d: j["timings_s"]["total_s"] for d, (j, _) in runs.items()}
+print()
+for m, label in (("rk4", "RK4(3)"), ("imex", "IMEX")):
+    pa, pt = runs[f"adaptive_{m}"][1]["period"], runs[f"tight_{m}"][1]["period"]
+    both = (pa > 0) & (pt > 0)
+    print(f"- {label}: periods equal between the default tolerance and one 10× tighter on "
+          f"{int((pa[both] == pt[both]).sum())} of the {int(both.sum())} cells periodic in both "
+          f"({100 * (pa[both] == pt[both]).mean():.1f} %). Wall time against fixed steps: "
+          f"{wall[f'adaptive_{m}'] / wall['fixed']:.2f}× the SIMD loop's, "
+          f"{wall[f'adaptive_{m}'] / wall['fixed_scalar']:.2f}× the scalar loop's.")
+print()
 print("## The 192-cell subgrid at N = 17 (`configs/maps/default_subgrid.toml`, K and period)\n")
 (jf, f), (ja, a) = load("sub_fixed"), load("sub_adaptive")
 print("| steps | wall (s) | steps integrated (adaptive: base steps; its sub-steps are not counted) | device |")

@@ -199,12 +199,13 @@ adaptive() {
     rm -f "$work/$name"/*.png
     pack
   }
-  # Most wanted first; the limits add up to 520 s (give the call timeout_s 580). The N = 17
+  # Most wanted first; the limits add up to 560 s (give the call timeout_s 600). The N = 17
   # half subgrid (96 cells, 14 s) is the pair to compare; the whole plane at N = 17 is the
   # issue's "a few minutes".
   local sub=configs/maps/default_subgrid.toml
   one n3_fixed 20 --set beam.segments=3
   one n3_adaptive 40 --set beam.segments=3 "${ad[@]}"
+  one n3_adaptive_imex 40 --set beam.segments=3 "${ad[@]}" --set 'integration.method="imex"'
   one half17_adaptive 100 "${half[@]}" "${ad[@]}"
   one half17_fixed 80 "${half[@]}"
   one full17_adaptive 150 --set beam.segments=17 "${ad[@]}"

@@ -208,6 +208,9 @@ var<private> th: array<f32, MAX_SEG>;     // θ at the start of the step
 var<private> om: array<f32, MAX_SEG>;     // θ̇ at the start of the step
 var<private> th_acc: array<f32, MAX_SEG>; // Σ w_s k_s for θ
 var<private> om_acc: array<f32, MAX_SEG>; // Σ w_s k_s for θ̇
+var<private> k4_th: array<f32, MAX_SEG>;  // RK4's k₄ for θ (adaptive steps: the error)
+var<private> k4_om: array<f32, MAX_SEG>;  // RK4's k₄ for θ̇
+var<private> k4_v: f32;                   // RK4's k₄ for v
 var<private> sth: array<f32, MAX_SEG>;    // stage state θ
 var<private> som: array<f32, MAX_SEG>;    // stage state θ̇
 var<private> sn: array<f32, MAX_SEG>;

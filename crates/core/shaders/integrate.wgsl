@@ -200,8 +200,17 @@ fn stage(cart_a: f32, w: f32, a_next: f32, dt: f32) {
     }
 }
 
-// One classical RK4 step from step count `s` (phase within the period `ph`).
+// One classical RK4 step from phase `ph` within the forcing period.
 fn rk4_step(ph: u32, dt: f32) {
+    rk4_stages(ph, 0.0, 1.0, dt);
+    rk4_finish();
+}
+
+// The four RK4 stages of a step of length h that starts at fraction `start` of the base step
+// from phase `ph` and spans `width` of it (0 and 1 for a whole step): the increment h Σ b_j k_j
+// in (th_acc, om_acc, volt_acc), the state not advanced. With adaptive steps k₄ is kept in
+// (k4_th, k4_om, k4_v) for the error (Rk4Rungs of src/engine/rk4.rs).
+fn rk4_stages(ph: u32, start: f32, width: f32, h: f32) {
     for (var i = 0u; i < N_SEG; i++) {
         th_acc[i] = 0.0;
         om_acc[i] = 0.0;
@@ -210,13 +219,29 @@ fn rk4_step(ph: u32, dt: f32) {
     }
     volt_acc = 0.0;
     svolt = volt;
-    let a0 = cart_acc(ph, 0.0);
-    let am = cart_acc(ph, 0.5);
-    let a1 = cart_acc(ph, 1.0);
-    stage(a0, 1.0 / 6.0, 0.5, dt);
-    stage(am, 1.0 / 3.0, 0.5, dt);
-    stage(am, 1.0 / 3.0, 1.0, dt);
-    stage(a1, 1.0 / 6.0, 0.0, dt);
+    let a0 = cart_acc(ph, start);
+    let am = cart_acc(ph, start + 0.5 * width);
+    let a1 = cart_acc(ph, start + width);
+    stage(a0, 1.0 / 6.0, 0.5, h);
+    stage(am, 1.0 / 3.0, 0.5, h);
+    stage(am, 1.0 / 3.0, 1.0, h);
+    if ADAPTIVE {
+        // k₄'s θ part is the rate at the last stage's state, about to be evaluated.
+        for (var i = 0u; i < N_SEG; i++) {
+            k4_th[i] = som[i];
+        }
+    }
+    stage(a1, 1.0 / 6.0, 0.0, h);
+    if ADAPTIVE {
+        for (var i = 0u; i < N_SEG; i++) {
+            k4_om[i] = acc_out[i];
+        }
+        k4_v = dvolt_out;
+    }
+}
+
+// The state advanced by the stages just computed: y += h Σ b_j k_j (compensated).
+fn rk4_finish() {
     for (var i = 0u; i < N_SEG; i++) {
         let t = comp_add(th[i], th_c[i], th_acc[i]);
         th[i] = t.x;
@@ -232,6 +257,27 @@ fn rk4_step(ph: u32, dt: f32) {
     }
 }
 
+// The scaled error of the RK4 stages just computed (Rk4Rungs::error of src/engine/rk4.rs):
+// k₅ at y₄ = y + h Σ b_j k_j with the cart at the step's end `a_end`, then max over the state
+// of |h (k₄ − k₅) / 6| / (atol + rtol |y|), y the state before the step.
+fn rk4_error(a_end: f32, h: f32) -> f32 {
+    for (var i = 0u; i < N_SEG; i++) {
+        sth[i] = th[i] + th_acc[i];
+        som[i] = om[i] + om_acc[i];
+    }
+    svolt = volt + volt_acc;
+    derivative(a_end);
+    let w = h / 6.0;
+    var e = 0.0;
+    for (var i = 0u; i < N_SEG; i++) {
+        e = scaled_max(e, w * (k4_th[i] - som[i]), th[i]);
+        e = scaled_max(e, w * (k4_om[i] - acc_out[i]), om[i]);
+    }
+    if HAS_PIEZO {
+        e = scaled_max(e, w * (k4_v - dvolt_out), volt);
+    }
+    return e;
+}
 
 // Stored energy (inertial frame) at the step's state, as Chain::energy computes it.
 fn energy(cart_v: f32) -> f32 {
@@ -338,6 +384,15 @@ fn step_state(ph: u32, dt: f32) {
     }
 }
 
+// The state advanced by the stages of either method just computed.
+fn method_finish(h: f32) {
+    if METHOD_IMEX {
+        imex_finish(h);
+    } else {
+        rk4_finish();
+    }
+}
+
 // Where an invocation is within its base step of adaptive steps: the position in units of
 // the finest step, the ladder level k of the next sub-step (h = P.dt / 2^k), the bumper flags
 // after the last sub-step, and the contact onsets within the base step so far.
@@ -348,8 +403,8 @@ struct Ladder {
     onsets: u32,
 }
 
-// One sub-step tried within the base step from phase `ph` (AdaptiveImex::base_step of
-// src/engine/adaptive.rs, one pass of its loop): a step whose scaled error exceeds 1 is taken
+// One sub-step tried within the base step from phase `ph` (Adaptive::base_step of
+// src/engine/adaptive.rs, one pass of its loop; IMEX or RK4 by METHOD_IMEX): a step whose scaled error exceeds 1 is taken
 // again at the next level; an accepted one advances the state, and the twin beside it on the
 // main stages' branches with its onset saltation; the level falls by one where the position
 // is aligned to the coarser step and the error is at most ADAPTIVE_GROW. True once the base
@@ -368,13 +423,19 @@ fn adaptive_substep(ph: u32, twin_on: bool, l: ptr<function, Ladder>) -> bool {
     imex_level = k;
     stage_n = 0u;
     branch_bits = 0u;
-    imex_stages(ph, start, width, h);
-    let e = imex_error(h);
+    var e = 0.0;
+    if METHOD_IMEX {
+        imex_stages(ph, start, width, h);
+        e = imex_error(h);
+    } else {
+        rk4_stages(ph, start, width, h);
+        e = rk4_error(cart_acc(ph, start + width), h);
+    }
     if e > 1.0 && k < MAX_LEVEL {
         (*l).level = k + 1u;
         return false;
     }
-    imex_finish(h);
+    method_finish(h);
     let now = touch_flags();
     let new_on = now & ~(*l).touching;
     (*l).onsets += countOneBits(new_on);
@@ -383,8 +444,12 @@ fn adaptive_substep(ph: u32, twin_on: bool, l: ptr<function, Ladder>) -> bool {
         swap_twin();
         twin_mode = true;
         stage_n = 0u;
-        imex_stages(ph, start, width, h);
-        imex_finish(h);
+        if METHOD_IMEX {
+            imex_stages(ph, start, width, h);
+        } else {
+            rk4_stages(ph, start, width, h);
+        }
+        method_finish(h);
         twin_mode = false;
         swap_twin();
         if HAS_CONTACT && new_on != 0u {

@@ -45,7 +45,7 @@ pub struct Under {
     pub eng: Eng,
     /// The method every scene of the case asks for.
     pub method: Method,
-    /// Adaptive steps (`integration.step = "adaptive"`, IMEX only) instead of fixed ones.
+    /// Adaptive steps (`integration.step = "adaptive"`) instead of fixed ones.
     pub adaptive: bool,
 }
 
@@ -150,29 +150,31 @@ macro_rules! engine_suite {
     };
 }
 
-/// The same tests of `cases` with adaptive steps (IMEX), one module per engine: the scalar
-/// loop in f64 (the reference) and f32 (the CPU engine runs adaptive steps on its scalar loop
-/// whatever loop it was opened with), and the GPU.
+/// The same tests of `cases` (a module of this suite) with adaptive steps, for one engine and
+/// one method.
+macro_rules! engine_adaptive_method {
+    ($cases:ident, $module:ident, $eng:ident, $method:ident, [$($case:ident),*]) => {
+        mod $module {
+            use super::{Eng, Under};
+            use pendulum_atlas_core::engine::method::Method;
+            const UNDER: Under = Under { eng: Eng::$eng, method: Method::$method, adaptive: true };
+            $(#[test] fn $case() { super::$cases::$case(UNDER) })*
+        }
+    };
+}
+
+/// The same tests of `cases` with adaptive steps, one module per engine and pair (IMEX, and
+/// RK4 with its embedded third-order solution): the scalar loop in f64 (the reference) and f32
+/// (the CPU engine runs adaptive steps on its scalar loop whatever loop it was opened with),
+/// and the GPU.
 macro_rules! engine_adaptive {
     ($cases:ident: $($case:ident),* $(,)?) => {
-        mod cpu_f64_adaptive {
-            use super::{Eng, Under};
-            use pendulum_atlas_core::engine::method::Method;
-            const UNDER: Under = Under { eng: Eng::CpuF64, method: Method::Imex, adaptive: true };
-            $(#[test] fn $case() { super::$cases::$case(UNDER) })*
-        }
-        mod cpu_f32_adaptive {
-            use super::{Eng, Under};
-            use pendulum_atlas_core::engine::method::Method;
-            const UNDER: Under = Under { eng: Eng::SimdF32, method: Method::Imex, adaptive: true };
-            $(#[test] fn $case() { super::$cases::$case(UNDER) })*
-        }
-        mod gpu_adaptive {
-            use super::{Eng, Under};
-            use pendulum_atlas_core::engine::method::Method;
-            const UNDER: Under = Under { eng: Eng::Gpu, method: Method::Imex, adaptive: true };
-            $(#[test] fn $case() { super::$cases::$case(UNDER) })*
-        }
+        engine_adaptive_method!($cases, cpu_f64_adaptive_imex, CpuF64, Imex, [$($case),*]);
+        engine_adaptive_method!($cases, cpu_f32_adaptive_imex, SimdF32, Imex, [$($case),*]);
+        engine_adaptive_method!($cases, gpu_adaptive_imex, Gpu, Imex, [$($case),*]);
+        engine_adaptive_method!($cases, cpu_f64_adaptive_rk4, CpuF64, Rk4, [$($case),*]);
+        engine_adaptive_method!($cases, cpu_f32_adaptive_rk4, SimdF32, Rk4, [$($case),*]);
+        engine_adaptive_method!($cases, gpu_adaptive_rk4, Gpu, Rk4, [$($case),*]);
     };
 }
 

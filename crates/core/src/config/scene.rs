@@ -610,7 +610,7 @@ fn read_integration(r: &mut Reader) -> Result<Integration, ConfigError> {
         Range::OpenClosed(0.0, 0.8),
         "",
     )?;
-    let step = read_step_control(r, method, dt_s)?;
+    let step = read_step_control(r, dt_s)?;
     Ok(Integration {
         method,
         duration_s,
@@ -622,13 +622,9 @@ fn read_integration(r: &mut Reader) -> Result<Integration, ConfigError> {
 }
 
 /// `integration.step` (`"fixed"`, the default, or `"adaptive"`) and its tolerances. Adaptive
-/// steps run the IMEX pair's embedded estimate, so `integration.method = "rk4"` is refused;
-/// a given `dt_s` and the tolerances of fixed steps are noted as unused.
-fn read_step_control(
-    r: &mut Reader,
-    method: MethodChoice,
-    dt_s: TimeStep,
-) -> Result<StepControl, ConfigError> {
+/// steps run the embedded estimate of the method's pair (RK4's third-order one, or the IMEX
+/// pair's); a given `dt_s` and the tolerances of fixed steps are noted as unused.
+fn read_step_control(r: &mut Reader, dt_s: TimeStep) -> Result<StepControl, ConfigError> {
     let adaptive = r.choice("integration.step", "fixed", &["fixed", "adaptive"])? == "adaptive";
     let rtol = r.number(
         "integration.rtol",
@@ -649,12 +645,6 @@ fn read_step_control(
             "integration.step is \"fixed\"",
         )?;
         return Ok(StepControl::Fixed);
-    }
-    if method == MethodChoice::Rk4 {
-        return Err(ConfigError::Inconsistent {
-            key: "integration.step".into(),
-            reason: "adaptive steps take their error from the IMEX pair's embedded solution (classical RK4 has none): set integration.method = \"imex\" or \"auto\"".into(),
-        });
     }
     if matches!(dt_s, TimeStep::Seconds(_)) {
         note_unused(

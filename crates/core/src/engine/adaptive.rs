@@ -1,22 +1,27 @@
 //! Error-controlled steps (`integration.step = "adaptive"`; `docs/model.md`, "Adaptive
-//! steps"): the IMEX pair ARK3(2)4L[2]SA with its embedded second-order solution, on a ladder
-//! of steps aligned to the plan's base step `H` (the sample grid):
+//! steps"): an embedded pair on a ladder of steps aligned to the plan's base step `H` (the
+//! sample grid). Two pairs climb it ([`Rungs`]):
+//! - IMEX ([`ImexRungs`]): ARK3(2)4L[2]SA with its embedded second-order solution, the error
+//!   filtered through the implicit solve; its base step is the output interval's fraction
+//!   ([`crate::engine::plan::ADAPTIVE_BASE_MAX_S`] at most);
+//! - explicit ([`crate::engine::rk4::Rk4Rungs`]): classical RK4 with an embedded third-order
+//!   solution from one more evaluation at the step's end; its base step is RK4's automatic
+//!   (stable) step, so the ladder only ever refines it.
 //!
 //! ```text
-//! levels:   h_k = H / 2^k,  k = 0 … MAX_LEVEL;  S⁻¹ built once per level and reused
-//! error:    e = max_s |x_s| / (atol + rtol·|y_s|),  x = (I − hγL)⁻¹ h Σ (b_i − b̂_i) f_i
-//!           (the embedded estimate filtered through the implicit solve: stiff joint modes that
-//!           the implicit part damps do not inflate it)
+//! levels:   h_k = H / 2^k,  k = 0 … MAX_LEVEL
+//! error:    e = max_s |x_s| / (atol + rtol·|y_s|),  x the pair's error estimate
 //! accept:   e ≤ 1 (or k = MAX_LEVEL, counted as forced); then, where the position within H
 //!           is a multiple of h_{k−1} and e ≤ GROW, k ← k − 1 for the next step
 //! reject:   k ← k + 1, the same step again from the same state
 //! ```
 //!
 //! So every base step ends exactly on the sample grid (stroboscopic and output instants, and
-//! the forcing's phase, hit exactly), and no matrix is refactored per step. A bumper's kink
-//! inside a step shows in `e` and halves the step there. Contact onsets are counted at every
-//! sub-step, and λ1's twin takes the main trajectory's sub-steps, on its stages' branches, with
-//! its onset saltation at the sub-step where a contact begins (`crate::engine::twin`).
+//! the forcing's phase, hit exactly), and IMEX refactors no matrix per step (S⁻¹ is built once
+//! per level). A bumper's kink inside a step shows in `e` and halves the step there. Contact
+//! onsets are counted at every sub-step, and λ1's twin takes the main trajectory's sub-steps,
+//! on its stages' branches, with its onset saltation at the sub-step where a contact begins
+//! (`crate::engine::twin`).
 //!
 //! Single runs and the CPU engine take their steps here, one instance at a time (the SIMD
 //! lanes step together, so an adaptive plan runs on the scalar loop); the GPU kernel takes the
@@ -24,9 +29,10 @@
 //! `adaptive_substep`).
 
 use crate::engine::imex::{C, Imex, ImexMatrices};
+use crate::engine::rk4::Rk4Rungs;
 use crate::engine::stepper::{CartClock, Stepper};
 use crate::engine::twin::{onset_saltation, onsets_of};
-use crate::model::{Chain, ModelParams, Real, Workspace};
+use crate::model::{Branches, Chain, ModelParams, Real, Workspace};
 use serde::Serialize;
 use std::sync::Arc;
 
@@ -49,12 +55,15 @@ pub struct SubstepStats {
     pub smallest_s: f64,
     /// The largest step taken (s).
     pub largest_s: f64,
+    /// Evaluations of the chain's right-hand side per tried sub-step (the pair's).
+    pub evaluations_per_try: u64,
 }
 
 impl SubstepStats {
-    /// Evaluations of the chain's right-hand side (four per tried sub-step).
+    /// Evaluations of the chain's right-hand side (four per tried sub-step of IMEX, five of
+    /// the explicit pair).
     pub fn evaluations(&self) -> u64 {
-        4 * (self.accepted + self.rejected)
+        self.evaluations_per_try * (self.accepted + self.rejected)
     }
 
     fn took(&mut self, h: f64) {
@@ -66,16 +75,157 @@ impl SubstepStats {
     }
 }
 
-/// The adaptive IMEX stepper of one chain (see the module's documentation).
+/// A pair the ladder steps with: a sub-step of level `k` (`h = H / 2^k`) tried from `y`, its
+/// error estimate, and the sub-step taken.
+pub trait Rungs<T: Real>: Sized {
+    /// Evaluations of the chain's right-hand side per tried sub-step.
+    const EVALUATIONS: u64;
+
+    /// The same pair with nothing carried over (a twin's).
+    fn fresh(&self) -> Self;
+
+    /// Every stage of a sub-step of level `k` from `y` by the exact law, `y` left as it is;
+    /// `acc(c)` is the cart's acceleration at fraction `c` of the sub-step. The bumpers'
+    /// branches at each stage (what a twin follows).
+    fn stages(
+        &mut self,
+        k: usize,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        y: &[T],
+        acc: &impl Fn(f64) -> T,
+    ) -> [Branches<T>; 4];
+
+    /// The error estimate of the stages just computed, component by component, into `out`
+    /// (the state's length).
+    fn error(
+        &mut self,
+        k: usize,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        at: (&[T], &impl Fn(f64) -> T),
+        out: &mut [T],
+    );
+
+    /// Take the sub-step whose stages were just computed: `y` advanced (compensated).
+    fn finish(&mut self, k: usize, y: &mut [T]);
+
+    /// A twin's sub-step of level `k`, every stage on the main stages' `branches`.
+    fn follow(
+        &mut self,
+        k: usize,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        at: (&mut [T], &impl Fn(f64) -> T),
+        branches: &[Branches<T>; 4],
+    );
+}
+
+/// The IMEX pair on the ladder: one [`Imex`] stepper per level, each with its S⁻¹(h_k),
+/// built when first used; the state's summation compensation passes to the level that takes
+/// the next sub-step.
 #[derive(Debug, Clone)]
-pub struct AdaptiveImex<T> {
+pub struct ImexRungs<T> {
     params: Arc<ModelParams>,
+    base_s: f64,
+    dim: usize,
+    levels: Vec<Option<Imex<T>>>,
+    /// The level holding the compensation.
+    level: usize,
+}
+
+impl<T: Real> ImexRungs<T> {
+    /// The pair for chain `params` over base steps of `base_s` seconds, state length `dim`.
+    pub fn new(params: &ModelParams, base_s: f64, dim: usize) -> Self {
+        ImexRungs {
+            params: Arc::new(params.clone()),
+            base_s,
+            dim,
+            levels: vec![None; MAX_LEVEL as usize + 1],
+            level: 0,
+        }
+    }
+
+    /// The stepper of level `k`.
+    fn at(&mut self, k: usize) -> &mut Imex<T> {
+        let h = self.base_s / f64::from(1u32 << k);
+        let (params, dim) = (&self.params, self.dim);
+        self.levels[k]
+            .get_or_insert_with(|| Imex::new(&Arc::new(ImexMatrices::new(params, h)), dim))
+    }
+
+    /// Move the state's summation compensation to level `k`.
+    fn go_to(&mut self, k: usize) {
+        if k == self.level {
+            return;
+        }
+        self.at(k);
+        let (a, b) = (self.level.min(k), self.level.max(k));
+        let (lo, hi) = self.levels.split_at_mut(b);
+        if let (Some(x), Some(y)) = (lo[a].as_mut(), hi[0].as_mut()) {
+            x.pass_compensation(y);
+        }
+        self.level = k;
+    }
+}
+
+impl<T: Real> Rungs<T> for ImexRungs<T> {
+    const EVALUATIONS: u64 = 4;
+
+    fn fresh(&self) -> Self {
+        ImexRungs::new(&self.params, self.base_s, self.dim)
+    }
+
+    fn stages(
+        &mut self,
+        k: usize,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        y: &[T],
+        acc: &impl Fn(f64) -> T,
+    ) -> [Branches<T>; 4] {
+        self.at(k).stages(chain, ws, y, &|i| acc(C[i]))
+    }
+
+    /// The embedded error filtered through the implicit solve ([`Imex::filtered_error`]).
+    fn error(
+        &mut self,
+        k: usize,
+        _: &Chain<T>,
+        _: &mut Workspace<T>,
+        _: (&[T], &impl Fn(f64) -> T),
+        out: &mut [T],
+    ) {
+        self.at(k).filtered_error(out);
+    }
+
+    fn finish(&mut self, k: usize, y: &mut [T]) {
+        self.go_to(k);
+        self.at(k).finish(y);
+    }
+
+    fn follow(
+        &mut self,
+        k: usize,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        (y, acc): (&mut [T], &impl Fn(f64) -> T),
+        branches: &[Branches<T>; 4],
+    ) {
+        self.go_to(k);
+        let at = self.at(k);
+        at.stages_on(chain, ws, y, &|i| acc(C[i]), branches);
+        at.finish(y);
+    }
+}
+
+/// The adaptive stepper of one chain with the pair `R` (see the module's documentation).
+#[derive(Debug, Clone)]
+pub struct Adaptive<T, R> {
+    rungs: R,
     base_s: f64,
     rtol: f64,
     atol: f64,
-    dim: usize,
-    /// The stepper of each level, built when first used.
-    levels: Vec<Option<Imex<T>>>,
     level: usize,
     onsets: u32,
     stats: SubstepStats,
@@ -83,20 +233,43 @@ pub struct AdaptiveImex<T> {
     scratch: Vec<T>,
 }
 
+/// Adaptive steps of the IMEX pair.
+pub type AdaptiveImex<T> = Adaptive<T, ImexRungs<T>>;
+
+/// Adaptive steps of the explicit pair (RK4 with its embedded third-order solution).
+pub type AdaptiveRk4<T> = Adaptive<T, Rk4Rungs<T>>;
+
+impl<T: Real> AdaptiveRk4<T> {
+    /// The explicit stepper over base steps of `base_s` seconds (RK4's stable step),
+    /// tolerances `(rtol, atol)`, for a state of length `dim`.
+    pub fn explicit(base_s: f64, tol: (f64, f64), dim: usize) -> Self {
+        Adaptive::new(Rk4Rungs::new(base_s, dim), base_s, tol)
+    }
+}
+
 impl<T: Real> AdaptiveImex<T> {
-    /// The stepper of chain `params` over base steps of `base_s` seconds, tolerances
+    /// The IMEX stepper of chain `params` over base steps of `base_s` seconds, tolerances
     /// `(rtol, atol)`, for a state of length `dim`.
-    pub fn new(params: &ModelParams, base_s: f64, (rtol, atol): (f64, f64), dim: usize) -> Self {
-        AdaptiveImex {
-            params: Arc::new(params.clone()),
+    pub fn imex(params: &ModelParams, base_s: f64, tol: (f64, f64), dim: usize) -> Self {
+        Adaptive::new(ImexRungs::new(params, base_s, dim), base_s, tol)
+    }
+}
+
+impl<T: Real, R: Rungs<T>> Adaptive<T, R> {
+    /// The stepper of pair `rungs` over base steps of `base_s` seconds, tolerances
+    /// `(rtol, atol)`.
+    pub fn new(rungs: R, base_s: f64, (rtol, atol): (f64, f64)) -> Self {
+        Adaptive {
+            rungs,
             base_s,
             rtol,
             atol,
-            dim,
-            levels: vec![None; MAX_LEVEL as usize + 1],
             level: 0,
             onsets: 0,
-            stats: SubstepStats::default(),
+            stats: SubstepStats {
+                evaluations_per_try: R::EVALUATIONS,
+                ..SubstepStats::default()
+            },
             scratch: Vec::new(),
         }
     }
@@ -110,37 +283,21 @@ impl<T: Real> AdaptiveImex<T> {
         self.base_s / f64::from(1u32 << k)
     }
 
-    /// The stepper of level `k`.
-    fn at(&mut self, k: usize) -> &mut Imex<T> {
-        let h = self.h(k);
-        let (params, dim) = (&self.params, self.dim);
-        self.levels[k]
-            .get_or_insert_with(|| Imex::new(&Arc::new(ImexMatrices::new(params, h)), dim))
-    }
-
-    /// Move to level `k`, the state's summation compensation with it.
-    fn go_to(&mut self, k: usize) {
-        if k == self.level {
-            return;
-        }
-        self.at(k);
-        let (a, b) = (self.level.min(k), self.level.max(k));
-        let (lo, hi) = self.levels.split_at_mut(b);
-        if let (Some(x), Some(y)) = (lo[a].as_mut(), hi[0].as_mut()) {
-            x.pass_compensation(y);
-        }
-        self.level = k;
-    }
-
     /// The scaled error of the stages just computed at level `k` for a step from `y`.
-    fn error(&mut self, k: usize, y: &[T]) -> f64 {
+    fn error(
+        &mut self,
+        k: usize,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        at: (&[T], &impl Fn(f64) -> T),
+    ) -> f64 {
         let (rtol, atol) = (self.rtol, self.atol);
         let mut e = std::mem::take(&mut self.scratch);
-        e.resize(y.len(), T::of(0.0));
-        self.at(k).filtered_error(&mut e);
+        e.resize(at.0.len(), T::of(0.0));
+        self.rungs.error(k, chain, ws, at, &mut e);
         let worst = e
             .iter()
-            .zip(y)
+            .zip(at.0)
             .map(|(es, ys)| es.wide().abs() / (atol + rtol * ys.wide().abs()))
             .fold(0.0, f64::max);
         self.scratch = e;
@@ -154,7 +311,7 @@ impl<T: Real> AdaptiveImex<T> {
         ws: &mut Workspace<T>,
         y: &mut [T],
         (step, clock): (u64, &CL),
-        mut twin: Option<(&mut AdaptiveImex<T>, &mut [T])>,
+        mut twin: Option<(&mut Adaptive<T, R>, &mut [T])>,
     ) {
         let unit = 1u64 << MAX_LEVEL;
         let mut pos = 0u64;
@@ -164,40 +321,37 @@ impl<T: Real> AdaptiveImex<T> {
             let k = self.level;
             let span = unit >> k;
             let (start, width) = (pos as f64 / unit as f64, span as f64 / unit as f64);
-            let acc = |i: usize| T::of(clock.acceleration(step, start + C[i] * width));
-            let branches = self.at(k).stages(chain, ws, y, &acc);
-            let e = self.error(k, y);
+            let acc = |c: f64| T::of(clock.acceleration(step, start + c * width));
+            let branches = self.rungs.stages(k, chain, ws, y, &acc);
+            let e = self.error(k, chain, ws, (y, &acc));
             if e > 1.0 && k < MAX_LEVEL as usize {
                 self.stats.rejected += 1;
-                self.go_to(k + 1);
+                self.level = k + 1;
                 continue;
             }
             self.stats.forced += u64::from(e > 1.0);
             self.stats.took(self.h(k));
-            self.at(k).finish(y);
+            self.rungs.finish(k, y);
             let now = chain.touching(y);
             let new = onsets_of(touching, now);
             self.onsets += u32::from(new.0) + u32::from(new.1);
             touching = now;
             if let Some((ts, ty)) = &mut twin {
-                ts.go_to(k);
-                let tk = ts.at(k);
-                tk.stages_on(chain, ws, ty, &acc, &branches);
-                tk.finish(ty);
+                ts.rungs.follow(k, chain, ws, (ty, &acc), &branches);
                 onset_saltation(chain, ws, y, ty, new);
             }
             pos += span;
             let aligned = k > 0 && pos.is_multiple_of(span << 1);
             if aligned && e <= GROW {
-                self.go_to(k - 1);
+                self.level = k - 1;
             }
         }
     }
 }
 
-impl<T: Real> Stepper<T> for AdaptiveImex<T> {
+impl<T: Real, R: Rungs<T>> Stepper<T> for Adaptive<T, R> {
     fn fresh(&self) -> Self {
-        AdaptiveImex::new(&self.params, self.base_s, (self.rtol, self.atol), self.dim)
+        Adaptive::new(self.rungs.fresh(), self.base_s, (self.rtol, self.atol))
     }
 
     fn step<CL: CartClock>(

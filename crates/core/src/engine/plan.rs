@@ -68,7 +68,10 @@ pub struct InstancePlan {
     pub r_start: u32,
     /// Half the clearance (rad): the well thresholds of hop counting.
     pub half_clearance_rad: f64,
-    /// The IMEX method's matrices for this structure and step (shared between instances).
+    /// The ensemble's method.
+    pub method: Method,
+    /// The IMEX method's matrices for this structure and step (shared between instances;
+    /// fixed steps only).
     #[serde(skip)]
     pub imex: Option<Arc<ImexMatrices>>,
     /// The twin of λ1, when λ1 is asked for.
@@ -260,7 +263,9 @@ impl EnsemblePlan {
             .zip(&limits)
             .map_init(
                 || seed.clone(),
-                |solved, (s, lim)| plan_instance(opts, s, solved.params(s)?, lim.auto_s(method)),
+                |solved, (s, lim)| {
+                    plan_instance(opts, s, solved.params(s)?, (method, lim.auto_s(method)))
+                },
             )
             .collect::<Result<_, EngineError>>()?;
         let fixed = first.integration.step == StepControl::Fixed;
@@ -481,15 +486,35 @@ fn short_k_warning(instances: &[InstancePlan]) -> Option<String> {
 /// names, or, with `auto`, the one with the smaller total cost over the instances (or, with a
 /// given step, IMEX as soon as it is beyond RK4's stable limit for some instance).
 fn ensemble_method(scenes: &[Scene], limits: &[MethodSteps]) -> (Method, String) {
-    // Every scene of an ensemble comes from one base scene: its choice applies.
-    if let StepControl::Adaptive { .. } = scenes[0].integration.step {
-        return (
-            Method::Imex,
-            "integration.step = \"adaptive\": the embedded solution of ARK3(2)4L[2]SA sets each step".into(),
-        );
+    let (method, reason) = fixed_step_method(scenes, limits);
+    match scenes[0].integration.step {
+        StepControl::Fixed => (method, reason),
+        StepControl::Adaptive { .. } => (method, format!("{reason}; {}", adaptive_reason(method))),
     }
+}
+
+/// What sets the steps of `method` under `integration.step = "adaptive"`.
+pub fn adaptive_reason(method: Method) -> &'static str {
+    match method {
+        Method::Rk4 => {
+            "integration.step = \"adaptive\": RK4's embedded third-order solution sets each step, within RK4's automatic step"
+        }
+        Method::Imex => {
+            "integration.step = \"adaptive\": the embedded solution of ARK3(2)4L[2]SA sets each step"
+        }
+    }
+}
+
+/// [`ensemble_method`] at fixed steps (adaptive steps choose the same way, a given step
+/// aside: it is unused there).
+fn fixed_step_method(scenes: &[Scene], limits: &[MethodSteps]) -> (Method, String) {
+    // Every scene of an ensemble comes from one base scene: its choice applies.
     let choice = scenes[0].integration.method;
-    match (choice, scenes[0].integration.dt_s) {
+    let dt = match scenes[0].integration.step {
+        StepControl::Fixed => scenes[0].integration.dt_s,
+        StepControl::Adaptive { .. } => TimeStep::Auto,
+    };
+    match (choice, dt) {
         (MethodChoice::Rk4, _) => (Method::Rk4, "integration.method = \"rk4\"".into()),
         (MethodChoice::Imex, _) => (Method::Imex, "integration.method = \"imex\"".into()),
         (MethodChoice::Auto, TimeStep::Seconds(dt)) => {
@@ -554,9 +579,19 @@ fn attach_imex_matrices(instances: &mut [InstancePlan]) -> usize {
 
 /// Steps per forcing period: a multiple of `samples_per_period` whose step is at most the
 /// method's automatic step `dt_auto_s` (or the given step): the step is only ever shortened.
-fn steps_per_period(opts: &EnsembleOptions, scene: &Scene, period_s: f64, dt_auto_s: f64) -> u64 {
+/// With adaptive steps, the base step is at most [`ADAPTIVE_BASE_MAX_S`] for IMEX and RK4's
+/// automatic step for the explicit pair.
+fn steps_per_period(
+    opts: &EnsembleOptions,
+    scene: &Scene,
+    period_s: f64,
+    (method, dt_auto_s): (Method, f64),
+) -> u64 {
     let sp = u64::from(opts.samples_per_period);
     let dt = match (scene.integration.step, scene.integration.dt_s) {
+        (StepControl::Adaptive { .. }, _) if method == Method::Rk4 => {
+            dt_auto_s.min(ADAPTIVE_BASE_MAX_S)
+        }
         (StepControl::Adaptive { .. }, _) => ADAPTIVE_BASE_MAX_S,
         (StepControl::Fixed, TimeStep::Auto) => dt_auto_s,
         (StepControl::Fixed, TimeStep::Seconds(dt)) => dt,
@@ -573,11 +608,11 @@ fn plan_instance(
     opts: &EnsembleOptions,
     scene: &Scene,
     params: ModelParams,
-    dt_auto_s: f64,
+    (method, dt_auto_s): (Method, f64),
 ) -> Result<InstancePlan, EngineError> {
     let f = scene.excitation.reference_frequency_hz();
     let period = 1.0 / f;
-    let spp = steps_per_period(opts, scene, period, dt_auto_s);
+    let spp = steps_per_period(opts, scene, period, (method, dt_auto_s));
     let blocks = spp / u64::from(opts.samples_per_period);
     let total_periods = (scene.integration.duration_s * f).round().max(1.0) as u64;
     let transient_periods = ((scene.integration.transient_s * f).round() as u64).max(1);
@@ -654,6 +689,7 @@ fn plan_instance(
         y0: scene.initial_state(&params),
         guard: Guard::for_params(&params),
         params,
+        method,
         imex: None,
         twin,
         control: scene.integration.step,

@@ -2,6 +2,7 @@
 //! |λ dt| ≈ 2.78 on the negative real axis, so its step is bound by the largest eigenvalue of
 //! the linearised chain (`docs/model.md`, "Time step").
 
+use crate::engine::adaptive::Rungs;
 use crate::engine::stepper::{CartClock, Stepper, compensated_add};
 use crate::model::{Branches, BumperLoad, Chain, ContactLaw, Lane, Real, Workspace};
 
@@ -74,7 +75,6 @@ fn rk4_stages<T: Lane>(
     cart_acc: [T; 3],
     mut twin: Option<(&mut [T], &mut Rk4Scratch<T>)>,
 ) {
-    let sixth = T::splat(1.0 / 6.0);
     for (j, &(a, frac)) in STAGES.iter().enumerate() {
         let load = stage_rates(chain, ws, y, s, j, cart_acc[a], dt * T::splat(frac), None);
         if let Some((ty, ts)) = &mut twin {
@@ -91,17 +91,25 @@ fn rk4_stages<T: Lane>(
             );
         }
     }
-    let finish = |y: &mut [T], s: &mut Rk4Scratch<T>| {
-        let (k, comp) = (&s.k, &mut s.comp);
-        for i in 0..y.len() {
-            let inc = dt * sixth * (k[0][i] + T::splat(2.0) * (k[1][i] + k[2][i]) + k[3][i]);
-            compensated_add(&mut y[i], &mut comp[i], inc);
-        }
-    };
-    finish(y, s);
+    rk4_finish(y, s, dt);
     if let Some((ty, ts)) = twin {
-        finish(ty, ts);
+        rk4_finish(ty, ts, dt);
     }
+}
+
+/// `y += dt (k₁ + 2k₂ + 2k₃ + k₄)/6` with the state's compensation, after the stages.
+#[inline]
+fn rk4_finish<T: Lane>(y: &mut [T], s: &mut Rk4Scratch<T>, dt: T) {
+    let (k, comp) = (&s.k, &mut s.comp);
+    for i in 0..y.len() {
+        compensated_add(&mut y[i], &mut comp[i], rk4_increment(k, i, dt));
+    }
+}
+
+/// Component `i` of the RK4 increment `dt (k₁ + 2k₂ + 2k₃ + k₄)/6`.
+#[inline]
+fn rk4_increment<T: Lane>(k: &[Vec<T>; 4], i: usize, dt: T) -> T {
+    dt * T::splat(1.0 / 6.0) * (k[0][i] + T::splat(2.0) * (k[1][i] + k[2][i]) + k[3][i])
 }
 
 /// Stage `j` of RK4: `k_j` at `y + h k_{j−1}` (at `y` for the first), by the exact law or on
@@ -189,5 +197,128 @@ impl<T: Real> Stepper<T> for Rk4<T> {
     ) {
         let acc = [0.0, 0.5, 1.0].map(|c| T::of(clock.acceleration(step, c)));
         rk4_step(chain, ws, y, &mut self.scratch, self.dt, acc);
+    }
+}
+
+/// Classical RK4 on the adaptive ladder (`crate::engine::adaptive`), with an embedded
+/// third-order solution from one more evaluation at the step's end:
+///
+/// ```text
+/// y₄ = y + h (k₁ + 2k₂ + 2k₃ + k₄) / 6     RK4, the solution taken
+/// k₅ = f(t + h, y₄)
+/// ŷ₃ = y + h (k₁ + 2k₂ + 2k₃ + k₅) / 6     third order: b̂ = (1/6, 1/3, 1/3, 0, 1/6) meets
+///                                          Σb̂ = 1, Σb̂c = 1/2, Σb̂c² = 1/3, Σb̂Ac = 1/6
+/// e  = y₄ − ŷ₃ = h (k₄ − k₅) / 6
+/// ```
+///
+/// Its base step is RK4's automatic one (within the stable limit), so the ladder refines it
+/// where the error asks (a bumper's kink) and never coarsens it past stability.
+#[derive(Debug, Clone)]
+pub struct Rk4Rungs<T> {
+    base_s: f64,
+    scratch: Rk4Scratch<T>,
+    /// y₄ of the sub-step being tried, and k₅ there.
+    end: Vec<T>,
+    k5: Vec<T>,
+}
+
+impl<T: Real> Rk4Rungs<T> {
+    /// The pair over base steps of `base_s` seconds for a state of length `dim`.
+    pub fn new(base_s: f64, dim: usize) -> Self {
+        Rk4Rungs {
+            base_s,
+            scratch: Rk4Scratch::new(dim),
+            end: vec![T::of(0.0); dim],
+            k5: vec![T::of(0.0); dim],
+        }
+    }
+
+    fn h(&self, k: usize) -> T {
+        T::of(self.base_s / f64::from(1u32 << k))
+    }
+
+    /// The four stages of a sub-step of level `k`, by the exact law or on the given branches.
+    fn stages_by(
+        &mut self,
+        k: usize,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        y: &[T],
+        (acc, on): (&impl Fn(f64) -> T, Option<&[Branches<T>; 4]>),
+    ) -> [Branches<T>; 4] {
+        let h = self.h(k);
+        let mut branches = [Branches::free(); 4];
+        for (j, &(_, frac)) in STAGES.iter().enumerate() {
+            let b = on.map(|b| b[j]);
+            let load = stage_rates(
+                chain,
+                ws,
+                y,
+                &mut self.scratch,
+                j,
+                acc(frac),
+                h * T::splat(frac),
+                b,
+            );
+            branches[j] = load.map_or_else(Branches::free, |l| l.branches);
+        }
+        branches
+    }
+}
+
+impl<T: Real> Rungs<T> for Rk4Rungs<T> {
+    const EVALUATIONS: u64 = 5;
+
+    fn fresh(&self) -> Self {
+        Rk4Rungs::new(self.base_s, self.end.len())
+    }
+
+    fn stages(
+        &mut self,
+        k: usize,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        y: &[T],
+        acc: &impl Fn(f64) -> T,
+    ) -> [Branches<T>; 4] {
+        self.stages_by(k, chain, ws, y, (acc, None))
+    }
+
+    /// `h (k₄ − k₅) / 6`, k₅ at the sub-step's end by the exact law.
+    fn error(
+        &mut self,
+        k: usize,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        (y, acc): (&[T], &impl Fn(f64) -> T),
+        out: &mut [T],
+    ) {
+        let h = self.h(k);
+        let kk = &self.scratch.k;
+        for (i, e) in self.end.iter_mut().enumerate() {
+            *e = y[i] + rk4_increment(kk, i, h);
+        }
+        chain.rates(ws, acc(1.0), &self.end, &mut self.k5, ContactLaw::Exact);
+        let sixth = h * T::splat(1.0 / 6.0);
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = sixth * (self.scratch.k[3][i] - self.k5[i]);
+        }
+    }
+
+    fn finish(&mut self, k: usize, y: &mut [T]) {
+        let h = self.h(k);
+        rk4_finish(y, &mut self.scratch, h);
+    }
+
+    fn follow(
+        &mut self,
+        k: usize,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        (y, acc): (&mut [T], &impl Fn(f64) -> T),
+        branches: &[Branches<T>; 4],
+    ) {
+        self.stages_by(k, chain, ws, y, (acc, Some(branches)));
+        self.finish(k, y);
     }
 }

@@ -4,7 +4,7 @@
 //! failed instance stops at the first health check that fails and is reported by its status.
 
 use crate::config::{Scene, StepControl};
-use crate::engine::adaptive::{AdaptiveImex, SubstepStats};
+use crate::engine::adaptive::{AdaptiveImex, AdaptiveRk4, SubstepStats};
 use crate::engine::imex::{Imex, ImexMatrices};
 use crate::engine::method::Method;
 use crate::engine::rk4::Rk4;
@@ -81,6 +81,14 @@ pub struct Outcome {
     pub failed_at_s: Option<f64>,
     /// What the step controller did (adaptive steps only).
     pub substeps: Option<SubstepStats>,
+}
+
+impl Outcome {
+    /// The outcome with what the step controller did.
+    fn with_substeps(mut self, stats: SubstepStats) -> Self {
+        self.substeps = Some(stats);
+        self
+    }
 }
 
 /// One independent instance: its chain, cart motion, initial state and health bounds.
@@ -266,10 +274,19 @@ pub fn integrate_with_twin<T: Real, O: Observer<T>>(
 ) -> (Outcome, Option<Lyapunov>) {
     let dim = inst.y0.len();
     if let StepControl::Adaptive { rtol, atol } = plan.control {
-        let mut a = AdaptiveImex::new(&inst.params, plan.dt_s, (rtol, atol), dim);
-        let (mut outcome, l) = run_single(inst, plan, &mut a, twin, obs);
-        outcome.substeps = Some(a.stats());
-        return (outcome, l);
+        let tol = (rtol, atol);
+        return match plan.method {
+            Method::Rk4 => {
+                let mut a = AdaptiveRk4::explicit(plan.dt_s, tol, dim);
+                let (outcome, l) = run_single(inst, plan, &mut a, twin, obs);
+                (outcome.with_substeps(a.stats()), l)
+            }
+            Method::Imex => {
+                let mut a = AdaptiveImex::imex(&inst.params, plan.dt_s, tol, dim);
+                let (outcome, l) = run_single(inst, plan, &mut a, twin, obs);
+                (outcome.with_substeps(a.stats()), l)
+            }
+        };
     }
     match plan.method {
         Method::Rk4 => run_single(inst, plan, &mut Rk4::new(plan.dt_s, dim), twin, obs),

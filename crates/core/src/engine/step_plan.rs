@@ -3,6 +3,7 @@
 
 use crate::config::{Scene, StepControl, TimeStep};
 use crate::engine::method::{Method, MethodSteps, choose_method};
+use crate::engine::plan::adaptive_reason;
 use crate::model::linear::LinearError;
 use serde::Serialize;
 
@@ -54,13 +55,23 @@ impl StepPlan {
     pub fn for_scene(scene: &Scene) -> Result<StepPlan, LinearError> {
         let steps = MethodSteps::of_scene(scene)?;
         let control = scene.integration.step;
-        if let StepControl::Adaptive { .. } = control {
-            return Ok(Self::adaptive(scene, steps));
+        let adaptive = matches!(control, StepControl::Adaptive { .. });
+        // Adaptive steps leave a given step unused: the method is chosen as for automatic ones.
+        let given = if adaptive {
+            TimeStep::Auto
+        } else {
+            scene.integration.dt_s
+        };
+        let mut chosen = choose_method(scene.integration.method, given, &steps);
+        if adaptive {
+            chosen.reason = format!("{}; {}", chosen.reason, adaptive_reason(chosen.method));
+            if chosen.method == Method::Imex {
+                return Ok(Self::adaptive(scene, steps, chosen.reason));
+            }
         }
-        let chosen = choose_method(scene.integration.method, scene.integration.dt_s, &steps);
         let out_dt = 1.0 / scene.output.sample_rate_hz;
         let mut warnings = Vec::new();
-        let (dt_s, sample_every, dt_source) = match scene.integration.dt_s {
+        let (dt_s, sample_every, dt_source) = match given {
             TimeStep::Auto => {
                 let f_max = scene.excitation.kind.max_frequency_hz();
                 let dt_forcing = 1.0 / (AUTO_STEPS_PER_FORCING_PERIOD * f_max);
@@ -113,7 +124,7 @@ impl StepPlan {
     /// base step the output interval, or a whole fraction of it short enough for
     /// [`AUTO_STEPS_PER_FORCING_PERIOD`] per period of the fastest forcing; every row on a
     /// base step, so every row's instant is hit exactly.
-    fn adaptive(scene: &Scene, steps: MethodSteps) -> StepPlan {
+    fn adaptive(scene: &Scene, steps: MethodSteps, method_reason: String) -> StepPlan {
         let out_dt = 1.0 / scene.output.sample_rate_hz;
         let f_max = scene.excitation.kind.max_frequency_hz();
         let dt0 = out_dt.min(1.0 / (AUTO_STEPS_PER_FORCING_PERIOD * f_max));
@@ -121,7 +132,7 @@ impl StepPlan {
         let dt_s = out_dt / per_row;
         StepPlan {
             method: Method::Imex,
-            method_reason: "integration.step = \"adaptive\": the embedded solution of ARK3(2)4L[2]SA sets each step".into(),
+            method_reason,
             dt_s,
             steps: (scene.integration.duration_s / dt_s).round() as u64,
             sample_every: per_row as u64,

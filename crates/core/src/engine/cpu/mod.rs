@@ -11,9 +11,10 @@ mod lanes;
 pub use hook::RawInstance;
 
 use crate::config::StepControl;
-use crate::engine::adaptive::AdaptiveImex;
+use crate::engine::adaptive::{AdaptiveImex, AdaptiveRk4};
 use crate::engine::early::EarlyStop;
 use crate::engine::imex::Imex;
+use crate::engine::method::Method;
 use crate::engine::plan::{EnsemblePlan, InstancePlan};
 use crate::engine::rk4::Rk4;
 use crate::engine::stepper::{StepHook, run_steps};
@@ -53,8 +54,20 @@ pub fn run_instance_with<T: Real>(
     let mut hook = EnsembleHook::<T>::new(plan, want_strobe, want_rseries, early, separation);
     let (steps, clock) = (plan.total_steps(), PhaseClock(plan));
     let end = match (&plan.imex, plan.control) {
+        (_, StepControl::Adaptive { rtol, atol }) if plan.method == Method::Rk4 => {
+            let mut a = AdaptiveRk4::explicit(plan.dt_s, (rtol, atol), y.len());
+            run_steps(
+                &chain,
+                &plan.guard,
+                &mut y,
+                &mut a,
+                steps,
+                &clock,
+                &mut hook,
+            )
+        }
         (_, StepControl::Adaptive { rtol, atol }) => {
-            let mut a = AdaptiveImex::new(&plan.params, plan.dt_s, (rtol, atol), y.len());
+            let mut a = AdaptiveImex::imex(&plan.params, plan.dt_s, (rtol, atol), y.len());
             run_steps(
                 &chain,
                 &plan.guard,

@@ -531,10 +531,11 @@ fn initial_state(plan: &EnsemblePlan, sizes: &Sizes) -> (Vec<f32>, Vec<GpuAccum>
 
 /// The IMEX matrices of every distinct (structure, step) set the instances share, as f32
 /// (M0⁻¹, S⁻¹, M0 per set), and each instance's offset into them; a 16-byte placeholder and
-/// zero offsets for RK4. Adaptive instances share a ladder per (structure, base step): S⁻¹ of
-/// levels 1 … [`MAX_LEVEL`] follow their set ([`ladder_matrices`]).
+/// zero offsets for RK4 (fixed or adaptive). Adaptive IMEX instances share a ladder per
+/// (structure, base step): S⁻¹ of levels 1 … [`MAX_LEVEL`] follow their set
+/// ([`ladder_matrices`]).
 pub fn imex_matrices(plan: &EnsemblePlan) -> (Vec<f32>, Vec<u32>) {
-    if plan.is_adaptive() {
+    if plan.is_adaptive() && plan.method == Method::Imex {
         return ladder_matrices(plan);
     }
     let mut data: Vec<f32> = Vec::new();

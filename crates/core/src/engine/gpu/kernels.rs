@@ -160,7 +160,7 @@ pub struct KernelKey {
     pub want_twin: bool,
     /// The early stop of confirmed orbits.
     pub want_early: bool,
-    /// Adaptive IMEX steps on the ladder ([`crate::engine::adaptive`]).
+    /// Adaptive steps on the ladder ([`crate::engine::adaptive`]), IMEX or RK4 by `method`.
     pub adaptive: bool,
     /// Where the working arrays live.
     pub layout: StateLayout,
