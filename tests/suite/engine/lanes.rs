@@ -138,6 +138,20 @@ fn simd_and_scalar_loops_agree_over_a_short_horizon_with_impacts() {
     }
 }
 
+/// Adaptive steps of the explicit pair in the lanes: each lane climbs its own ladder, and gets
+/// the scalar loop's sub-steps and results (15 instances through impacts, groups padded).
+#[test]
+fn simd_lanes_take_the_scalar_loops_adaptive_steps() {
+    let s = spec(3, 5, "rk4", "step = \"adaptive\"");
+    let g64 = loops_gap(Precision::F64, &s);
+    assert!(g64 < 1e-9, "adaptive f64: |Δα| up to {g64:e} rad");
+    let g32 = loops_gap(Precision::F32, &s);
+    assert!(g32 < 2e-3, "adaptive f32: |Δα| up to {g32:e} rad");
+    let plan = EnsemblePlan::new(&s).expect("plan");
+    let info = Engine::cpu_with(Precision::F64, CpuLoop::Simd).info_for(&plan);
+    assert_eq!(info.cpu_loop, Some(CpuLoop::Simd), "{info:?}");
+}
+
 #[test]
 fn simd_loop_handles_the_piezo_and_nine_segments() {
     let piezo = "[piezo]\nenabled = true";

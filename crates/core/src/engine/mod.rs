@@ -445,13 +445,14 @@ impl Engine {
     /// The engine's description for a run of `plan`: adaptive steps run the CPU engine's
     /// scalar loop, whatever loop it was opened with.
     pub fn info_for(&self, plan: &EnsemblePlan) -> EngineInfo {
-        self.info_stepping(plan.is_adaptive())
+        self.info_stepping(plan.runs_scalar())
     }
 
-    /// The engine's description for runs with adaptive steps (`adaptive`) or fixed ones (see
-    /// [`Engine::info_for`]).
-    pub fn info_stepping(&self, adaptive: bool) -> EngineInfo {
-        if !adaptive || self.info.cpu_loop.is_none() {
+    /// The engine's description for runs that the CPU engine takes on its scalar loop
+    /// (`scalar`: adaptive IMEX steps, [`EnsemblePlan::runs_scalar`]) or on the loop it was
+    /// opened with (see [`Engine::info_for`]).
+    pub fn info_stepping(&self, scalar: bool) -> EngineInfo {
+        if !scalar || self.info.cpu_loop.is_none() {
             return self.info.clone();
         }
         EngineInfo {

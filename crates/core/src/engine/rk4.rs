@@ -237,32 +237,61 @@ impl<T: Real> Rk4Rungs<T> {
         T::of(self.base_s / f64::from(1u32 << k))
     }
 
-    /// The four stages of a sub-step of level `k`, by the exact law or on the given branches.
-    fn stages_by(
-        &mut self,
-        k: usize,
-        chain: &Chain<T>,
-        ws: &mut Workspace<T>,
-        y: &[T],
-        (acc, on): (&impl Fn(f64) -> T, Option<&[Branches<T>; 4]>),
-    ) -> [Branches<T>; 4] {
-        let h = self.h(k);
-        let mut branches = [Branches::free(); 4];
-        for (j, &(_, frac)) in STAGES.iter().enumerate() {
-            let b = on.map(|b| b[j]);
-            let load = stage_rates(
-                chain,
-                ws,
-                y,
-                &mut self.scratch,
-                j,
-                acc(frac),
-                h * T::splat(frac),
-                b,
-            );
-            branches[j] = load.map_or_else(Branches::free, |l| l.branches);
-        }
-        branches
+    /// The cart's acceleration at the stages' fractions 0, ½ and 1 of a sub-step.
+    fn cart(acc: &impl Fn(f64) -> T) -> [T; 3] {
+        [0.0, 0.5, 1.0].map(acc)
+    }
+}
+
+/// The four RK4 stages of a step of `h` (lane by lane) from `y`, by the exact law or on the
+/// given branches, the cart at the step's start, middle and end; `y` left as it is. The
+/// bumpers' branches at each stage.
+pub(crate) fn rk4_stages_at<T: Lane>(
+    chain: &Chain<T>,
+    ws: &mut Workspace<T>,
+    (y, s): (&[T], &mut Rk4Scratch<T>),
+    h: T,
+    cart_acc: [T; 3],
+    on: Option<&[Branches<T>; 4]>,
+) -> [Branches<T>; 4] {
+    let mut branches = [Branches::free(); 4];
+    for (j, &(a, frac)) in STAGES.iter().enumerate() {
+        let b = on.map(|b| b[j]);
+        let load = stage_rates(chain, ws, y, s, j, cart_acc[a], h * T::splat(frac), b);
+        branches[j] = load.map_or_else(Branches::free, |l| l.branches);
+    }
+    branches
+}
+
+/// The explicit pair's error estimate `h (k₄ − k₅)/6` into `out` after [`rk4_stages_at`]:
+/// k₅ at y₄ (into `end`, the rates into `k5`) by the exact law, the cart at the step's end.
+pub(crate) fn rk4_error_at<T: Lane>(
+    chain: &Chain<T>,
+    ws: &mut Workspace<T>,
+    (y, s): (&[T], &Rk4Scratch<T>),
+    (h, acc_end): (T, T),
+    (end, k5): (&mut [T], &mut [T]),
+    out: &mut [T],
+) {
+    for (i, e) in end.iter_mut().enumerate() {
+        *e = y[i] + rk4_increment(&s.k, i, h);
+    }
+    chain.rates(ws, acc_end, end, k5, ContactLaw::Exact);
+    let sixth = h * T::splat(1.0 / 6.0);
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = sixth * (s.k[3][i] - k5[i]);
+    }
+}
+
+/// [`rk4_finish`] in the lanes where `mask` is positive; the others, state and compensation,
+/// left exactly as they are.
+pub(crate) fn rk4_finish_masked<T: Lane>(y: &mut [T], s: &mut Rk4Scratch<T>, h: T, mask: T) {
+    let (k, comp) = (&s.k, &mut s.comp);
+    for i in 0..y.len() {
+        let (mut ny, mut nc) = (y[i], comp[i]);
+        compensated_add(&mut ny, &mut nc, rk4_increment(k, i, h));
+        y[i] = T::if_positive(mask, ny, y[i]);
+        comp[i] = T::if_positive(mask, nc, comp[i]);
     }
 }
 
@@ -281,7 +310,8 @@ impl<T: Real> Rungs<T> for Rk4Rungs<T> {
         y: &[T],
         acc: &impl Fn(f64) -> T,
     ) -> [Branches<T>; 4] {
-        self.stages_by(k, chain, ws, y, (acc, None))
+        let h = self.h(k);
+        rk4_stages_at(chain, ws, (y, &mut self.scratch), h, Self::cart(acc), None)
     }
 
     /// `h (k₄ − k₅) / 6`, k₅ at the sub-step's end by the exact law.
@@ -294,15 +324,8 @@ impl<T: Real> Rungs<T> for Rk4Rungs<T> {
         out: &mut [T],
     ) {
         let h = self.h(k);
-        let kk = &self.scratch.k;
-        for (i, e) in self.end.iter_mut().enumerate() {
-            *e = y[i] + rk4_increment(kk, i, h);
-        }
-        chain.rates(ws, acc(1.0), &self.end, &mut self.k5, ContactLaw::Exact);
-        let sixth = h * T::splat(1.0 / 6.0);
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = sixth * (self.scratch.k[3][i] - self.k5[i]);
-        }
+        let scratch = (&mut self.end[..], &mut self.k5[..]);
+        rk4_error_at(chain, ws, (y, &self.scratch), (h, acc(1.0)), scratch, out);
     }
 
     fn finish(&mut self, k: usize, y: &mut [T]) {
@@ -318,7 +341,9 @@ impl<T: Real> Rungs<T> for Rk4Rungs<T> {
         (y, acc): (&mut [T], &impl Fn(f64) -> T),
         branches: &[Branches<T>; 4],
     ) {
-        self.stages_by(k, chain, ws, y, (acc, Some(branches)));
+        let h = self.h(k);
+        let on = Some(branches);
+        rk4_stages_at(chain, ws, (y, &mut self.scratch), h, Self::cart(acc), on);
         self.finish(k, y);
     }
 }

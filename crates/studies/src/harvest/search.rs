@@ -632,9 +632,17 @@ pub fn run_search(
         designs,
         ranking,
         stages,
-        engine: engine
-            .engine
-            .info_stepping(spec.scene.integration.step != StepControl::Fixed),
+        engine: engine.engine.info_stepping(runs_scalar(&spec.scene)),
         total_s: t_all.elapsed().as_secs_f64(),
     })
+}
+
+/// Whether the CPU engine takes the search's ensembles on its scalar loop: adaptive IMEX steps
+/// ([`pendulum_atlas_core::engine::plan::EnsemblePlan::runs_scalar`]), the method chosen for
+/// the base scene.
+fn runs_scalar(scene: &pendulum_atlas_core::config::Scene) -> bool {
+    use pendulum_atlas_core::engine::method::Method;
+    scene.integration.step != StepControl::Fixed
+        && pendulum_atlas_core::engine::StepPlan::for_scene(scene)
+            .is_ok_and(|p| p.method == Method::Imex)
 }

@@ -17,6 +17,8 @@
 //!    ([`CartTable`]), filled by the same `cart_at` the scalar loop calls.
 
 use super::hook::{EnsembleHook, LaneView, LaneViewMut, RawInstance};
+use super::lane_ladder::{LaneLadder, Twins};
+use crate::config::StepControl;
 use crate::engine::imex::{C as IMEX_C, Imex};
 use crate::engine::plan::{EnsemblePlan, InstancePlan};
 use crate::engine::rk4::{Rk4Scratch, rk4_step, rk4_step_twin};
@@ -140,12 +142,24 @@ impl CartTable {
 /// The integrator of a lane group.
 #[derive(Clone)]
 enum LaneStepper<V: Lane> {
-    Rk4 { dt: V, scratch: Rk4Scratch<V> },
+    Rk4 {
+        dt: V,
+        scratch: Rk4Scratch<V>,
+    },
     Imex(Box<Imex<V>>),
+    /// Adaptive steps of the explicit pair, each lane its own ([`LaneLadder`]).
+    Ladder(Box<LaneLadder<V>>),
 }
 
-impl<V: Lane> LaneStepper<V> {
+impl<V: Lane> LaneStepper<V>
+where
+    V::Scalar: Real,
+{
     fn new(plans: &[&InstancePlan], dim: usize) -> (LaneStepper<V>, Vec<f64>) {
+        if plans[0].control != StepControl::Fixed {
+            let ladder = LaneLadder::new(plans, dim);
+            return (LaneStepper::Ladder(Box::new(ladder)), Vec::new());
+        }
         match &plans[0].imex {
             None => {
                 let dt = V::gather(|i| plans[i % plans.len()].dt_s);
@@ -167,6 +181,11 @@ impl<V: Lane> LaneStepper<V> {
                 scratch: Rk4Scratch::new(dim),
             },
             LaneStepper::Imex(imex) => LaneStepper::Imex(Box::new(imex.fresh_lanes())),
+            // The twins of a ladder follow their lanes' sub-steps with RK4's scratch alone.
+            LaneStepper::Ladder(ladder) => LaneStepper::Rk4 {
+                dt: V::splat(0.0),
+                scratch: ladder.twin_scratch(),
+            },
         }
     }
 
@@ -176,6 +195,7 @@ impl<V: Lane> LaneStepper<V> {
         match self {
             LaneStepper::Rk4 { scratch, .. } => scratch.zero_compensation_lane(i),
             LaneStepper::Imex(imex) => imex.zero_compensation_lane(i),
+            LaneStepper::Ladder(_) => unreachable!("a twin's stepper is never a ladder"),
         }
     }
 
@@ -210,6 +230,7 @@ impl<V: Lane> LaneStepper<V> {
                 rk4_step(chain, ws, y, scratch, *dt, acc);
             }
             LaneStepper::Imex(imex) => imex.step_with(chain, ws, y, |j| cart.at::<V>(j)),
+            LaneStepper::Ladder(_) => unreachable!("a ladder takes base steps"),
         }
     }
 }
@@ -219,7 +240,6 @@ struct LaneState<'a, T: Real> {
     plan: &'a InstancePlan,
     chain: Chain<T>,
     hook: EnsembleHook<'a, T>,
-    touching: (bool, bool),
     /// `Some` once the lane has ended: its status and steps.
     end: Option<(Status, u64)>,
     /// The lane's state where it ended (the group steps on after it).
@@ -227,16 +247,15 @@ struct LaneState<'a, T: Real> {
 }
 
 impl<T: Real> LaneState<'_, T> {
-    /// The scalar loop's work after step `step` for this lane (`twin`: its lane of the twins).
+    /// The scalar loop's work after step `step` for this lane, `onsets` bumper contacts
+    /// having begun within it (`twin`: its lane of the twins).
     fn after_step<V: Lane<Scalar = T>>(
         &mut self,
         step: u64,
         y: &LaneView<'_, V>,
-        now: (bool, bool),
+        onsets: u32,
         twin: &mut LaneViewMut<'_, V>,
     ) {
-        let onsets = u32::from(now.0 && !self.touching.0) + u32::from(now.1 && !self.touching.1);
-        self.touching = now;
         let total = self.plan.total_steps();
         if health_due(step, total, false) {
             let state: Vec<T> = (0..y.len()).map(|k| y.at(k)).collect();
@@ -270,15 +289,14 @@ where
         .collect();
     let (mut stepper, fracs) = LaneStepper::<V>::new(&plans, dim);
     let mut cart = CartTable::new(&plans, &fracs);
-    let touching = touching_lanes(&chain, &y);
+    let now = touching_lanes(&chain, &y);
+    let mut touching: Vec<(bool, bool)> = (0..plans.len()).map(now).collect();
     let mut lanes: Vec<LaneState<V::Scalar>> = plans
         .iter()
-        .enumerate()
-        .map(|(i, &p)| LaneState {
+        .map(|&p| LaneState {
             plan: p,
             chain: Chain::new(&p.params),
             hook: EnsembleHook::new(p, plan.want_strobe, plan.want_rseries, plan.early_stop, d0),
-            touching: touching(i),
             end: None,
             y_end: Vec::new(),
         })
@@ -288,21 +306,19 @@ where
     let mut twin_stepper = stepper.fresh(dim);
     let mut twins_running = false;
     for n in 0..longest {
-        if twins_running {
-            let pair = (&mut y[..], &mut twin_y[..]);
-            stepper.step_twin(&mut twin_stepper, &chain, &mut ws, pair, &cart);
-        } else {
-            stepper.step(&chain, &mut ws, &mut y, &cart);
-        }
-        let now = touching_lanes(&chain, &y);
-        if twins_running {
-            for (i, lane) in lanes.iter().enumerate() {
-                let onsets = onsets_of(lane.touching, now(i));
-                if lane.end.is_none() && lane.hook.twin_running() && (onsets.0 || onsets.1) {
-                    lane_saltation(lane, &y, &mut twin_y, i, onsets);
-                }
-            }
-        }
+        let group = Group {
+            chain: &chain,
+            plans: &plans,
+            lanes: &lanes,
+            twins_running,
+        };
+        let onsets = group.step(
+            (&mut stepper, &mut twin_stepper),
+            &mut ws,
+            (&mut y, &mut twin_y),
+            (n, &cart),
+            &mut touching,
+        );
         cart.advance();
         let mut running = false;
         for (i, lane) in lanes
@@ -315,7 +331,7 @@ where
                 lane: i,
             };
             let was = lane.hook.twin_running();
-            lane.after_step(n + 1, &LaneView { y: &y, lane: i }, now(i), &mut twin);
+            lane.after_step(n + 1, &LaneView { y: &y, lane: i }, onsets[i], &mut twin);
             if !was && lane.hook.twin_running() {
                 twin_stepper.zero_compensation_lane(i);
             }
@@ -339,6 +355,69 @@ where
             raw
         })
         .collect()
+}
+
+/// What one step of a group reads: the vector chain, the lanes' plans and states.
+struct Group<'g, 'a, V: Lane>
+where
+    V::Scalar: Real,
+{
+    chain: &'g Chain<V>,
+    plans: &'g [&'a InstancePlan],
+    lanes: &'g [LaneState<'a, V::Scalar>],
+    twins_running: bool,
+}
+
+impl<V: Lane> Group<'_, '_, V>
+where
+    V::Scalar: Real,
+{
+    /// Step `n` of every lane (and of the twins while any runs, with their onset saltations);
+    /// per lane, the bumper contact onsets within it, `touching` following the bumpers.
+    fn step(
+        &self,
+        (stepper, twin_stepper): (&mut LaneStepper<V>, &mut LaneStepper<V>),
+        ws: &mut Workspace<V>,
+        (y, twin_y): (&mut [V], &mut [V]),
+        (n, cart): (u64, &CartTable),
+        touching: &mut [(bool, bool)],
+    ) -> Vec<u32> {
+        let twin_runs = |l: &LaneState<V::Scalar>| l.end.is_none() && l.hook.twin_running();
+        if let LaneStepper::Ladder(ladder) = stepper {
+            let live: Vec<bool> = self.lanes.iter().map(|l| l.end.is_none()).collect();
+            let LaneStepper::Rk4 { scratch, .. } = twin_stepper else {
+                unreachable!("a ladder's twins step with RK4's scratch")
+            };
+            let lanes = self.lanes;
+            let mut salt = |l: usize, y: &[V], ty: &mut [V], on: (bool, bool)| {
+                lane_saltation(&lanes[l], y, ty, l, on);
+            };
+            let twins = self.twins_running.then(|| Twins {
+                y: twin_y,
+                scratch,
+                running: lanes.iter().map(twin_runs).collect(),
+                salt: &mut salt,
+            });
+            let at = (n, self.plans);
+            return ladder.base_step((self.chain, ws), y, at, &live, twins, touching);
+        }
+        if self.twins_running {
+            stepper.step_twin(twin_stepper, self.chain, ws, (y, twin_y), cart);
+        } else {
+            stepper.step(self.chain, ws, y, cart);
+        }
+        let now = touching_lanes(self.chain, y);
+        let mut onsets = vec![0; self.lanes.len()];
+        for (i, lane) in self.lanes.iter().enumerate() {
+            let new = onsets_of(touching[i], now(i));
+            touching[i] = now(i);
+            onsets[i] = u32::from(new.0) + u32::from(new.1);
+            if self.twins_running && twin_runs(lane) && (new.0 || new.1) {
+                lane_saltation(lane, y, twin_y, i, new);
+            }
+        }
+        onsets
+    }
 }
 
 /// [`onset_saltation`] of lane `i` (its scalar chain, its lanes of the main and twin states).

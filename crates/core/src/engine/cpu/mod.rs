@@ -6,6 +6,7 @@
 //! (with [`EarlyStop`]) ends a confirmed periodic orbit early.
 
 mod hook;
+mod lane_ladder;
 mod lanes;
 
 pub use hook::RawInstance;
@@ -200,12 +201,12 @@ impl CpuEngine {
     ) -> Result<EngineRun, EngineError> {
         let d0 = plan.twin_separation(self.precision)?;
         let t0 = Instant::now();
-        // Each instance's own steps: the scalar loop (the lanes step together).
-        let adaptive = plan
-            .instances
-            .iter()
-            .any(|p| p.control != StepControl::Fixed);
-        let simd = if adaptive { CpuLoop::Scalar } else { self.simd };
+        // Adaptive IMEX steps run on the scalar loop (each lane would need its own S⁻¹).
+        let simd = if plan.runs_scalar() {
+            CpuLoop::Scalar
+        } else {
+            self.simd
+        };
         let raw = match (simd, self.precision) {
             (CpuLoop::Scalar, Precision::F64) => integrate_all::<f64>(plan, d0, progress),
             (CpuLoop::Scalar, Precision::F32) => integrate_all::<f32>(plan, d0, progress),
