@@ -84,13 +84,16 @@ fn the_stiff_study_compares_rk4_and_imex_against_the_reference() {
         &|_| {},
     )
     .expect("study");
-    // N = 5, both readings, RK4 at 1x and IMEX at 4, 1 and 0.25x, CPU f64 and f32.
-    assert_eq!(r.horizon.len(), 2 * 4 * 2);
+    // N = 5, both readings, RK4 at 1x, IMEX at 4, 1 and 0.25x and adaptive at rtol 1e-3 and
+    // 1e-4, CPU f64 and f32.
+    assert_eq!(r.horizon.len(), 2 * 6 * 2);
+    assert_eq!(r.horizon.iter().filter(|h| h.rtol.is_some()).count(), 8);
     for h in &r.horizon {
         assert_eq!(h.segments, 5);
         assert!(h.alpha_err_rad.is_finite(), "{h:?}");
-        // Each method at its automatic step is within 1e-4 rad of DOP853 over 0.5 s.
-        if h.dt_factor == 1.0 {
+        // Each method at its automatic step, and adaptive steps 10x tighter than the default
+        // tolerance, are within 1e-4 rad of DOP853 over 0.5 s.
+        if (h.dt_factor == 1.0 && h.rtol.is_none()) || h.rtol == Some(1e-4) {
             assert!(h.alpha_err_rad < 1e-4, "{h:?}");
         }
     }
@@ -98,7 +101,9 @@ fn the_stiff_study_compares_rk4_and_imex_against_the_reference() {
     let dt = |reading: Reading, method: Method| {
         r.horizon
             .iter()
-            .find(|h| h.reading == reading && h.method == method && h.dt_factor == 1.0)
+            .find(|h| {
+                h.reading == reading && h.method == method && h.dt_factor == 1.0 && h.rtol.is_none()
+            })
             .map(|h| h.dt_s)
             .expect("row")
     };
@@ -107,8 +112,10 @@ fn the_stiff_study_compares_rk4_and_imex_against_the_reference() {
         dt(Reading::Library, Method::Imex),
         dt(Reading::Earlier, Method::Imex)
     );
-    // Maps: RK4's reference against itself, then IMEX on each CPU engine.
-    assert_eq!(r.maps.len(), 3);
+    // Maps: RK4's reference against itself, then IMEX at fixed and at adaptive steps on each
+    // CPU engine.
+    assert_eq!(r.maps.len(), 5);
+    assert_eq!(r.maps.iter().filter(|m| m.rtol.is_some()).count(), 2);
     assert_eq!(r.maps[0].k_class_agree, 1.0);
     assert!(r.maps.iter().all(|m| m.cells > 0));
     let page = markdown(&r);

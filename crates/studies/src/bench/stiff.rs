@@ -1,19 +1,20 @@
 //! The stiff-chain study behind `pendulum-atlas bench --stiff`: RK4 against the IMEX method
 //! (`docs/model.md`, "Time step") with both readings of Table 1's damping.
 //!
-//! Part (a), work against precision: for each N, damping reading, method, step (a multiple of
-//! the method's automatic step) and engine, one instance over [`HORIZON_S`] at 8 Hz / 9 mm;
-//! its holder angle against the DOP853 reference at the same N and damping (the integration
-//! error alone), and its wall time.
+//! Part (a), work against precision: for each N, damping reading, method, stepping (a multiple
+//! of the method's automatic step, or adaptive steps of the IMEX pair at a tolerance) and
+//! engine, one instance over [`HORIZON_S`] at 8 Hz / 9 mm; its holder angle against the DOP853
+//! reference at the same N and damping (the integration error alone), and its wall time.
 //!
 //! Part (b), maps: a small (f, A) map at the library damping integrated by RK4 at its
-//! automatic step (f64, the reference map) and by the IMEX method at its automatic step on each
-//! engine; the share of the cells RK4 classifies (status ok) on which K class (K > 0.5) and
-//! period agree, and the wall times.
+//! automatic step (f64, the reference map) and by the IMEX method at its automatic step and at
+//! adaptive steps (the default tolerances) on each engine; the share of the cells RK4
+//! classifies (status ok) on which K class (K > 0.5) and period agree, and the wall times.
 
 use super::{AlphaRows, BenchError, SAMPLES_PER_PERIOD, options, run_map_scenes, timing};
 use pendulum_atlas_core::config::{
-    BeamDamping, ContactDamping, MethodChoice, Metric, Scene, TimeStep,
+    BeamDamping, ContactDamping, DEFAULT_ATOL, DEFAULT_RTOL, MethodChoice, Metric, Scene,
+    StepControl, TimeStep,
 };
 use pendulum_atlas_core::engine::method::{Method, MethodSteps};
 use pendulum_atlas_core::engine::{
@@ -60,6 +61,58 @@ impl Reading {
     }
 }
 
+/// How a run of the study steps.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Stepping {
+    /// `method` at `factor` times its automatic step.
+    Fixed {
+        /// The method.
+        method: Method,
+        /// Step over the automatic step.
+        factor: f64,
+    },
+    /// Adaptive steps of `method`'s pair at relative tolerance `rtol`, absolute `rtol / 100`
+    /// (the defaults' ratio).
+    Adaptive {
+        /// The method.
+        method: Method,
+        /// Relative tolerance.
+        rtol: f64,
+    },
+}
+
+impl Stepping {
+    /// The method.
+    pub fn method(self) -> Method {
+        match self {
+            Stepping::Fixed { method, .. } | Stepping::Adaptive { method, .. } => method,
+        }
+    }
+
+    /// The relative tolerance of adaptive steps.
+    pub fn rtol(self) -> Option<f64> {
+        match self {
+            Stepping::Fixed { .. } => None,
+            Stepping::Adaptive { rtol, .. } => Some(rtol),
+        }
+    }
+
+    /// Name in tables and curves ([`stepping_label`]).
+    pub fn label(self) -> String {
+        stepping_label(self.method(), self.rtol())
+    }
+}
+
+/// The name of a run's stepping in tables and curves: the method, and "adaptive" with its
+/// relative tolerance.
+pub fn stepping_label(method: Method, rtol: Option<f64>) -> String {
+    match rtol {
+        None => method.name().into(),
+        Some(r) => format!("{} adaptive {r:.0e}", method.name()),
+    }
+}
+
 /// One row of part (a).
 #[derive(Debug, Clone, Serialize)]
 pub struct HorizonRow {
@@ -69,11 +122,13 @@ pub struct HorizonRow {
     pub reading: Reading,
     /// Integration method.
     pub method: Method,
-    /// Step over the method's automatic step.
+    /// Adaptive steps: their relative tolerance (the absolute one is 1/100 of it).
+    pub rtol: Option<f64>,
+    /// Step over the method's automatic step as asked (adaptive: the base step's, as planned).
     pub dt_factor: f64,
-    /// Step (s).
+    /// Step (adaptive: base step) (s).
     pub dt_s: f64,
-    /// Steps over the horizon.
+    /// Steps (adaptive: base steps) over the horizon.
     pub steps: u64,
     /// Engine.
     pub backend: EngineKind,
@@ -92,6 +147,8 @@ pub struct HorizonRow {
 pub struct MapRow {
     /// Integration method.
     pub method: Method,
+    /// Adaptive steps: their relative tolerance.
+    pub rtol: Option<f64>,
     /// Engine.
     pub backend: EngineKind,
     /// Float type.
@@ -168,14 +225,25 @@ fn reference_alpha(n: usize, reading: Reading) -> Result<Vec<f64>, EngineError> 
     Ok(rows.0)
 }
 
-/// `s` with `method` at `factor` times its automatic step.
-fn with_method(mut s: Scene, method: Method, factor: f64) -> Result<Scene, EngineError> {
-    let auto = MethodSteps::of_scene(&s)?.auto_s(method);
-    s.integration.method = match method {
+/// `s` stepped as `stepping` says.
+fn with_stepping(mut s: Scene, stepping: Stepping) -> Result<Scene, EngineError> {
+    s.integration.method = match stepping.method() {
         Method::Rk4 => MethodChoice::Rk4,
         Method::Imex => MethodChoice::Imex,
     };
-    s.integration.dt_s = TimeStep::Seconds(factor * auto);
+    match stepping {
+        Stepping::Fixed { method, factor } => {
+            let auto = MethodSteps::of_scene(&s)?.auto_s(method);
+            s.integration.dt_s = TimeStep::Seconds(factor * auto);
+        }
+        Stepping::Adaptive { rtol, .. } => {
+            s.integration.dt_s = TimeStep::Auto;
+            s.integration.step = StepControl::Adaptive {
+                rtol,
+                atol: rtol * (DEFAULT_ATOL / DEFAULT_RTOL),
+            };
+        }
+    }
     Ok(s)
 }
 
@@ -184,7 +252,7 @@ fn horizon_row(
     s: Scene,
     engine: &Engine,
     reference: &[f64],
-    (method, factor): (Method, f64),
+    stepping: Stepping,
 ) -> Result<HorizonRow, EngineError> {
     let n = s.beam.segments;
     let reading = if s.limiter.damping_law == ContactDamping::Loading {
@@ -192,7 +260,9 @@ fn horizon_row(
     } else {
         Reading::Earlier
     };
-    let s = with_method(s, method, factor)?;
+    let method = stepping.method();
+    let auto = MethodSteps::of_scene(&s)?.auto_s(method);
+    let s = with_stepping(s, stepping)?;
     let plan = EnsemblePlan::from_scenes(&[s], &options(vec![Metric::R]))?;
     let readback = Readback {
         strobe: false,
@@ -219,7 +289,11 @@ fn horizon_row(
         segments: n,
         reading,
         method,
-        dt_factor: factor,
+        rtol: stepping.rtol(),
+        dt_factor: match stepping {
+            Stepping::Fixed { factor, .. } => factor,
+            Stepping::Adaptive { .. } => p.dt_s / auto,
+        },
         dt_s: p.dt_s,
         steps: p.total_steps(),
         backend: info.kind,
@@ -230,16 +304,22 @@ fn horizon_row(
     })
 }
 
-/// The (method, step factor) pairs of part (a). RK4 is measured at its automatic step only:
-/// a larger one is unstable, a smaller one costs more and the error is already ≤ 1e-6.
-fn steps_measured(quick: bool) -> Vec<(Method, f64)> {
-    let imex: &[f64] = if quick {
-        &[4.0, 1.0, 0.25]
+/// The steppings of part (a). RK4 is measured at its automatic step only: a larger one is
+/// unstable, a smaller one costs more and the error is already ≤ 1e-6. The adaptive IMEX runs
+/// span the tolerances from 10× looser than the default to 100× tighter.
+fn steps_measured(quick: bool) -> Vec<Stepping> {
+    let (imex, rtols): (&[f64], &[f64]) = if quick {
+        (&[4.0, 1.0, 0.25], &[1e-3, 1e-4])
     } else {
-        &[8.0, 4.0, 2.0, 1.0, 0.5, 0.25]
+        (&[8.0, 4.0, 2.0, 1.0, 0.5, 0.25], &[1e-2, 1e-3, 1e-4, 1e-5])
     };
-    std::iter::once((Method::Rk4, 1.0))
-        .chain(imex.iter().map(|&f| (Method::Imex, f)))
+    let fixed = |method, factor| Stepping::Fixed { method, factor };
+    std::iter::once(fixed(Method::Rk4, 1.0))
+        .chain(imex.iter().map(|&f| fixed(Method::Imex, f)))
+        .chain(rtols.iter().map(|&rtol| Stepping::Adaptive {
+            method: Method::Imex,
+            rtol,
+        }))
         .collect()
 }
 
@@ -263,9 +343,9 @@ fn horizon_part(
                 for engine in engines {
                     let r = horizon_row(horizon_scene(n, reading), engine, &reference, step)?;
                     progress(&format!(
-                        "N = {n:2} {:<8} {:<4} dt = {:.2e} s ({}x auto) on {} {}: α error {:.2e} rad, {:.3} s",
+                        "N = {n:2} {:<8} {:<4} dt = {:.2e} s ({:.3}x auto) on {} {}: α error {:.2e} rad, {:.3} s",
                         format!("{reading:?}"),
-                        r.method.name(),
+                        step.label(),
                         r.dt_s,
                         r.dt_factor,
                         r.backend.name(),
@@ -299,7 +379,11 @@ fn map_cells(quick: bool) -> (Vec<(f64, f64)>, usize, String) {
     (cells, n, grid)
 }
 
-fn map_scenes(cells: &[(f64, f64)], n: usize, method: Method) -> Result<Vec<Scene>, EngineError> {
+fn map_scenes(
+    cells: &[(f64, f64)],
+    n: usize,
+    stepping: Stepping,
+) -> Result<Vec<Scene>, EngineError> {
     cells
         .iter()
         .map(|&(f, a)| {
@@ -308,13 +392,13 @@ fn map_scenes(cells: &[(f64, f64)], n: usize, method: Method) -> Result<Vec<Scen
                 pendulum_atlas_core::model::ExcitationKind::Harmonic { frequency_hz: f };
             s.excitation.amplitude_m = a;
             timing(&mut s, 2.0 + 100.0 / f, 2.0);
-            with_method(s, method, 1.0)
+            with_stepping(s, stepping)
         })
         .collect()
 }
 
 /// A map against the reference map, on the cells the reference classifies.
-fn map_row(method: Method, engine: &Engine, map: &MapRun, reference: &MapRun) -> MapRow {
+fn map_row(stepping: Stepping, engine: &Engine, map: &MapRun, reference: &MapRun) -> MapRow {
     let classified: Vec<usize> = (0..reference.results.len())
         .filter(|&c| reference.results[c].status == Status::Ok)
         .collect();
@@ -324,7 +408,8 @@ fn map_row(method: Method, engine: &Engine, map: &MapRun, reference: &MapRun) ->
     let (a, b) = (&map.results, &reference.results);
     let info = engine.info();
     MapRow {
-        method,
+        method: stepping.method(),
+        rtol: stepping.rtol(),
         backend: info.kind,
         precision: info.precision,
         dt_s: map.plan.dt_range_s.1,
@@ -338,7 +423,8 @@ fn map_row(method: Method, engine: &Engine, map: &MapRun, reference: &MapRun) ->
     }
 }
 
-/// Part (b): RK4's reference map, then the IMEX method on every engine.
+/// Part (b): RK4's reference map, then the IMEX method at its automatic step and at adaptive
+/// steps (the default tolerances) on every engine.
 fn map_part(
     quick: bool,
     engines: &[&Engine],
@@ -346,34 +432,44 @@ fn map_part(
 ) -> Result<(usize, String, Vec<MapRow>), EngineError> {
     let (cells, n, grid) = map_cells(quick);
     let metrics = vec![Metric::K, Metric::Period];
-    let reference = run_map_scenes(
-        &map_scenes(&cells, n, Method::Rk4)?,
-        metrics.clone(),
-        engines[0],
-    )?;
-    let mut rows = vec![map_row(Method::Rk4, engines[0], &reference, &reference)];
+    let rk4 = Stepping::Fixed {
+        method: Method::Rk4,
+        factor: 1.0,
+    };
+    let reference = run_map_scenes(&map_scenes(&cells, n, rk4)?, metrics.clone(), engines[0])?;
+    let mut rows = vec![map_row(rk4, engines[0], &reference, &reference)];
     progress(&format!(
         "map: RK4 reference, {} cells at N = {n}, {:.1} s",
         cells.len(),
         reference.engine_s()
     ));
-    for engine in engines {
-        let map = run_map_scenes(
-            &map_scenes(&cells, n, Method::Imex)?,
-            metrics.clone(),
-            engine,
-        )?;
-        let row = map_row(Method::Imex, engine, &map, &reference);
-        progress(&format!(
-            "map: IMEX on {} {}: {:.1} s, K class {:.0} %, period {:.0} % of {} cells",
-            row.backend.name(),
-            row.precision.name(),
-            row.wall_s,
-            100.0 * row.k_class_agree,
-            100.0 * row.period_agree,
-            row.cells
-        ));
-        rows.push(row);
+    let imex = [
+        Stepping::Fixed {
+            method: Method::Imex,
+            factor: 1.0,
+        },
+        Stepping::Adaptive {
+            method: Method::Imex,
+            rtol: DEFAULT_RTOL,
+        },
+    ];
+    for stepping in imex {
+        for engine in engines {
+            let scenes = map_scenes(&cells, n, stepping)?;
+            let map = run_map_scenes(&scenes, metrics.clone(), engine)?;
+            let row = map_row(stepping, engine, &map, &reference);
+            progress(&format!(
+                "map: {} on {} {}: {:.1} s, K class {:.0} %, period {:.0} % of {} cells",
+                stepping.label(),
+                row.backend.name(),
+                row.precision.name(),
+                row.wall_s,
+                100.0 * row.k_class_agree,
+                100.0 * row.period_agree,
+                row.cells
+            ));
+            rows.push(row);
+        }
     }
     Ok((n, grid, rows))
 }

@@ -1,6 +1,6 @@
 //! Files of the stiff-chain study: `stiff.json`, `stiff_work_precision.png`, `STIFF.md`.
 
-use super::stiff::{HorizonRow, Reading, StiffReport};
+use super::stiff::{HorizonRow, Reading, StiffReport, stepping_label};
 use pendulum_atlas_core::engine::method::Method;
 use pendulum_atlas_core::engine::{EngineKind, Precision};
 use pendulum_atlas_map::output::OutputError;
@@ -37,7 +37,8 @@ pub fn write_stiff(dir: &Path, r: &StiffReport) -> Result<Vec<PathBuf>, OutputEr
     ])
 }
 
-/// One curve per (N, reading, method) on the CPU in f64: (wall s, α error) along the steps.
+/// One curve per (N, reading, method, fixed or adaptive) on the CPU in f64: (wall s, α error)
+/// along the steps or the tolerances.
 fn curves(r: &StiffReport) -> Vec<(String, Vec<f64>, Vec<f64>)> {
     let mut out: Vec<(String, Vec<f64>, Vec<f64>)> = Vec::new();
     let cpu64 = |h: &&HorizonRow| h.backend == EngineKind::Cpu && h.precision == Precision::F64;
@@ -45,7 +46,14 @@ fn curves(r: &StiffReport) -> Vec<(String, Vec<f64>, Vec<f64>)> {
         if !(h.alpha_err_rad > 0.0 && h.wall_s > 0.0) {
             continue;
         }
-        let name = format!("N = {} {:?} {}", h.segments, h.reading, h.method.name());
+        // Fixed steps along the step, adaptive ones along the tolerance: two curves.
+        let adaptive = if h.rtol.is_some() { " adaptive" } else { "" };
+        let name = format!(
+            "N = {} {:?} {}{adaptive}",
+            h.segments,
+            h.reading,
+            h.method.name()
+        );
         match out.iter_mut().find(|c| c.0 == name) {
             Some(c) => {
                 c.1.push(h.wall_s);
@@ -69,7 +77,9 @@ pub fn markdown(r: &StiffReport) -> String {
          over the first {} s (bumper impacts included) against the DOP853 reference with contact \
          events at the same N and damping, i.e. the integration error alone. **Wall time**: the \
          engine run of one instance over that horizon (on the GPU one instance measures latency, \
-         not throughput). Steps are multiples of each method's automatic step.\n",
+         not throughput). Fixed steps are multiples of each method's automatic step; adaptive \
+         runs (IMEX, `integration.step = \"adaptive\"`) are labelled with their relative \
+         tolerance (the absolute one 1/100 of it), and their dt is the ladder's base step.\n",
         if r.quick { " --quick" } else { "" },
         r.machine,
         r.total_s,
@@ -106,6 +116,7 @@ fn same_error_speedups(s: &mut String, r: &StiffReport) {
                 .iter()
                 .filter(cpu64)
                 .filter(move |h| h.segments == n && h.reading == reading && h.method == m)
+                .filter(|h| h.rtol.is_none())
         };
         let Some(rk4) = of(Method::Rk4).next() else {
             continue;
@@ -148,10 +159,10 @@ fn horizon_table(s: &mut String, r: &StiffReport) {
     for h in &r.horizon {
         let _ = writeln!(
             s,
-            "| {} | {:?} | {} | {} | {:.2e} | {} | {} {} | {:.1e} | {:.4} | {} |",
+            "| {} | {:?} | {} | {:.3} | {:.2e} | {} | {} {} | {:.1e} | {:.4} | {} |",
             h.segments,
             h.reading,
-            h.method.name(),
+            stepping_label(h.method, h.rtol),
             h.dt_factor,
             h.dt_s,
             h.steps,
@@ -169,7 +180,7 @@ fn map_table(s: &mut String, r: &StiffReport) {
         s,
         "## Maps at the library damping\n\n\
          Grid: {}. The reference is RK4 at its automatic step on the CPU in f64; each IMEX map \
-         runs at the IMEX automatic step. Agreement is counted on the cells the reference \
+         runs at the IMEX automatic step, or at adaptive steps (the default tolerances). Agreement is counted on the cells the reference \
          classifies (status ok): same K class (K > 0.5) and same period.\n\n\
          | method | engine | dt (s) | wall (s) | cells | K class agrees | period agrees | failed |\n\
          |---|---|---|---|---|---|---|---|",
@@ -179,7 +190,7 @@ fn map_table(s: &mut String, r: &StiffReport) {
         let _ = writeln!(
             s,
             "| {} | {} {} | {:.2e} | {:.2} | {} | {:.0} % | {:.0} % | {} |",
-            m.method.name(),
+            stepping_label(m.method, m.rtol),
             m.backend.name(),
             m.precision.name(),
             m.dt_s,
