@@ -1423,3 +1423,42 @@ fn a_map_with_adaptive_steps_has_lambda1_on_its_sub_steps_on_every_engine() {
         std::fs::remove_dir_all(&out).ok();
     }
 }
+
+/// Adaptive steps finer than f32 resolves are warned of in f32, not in f64: the steps would be
+/// forced to the ladder's finest level. (rtol 9e-5 is just past the limit, and still fast.)
+#[test]
+fn an_adaptive_tolerance_finer_than_f32_resolves_is_warned_of() {
+    let sets = [
+        "map.axes=[{key=\"excitation.frequency_hz\",values=[8.0]},{key=\"excitation.amplitude_m\",values=[0.009]}]",
+        "map.metrics=[\"hops\"]",
+        "integration.duration_s=1.0",
+        "integration.transient_s=0.5",
+        "integration.step=\"adaptive\"",
+        "integration.rtol=9e-5",
+    ];
+    for (precision, warned) in [("f32", true), ("f64", false)] {
+        let out = out_dir(&format!("f32-tolerance-{precision}"));
+        let mut cmd = bin();
+        cmd.args([
+            "map",
+            "--quiet",
+            "--backend",
+            "cpu",
+            "--precision",
+            precision,
+        ]);
+        for s in sets {
+            cmd.args(["--set", s]);
+        }
+        let o = cmd.arg("--out").arg(&out).output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let j = map_json(&out);
+        let warnings = j["warnings"].to_string();
+        assert_eq!(
+            warnings.contains("finer than f32 resolves"),
+            warned,
+            "{precision}: {warnings}"
+        );
+        std::fs::remove_dir_all(&out).ok();
+    }
+}

@@ -28,6 +28,7 @@
 //! same steps per invocation, one sub-step per pass of its loop (`shaders/integrate.wgsl`,
 //! `adaptive_substep`).
 
+use crate::config::StepControl;
 use crate::engine::imex::{C, Imex, ImexMatrices};
 use crate::engine::rk4::Rk4Rungs;
 use crate::engine::stepper::{CartClock, Stepper};
@@ -41,6 +42,22 @@ pub const MAX_LEVEL: u32 = 20;
 
 /// The error below which the next step may double (its error then about 8× as large).
 pub const GROW: f64 = 0.1;
+
+/// The finest relative tolerance an f32 engine meets. Below it the tolerance is under f32's
+/// resolution of the state, the estimate cannot meet it, and every sub-step is forced at the
+/// finest level: at rtol 1e-5 one N = 17 instance took 21 s in f32 against 0.06 s in f64
+/// (`docs/bench/STIFF.md`'s study, whose f32 runs stop at this tolerance).
+pub const F32_FINEST_RTOL: f64 = 1e-4;
+
+/// The warning for tolerances an engine in f32 (`f32`) cannot meet, if `control` has them.
+pub fn f32_tolerance_warning(control: StepControl, f32: bool) -> Option<String> {
+    match control {
+        StepControl::Adaptive { rtol, .. } if f32 && rtol < F32_FINEST_RTOL => Some(format!(
+            "integration.rtol = {rtol:e} is finer than f32 resolves (at least {F32_FINEST_RTOL:e}): the steps are forced to the finest level, hundreds of times slower; run in f64 or loosen rtol"
+        )),
+        _ => None,
+    }
+}
 
 /// What the controller did over a run.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]

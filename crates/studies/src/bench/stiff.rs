@@ -16,6 +16,7 @@ use pendulum_atlas_core::config::{
     BeamDamping, ContactDamping, DEFAULT_ATOL, DEFAULT_RTOL, MethodChoice, Metric, Scene,
     StepControl, TimeStep,
 };
+use pendulum_atlas_core::engine::adaptive::F32_FINEST_RTOL;
 use pendulum_atlas_core::engine::method::{Method, MethodSteps};
 use pendulum_atlas_core::engine::{
     Engine, EngineError, EngineKind, EnsemblePlan, Instance, Precision, Readback, ReferenceOptions,
@@ -323,14 +324,8 @@ fn steps_measured(quick: bool) -> Vec<Stepping> {
         .collect()
 }
 
-/// The finest relative tolerance run in f32 (the atol then 1e-6): below it the tolerance is
-/// under f32's resolution of the state, the estimate cannot meet it, and every sub-step is
-/// forced at the ladder's finest level (at rtol 1e-5 one N = 17 instance took 21 s in f32
-/// against 0.06 s in f64).
-pub const F32_FINEST_RTOL: f64 = 1e-4;
-
 /// Whether `stepping` is measured on `engine`: adaptive steps in f32 down to
-/// [`F32_FINEST_RTOL`].
+/// [`F32_FINEST_RTOL`] (finer ones are forced to the ladder's finest level).
 fn measured_on(stepping: Stepping, engine: &Engine) -> bool {
     let f32 = engine.info().precision == Precision::F32;
     !(f32 && stepping.rtol().is_some_and(|r| r < F32_FINEST_RTOL))

@@ -53,56 +53,35 @@ pub fn run_instance_with<T: Real>(
     let chain: Chain<T> = Chain::new(&plan.params);
     let mut y: Vec<T> = plan.y0.iter().map(|&v| T::of(v)).collect();
     let mut hook = EnsembleHook::<T>::new(plan, want_strobe, want_rseries, early, separation);
-    let (steps, clock) = (plan.total_steps(), PhaseClock(plan));
+    let (steps, dim) = (plan.total_steps(), y.len());
+    // The loop over one stepper type; each arm below builds its own.
+    macro_rules! run_with {
+        ($stepper:expr) => {
+            run_steps(
+                &chain,
+                &plan.guard,
+                &mut y,
+                &mut $stepper,
+                steps,
+                &PhaseClock(plan),
+                &mut hook,
+            )
+        };
+    }
     let end = match (&plan.imex, plan.control) {
         (_, StepControl::Adaptive { rtol, atol }) if plan.method == Method::Rk4 => {
-            let mut a = AdaptiveRk4::explicit(plan.dt_s, (rtol, atol), y.len());
-            run_steps(
-                &chain,
-                &plan.guard,
-                &mut y,
-                &mut a,
-                steps,
-                &clock,
-                &mut hook,
-            )
+            run_with!(AdaptiveRk4::explicit(plan.dt_s, (rtol, atol), dim))
         }
         (_, StepControl::Adaptive { rtol, atol }) => {
-            let mut a = AdaptiveImex::imex(&plan.params, plan.dt_s, (rtol, atol), y.len());
-            run_steps(
-                &chain,
-                &plan.guard,
-                &mut y,
-                &mut a,
-                steps,
-                &clock,
-                &mut hook,
-            )
+            run_with!(AdaptiveImex::imex(
+                &plan.params,
+                plan.dt_s,
+                (rtol, atol),
+                dim
+            ))
         }
-        (None, StepControl::Fixed) => {
-            let mut rk4 = Rk4::new(plan.dt_s, y.len());
-            run_steps(
-                &chain,
-                &plan.guard,
-                &mut y,
-                &mut rk4,
-                steps,
-                &clock,
-                &mut hook,
-            )
-        }
-        (Some(m), StepControl::Fixed) => {
-            let mut imex = Imex::new(m, y.len());
-            run_steps(
-                &chain,
-                &plan.guard,
-                &mut y,
-                &mut imex,
-                steps,
-                &clock,
-                &mut hook,
-            )
-        }
+        (None, StepControl::Fixed) => run_with!(Rk4::new(plan.dt_s, dim)),
+        (Some(m), StepControl::Fixed) => run_with!(Imex::new(m, dim)),
     };
     let mut raw = hook.finish();
     raw.tally.status = end.status;
