@@ -1424,8 +1424,9 @@ fn a_map_with_adaptive_steps_has_lambda1_on_its_sub_steps_on_every_engine() {
     }
 }
 
-/// Adaptive steps finer than f32 resolves are warned of in f32, not in f64: the steps would be
-/// forced to the ladder's finest level. (rtol 9e-5 is just past the limit, and still fast.)
+/// Adaptive steps finer than f32 resolves are warned of in f32, not in f64, by a map and by a
+/// single run: the steps would be forced to the ladder's finest level. (rtol 9e-5 is just past
+/// the limit, and still fast.)
 #[test]
 fn an_adaptive_tolerance_finer_than_f32_resolves_is_warned_of() {
     let sets = [
@@ -1458,6 +1459,22 @@ fn an_adaptive_tolerance_finer_than_f32_resolves_is_warned_of() {
             warnings.contains("finer than f32 resolves"),
             warned,
             "{precision}: {warnings}"
+        );
+        std::fs::remove_dir_all(&out).ok();
+        // A single run says it too, before it starts.
+        let out = out_dir(&format!("f32-tolerance-simulate-{precision}"));
+        let mut cmd = bin();
+        cmd.args(["simulate", "--precision", precision]);
+        for s in &sets[2..] {
+            cmd.args(["--set", s]);
+        }
+        let o = cmd.arg("--out").arg(&out).output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(
+            stderr.contains("finer than f32 resolves"),
+            warned,
+            "{stderr}"
         );
         std::fs::remove_dir_all(&out).ok();
     }
