@@ -19,6 +19,13 @@ use crate::model::{Chain, Lane, Real, Workspace};
 /// The sub-step positions of a base step, in units of the finest step.
 const UNIT: u64 = 1 << MAX_LEVEL;
 
+/// The most lanes of a vector (`F32x8`): per-lane bookkeeping lives in arrays of this length,
+/// not in vectors allocated at every step.
+pub(super) const MAX_LANES: usize = 8;
+
+/// One value per lane (the first `V::LANES` used).
+pub(super) type PerLane<T> = [T; MAX_LANES];
+
 /// The ladder of every lane of a group, with the pair's scratch.
 #[derive(Clone)]
 pub(super) struct LaneLadder<V: Lane> {
@@ -42,15 +49,15 @@ pub(super) type Saltation<'a, V> = dyn FnMut(usize, &[V], &mut [V], (bool, bool)
 pub(super) struct Twins<'a, V: Lane> {
     pub y: &'a mut [V],
     pub scratch: &'a mut Rk4Scratch<V>,
-    pub running: Vec<bool>,
+    pub running: PerLane<bool>,
     pub salt: &'a mut Saltation<'a, V>,
 }
 
 /// Where each lane is within the base step being taken.
 struct Pass {
-    pos: Vec<u64>,
-    accepted: Vec<bool>,
-    errors: Vec<f64>,
+    pos: PerLane<u64>,
+    accepted: PerLane<bool>,
+    errors: PerLane<f64>,
 }
 
 impl<V: Lane> LaneLadder<V>
@@ -63,6 +70,7 @@ where
             crate::config::StepControl::Adaptive { rtol, atol } => (rtol, atol),
             crate::config::StepControl::Fixed => unreachable!("a ladder of fixed steps"),
         };
+        assert!(V::LANES <= MAX_LANES, "{} lanes", V::LANES);
         let z = vec![V::splat(0.0); dim];
         LaneLadder {
             base_s: plans.iter().map(|p| p.dt_s).collect(),
@@ -83,19 +91,17 @@ where
         (chain, ws): (&Chain<V>, &mut Workspace<V>),
         y: &mut [V],
         (n, plans): (u64, &[&InstancePlan]),
-        live: &[bool],
+        live: &PerLane<bool>,
         mut twins: Option<Twins<'_, V>>,
         touching: &mut [(bool, bool)],
-    ) -> Vec<u32> {
+    ) -> PerLane<u32> {
         let lanes = plans.len();
         let mut pass = Pass {
-            pos: (0..V::LANES)
-                .map(|l| if l < lanes && live[l] { 0 } else { UNIT })
-                .collect(),
-            accepted: vec![false; V::LANES],
-            errors: vec![0.0; V::LANES],
+            pos: std::array::from_fn(|l| if l < lanes && live[l] { 0 } else { UNIT }),
+            accepted: [false; MAX_LANES],
+            errors: [0.0; MAX_LANES],
         };
-        let mut onsets = vec![0u32; lanes];
+        let mut onsets = [0u32; MAX_LANES];
         while pass.pos.iter().any(|&p| p < UNIT) {
             let (h, acc) = self.sub_step(plans, n, &pass.pos);
             let branches = rk4_stages_at(chain, ws, (y, &mut self.scratch), h, acc, None);
@@ -118,7 +124,7 @@ where
                     (r.lane(l) > zero, q.lane(l) > zero)
                 })
             };
-            let mut new = vec![(false, false); lanes];
+            let mut new = [(false, false); MAX_LANES];
             for l in (0..lanes).filter(|&l| pass.accepted[l]) {
                 new[l] = onsets_of(touching[l], now(l));
                 onsets[l] += u32::from(new[l].0) + u32::from(new[l].1);

@@ -17,7 +17,7 @@
 //!    ([`CartTable`]), filled by the same `cart_at` the scalar loop calls.
 
 use super::hook::{EnsembleHook, LaneView, LaneViewMut, RawInstance};
-use super::lane_ladder::{LaneLadder, Twins};
+use super::lane_ladder::{LaneLadder, MAX_LANES, PerLane, Twins};
 use crate::config::StepControl;
 use crate::engine::imex::{C as IMEX_C, Imex};
 use crate::engine::plan::{EnsemblePlan, InstancePlan};
@@ -381,21 +381,24 @@ where
         (y, twin_y): (&mut [V], &mut [V]),
         (n, cart): (u64, &CartTable),
         touching: &mut [(bool, bool)],
-    ) -> Vec<u32> {
+    ) -> PerLane<u32> {
         let twin_runs = |l: &LaneState<V::Scalar>| l.end.is_none() && l.hook.twin_running();
+        let lanes = self.lanes;
+        let per_lane = |f: &dyn Fn(&LaneState<V::Scalar>) -> bool| -> PerLane<bool> {
+            std::array::from_fn(|i| lanes.get(i).is_some_and(f))
+        };
         if let LaneStepper::Ladder(ladder) = stepper {
-            let live: Vec<bool> = self.lanes.iter().map(|l| l.end.is_none()).collect();
+            let live = per_lane(&|l| l.end.is_none());
             let LaneStepper::Rk4 { scratch, .. } = twin_stepper else {
                 unreachable!("a ladder's twins step with RK4's scratch")
             };
-            let lanes = self.lanes;
             let mut salt = |l: usize, y: &[V], ty: &mut [V], on: (bool, bool)| {
                 lane_saltation(&lanes[l], y, ty, l, on);
             };
             let twins = self.twins_running.then(|| Twins {
                 y: twin_y,
                 scratch,
-                running: lanes.iter().map(twin_runs).collect(),
+                running: per_lane(&twin_runs),
                 salt: &mut salt,
             });
             let at = (n, self.plans);
@@ -407,7 +410,7 @@ where
             stepper.step(self.chain, ws, y, cart);
         }
         let now = touching_lanes(self.chain, y);
-        let mut onsets = vec![0; self.lanes.len()];
+        let mut onsets = [0; MAX_LANES];
         for (i, lane) in self.lanes.iter().enumerate() {
             let new = onsets_of(touching[i], now(i));
             touching[i] = now(i);
