@@ -1357,7 +1357,7 @@ fn settling_is_refused_where_it_cannot_run() {
     std::fs::remove_dir_all(&out).ok();
 }
 
-/// A map with adaptive steps runs on the CPU engine's scalar loop and on the GPU, each cell's
+/// A map with adaptive steps runs in the CPU engine's SIMD lanes and on the GPU, each cell's
 /// twin on its sub-steps: on the linear clamped cantilever every cell's λ1 is the least-damped
 /// eigenvalue on both.
 #[test]

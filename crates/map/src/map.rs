@@ -563,7 +563,7 @@ fn run_engine(
         gpu: run.timings.gpu,
     };
     let counts = (run.dispatches, run.stopped_early);
-    let info = engine.info_for(&plan);
+    let info = engine.info().clone();
     let map_run = MapRun::new(run.results, plan, info, timings, counts, strobe_tail);
     Ok((map_run, states))
 }

@@ -138,18 +138,47 @@ fn simd_and_scalar_loops_agree_over_a_short_horizon_with_impacts() {
     }
 }
 
-/// Adaptive steps of the explicit pair in the lanes: each lane climbs its own ladder, and gets
-/// the scalar loop's sub-steps and results (15 instances through impacts, groups padded).
+/// Adaptive steps of both pairs in the lanes: each lane climbs its own ladder (IMEX with its
+/// own S⁻¹ at its level), and gets the scalar loop's sub-steps and results (15 instances
+/// through impacts, groups padded; IMEX's groups are one frequency's, 3 lanes of 4 or 8).
 #[test]
 fn simd_lanes_take_the_scalar_loops_adaptive_steps() {
-    let s = spec(3, 5, "rk4", "step = \"adaptive\"");
-    let g64 = loops_gap(Precision::F64, &s);
-    assert!(g64 < 1e-9, "adaptive f64: |Δα| up to {g64:e} rad");
-    let g32 = loops_gap(Precision::F32, &s);
-    assert!(g32 < 2e-3, "adaptive f32: |Δα| up to {g32:e} rad");
-    let plan = EnsemblePlan::new(&s).expect("plan");
-    let info = Engine::cpu_with(Precision::F64, CpuLoop::Simd).info_for(&plan);
-    assert_eq!(info.cpu_loop, Some(CpuLoop::Simd), "{info:?}");
+    for method in ["rk4", "imex"] {
+        let s = spec(3, 5, method, "step = \"adaptive\"");
+        let g64 = loops_gap(Precision::F64, &s);
+        assert!(g64 < 1e-9, "adaptive {method} f64: |Δα| up to {g64:e} rad");
+        let g32 = loops_gap(Precision::F32, &s);
+        assert!(g32 < 2e-3, "adaptive {method} f32: |Δα| up to {g32:e} rad");
+    }
+    let s = spec(5, 3, "imex", "step = \"adaptive\"");
+    let g = loops_gap(Precision::F64, &s);
+    assert!(g < 1e-9, "adaptive imex N = 5 f64: |Δα| up to {g:e} rad");
+}
+
+/// λ1's twins in adaptive lanes follow their lane's sub-steps with the lane's pair (IMEX: its
+/// S⁻¹ at the lane's level) and get the scalar loop's λ1: impacting periodic orbits near the
+/// engine suite's 4 Hz / 4 mm cell (on a chaotic cell a few ulp of sin grow e^(λ1 t)).
+#[test]
+fn adaptive_lanes_twins_give_the_scalar_loops_lyapunov_exponent() {
+    for method in ["rk4", "imex"] {
+        let text = format!(
+            "[beam]\nsegments = 3\n[integration]\nmethod = \"{method}\"\nstep = \"adaptive\"\nduration_s = 12.0\ntransient_s = 4.0\n[map]\nmetrics = [\"period\", \"lyapunov\"]\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [4.0]\n[[map.axes]]\nkey = \"excitation.amplitude_m\"\nstart = 0.0032\nend = 0.0040\ncount = 5\n"
+        );
+        let s = map_from_toml(&text, "<test>", &[]).expect("valid test map");
+        let scalar = run(&Engine::cpu_with(Precision::F64, CpuLoop::Scalar), &s);
+        let simd = run(&Engine::cpu_with(Precision::F64, CpuLoop::Simd), &s);
+        for (i, (a, b)) in scalar.results.iter().zip(&simd.results).enumerate() {
+            assert!(a.lyapunov_per_s < 0.0, "{method} instance {i}: {a:?}");
+            // Measured: 5e-8 of λ1 at most (sin/cos a few ulp apart).
+            let gap = (a.lyapunov_per_s - b.lyapunov_per_s).abs();
+            assert!(
+                gap <= 1e-6 * a.lyapunov_per_s.abs(),
+                "{method} instance {i}: λ1 {} on the scalar loop, {} in lanes",
+                a.lyapunov_per_s,
+                b.lyapunov_per_s
+            );
+        }
+    }
 }
 
 #[test]

@@ -164,9 +164,8 @@ macro_rules! engine_adaptive_method {
 }
 
 /// The same tests of `cases` with adaptive steps, one module per engine and pair (IMEX, and
-/// RK4 with its embedded third-order solution): the scalar loop in f64 (the reference) and f32
-/// (the CPU engine runs adaptive steps on its scalar loop whatever loop it was opened with),
-/// and the GPU.
+/// RK4 with its embedded third-order solution): the scalar loop in f64 (the reference), the
+/// SIMD lanes in f32 (each lane its own ladder), and the GPU.
 macro_rules! engine_adaptive {
     ($cases:ident: $($case:ident),* $(,)?) => {
         engine_adaptive_method!($cases, cpu_f64_adaptive_imex, CpuF64, Imex, [$($case),*]);

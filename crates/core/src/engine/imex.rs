@@ -413,6 +413,36 @@ impl<T: Lane> Imex<T> {
         }
     }
 
+    /// `y += h Σ b_i f_i` with the state's compensation in the lanes where `mask` is positive;
+    /// the others, state and compensation, left exactly as they are.
+    pub(crate) fn finish_masked(&mut self, y: &mut [T], mask: T) {
+        let h = self.h;
+        for (s, (ys, cs)) in y.iter_mut().zip(&mut self.comp).enumerate() {
+            let mut inc = T::splat(0.0);
+            for (f, &b) in self.f.iter().zip(&B) {
+                inc += T::splat(b) * f[s];
+            }
+            let (mut ny, mut nc) = (*ys, *cs);
+            compensated_add(&mut ny, &mut nc, h * inc);
+            *ys = T::if_positive(mask, ny, *ys);
+            *cs = T::if_positive(mask, nc, *cs);
+        }
+    }
+
+    /// Lane `lane` steps by `m`'s step with its `S⁻¹` (a lane's own level of the ladder);
+    /// `m` is of the same chain as the other lanes (`M0`, `M0⁻¹` and the joints are shared).
+    pub(crate) fn set_lane_step(&mut self, lane: usize, m: &ImexMatrices)
+    where
+        T::Scalar: Real,
+    {
+        let of = <T::Scalar as Real>::of;
+        self.h = self.h.with_lane(lane, of(m.dt_s));
+        self.hg = self.hg.with_lane(lane, of(m.dt_s * GAMMA));
+        for (s, &x) in self.s_inv.iter_mut().zip(&m.s_inv) {
+            *s = s.with_lane(lane, of(x));
+        }
+    }
+
     /// Hand the state's summation compensation to `other` (a change of step level).
     pub(crate) fn pass_compensation(&mut self, other: &mut Imex<T>) {
         std::mem::swap(&mut self.comp, &mut other.comp);

@@ -442,26 +442,6 @@ impl Engine {
         &self.info
     }
 
-    /// The engine's description for a run of `plan`: adaptive steps run the CPU engine's
-    /// scalar loop, whatever loop it was opened with.
-    pub fn info_for(&self, plan: &EnsemblePlan) -> EngineInfo {
-        self.info_stepping(plan.runs_scalar())
-    }
-
-    /// The engine's description for runs that the CPU engine takes on its scalar loop
-    /// (`scalar`: adaptive IMEX steps, [`EnsemblePlan::runs_scalar`]) or on the loop it was
-    /// opened with (see [`Engine::info_for`]).
-    pub fn info_stepping(&self, scalar: bool) -> EngineInfo {
-        if !scalar || self.info.cpu_loop.is_none() {
-            return self.info.clone();
-        }
-        EngineInfo {
-            reason: self.info.reason.clone(),
-            open_s: self.info.open_s,
-            ..Engine::cpu_with(self.info.precision, CpuLoop::Scalar).info
-        }
-    }
-
     /// Whether this is the GPU engine on a hardware adapter (not a software one like lavapipe).
     pub fn is_hardware_gpu(&self) -> bool {
         self.gpu_context().is_some_and(|c| !c.is_software)

@@ -299,13 +299,6 @@ impl EnsemblePlan {
         Ok(plan)
     }
 
-    /// Whether the CPU engine runs this plan on its scalar loop whatever loop it was opened
-    /// with: adaptive IMEX steps (the SIMD lanes take adaptive steps of the explicit pair only,
-    /// each lane its own; IMEX's would each need their own S⁻¹).
-    pub fn runs_scalar(&self) -> bool {
-        self.is_adaptive() && self.method == Method::Imex
-    }
-
     /// Whether the instances take adaptive steps (a plan's instances share their step control).
     pub fn is_adaptive(&self) -> bool {
         self.instances

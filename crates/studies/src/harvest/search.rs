@@ -15,7 +15,7 @@
 use super::band::{BandMetrics, band_metrics, mean_curve, robust_curve};
 use super::error::HarvestError;
 use super::spec::{InitialState, Objective, SearchSpec, Weighting, describe_design};
-use pendulum_atlas_core::config::{ConfigError, Metric, Scene, StepControl, neighbours, point_key};
+use pendulum_atlas_core::config::{ConfigError, Metric, Scene, neighbours, point_key};
 use pendulum_atlas_core::engine::{
     Engine, EngineInfo, EnsembleOptions, EnsemblePlan, ProgressUnit,
 };
@@ -632,17 +632,7 @@ pub fn run_search(
         designs,
         ranking,
         stages,
-        engine: engine.engine.info_stepping(runs_scalar(&spec.scene)),
+        engine: engine.engine.info().clone(),
         total_s: t_all.elapsed().as_secs_f64(),
     })
-}
-
-/// Whether the CPU engine takes the search's ensembles on its scalar loop: adaptive IMEX steps
-/// ([`pendulum_atlas_core::engine::plan::EnsemblePlan::runs_scalar`]), the method chosen for
-/// the base scene.
-fn runs_scalar(scene: &pendulum_atlas_core::config::Scene) -> bool {
-    use pendulum_atlas_core::engine::method::Method;
-    scene.integration.step != StepControl::Fixed
-        && pendulum_atlas_core::engine::StepPlan::for_scene(scene)
-            .is_ok_and(|p| p.method == Method::Imex)
 }

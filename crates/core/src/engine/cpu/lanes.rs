@@ -17,9 +17,10 @@
 //!    ([`CartTable`]), filled by the same `cart_at` the scalar loop calls.
 
 use super::hook::{EnsembleHook, LaneView, LaneViewMut, RawInstance};
-use super::lane_ladder::{LaneLadder, MAX_LANES, PerLane, Twins};
+use super::lane_ladder::{Ended, LaneLadder, MAX_LANES, PerLane, Twins};
 use crate::config::StepControl;
 use crate::engine::imex::{C as IMEX_C, Imex};
+use crate::engine::method::Method;
 use crate::engine::plan::{EnsemblePlan, InstancePlan};
 use crate::engine::rk4::{Rk4Scratch, rk4_step, rk4_step_twin};
 use crate::engine::state_view::StateView;
@@ -27,7 +28,6 @@ use crate::engine::twin::{onset_saltation, onsets_of};
 use crate::engine::{EngineError, Progress, ProgressUnit};
 use crate::model::{Chain, Lane, ModelParams, Real, Status, Workspace, health_due};
 use rayon::prelude::*;
-use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Stage fractions of a step at which RK4 takes the cart (start, middle, end).
@@ -68,9 +68,11 @@ where
 }
 
 /// Instance indices in groups of at most `lanes` that can share a vector: the same structure
-/// ([`Chain::same_structure`]) and IMEX matrices, sorted by step count within a class.
+/// ([`Chain::same_structure`]) and, for IMEX, the same linear part and step
+/// ([`InstancePlan::imex_key`]: one set of matrices, or of ladder levels), sorted by step count
+/// within a class.
 fn lane_groups(plan: &EnsemblePlan, lanes: usize) -> Vec<Vec<usize>> {
-    let key = |p: &InstancePlan| p.imex.as_ref().map(|m| Arc::as_ptr(m) as usize);
+    let key = |p: &InstancePlan| (p.method == Method::Imex).then(|| p.imex_key());
     let mut classes: Vec<Vec<usize>> = Vec::new();
     for (i, p) in plan.instances.iter().enumerate() {
         let same = |c: &Vec<usize>| {
@@ -142,13 +144,8 @@ impl CartTable {
 /// The integrator of a lane group.
 #[derive(Clone)]
 enum LaneStepper<V: Lane> {
-    Rk4 {
-        dt: V,
-        scratch: Rk4Scratch<V>,
-    },
+    Rk4 { dt: V, scratch: Rk4Scratch<V> },
     Imex(Box<Imex<V>>),
-    /// Adaptive steps of the explicit pair, each lane its own ([`LaneLadder`]).
-    Ladder(Box<LaneLadder<V>>),
 }
 
 impl<V: Lane> LaneStepper<V>
@@ -156,10 +153,6 @@ where
     V::Scalar: Real,
 {
     fn new(plans: &[&InstancePlan], dim: usize) -> (LaneStepper<V>, Vec<f64>) {
-        if plans[0].control != StepControl::Fixed {
-            let ladder = LaneLadder::new(plans, dim);
-            return (LaneStepper::Ladder(Box::new(ladder)), Vec::new());
-        }
         match &plans[0].imex {
             None => {
                 let dt = V::gather(|i| plans[i % plans.len()].dt_s);
@@ -181,11 +174,6 @@ where
                 scratch: Rk4Scratch::new(dim),
             },
             LaneStepper::Imex(imex) => LaneStepper::Imex(Box::new(imex.fresh_lanes())),
-            // The twins of a ladder follow their lanes' sub-steps with RK4's scratch alone.
-            LaneStepper::Ladder(ladder) => LaneStepper::Rk4 {
-                dt: V::splat(0.0),
-                scratch: ladder.twin_scratch(),
-            },
         }
     }
 
@@ -195,7 +183,6 @@ where
         match self {
             LaneStepper::Rk4 { scratch, .. } => scratch.zero_compensation_lane(i),
             LaneStepper::Imex(imex) => imex.zero_compensation_lane(i),
-            LaneStepper::Ladder(_) => unreachable!("a twin's stepper is never a ladder"),
         }
     }
 
@@ -230,7 +217,6 @@ where
                 rk4_step(chain, ws, y, scratch, *dt, acc);
             }
             LaneStepper::Imex(imex) => imex.step_with(chain, ws, y, |j| cart.at::<V>(j)),
-            LaneStepper::Ladder(_) => unreachable!("a ladder takes base steps"),
         }
     }
 }
@@ -273,8 +259,19 @@ impl<T: Real> LaneState<'_, T> {
     }
 }
 
+/// A group's vectors: its lanes' chain and workspace, their state and λ1's twins beside it,
+/// and which bumpers each lane touches.
+struct Vectors<V: Lane> {
+    chain: Chain<V>,
+    ws: Workspace<V>,
+    y: Vec<V>,
+    twin_y: Vec<V>,
+    touching: Vec<(bool, bool)>,
+}
+
 /// Integrate the instances `members` of `plan` side by side in the lanes of `V`, with λ1's
-/// twins at separation `d0` in a second vector.
+/// twins at separation `d0` in a second vector: fixed steps all together ([`fixed_steps`]),
+/// adaptive ones each lane its own ([`ladder_steps`]).
 fn run_group<V: Lane>(plan: &EnsemblePlan, members: &[usize], d0: Option<f64>) -> Vec<RawInstance>
 where
     V::Scalar: Real,
@@ -282,15 +279,18 @@ where
     let plans: Vec<&InstancePlan> = members.iter().map(|&i| &plan.instances[i]).collect();
     let params: Vec<ModelParams> = plans.iter().map(|p| p.params.clone()).collect();
     let chain: Chain<V> = Chain::from_lanes(&params);
-    let mut ws = chain.workspace();
     let dim = plans[0].y0.len();
-    let mut y: Vec<V> = (0..dim)
+    let y: Vec<V> = (0..dim)
         .map(|k| V::gather(|i| plans[i % plans.len()].y0[k]))
         .collect();
-    let (mut stepper, fracs) = LaneStepper::<V>::new(&plans, dim);
-    let mut cart = CartTable::new(&plans, &fracs);
     let now = touching_lanes(&chain, &y);
-    let mut touching: Vec<(bool, bool)> = (0..plans.len()).map(now).collect();
+    let mut v = Vectors {
+        ws: chain.workspace(),
+        touching: (0..plans.len()).map(now).collect(),
+        twin_y: y.clone(),
+        y,
+        chain,
+    };
     let mut lanes: Vec<LaneState<V::Scalar>> = plans
         .iter()
         .map(|&p| LaneState {
@@ -301,48 +301,10 @@ where
             y_end: Vec::new(),
         })
         .collect();
-    let longest = plans.iter().map(|p| p.total_steps()).max().unwrap_or(0);
-    let mut twin_y = y.clone();
-    let mut twin_stepper = stepper.fresh(dim);
-    let mut twins_running = false;
-    for n in 0..longest {
-        let group = Group {
-            chain: &chain,
-            plans: &plans,
-            lanes: &lanes,
-            twins_running,
-        };
-        let onsets = group.step(
-            (&mut stepper, &mut twin_stepper),
-            &mut ws,
-            (&mut y, &mut twin_y),
-            (n, &cart),
-            &mut touching,
-        );
-        cart.advance();
-        let mut running = false;
-        for (i, lane) in lanes
-            .iter_mut()
-            .enumerate()
-            .filter(|(_, l)| l.end.is_none())
-        {
-            let mut twin = LaneViewMut {
-                y: &mut twin_y,
-                lane: i,
-            };
-            let was = lane.hook.twin_running();
-            lane.after_step(n + 1, &LaneView { y: &y, lane: i }, onsets[i], &mut twin);
-            if !was && lane.hook.twin_running() {
-                twin_stepper.zero_compensation_lane(i);
-            }
-            running |= lane.end.is_none();
-        }
-        if !running {
-            break;
-        }
-        twins_running = lanes
-            .iter()
-            .any(|l| l.end.is_none() && l.hook.twin_running());
+    if plans[0].control == StepControl::Fixed {
+        fixed_steps(&plans, &mut v, &mut lanes);
+    } else {
+        ladder_steps(&plans, &mut v, &mut lanes);
     }
     lanes
         .into_iter()
@@ -357,13 +319,120 @@ where
         .collect()
 }
 
-/// What one step of a group reads: the vector chain, the lanes' plans and states.
+/// Fixed steps: every lane's step `n` at once, until every lane has ended.
+fn fixed_steps<V: Lane>(
+    plans: &[&InstancePlan],
+    v: &mut Vectors<V>,
+    lanes: &mut [LaneState<V::Scalar>],
+) where
+    V::Scalar: Real,
+{
+    let dim = v.y.len();
+    let (mut stepper, fracs) = LaneStepper::<V>::new(plans, dim);
+    let mut cart = CartTable::new(plans, &fracs);
+    let mut twin_stepper = stepper.fresh(dim);
+    let mut twins_running = false;
+    let longest = plans.iter().map(|p| p.total_steps()).max().unwrap_or(0);
+    for n in 0..longest {
+        let group = Group {
+            chain: &v.chain,
+            lanes,
+            twins_running,
+        };
+        let onsets = group.step(
+            (&mut stepper, &mut twin_stepper),
+            &mut v.ws,
+            (&mut v.y, &mut v.twin_y),
+            &cart,
+            &mut v.touching,
+        );
+        cart.advance();
+        let ended = std::array::from_fn(|i| Some((n + 1, onsets[i])));
+        let started = after_steps(lanes, &v.y, &mut v.twin_y, &ended);
+        for i in (0..MAX_LANES).filter(|&i| started[i]) {
+            twin_stepper.zero_compensation_lane(i);
+        }
+        if lanes.iter().all(|l| l.end.is_some()) {
+            break;
+        }
+        twins_running = lanes
+            .iter()
+            .any(|l| l.end.is_none() && l.hook.twin_running());
+    }
+}
+
+/// Adaptive steps: a pass of the lanes' ladders at a time ([`LaneLadder::pass`]), each lane's
+/// bookkeeping as soon as its base step ends, until every lane has ended.
+fn ladder_steps<V: Lane>(
+    plans: &[&InstancePlan],
+    v: &mut Vectors<V>,
+    lanes: &mut [LaneState<V::Scalar>],
+) where
+    V::Scalar: Real,
+{
+    let mut ladder = LaneLadder::<V>::new(plans, v.y.len());
+    let mut twin_pair = ladder.twin_pair();
+    loop {
+        let lane_is = |f: &dyn Fn(&LaneState<V::Scalar>) -> bool| -> PerLane<bool> {
+            std::array::from_fn(|i| lanes.get(i).is_some_and(f))
+        };
+        let live = lane_is(&|l| l.end.is_none());
+        if !live.iter().any(|&l| l) {
+            break;
+        }
+        let running = lane_is(&|l| l.end.is_none() && l.hook.twin_running());
+        let ended = {
+            let lanes = &*lanes;
+            let mut salt = |l: usize, y: &[V], ty: &mut [V], on: (bool, bool)| {
+                lane_saltation(&lanes[l], y, ty, l, on);
+            };
+            let twins = running.iter().any(|&r| r).then(|| Twins {
+                y: &mut v.twin_y,
+                pair: &mut twin_pair,
+                running,
+                salt: &mut salt,
+            });
+            let at = (&v.chain, &mut v.ws);
+            ladder.pass(at, &mut v.y, plans, &live, twins, &mut v.touching)
+        };
+        let started = after_steps(lanes, &v.y, &mut v.twin_y, &ended);
+        for i in (0..MAX_LANES).filter(|&i| started[i]) {
+            twin_pair.zero_compensation_lane(i);
+        }
+    }
+}
+
+/// The scalar loop's work for every live lane whose step has ended (`ended[i]`: the step's
+/// number and the bumper contact onsets within it); the lanes whose twin started with it
+/// (their twin's stepper must forget its compensation there).
+fn after_steps<V: Lane>(
+    lanes: &mut [LaneState<'_, V::Scalar>],
+    y: &[V],
+    twin_y: &mut [V],
+    ended: &PerLane<Ended>,
+) -> PerLane<bool>
+where
+    V::Scalar: Real,
+{
+    let mut started = [false; MAX_LANES];
+    for (i, lane) in lanes.iter_mut().enumerate() {
+        let (None, Some((step, onsets))) = (lane.end, ended[i]) else {
+            continue;
+        };
+        let mut twin = LaneViewMut { y: twin_y, lane: i };
+        let was = lane.hook.twin_running();
+        lane.after_step(step, &LaneView { y, lane: i }, onsets, &mut twin);
+        started[i] = !was && lane.hook.twin_running();
+    }
+    started
+}
+
+/// What one fixed step of a group reads: the vector chain and the lanes' states.
 struct Group<'g, 'a, V: Lane>
 where
     V::Scalar: Real,
 {
     chain: &'g Chain<V>,
-    plans: &'g [&'a InstancePlan],
     lanes: &'g [LaneState<'a, V::Scalar>],
     twins_running: bool,
 }
@@ -372,38 +441,18 @@ impl<V: Lane> Group<'_, '_, V>
 where
     V::Scalar: Real,
 {
-    /// Step `n` of every lane (and of the twins while any runs, with their onset saltations);
-    /// per lane, the bumper contact onsets within it, `touching` following the bumpers.
+    /// The next step of every lane (and of the twins while any runs, with their onset
+    /// saltations; `cart` at its step); per lane, the bumper contact onsets within
+    /// it, `touching` following the bumpers.
     fn step(
         &self,
         (stepper, twin_stepper): (&mut LaneStepper<V>, &mut LaneStepper<V>),
         ws: &mut Workspace<V>,
         (y, twin_y): (&mut [V], &mut [V]),
-        (n, cart): (u64, &CartTable),
+        cart: &CartTable,
         touching: &mut [(bool, bool)],
     ) -> PerLane<u32> {
         let twin_runs = |l: &LaneState<V::Scalar>| l.end.is_none() && l.hook.twin_running();
-        let lanes = self.lanes;
-        let per_lane = |f: &dyn Fn(&LaneState<V::Scalar>) -> bool| -> PerLane<bool> {
-            std::array::from_fn(|i| lanes.get(i).is_some_and(f))
-        };
-        if let LaneStepper::Ladder(ladder) = stepper {
-            let live = per_lane(&|l| l.end.is_none());
-            let LaneStepper::Rk4 { scratch, .. } = twin_stepper else {
-                unreachable!("a ladder's twins step with RK4's scratch")
-            };
-            let mut salt = |l: usize, y: &[V], ty: &mut [V], on: (bool, bool)| {
-                lane_saltation(&lanes[l], y, ty, l, on);
-            };
-            let twins = self.twins_running.then(|| Twins {
-                y: twin_y,
-                scratch,
-                running: per_lane(&twin_runs),
-                salt: &mut salt,
-            });
-            let at = (n, self.plans);
-            return ladder.base_step((self.chain, ws), y, at, &live, twins, touching);
-        }
         if self.twins_running {
             stepper.step_twin(twin_stepper, self.chain, ws, (y, twin_y), cart);
         } else {

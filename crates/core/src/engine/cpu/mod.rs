@@ -180,13 +180,7 @@ impl CpuEngine {
     ) -> Result<EngineRun, EngineError> {
         let d0 = plan.twin_separation(self.precision)?;
         let t0 = Instant::now();
-        // Adaptive IMEX steps run on the scalar loop (each lane would need its own S⁻¹).
-        let simd = if plan.runs_scalar() {
-            CpuLoop::Scalar
-        } else {
-            self.simd
-        };
-        let raw = match (simd, self.precision) {
+        let raw = match (self.simd, self.precision) {
             (CpuLoop::Scalar, Precision::F64) => integrate_all::<f64>(plan, d0, progress),
             (CpuLoop::Scalar, Precision::F32) => integrate_all::<f32>(plan, d0, progress),
             (CpuLoop::Simd, Precision::F64) => lanes::integrate_lanes::<F64x4>(plan, d0, progress),
