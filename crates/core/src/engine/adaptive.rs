@@ -5,7 +5,8 @@
 //!   filtered through the implicit solve; its base step is the output interval's fraction
 //!   ([`crate::engine::plan::ADAPTIVE_BASE_MAX_S`] at most);
 //! - explicit ([`crate::engine::rk4::Rk4Rungs`]): classical RK4 with an embedded third-order
-//!   solution from one more evaluation at the step's end; its base step is RK4's automatic
+//!   solution from one more evaluation at the step's end, which is the next step's first
+//!   (first same as last: four evaluations per try); its base step is RK4's automatic
 //!   (stable) step, so the ladder only ever refines it.
 //!
 //! ```text
@@ -23,10 +24,11 @@
 //! on its stages' branches, with its onset saltation at the sub-step where a contact begins
 //! (`crate::engine::twin`).
 //!
-//! Single runs and the CPU engine take their steps here, one instance at a time (the SIMD
-//! lanes step together, so an adaptive plan runs on the scalar loop); the GPU kernel takes the
-//! same steps per invocation, one sub-step per pass of its loop (`shaders/integrate.wgsl`,
-//! `adaptive_substep`).
+//! Single runs and the CPU engine's scalar loop take their steps here, one instance at a
+//! time; the SIMD loop takes the same steps each lane its own (`engine/cpu/lane_ladder.rs`),
+//! and the GPU kernel per invocation, one sub-step per pass of its loop
+//! (`shaders/integrate.wgsl`, `adaptive_substep`; its explicit pair evaluates k₁ at every
+//! try, five evaluations, where the CPU hands k₅ on).
 
 use crate::config::StepControl;
 use crate::engine::imex::{C, Imex, ImexMatrices};
@@ -74,13 +76,15 @@ pub struct SubstepStats {
     pub largest_s: f64,
     /// Evaluations of the chain's right-hand side per tried sub-step (the pair's).
     pub evaluations_per_try: u64,
+    /// Evaluations beside those (the explicit pair's first k₁, which later tries are handed).
+    pub extra_evaluations: u64,
 }
 
 impl SubstepStats {
-    /// Evaluations of the chain's right-hand side (four per tried sub-step of IMEX, five of
-    /// the explicit pair).
+    /// Evaluations of the chain's right-hand side (four per tried sub-step of either pair,
+    /// and the explicit pair's first k₁).
     pub fn evaluations(&self) -> u64 {
-        self.evaluations_per_try * (self.accepted + self.rejected)
+        self.evaluations_per_try * (self.accepted + self.rejected) + self.extra_evaluations
     }
 
     fn took(&mut self, h: f64) {
@@ -97,6 +101,11 @@ impl SubstepStats {
 pub trait Rungs<T: Real>: Sized {
     /// Evaluations of the chain's right-hand side per tried sub-step.
     const EVALUATIONS: u64;
+
+    /// Evaluations beside [`Rungs::EVALUATIONS`] per try so far (none unless the pair says).
+    fn extra_evaluations(&self) -> u64 {
+        0
+    }
 
     /// The same pair with nothing carried over (a twin's).
     fn fresh(&self) -> Self;
@@ -293,7 +302,10 @@ impl<T: Real, R: Rungs<T>> Adaptive<T, R> {
 
     /// What the controller did so far.
     pub fn stats(&self) -> SubstepStats {
-        self.stats
+        SubstepStats {
+            extra_evaluations: self.rungs.extra_evaluations(),
+            ..self.stats
+        }
     }
 
     fn h(&self, k: usize) -> f64 {

@@ -216,10 +216,10 @@ impl<T: Real> Stepper<T> for Rk4<T> {
 #[derive(Debug, Clone)]
 pub struct Rk4Rungs<T> {
     base_s: f64,
-    scratch: Rk4Scratch<T>,
-    /// y₄ of the sub-step being tried, and k₅ there.
-    end: Vec<T>,
-    k5: Vec<T>,
+    pair: Rk4Pair<T>,
+    /// The state the pair's k₁ belongs to: a state changed between sub-steps from outside
+    /// has its k₁ taken afresh.
+    k1_at: Vec<T>,
 }
 
 impl<T: Real> Rk4Rungs<T> {
@@ -227,9 +227,8 @@ impl<T: Real> Rk4Rungs<T> {
     pub fn new(base_s: f64, dim: usize) -> Self {
         Rk4Rungs {
             base_s,
-            scratch: Rk4Scratch::new(dim),
-            end: vec![T::of(0.0); dim],
-            k5: vec![T::of(0.0); dim],
+            pair: Rk4Pair::new(dim),
+            k1_at: vec![T::of(0.0); dim],
         }
     }
 
@@ -243,63 +242,150 @@ impl<T: Real> Rk4Rungs<T> {
     }
 }
 
-/// The four RK4 stages of a step of `h` (lane by lane) from `y`, by the exact law or on the
-/// given branches, the cart at the step's start, middle and end; `y` left as it is. The
-/// bumpers' branches at each stage.
-pub(crate) fn rk4_stages_at<T: Lane>(
-    chain: &Chain<T>,
-    ws: &mut Workspace<T>,
-    (y, s): (&[T], &mut Rk4Scratch<T>),
-    h: T,
-    cart_acc: [T; 3],
-    on: Option<&[Branches<T>; 4]>,
-) -> [Branches<T>; 4] {
-    let mut branches = [Branches::free(); 4];
-    for (j, &(a, frac)) in STAGES.iter().enumerate() {
-        let b = on.map(|b| b[j]);
-        let load = stage_rates(chain, ws, y, s, j, cart_acc[a], h * T::splat(frac), b);
-        branches[j] = load.map_or_else(Branches::free, |l| l.branches);
-    }
-    branches
+/// The explicit pair's working state, lane by lane: RK4's scratch, k₅ and where it was taken,
+/// first same as last. k₅ is taken at the compensated candidate `y + (Δ − c)`, which is bit
+/// for bit the state an accepted sub-step leaves ([`compensated_add`]), so it is the next
+/// sub-step's k₁; a rejected sub-step keeps its k₁ (the same state at the same instant). So a
+/// try costs four evaluations, k₂ … k₅, once the first k₁ is taken.
+#[derive(Debug, Clone)]
+pub(crate) struct Rk4Pair<T> {
+    scratch: Rk4Scratch<T>,
+    /// The candidate y₄ of the sub-step being tried, and k₅ there with its branches.
+    end: Vec<T>,
+    k5: Vec<T>,
+    k5_branches: Branches<T>,
+    /// Whether `k5` belongs to the stages just computed (the next finish hands it on).
+    k5_fresh: bool,
+    /// Whether the scratch's k₁ is that of the state the next try starts from, its branches.
+    k1_ready: bool,
+    k1_branches: Branches<T>,
+    /// Evaluations of k₁ that no earlier try handed on.
+    k1_evaluations: u64,
 }
 
-/// The explicit pair's error estimate `h (k₄ − k₅)/6` into `out` after [`rk4_stages_at`]:
-/// k₅ at y₄ (into `end`, the rates into `k5`) by the exact law, the cart at the step's end.
-pub(crate) fn rk4_error_at<T: Lane>(
-    chain: &Chain<T>,
-    ws: &mut Workspace<T>,
-    (y, s): (&[T], &Rk4Scratch<T>),
-    (h, acc_end): (T, T),
-    (end, k5): (&mut [T], &mut [T]),
-    out: &mut [T],
-) {
-    for (i, e) in end.iter_mut().enumerate() {
-        *e = y[i] + rk4_increment(&s.k, i, h);
+impl<T: Lane> Rk4Pair<T> {
+    /// The pair for a state of length `dim`.
+    pub(crate) fn new(dim: usize) -> Self {
+        Rk4Pair {
+            scratch: Rk4Scratch::new(dim),
+            end: vec![T::splat(0.0); dim],
+            k5: vec![T::splat(0.0); dim],
+            k5_branches: Branches::free(),
+            k5_fresh: false,
+            k1_ready: false,
+            k1_branches: Branches::free(),
+            k1_evaluations: 0,
+        }
     }
-    chain.rates(ws, acc_end, end, k5, ContactLaw::Exact);
-    let sixth = h * T::splat(1.0 / 6.0);
-    for (i, o) in out.iter_mut().enumerate() {
-        *o = sixth * (s.k[3][i] - k5[i]);
-    }
-}
 
-/// [`rk4_finish`] in the lanes where `mask` is positive; the others, state and compensation,
-/// left exactly as they are.
-pub(crate) fn rk4_finish_masked<T: Lane>(y: &mut [T], s: &mut Rk4Scratch<T>, h: T, mask: T) {
-    let (k, comp) = (&s.k, &mut s.comp);
-    for i in 0..y.len() {
-        let (mut ny, mut nc) = (y[i], comp[i]);
-        compensated_add(&mut ny, &mut nc, rk4_increment(k, i, h));
-        y[i] = T::if_positive(mask, ny, y[i]);
-        comp[i] = T::if_positive(mask, nc, comp[i]);
+    /// The same pair with nothing carried over (a twin's).
+    pub(crate) fn fresh(&self) -> Self {
+        Rk4Pair::new(self.end.len())
+    }
+
+    /// Forget the summation compensation of lane `i` (a twin starting there).
+    pub(crate) fn zero_compensation_lane(&mut self, i: usize) {
+        self.scratch.zero_compensation_lane(i);
+    }
+
+    /// Take k₁ afresh at the next try (the state was changed from outside).
+    pub(crate) fn forget_k1(&mut self) {
+        self.k1_ready = false;
+    }
+
+    /// Evaluations of k₁ that no earlier try handed on (the first sub-step's, and after
+    /// [`Rk4Pair::forget_k1`]).
+    pub(crate) fn k1_evaluations(&self) -> u64 {
+        self.k1_evaluations
+    }
+
+    /// The four RK4 stages of a sub-step of `h` from `y`, the cart at its start, middle and
+    /// end; `y` left as it is. By the exact law (k₁ handed on where the pair has it), or on
+    /// the given branches (a twin: every stage). The bumpers' branches at each stage.
+    pub(crate) fn stages(
+        &mut self,
+        (chain, ws): (&Chain<T>, &mut Workspace<T>),
+        y: &[T],
+        (h, cart_acc): (T, [T; 3]),
+        on: Option<&[Branches<T>; 4]>,
+    ) -> [Branches<T>; 4] {
+        let handed = on.is_none() && self.k1_ready;
+        let mut branches = [self.k1_branches; 4];
+        for (j, &(a, frac)) in STAGES.iter().enumerate().skip(usize::from(handed)) {
+            let b = on.map(|b| b[j]);
+            let s = &mut self.scratch;
+            let load = stage_rates(chain, ws, y, s, j, cart_acc[a], h * T::splat(frac), b);
+            branches[j] = load.map_or_else(Branches::free, |l| l.branches);
+        }
+        if on.is_none() && !handed {
+            (self.k1_ready, self.k1_branches) = (true, branches[0]);
+            self.k1_evaluations += 1;
+        }
+        self.k5_fresh = false;
+        branches
+    }
+
+    /// The estimate `h (k₄ − k₅)/6` of the stages just computed into `out`: k₅ at the
+    /// compensated candidate by the exact law, the cart at the sub-step's end.
+    pub(crate) fn error(
+        &mut self,
+        (chain, ws): (&Chain<T>, &mut Workspace<T>),
+        y: &[T],
+        (h, acc_end): (T, T),
+        out: &mut [T],
+    ) {
+        let s = &self.scratch;
+        for (i, e) in self.end.iter_mut().enumerate() {
+            *e = y[i] + (rk4_increment(&s.k, i, h) - s.comp[i]);
+        }
+        let load = chain.rates(ws, acc_end, &self.end, &mut self.k5, ContactLaw::Exact);
+        self.k5_branches = load.map_or_else(Branches::free, |l| l.branches);
+        self.k5_fresh = true;
+        let sixth = h * T::splat(1.0 / 6.0);
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = sixth * (s.k[3][i] - self.k5[i]);
+        }
+    }
+
+    /// Take the sub-step just computed in the lanes where `mask` is positive (the others,
+    /// state and compensation, left exactly as they are); there k₅ becomes the next k₁.
+    pub(crate) fn finish_masked(&mut self, y: &mut [T], h: T, mask: T) {
+        let (k, comp) = (&self.scratch.k, &mut self.scratch.comp);
+        for i in 0..y.len() {
+            let (mut ny, mut nc) = (y[i], comp[i]);
+            compensated_add(&mut ny, &mut nc, rk4_increment(k, i, h));
+            y[i] = T::if_positive(mask, ny, y[i]);
+            comp[i] = T::if_positive(mask, nc, comp[i]);
+        }
+        if self.k5_fresh {
+            for (k1, &k5) in self.scratch.k[0].iter_mut().zip(&self.k5) {
+                *k1 = T::if_positive(mask, k5, *k1);
+            }
+            let pick = |a: (T, T), b: (T, T)| {
+                (
+                    T::if_positive(mask, a.0, b.0),
+                    T::if_positive(mask, a.1, b.1),
+                )
+            };
+            let (new, old) = (self.k5_branches, self.k1_branches);
+            self.k1_branches = Branches {
+                right: pick(new.right, old.right),
+                left: pick(new.left, old.left),
+            };
+            self.k5_fresh = false;
+        }
     }
 }
 
 impl<T: Real> Rungs<T> for Rk4Rungs<T> {
-    const EVALUATIONS: u64 = 5;
+    const EVALUATIONS: u64 = 4;
 
     fn fresh(&self) -> Self {
-        Rk4Rungs::new(self.base_s, self.end.len())
+        Rk4Rungs::new(self.base_s, self.k1_at.len())
+    }
+
+    fn extra_evaluations(&self) -> u64 {
+        self.pair.k1_evaluations()
     }
 
     fn stages(
@@ -310,8 +396,17 @@ impl<T: Real> Rungs<T> for Rk4Rungs<T> {
         y: &[T],
         acc: &impl Fn(f64) -> T,
     ) -> [Branches<T>; 4] {
+        if self
+            .k1_at
+            .iter()
+            .zip(y)
+            .any(|(a, b)| a.wide().to_bits() != b.wide().to_bits())
+        {
+            self.pair.forget_k1();
+            self.k1_at.copy_from_slice(y);
+        }
         let h = self.h(k);
-        rk4_stages_at(chain, ws, (y, &mut self.scratch), h, Self::cart(acc), None)
+        self.pair.stages((chain, ws), y, (h, Self::cart(acc)), None)
     }
 
     /// `h (k₄ − k₅) / 6`, k₅ at the sub-step's end by the exact law.
@@ -324,13 +419,13 @@ impl<T: Real> Rungs<T> for Rk4Rungs<T> {
         out: &mut [T],
     ) {
         let h = self.h(k);
-        let scratch = (&mut self.end[..], &mut self.k5[..]);
-        rk4_error_at(chain, ws, (y, &self.scratch), (h, acc(1.0)), scratch, out);
+        self.pair.error((chain, ws), y, (h, acc(1.0)), out);
     }
 
     fn finish(&mut self, k: usize, y: &mut [T]) {
         let h = self.h(k);
-        rk4_finish(y, &mut self.scratch, h);
+        self.pair.finish_masked(y, h, T::of(1.0));
+        self.k1_at.copy_from_slice(y);
     }
 
     fn follow(
@@ -343,7 +438,7 @@ impl<T: Real> Rungs<T> for Rk4Rungs<T> {
     ) {
         let h = self.h(k);
         let on = Some(branches);
-        rk4_stages_at(chain, ws, (y, &mut self.scratch), h, Self::cart(acc), on);
-        self.finish(k, y);
+        self.pair.stages((chain, ws), y, (h, Self::cart(acc)), on);
+        self.pair.finish_masked(y, h, T::of(1.0));
     }
 }

@@ -12,11 +12,12 @@
 //! twin's saltation at the sub-step where a contact begins. So a lane gives what the scalar
 //! loop gives for its instance.
 
+use super::cart_table::CartTable;
 use crate::engine::adaptive::{GROW, MAX_LEVEL};
 use crate::engine::imex::{C as IMEX_C, Imex, ImexMatrices};
 use crate::engine::method::Method;
 use crate::engine::plan::InstancePlan;
-use crate::engine::rk4::{Rk4Scratch, rk4_error_at, rk4_finish_masked, rk4_stages_at};
+use crate::engine::rk4::Rk4Pair;
 use crate::engine::twin::onsets_of;
 use crate::model::{Branches, Chain, Lane, ModelParams, Real, Workspace};
 use std::sync::Arc;
@@ -34,13 +35,8 @@ pub(super) type PerLane<T> = [T; MAX_LANES];
 /// The embedded pair of a group's lanes, with its scratch.
 #[derive(Clone)]
 pub(super) enum LanePair<V: Lane> {
-    /// RK4 with its third-order solution ([`crate::engine::rk4::Rk4Rungs`]): k₅ at the
-    /// sub-step's end into `k5` (its state into `end`).
-    Rk4 {
-        scratch: Rk4Scratch<V>,
-        end: Vec<V>,
-        k5: Vec<V>,
-    },
+    /// RK4 with its third-order solution, first same as last ([`crate::engine::rk4::Rk4Rungs`]).
+    Rk4(Rk4Pair<V>),
     /// ARK3(2)4L[2]SA with its filtered estimate ([`crate::engine::adaptive::ImexRungs`]).
     Imex(Box<ImexLanes<V>>),
 }
@@ -100,13 +96,8 @@ where
 {
     /// The pair of the instances' method, for a state of length `dim`.
     fn new(plan: &InstancePlan, dim: usize) -> Self {
-        let z = vec![V::splat(0.0); dim];
         match plan.method {
-            Method::Rk4 => LanePair::Rk4 {
-                scratch: Rk4Scratch::new(dim),
-                end: z.clone(),
-                k5: z,
-            },
+            Method::Rk4 => LanePair::Rk4(Rk4Pair::new(dim)),
             Method::Imex => LanePair::Imex(Box::new(ImexLanes::new(plan, dim))),
         }
     }
@@ -114,11 +105,7 @@ where
     /// The same pair with nothing carried over (the twins').
     pub(super) fn fresh(&self) -> Self {
         match self {
-            LanePair::Rk4 { end, .. } => LanePair::Rk4 {
-                scratch: Rk4Scratch::new(end.len()),
-                end: end.clone(),
-                k5: end.clone(),
-            },
+            LanePair::Rk4(p) => LanePair::Rk4(p.fresh()),
             LanePair::Imex(p) => {
                 let mut p = p.clone();
                 p.imex = p.imex.fresh_lanes();
@@ -130,7 +117,7 @@ where
     /// Forget the summation compensation of lane `i` (a twin starting there).
     pub(super) fn zero_compensation_lane(&mut self, i: usize) {
         match self {
-            LanePair::Rk4 { scratch, .. } => scratch.zero_compensation_lane(i),
+            LanePair::Rk4(p) => p.zero_compensation_lane(i),
             LanePair::Imex(p) => p.imex.zero_compensation_lane(i),
         }
     }
@@ -138,7 +125,7 @@ where
     /// The fractions of a sub-step at which the stages take the cart.
     fn fractions(&self) -> &'static [f64] {
         match self {
-            LanePair::Rk4 { .. } => &[0.0, 0.5, 1.0],
+            LanePair::Rk4(_) => &[0.0, 0.5, 1.0],
             LanePair::Imex(_) => &IMEX_C,
         }
     }
@@ -153,10 +140,7 @@ where
         on: Option<&[Branches<V>; 4]>,
     ) -> [Branches<V>; 4] {
         match self {
-            LanePair::Rk4 { scratch, .. } => {
-                let cart = [acc[0], acc[1], acc[2]];
-                rk4_stages_at(chain, ws, (y, scratch), h, cart, on)
-            }
+            LanePair::Rk4(p) => p.stages((chain, ws), y, (h, [acc[0], acc[1], acc[2]]), on),
             LanePair::Imex(p) => {
                 p.hold(level);
                 match on {
@@ -179,9 +163,7 @@ where
         out: &mut [V],
     ) {
         match self {
-            LanePair::Rk4 { scratch, end, k5 } => {
-                rk4_error_at(chain, ws, (y, scratch), (h, acc[2]), (end, k5), out);
-            }
+            LanePair::Rk4(p) => p.error((chain, ws), y, (h, acc[2]), out),
             LanePair::Imex(p) => p.imex.filtered_error(out),
         }
     }
@@ -189,7 +171,7 @@ where
     /// Take the sub-step just computed in the lanes where `mask` is positive.
     fn finish_masked(&mut self, y: &mut [V], h: V, mask: V) {
         match self {
-            LanePair::Rk4 { scratch, .. } => rk4_finish_masked(y, scratch, h, mask),
+            LanePair::Rk4(p) => p.finish_masked(y, h, mask),
             LanePair::Imex(p) => p.imex.finish_masked(y, mask),
         }
     }
@@ -212,6 +194,9 @@ pub(super) struct LaneLadder<V: Lane> {
     onsets: PerLane<u32>,
     pair: LanePair<V>,
     err: Vec<V>,
+    /// The cart at the pair's fractions of every base step of a period (base-level sub-steps
+    /// read it; finer ones call `cart_at`, which gives the same values).
+    cart: CartTable,
 }
 
 /// A lane's base step just ended: its number (1-based) and the contact onsets within it.
@@ -247,14 +232,16 @@ where
             crate::config::StepControl::Fixed => unreachable!("a ladder of fixed steps"),
         };
         assert!(V::LANES <= MAX_LANES, "{} lanes", V::LANES);
+        let pair = LanePair::new(plans[0], dim);
         LaneLadder {
+            cart: CartTable::new(plans, pair.fractions()),
+            pair,
             base_s: plans.iter().map(|p| p.dt_s).collect(),
             tol: plans.iter().map(|p| tol(p)).collect(),
             level: vec![0; V::LANES],
             step: [0; MAX_LANES],
             pos: [0; MAX_LANES],
             onsets: [0; MAX_LANES],
-            pair: LanePair::new(plans[0], dim),
             err: vec![V::splat(0.0); dim],
         }
     }
@@ -341,6 +328,9 @@ where
             V::gather(|l| {
                 if !active[l] {
                     return 0.0;
+                }
+                if self.level[l] == 0 && self.pos[l] == 0 {
+                    return self.cart.at_lane(l, self.step[l], j);
                 }
                 let span = UNIT >> self.level[l];
                 let (start, width) = (self.pos[l] as f64 / UNIT as f64, span as f64 / UNIT as f64);

@@ -16,6 +16,7 @@
 //! 3. the cart's acceleration at each stage comes from a per-lane table of one forcing period
 //!    ([`CartTable`]), filled by the same `cart_at` the scalar loop calls.
 
+use super::cart_table::CartTable;
 use super::hook::{EnsembleHook, LaneView, LaneViewMut, RawInstance};
 use super::lane_ladder::{Ended, LaneLadder, MAX_LANES, PerLane, Twins};
 use crate::config::StepControl;
@@ -90,55 +91,6 @@ fn lane_groups(plan: &EnsemblePlan, lanes: usize) -> Vec<Vec<usize>> {
         groups.extend(c.chunks(lanes).map(<[usize]>::to_vec));
     }
     groups
-}
-
-/// The cart's acceleration (m/s²) of each lane at every step of a forcing period and stage
-/// fraction: `table[lane][(step mod spp) · stages + j]`, exactly `cart_at(step, c_j)`; with
-/// each lane's current `step mod spp`, advanced step by step.
-struct CartTable {
-    stages: usize,
-    spp: Vec<usize>,
-    table: Vec<Vec<f64>>,
-    phase: Vec<usize>,
-}
-
-impl CartTable {
-    fn new(plans: &[&InstancePlan], fracs: &[f64]) -> CartTable {
-        let table = plans
-            .iter()
-            .map(|p| {
-                (0..u64::from(p.spp))
-                    .flat_map(|k| fracs.iter().map(move |&c| p.cart_at(k, c).a_m_s2))
-                    .collect()
-            })
-            .collect();
-        CartTable {
-            stages: fracs.len(),
-            spp: plans.iter().map(|p| p.spp as usize).collect(),
-            table,
-            phase: vec![0; plans.len()],
-        }
-    }
-
-    /// The acceleration of every lane at stage `j` of the current step.
-    #[inline]
-    fn at<V: Lane>(&self, j: usize) -> V {
-        V::gather(|i| {
-            let l = i % self.spp.len();
-            self.table[l][self.phase[l] * self.stages + j]
-        })
-    }
-
-    /// On to the next step.
-    #[inline]
-    fn advance(&mut self) {
-        for (ph, &spp) in self.phase.iter_mut().zip(&self.spp) {
-            *ph += 1;
-            if *ph == spp {
-                *ph = 0;
-            }
-        }
-    }
 }
 
 /// The integrator of a lane group.

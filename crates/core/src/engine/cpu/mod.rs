@@ -5,6 +5,7 @@
 //! keeps the accumulators after the transient, records the stroboscopic and R samples, and
 //! (with [`EarlyStop`]) ends a confirmed periodic orbit early.
 
+mod cart_table;
 mod hook;
 mod lane_ladder;
 mod lanes;
