@@ -10,7 +10,7 @@ OUT=${1:?output markdown}
 W=$(mktemp -d)
 trap 'rm -rf "$W"' EXIT
 A='integration.step="adaptive"'
-$B map --backend gpu --quiet --out "$W/fixed" >/dev/null 2>&1
+$B map --backend gpu --quiet --set 'integration.step="fixed"' --out "$W/fixed" >/dev/null 2>&1
 for m in rk4 imex; do
   $B map --backend gpu --quiet --set "$A" --set "integration.method=\"$m\"" --out "$W/adaptive_$m" \
     >/dev/null 2>&1

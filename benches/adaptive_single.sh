@@ -15,7 +15,7 @@ for N in 3 9 17; do
   S=(--set beam.segments=$N --set integration.duration_s=0.5 --set integration.transient_s=0.0
      --set excitation.frequency_hz=8.0 --set excitation.amplitude_m=0.009)
   $B simulate "${S[@]}" --integrator reference --out "$W/ref$N" >/dev/null 2>&1
-  $B simulate "${S[@]}" --out "$W/fixed$N" >/dev/null 2>&1
+  $B simulate "${S[@]}" --set 'integration.step="fixed"' --out "$W/fixed$N" >/dev/null 2>&1
   echo "$N fixed - $W/fixed$N -" >> "$rows"
   for m in imex rk4; do
     for tol in "1e-2 1e-4" "1e-3 1e-5" "1e-4 1e-6" "1e-5 1e-7"; do

@@ -203,11 +203,12 @@ adaptive() {
   # half subgrid (96 cells, 14 s) is the pair to compare; the whole plane at N = 17 is the
   # issue's "a few minutes".
   local sub=configs/maps/default_subgrid.toml
-  one n3_fixed 20 --set beam.segments=3
+  local fixed=(--set 'integration.step="fixed"')
+  one n3_fixed 20 --set beam.segments=3 "${fixed[@]}"
   one n3_adaptive 40 --set beam.segments=3 "${ad[@]}"
   one n3_adaptive_imex 40 --set beam.segments=3 "${ad[@]}" --set 'integration.method="imex"'
   one half17_adaptive 100 "${half[@]}" "${ad[@]}"
-  one half17_fixed 80 "${half[@]}"
+  one half17_fixed 80 "${half[@]}" "${fixed[@]}"
   one full17_adaptive 150 --set beam.segments=17 "${ad[@]}"
   one n3_tight 40 --set beam.segments=3 "${tight[@]}"
   one sub17_adaptive 90 "$sub" --set beam.segments=17 "${ad[@]}"
@@ -223,7 +224,7 @@ adaptive17() {
   local half=("${HALF17[@]}")
   local name rc
   for name in half17_adaptive half17_fixed; do
-    local extra=()
+    local extra=(--set 'integration.step="fixed"')
     [ "$name" = half17_adaptive ] && extra=(--set 'integration.step="adaptive"')
     SECONDS=0; rc=0
     timeout 150 "$bin" map --backend gpu "${half[@]}" "${extra[@]}" --out "$work/$name" --force || rc=$?

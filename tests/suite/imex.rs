@@ -125,6 +125,7 @@ fn imex_is_stable_at_n64_with_the_library_damping_far_beyond_rk4s_limit() {
         "beam.segments=64",
         LIBRARY_ZETA,
         "integration.duration_s=0.2",
+        "integration.step=\"fixed\"",
         "integration.method=imex",
     ];
     let s = scene(&base);

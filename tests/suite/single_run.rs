@@ -434,7 +434,8 @@ fn adaptive_steps_follow_the_reference_through_impacts_and_converge_with_the_tol
         assert_eq!(c.forced, 0, "{n}: {c:?}");
         if fixed_evaluations.is_some() {
             // The fixed IMEX step is set for the impacts and spent everywhere.
-            let plan = StepPlan::for_scene(&s).unwrap();
+            let fixed_scene = scene(&[sets[0], sets[1], sets[2], "integration.step=\"fixed\""]);
+            let plan = StepPlan::for_scene(&fixed_scene).unwrap();
             let fixed = 4 * plan.steps;
             assert!(
                 2 * c.evaluations() < fixed,

@@ -83,9 +83,8 @@ impl Under {
     /// The scene overrides that select the method and the step control.
     pub fn sets(self) -> Vec<String> {
         let mut sets = vec![format!("integration.method={}", self.method.name())];
-        if self.adaptive {
-            sets.push("integration.step=\"adaptive\"".into());
-        }
+        let step = if self.adaptive { "adaptive" } else { "fixed" };
+        sets.push(format!("integration.step=\"{step}\""));
         sets
     }
 }

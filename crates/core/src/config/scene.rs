@@ -208,6 +208,15 @@ pub struct Integration {
     pub step: StepControl,
 }
 
+impl Integration {
+    /// Fixed steps of `dt` (a step in seconds, or the automatic one): what a study of fixed
+    /// steps sets, whatever the scene had (adaptive steps are the default).
+    pub fn set_fixed(&mut self, dt: TimeStep) {
+        self.dt_s = dt;
+        self.step = StepControl::Fixed;
+    }
+}
+
 /// Output settings.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct Output {
@@ -621,11 +630,16 @@ fn read_integration(r: &mut Reader) -> Result<Integration, ConfigError> {
     })
 }
 
-/// `integration.step` (`"fixed"`, the default, or `"adaptive"`) and its tolerances. Adaptive
-/// steps run the embedded estimate of the method's pair (RK4's third-order one, or the IMEX
-/// pair's); a given `dt_s` and the tolerances of fixed steps are noted as unused.
+/// `integration.step` and its tolerances: `"adaptive"` by default, `"fixed"` where
+/// `integration.dt_s` is given (a step in seconds keeps its meaning). Adaptive steps run the
+/// embedded estimate of the method's pair (RK4's third-order one, or the IMEX pair's); a
+/// given `dt_s` with adaptive steps, and the tolerances of fixed steps, are noted as unused.
 fn read_step_control(r: &mut Reader, dt_s: TimeStep) -> Result<StepControl, ConfigError> {
-    let adaptive = r.choice("integration.step", "fixed", &["fixed", "adaptive"])? == "adaptive";
+    let default = match dt_s {
+        TimeStep::Seconds(_) => "fixed",
+        TimeStep::Auto => "adaptive",
+    };
+    let adaptive = r.choice("integration.step", default, &["fixed", "adaptive"])? == "adaptive";
     let rtol = r.number(
         "integration.rtol",
         DEFAULT_RTOL,

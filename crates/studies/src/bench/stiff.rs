@@ -235,7 +235,7 @@ fn with_stepping(mut s: Scene, stepping: Stepping) -> Result<Scene, EngineError>
     match stepping {
         Stepping::Fixed { method, factor } => {
             let auto = MethodSteps::of_scene(&s)?.auto_s(method);
-            s.integration.dt_s = TimeStep::Seconds(factor * auto);
+            s.integration.set_fixed(TimeStep::Seconds(factor * auto));
         }
         Stepping::Adaptive { rtol, .. } => {
             s.integration.dt_s = TimeStep::Auto;

@@ -178,7 +178,8 @@ fn scenes(cells: &[(f64, f64)], n: usize, v: Variant) -> Result<Vec<Scene>, Engi
                 Method::Rk4 => MethodChoice::Rk4,
                 Method::Imex => MethodChoice::Imex,
             };
-            s.integration.dt_s = TimeStep::Seconds(v.dt_factor * auto);
+            s.integration
+                .set_fixed(TimeStep::Seconds(v.dt_factor * auto));
             Ok(s)
         })
         .collect()
