@@ -37,7 +37,7 @@ print("Written by `benches/adaptive_single.sh`: the paper scene (library damping
       "included). Fixed: the engine's automatic method and step. Adaptive, on the ladder H/2^k: imex, "
       "ARK3(2)4L[2]SA with its embedded estimate filtered through the implicit solve (H = 1 ms, the rows; "
       "four evaluations per tried step); rk4, classical RK4 with its embedded third-order solution "
-      "(H = RK4's automatic step; five evaluations per tried step). CPU, f64, one instance.\n")
+      "(H = RK4's automatic step; four evaluations per tried step, k₅ handed on as the next k₁, and the first k₁). CPU, f64, one instance.\n")
 print("| N | steps | rtol / atol | max \\|Δα\\| (rad) | evaluations | × fewer than fixed | accepted / rejected | smallest step (s) |")
 print("|---|---|---|---|---|---|---|---|")
 fixed = {}
