@@ -323,6 +323,8 @@ pub fn workload(
     let mut sets = vec![
         format!("beam.segments={n}"),
         format!("integration.method=\"{}\"", method.name()),
+        // A study of fixed steps: instance-steps per second at the automatic step.
+        "integration.step=\"fixed\"".to_string(),
         "integration.transient_s=0.0".to_string(),
         format!("integration.duration_s={}", 1.5 / f0),
         "map.metrics=[\"alpha_range\"]".to_string(),
@@ -559,7 +561,10 @@ row budget)",
 /// [`METRIC_INSTANCES`] instances spread evenly over the default map at N, with the method
 /// auto picks and the overrides `extra`.
 fn metric_plan(n: usize, extra: &[&str]) -> Result<EnsemblePlan, PeerCaseError> {
-    let mut sets = vec![format!("beam.segments={n}")];
+    let mut sets = vec![
+        format!("beam.segments={n}"),
+        "integration.step=\"fixed\"".to_string(),
+    ];
     sets.extend(extra.iter().map(|s| s.to_string()));
     let spec = map_from_toml(DEFAULT_MAP_TOML, "configs/maps/default.toml", &sets)?;
     let plan = EnsemblePlan::new(&spec)?;

@@ -58,8 +58,8 @@ pub enum PeerCaseError {
     Engine(#[from] EngineError),
 }
 
-/// The default map at N segments with RK4 (and the overrides `extra`), the plan of its
-/// `count` instances spread evenly over the grid.
+/// The default map at N segments with RK4 at fixed steps (and the overrides `extra`), the plan
+/// of its `count` instances spread evenly over the grid.
 pub fn default_map_plan(
     n: usize,
     count: usize,
@@ -68,6 +68,7 @@ pub fn default_map_plan(
     let mut sets = vec![
         format!("beam.segments={n}"),
         "integration.method=\"rk4\"".to_string(),
+        "integration.step=\"fixed\"".to_string(),
     ];
     sets.extend(extra.iter().map(|s| s.to_string()));
     let spec = map_from_toml(DEFAULT_MAP_TOML, "configs/maps/default.toml", &sets)?;
