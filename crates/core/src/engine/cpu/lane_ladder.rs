@@ -37,7 +37,7 @@ pub(super) type PerLane<T> = [T; MAX_LANES];
 pub(super) enum LanePair<V: Lane> {
     /// RK4 with its third-order solution, first same as last ([`crate::engine::rk4::Rk4Rungs`]).
     Rk4(Rk4Pair<V>),
-    /// ARK3(2)4L[2]SA with its filtered estimate ([`crate::engine::adaptive::ImexRungs`]).
+    /// ARK3(2)4L\[2\]SA with its filtered estimate ([`crate::engine::adaptive::ImexRungs`]).
     Imex(Box<ImexLanes<V>>),
 }
 

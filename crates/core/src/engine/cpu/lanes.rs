@@ -15,6 +15,10 @@
 //!    results are frozen; the group ends when every lane has;
 //! 3. the cart's acceleration at each stage comes from a per-lane table of one forcing period
 //!    ([`CartTable`]), filled by the same `cart_at` the scalar loop calls.
+//!
+//! Steps 2 and 3 are those of fixed steps ([`fixed_steps`]). Adaptive steps
+//! ([`ladder_steps`]) go pass by pass instead, each lane on its own ladder (`lane_ladder.rs`),
+//! its bookkeeping as soon as its base step ends.
 
 use super::cart_table::CartTable;
 use super::hook::{EnsembleHook, LaneView, LaneViewMut, RawInstance};
