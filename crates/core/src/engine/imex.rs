@@ -416,14 +416,10 @@ impl<T: Lane> Imex<T> {
     /// `y += h Σ b_i f_i` with the state's compensation in the lanes where `mask` is positive;
     /// the others, state and compensation, left exactly as they are.
     pub(crate) fn finish_masked(&mut self, y: &mut [T], mask: T) {
-        let h = self.h;
         for (s, (ys, cs)) in y.iter_mut().zip(&mut self.comp).enumerate() {
-            let mut inc = T::splat(0.0);
-            for (f, &b) in self.f.iter().zip(&B) {
-                inc += T::splat(b) * f[s];
-            }
+            let inc = increment(&self.f, self.h, s);
             let (mut ny, mut nc) = (*ys, *cs);
-            compensated_add(&mut ny, &mut nc, h * inc);
+            compensated_add(&mut ny, &mut nc, inc);
             *ys = T::if_positive(mask, ny, *ys);
             *cs = T::if_positive(mask, nc, *cs);
         }
@@ -480,15 +476,20 @@ impl<T: Lane> Imex<T> {
     /// `y += h Σ b_i f_i` with the state's compensation.
     #[inline]
     pub(crate) fn finish(&mut self, y: &mut [T]) {
-        let h = self.h;
         for (s, (ys, cs)) in y.iter_mut().zip(&mut self.comp).enumerate() {
-            let mut inc = T::splat(0.0);
-            for (f, &b) in self.f.iter().zip(&B) {
-                inc += T::splat(b) * f[s];
-            }
-            compensated_add(ys, cs, h * inc);
+            compensated_add(ys, cs, increment(&self.f, self.h, s));
         }
     }
+}
+
+/// Component `s` of a step's increment `h Σ b_i f_i` from its stage derivatives `f`.
+#[inline]
+fn increment<T: Lane>(f: &[Vec<T>; 4], h: T, s: usize) -> T {
+    let mut inc = T::splat(0.0);
+    for (fi, &b) in f.iter().zip(&B) {
+        inc += T::splat(b) * fi[s];
+    }
+    h * inc
 }
 
 impl<T: Real> Stepper<T> for Imex<T> {
