@@ -211,6 +211,9 @@ var<private> om_acc: array<f32, MAX_SEG>; // Σ w_s k_s for θ̇
 var<private> k4_th: array<f32, MAX_SEG>;  // RK4's k₄ for θ (adaptive steps: the error)
 var<private> k4_om: array<f32, MAX_SEG>;  // RK4's k₄ for θ̇
 var<private> k4_v: f32;                   // RK4's k₄ for v
+var<private> k1_om: array<f32, MAX_SEG>;  // adaptive RK4: θ̈ of the next try's k₁
+var<private> k1_v: f32;                   // adaptive RK4: v̇ of the next try's k₁
+var<private> k1_branch: u32;              // adaptive RK4: k₁'s bumper branches
 var<private> sth: array<f32, MAX_SEG>;    // stage state θ
 var<private> som: array<f32, MAX_SEG>;    // stage state θ̇
 var<private> sn: array<f32, MAX_SEG>;

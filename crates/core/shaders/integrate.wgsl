@@ -184,6 +184,11 @@ fn solve_chain(cart_a: f32, unit: bool) {
 // and the next stage state y + a_next · dt · k (src/engine/rk4.rs).
 fn stage(cart_a: f32, w: f32, a_next: f32, dt: f32) {
     derivative(cart_a);
+    stage_add(w, a_next, dt);
+}
+
+// The stage's rates (som, acc_out, dvolt_out) into the accumulators and the next stage state.
+fn stage_add(w: f32, a_next: f32, dt: f32) {
     let wdt = w * dt;
     let adt = a_next * dt;
     for (var i = 0u; i < N_SEG; i++) {
@@ -202,15 +207,19 @@ fn stage(cart_a: f32, w: f32, a_next: f32, dt: f32) {
 
 // One classical RK4 step from phase `ph` within the forcing period.
 fn rk4_step(ph: u32, dt: f32) {
-    rk4_stages(ph, 0.0, 1.0, dt);
+    rk4_stages(ph, 0.0, 1.0, dt, false);
     rk4_finish();
 }
 
 // The four RK4 stages of a step of length h that starts at fraction `start` of the base step
 // from phase `ph` and spans `width` of it (0 and 1 for a whole step): the increment h Σ b_j k_j
 // in (th_acc, om_acc, volt_acc), the state not advanced. With adaptive steps k₄ is kept in
-// (k4_th, k4_om, k4_v) for the error (Rk4Rungs of src/engine/rk4.rs).
-fn rk4_stages(ph: u32, start: f32, width: f32, h: f32) {
+// (k4_th, k4_om, k4_v) for the error (Rk4Rungs of src/engine/rk4.rs). With `handed` (the
+// main state's adaptive sub-steps) k₁ is not evaluated but taken from (k1_om, k1_v, k1_branch):
+// first same as last (Rk4Pair of src/engine/rk4.rs), four evaluations a try. `handed` is a
+// constant at every call, so no branch is left for a SIMD adapter to take both sides of
+// (lavapipe, with a flag per invocation here, took as long as with five evaluations).
+fn rk4_stages(ph: u32, start: f32, width: f32, h: f32, handed: bool) {
     for (var i = 0u; i < N_SEG; i++) {
         th_acc[i] = 0.0;
         om_acc[i] = 0.0;
@@ -222,7 +231,17 @@ fn rk4_stages(ph: u32, start: f32, width: f32, h: f32) {
     let a0 = cart_acc(ph, start);
     let am = cart_acc(ph, start + 0.5 * width);
     let a1 = cart_acc(ph, start + width);
-    stage(a0, 1.0 / 6.0, 0.5, h);
+    if handed {
+        for (var i = 0u; i < N_SEG; i++) {
+            acc_out[i] = k1_om[i];
+        }
+        dvolt_out = k1_v;
+        branch_bits = k1_branch;
+        stage_n = 1u;
+        stage_add(1.0 / 6.0, 0.5, h);
+    } else {
+        stage(a0, 1.0 / 6.0, 0.5, h);
+    }
     stage(am, 1.0 / 3.0, 0.5, h);
     stage(am, 1.0 / 3.0, 1.0, h);
     if ADAPTIVE {
@@ -238,6 +257,29 @@ fn rk4_stages(ph: u32, start: f32, width: f32, h: f32) {
         }
         k4_v = dvolt_out;
     }
+}
+
+// k₁ of the main state at fraction `start` of the base step from phase `ph`, kept for its
+// first sub-step (a dispatch's start; afterwards each accepted sub-step hands on its k₅).
+fn prime_k1(ph: u32, start: f32) {
+    for (var i = 0u; i < N_SEG; i++) {
+        sth[i] = th[i];
+        som[i] = om[i];
+    }
+    svolt = volt;
+    stage_n = 0u;
+    branch_bits = 0u;
+    derivative(cart_acc(ph, start));
+    keep_k1(0u);
+}
+
+// The last derivative (at the main state's stage `j`) kept as the next tries' k₁.
+fn keep_k1(j: u32) {
+    for (var i = 0u; i < N_SEG; i++) {
+        k1_om[i] = acc_out[i];
+    }
+    k1_v = dvolt_out;
+    k1_branch = (branch_bits >> (4u * j)) & 15u;
 }
 
 // The state advanced by the stages just computed: y += h Σ b_j k_j (compensated).
@@ -259,13 +301,14 @@ fn rk4_finish() {
 
 // The scaled error of the RK4 stages just computed (Rk4Rungs::error of src/engine/rk4.rs):
 // k₅ at y₄ = y + h Σ b_j k_j with the cart at the step's end `a_end`, then max over the state
-// of |h (k₄ − k₅) / 6| / (atol + rtol |y|), y the state before the step.
+// of |h (k₄ − k₅) / 6| / (atol + rtol |y|), y the state before the step. y₄ is the
+// compensated sum `rk4_finish` leaves, so an accepted sub-step hands k₅ on as the next k₁.
 fn rk4_error(a_end: f32, h: f32) -> f32 {
     for (var i = 0u; i < N_SEG; i++) {
-        sth[i] = th[i] + th_acc[i];
-        som[i] = om[i] + om_acc[i];
+        sth[i] = comp_add(th[i], th_c[i], th_acc[i]).x;
+        som[i] = comp_add(om[i], om_c[i], om_acc[i]).x;
     }
-    svolt = volt + volt_acc;
+    svolt = comp_add(volt, volt_c, volt_acc).x;
     derivative(a_end);
     let w = h / 6.0;
     var e = 0.0;
@@ -375,7 +418,7 @@ fn touch_flags() -> u32 {
 fn step_state(ph: u32, dt: f32) {
     stage_n = 0u;
     if !twin_mode {
-        branch_bits = 0u;
+        branch_bits = k1_branch;
     }
     if METHOD_IMEX {
         imex_step(ph, dt);
@@ -428,7 +471,7 @@ fn adaptive_substep(ph: u32, twin_on: bool, l: ptr<function, Ladder>) -> bool {
         imex_stages(ph, start, width, h);
         e = imex_error(h);
     } else {
-        rk4_stages(ph, start, width, h);
+        rk4_stages(ph, start, width, h, true);
         e = rk4_error(cart_acc(ph, start + width), h);
     }
     if e > 1.0 && k < MAX_LEVEL {
@@ -436,6 +479,9 @@ fn adaptive_substep(ph: u32, twin_on: bool, l: ptr<function, Ladder>) -> bool {
         return false;
     }
     method_finish(h);
+    if !METHOD_IMEX {
+        keep_k1(4u);
+    }
     let now = touch_flags();
     let new_on = now & ~(*l).touching;
     (*l).onsets += countOneBits(new_on);
@@ -447,7 +493,7 @@ fn adaptive_substep(ph: u32, twin_on: bool, l: ptr<function, Ladder>) -> bool {
         if METHOD_IMEX {
             imex_stages(ph, start, width, h);
         } else {
-            rk4_stages(ph, start, width, h);
+            rk4_stages(ph, start, width, h, false);
         }
         method_finish(h);
         twin_mode = false;
@@ -753,6 +799,9 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
     var lad = Ladder(a.sub_pos, a.level, 0u, a.sub_onsets);
     if ADAPTIVE {
         lad.touching = touch_flags();
+        if !METHOD_IMEX {
+            prime_k1(ph, f32(lad.pos) / f32(1u << MAX_LEVEL));
+        }
     }
     var passes = 0u;
     var out_of_passes = false;
@@ -795,7 +844,11 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
                 rph = 0u;
             }
             let alpha = th[0];
-            let now = touch_flags();
+            // (Adaptive: the ladder has the flags of the state its last sub-step left.)
+            var now = lad.touching;
+            if !ADAPTIVE {
+                now = touch_flags();
+            }
             if !ADAPTIVE {
                 onsets = countOneBits(now & ~a.touch);
                 if twin_on && HAS_CONTACT && (now & ~a.touch) != 0u {

@@ -27,8 +27,8 @@
 //! Single runs and the CPU engine's scalar loop take their steps here, one instance at a
 //! time; the SIMD loop takes the same steps each lane its own (`engine/cpu/lane_ladder.rs`),
 //! and the GPU kernel per invocation, one sub-step per pass of its loop
-//! (`shaders/integrate.wgsl`, `adaptive_substep`; its explicit pair evaluates k₁ at every
-//! try, five evaluations, where the CPU hands k₅ on).
+//! (`shaders/integrate.wgsl`, `adaptive_substep`; its explicit pair hands k₅ on as the CPU's
+//! does, from a k₁ taken at each dispatch's start).
 
 use crate::config::StepControl;
 use crate::engine::imex::{C, Imex, ImexMatrices};

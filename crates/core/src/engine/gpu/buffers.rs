@@ -338,7 +338,10 @@ fn loops_per_step(method: Method, n: usize, levers: usize) -> usize {
 /// Loop iterations a sub-step of adaptive steps adds to an IMEX step (with adaptive steps the
 /// budget counts sub-steps tried, each a pass of the kernel's loop): `imex_error` (its sums
 /// 5N, the couples N, two N × N products N² + N each, the piezo's 4) and the pass's own
-/// `touch_flags` (levers): `2 N² + 8 N + levers + 4`.
+/// `touch_flags` (levers): `2 N² + 8 N + levers + 4`. The same count bounds RK4(3)'s
+/// additions: `rk4_error` (two sweeps 2N, a derivative levers + 2N), k₄ kept (2N), k₁ handed
+/// on and kept (2N), `touch_flags` (levers), less the derivative of k₁ it no longer takes
+/// (levers + 2N), and once a dispatch `prime_k1` (4N + levers).
 fn adaptive_loops(n: usize, levers: usize, adaptive: bool) -> usize {
     if adaptive {
         2 * n * n + 8 * n + levers + 4

@@ -332,7 +332,8 @@ impl GpuAccum {
 pub struct GpuControl {
     /// Instances.
     pub n_inst: u32,
-    /// Steps each instance advances per dispatch.
+    /// Steps each instance advances per dispatch (fixed steps; `u32::MAX` with adaptive
+    /// steps, whose dispatches are bounded by `pass_budget`).
     pub steps_per_dispatch: u32,
     /// Stroboscopic samples per instance in the strobe buffer (its capacity; the buffer is
     /// sample-major, `n_inst` words per sample).
@@ -367,8 +368,8 @@ pub struct GpuControl {
     pub e_r_off: u32,
     /// Length of that ring (1 when unused).
     pub e_r_len: u32,
-    /// Adaptive steps: sub-steps an invocation may try per dispatch (a software adapter's loop
-    /// budget; `u32::MAX` on hardware). A dispatch may end within a base step.
+    /// Adaptive steps: sub-steps an invocation tries per dispatch, the dispatch's size (within
+    /// a software adapter's loop budget). A dispatch may end within a base step.
     pub pass_budget: u32,
     /// Padding to a multiple of 16 bytes (a uniform block).
     pub pad1: u32,

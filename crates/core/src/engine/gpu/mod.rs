@@ -414,15 +414,20 @@ fn integrate(
     let mut active: Vec<u32> = (0..n as u32).collect();
     let (mut done, mut chunk, mut dispatches) = (0u64, 64u64, 0u32);
     let lose = fault::failpoint()? == Some(fault::Failpoint::LoseDevice);
-    // Adaptive steps: a dispatch may end within a base step (its sub-steps are bounded by the
-    // budget, not its base steps), so the run goes on until every instance has finished.
+    // Adaptive steps: a dispatch is sized in passes (one sub-step tried each), not in base
+    // steps, so every invocation of a warp tries as many sub-steps as the others: one in free
+    // flight covers more base steps than one in contact, instead of waiting for it. A dispatch
+    // may so end within a base step, and the run goes on until every instance has finished.
     let adaptive = plan.is_adaptive();
-    control.pass_budget = budget.map_or(u32::MAX, |b| b.min(u64::from(u32::MAX)) as u32);
     while !active.is_empty() && (adaptive || done < max_steps) {
         // (Adaptive: not cut to the steps left, since an instance may lag behind `done`.)
         let left = if adaptive { u64::MAX } else { max_steps - done };
         let this = chunk.min(left).min(budget.unwrap_or(u64::MAX));
-        control.steps_per_dispatch = this as u32;
+        if adaptive {
+            (control.pass_budget, control.steps_per_dispatch) = (this as u32, u32::MAX);
+        } else {
+            control.steps_per_dispatch = this as u32;
+        }
         control.n_active = active.len() as u32;
         ctx.queue
             .write_buffer(&bufs.control, 0, bytemuck::bytes_of(control));
