@@ -2,7 +2,7 @@
 
 use super::SceneArgs;
 use indicatif::{ProgressBar, ProgressStyle};
-use pendulum_atlas_core::config::Scene;
+use pendulum_atlas_core::config::{Scene, StepControl};
 use pendulum_atlas_core::engine::{
     Integrator, Outcome, Precision as EnginePrecision, RunLyapunov, SceneRun, StepPlan, run_scene,
 };
@@ -129,6 +129,19 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     finish(&a.out, &plan, outcome, wall, &warnings, analysis.is_some())
 }
 
+/// The steps a run took: fixed steps, or adaptive steps' base steps and the sub-steps taken
+/// within them.
+fn steps_taken(plan: &StepPlan, outcome: &Outcome) -> String {
+    let (n, dt) = (outcome.steps_done, plan.dt_s);
+    match &outcome.substeps {
+        Some(st) => format!(
+            "{n} base steps of {dt:.3e} s ({} sub-steps from {:.2e} to {:.2e} s, {} rejected)",
+            st.accepted, st.smallest_s, st.largest_s, st.rejected
+        ),
+        None => format!("{n} steps of {dt:.3e} s"),
+    }
+}
+
 /// Print the warnings found while running and what was written; a run that ended badly is a
 /// failed run (exit 3) after its files are written.
 fn finish(
@@ -143,9 +156,8 @@ fn finish(
         eprintln!("warning: {w}");
     }
     eprintln!(
-        "{} steps of {:.3e} s in {wall:.2} s, status {}: wrote {} files to {} (trajectory.csv, run.json{})",
-        outcome.steps_done,
-        plan.dt_s,
+        "{} in {wall:.2} s, status {}: wrote {} files to {} (trajectory.csv, run.json{})",
+        steps_taken(plan, outcome),
         outcome.status,
         Product::Simulate.files_in(out)?.len(),
         out.display(),
@@ -208,17 +220,21 @@ fn run_size(scene: &Scene, plan: &StepPlan, out: &std::path::Path) -> anyhow::Re
 
 /// Print the engine's method and step, the run's size, and the plan's warnings.
 fn announce(plan: &StepPlan, integrator: IntegratorChoice, size: &RunSize) {
+    let adaptive = integrator == IntegratorChoice::Engine
+        && matches!(plan.control, StepControl::Adaptive { .. });
     if integrator == IntegratorChoice::Engine {
         eprintln!(
-            "method: {} ({}), dt = {:.3e} s",
+            "method: {} ({}), {} = {:.3e} s",
             plan.method.name(),
             plan.method_reason,
+            if adaptive { "base step" } else { "dt" },
             plan.dt_s
         );
     }
     eprintln!(
-        "run: {} steps, {} rows (about {} in memory, {} of trajectory.csv)",
+        "run: {} {}steps, {} rows (about {} in memory, {} of trajectory.csv)",
         size.steps,
+        if adaptive { "base " } else { "" },
         size.rows,
         pendulum_atlas_core::text::bytes(size.memory_bytes),
         pendulum_atlas_core::text::bytes(size.csv_bytes)
