@@ -127,9 +127,9 @@ pub struct EngineInfo {
 /// What counts as one unit of progress.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ProgressUnit {
-    /// Integration steps of the longest instance (GPU dispatches).
+    /// Integration steps of the longest instance (GPU dispatches at fixed steps).
     Steps,
-    /// Finished instances (CPU).
+    /// Finished instances (CPU; GPU with adaptive steps).
     Instances,
     /// Runs of a map planned (their scenes read and checked), before any integration.
     Planned,

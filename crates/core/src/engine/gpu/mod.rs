@@ -445,12 +445,18 @@ fn integrate(
         let took = started.elapsed();
         dispatches += 1;
         done = (done + this).min(max_steps);
-        if progress(done, max_steps, ProgressUnit::Steps).is_break() {
+        if !adaptive && progress(done, max_steps, ProgressUnit::Steps).is_break() {
             return Err(EngineError::Cancelled);
         }
         let finished: Vec<u32> = read_buffer(ctx, &bufs.done, 4 * n as u64)?;
         let before = active.len();
         active.retain(|&i| finished[i as usize] == 0);
+        // (Adaptive: a dispatch's passes say little of the base steps covered, so progress
+        // counts the instances finished, as the CPU engine's does.)
+        let finished_n = (n - active.len()) as u64;
+        if adaptive && progress(finished_n, n as u64, ProgressUnit::Instances).is_break() {
+            return Err(EngineError::Cancelled);
+        }
         if active.len() != before && !active.is_empty() {
             ctx.queue
                 .write_buffer(&bufs.active, 0, bytemuck::cast_slice(&active));
@@ -459,7 +465,11 @@ fn integrate(
         let scale = DISPATCH_TARGET.as_secs_f64() / took.as_secs_f64().max(1e-6);
         chunk = ((this as f64 * scale.clamp(0.25, 4.0)) as u64).clamp(16, 1 << 22);
     }
-    if progress(max_steps, max_steps, ProgressUnit::Steps).is_break() {
+    let (all, unit) = match adaptive {
+        true => (n as u64, ProgressUnit::Instances),
+        false => (max_steps, ProgressUnit::Steps),
+    };
+    if progress(all, all, unit).is_break() {
         return Err(EngineError::Cancelled);
     }
     Ok(dispatches)
