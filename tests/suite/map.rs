@@ -1424,6 +1424,57 @@ fn a_map_with_adaptive_steps_has_lambda1_on_its_sub_steps_on_every_engine() {
     }
 }
 
+/// `map.json` counts the sub-steps an adaptive map tried (`steps.sub_steps_tried`), on every
+/// engine, and `null` at fixed steps. On an impacting periodic cell of the default map the
+/// scalar loop and the SIMD lanes take the same steps, the GPU about as many as the CPU engine
+/// in f32 (f32 confirms the orbit, and stops, later than f64), and the bumper contacts ask for
+/// more sub-steps than base steps.
+#[test]
+fn map_json_counts_the_sub_steps_an_adaptive_map_tried_on_every_engine() {
+    let cell = "map.axes=[{key=\"excitation.frequency_hz\",values=[9.333]},{key=\"excitation.amplitude_m\",values=[0.025]}]";
+    let run = |args: &[&str], name: &str| {
+        let out = out_dir(&format!("sub-steps-{name}"));
+        let o = bin()
+            .args(["map", "--quiet", "--set", cell])
+            .args(args)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let steps = map_json(&out)["steps"].clone();
+        std::fs::remove_dir_all(&out).ok();
+        let base = steps["integrated_instance_steps"].as_u64().unwrap();
+        (base, steps["sub_steps_tried"].as_u64())
+    };
+    let (base, scalar) = run(&["--backend", "cpu", "--cpu-loop", "scalar"], "scalar");
+    let scalar = scalar.expect("an adaptive map counts its sub-steps");
+    assert!(
+        scalar > base && scalar < 2 * base,
+        "{scalar} sub-steps in {base} base steps"
+    );
+    let (_, simd) = run(&["--backend", "cpu", "--cpu-loop", "simd"], "simd");
+    let simd = simd.unwrap() as f64;
+    assert!(
+        (simd / scalar as f64 - 1.0).abs() < 0.01,
+        "SIMD lanes {simd} against the scalar loop's {scalar}"
+    );
+    if crate::engine::gpu().is_some() {
+        let (_, gpu) = run(&["--backend", "gpu"], "gpu");
+        let (_, f32) = run(&["--backend", "cpu", "--precision", "f32"], "f32");
+        let (gpu, f32) = (gpu.unwrap() as f64, f32.unwrap() as f64);
+        assert!(
+            (gpu / f32 - 1.0).abs() < 0.02,
+            "GPU {gpu} against the CPU's {f32} in f32"
+        );
+    }
+    let (_, fixed) = run(
+        &["--backend", "cpu", "--set", "integration.step=\"fixed\""],
+        "fixed",
+    );
+    assert_eq!(fixed, None, "fixed steps have no sub-steps");
+}
+
 /// Adaptive steps finer than f32 resolves are warned of in f32, not in f64, by a map and by a
 /// single run: the steps would be forced to the ladder's finest level. (rtol 9e-5 is just past
 /// the limit, and still fast.)

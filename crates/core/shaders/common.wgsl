@@ -116,7 +116,7 @@ struct Accum {
     k: f32,
     r: f32,
     line: f32,
-    pad2: f32,
+    sub_steps: u32,
     lyap_sums: array<f32, LYAPUNOV_BLOCKS>,
     lyap_n: u32,
     twin_flags: u32,

@@ -823,6 +823,7 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
                     break;
                 }
                 passes += 1u;
+                a.sub_steps += 1u;
                 if !adaptive_substep(ph, twin_on, &lad) {
                     continue;
                 }

@@ -14,7 +14,7 @@ use pendulum_atlas_core::config::{MapMode, MapSpec};
 use pendulum_atlas_core::engine::adaptive::f32_tolerance_warning;
 use pendulum_atlas_core::engine::gpu::GpuTimings;
 use pendulum_atlas_core::engine::{
-    Engine, EngineError, EngineInfo, EnsemblePlan, Precision, Progress, Readback,
+    Engine, EngineError, EngineInfo, EnsemblePlan, Precision, Progress, Readback, add_counts,
 };
 use pendulum_atlas_core::reduce::{
     AttractorMap, AttractorRule, InstanceResult, ReduceOptions, attractor_map, basin_map,
@@ -91,6 +91,9 @@ pub struct MapRun {
     pub dispatches: u32,
     /// Instances stopped early on a confirmed periodic orbit.
     pub stopped_early: usize,
+    /// Adaptive steps: the sub-steps every integration of the map tried, accepted and
+    /// rejected (`None` at fixed steps).
+    pub sub_steps: Option<u64>,
     /// Stroboscopic tail per instance for the bifurcation diagram (empty unless asked for).
     #[serde(skip)]
     pub strobe_tail: Vec<Vec<f64>>,
@@ -144,7 +147,7 @@ pub struct ShardSummary {
 }
 
 impl MapRun {
-    /// A run of `plan` with its results, engine, times, `(dispatches, early stops)` and
+    /// A run of `plan` with its results, engine, times, `(dispatches, early stops, sub-steps)` and
     /// stroboscopic tails, and nothing of the staged maps (shards, refinement, attractors,
     /// continuation) yet.
     fn new(
@@ -152,7 +155,7 @@ impl MapRun {
         plan: EnsemblePlan,
         engine: EngineInfo,
         timings: MapTimings,
-        (dispatches, stopped_early): (u32, usize),
+        (dispatches, stopped_early, sub_steps): Counts,
         strobe_tail: Vec<Vec<f64>>,
     ) -> MapRun {
         MapRun {
@@ -162,6 +165,7 @@ impl MapRun {
             timings,
             dispatches,
             stopped_early,
+            sub_steps,
             strobe_tail,
             shards: Vec::new(),
             inferred: Vec::new(),
@@ -368,13 +372,17 @@ fn run_starts(
     Ok(run)
 }
 
-/// Times, dispatches, early stops and warnings added up over the ensembles of a staged map
-/// (refinement's levels, continuation's steps).
+/// A map's dispatches, instances stopped early and sub-steps tried (adaptive steps).
+type Counts = (u32, usize, Option<u64>);
+
+/// Times, dispatches, early stops, sub-steps and warnings added up over the ensembles of a
+/// staged map (refinement's levels, continuation's steps).
 #[derive(Default)]
 struct StageTotals {
     timings: MapTimings,
     dispatches: u32,
     stopped_early: usize,
+    sub_steps: Option<u64>,
     warnings: Vec<String>,
 }
 
@@ -389,6 +397,7 @@ impl StageTotals {
         };
         self.dispatches += run.dispatches;
         self.stopped_early += run.stopped_early;
+        self.sub_steps = add_counts(self.sub_steps, run.sub_steps);
         for w in &run.plan.warnings {
             if !self.warnings.contains(w) {
                 self.warnings.push(w.clone());
@@ -397,12 +406,15 @@ impl StageTotals {
     }
 
     /// The timings (with the engine's opening and the wall time since `t_all`), and the
-    /// dispatches and early stops.
-    fn finish(&mut self, engine: &Engine, t_all: &Instant) -> (MapTimings, (u32, usize)) {
+    /// dispatches, early stops and sub-steps.
+    fn finish(&mut self, engine: &Engine, t_all: &Instant) -> (MapTimings, Counts) {
         let mut timings = std::mem::take(&mut self.timings);
         timings.device_s = engine.info().open_s;
         timings.total_s = t_all.elapsed().as_secs_f64();
-        (timings, (self.dispatches, self.stopped_early))
+        (
+            timings,
+            (self.dispatches, self.stopped_early, self.sub_steps),
+        )
     }
 }
 
@@ -562,7 +574,7 @@ fn run_engine(
         total_s: t_all.elapsed().as_secs_f64(),
         gpu: run.timings.gpu,
     };
-    let counts = (run.dispatches, run.stopped_early);
+    let counts = (run.dispatches, run.stopped_early, run.sub_steps);
     let info = engine.info().clone();
     let map_run = MapRun::new(run.results, plan, info, timings, counts, strobe_tail);
     Ok((map_run, states))
@@ -589,6 +601,8 @@ pub struct MapPart {
     pub dispatches: u32,
     /// Its instances stopped early.
     pub stopped_early: usize,
+    /// Its sub-steps tried (adaptive steps).
+    pub sub_steps: Option<u64>,
 }
 
 /// The parts' results in grid order, their times summed, as one run of `plan` (the whole map).
@@ -635,6 +649,7 @@ pub fn assemble(plan: EnsemblePlan, parts: Vec<MapPart>) -> MapRun {
     let counts = (
         parts.iter().map(|p| p.dispatches).sum(),
         parts.iter().map(|p| p.stopped_early).sum(),
+        parts.iter().map(|p| p.sub_steps).fold(None, add_counts),
     );
     let mut run = MapRun::new(results, plan, engine, timings, counts, strobe_tail);
     run.shards = shards;
@@ -684,6 +699,7 @@ pub fn run_map_on_devices(
                         timings: run.timings,
                         dispatches: run.dispatches,
                         stopped_early: run.stopped_early,
+                        sub_steps: run.sub_steps,
                     })
                 })
             })

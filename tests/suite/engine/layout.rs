@@ -77,7 +77,7 @@ fn parameter_structs_have_the_same_layout_in_rust_and_wgsl() {
         &m,
         "Accum",
         offsets!(GpuAccum; step, status, touch, well, hops, impacts, period, sub_pos, alpha_min,
-            alpha_max, power_sum, power_comp, k, r, line, pad2, lyap_sums, lyap_n, twin_flags,
+            alpha_max, power_sum, power_comp, k, r, line, sub_steps, lyap_sums, lyap_n, twin_flags,
             lyap, lyap_se, regime, tw_start, tw_window, p_hops, p_impacts, p_power, p_amin, p_amax,
             e_phase, e_p, e_until, e_seen, e_last, stopped, level, sub_onsets),
         size_of::<GpuAccum>(),

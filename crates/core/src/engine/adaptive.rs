@@ -81,10 +81,15 @@ pub struct SubstepStats {
 }
 
 impl SubstepStats {
+    /// Sub-steps tried: accepted and rejected.
+    pub fn tries(&self) -> u64 {
+        self.accepted + self.rejected
+    }
+
     /// Evaluations of the chain's right-hand side (four per tried sub-step of either pair,
     /// and the explicit pair's first k₁).
     pub fn evaluations(&self) -> u64 {
-        self.evaluations_per_try * (self.accepted + self.rejected) + self.extra_evaluations
+        self.evaluations_per_try * self.tries() + self.extra_evaluations
     }
 
     fn took(&mut self, h: f64) {

@@ -200,6 +200,17 @@ pub struct EngineRun {
     pub dispatches: u32,
     /// Instances stopped early on a confirmed periodic orbit (CPU).
     pub stopped_early: usize,
+    /// Adaptive steps: the sub-steps tried by every instance together, accepted and rejected
+    /// (`None` at fixed steps, where every step is a base step).
+    pub sub_steps: Option<u64>,
+}
+
+/// Two optional counts added (`None` only where both are).
+pub fn add_counts(a: Option<u64>, b: Option<u64>) -> Option<u64> {
+    match (a, b) {
+        (Some(a), Some(b)) => Some(a + b),
+        (a, b) => a.or(b),
+    }
 }
 
 impl EngineRun {
@@ -235,6 +246,7 @@ impl EngineRun {
         };
         self.dispatches += next.dispatches;
         self.stopped_early += next.stopped_early;
+        self.sub_steps = add_counts(self.sub_steps, next.sub_steps);
         self
     }
 

@@ -88,6 +88,7 @@ pub fn settle(
             progress,
         )?;
         report.stopped_early = rerun.stopped_early;
+        run.sub_steps = pendulum_atlas_core::engine::add_counts(run.sub_steps, rerun.sub_steps);
         put_in_place(run, &members, &rerun, &mut report);
         add_times(run, &rerun);
     }

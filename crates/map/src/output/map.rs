@@ -359,8 +359,9 @@ fn continuation_json(spec: &MapSpec, c: &ContinuationRun) -> serde_json::Value {
     })
 }
 
-/// `map.json`'s `steps`: what the grid would take in full, what was integrated, and what the
-/// early stop and refinement saved.
+/// `map.json`'s `steps`: what the grid would take in full, what was integrated (in base steps
+/// with adaptive steps, and the sub-steps tried within them, `null` at fixed steps), and what
+/// the early stop and refinement saved.
 fn steps_json(run: &MapRun) -> serde_json::Value {
     let inferred = |k: usize| run.inferred.get(k).copied().unwrap_or(false);
     let planned = |k: usize| run.plan.instances[k].total_steps();
@@ -383,6 +384,7 @@ fn steps_json(run: &MapRun) -> serde_json::Value {
         "inferred": run.inferred.iter().filter(|&&i| i).count(),
         "per_instance_max": run.plan.instances.iter().map(|p| p.total_steps()).max(),
         "dispatches": run.dispatches,
+        "sub_steps_tried": run.sub_steps,
     })
 }
 

@@ -66,6 +66,10 @@ pub struct ShardManifest {
     pub dispatches: u32,
     /// Instances stopped early.
     pub stopped_early: usize,
+    /// Sub-steps tried (adaptive steps; absent at fixed steps and from shards of earlier
+    /// versions).
+    #[serde(default)]
+    pub sub_steps: Option<u64>,
     /// Stroboscopic samples kept per instance for the bifurcation diagram (0: none).
     pub strobe_tail: usize,
     /// SHA-256 of the shard's values (`shard_results.npy`, then `shard_strobe.npy`) as
@@ -183,6 +187,7 @@ pub fn write_shard(
         timings_s: run.timings.clone(),
         dispatches: run.dispatches,
         stopped_early: run.stopped_early,
+        sub_steps: run.sub_steps,
         strobe_tail: tail,
         values_sha256: values_sha256(&[&data, &flat]),
     };

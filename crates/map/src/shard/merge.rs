@@ -248,5 +248,6 @@ fn part(s: &ShardData) -> MapPart {
         timings: s.manifest.timings_s.clone(),
         dispatches: s.manifest.dispatches,
         stopped_early: s.manifest.stopped_early,
+        sub_steps: s.manifest.sub_steps,
     }
 }

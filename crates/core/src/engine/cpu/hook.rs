@@ -70,6 +70,8 @@ pub struct RawInstance {
     pub twin_plan: Option<TwinPlan>,
     /// The main state `[θ; θ̇; v]` where the instance ended.
     pub y_end: Vec<f64>,
+    /// Adaptive steps: the sub-steps tried, accepted and rejected (0 at fixed steps).
+    pub sub_steps: u64,
 }
 
 /// The cart of an ensemble instance: exact phase `(step mod spp + c)/spp`.
@@ -155,6 +157,7 @@ impl<'a, T: Real> EnsembleHook<'a, T> {
                 twin: None,
                 twin_plan: None,
                 y_end: Vec::new(),
+                sub_steps: 0,
             },
             period: PeriodTally::default(),
             well: 0,

@@ -186,6 +186,8 @@ struct LaneState<'a, T: Real> {
     end: Option<(Status, u64)>,
     /// The lane's state where it ended (the group steps on after it).
     y_end: Vec<f64>,
+    /// Adaptive steps: the sub-steps the lane tried (one a pass while it is live).
+    sub_steps: u64,
 }
 
 impl<T: Real> LaneState<'_, T> {
@@ -255,6 +257,7 @@ where
             hook: EnsembleHook::new(p, plan.want_strobe, plan.want_rseries, plan.early_stop, d0),
             end: None,
             y_end: Vec::new(),
+            sub_steps: 0,
         })
         .collect();
     if plans[0].control == StepControl::Fixed {
@@ -270,6 +273,7 @@ where
             raw.tally.status = status;
             raw.tally.steps = steps;
             raw.y_end = l.y_end;
+            raw.sub_steps = l.sub_steps;
             raw
         })
         .collect()
@@ -337,6 +341,9 @@ fn ladder_steps<V: Lane>(
             break;
         }
         let running = lane_is(&|l| l.end.is_none() && l.hook.twin_running());
+        for (lane, _) in lanes.iter_mut().zip(live).filter(|(_, on)| *on) {
+            lane.sub_steps += 1;
+        }
         let ended = {
             let lanes = &*lanes;
             let mut salt = |l: usize, y: &[V], ty: &mut [V], on: (bool, bool)| {

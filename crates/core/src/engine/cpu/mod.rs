@@ -69,22 +69,20 @@ pub fn run_instance_with<T: Real>(
             )
         };
     }
-    let end = match (&plan.imex, plan.control) {
+    let (end, sub_steps) = match (&plan.imex, plan.control) {
         (_, StepControl::Adaptive { rtol, atol }) if plan.method == Method::Rk4 => {
-            run_with!(AdaptiveRk4::explicit(plan.dt_s, (rtol, atol), dim))
+            let mut a = AdaptiveRk4::explicit(plan.dt_s, (rtol, atol), dim);
+            (run_with!(a), a.stats().tries())
         }
         (_, StepControl::Adaptive { rtol, atol }) => {
-            run_with!(AdaptiveImex::imex(
-                &plan.params,
-                plan.dt_s,
-                (rtol, atol),
-                dim
-            ))
+            let mut a = AdaptiveImex::imex(&plan.params, plan.dt_s, (rtol, atol), dim);
+            (run_with!(a), a.stats().tries())
         }
-        (None, StepControl::Fixed) => run_with!(Rk4::new(plan.dt_s, dim)),
-        (Some(m), StepControl::Fixed) => run_with!(Imex::new(m, dim)),
+        (None, StepControl::Fixed) => (run_with!(Rk4::new(plan.dt_s, dim)), 0),
+        (Some(m), StepControl::Fixed) => (run_with!(Imex::new(m, dim)), 0),
     };
     let mut raw = hook.finish();
+    raw.sub_steps = sub_steps;
     raw.tally.status = end.status;
     raw.tally.steps = end.steps_done;
     raw.y_end = y.iter().map(|v| v.wide()).collect();
@@ -236,6 +234,9 @@ impl CpuEngine {
             },
             dispatches: 0,
             stopped_early,
+            sub_steps: plan
+                .is_adaptive()
+                .then(|| raw.iter().map(|r| r.sub_steps).sum()),
         })
     }
 }

@@ -253,8 +253,8 @@ pub struct GpuAccum {
     pub r: f32,
     /// Dominant line over the forcing frequency.
     pub line: f32,
-    /// Padding.
-    pub pad2: f32,
+    /// Adaptive steps: the sub-steps tried, accepted and rejected.
+    pub sub_steps: u32,
     /// λ1's twin: Σ ln(d/d0) per block of the window.
     pub lyap_sums: [f32; LYAPUNOV_BLOCKS],
     /// Growths summed so far.

@@ -388,6 +388,9 @@ fn run_sized(
         },
         dispatches,
         stopped_early: accum.iter().filter(|a| a.stopped != 0).count(),
+        sub_steps: plan
+            .is_adaptive()
+            .then(|| accum.iter().map(|a| u64::from(a.sub_steps)).sum()),
     })
 }
 
