@@ -13,9 +13,7 @@ W=$(mktemp -d)
 trap 'rm -rf "$W"' EXIT
 A='integration.step="adaptive"'
 $B map --backend gpu --quiet --set 'integration.step="fixed"' --out "$W/fixed" >/dev/null 2>&1
-HALF17=(configs/maps/default_subgrid.toml --set beam.segments=17
-    --set 'map.axes=[{key="excitation.frequency_hz",values=[8.063492063492063,8.571428571428571,9.079365079365079,9.587301587301587,10.095238095238095,10.603174603174603,11.11111111111111,11.619047619047619]},{key="excitation.amplitude_m",values=[0.004,0.0057872340425531915,0.007574468085106383,0.009361702127659575,0.011148936170212766,0.012936170212765958,0.01472340425531915,0.01651063829787234,0.018297872340425535,0.020085106382978724,0.021872340425531916,0.023659574468085108]}]'
-    --set integration.duration_s=14.0 --set integration.transient_s=2.0)
+. "$(dirname "${BASH_SOURCE[0]}")/half17.sh"
 for s in fixed adaptive; do
   $B map --backend gpu --quiet "${HALF17[@]}" --set "integration.step=\"$s\"" --out "$W/half17_$s" \
     >/dev/null 2>&1
