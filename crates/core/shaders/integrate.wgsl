@@ -746,6 +746,15 @@ fn finished(a: Accum, total: u32) -> bool {
     return a.status != STATUS_OK || a.step >= total || a.stopped != 0u;
 }
 
+// The events after step `s` at phase `ph` of its period: the stroboscopic instant, and the
+// period's end; true when a closing orbit stops the run there (`period_end`).
+fn period_events(inst: u32, s: u32, ph: u32, a: ptr<function, Accum>) -> bool {
+    if (WANT_EARLY || s >= P.transient_periods * P.spp) && ph == P.strobe_offset {
+        strobe_instant(inst, s, th[0], a);
+    }
+    return ph == 0u && period_end(inst, s / P.spp - 1u, a);
+}
+
 // Advance every instance still integrating (those `live` lists) by up to
 // `ctl.steps_per_dispatch` steps.
 @compute @workgroup_size(WG)
@@ -784,7 +793,6 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
         tw_volt = state[(tw + 2u * N_SEG) * n_inst + inst];
         tw_volt_c = 0.0;
     }
-    let transient = P.transient_periods * P.spp;
     let end = min(total, a.step + min(ctl.steps_per_dispatch, total - a.step));
     let dt = P.dt;
     var s = a.step;
@@ -808,8 +816,11 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
     // Steps without an event run in the inner loop (with adaptive steps, one sub-step per
     // pass); the events of a forcing period (its stroboscopic instant and its end: the early
     // stop's watch, λ1's twin, the period's tally) are taken between its runs, out of the hot
-    // loop.
+    // loop, at fixed steps. With adaptive steps they are taken in it: the invocations of a
+    // warp reach their events at different passes, and an invocation that left the inner loop
+    // for its event would wait there until every other had reached one too.
     var failed = false;
+    var halted = false;
     loop {
         if s >= end {
             break;
@@ -874,17 +885,19 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
                     break;
                 }
             }
-            if s >= end || ph == P.strobe_offset || ph == 0u {
+            let event = ph == P.strobe_offset || ph == 0u;
+            if ADAPTIVE && event && period_events(inst, s, ph, &a) {
+                halted = true;
+                break;
+            }
+            if s >= end || (!ADAPTIVE && event) {
                 break;
             }
         }
-        if failed || out_of_passes {
+        if failed || out_of_passes || halted {
             break;
         }
-        if (WANT_EARLY || s >= transient) && ph == P.strobe_offset {
-            strobe_instant(inst, s, th[0], &a);
-        }
-        if ph == 0u && period_end(inst, s / P.spp - 1u, &a) {
+        if !ADAPTIVE && period_events(inst, s, ph, &a) {
             break;
         }
     }
