@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
-# Behaviour unchanged: the .npy files of four kinds of map (the default map, a map with
-# several starts per cell, a continuation map run both ways, a refined map) must be
-# byte-identical when written by two builds. Used for restructurings (issue 42):
+# Behaviour unchanged: the .npy files of five kinds of map (the default map, a map with
+# several starts per cell, a continuation map run both ways, a refined map, a settled map)
+# must be byte-identical when written by two builds. Used for restructurings (issues 42, 59):
 #
 #   scripts/same_maps.sh OLD_REV            # builds OLD_REV in a worktree, then this checkout
 #   scripts/same_maps.sh OLD_BIN NEW_BIN    # two binaries already built
 #
-# CPU engine (f64), so that the comparison does not depend on a GPU driver. Exits 1 and names
-# every file that differs; prints "N passed, 0 failed" when all are equal.
+# The CPU engine (f64) by default; BACKEND=gpu runs both builds on the GPU (lavapipe where
+# there is no hardware GPU): the same driver on both sides, so its numbers must match too.
+# Exits 1 and names every file that differs; prints "N passed, 0 failed" when all are equal.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 work=$(mktemp -d)
@@ -33,7 +34,9 @@ maps=(
   'starts|--set map.axes=[{key="excitation.frequency_hz",values=[7.8,8.0]},{key="excitation.amplitude_m",values=[0.001]}] --set beam.segments=3 --set integration.duration_s=30 --set integration.transient_s=15 --set map.initial_states=6'
   'continuation|--set map.axes=[{key="excitation.frequency_hz",values=[9.0,10.0,10.5,11.0,11.5,12.0]}] --set beam.segments=3 --set integration.duration_s=36 --set integration.transient_s=12 --set excitation.amplitude_m=0.001 --set map.metrics=["period","alpha_range","regime"] --set map.lyapunov_window_s=6 --set map.continuation=both'
   'refined|--set map.axes=[{key="excitation.frequency_hz",start=6.0,end=12.0,count=17},{key="excitation.amplitude_m",start=0.004,end=0.025,count=9}] --set map.refine=true --set map.refine_spacing=4'
+  'settled|--set map.axes=[{key="excitation.frequency_hz",start=6.0,end=12.0,count=9},{key="excitation.amplitude_m",start=0.004,end=0.025,count=6}] --set map.settle_max_s=68'
 )
+backend=${BACKEND:-cpu}
 
 passed=0 failed=0
 for entry in "${maps[@]}"; do
@@ -41,7 +44,7 @@ for entry in "${maps[@]}"; do
   read -r -a args <<<"${entry#*|}"
   for side in old new; do
     bin_var=${side}_bin
-    "${!bin_var}" map --backend cpu --quiet --out "$work/maps_$side/$name" "${args[@]}" >/dev/null 2>"$work/stderr" || { cat "$work/stderr" >&2; exit 1; }
+    "${!bin_var}" map --backend "$backend" --quiet --out "$work/maps_$side/$name" "${args[@]}" >/dev/null 2>"$work/stderr" || { cat "$work/stderr" >&2; exit 1; }
   done
   for f in "$work/maps_old/$name"/*.npy; do
     rel=$name/$(basename "$f")

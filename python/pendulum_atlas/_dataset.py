@@ -47,6 +47,7 @@ def map_dataset(manifest: dict, arrays: Mapping[str, np.ndarray]) -> xr.Dataset:
             attrs["long_name"] = axis["label"]
         coords[dim] = (dim, values, attrs)
     units = manifest.get("units", {})
+    descriptions = manifest.get("descriptions", {})
     data_vars = {}
     for name, values in arrays.items():
         if name.startswith("axis"):
@@ -56,6 +57,8 @@ def map_dataset(manifest: dict, arrays: Mapping[str, np.ndarray]) -> xr.Dataset:
         base = name.removesuffix("_down")
         if base in units:
             attrs["units"] = units[base]
+        if base in descriptions:
+            attrs["long_name"] = descriptions[base]
         if base == "regime" and manifest.get("regime"):
             attrs.update(_codes_attrs(manifest["regime"]["codes"]))
         elif base == "status" and "status_codes" in manifest:

@@ -94,3 +94,8 @@ def cell_pins(text: str, origin: str, sets: list[str], cell_sets: list[str]) -> 
 
 def read_map_manifest(path: str) -> dict[str, Any]:
     """A map folder's ``map.json``, read and checked (fields, files by name only), as a dict."""
+
+def result_fields() -> list[dict[str, Any]]:
+    """The result schema: one dict per result a map can store (name, unit, dtype,
+    description, metric)."""
+    ...

@@ -169,6 +169,32 @@ fn read_map_manifest(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Bound
     serialised(py, &manifest)
 }
 
+/// The result schema (`pendulum_atlas_core::schema::FIELDS`): one dict per result a map can
+/// store, with its name, unit, dtype, description and the metric that brings it.
+#[pyfunction]
+fn result_fields(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
+    use pendulum_atlas_core::schema::{Dtype, FIELDS};
+    let rows: Vec<serde_json::Value> = FIELDS
+        .iter()
+        .filter(|f| f.in_map)
+        .map(|f| {
+            serde_json::json!({
+                "name": f.name,
+                "unit": f.unit,
+                "dtype": match f.dtype {
+                    Dtype::F64 => "float64",
+                    Dtype::I8 => "int8",
+                    Dtype::U8 => "uint8",
+                    Dtype::U64 => "uint64",
+                },
+                "description": f.description,
+                "metric": f.metric.map(|m| m.name()),
+            })
+        })
+        .collect();
+    convert::to_python(py, &serde_json::Value::Array(rows))
+}
+
 /// `key=value` as `--set` takes it, from a Python value. The key must be a dotted scene key
 /// (letters, digits, `_` and `-` between dots): anything else, an `=` or a `#` above all, would
 /// let the key carry a value of its own.
@@ -594,6 +620,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(set_arg, m)?)?;
     m.add_function(wrap_pyfunction!(read_map_manifest, m)?)?;
+    m.add_function(wrap_pyfunction!(result_fields, m)?)?;
     m.add_function(wrap_pyfunction!(check_scene, m)?)?;
     m.add_function(wrap_pyfunction!(run_map_scene, m)?)?;
     m.add_function(wrap_pyfunction!(run_single_scene, m)?)?;

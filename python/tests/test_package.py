@@ -74,6 +74,31 @@ def test_coordinates_carry_the_axes_and_their_units(small_map_file):
     assert manifest["shape"] == [3, 2] and ds.attrs["segments"] == 3
 
 
+def test_the_dataset_holds_every_result_of_the_schema_the_map_formed(small_map_file):
+    ds = pa.map(pa.Scene.from_toml(small_map_file), backend="cpu", progress=False)
+    metrics = json.loads(ds.attrs["map_json"])["metrics"]
+    fields = _native_fields()
+    assert {f["name"] for f in fields} >= {"K", "regime", "status"}
+    for f in fields:
+        formed = f["metric"] is None or f["metric"] in metrics
+        assert (f["name"] in ds.data_vars) == formed, f["name"]
+        if not formed:
+            continue
+        var = ds[f["name"]]
+        assert var.dtype == np.dtype(f["dtype"]), f["name"]
+        assert var.attrs["long_name"] == f["description"], f["name"]
+        if f["dtype"] == "float64":
+            assert var.attrs["units"] == f["unit"], f["name"]
+    schema = {f["name"] for f in fields}
+    assert set(ds.data_vars) <= schema, "no variable outside the schema"
+
+
+def _native_fields():
+    from pendulum_atlas import _native
+
+    return _native.result_fields()
+
+
 def test_a_one_axis_map_with_full_keys_when_names_clash():
     scene = pa.Scene(SMALL_MAP).set(
         "map.axes",

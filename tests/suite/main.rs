@@ -18,6 +18,7 @@ mod messages;
 mod model;
 mod render;
 mod reproduce;
+mod schema;
 mod shard;
 mod single_run;
 mod slurm;

@@ -245,13 +245,14 @@ fn a_map_split_over_two_devices_equals_the_map_on_one() {
 #[test]
 fn merge_refuses_shard_rows_no_engine_could_have_written() {
     use pendulum_atlas_map::output::npy::{read_npy, write_npy_f64};
-    use pendulum_atlas_map::shard::files::RESULT_COLUMNS;
+    use pendulum_atlas_map::shard::files::shard_columns;
     let root = out_dir("tampered");
     let (a, b) = (shard(&root, 0, 2), shard(&root, 1, 2));
     let path = b.join("shard_results.npy");
     let (shape, clean): (Vec<usize>, Vec<f64>) = read_npy(&path).unwrap();
-    let col = |name: &str| RESULT_COLUMNS.iter().position(|c| *c == name).unwrap();
-    let width = RESULT_COLUMNS.len();
+    let columns = shard_columns();
+    let col = |name: &str| columns.iter().position(|c| *c == name).unwrap();
+    let width = columns.len();
     // Row 0 is an ok instance (the bifurcation map's cells all end ok).
     assert_eq!(clean[col("status")], 0.0);
     // A plausible K written over the shard's own is refused by the values' hash.
@@ -296,7 +297,7 @@ fn merge_refuses_shard_rows_no_engine_could_have_written() {
         (&[("K", 1e308)], "K = 1e308 is outside"),
         (&[("hops", 2.5)], "hops = 2.5"),
         (&[("period", 40.0)], "above map.period_max = 8"),
-        (&[("lyapunov_per_s", 1e300)], "lambda1 = 1e300"),
+        (&[("lyapunov", 1e300)], "lambda1 = 1e300"),
         (&[("period", 2.0)], "regime `chaotic` with period 2"),
         (
             &[("K", 1.0), ("regime", 2.0)],

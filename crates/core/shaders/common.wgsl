@@ -99,46 +99,8 @@ struct InstanceParams {
     levers: array<f32, 64>,
 }
 
-// Mirrors `GpuAccum`: running accumulators while integrating, then the reductions.
-struct Accum {
-    step: u32,
-    status: u32,
-    touch: u32,
-    well: i32,
-    hops: u32,
-    impacts: u32,
-    period: u32,
-    sub_pos: u32,
-    alpha_min: f32,
-    alpha_max: f32,
-    power_sum: f32,
-    power_comp: f32,
-    k: f32,
-    r: f32,
-    line: f32,
-    sub_steps: u32,
-    lyap_sums: array<f32, LYAPUNOV_BLOCKS>,
-    lyap_n: u32,
-    twin_flags: u32,
-    lyap: f32,
-    lyap_se: f32,
-    regime: i32,
-    tw_start: u32,
-    tw_window: u32,
-    p_hops: u32,
-    p_impacts: u32,
-    p_power: f32,
-    p_amin: f32,
-    p_amax: f32,
-    e_phase: u32,
-    e_p: u32,
-    e_until: u32,
-    e_seen: u32,
-    e_last: u32,
-    stopped: u32,
-    level: u32,
-    sub_onsets: u32,
-}
+// `Accum` (mirrors `GpuAccum`: the result schema's words, then the engine's own) is in the
+// generated header, made from src/schema.rs and src/engine/gpu/layout.rs.
 
 // Mirrors `GpuControl`.
 struct Control {

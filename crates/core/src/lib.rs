@@ -31,4 +31,5 @@ pub mod config;
 pub mod engine;
 pub mod model;
 pub mod reduce;
+pub mod schema;
 pub mod text;

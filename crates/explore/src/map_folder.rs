@@ -10,7 +10,7 @@ use pendulum_atlas_core::reduce::attractors::Family;
 use pendulum_atlas_map::output::folder::Product;
 use pendulum_atlas_map::output::manifest::MapManifest;
 use pendulum_atlas_map::output::map::{
-    COLUMNS, attractor_style, metric_style, regime_shade, shown_label, shown_value,
+    attractor_style, metric_style, regime_shade, shown_label, shown_value, value_fields,
 };
 use pendulum_atlas_map::output::npy::read_npy;
 use pendulum_atlas_map::render::Palette;
@@ -100,14 +100,14 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
 /// Every metric of the map as stored in `NAME{suffix}.npy` (`suffix` "_down" for the down
 /// sweep of a map run both ways).
 fn metric_columns(dir: &Path, spec: &MapSpec, suffix: &str) -> Result<Vec<Column>, ExploreError> {
-    let stored: Vec<(&str, Metric, Vec<f64>)> = COLUMNS
-        .iter()
-        .filter(|(_, m, _, _)| spec.wants(*m))
+    let stored: Vec<(&str, Metric, Vec<f64>)> = value_fields()
+        .filter_map(|f| Some((f.name, f.metric?)))
+        .filter(|&(_, m)| spec.wants(m))
         // Maps written before the confidence stage have no verdict_confidence.npy.
-        .filter(|(stem, _, _, _)| {
+        .filter(|(stem, _)| {
             *stem != "verdict_confidence" || dir.join(format!("{stem}{suffix}.npy")).is_file()
         })
-        .map(|&(stem, m, _, _)| {
+        .map(|(stem, m)| {
             let values = read_array::<f64>(dir, &format!("{stem}{suffix}.npy"), spec)?;
             Ok((stem, m, values))
         })

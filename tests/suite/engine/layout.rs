@@ -3,9 +3,12 @@
 //! definitions; and, with an adapter, one device compiles each kernel set once.
 
 use pendulum_atlas_core::engine::gpu::kernels::{SHADER_STAGES, shader_header, shader_source};
-use pendulum_atlas_core::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams};
+use pendulum_atlas_core::engine::gpu::layout::{
+    ACCUM_ENGINE_WORDS, GpuAccum, GpuControl, GpuInstanceParams,
+};
 use pendulum_atlas_core::engine::gpu::state_layout::StateLayout;
 use pendulum_atlas_core::model::{CHECK_EVERY, Status};
+use pendulum_atlas_core::schema::{GPU_SLOTS, gpu_fields};
 
 /// Member offsets of a Rust struct, by name.
 macro_rules! offsets {
@@ -73,15 +76,23 @@ fn parameter_structs_have_the_same_layout_in_rust_and_wgsl() {
             twin_align, twin_window, twin_d0, twin_rigid_w, twin_scale, period_s, rtol, atol, levers),
         size_of::<GpuInstanceParams>(),
     );
-    assert_same_layout(
-        &m,
-        "Accum",
-        offsets!(GpuAccum; step, status, touch, well, hops, impacts, period, sub_pos, alpha_min,
-            alpha_max, power_sum, power_comp, k, r, line, sub_steps, lyap_sums, lyap_n, twin_flags,
-            lyap, lyap_se, regime, tw_start, tw_window, p_hops, p_impacts, p_power, p_amin, p_amax,
-            e_phase, e_p, e_until, e_seen, e_last, stopped, level, sub_onsets),
-        size_of::<GpuAccum>(),
+    // Accum: the result schema's GPU words first, one word each, then the engine's own.
+    let mut accum: Vec<(&str, usize)> = gpu_fields()
+        .enumerate()
+        .map(|(i, (_, g))| (g.member, 4 * i))
+        .collect();
+    accum.extend(
+        offsets!(GpuAccum; touch, well, sub_pos, power_comp, sub_steps, lyap_sums,
+        lyap_n, twin_flags, tw_start, tw_window, p_hops, p_impacts, p_power, p_amin, p_amax,
+        e_phase, e_p, e_until, e_seen, e_last, stopped, level, sub_onsets),
     );
+    assert_eq!(std::mem::offset_of!(GpuAccum, slots), 0);
+    let engine: Vec<&str> = ACCUM_ENGINE_WORDS.iter().map(|w| w.0).collect();
+    assert_eq!(
+        engine,
+        accum[GPU_SLOTS..].iter().map(|a| a.0).collect::<Vec<_>>()
+    );
+    assert_same_layout(&m, "Accum", accum, size_of::<GpuAccum>());
     assert_same_layout(
         &m,
         "Control",

@@ -9,7 +9,6 @@ mod error;
 mod field;
 mod gpu;
 mod map;
-mod metric;
 mod mode;
 mod physics;
 mod reader;
@@ -18,6 +17,7 @@ mod settle;
 mod starts;
 mod sweep;
 
+pub use crate::schema::Metric;
 pub use continuation::{ContinuationSpec, Direction, Sweep};
 pub use error::ConfigError;
 pub use field::SceneField;
@@ -27,7 +27,6 @@ pub use map::{
     c_order_index, grid_point, load_map, map_from_toml, refuse_sets_on_swept, scene_text,
     split_section,
 };
-pub use metric::Metric;
 pub use mode::{MapMode, ModeKeys, RefineFollow, RefineSpec};
 pub use physics::DampingReport;
 pub use reader::{

@@ -14,8 +14,8 @@
 
 use super::continuation::ContinuationSpec;
 use super::error::ConfigError;
-use super::metric::Metric;
 use super::starts::StartSet;
+use crate::schema::Metric;
 use serde::Serialize;
 
 /// How a map runs its cells.

@@ -15,11 +15,11 @@
 //! (`regime` among the metrics), the early stop, a plain map, and no axis over the run's length.
 
 use super::error::ConfigError;
-use super::metric::Metric;
 use super::mode::MapMode;
 use super::reader::{Range, Reader};
 use super::scene::Scene;
 use super::sweep::MapAxis;
+use crate::schema::Metric;
 
 /// The `verdict_confidence` from which a verdict is firm: cells below it are run on.
 pub const FIRM: f64 = 0.9;

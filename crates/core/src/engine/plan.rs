@@ -26,6 +26,7 @@ use crate::model::{CartState, ExcitationKind, Guard, ModelParams};
 use crate::reduce::TwinPlan;
 use crate::reduce::lyapunov::LYAPUNOV_MIN_WINDOW;
 use crate::reduce::lyapunov::TwinNorm;
+use crate::schema::Source;
 use crate::text::num;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -211,6 +212,12 @@ impl EnsembleOptions {
     fn wants(&self, m: Metric) -> bool {
         self.metrics.contains(&m)
     }
+
+    /// Whether a metric asked for is recorded from `source` (the result schema's
+    /// [`Metric::source`]).
+    fn records(&self, source: Source) -> bool {
+        Metric::any_from(&self.metrics, source)
+    }
 }
 
 /// Minimum stroboscopic samples the 0–1 test accepts.
@@ -360,7 +367,7 @@ impl EnsemblePlan {
         warnings: Vec<String>,
         early_stop: Option<EarlyStop>,
     ) -> EnsemblePlan {
-        let want_strobe = opts.wants(Metric::K) || opts.wants(Metric::Period) || opts.keep_strobe;
+        let want_strobe = opts.records(Source::Strobe) || opts.keep_strobe;
         let dts = instances.iter().map(|p| p.dt_s);
         let dt_range_s = (
             dts.clone().fold(f64::INFINITY, f64::min),
@@ -375,7 +382,7 @@ impl EnsemblePlan {
             has_piezo: first.piezo.enabled,
             metrics: opts.metrics.clone(),
             want_strobe,
-            want_rseries: opts.wants(Metric::R) || opts.wants(Metric::Line),
+            want_rseries: opts.records(Source::RSeries),
             strobe_stride: instances.iter().map(|p| p.strobe_count).max().unwrap_or(0),
             r_stride: instances.iter().map(|p| p.r_count).max().unwrap_or(0),
             dt_range_s,
@@ -383,7 +390,7 @@ impl EnsemblePlan {
             warnings,
             early_stop,
             perturbation: opts
-                .wants(Metric::Lyapunov)
+                .records(Source::Twin)
                 .then_some(opts.lyapunov.perturbation),
             gpu_layout: resolve(LayoutChoice::Auto),
             instances,
@@ -661,14 +668,14 @@ fn plan_instance(
     let r_every = blocks;
     let avail = (total_steps - transient_periods * spp) / r_every + 1;
     let r_count = (1u64 << (63 - avail.leading_zeros())).min(u64::from(opts.r_max_samples));
-    if (opts.wants(Metric::R) || opts.wants(Metric::Line)) && r_count < 32 {
+    if opts.records(Source::RSeries) && r_count < 32 {
         return Err(short(format!(
             "too short after the transient for R and the dominant line (they need 32 samples at {} per forcing period)",
             opts.samples_per_period
         )));
     }
     let r_start = total_steps - (r_count - 1) * r_every;
-    let twin = if opts.wants(Metric::Lyapunov) {
+    let twin = if opts.records(Source::Twin) {
         Some(twin_plan(&opts.lyapunov, scene, &params, strobe_count as u32).map_err(short)?)
     } else {
         None

@@ -50,108 +50,25 @@ pub struct RowRule {
 
 use crate::analysis::{K01Method, PhaseConvention, ZeroOneOptions};
 use crate::config::{MapSpec, Metric};
-use crate::model::Status;
+use crate::schema::{Dtype, FIELDS};
 use crate::text::num;
 use serde::Serialize;
 
-/// The numbers a map shows for one grid point. Metrics not requested, and every metric of an
-/// instance whose status is not `ok`, are NaN.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct InstanceResult {
-    /// 0–1 test K.
-    #[serde(rename = "K")]
-    pub k: f64,
-    /// Phase-synchronisation index R.
-    #[serde(rename = "R")]
-    pub r: f64,
-    /// Period of the stroboscopic section in forcing periods (0 = none ≤ period_max).
-    pub period: f64,
-    /// Hops between the wells after the transient.
-    pub hops: f64,
-    /// Bumper contact onsets per second after the transient.
-    pub impacts_per_s: f64,
-    /// Smallest holder angle after the transient (rad).
-    pub alpha_min_rad: f64,
-    /// Largest holder angle after the transient (rad).
-    pub alpha_max_rad: f64,
-    /// Mean harvested power v²/R_L after the transient (W).
-    pub power_w: f64,
-    /// Dominant line of α (the R series) over the forcing frequency: 1/3 for a third.
-    #[serde(rename = "line_ratio")]
-    pub line: f64,
-    /// Largest Lyapunov exponent λ1 (1/s).
-    pub lyapunov_per_s: f64,
-    /// Standard error of λ1 (1/s).
-    pub lyapunov_se_per_s: f64,
-    /// The cell's verdict ([`Regime::Undecided`] when not asked for).
-    pub regime: Regime,
-    /// Confidence of the verdict (NaN when undecided, failed or not asked for): the
-    /// probability that λ1 lies on the verdict's side of its class boundary.
-    pub regime_confidence: f64,
-    /// The chance that the verdict is the one a converged run gives, from the verdict and its
-    /// grid neighbours' (the map's confidence stage, `pendulum_atlas_map::map::confidence`,
-    /// calibrated in `docs/bench/VERDICT.md`); NaN outside a map, in a shard before its merge,
-    /// and where the verdict is undecided, failed or not asked for.
-    pub verdict_confidence: f64,
-    /// How the integration ended.
-    pub status: Status,
-    /// Steps actually integrated (fewer than planned when the instance failed or stopped
-    /// early on a confirmed periodic orbit).
-    pub steps: u64,
-}
+pub use crate::schema::InstanceResult;
 
+/// The rules of [`crate::schema::FIELDS`], and the verdict's, applied to a result.
 impl InstanceResult {
-    /// A result with every metric NaN (not yet reduced), of `status` after `steps` steps.
-    pub fn unset(status: Status, steps: u64) -> InstanceResult {
-        let nan = f64::NAN;
-        InstanceResult {
-            k: nan,
-            r: nan,
-            period: nan,
-            hops: nan,
-            impacts_per_s: nan,
-            alpha_min_rad: nan,
-            alpha_max_rad: nan,
-            power_w: nan,
-            line: nan,
-            lyapunov_per_s: nan,
-            lyapunov_se_per_s: nan,
-            regime: if status.is_ok() {
-                Regime::Undecided
-            } else {
-                Regime::Failed
-            },
-            regime_confidence: nan,
-            verdict_confidence: nan,
-            status,
-            steps,
-        }
-    }
-
     /// The rules every result of the engines obeys (a shard row read back is held to them):
     /// a failed instance carries no number and the verdict `failed`; an `ok` one carries a
     /// finite value of every metric in `metrics`, and every value it carries lies in its
     /// range (K in [−1, 1], R and the confidence in [0, 1], whole periods; hops, rates,
     /// power, line and λ1's error non-negative, α's minimum at most its maximum).
-    pub fn check(&self, metrics: &[crate::config::Metric]) -> Result<(), String> {
-        let fields = [
-            ("K", self.k),
-            ("R", self.r),
-            ("period", self.period),
-            ("hops", self.hops),
-            ("impacts_per_s", self.impacts_per_s),
-            ("alpha_min_rad", self.alpha_min_rad),
-            ("alpha_max_rad", self.alpha_max_rad),
-            ("power_w", self.power_w),
-            ("line_ratio", self.line),
-            ("lyapunov", self.lyapunov_per_s),
-            ("lyapunov_se", self.lyapunov_se_per_s),
-            ("regime_confidence", self.regime_confidence),
-            ("verdict_confidence", self.verdict_confidence),
-        ];
+    pub fn check(&self, metrics: &[Metric]) -> Result<(), String> {
+        let values = || FIELDS.iter().filter(|f| f.dtype == Dtype::F64);
         if !self.status.is_ok() {
-            if let Some((name, v)) = fields.iter().find(|(_, v)| !v.is_nan()) {
-                return Err(format!("status `{}` but {name} = {}", self.status, num(*v)));
+            if let Some(f) = values().find(|f| !(f.get)(self).is_nan()) {
+                let v = num((f.get)(self));
+                return Err(format!("status `{}` but {} = {v}", self.status, f.name));
             }
             if self.regime != Regime::Failed {
                 return Err(format!(
@@ -171,9 +88,10 @@ impl InstanceResult {
                 return Err(format!("status `ok` but {} = {}", m.name(), num(v)));
             }
         }
-        for (name, v) in fields.iter().filter(|(_, v)| !v.is_nan()) {
-            if !value_in_range(name, *v) {
-                return Err(format!("{name} = {} is outside its range", num(*v)));
+        for f in values() {
+            let v = (f.get)(self);
+            if !v.is_nan() && !f.range.admits(v) {
+                return Err(format!("{} = {} is outside its range", f.name, num(v)));
             }
         }
         if self.alpha_min_rad > self.alpha_max_rad {
@@ -193,11 +111,7 @@ impl InstanceResult {
     /// chaotic cells none); a confidence that is the one its regime and λ1 give; and, where
     /// the verdict was formed in f64 from these very numbers (`rule.exact_verdict`: the CPU
     /// engine), the regime they give.
-    pub fn check_rule(
-        &self,
-        metrics: &[crate::config::Metric],
-        rule: &RowRule,
-    ) -> Result<(), String> {
+    pub fn check_rule(&self, metrics: &[Metric], rule: &RowRule) -> Result<(), String> {
         self.check(metrics)?;
         if !self.status.is_ok() {
             return Ok(());
@@ -216,7 +130,7 @@ impl InstanceResult {
                 num(LN_F64_RANGE)
             ));
         }
-        if metrics.contains(&crate::config::Metric::Regime) {
+        if metrics.contains(&Metric::Regime) {
             self.check_verdict(rule)?;
         }
         Ok(())
@@ -283,36 +197,6 @@ impl InstanceResult {
             k: self.k,
             k_samples,
         }
-    }
-
-    /// The value shown on the map of `m` (α range: max − min).
-    pub fn metric(&self, m: Metric) -> f64 {
-        match m {
-            Metric::K => self.k,
-            Metric::R => self.r,
-            Metric::Period => self.period,
-            Metric::Hops => self.hops,
-            Metric::ImpactsPerS => self.impacts_per_s,
-            Metric::AlphaRange => self.alpha_max_rad - self.alpha_min_rad,
-            Metric::Power => self.power_w,
-            Metric::Line => self.line,
-            Metric::Lyapunov => self.lyapunov_per_s,
-            Metric::Regime => f64::from(self.regime.code()),
-        }
-    }
-}
-
-/// Whether `v` can be the value of result field `name` ([`InstanceResult::check`]).
-fn value_in_range(name: &str, v: f64) -> bool {
-    let whole = v.fract() == 0.0;
-    match name {
-        "K" => (-1.0..=1.0).contains(&v),
-        "R" | "regime_confidence" | "verdict_confidence" => (0.0..=1.0).contains(&v),
-        "period" => v >= 0.0 && whole && v.is_finite(),
-        "hops" => v >= 0.0 && whole && v.is_finite(),
-        "impacts_per_s" | "power_w" | "line_ratio" | "lyapunov_se" => v >= 0.0 && v.is_finite(),
-        "alpha_min_rad" | "alpha_max_rad" => v.abs() <= std::f64::consts::PI,
-        _ => v.is_finite(),
     }
 }
 

@@ -338,9 +338,9 @@ const ANALYSIS_FILES: [&str; 16] = [
 /// A map's files: its arrays (`K.npy`, `regime.npy`, `basin_fraction.npy`, `axis0.npy`,
 /// `K_down.npy`, ...), its pictures (`K.png`, `K_slice003.png`, `hysteresis.png`, ...) and
 /// `attractors.json`, by the stems the map's writer names them with
-/// ([`super::map::stem`], [`super::map::COLUMNS`]).
+/// ([`super::map::stem`], [`super::map::map_fields`]).
 fn is_map_file(name: &str) -> bool {
-    use super::map::{ATTRACTORS_JSON, COLUMNS, stem};
+    use super::map::{ATTRACTORS_JSON, map_fields, stem};
     if name == ATTRACTORS_JSON {
         return true;
     }
@@ -356,7 +356,7 @@ fn is_map_file(name: &str) -> bool {
         .iter()
         .find_map(|d| base.strip_suffix(d))
         .unwrap_or(base);
-    let named = COLUMNS.iter().any(|c| c.0 == base)
+    let named = map_fields().any(|f| f.name == base)
         || stem::ALL.contains(&base)
         || pendulum_atlas_core::config::Metric::ALL
             .iter()

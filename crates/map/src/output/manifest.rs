@@ -47,8 +47,12 @@ pub struct StepRange {
 pub struct MapManifest {
     /// The axes, in grid order.
     pub axes: Vec<ManifestAxis>,
-    /// Unit of every stored array, by file stem ("1": dimensionless).
+    /// Unit of every stored value array, by file stem ("1": dimensionless).
     pub units: BTreeMap<String, String>,
+    /// What each stored result is, by file stem (the result schema's descriptions; absent
+    /// from maps of earlier versions).
+    #[serde(default)]
+    pub descriptions: BTreeMap<String, String>,
     /// Shape of the grid (and of every per-cell array).
     pub shape: Vec<usize>,
     /// Cells of the grid.

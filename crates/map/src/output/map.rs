@@ -7,7 +7,8 @@ use crate::map::MapRun;
 use crate::map::continuation::ContinuationRun;
 use pendulum_atlas_core::config::{MapSpec, Metric};
 use pendulum_atlas_core::model::Status;
-use pendulum_atlas_core::reduce::Regime;
+use pendulum_atlas_core::reduce::{InstanceResult, Regime};
+use pendulum_atlas_core::schema::{Dtype, FIELDS, Field};
 use serde_json::{Value, json};
 
 // The writer of the whole folder and its pictures: behind the `pictures` feature, which the
@@ -20,42 +21,26 @@ pub use folder::{
     write_map,
 };
 
-/// An array stored per metric: (file stem, metric, unit, accessor).
-pub type Column = (
-    &'static str,
-    Metric,
-    &'static str,
-    fn(&pendulum_atlas_core::reduce::InstanceResult) -> f64,
-);
+/// The results a map folder stores (the result schema's rows with `in_map`), in `grid.csv`
+/// order: the values, then the codes (`regime`, `status`).
+pub fn map_fields() -> impl Iterator<Item = &'static Field> {
+    FIELDS.iter().filter(|f| f.in_map)
+}
 
-/// Every stored array of a map, in `grid.csv` order, with its unit ("1": dimensionless).
-pub const COLUMNS: [Column; 13] = [
-    ("K", Metric::K, "1", |r| r.k),
-    ("R", Metric::R, "1", |r| r.r),
-    ("period", Metric::Period, "forcing periods", |r| r.period),
-    ("hops", Metric::Hops, "1", |r| r.hops),
-    ("impacts_per_s", Metric::ImpactsPerS, "1/s", |r| {
-        r.impacts_per_s
-    }),
-    ("alpha_min_rad", Metric::AlphaRange, "rad", |r| {
-        r.alpha_min_rad
-    }),
-    ("alpha_max_rad", Metric::AlphaRange, "rad", |r| {
-        r.alpha_max_rad
-    }),
-    ("power_w", Metric::Power, "W", |r| r.power_w),
-    ("line_ratio", Metric::Line, "1", |r| r.line),
-    ("lyapunov", Metric::Lyapunov, "1/s", |r| r.lyapunov_per_s),
-    ("lyapunov_se", Metric::Lyapunov, "1/s", |r| {
-        r.lyapunov_se_per_s
-    }),
-    ("regime_confidence", Metric::Regime, "1", |r| {
-        r.regime_confidence
-    }),
-    ("verdict_confidence", Metric::Regime, "1", |r| {
-        r.verdict_confidence
-    }),
-];
+/// The stored results that are values (`float64` arrays), with their units.
+pub fn value_fields() -> impl Iterator<Item = &'static Field> {
+    map_fields().filter(|f| f.dtype == Dtype::F64)
+}
+
+/// One result of every instance of `results` as an array of its schema type.
+fn field_data(f: &Field, results: &[InstanceResult]) -> ArrayData {
+    let values = results.iter().map(|r| (f.get)(r));
+    match f.dtype {
+        Dtype::F64 | Dtype::U64 => ArrayData::F64(values.collect()),
+        Dtype::I8 => ArrayData::I8(values.map(|v| v as i8).collect()),
+        Dtype::U8 => ArrayData::U8(values.map(|v| v as u8).collect()),
+    }
+}
 
 /// The values of one stored array, in its own type.
 #[derive(Debug, Clone, PartialEq)]
@@ -70,16 +55,12 @@ pub enum ArrayData {
     I32(Vec<i32>),
 }
 
-/// The stems of a map's arrays besides the metric columns ([`COLUMNS`]) and the axes
+/// The stems of a map's arrays besides the results ([`map_fields`]) and the axes
 /// (`axis0`, ...): every name [`map_arrays`] gives, and what the folder check recognises as a
 /// map's own where no `map.json` lists the files (a killed map), so that a new array named
-/// here is known to both. The second direction of a continuation adds `_down` to the metric
-/// columns, `regime` and `status`; `hysteresis` and the attractors' stems are also pictures.
+/// here is known to both. The second direction of a continuation adds `_down` to the
+/// results' stems; `hysteresis` and the attractors' stems are also pictures.
 pub mod stem {
-    /// Regime codes.
-    pub const REGIME: &str = "regime";
-    /// Status codes.
-    pub const STATUS: &str = "status";
     /// Refinement's inferred flags.
     pub const INFERRED: &str = "inferred";
     /// Distinct attractors per cell.
@@ -97,9 +78,7 @@ pub mod stem {
     /// Where up and down ended on different attractors.
     pub const HYSTERESIS: &str = "hysteresis";
     /// Every one of them.
-    pub const ALL: [&str; 10] = [
-        REGIME,
-        STATUS,
+    pub const ALL: [&str; 8] = [
         INFERRED,
         ATTRACTORS,
         ATTRACTOR,
@@ -135,17 +114,10 @@ pub fn map_arrays(spec: &MapSpec, run: &MapRun) -> Vec<MapArray> {
         shape: shape.clone(),
         data,
     };
-    let mut arrays: Vec<MapArray> = COLUMNS
-        .iter()
-        .filter(|c| spec.wants(c.1))
-        .map(|(stem, _, _, get)| grid(stem, ArrayData::F64(run.results.iter().map(get).collect())))
+    let mut arrays: Vec<MapArray> = map_fields()
+        .filter(|f| f.formed_for(&spec.metrics))
+        .map(|f| grid(f.name, field_data(f, &run.results)))
         .collect();
-    if spec.wants(Metric::Regime) {
-        let codes = run.results.iter().map(|r| r.regime.code()).collect();
-        arrays.push(grid(stem::REGIME, ArrayData::I8(codes)));
-    }
-    let status = run.results.iter().map(|r| r.status.code()).collect();
-    arrays.push(grid(stem::STATUS, ArrayData::U8(status)));
     if !run.inferred.is_empty() {
         let flags = run.inferred.iter().map(|&i| u8::from(i)).collect();
         arrays.push(grid(stem::INFERRED, ArrayData::U8(flags)));
@@ -201,17 +173,12 @@ fn continuation_arrays(spec: &MapSpec, c: &ContinuationRun) -> Vec<MapArray> {
     let mut arrays = Vec::new();
     for leg in &c.legs[1..] {
         let suffix = leg.direction.name();
-        let rs = &leg.results;
-        for (stem, _, _, get) in COLUMNS.iter().filter(|c| spec.wants(c.1)) {
-            let values = ArrayData::F64(rs.iter().map(get).collect());
-            arrays.push(grid(format!("{stem}_{suffix}"), values));
+        for f in map_fields().filter(|f| f.formed_for(&spec.metrics)) {
+            arrays.push(grid(
+                format!("{}_{suffix}", f.name),
+                field_data(f, &leg.results),
+            ));
         }
-        if spec.wants(Metric::Regime) {
-            let codes = ArrayData::I8(rs.iter().map(|r| r.regime.code()).collect());
-            arrays.push(grid(format!("{}_{suffix}", stem::REGIME), codes));
-        }
-        let status = ArrayData::U8(rs.iter().map(|r| r.status.code()).collect());
-        arrays.push(grid(format!("{}_{suffix}", stem::STATUS), status));
     }
     if let Some(h) = &c.hysteresis {
         let flags = ArrayData::U8(h.differs.iter().map(|&d| u8::from(d)).collect());
@@ -236,9 +203,11 @@ pub fn map_manifest(spec: &MapSpec, run: &MapRun, files: &[String]) -> MapManife
                 label: a.label(),
             })
             .collect(),
-        units: COLUMNS
-            .iter()
-            .map(|c| (c.0.to_string(), c.2.to_string()))
+        units: value_fields()
+            .map(|f| (f.name.to_string(), f.unit.to_string()))
+            .collect(),
+        descriptions: map_fields()
+            .map(|f| (f.name.to_string(), f.description.to_string()))
             .collect(),
         shape: spec.shape(),
         instances: spec.instances(),

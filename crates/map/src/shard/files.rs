@@ -1,8 +1,9 @@
 //! A shard's folder: what it integrated, bit for bit, and the manifest that says which map
 //! and which part of it.
 //!
-//! - `shard_results.npy`: float64, one row per member instance, columns [`RESULT_COLUMNS`]
-//!   (the grid index first; status as its code; NaN kept as NaN);
+//! - `shard_results.npy`: float64, one row per member instance; its columns are named in
+//!   `shard.json` (`columns`): the grid index, then every row of the result schema
+//!   ([`shard_columns`]; codes and counts as numbers, NaN kept as NaN), read back by name;
 //! - `shard_strobe.npy`: float64, one row per member, the stroboscopic tail of a bifurcation
 //!   diagram (only when the map draws one);
 //! - `scene.toml`: the map scene as given (the `--set` overrides are in the manifest);
@@ -16,30 +17,22 @@ use crate::output::npy::{read_npy, write_npy_f64};
 use pendulum_atlas_core::config::MapSpec;
 use pendulum_atlas_core::engine::EngineInfo;
 use pendulum_atlas_core::model::Status;
-use pendulum_atlas_core::reduce::{InstanceResult, Regime};
+use pendulum_atlas_core::reduce::InstanceResult;
+use pendulum_atlas_core::schema::FIELDS;
 use pendulum_atlas_core::text::num;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
-/// Columns of `shard_results.npy`, in order.
-pub const RESULT_COLUMNS: [&str; 16] = [
-    "index",
-    "K",
-    "R",
-    "period",
-    "hops",
-    "impacts_per_s",
-    "alpha_min_rad",
-    "alpha_max_rad",
-    "power_w",
-    "line_ratio",
-    "status",
-    "steps",
-    "lyapunov_per_s",
-    "lyapunov_se_per_s",
-    "regime",
-    "regime_confidence",
-];
+/// The grid index's column of `shard_results.npy`.
+const INDEX: &str = "index";
+
+/// The columns of `shard_results.npy`, in the order written: the grid index, then every
+/// result of the schema ([`FIELDS`]).
+pub fn shard_columns() -> Vec<&'static str> {
+    std::iter::once(INDEX)
+        .chain(FIELDS.iter().map(|f| f.name))
+        .collect()
+}
 
 /// `shard.json`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -72,6 +65,8 @@ pub struct ShardManifest {
     pub sub_steps: Option<u64>,
     /// Stroboscopic samples kept per instance for the bifurcation diagram (0: none).
     pub strobe_tail: usize,
+    /// The columns of `shard_results.npy`, by name ([`shard_columns`]).
+    pub columns: Vec<String>,
     /// SHA-256 of the shard's values (`shard_results.npy`, then `shard_strobe.npy`) as
     /// little-endian f64 ([`values_sha256`]): `merge` refuses a shard whose files no longer
     /// hold what its run wrote.
@@ -125,25 +120,9 @@ pub struct ShardData {
     pub strobe_tail: Vec<Vec<f64>>,
 }
 
-fn row(index: usize, r: &InstanceResult) -> [f64; 16] {
-    [
-        index as f64,
-        r.k,
-        r.r,
-        r.period,
-        r.hops,
-        r.impacts_per_s,
-        r.alpha_min_rad,
-        r.alpha_max_rad,
-        r.power_w,
-        r.line,
-        f64::from(r.status.code()),
-        r.steps as f64,
-        r.lyapunov_per_s,
-        r.lyapunov_se_per_s,
-        f64::from(r.regime.code()),
-        r.regime_confidence,
-    ]
+/// A result's row of `shard_results.npy`: its grid index, then every field of the schema.
+fn row(index: usize, r: &InstanceResult) -> impl Iterator<Item = f64> + '_ {
+    std::iter::once(index as f64).chain(FIELDS.iter().map(|f| (f.get)(r)))
 }
 
 /// Write shard `shard` of `spec` (its results `run`, for the instances `members`) into `dir`;
@@ -165,7 +144,8 @@ pub fn write_shard(
         .collect();
     let mut written = Vec::new();
     let p = dir.join("shard_results.npy");
-    write_npy_f64(&p, &[members.len(), RESULT_COLUMNS.len()], &data)?;
+    let columns = shard_columns();
+    write_npy_f64(&p, &[members.len(), columns.len()], &data)?;
     written.push(p);
     let tail = run.strobe_tail.first().map_or(0, Vec::len);
     let flat: Vec<f64> = run.strobe_tail.iter().flatten().copied().collect();
@@ -189,6 +169,7 @@ pub fn write_shard(
         stopped_early: run.stopped_early,
         sub_steps: run.sub_steps,
         strobe_tail: tail,
+        columns: columns.iter().map(|c| c.to_string()).collect(),
         values_sha256: values_sha256(&[&data, &flat]),
     };
     written.push(write_json(&dir.join(SHARD_JSON), &manifest)?);
@@ -225,14 +206,15 @@ pub fn read_shard(dir: &Path) -> Result<ShardData, ShardReadError> {
         .map_err(|e| fail(pendulum_atlas_core::text::json_damage(SHARD_JSON, &e)))?;
     let scene_text = text("scene.toml")?;
     let (shape, rows) = read_npy(&dir.join("shard_results.npy")).map_err(&fail)?;
-    if shape != [manifest.members, RESULT_COLUMNS.len()] {
+    let width = manifest.columns.len();
+    if shape != [manifest.members, width] {
         return Err(fail(format!(
-            "shard_results.npy has shape {}, the manifest says {} rows of {}",
+            "shard_results.npy has shape {}, the manifest says {} rows of {width}",
             pendulum_atlas_core::text::shape(&shape),
             manifest.members,
-            RESULT_COLUMNS.len()
         )));
     }
+    let at = column_positions(&manifest.columns).map_err(&fail)?;
     let strobe = read_strobe(dir, &manifest).map_err(&fail)?;
     if values_sha256(&[&rows, &strobe]) != manifest.values_sha256 {
         return Err(fail(
@@ -241,9 +223,10 @@ pub fn read_shard(dir: &Path) -> Result<ShardData, ShardReadError> {
     }
     let mut members = Vec::with_capacity(manifest.members);
     let mut results = Vec::with_capacity(manifest.members);
-    for r in rows.chunks_exact(RESULT_COLUMNS.len()) {
-        members.push(r[0] as usize);
-        results.push(result_of(r).map_err(&fail)?);
+    for r in rows.chunks_exact(width.max(1)) {
+        let (index, result) = result_of(r, &at).map_err(&fail)?;
+        members.push(index);
+        results.push(result);
     }
     let strobe_tail = match manifest.strobe_tail {
         0 => Vec::new(),
@@ -277,50 +260,41 @@ fn read_strobe(dir: &Path, manifest: &ShardManifest) -> Result<Vec<f64>, String>
     Ok(flat)
 }
 
-/// A shard row as a result; its index, codes and steps must be whole numbers.
-fn result_of(r: &[f64]) -> Result<InstanceResult, String> {
-    for (col, name) in [(0, "index"), (10, "status"), (11, "steps"), (14, "regime")] {
-        let v = r[col];
-        // Whole and below 2^53, where an f64 still counts every integer.
-        let whole = v.is_finite() && v.fract() == 0.0 && (name == "regime" || v >= 0.0);
-        if !whole || v.abs() >= 9.007_199_254_740_992e15 {
-            return Err(format!(
-                "a row's {name} is {}, not a whole number from 0 to 2^53",
-                num(v)
-            ));
+/// Where each column of `shard_results.npy` is: the grid index's, then each schema row's;
+/// a shard that lacks one (or names one twice) was written by another version.
+fn column_positions(columns: &[String]) -> Result<Vec<usize>, String> {
+    let position = |name: &str| {
+        let mut at = columns.iter().enumerate().filter(|(_, c)| *c == name);
+        match (at.next(), at.next()) {
+            (Some((i, _)), None) => Ok(i),
+            (None, _) => Err(format!(
+                "shard.json names no column `{name}`: it was written by another version of pendulum-atlas; rerun the shard"
+            )),
+            (Some(_), Some(_)) => Err(format!("shard.json names the column `{name}` twice")),
         }
+    };
+    shard_columns().into_iter().map(position).collect()
+}
+
+/// A shard row as its grid index and result, read by name ([`column_positions`]): the
+/// index whole, each code and count one of its type's (the schema's `set`).
+fn result_of(r: &[f64], at: &[usize]) -> Result<(usize, InstanceResult), String> {
+    let index = r[at[0]];
+    if !(index.is_finite()
+        && index.fract() == 0.0
+        && (0.0..9.007_199_254_740_992e15).contains(&index))
+    {
+        return Err(format!(
+            "a row's index is {}, not a whole number from 0 to 2^53",
+            num(index)
+        ));
     }
-    let status = Status::from_code(r[10] as u32).ok_or_else(|| {
-        format!(
-            "row of instance {}: unknown status code {}",
-            r[0],
-            num(r[10])
-        )
-    })?;
-    let regime = Regime::from_code(r[14] as i64).ok_or_else(|| {
-        format!(
-            "row of instance {}: unknown regime code {}",
-            r[0],
-            num(r[14])
-        )
-    })?;
-    Ok(InstanceResult {
-        k: r[1],
-        r: r[2],
-        period: r[3],
-        hops: r[4],
-        impacts_per_s: r[5],
-        alpha_min_rad: r[6],
-        alpha_max_rad: r[7],
-        power_w: r[8],
-        line: r[9],
-        lyapunov_per_s: r[12],
-        lyapunov_se_per_s: r[13],
-        regime,
-        regime_confidence: r[15],
-        // The merge's confidence stage fills it: a shard's cells lack some neighbours.
-        verdict_confidence: f64::NAN,
-        status,
-        steps: r[11] as u64,
-    })
+    let mut out = InstanceResult::unset(Status::Ok, 0);
+    for (f, &i) in FIELDS.iter().zip(&at[1..]) {
+        (f.set)(&mut out, r[i])
+            .map_err(|e| format!("row of instance {}: its {} {e}", num(index), f.name))?;
+    }
+    // The merge's confidence stage fills it: a shard's cells lack some neighbours.
+    out.verdict_confidence = f64::NAN;
+    Ok((index as usize, out))
 }

@@ -104,6 +104,7 @@ pub fn shader_header(segments: usize) -> String {
     let _ = writeln!(h, "const ADAPTIVE_GROW: f32 = {GROW:e};");
     h.push_str(&wgsl_array("IMEX_AE", AE.as_flattened()));
     h.push_str(&wgsl_array("IMEX_AI", AI.as_flattened()));
+    h.push_str(&crate::engine::gpu::layout::accum_wgsl());
     h.push('\n');
     h
 }

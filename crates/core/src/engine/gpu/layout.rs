@@ -8,6 +8,7 @@ use crate::config::StepControl;
 use crate::engine::plan::{EnsemblePlan, InstancePlan};
 use crate::reduce::TwinPlan;
 use crate::reduce::lyapunov::{LYAPUNOV_BLOCKS, TwinNorm};
+use crate::schema::{GPU_SLOTS, WgslType, gpu_fields};
 use bytemuck::{Pod, Zeroable};
 
 /// Largest segment count the GPU kernel's per-invocation arrays hold.
@@ -218,41 +219,25 @@ impl GpuInstanceParams {
     }
 }
 
-/// Running accumulators and reductions of one instance (WGSL `Accum`).
+/// Running accumulators and reductions of one instance (WGSL `Accum`, generated from this
+/// definition: [`accum_wgsl`]). Its first words are the result schema's GPU slots
+/// ([`crate::schema::gpu_fields`], in the table's order), then the engine's own words
+/// ([`ACCUM_ENGINE_WORDS`], member for member).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct GpuAccum {
-    /// Steps taken.
-    pub step: u32,
-    /// 0 ok, 1 diverged, 2 non-finite, 3 escaped.
-    pub status: u32,
+    /// The result schema's words (K, the period, the tallies, λ1, the regime, the status, the
+    /// steps taken...), as bits; read with [`GpuAccum::read`].
+    pub slots: [u32; GPU_SLOTS],
     /// Bumper penetration flags after the last step.
     pub touch: u32,
     /// Current well (+1, −1, 0 = none yet).
     pub well: i32,
-    /// Hops after the transient.
-    pub hops: u32,
-    /// Contact onsets after the transient.
-    pub impacts: u32,
-    /// Period of the stroboscopic section.
-    pub period: u32,
     /// Adaptive steps: the position within the base step where the last dispatch stopped
     /// (in units of the finest step; 0 at a base step's start).
     pub sub_pos: u32,
-    /// Smallest α after the transient (rad).
-    pub alpha_min: f32,
-    /// Largest α after the transient (rad).
-    pub alpha_max: f32,
-    /// Σ v²/R_L (Kahan sum).
-    pub power_sum: f32,
-    /// Kahan compensation.
+    /// Kahan compensation of the power sum.
     pub power_comp: f32,
-    /// K.
-    pub k: f32,
-    /// R.
-    pub r: f32,
-    /// Dominant line over the forcing frequency.
-    pub line: f32,
     /// Adaptive steps: the sub-steps tried, accepted and rejected.
     pub sub_steps: u32,
     /// λ1's twin: Σ ln(d/d0) per block of the window.
@@ -261,12 +246,6 @@ pub struct GpuAccum {
     pub lyap_n: u32,
     /// The twin's state: [`TWIN_RUNNING`], [`TWIN_BROKEN`] bits.
     pub twin_flags: u32,
-    /// λ1 (1/s).
-    pub lyap: f32,
-    /// Its standard error (1/s).
-    pub lyap_se: f32,
-    /// The regime's code ([`crate::reduce::Regime::code`]).
-    pub regime: i32,
     /// λ1's twin: its first stroboscopic instant (absolute, the transient included).
     pub tw_start: u32,
     /// Its window (renormalisations averaged).
@@ -299,6 +278,48 @@ pub struct GpuAccum {
     pub sub_onsets: u32,
 }
 
+/// The engine's own words of `Accum` after the result slots, as WGSL members, in
+/// [`GpuAccum`]'s order (the layout test holds the two together).
+pub const ACCUM_ENGINE_WORDS: [(&str, &str); 23] = [
+    ("touch", "u32"),
+    ("well", "i32"),
+    ("sub_pos", "u32"),
+    ("power_comp", "f32"),
+    ("sub_steps", "u32"),
+    ("lyap_sums", "array<f32, LYAPUNOV_BLOCKS>"),
+    ("lyap_n", "u32"),
+    ("twin_flags", "u32"),
+    ("tw_start", "u32"),
+    ("tw_window", "u32"),
+    ("p_hops", "u32"),
+    ("p_impacts", "u32"),
+    ("p_power", "f32"),
+    ("p_amin", "f32"),
+    ("p_amax", "f32"),
+    ("e_phase", "u32"),
+    ("e_p", "u32"),
+    ("e_until", "u32"),
+    ("e_seen", "u32"),
+    ("e_last", "u32"),
+    ("stopped", "u32"),
+    ("level", "u32"),
+    ("sub_onsets", "u32"),
+];
+
+/// The WGSL `Accum` struct: the schema's result words, then [`ACCUM_ENGINE_WORDS`].
+pub fn accum_wgsl() -> String {
+    let mut s = String::from(
+        "// Mirrors `GpuAccum`: the result schema's words (src/schema.rs), then the engine's own.\nstruct Accum {\n",
+    );
+    for (_, g) in gpu_fields() {
+        s += &format!("    {}: {},\n", g.member, g.ty.name());
+    }
+    for (name, ty) in ACCUM_ENGINE_WORDS {
+        s += &format!("    {name}: {ty},\n");
+    }
+    s + "}\n"
+}
+
 /// `GpuAccum::twin_flags`: the twin runs (the kernel advances it).
 pub const TWIN_RUNNING: u32 = 1;
 /// `GpuAccum::twin_flags`: a separation was zero or not finite.
@@ -306,23 +327,43 @@ pub const TWIN_BROKEN: u32 = 2;
 
 impl GpuAccum {
     /// The state before the first step, with bumper flags `touch`, of an instance whose twin
-    /// (if any) starts at instant `tw_start` with a window of `tw_window`.
+    /// (if any) starts at instant `tw_start` with a window of `tw_window`: each result word at
+    /// its schema's initial value.
     pub fn initial(touch: u32, tw_start: u32, tw_window: u32) -> GpuAccum {
+        let mut slots = [0u32; GPU_SLOTS];
+        for (word, (_, g)) in slots.iter_mut().zip(gpu_fields()) {
+            *word = match g.ty {
+                WgslType::F32 => g.initial.to_bits(),
+                WgslType::U32 => g.initial as u32,
+                WgslType::I32 => (g.initial as i32) as u32,
+            };
+        }
         GpuAccum {
+            slots,
             touch,
             tw_start,
             tw_window,
-            alpha_min: f32::MAX,
-            alpha_max: -f32::MAX,
             p_amin: f32::MAX,
             p_amax: -f32::MAX,
-            k: f32::NAN,
-            r: f32::NAN,
-            line: f32::NAN,
-            lyap: f32::NAN,
-            lyap_se: f32::NAN,
             ..GpuAccum::zeroed()
         }
+    }
+
+    /// The value of the result `name`'s word (a schema row with a GPU slot).
+    pub fn read(&self, name: &str) -> f64 {
+        let (i, (_, g)) = gpu_fields()
+            .enumerate()
+            .find(|(_, (f, _))| f.name == name)
+            .unwrap_or_else(|| panic!("`{name}` has no GPU slot in the result schema"));
+        g.ty.read(self.slots[i])
+    }
+
+    /// The raw word of the result `name` (a code or count, exactly).
+    pub fn word(&self, name: &str) -> u32 {
+        let i = gpu_fields()
+            .position(|(f, _)| f.name == name)
+            .unwrap_or_else(|| panic!("`{name}` has no GPU slot in the result schema"));
+        self.slots[i]
     }
 }
 

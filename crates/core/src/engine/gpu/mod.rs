@@ -31,7 +31,8 @@ use crate::engine::plan::EnsemblePlan;
 use crate::engine::{EngineRun, EngineTimings, EnsembleEngine, Progress, ProgressUnit, Readback};
 use crate::model::Status;
 use crate::reduce::regime::confidence;
-use crate::reduce::{InstanceResult, ReduceOptions, Regime, Span, Tally};
+use crate::reduce::{InstanceResult, ReduceOptions, Span, Tally};
+use crate::schema::{Source, field, gpu_fields};
 use buffers::{Buffers, Sizes, batch_capacity, software_step_budget};
 use bytemuck::Zeroable;
 use kernels::{KernelKey, Kernels, WG};
@@ -207,11 +208,11 @@ fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings, layout: StateLayout)
         want_r: want(Metric::R),
         want_line: want(Metric::Line),
         want_k: want(Metric::K),
-        run_k_final: want(Metric::K) || want(Metric::Period),
+        run_k_final: Metric::any_from(&plan.metrics, Source::Strobe),
         paper_convention: reduce.paper_convention,
         n_c: reduce.c_values.len().max(1),
         method: plan.method,
-        want_twin: want(Metric::Lyapunov),
+        want_twin: Metric::any_from(&plan.metrics, Source::Twin),
         want_early: plan.early_stop.is_some(),
         adaptive: plan.is_adaptive(),
         layout,
@@ -611,21 +612,23 @@ fn run_reductions(
 /// instance only after its last step (or stopped early before it).
 fn checked_status(index: usize, a: &GpuAccum, total_steps: u64) -> Result<Status, EngineError> {
     let inconsistent = |what: String| EngineError::GpuInconsistent { index, what };
-    let status = Status::from_code(a.status)
-        .ok_or_else(|| inconsistent(format!("unknown status code {}", a.status)))?;
-    let stopped = a.stopped != 0 && u64::from(a.step) < total_steps;
-    if status == Status::Ok && u64::from(a.step) != total_steps && !stopped {
+    let code = a.word("status");
+    let status = Status::from_code(code)
+        .ok_or_else(|| inconsistent(format!("unknown status code {code}")))?;
+    let step = u64::from(a.word("steps"));
+    let stopped = a.stopped != 0 && step < total_steps;
+    if status == Status::Ok && step != total_steps && !stopped {
         return Err(inconsistent(format!(
-            "status ok at step {} of {total_steps}",
-            a.step
+            "status ok at step {step} of {total_steps}"
         )));
     }
     Ok(status)
 }
 
-/// The GPU's accumulators and reductions as instance results.
+/// The GPU's accumulators and reductions as instance results: the tally's words through
+/// [`Tally::result`], the words the kernels leave final ([`crate::schema::Stage::gpu_final`]) as they are,
+/// the regime's code checked, and its confidence formed on the host.
 fn results(plan: &EnsemblePlan, accum: &[GpuAccum]) -> Result<Vec<InstanceResult>, EngineError> {
-    let wants = |m: Metric| plan.metrics.contains(&m);
     plan.instances
         .iter()
         .zip(accum)
@@ -634,45 +637,33 @@ fn results(plan: &EnsemblePlan, accum: &[GpuAccum]) -> Result<Vec<InstanceResult
             let status = checked_status(index, a, p.total_steps())?;
             let tally = Tally {
                 status,
-                steps: u64::from(a.step),
-                alpha_range_rad: (f64::from(a.alpha_min), f64::from(a.alpha_max)),
-                hops: a.hops,
-                impacts: a.impacts,
-                power_sum_w: f64::from(a.power_sum),
+                steps: u64::from(a.word("steps")),
+                alpha_range_rad: (a.read("alpha_min_rad"), a.read("alpha_max_rad")),
+                hops: a.word("hops"),
+                impacts: a.word("impacts_per_s"),
+                power_sum_w: a.read("power_w"),
             };
             let span = Span {
                 seconds: p.post_transient_s(),
                 steps: p.total_steps() - p.transient_steps(),
             };
             let mut out = tally.result(span, &plan.metrics);
-            if status == Status::Ok {
-                if wants(Metric::K) {
-                    out.k = f64::from(a.k);
-                }
-                if wants(Metric::R) {
-                    out.r = f64::from(a.r);
-                }
-                if wants(Metric::Period) {
-                    out.period = f64::from(a.period);
-                }
-                if wants(Metric::Line) {
-                    out.line = f64::from(a.line);
-                }
-                if wants(Metric::Lyapunov) {
-                    out.lyapunov_per_s = f64::from(a.lyap);
-                    out.lyapunov_se_per_s = f64::from(a.lyap_se);
+            let inconsistent = |what: String| EngineError::GpuInconsistent { index, what };
+            for (i, (f, g)) in gpu_fields().enumerate() {
+                let formed = f.formed_for(&plan.metrics);
+                if formed && f.stage.gpu_final() && status == Status::Ok {
+                    (f.set)(&mut out, g.ty.read(a.slots[i]))
+                        .map_err(|e| inconsistent(format!("{} {e}", f.name)))?;
                 }
             }
-            if wants(Metric::Regime) {
-                let regime = Regime::from_code(i64::from(a.regime)).ok_or_else(|| {
-                    EngineError::GpuInconsistent {
-                        index,
-                        what: format!("unknown regime code {}", a.regime),
-                    }
-                })?;
-                out.regime = regime;
-                out.regime_confidence =
-                    confidence(regime, &out.evidence(1.0 / p.frequency_hz, p.strobe_count));
+            if plan.metrics.contains(&Metric::Regime) {
+                let regime = field("regime").expect("the schema's regime");
+                (regime.set)(&mut out, a.read("regime"))
+                    .map_err(|e| inconsistent(format!("regime {e}")))?;
+                out.regime_confidence = confidence(
+                    out.regime,
+                    &out.evidence(1.0 / p.frequency_hz, p.strobe_count),
+                );
             }
             Ok(out)
         })

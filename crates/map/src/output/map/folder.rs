@@ -4,7 +4,8 @@
 
 use super::ArrayData;
 use super::{
-    ATTRACTORS_JSON, COLUMNS, MapSpec, Metric, Regime, Status, map_arrays, map_manifest, stem,
+    ATTRACTORS_JSON, Dtype, MapSpec, Metric, Regime, Status, map_arrays, map_fields, map_manifest,
+    stem,
 };
 use crate::map::MapRun;
 use crate::output::OutputError;
@@ -80,25 +81,22 @@ fn write_scene_toml(path: &Path, spec: &MapSpec) -> Result<PathBuf, OutputError>
     )
 }
 
-/// `grid.csv`: a row per instance, the axis values then every column.
+/// `grid.csv`: a row per instance, the axis values, every stored result ([`map_fields`]:
+/// values as numbers, `nan` where not formed; codes by name), then `inferred`.
 fn write_grid_csv(path: &Path, spec: &MapSpec, run: &MapRun) -> Result<PathBuf, OutputError> {
     let io = |e| OutputError::io(path, e);
     let mut w = AtomicFile::create(path)?;
     let mut header: Vec<&str> = spec.axes.iter().map(|a| a.key.as_str()).collect();
-    header.extend(COLUMNS.iter().map(|c| c.0));
-    header.push("regime");
-    header.push("status");
-    header.push("inferred");
+    header.extend(map_fields().map(|f| f.name));
+    header.push(stem::INFERRED);
     writeln!(w, "{}", header.join(",")).map_err(io)?;
     for (k, r) in run.results.iter().enumerate() {
         let mut row: Vec<String> = spec.values_of(k).iter().map(|v| format!("{v}")).collect();
-        row.extend(COLUMNS.iter().map(|(_, _, _, get)| fmt(get(r))));
-        row.push(if spec.wants(Metric::Regime) {
-            r.regime.name().to_string()
-        } else {
-            "nan".into()
-        });
-        row.push(r.status.as_str().to_string());
+        row.extend(map_fields().map(|f| match f.dtype {
+            Dtype::F64 | Dtype::U64 => fmt((f.get)(r)),
+            Dtype::I8 | Dtype::U8 if f.formed_for(&spec.metrics) => f.code_name(r),
+            Dtype::I8 | Dtype::U8 => "nan".into(),
+        }));
         row.push(u8::from(run.inferred.get(k).copied().unwrap_or(false)).to_string());
         writeln!(w, "{}", row.join(",")).map_err(io)?;
     }
@@ -218,10 +216,11 @@ pub fn metric_style(m: Metric, spec: &MapSpec) -> Style {
         palette: Palette::Sequential(range),
     };
     match m {
-        Metric::K => seq("0–1 test K (0 regular, 1 chaotic)".into(), Some((0.0, 1.0))),
+        Metric::K => seq(m.label().into(), Some((0.0, 1.0))),
         Metric::R => seq(
             format!(
-                "phase synchronisation R ({} convention)",
+                "{} ({} convention)",
+                m.label(),
                 match spec.phase_convention {
                     pendulum_atlas_core::analysis::PhaseConvention::Standard => "standard",
                     pendulum_atlas_core::analysis::PhaseConvention::Paper => "paper",
@@ -233,19 +232,15 @@ pub fn metric_style(m: Metric, spec: &MapSpec) -> Style {
             format!("period (forcing periods; grey: none ≤ {})", spec.period_max),
             Some((1.0, f64::from(spec.period_max.max(2)))),
         ),
-        Metric::Hops => seq("hops between wells".into(), None),
-        Metric::ImpactsPerS => seq("impacts per second (1/s)".into(), None),
-        Metric::AlphaRange => seq("holder angle range max−min (rad)".into(), None),
-        Metric::Power => seq("mean harvested power (W)".into(), None),
-        Metric::Line => seq("dominant line of α / forcing frequency".into(), None),
         Metric::Lyapunov => Style {
-            label: "largest Lyapunov exponent λ1 (1/s)".into(),
+            label: m.label().into(),
             palette: Palette::Diverging(None),
         },
         Metric::Regime => Style {
-            label: "regime".into(),
+            label: m.label().into(),
             palette: regime_palette(spec.period_max),
         },
+        _ => seq(m.label().into(), None),
     }
 }
 
