@@ -451,7 +451,7 @@ fn adaptive_steps_follow_the_reference_through_impacts_and_converge_with_the_tol
 /// step (an estimate of lower order would fall by 8 or less).
 #[test]
 fn the_explicit_pairs_estimate_is_of_fourth_order_in_the_step() {
-    use pendulum_atlas_core::engine::adaptive::Rungs;
+    use pendulum_atlas_core::engine::ladder::Rungs;
     use pendulum_atlas_core::engine::rk4::Rk4Rungs;
     let s = scene(&[
         "beam.segments=3",

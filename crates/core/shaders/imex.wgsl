@@ -203,7 +203,7 @@ fn imex_error(h: f32) -> f32 {
 // max(e, |err| / (atol + rtol |y|)), a NaN ratio passed over (read from the bits, as
 // `not_finite` does).
 fn scaled_max(e: f32, err: f32, y: f32) -> f32 {
-    let r = abs(err) / (P.atol + P.rtol * abs(y));
+    let r = ladder_ratio(err, y, P.rtol, P.atol);
     if (bitcast<u32>(r) & 0x7fffffffu) > 0x7f800000u {
         return e;
     }

@@ -474,7 +474,7 @@ fn adaptive_substep(ph: u32, twin_on: bool, l: ptr<function, Ladder>) -> bool {
         rk4_stages(ph, start, width, h, true);
         e = rk4_error(cart_acc(ph, start + width), h);
     }
-    if e > 1.0 && k < MAX_LEVEL {
+    if ladder_rejects(e, k) {
         (*l).level = k + 1u;
         return false;
     }
@@ -503,9 +503,7 @@ fn adaptive_substep(ph: u32, twin_on: bool, l: ptr<function, Ladder>) -> bool {
         }
     }
     let pos = (*l).pos + span;
-    if k > 0u && pos % (span << 1u) == 0u && e <= ADAPTIVE_GROW {
-        (*l).level = k - 1u;
-    }
+    (*l).level = ladder_next_level(k, pos, e);
     if pos < unit {
         (*l).pos = pos;
         return false;

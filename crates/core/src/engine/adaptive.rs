@@ -9,13 +9,7 @@
 //!   (first same as last: four evaluations per try); its base step is RK4's automatic
 //!   (stable) step, so the ladder only ever refines it.
 //!
-//! ```text
-//! levels:   h_k = H / 2^k,  k = 0 … MAX_LEVEL
-//! error:    e = max_s |x_s| / (atol + rtol·|y_s|),  x the pair's error estimate
-//! accept:   e ≤ 1 (or k = MAX_LEVEL, counted as forced); then, where the position within H
-//!           is a multiple of h_{k−1} and e ≤ GROW, k ← k − 1 for the next step
-//! reject:   k ← k + 1, the same step again from the same state
-//! ```
+//! The ladder's levels, error norm and rules are [`crate::engine::ladder`]'s.
 //!
 //! So every base step ends exactly on the sample grid (stroboscopic and output instants, and
 //! the forcing's phase, hit exactly), and IMEX refactors no matrix per step (S⁻¹ is built once
@@ -32,18 +26,13 @@
 
 use crate::config::StepControl;
 use crate::engine::imex::{C, Imex, ImexMatrices};
+use crate::engine::ladder::{Rung, Rungs, Tolerance};
 use crate::engine::rk4::Rk4Rungs;
 use crate::engine::stepper::{CartClock, Stepper};
 use crate::engine::twin::{onset_saltation, onsets_of};
 use crate::model::{Branches, Chain, ModelParams, Real, Workspace};
 use serde::Serialize;
 use std::sync::Arc;
-
-/// The finest level: `H / 2^20`, a microsecond of a one-second base step.
-pub const MAX_LEVEL: u32 = 20;
-
-/// The error below which the next step may double (its error then about 8× as large).
-pub const GROW: f64 = 0.1;
 
 /// The finest relative tolerance an f32 engine meets. Below it the tolerance is under f32's
 /// resolution of the state, the estimate cannot meet it, and every sub-step is forced at the
@@ -101,57 +90,6 @@ impl SubstepStats {
     }
 }
 
-/// A pair the ladder steps with: a sub-step of level `k` (`h = H / 2^k`) tried from `y`, its
-/// error estimate, and the sub-step taken.
-pub trait Rungs<T: Real>: Sized {
-    /// Evaluations of the chain's right-hand side per tried sub-step.
-    const EVALUATIONS: u64;
-
-    /// Evaluations beside [`Rungs::EVALUATIONS`] per try so far (none unless the pair says).
-    fn extra_evaluations(&self) -> u64 {
-        0
-    }
-
-    /// The same pair with nothing carried over (a twin's).
-    fn fresh(&self) -> Self;
-
-    /// Every stage of a sub-step of level `k` from `y` by the exact law, `y` left as it is;
-    /// `acc(c)` is the cart's acceleration at fraction `c` of the sub-step. The bumpers'
-    /// branches at each stage (what a twin follows).
-    fn stages(
-        &mut self,
-        k: usize,
-        chain: &Chain<T>,
-        ws: &mut Workspace<T>,
-        y: &[T],
-        acc: &impl Fn(f64) -> T,
-    ) -> [Branches<T>; 4];
-
-    /// The error estimate of the stages just computed, component by component, into `out`
-    /// (the state's length).
-    fn error(
-        &mut self,
-        k: usize,
-        chain: &Chain<T>,
-        ws: &mut Workspace<T>,
-        at: (&[T], &impl Fn(f64) -> T),
-        out: &mut [T],
-    );
-
-    /// Take the sub-step whose stages were just computed: `y` advanced (compensated).
-    fn finish(&mut self, k: usize, y: &mut [T]);
-
-    /// A twin's sub-step of level `k`, every stage on the main stages' `branches`.
-    fn follow(
-        &mut self,
-        k: usize,
-        chain: &Chain<T>,
-        ws: &mut Workspace<T>,
-        at: (&mut [T], &impl Fn(f64) -> T),
-        branches: &[Branches<T>; 4],
-    );
-}
-
 /// The IMEX pair on the ladder: one [`Imex`] stepper per level, each with its S⁻¹(h_k),
 /// built when first used; the state's summation compensation passes to the level that takes
 /// the next sub-step.
@@ -172,7 +110,7 @@ impl<T: Real> ImexRungs<T> {
             params: Arc::new(params.clone()),
             base_s,
             dim,
-            levels: vec![None; MAX_LEVEL as usize + 1],
+            levels: vec![None; crate::engine::ladder::MAX_LEVEL as usize + 1],
             level: 0,
         }
     }
@@ -255,9 +193,8 @@ impl<T: Real> Rungs<T> for ImexRungs<T> {
 pub struct Adaptive<T, R> {
     rungs: R,
     base_s: f64,
-    rtol: f64,
-    atol: f64,
-    level: usize,
+    tol: Tolerance,
+    rung: Rung,
     onsets: u32,
     stats: SubstepStats,
     /// The error vector of the step being tried.
@@ -293,9 +230,8 @@ impl<T: Real, R: Rungs<T>> Adaptive<T, R> {
         Adaptive {
             rungs,
             base_s,
-            rtol,
-            atol,
-            level: 0,
+            tol: Tolerance { rtol, atol },
+            rung: Rung::default(),
             onsets: 0,
             stats: SubstepStats {
                 evaluations_per_try: R::EVALUATIONS,
@@ -313,10 +249,6 @@ impl<T: Real, R: Rungs<T>> Adaptive<T, R> {
         }
     }
 
-    fn h(&self, k: usize) -> f64 {
-        self.base_s / f64::from(1u32 << k)
-    }
-
     /// The scaled error of the stages just computed at level `k` for a step from `y`.
     fn error(
         &mut self,
@@ -325,15 +257,10 @@ impl<T: Real, R: Rungs<T>> Adaptive<T, R> {
         ws: &mut Workspace<T>,
         at: (&[T], &impl Fn(f64) -> T),
     ) -> f64 {
-        let (rtol, atol) = (self.rtol, self.atol);
         let mut e = std::mem::take(&mut self.scratch);
         e.resize(at.0.len(), T::of(0.0));
         self.rungs.error(k, chain, ws, at, &mut e);
-        let worst = e
-            .iter()
-            .zip(at.0)
-            .map(|(es, ys)| es.wide().abs() / (atol + rtol * ys.wide().abs()))
-            .fold(0.0, f64::max);
+        let worst = self.tol.scaled_error(&e, at.0, 0);
         self.scratch = e;
         worst
     }
@@ -347,24 +274,20 @@ impl<T: Real, R: Rungs<T>> Adaptive<T, R> {
         (step, clock): (u64, &CL),
         mut twin: Option<(&mut Adaptive<T, R>, &mut [T])>,
     ) {
-        let unit = 1u64 << MAX_LEVEL;
-        let mut pos = 0u64;
         let mut touching = chain.touching(y);
         self.onsets = 0;
-        while pos < unit {
-            let k = self.level;
-            let span = unit >> k;
-            let (start, width) = (pos as f64 / unit as f64, span as f64 / unit as f64);
+        loop {
+            let k = self.rung.level as usize;
+            let (start, width) = self.rung.fractions();
             let acc = |c: f64| T::of(clock.acceleration(step, start + c * width));
             let branches = self.rungs.stages(k, chain, ws, y, &acc);
             let e = self.error(k, chain, ws, (y, &acc));
-            if e > 1.0 && k < MAX_LEVEL as usize {
+            if !self.rung.judge(e) {
                 self.stats.rejected += 1;
-                self.level = k + 1;
                 continue;
             }
             self.stats.forced += u64::from(e > 1.0);
-            self.stats.took(self.h(k));
+            self.stats.took(self.rung.step_s(self.base_s));
             self.rungs.finish(k, y);
             let now = chain.touching(y);
             let new = onsets_of(touching, now);
@@ -374,10 +297,8 @@ impl<T: Real, R: Rungs<T>> Adaptive<T, R> {
                 ts.rungs.follow(k, chain, ws, (ty, &acc), &branches);
                 onset_saltation(chain, ws, y, ty, new);
             }
-            pos += span;
-            let aligned = k > 0 && pos.is_multiple_of(span << 1);
-            if aligned && e <= GROW {
-                self.level = k - 1;
+            if self.rung.advance(e) {
+                return;
             }
         }
     }
@@ -385,7 +306,11 @@ impl<T: Real, R: Rungs<T>> Adaptive<T, R> {
 
 impl<T: Real, R: Rungs<T>> Stepper<T> for Adaptive<T, R> {
     fn fresh(&self) -> Self {
-        Adaptive::new(self.rungs.fresh(), self.base_s, (self.rtol, self.atol))
+        Adaptive::new(
+            self.rungs.fresh(),
+            self.base_s,
+            (self.tol.rtol, self.tol.atol),
+        )
     }
 
     fn step<CL: CartClock>(

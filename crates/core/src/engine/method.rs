@@ -53,6 +53,18 @@ impl Method {
             Method::Imex => "imex",
         }
     }
+
+    /// What sets its steps under `integration.step = "adaptive"`.
+    pub fn adaptive_reason(self) -> &'static str {
+        match self {
+            Method::Rk4 => {
+                "integration.step = \"adaptive\": RK4's embedded third-order solution sets each step, within RK4's automatic step"
+            }
+            Method::Imex => {
+                "integration.step = \"adaptive\": the embedded solution of ARK3(2)4L[2]SA sets each step"
+            }
+        }
+    }
 }
 
 /// The automatic steps of both methods for one chain, and what bounds them.

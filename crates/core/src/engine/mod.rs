@@ -24,6 +24,7 @@ mod early_rule;
 mod error;
 pub mod gpu;
 pub mod imex;
+pub mod ladder;
 pub mod method;
 pub mod plan;
 mod reference;

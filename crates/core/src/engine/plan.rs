@@ -16,7 +16,6 @@ use crate::config::{
 };
 use crate::engine::early_rule::EarlyStop;
 use crate::engine::error::EngineError;
-use crate::engine::gpu::state_layout::{StateLayout, resolve};
 use crate::engine::imex::ImexMatrices;
 use crate::engine::method::{Method, MethodSteps};
 use crate::engine::step_plan::given_step_warning;
@@ -164,9 +163,9 @@ pub struct EnsemblePlan {
     /// The twins' separation d0, when λ1 is asked for (resolved per float type by the engine:
     /// [`EnsemblePlan::twin_separation`]).
     pub perturbation: Option<Perturbation>,
-    /// Where the GPU engine keeps an invocation's working arrays (a map's `gpu.layout`;
-    /// `auto`, resolved, for other ensembles).
-    pub gpu_layout: StateLayout,
+    /// Where the GPU engine keeps an invocation's working arrays, as asked (a map's
+    /// `gpu.layout`; `auto` for other ensembles): the GPU engine resolves it.
+    pub gpu_layout: LayoutChoice,
 }
 
 /// How the instances of an ensemble are sampled, and what they record.
@@ -246,7 +245,7 @@ impl EnsemblePlan {
             return Err(EngineError::Cancelled);
         }
         let mut plan = EnsemblePlan::from_scenes(&scenes, &EnsembleOptions::from_spec(spec))?;
-        plan.gpu_layout = resolve(spec.gpu_layout);
+        plan.gpu_layout = spec.gpu_layout;
         Ok(plan)
     }
 
@@ -392,7 +391,7 @@ impl EnsemblePlan {
             perturbation: opts
                 .records(Source::Twin)
                 .then_some(opts.lyapunov.perturbation),
-            gpu_layout: resolve(LayoutChoice::Auto),
+            gpu_layout: LayoutChoice::Auto,
             instances,
         }
     }
@@ -496,19 +495,7 @@ fn ensemble_method(scenes: &[Scene], limits: &[MethodSteps]) -> (Method, String)
     let (method, reason) = fixed_step_method(scenes, limits);
     match scenes[0].integration.step {
         StepControl::Fixed => (method, reason),
-        StepControl::Adaptive { .. } => (method, format!("{reason}; {}", adaptive_reason(method))),
-    }
-}
-
-/// What sets the steps of `method` under `integration.step = "adaptive"`.
-pub fn adaptive_reason(method: Method) -> &'static str {
-    match method {
-        Method::Rk4 => {
-            "integration.step = \"adaptive\": RK4's embedded third-order solution sets each step, within RK4's automatic step"
-        }
-        Method::Imex => {
-            "integration.step = \"adaptive\": the embedded solution of ARK3(2)4L[2]SA sets each step"
-        }
+        StepControl::Adaptive { .. } => (method, format!("{reason}; {}", method.adaptive_reason())),
     }
 }
 

@@ -2,7 +2,7 @@
 //! |λ dt| ≈ 2.78 on the negative real axis, so its step is bound by the largest eigenvalue of
 //! the linearised chain (`docs/model.md`, "Time step").
 
-use crate::engine::adaptive::Rungs;
+use crate::engine::ladder::Rungs;
 use crate::engine::stepper::{CartClock, Stepper, compensated_add};
 use crate::model::{Branches, BumperLoad, Chain, ContactLaw, Lane, Real, Workspace};
 

@@ -3,7 +3,6 @@
 
 use crate::config::{Scene, StepControl, TimeStep};
 use crate::engine::method::{Method, MethodSteps, choose_method};
-use crate::engine::plan::adaptive_reason;
 use crate::model::linear::LinearError;
 use serde::Serialize;
 
@@ -64,7 +63,7 @@ impl StepPlan {
         };
         let mut chosen = choose_method(scene.integration.method, given, &steps);
         if adaptive {
-            chosen.reason = format!("{}; {}", chosen.reason, adaptive_reason(chosen.method));
+            chosen.reason = format!("{}; {}", chosen.reason, chosen.method.adaptive_reason());
             if chosen.method == Method::Imex {
                 return Ok(Self::adaptive(scene, steps, chosen.reason));
             }

@@ -21,10 +21,10 @@ pub fn temp_path(target: &Path) -> PathBuf {
     target.with_file_name(format!(".{name}.tmp-{}{ext}", std::process::id()))
 }
 
-/// [`super::folder::check_held`] on `target`'s folder.
+/// [`super::held::check_held`] on `target`'s folder.
 fn check_folder(target: &Path) -> Result<(), OutputError> {
     match target.parent() {
-        Some(dir) => super::folder::check_held(dir),
+        Some(dir) => super::held::check_held(dir),
         None => Ok(()),
     }
 }

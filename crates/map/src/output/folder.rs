@@ -12,6 +12,8 @@
 //! exit, so that a second run into the same folder is refused instead of mixing its files in.
 
 use super::error::OutputError;
+pub use super::held::check_held;
+use super::held::hold;
 use std::path::{Path, PathBuf};
 
 /// What a command writes into its folder: a manifest written last, fixed file names, and
@@ -429,45 +431,6 @@ impl FolderLock {
             }),
             Err(std::fs::TryLockError::Error(e)) => Err(OutputError::io(&path, e)),
         }
-    }
-}
-
-/// The identity of a folder on its file system (device, inode), where it has one.
-fn identity(dir: &Path) -> Option<(u64, u64)> {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::MetadataExt;
-        std::fs::metadata(dir).ok().map(|m| (m.dev(), m.ino()))
-    }
-    #[cfg(not(unix))]
-    {
-        std::fs::metadata(dir).ok().map(|_| (0, 0))
-    }
-}
-
-/// A folder this process has locked, with the identity it had when locked.
-type Held = (PathBuf, Option<(u64, u64)>);
-
-/// The folders this process has locked.
-static HELD: std::sync::Mutex<Vec<Held>> = std::sync::Mutex::new(Vec::new());
-
-/// Remember `dir`'s identity as this process's lock of it.
-fn hold(dir: &Path) {
-    let mut held = HELD.lock().unwrap_or_else(|e| e.into_inner());
-    held.retain(|(d, _)| d != dir);
-    held.push((dir.to_path_buf(), identity(dir)));
-}
-
-/// Refuse to write into `dir` when this process locked it and it has since been deleted or
-/// replaced (another folder of that name, perhaps locked by another run): every file writer
-/// checks before it creates and before it commits, so that two runs never mix in one folder.
-pub fn check_held(dir: &Path) -> Result<(), OutputError> {
-    let held = HELD.lock().unwrap_or_else(|e| e.into_inner());
-    match held.iter().find(|(d, _)| d == dir) {
-        Some((_, locked)) if identity(dir) != *locked => Err(OutputError::FolderReplaced {
-            dir: dir.display().to_string(),
-        }),
-        _ => Ok(()),
     }
 }
 

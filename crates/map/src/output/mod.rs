@@ -7,6 +7,7 @@ pub mod budget;
 mod error;
 pub mod files;
 pub mod folder;
+mod held;
 pub mod manifest;
 pub mod map;
 pub mod npy;

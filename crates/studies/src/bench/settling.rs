@@ -11,10 +11,10 @@
 //! - **The settled map's table**: the reliability of `verdict_confidence` on the map settled
 //!   for [`SETTLED_TABLE_S`], which `confidence::SETTLED` ships.
 
+use super::reference::Reference;
 use super::reliability::{
     Firm, Reliability, Scored, firm_of, grid_index, reliability, score_subgrid,
 };
-use super::verdict::Reference;
 use pendulum_atlas_core::engine::{Engine, EngineError, no_progress};
 use pendulum_atlas_core::reduce::Regime;
 use pendulum_atlas_map::map::confidence::SETTLED;

@@ -20,6 +20,7 @@
 //! 6. **Settling**: transient chaos, and `map.settle_max_s`'s accuracy against its cost
 //!    ([`super::settling`]).
 
+use super::reference::Reference;
 use super::reliability::{Reliability, reliability, score_subgrid};
 use super::settling::{Settling, Subgrid, settling};
 use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, MapSpec, map_from_toml};
@@ -126,32 +127,6 @@ fn pct(a: usize, b: usize) -> f64 {
     } else {
         100.0 * a as f64 / b as f64
     }
-}
-
-/// The converged reference.
-#[derive(Debug, Clone, Serialize)]
-pub struct Reference {
-    /// The two run lengths (s).
-    pub durations_s: [f64; 2],
-    /// Wall time of both (s).
-    pub wall_s: f64,
-    /// Cells whose verdict changes when the run doubles.
-    pub changed: usize,
-    /// Cells decided alike by both runs.
-    pub settled: usize,
-    /// Cells.
-    pub cells: usize,
-    /// The longer run's verdict per cell (code of `regime.npy`).
-    pub regime: Vec<i8>,
-    /// The longer run's period per cell.
-    pub period: Vec<f64>,
-    /// Whether a cell is settled.
-    #[serde(skip)]
-    pub is_settled: Vec<bool>,
-    /// The time the longer run's early stop stopped each cell at (s; NaN: it ran to its end).
-    pub stop_s: Vec<f64>,
-    /// Verdict counts of the longer run, in code order (failed … chaotic).
-    pub counts: [usize; 5],
 }
 
 /// The whole default map's wall time with and without the verdict.

@@ -13,17 +13,14 @@
 //! loop gives for its instance.
 
 use super::cart_table::CartTable;
-use crate::engine::adaptive::{GROW, MAX_LEVEL};
 use crate::engine::imex::{C as IMEX_C, Imex, ImexMatrices};
+use crate::engine::ladder::{MAX_LEVEL, Rung, Tolerance};
 use crate::engine::method::Method;
 use crate::engine::plan::InstancePlan;
 use crate::engine::rk4::Rk4Pair;
 use crate::engine::twin::onsets_of;
 use crate::model::{Branches, Chain, Lane, ModelParams, Real, Workspace};
 use std::sync::Arc;
-
-/// The sub-step positions of a base step, in units of the finest step.
-const UNIT: u64 = 1 << MAX_LEVEL;
 
 /// The most lanes of a vector (`F32x8`): per-lane bookkeeping lives in arrays of this length,
 /// not in vectors allocated at every step.
@@ -182,14 +179,13 @@ where
 pub(super) struct LaneLadder<V: Lane> {
     /// Each lane's base step (s); the padding lanes of a short group have none.
     base_s: Vec<f64>,
-    /// Each lane's tolerances (rtol, atol).
-    tol: Vec<(f64, f64)>,
-    /// Each lane's level k of its next sub-step (h = base / 2^k).
-    level: Vec<u32>,
-    /// Each lane's base step under way (0-based) and its position within it, in units of the
-    /// finest step.
+    /// Each lane's tolerances.
+    tol: Vec<Tolerance>,
+    /// Each lane's place on the ladder: the level of its next sub-step and its position
+    /// within its base step.
+    rung: PerLane<Rung>,
+    /// Each lane's base step under way (0-based).
     step: PerLane<u64>,
-    pos: PerLane<u64>,
     /// Each lane's bumper contact onsets so far within its base step.
     onsets: PerLane<u32>,
     pair: LanePair<V>,
@@ -228,7 +224,7 @@ where
     /// one linear part and base step), for a state of length `dim`.
     pub(super) fn new(plans: &[&InstancePlan], dim: usize) -> Self {
         let tol = |p: &InstancePlan| match p.control {
-            crate::config::StepControl::Adaptive { rtol, atol } => (rtol, atol),
+            crate::config::StepControl::Adaptive { rtol, atol } => Tolerance { rtol, atol },
             crate::config::StepControl::Fixed => unreachable!("a ladder of fixed steps"),
         };
         assert!(V::LANES <= MAX_LANES, "{} lanes", V::LANES);
@@ -238,9 +234,8 @@ where
             pair,
             base_s: plans.iter().map(|p| p.dt_s).collect(),
             tol: plans.iter().map(|p| tol(p)).collect(),
-            level: vec![0; V::LANES],
+            rung: [Rung::default(); MAX_LANES],
             step: [0; MAX_LANES],
-            pos: [0; MAX_LANES],
             onsets: [0; MAX_LANES],
             err: vec![V::splat(0.0); dim],
         }
@@ -263,7 +258,7 @@ where
         let active: PerLane<bool> = std::array::from_fn(|l| l < lanes && live[l]);
         let (h, acc) = self.sub_step(plans, &active);
         // Each lane's level of this try (the judgement moves a rejected lane's on).
-        let tried: PerLane<u32> = std::array::from_fn(|l| self.level.get(l).map_or(0, |&k| k));
+        let tried: PerLane<u32> = std::array::from_fn(|l| self.rung[l].level);
         let branches = self.pair.stages((chain, ws), y, (h, &tried, &acc), None);
         self.pair.error((chain, ws), y, (h, &acc), &mut self.err);
         let judged = self.judge(y, &active);
@@ -315,7 +310,7 @@ where
     fn sub_step(&self, plans: &[&InstancePlan], active: &PerLane<bool>) -> (V, [V; 4]) {
         let h = V::gather(|l| {
             if active[l] {
-                self.base_s[l] / f64::from(1u32 << self.level[l])
+                self.rung[l].step_s(self.base_s[l])
             } else {
                 0.0
             }
@@ -329,11 +324,10 @@ where
                 if !active[l] {
                     return 0.0;
                 }
-                if self.level[l] == 0 && self.pos[l] == 0 {
+                if self.rung[l] == Rung::default() {
                     return self.cart.at_lane(l, self.step[l], j);
                 }
-                let span = UNIT >> self.level[l];
-                let (start, width) = (self.pos[l] as f64 / UNIT as f64, span as f64 / UNIT as f64);
+                let (start, width) = self.rung[l].fractions();
                 plans[l].cart_at(self.step[l], start + c * width).a_m_s2
             })
         });
@@ -348,19 +342,9 @@ where
             errors: [0.0; MAX_LANES],
         };
         for l in (0..V::LANES).filter(|&l| active[l]) {
-            let (rtol, atol) = self.tol[l];
-            let e = self
-                .err
-                .iter()
-                .zip(y)
-                .map(|(es, ys)| es.lane(l).wide().abs() / (atol + rtol * ys.lane(l).wide().abs()))
-                .fold(0.0, f64::max);
+            let e = self.tol[l].scaled_error(&self.err, y, l);
             judged.errors[l] = e;
-            if e > 1.0 && self.level[l] < MAX_LEVEL {
-                self.level[l] += 1;
-            } else {
-                judged.accepted[l] = true;
-            }
+            judged.accepted[l] = self.rung[l].judge(e);
         }
         judged
     }
@@ -370,16 +354,10 @@ where
     fn advance(&mut self, judged: &Judged) -> PerLane<Ended> {
         let mut ended = [None; MAX_LANES];
         for l in (0..V::LANES).filter(|&l| judged.accepted[l]) {
-            let k = self.level[l];
-            let span = UNIT >> k;
-            self.pos[l] += span;
-            if k > 0 && self.pos[l].is_multiple_of(span << 1) && judged.errors[l] <= GROW {
-                self.level[l] = k - 1;
-            }
-            if self.pos[l] == UNIT {
+            if self.rung[l].advance(judged.errors[l]) {
                 self.step[l] += 1;
                 ended[l] = Some((self.step[l], self.onsets[l]));
-                (self.pos[l], self.onsets[l]) = (0, 0);
+                self.onsets[l] = 0;
             }
         }
         ended

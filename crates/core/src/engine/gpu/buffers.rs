@@ -1,7 +1,6 @@
 //! The buffers of one GPU run: sized and checked against the adapter before anything is
 //! allocated, filled from the plan, bound once.
 
-use crate::engine::adaptive::MAX_LEVEL;
 use crate::engine::error::{EngineError, GpuFaultKind};
 use crate::engine::gpu::ReduceSettings;
 use crate::engine::gpu::context::GpuContext;
@@ -9,6 +8,7 @@ use crate::engine::gpu::kernels::{KernelKey, WG, work_rows_per_instance};
 use crate::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams};
 use crate::engine::gpu::state_layout::StateLayout;
 use crate::engine::imex::ImexMatrices;
+use crate::engine::ladder::MAX_LEVEL;
 use crate::engine::method::Method;
 use crate::engine::plan::{EnsemblePlan, InstancePlan};
 use crate::model::{CHECK_EVERY, Chain};

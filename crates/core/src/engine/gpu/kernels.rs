@@ -8,10 +8,10 @@
 //! per-invocation arrays, the scene's N (so no private array is larger than the scene needs):
 //! the shader never carries its own copy of a rule or coefficient defined in Rust.
 
-use crate::engine::adaptive::{GROW, MAX_LEVEL};
 use crate::engine::gpu::layout::{TWIN_BROKEN, TWIN_RUNNING};
 use crate::engine::gpu::state_layout::{StateLayout, globalise, work_rows};
 use crate::engine::imex::{AE, AI, B, B_HAT, C, GAMMA};
+use crate::engine::ladder::{self, GROW, MAX_LEVEL};
 use crate::engine::method::Method;
 use crate::model::{CHECK_EVERY, ContactDamping, Status};
 use crate::reduce::Regime;
@@ -102,6 +102,7 @@ pub fn shader_header(segments: usize) -> String {
     h.push_str(&wgsl_array("IMEX_B_HAT", &B_HAT));
     let _ = writeln!(h, "const MAX_LEVEL: u32 = {MAX_LEVEL}u;");
     let _ = writeln!(h, "const ADAPTIVE_GROW: f32 = {GROW:e};");
+    h.push_str(ladder::WGSL);
     h.push_str(&wgsl_array("IMEX_AE", AE.as_flattened()));
     h.push_str(&wgsl_array("IMEX_AI", AI.as_flattened()));
     h.push_str(&crate::engine::gpu::layout::accum_wgsl());

@@ -18,6 +18,8 @@ mod buffers;
 mod context;
 pub mod fault;
 pub mod kernels;
+#[cfg(test)]
+mod ladder_check;
 pub mod layout;
 pub mod slices;
 pub mod state_layout;
@@ -183,7 +185,9 @@ impl EnsembleEngine for GpuEngine {
         readback: Readback,
         progress: Progress,
     ) -> Result<EngineRun, EngineError> {
-        let layout = self.layout.unwrap_or(plan.gpu_layout);
+        let layout = self
+            .layout
+            .unwrap_or(state_layout::resolve(plan.gpu_layout));
         run_gpu(
             &self.ctx,
             plan,

@@ -1,0 +1,213 @@
+//! The step controller of adaptive steps, written once (`docs/model.md`, "Adaptive steps"):
+//! the ladder of steps aligned to the base step `H`, its error norm, and its accept, reject
+//! and grow rules. Every engine takes its sub-steps by these: the scalar loop
+//! ([`crate::engine::adaptive::Adaptive`]), each SIMD lane (`engine/cpu/lane_ladder.rs`), and
+//! the GPU kernel, whose WGSL twins of these functions ([`WGSL`]) are generated into the
+//! kernels' header and held against this file by a table-driven test.
+//!
+//! ```text
+//! levels:   h_k = H / 2^k,  k = 0 … MAX_LEVEL
+//! error:    e = max_s |x_s| / (atol + rtol·|y_s|),  x the pair's error estimate, y the state
+//!           before the step (a NaN ratio is passed over, as f64::max does)
+//! accept:   e ≤ 1 (or k = MAX_LEVEL, counted as forced); then, where the position within H
+//!           is a multiple of h_{k−1} and e ≤ GROW, k ← k − 1 for the next step
+//! reject:   k ← k + 1, the same step again from the same state
+//! ```
+//!
+//! [`Rungs`] is what a pair gives the ladder: its stages, its estimate, its finish.
+
+use crate::model::{Branches, Chain, Lane, Real, Workspace};
+
+/// The finest level: `H / 2^20`, a microsecond of a one-second base step.
+pub const MAX_LEVEL: u32 = 20;
+
+/// The error below which the next step may double (its error then about 8× as large).
+pub const GROW: f64 = 0.1;
+
+/// A base step in units of the finest step: positions within it are counted in these.
+pub const UNIT: u64 = 1 << MAX_LEVEL;
+
+/// The tolerances of the error norm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tolerance {
+    /// Relative tolerance.
+    pub rtol: f64,
+    /// Absolute tolerance.
+    pub atol: f64,
+}
+
+impl Tolerance {
+    /// The scaled error `e = max_s |x_s| / (atol + rtol·|y_s|)` of lane `lane` of the estimate
+    /// `err` for a step from `y`, in f64 from the lane's values (lane 0 of a scalar).
+    pub fn scaled_error<V: Lane>(&self, err: &[V], y: &[V], lane: usize) -> f64 {
+        err.iter()
+            .zip(y)
+            .map(|(x, y)| self.ratio(x.lane(lane).wide(), y.lane(lane).wide()))
+            .fold(0.0, f64::max)
+    }
+
+    /// One component's ratio `|x| / (atol + rtol·|y|)`.
+    pub fn ratio(&self, x: f64, y: f64) -> f64 {
+        x.abs() / (self.atol + self.rtol * y.abs())
+    }
+}
+
+/// Where one instance stands on the ladder: the level of its next sub-step and its position
+/// within the base step (in units of the finest step).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Rung {
+    /// The level k of the next sub-step (`h = H / 2^k`).
+    pub level: u32,
+    /// The position within the base step, in [`UNIT`]s of the finest step.
+    pub pos: u64,
+}
+
+impl Rung {
+    /// The next sub-step's length in units of the finest step.
+    pub fn span(&self) -> u64 {
+        UNIT >> self.level
+    }
+
+    /// The next sub-step's length for a base step of `base_s` seconds.
+    pub fn step_s(&self, base_s: f64) -> f64 {
+        base_s / f64::from(1u32 << self.level)
+    }
+
+    /// The next sub-step's start and width as fractions of the base step.
+    pub fn fractions(&self) -> (f64, f64) {
+        let unit = UNIT as f64;
+        (self.pos as f64 / unit, self.span() as f64 / unit)
+    }
+
+    /// Judge a try of scaled error `e`: accepted (true), or rejected and the level refined
+    /// for the same step again. At the finest level every try is accepted (forced if e > 1).
+    pub fn judge(&mut self, e: f64) -> bool {
+        if e > 1.0 && self.level < MAX_LEVEL {
+            self.level += 1;
+            return false;
+        }
+        true
+    }
+
+    /// Move past an accepted sub-step of scaled error `e`: the position advances, and the
+    /// level coarsens by one where the new position is aligned to the coarser step and
+    /// `e ≤ GROW`. True when the base step is complete (the position back at 0).
+    pub fn advance(&mut self, e: f64) -> bool {
+        let (k, span) = (self.level, self.span());
+        self.pos += span;
+        if k > 0 && self.pos.is_multiple_of(span << 1) && e <= GROW {
+            self.level = k - 1;
+        }
+        if self.pos < UNIT {
+            return false;
+        }
+        self.pos = 0;
+        true
+    }
+}
+
+/// The ladder's rules in WGSL, for the kernels' generated header: the same functions as
+/// [`Tolerance::ratio`], [`Rung::judge`] and [`Rung::advance`] (`unit` is [`UNIT`]).
+pub const WGSL: &str = "\
+// The adaptive ladder's rules (src/engine/ladder.rs, generated into this header).
+// |x| / (atol + rtol |y|): Tolerance::ratio.
+fn ladder_ratio(x: f32, y: f32, rtol: f32, atol: f32) -> f32 {
+    return abs(x) / (atol + rtol * abs(y));
+}
+// A try of scaled error e at level k is taken again one level finer: Rung::judge.
+fn ladder_rejects(e: f32, k: u32) -> bool {
+    return e > 1.0 && k < MAX_LEVEL;
+}
+// The level after an accepted sub-step of level k and error e that ends at position `pos`
+// (in units of the finest step): Rung::advance.
+fn ladder_next_level(k: u32, pos: u32, e: f32) -> u32 {
+    let span = (1u << MAX_LEVEL) >> k;
+    if k > 0u && pos % (span << 1u) == 0u && e <= ADAPTIVE_GROW {
+        return k - 1u;
+    }
+    return k;
+}
+";
+
+/// A pair the ladder steps with: a sub-step of level `k` (`h = H / 2^k`) tried from `y`, its
+/// error estimate, and the sub-step taken.
+pub trait Rungs<T: Real>: Sized {
+    /// Evaluations of the chain's right-hand side per tried sub-step.
+    const EVALUATIONS: u64;
+
+    /// Evaluations beside [`Rungs::EVALUATIONS`] per try so far (none unless the pair says).
+    fn extra_evaluations(&self) -> u64 {
+        0
+    }
+
+    /// The same pair with nothing carried over (a twin's).
+    fn fresh(&self) -> Self;
+
+    /// Every stage of a sub-step of level `k` from `y` by the exact law, `y` left as it is;
+    /// `acc(c)` is the cart's acceleration at fraction `c` of the sub-step. The bumpers'
+    /// branches at each stage (what a twin follows).
+    fn stages(
+        &mut self,
+        k: usize,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        y: &[T],
+        acc: &impl Fn(f64) -> T,
+    ) -> [Branches<T>; 4];
+
+    /// The error estimate of the stages just computed, component by component, into `out`
+    /// (the state's length).
+    fn error(
+        &mut self,
+        k: usize,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        at: (&[T], &impl Fn(f64) -> T),
+        out: &mut [T],
+    );
+
+    /// Take the sub-step whose stages were just computed: `y` advanced (compensated).
+    fn finish(&mut self, k: usize, y: &mut [T]);
+
+    /// A twin's sub-step of level `k`, every stage on the main stages' `branches`.
+    fn follow(
+        &mut self,
+        k: usize,
+        chain: &Chain<T>,
+        ws: &mut Workspace<T>,
+        at: (&mut [T], &impl Fn(f64) -> T),
+        branches: &[Branches<T>; 4],
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_rejected_try_refines_and_an_aligned_small_error_coarsens() {
+        let mut r = Rung::default();
+        assert!(!r.judge(2.0));
+        assert_eq!(r.level, 1);
+        assert!(r.judge(0.05));
+        assert!(!r.advance(0.05), "half of the base step");
+        assert_eq!((r.level, r.pos), (1, UNIT / 2), "not aligned to h_0 yet");
+        assert!(r.advance(0.05));
+        assert_eq!((r.level, r.pos), (0, 0), "aligned at the end: coarser");
+        let mut fine = Rung {
+            level: MAX_LEVEL,
+            pos: 0,
+        };
+        assert!(fine.judge(1e9), "forced at the finest level");
+    }
+
+    #[test]
+    fn the_norm_takes_the_worst_component_and_passes_over_nan() {
+        let tol = Tolerance {
+            rtol: 1e-3,
+            atol: 1e-6,
+        };
+        let e = tol.scaled_error(&[1e-6f64, f64::NAN, 2e-6], &[0.0, 1.0, 0.0], 0);
+        assert_eq!(e, 2.0);
+    }
+}
