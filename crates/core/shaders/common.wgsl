@@ -1,13 +1,14 @@
 // Common definitions of the ensemble kernels of pendulum-atlas: specialisation constants, the
 // data structures shared with Rust, the bindings and the integrator's per-invocation state.
 //
-// The kernels are assembled from four files (common, integrate, reduce_r, reduce_k; see
-// src/engine/gpu/kernels.rs) behind a header generated from the Rust definitions: the status
-// codes (STATUS_OK, STATUS_DIVERGED, STATUS_NONFINITE, STATUS_ESCAPED), the health-check
-// interval CHECK_EVERY, the array bound MAX_SEG (the scene's N) and the IMEX method's
-// tableaux. The physics is docs/model.md, the
-// reductions docs/analysis.md; the CPU twin of every function is named where it is defined,
-// and the engine test suite holds the two against each other.
+// The kernels are assembled from seven files (common, integrate, early, imex, reduce_r,
+// reduce_k, verdict; see src/engine/gpu/kernels.rs) behind a header generated from the Rust
+// definitions: the status and regime codes, the health-check interval CHECK_EVERY, the array
+// bound MAX_SEG (the scene's N), the IMEX method's tableaux, the adaptive ladder's rules
+// (src/engine/ladder.rs) and the `Accum` struct, whose first words are the result schema's
+// (src/schema.rs). The physics is docs/model.md, the reductions docs/analysis.md; the CPU
+// twin of every function is named where it is defined, and the engine test suite holds the
+// two against each other.
 
 // ---- specialisation --------------------------------------------------------------------
 override N_SEG: u32 = 3u;           // rigid segments N (<= MAX_SEG)
@@ -96,7 +97,6 @@ struct InstanceParams {
     period_s: f32,
     rtol: f32,
     atol: f32,
-    levers: array<f32, 64>,
 }
 
 // `Accum` (mirrors `GpuAccum`: the result schema's words, then the engine's own) is in the
@@ -153,6 +153,9 @@ struct Control {
 @group(0) @binding(10) var<storage, read> live: array<u32>;
 // 1 once an instance has finished (failed, stopped early, or run all its steps).
 @group(0) @binding(11) var<storage, read_write> done: array<u32>;
+// The contact levers λ_i, N words per instance, sample-major: lever i of instance `inst` at
+// [at(inst, i)] (zero past the contact segment).
+@group(0) @binding(13) var<storage, read> levers: array<f32>;
 
 // Word j of instance `inst` in the per-instance series (strobe, rwork, kc): sample-major, as
 // the state is, so that neighbouring invocations read and write neighbouring words (coalesced
@@ -163,8 +166,7 @@ fn at(inst: u32, j: u32) -> u32 {
 
 // ---- per-invocation state of the integrator ---------------------------------------------
 var<private> P: InstanceParams;
-// Contact levers λ_i (n_levers ≤ N), copied out of P so that the loops over them index an
-// array of N, not P's 64 words (which then go unread and are dropped by the driver).
+// Contact levers λ_i (n_levers ≤ N), copied from the `levers` buffer at a dispatch's start.
 var<private> lev: array<f32, MAX_SEG>;
 var<private> th: array<f32, MAX_SEG>;     // θ at the start of the step
 var<private> om: array<f32, MAX_SEG>;     // θ̇ at the start of the step

@@ -765,7 +765,7 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
     var a = acc[inst];
     P = params[inst];
     for (var i = 0u; i < N_SEG; i++) {
-        lev[i] = params[inst].levers[i];
+        lev[i] = levers[at(inst, i)];
     }
     let total = P.total_periods * P.spp;
     if finished(a, total) {

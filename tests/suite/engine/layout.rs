@@ -73,7 +73,7 @@ fn parameter_structs_have_the_same_layout_in_rust_and_wgsl() {
             acc_amp, dt, guard_energy, guard_bend, theta0, omega0, volt0, half_clearance,
             guard_holder, phase0, n_levers, piezo_last, spp, transient_periods, total_periods, strobe_offset,
             strobe_count, r_every, r_count, r_start, imex_offset, contact_law, twin_start,
-            twin_align, twin_window, twin_d0, twin_rigid_w, twin_scale, period_s, rtol, atol, levers),
+            twin_align, twin_window, twin_d0, twin_rigid_w, twin_scale, period_s, rtol, atol),
         size_of::<GpuInstanceParams>(),
     );
     // Accum: the result schema's GPU words first, one word each, then the engine's own.

@@ -123,6 +123,19 @@ pub fn gpu_global() -> Option<&'static Engine> {
     .as_ref()
 }
 
+/// A GPU engine of its own whose kernels are built with wgpu's runtime checks, or `None` as
+/// [`gpu`].
+pub fn gpu_checked() -> Option<&'static Engine> {
+    static GPU: OnceLock<Option<Engine>> = OnceLock::new();
+    gpu()?;
+    GPU.get_or_init(|| {
+        let mut e = Engine::open(Backend::Gpu, None).ok()?;
+        e.set_gpu_runtime_checks(true);
+        Some(e)
+    })
+    .as_ref()
+}
+
 /// The same tests of `cases` (a module of this suite) for one engine and one method.
 macro_rules! engine_method {
     ($cases:ident, $module:ident, $eng:ident, $method:ident, [$($case:ident),*]) => {

@@ -364,6 +364,14 @@ impl Engine {
         }
     }
 
+    /// On the GPU engine, build the kernels with wgpu's runtime checks (`on`) or without them
+    /// (the default; [`GpuContext::set_runtime_checks`]). For tests and benches.
+    pub fn set_gpu_runtime_checks(&mut self, on: bool) {
+        if let EngineImpl::Gpu(g) = &mut self.inner {
+            g.set_runtime_checks(on);
+        }
+    }
+
     /// On the GPU engine, keep every plan's working arrays in `layout` (`None`: each plan's
     /// own, from the map's `gpu.layout`), and say so in the engine's name (`info().device`),
     /// so that a bench's rows name the layout. For tests and benches.

@@ -5,7 +5,7 @@ use crate::engine::error::{EngineError, GpuFaultKind};
 use crate::engine::gpu::ReduceSettings;
 use crate::engine::gpu::context::GpuContext;
 use crate::engine::gpu::kernels::{KernelKey, WG, work_rows_per_instance};
-use crate::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams};
+use crate::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams, levers_of};
 use crate::engine::gpu::state_layout::StateLayout;
 use crate::engine::imex::ImexMatrices;
 use crate::engine::ladder::MAX_LEVEL;
@@ -31,6 +31,7 @@ pub struct Sizes {
     pub kc_bytes: u64,
     pub early_bytes: u64,
     pub work_bytes: u64,
+    pub levers_bytes: u64,
 }
 
 impl Sizes {
@@ -45,6 +46,7 @@ impl Sizes {
             + self.kc_bytes
             + self.early_bytes
             + self.work_bytes
+            + self.levers_bytes
             + 8 * n
     }
 }
@@ -83,6 +85,7 @@ impl Sizes {
             kc_bytes: bytes(f.kc)?,
             early_bytes: bytes(f.early)?,
             work_bytes: bytes(f.work)?,
+            levers_bytes: bytes(f.levers)?,
         })
     }
 }
@@ -101,6 +104,7 @@ struct Footprint {
     kc: (&'static str, u64),
     early: (&'static str, u64),
     work: (&'static str, u64),
+    levers: (&'static str, u64),
 }
 
 impl Footprint {
@@ -150,11 +154,13 @@ impl Footprint {
                     4 * (work_rows_per_instance() * plan.segments.max(1)) as u64,
                 ),
             ),
+            levers: ("contact levers", 4 * plan.segments.max(1) as u64),
         }
     }
 
-    fn buffers(&self) -> [(&'static str, u64); 8] {
+    fn buffers(&self) -> [(&'static str, u64); 9] {
         [
+            self.levers,
             self.params,
             self.state,
             self.accum,
@@ -391,10 +397,11 @@ impl Buffers {
             .map(|(p, &off)| GpuInstanceParams::from_plan(p, off, twin_d0))
             .collect();
         let (state, accum) = initial_state(plan, sizes);
+        let levers = levers_sample_major(plan, sizes.n_inst);
         let all: Vec<u32> = (0..sizes.n_inst as u32).collect();
         let turns = c_turns(reduce);
         let zeros = vec![0u32; sizes.n_inst];
-        let filled: [(&str, &[u8]); 7] = [
+        let filled: [(&str, &[u8]); 8] = [
             ("params", bytemuck::cast_slice(&params)),
             ("state", bytemuck::cast_slice(&state)),
             ("accum", bytemuck::cast_slice(&accum)),
@@ -402,6 +409,7 @@ impl Buffers {
             ("imex_mats", bytemuck::cast_slice(&mats)),
             ("active", bytemuck::cast_slice(&all)),
             ("done", bytemuck::cast_slice(&zeros)),
+            ("levers", bytemuck::cast_slice(&levers)),
         ];
         let dev = &ctx.device;
         let oom = dev.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
@@ -417,7 +425,7 @@ impl Buffers {
                 mapped_at_creation: false,
             })
         };
-        let [params, state, accum, turns, imex, active, done] =
+        let [params, state, accum, turns, imex, active, done, levers] =
             filled.map(|(label, bytes)| create(label, bytes.len() as u64, sto));
         let strobe = create("strobe", sizes.strobe_bytes, sto);
         let rwork = create("rwork", sizes.rwork_bytes, sto);
@@ -429,7 +437,9 @@ impl Buffers {
         let invalid = pollster::block_on(invalid.pop());
         let oom = pollster::block_on(oom.pop());
         allocation_checked(ctx, oom, invalid)?;
-        let targets = [&params, &state, &accum, &turns, &imex, &active, &done];
+        let targets = [
+            &params, &state, &accum, &turns, &imex, &active, &done, &levers,
+        ];
         for (buffer, (_, bytes)) in targets.iter().zip(&filled) {
             write_padded(ctx, buffer, bytes);
         }
@@ -452,6 +462,7 @@ impl Buffers {
                 entry(10, &active),
                 entry(11, &done),
                 entry(12, &work),
+                entry(13, &levers),
             ],
         });
         Ok(Buffers {
@@ -509,6 +520,19 @@ fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
 
 /// The initial states (structure of arrays: component j of instance i at `j·n_inst + i`) and
 /// accumulators, with the bumper contacts of the initial state.
+/// Every instance's contact levers ([`levers_of`]), sample-major: lever i of instance k at
+/// `i · n_inst + k`.
+fn levers_sample_major(plan: &EnsemblePlan, n_inst: usize) -> Vec<f32> {
+    let n = plan.segments.max(1);
+    let mut out = vec![0f32; n * n_inst];
+    for (k, p) in plan.instances.iter().enumerate() {
+        for (i, v) in levers_of(p, n).into_iter().enumerate() {
+            out[i * n_inst + k] = v;
+        }
+    }
+    out
+}
+
 fn initial_state(plan: &EnsemblePlan, sizes: &Sizes) -> (Vec<f32>, Vec<GpuAccum>) {
     let n_inst = sizes.n_inst;
     let mut state = vec![0f32; n_inst * sizes.state_len];

@@ -81,8 +81,11 @@ pub struct GpuContext {
     pub(crate) limits: wgpu::Limits,
     pub(crate) bind_layout: wgpu::BindGroupLayout,
     pipeline_layout: wgpu::PipelineLayout,
-    /// One shader module per segment count (its arrays are sized by N) and state layout.
-    modules: Mutex<HashMap<(usize, StateLayout), Arc<wgpu::ShaderModule>>>,
+    /// Whether the kernels are built with wgpu's runtime checks ([`GpuContext::set_runtime_checks`]).
+    runtime_checks: bool,
+    /// One shader module per segment count (its arrays are sized by N), state layout and
+    /// runtime checks.
+    modules: Mutex<HashMap<(usize, StateLayout, bool), Arc<wgpu::ShaderModule>>>,
     kernels: Mutex<HashMap<KernelKey, Arc<Kernels>>>,
     health: Arc<Mutex<Health>>,
     /// The read-back buffer, kept across dispatches and runs and grown when too small.
@@ -158,6 +161,7 @@ impl GpuContext {
             limits,
             bind_layout,
             pipeline_layout,
+            runtime_checks: false,
             modules: Mutex::new(HashMap::new()),
             kernels: Mutex::new(HashMap::new()),
             health,
@@ -236,13 +240,25 @@ impl GpuContext {
         self.device.destroy();
     }
 
+    /// Build the kernels with wgpu's runtime checks (`on`: bounds checks on every index and
+    /// loops bounded by the compiler), or without them (the default, see
+    /// [`GpuContext::module`]). The engine suite runs maps both ways and compares them.
+    pub fn set_runtime_checks(&mut self, on: bool) {
+        self.runtime_checks = on;
+    }
+
+    /// Whether the kernels are built with wgpu's runtime checks.
+    pub fn runtime_checks(&self) -> bool {
+        self.runtime_checks
+    }
+
     /// The kernels of `key`, compiled on first use and cached.
     pub fn kernels(&self, key: &KernelKey) -> Arc<Kernels> {
         let mut cache = self.kernels.lock().unwrap_or_else(|e| e.into_inner());
         cache
             .entry(*key)
             .or_insert_with(|| {
-                let module = self.module(key.segments, key.layout);
+                let module = self.module(key.segments, key.layout, key.runtime_checks);
                 Arc::new(Kernels::compile(
                     &self.device,
                     &self.pipeline_layout,
@@ -253,21 +269,50 @@ impl GpuContext {
             .clone()
     }
 
-    /// The shader module of chains of `segments` segments in `layout`, compiled on first use.
-    fn module(&self, segments: usize, layout: StateLayout) -> Arc<wgpu::ShaderModule> {
+    /// The shader module of chains of `segments` segments in `layout`, compiled on first use,
+    /// with wgpu's runtime checks where `checked`.
+    ///
+    /// Without them (the default) the module is trusted: wgpu adds no bounds check to an index
+    /// and no bound to a loop. That is sound because every index of the kernels is in range
+    /// by construction, and every loop ends:
+    /// - the per-invocation arrays are sized by the scene's N (`MAX_SEG`, the generated
+    ///   header) and indexed by segment loops `i < N_SEG` (N_SEG = N) or the lever count
+    ///   (the contact segment + 1, at most N: `ContactParams::on_chain`);
+    /// - each storage buffer is indexed by instance `i < n_inst` (the `live` list holds
+    ///   instances of the batch only) and, per instance, by sample `j` below the stride the
+    ///   buffer was sized with (`Sizes`: the plan's largest strobe, R and early-stop counts);
+    /// - the IMEX matrices by `P.imex_offset` plus rows and columns below N, within the
+    ///   buffer's sets (`InstancePlan::imex_key`);
+    /// - every loop runs over a counter to a bound read from the plan, the control block or a
+    ///   constant, and the insertion sort of `k_final` moves down to index 0 at most.
+    ///
+    /// The engine suite runs maps with the checks on and off and requires the same bits.
+    fn module(
+        &self,
+        segments: usize,
+        layout: StateLayout,
+        checked: bool,
+    ) -> Arc<wgpu::ShaderModule> {
         let mut modules = self.modules.lock().unwrap_or_else(|e| e.into_inner());
         modules
-            .entry((segments, layout))
+            .entry((segments, layout, checked))
             .or_insert_with(|| {
-                Arc::new(
-                    self.device
-                        .create_shader_module(wgpu::ShaderModuleDescriptor {
-                            label: Some("ensemble kernels"),
-                            source: wgpu::ShaderSource::Wgsl(
-                                shader_source(segments, layout).into(),
-                            ),
-                        }),
-                )
+                let desc = wgpu::ShaderModuleDescriptor {
+                    label: Some("ensemble kernels"),
+                    source: wgpu::ShaderSource::Wgsl(shader_source(segments, layout).into()),
+                };
+                Arc::new(if checked {
+                    self.device.create_shader_module(desc)
+                } else {
+                    // SAFETY: every index of the kernels is in range and every loop ends, by
+                    // construction (see above); the checked build gives the same results.
+                    unsafe {
+                        self.device.create_shader_module_trusted(
+                            desc,
+                            wgpu::ShaderRuntimeChecks::unchecked(),
+                        )
+                    }
+                })
             })
             .clone()
     }
@@ -329,8 +374,8 @@ fn pick_adapter(choice: AdapterChoice) -> Result<wgpu::Adapter, EngineError> {
         })
 }
 
-/// Bindings 0–12 of the kernels (see `shaders/common.wgsl`; 12 is the global layout's work
-/// buffer, a placeholder in the private layout).
+/// Bindings 0–13 of the kernels (see `shaders/common.wgsl`; 12 is the global layout's work
+/// buffer, a placeholder in the private layout; 13 the contact levers).
 fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
         binding,
@@ -367,6 +412,7 @@ fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             storage(10, true),
             storage(11, false),
             storage(12, false),
+            storage(13, true),
             uniform,
         ],
     })

@@ -166,6 +166,8 @@ pub struct KernelKey {
     pub adaptive: bool,
     /// Where the working arrays live.
     pub layout: StateLayout,
+    /// Built with wgpu's runtime checks ([`crate::engine::GpuContext::set_runtime_checks`]).
+    pub runtime_checks: bool,
 }
 
 /// Workgroup size of the integration and R kernels.

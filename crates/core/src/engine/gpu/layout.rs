@@ -14,7 +14,8 @@ use bytemuck::{Pod, Zeroable};
 /// Largest segment count the GPU kernel's per-invocation arrays hold.
 pub const GPU_MAX_SEGMENTS: usize = 64;
 
-/// Per-instance coefficients and step plan (WGSL `InstanceParams`).
+/// Per-instance coefficients and step plan (WGSL `InstanceParams`); the contact levers are
+/// in a buffer of their own ([`levers_of`]).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct GpuInstanceParams {
@@ -117,8 +118,19 @@ pub struct GpuInstanceParams {
     pub rtol: f32,
     /// Adaptive steps: the absolute tolerance (0 for fixed steps).
     pub atol: f32,
-    /// Contact levers λ_i (m).
-    pub levers: [f32; GPU_MAX_SEGMENTS],
+}
+
+/// The contact levers λ_i (m) of an instance, `segments` words (zero past the contact
+/// segment): the `levers` buffer holds them sample-major, N words per instance, beside the
+/// parameter block, so that the block has no array sized for the largest N.
+pub fn levers_of(p: &InstancePlan, segments: usize) -> Vec<f32> {
+    let mut levers = vec![0f32; segments];
+    if let Some(c) = &p.params.contact {
+        for (dst, &src) in levers.iter_mut().zip(&c.levers_m) {
+            *dst = src as f32;
+        }
+    }
+    levers
 }
 
 impl GpuInstanceParams {
@@ -127,19 +139,13 @@ impl GpuInstanceParams {
     /// `twin_d0`.
     pub fn from_plan(p: &InstancePlan, imex_offset: u32, twin_d0: f64) -> GpuInstanceParams {
         let m = &p.params;
-        let mut levers = [0f32; GPU_MAX_SEGMENTS];
         let (n_levers, gap, kc, cc) = match &m.contact {
-            Some(c) => {
-                for (dst, &src) in levers.iter_mut().zip(&c.levers_m) {
-                    *dst = src as f32;
-                }
-                (
-                    c.levers_m.len() as u32,
-                    c.gap_m,
-                    c.stiffness_n_per_m,
-                    c.damping_ns_per_m,
-                )
-            }
+            Some(c) => (
+                c.levers_m.len() as u32,
+                c.gap_m,
+                c.stiffness_n_per_m,
+                c.damping_ns_per_m,
+            ),
             None => (0, 0.0, 0.0, 0.0),
         };
         let (inv_c, inv_r, theta, last) = match &m.piezo {
@@ -214,7 +220,6 @@ impl GpuInstanceParams {
             period_s: (1.0 / p.frequency_hz) as f32,
             rtol: rtol as f32,
             atol: atol as f32,
-            levers,
         }
     }
 }

@@ -159,6 +159,11 @@ impl GpuEngine {
         self.layout = layout;
     }
 
+    /// Build the kernels with wgpu's runtime checks, or without ([`GpuContext::set_runtime_checks`]).
+    pub fn set_runtime_checks(&mut self, on: bool) {
+        self.ctx.set_runtime_checks(on);
+    }
+
     /// Run at most `max` instances at a time (`None`: as many as the adapter's limits allow),
     /// to bound the device memory a run takes.
     pub fn set_max_batch(&mut self, max: Option<usize>) {
@@ -220,6 +225,7 @@ fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings, layout: StateLayout)
         want_early: plan.early_stop.is_some(),
         adaptive: plan.is_adaptive(),
         layout,
+        runtime_checks: false,
     }
 }
 
@@ -246,7 +252,10 @@ pub fn run_gpu(
     }
     let twin_d0 = plan.twin_separation(crate::engine::Precision::F32)?;
     let reduce = ReduceSettings::from_options(opts);
-    let key = kernel_key(plan, &reduce, layout);
+    let key = KernelKey {
+        runtime_checks: ctx.runtime_checks(),
+        ..kernel_key(plan, &reduce, layout)
+    };
     let n = plan.instances.len();
     let cap = batch_capacity(ctx, plan, &key)?.min(limits.max_batch.unwrap_or(usize::MAX));
     let batch = Batch {
