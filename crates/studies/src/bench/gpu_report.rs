@@ -90,14 +90,15 @@ RK4 on the earlier damping reading (ζ1 = 0.0035), IMEX on the library reading. 
 per-instance device buffers; a rung they would make larger than the adapter binds runs in \
 consecutive batches, and its memory is that of the largest batch.\n\n\
 | engine | scene | N | method | instances | steps/instance | integration (s) | \
-instance-steps/s | segment-steps/s | GFLOP/s | of peak | memory (MiB) |\n\
-|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+instance-steps/s | kernel (s) | instance-steps/s of kernel | segment-steps/s | GFLOP/s | \
+of peak | memory (MiB) |\n\
+|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
         if let Some(why) = &r.skipped {
             let _ = writeln!(
                 md,
-                "| {} | {} | {} | {} | {} | {:.0} | skipped: {why} ||||||",
+                "| {} | {} | {} | {} | {} | {:.0} | skipped: {why} ||||||||",
                 r.engine,
                 r.scene.name(),
                 r.segments,
@@ -109,7 +110,7 @@ instance-steps/s | segment-steps/s | GFLOP/s | of peak | memory (MiB) |\n\
         }
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {} | {:.0} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {:.0} | {} | {} | {} | {} | {} | {} | {} | {} |",
             r.engine,
             r.scene.name(),
             r.segments,
@@ -121,6 +122,8 @@ instance-steps/s | segment-steps/s | GFLOP/s | of peak | memory (MiB) |\n\
                 None => format!("{v:.3}"),
             }),
             opt(r.instance_steps_per_s, |v| format!("{v:.3e}")),
+            opt(r.kernel_s, |v| format!("{v:.3}")),
+            opt(r.kernel_instance_steps_per_s, |v| format!("{v:.3e}")),
             opt(r.segment_steps_per_s, |v| format!("{v:.3e}")),
             opt(r.flop_per_s, |v| format!("{:.1}", v / 1e9)),
             opt(r.share_of_peak, |v| format!("{:.1} %", 100.0 * v)),
@@ -228,14 +231,16 @@ fn peer_section(md: &mut String, r: &ThroughputReport) {
 --cpu-throughput`, tiled) with RK4 in f32; its check is the largest |Δy| against our f64 \
 state after the case's steps. Ours: the best ladder rate of the default scene with RK4 on the \
 same engine at the same N and instance count, where measured.\n\n\
-| peer | variant | device | N | instances | steps | instance-steps/s | check | ours / peer |\n\
-|---|---|---|---|---|---|---|---|---|\n",
+| peer | variant | device | N | instances | steps | instance-steps/s | check | ours / peer | \
+ours by kernel time / peer |\n\
+|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for p in &r.peers {
-        let ours = ours_for(r, p);
+        let ours = ours_for(r, p, |x| x.instance_steps_per_s);
+        let kernel = ours_for(r, p, |x| x.kernel_instance_steps_per_s);
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {} | {} | {:.3e} | {:.1e} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {:.3e} | {:.1e} | {} | {} |",
             p.peer,
             p.variant,
             p.device,
@@ -244,14 +249,20 @@ same engine at the same N and instance count, where measured.\n\n\
             p.steps,
             p.instance_steps_per_s,
             p.check_max_abs_err,
-            opt(ours, |o| format!("{:.2}x", o / p.instance_steps_per_s))
+            opt(ours, |o| format!("{:.2}x", o / p.instance_steps_per_s)),
+            opt(kernel, |o| format!("{:.2}x", o / p.instance_steps_per_s))
         );
     }
     md.push('\n');
 }
 
-/// Our rate for a peer's row: the GPU ladder's default scene, RK4, same N and instances.
-fn ours_for(r: &ThroughputReport, p: &GpuPeerRow) -> Option<f64> {
+/// Our rate for a peer's row (`rate` of the row: by wall or by kernel time): the GPU ladder's
+/// default scene, RK4, same N and instances.
+fn ours_for(
+    r: &ThroughputReport,
+    p: &GpuPeerRow,
+    rate: impl Fn(&LadderRow) -> Option<f64>,
+) -> Option<f64> {
     r.rows
         .iter()
         .filter(|x| {
@@ -261,5 +272,5 @@ fn ours_for(r: &ThroughputReport, p: &GpuPeerRow) -> Option<f64> {
                 && x.segments == p.segments
                 && x.instances == p.instances
         })
-        .find_map(|x| x.instance_steps_per_s)
+        .find_map(rate)
 }

@@ -126,6 +126,13 @@ pub struct LadderRow {
     pub integrate_s: Option<f64>,
     /// Instance-steps per second.
     pub instance_steps_per_s: Option<f64>,
+    /// The integration kernels' own time by the device's clock (s; GPU rows where the adapter
+    /// has timestamps), measured as a peer's CUDA events measure its kernel.
+    #[serde(default)]
+    pub kernel_s: Option<f64>,
+    /// Instance-steps per second of kernel time.
+    #[serde(default)]
+    pub kernel_instance_steps_per_s: Option<f64>,
     /// Segment-steps per second.
     pub segment_steps_per_s: Option<f64>,
     /// Counted flop per step of this method at N.
@@ -377,6 +384,8 @@ fn ladder(
             instance_steps: (steps_per_instance * count as f64) as u64,
             integrate_s: None,
             instance_steps_per_s: None,
+            kernel_s: None,
+            kernel_instance_steps_per_s: None,
             segment_steps_per_s: None,
             flop_per_step: c.count.flop_per_step,
             flop_per_s: None,
@@ -424,6 +433,8 @@ struct Capped {
     steps: u64,
     /// Device memory (GPU).
     device_bytes: Option<u64>,
+    /// The integration kernels' time by the device's clock (GPU, where it has timestamps).
+    kernel_s: Option<f64>,
     /// The share of the steps taken when the budget stopped it.
     stopped_at: Option<f64>,
 }
@@ -449,6 +460,7 @@ fn run_capped(engine: &Engine, plan: &EnsemblePlan, budget_s: f64) -> Result<Cap
             seconds: run.integration_s().max(1e-9),
             steps: plan.total_steps,
             device_bytes: run.timings.gpu.as_ref().map(|g| g.device_bytes),
+            kernel_s: run.timings.gpu.as_ref().and_then(|g| g.integrate_kernel_s),
             stopped_at: None,
         }),
         Err(EngineError::Cancelled) => {
@@ -457,6 +469,7 @@ fn run_capped(engine: &Engine, plan: &EnsemblePlan, budget_s: f64) -> Result<Cap
                 seconds: seconds.max(1e-9),
                 steps: (share * plan.total_steps as f64) as u64,
                 device_bytes: None,
+                kernel_s: None,
                 stopped_at: Some(share),
             })
         }
@@ -472,6 +485,8 @@ fn fill(row: &mut LadderRow, plan: &EnsemblePlan, run: &Capped, peak: Option<f64
     row.steps_per_instance = plan.total_steps as f64 / plan.instances.len() as f64;
     row.integrate_s = Some(run.seconds);
     row.instance_steps_per_s = Some(rate);
+    row.kernel_s = run.kernel_s;
+    row.kernel_instance_steps_per_s = run.kernel_s.map(|k| run.steps as f64 / k.max(1e-9));
     row.segment_steps_per_s = Some(rate * row.segments as f64);
     row.flop_per_s = Some(flop_per_s);
     row.share_of_peak = match row.kind {

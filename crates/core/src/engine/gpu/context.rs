@@ -78,6 +78,8 @@ pub struct GpuContext {
     pub backend: String,
     /// Whether the adapter is a software rasteriser running on the CPU (lavapipe).
     pub is_software: bool,
+    /// Whether the device writes timestamps (`Features::TIMESTAMP_QUERY`).
+    pub timestamps: bool,
     pub(crate) limits: wgpu::Limits,
     pub(crate) bind_layout: wgpu::BindGroupLayout,
     pipeline_layout: wgpu::PipelineLayout,
@@ -134,9 +136,11 @@ impl GpuContext {
         let adapter = pick_adapter(choice)?;
         let info = adapter.get_info();
         let limits = adapter.limits();
+        // The adapter's own clock, where it has one (`clock.rs`): kernel time beside wall time.
+        let features = adapter.features() & wgpu::Features::TIMESTAMP_QUERY;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("pendulum-atlas"),
-            required_features: wgpu::Features::empty(),
+            required_features: features,
             required_limits: limits.clone(),
             ..Default::default()
         }))
@@ -158,6 +162,7 @@ impl GpuContext {
             adapter_name: info.name.clone(),
             backend: format!("{:?}", info.backend),
             is_software: info.device_type == wgpu::DeviceType::Cpu,
+            timestamps: features.contains(wgpu::Features::TIMESTAMP_QUERY),
             limits,
             bind_layout,
             pipeline_layout,

@@ -15,6 +15,7 @@
 //! or a hang ([`fault`] injects both for the tests).
 
 mod buffers;
+mod clock;
 mod context;
 pub mod fault;
 pub mod kernels;
@@ -37,6 +38,7 @@ use crate::reduce::{InstanceResult, ReduceOptions, Span, Tally};
 use crate::schema::{Source, field, gpu_fields};
 use buffers::{Buffers, Sizes, batch_capacity, software_step_budget};
 use bytemuck::Zeroable;
+use clock::KernelClock;
 use kernels::{KernelKey, Kernels, WG};
 use layout::{GPU_MAX_SEGMENTS, GpuAccum, GpuControl};
 use serde::Serialize;
@@ -71,6 +73,10 @@ pub struct GpuTimings {
     pub reduce_s: f64,
     /// Copy back to the host.
     pub readback_s: f64,
+    /// The integration kernels' own time by the device's clock, summed over the dispatches
+    /// (`None` where the adapter has no timestamps): `integrate_s` less the host's share.
+    #[serde(default)]
+    pub integrate_kernel_s: Option<f64>,
     /// Device memory of the run's per-instance buffers (parameters, state, accumulators,
     /// series, work space, K_c values; bytes).
     pub device_bytes: u64,
@@ -91,6 +97,10 @@ impl GpuTimings {
             integrate_s: self.integrate_s + next.integrate_s,
             reduce_s: self.reduce_s + next.reduce_s,
             readback_s: self.readback_s + next.readback_s,
+            integrate_kernel_s: match (self.integrate_kernel_s, next.integrate_kernel_s) {
+                (Some(a), Some(b)) => Some(a + b),
+                _ => None,
+            },
             device_bytes: self.device_bytes.max(next.device_bytes),
             submissions: self.submissions + next.submissions,
             read_back_bytes: self.read_back_bytes + next.read_back_bytes,
@@ -366,7 +376,16 @@ fn run_sized(
     let bufs = Buffers::upload(ctx, plan, reduce, &sizes, &control, batch.twin_d0)?;
     timings.upload_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
-    let dispatches = integrate(ctx, &kernels, &bufs, plan, &mut control, budget, progress)?;
+    let mut clock = KernelClock::new(ctx);
+    let dispatches = integrate(
+        ctx,
+        &kernels,
+        &bufs,
+        (plan, &mut control),
+        (budget, clock.as_mut()),
+        progress,
+    )?;
+    timings.integrate_kernel_s = clock.map(|c| c.total_s);
     if let Some(finish) = &kernels.early_finish {
         let done = submit(ctx, finish, &bufs.bind, (sizes.n_inst as u32).div_ceil(WG));
         wait(ctx, done)?;
@@ -416,9 +435,8 @@ fn integrate(
     ctx: &GpuContext,
     kernels: &Kernels,
     bufs: &Buffers,
-    plan: &EnsemblePlan,
-    control: &mut GpuControl,
-    budget: Option<u64>,
+    (plan, control): (&EnsemblePlan, &mut GpuControl),
+    (budget, mut clock): (Option<u64>, Option<&mut KernelClock>),
     progress: Progress,
 ) -> Result<u32, EngineError> {
     let n = plan.instances.len();
@@ -449,17 +467,22 @@ fn integrate(
         ctx.queue
             .write_buffer(&bufs.control, 0, bytemuck::bytes_of(control));
         let started = Instant::now();
-        let submitted = submit(
+        let groups = (active.len() as u32).div_ceil(WG);
+        let submitted = submit_timed(
             ctx,
             &kernels.integrate,
             &bufs.bind,
-            (active.len() as u32).div_ceil(WG),
+            groups,
+            clock.as_deref(),
         );
         if lose {
             ctx.lose();
         }
         wait(ctx, submitted)?;
         let took = started.elapsed();
+        if let Some(c) = clock.as_deref_mut() {
+            c.add(ctx)?;
+        }
         dispatches += 1;
         done = (done + this).min(max_steps);
         if !adaptive && progress(done, max_steps, ProgressUnit::Steps).is_break() {
@@ -689,10 +712,32 @@ fn submit(
     bind: &wgpu::BindGroup,
     groups: u32,
 ) -> wgpu::SubmissionIndex {
+    submit_timed(ctx, pipeline, bind, groups, None)
+}
+
+/// [`submit`], the pass timed by `clock` where there is one.
+fn submit_timed(
+    ctx: &GpuContext,
+    pipeline: &wgpu::ComputePipeline,
+    bind: &wgpu::BindGroup,
+    groups: u32,
+    clock: Option<&KernelClock>,
+) -> wgpu::SubmissionIndex {
     let mut enc = ctx
         .device
         .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-    record_pass(&mut enc, pipeline, bind, groups);
+    {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: None,
+            timestamp_writes: clock.map(KernelClock::writes),
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, bind, &[]);
+        pass.dispatch_workgroups(groups, 1, 1);
+    }
+    if let Some(c) = clock {
+        c.resolve(&mut enc);
+    }
     ctx.submit(enc.finish())
 }
 
