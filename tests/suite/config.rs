@@ -471,3 +471,86 @@ fn starts_lie_within_the_bumpers_of_every_swept_cell() {
         starts.states
     );
 }
+
+#[test]
+fn a_start_beyond_its_bumper_is_refused_on_a_scene_and_on_a_map_over_the_clearance() {
+    let e = scene_error(&["initial.angle_deg=30"]);
+    assert!(
+        e.contains("initial.angle_deg") && e.contains("[-20, 20]") && e.contains("bumpers' reach"),
+        "{e}"
+    );
+    // On the bumper is a start (the default), past it is not; without bumpers any angle.
+    assert_eq!(scene(&["initial.angle_deg=-20"]).initial.angle_deg, -20.0);
+    let free = scene(&["limiter.enabled=false", "initial.angle_deg=30"]);
+    assert_eq!(free.initial.angle_deg, 30.0);
+    // A map over the clearance: the cells whose bumpers stand closer than the start refuse.
+    let e = pendulum_atlas_core::config::map_from_toml(
+        "[initial]\nangle_deg = 15.0\n[map]\n[[map.axes]]\nkey = \"limiter.clearance_deg\"\nvalues = [10.0, 20.0]\n",
+        "<test>",
+        &[],
+    )
+    .expect_err("a start beyond the 10° bumpers")
+    .to_string();
+    assert!(
+        e.contains("limiter.clearance_deg = 10") && e.contains("initial.angle_deg"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_sweep_over_a_key_the_scene_does_not_use_is_refused_before_any_work() {
+    use pendulum_atlas_core::config::map_from_toml;
+    let map = |extra: &str, axis: &str| {
+        map_from_toml(
+            &format!("{extra}[map]\n[[map.axes]]\nkey = \"{axis}\"\nvalues = [1e-4, 2e-4]\n"),
+            "<test>",
+            &[],
+        )
+    };
+    let e = map("[integration]\nstep = \"fixed\"\n", "integration.rtol")
+        .expect_err("tolerances at fixed steps")
+        .to_string();
+    assert!(
+        e.contains("map.axes[1].key") && e.contains("integration.step is \"fixed\""),
+        "{e}"
+    );
+    let e = map("[integration]\nstep = \"adaptive\"\n", "integration.dt_s")
+        .expect_err("a step at adaptive steps")
+        .to_string();
+    assert!(e.contains("integration.step is \"adaptive\""), "{e}");
+    let e = map("[limiter]\nenabled = false\n", "limiter.stiffness_n_per_m")
+        .expect_err("the bumpers' stiffness without bumpers")
+        .to_string();
+    assert!(e.contains("limiter.enabled = false"), "{e}");
+    // Used keys sweep: the tolerances at adaptive steps, a step that makes the steps fixed.
+    assert!(map("", "integration.rtol").is_ok());
+    assert!(map("", "integration.dt_s").is_ok());
+    // A design variable and an unknown follow the same rule.
+    let e = pendulum_atlas_studies::harvest::search_from_toml(
+        pendulum_atlas_studies::harvest::DEFAULT_SEARCH_TOML,
+        "<default search>",
+        &[
+            "integration.step=\"fixed\"".into(),
+            "search.variables=[{key=\"integration.atol\",values=[1e-6,1e-5]}]".into(),
+        ],
+    )
+    .expect_err("a design variable over an unused tolerance")
+    .to_string();
+    assert!(
+        e.contains("search.variables[1].key") && e.contains("\"fixed\""),
+        "{e}"
+    );
+    let e = pendulum_atlas_studies::calibrate::calibration_from_toml(
+        "[integration]\nstep = \"fixed\"\n[calibrate]\n\
+         [[calibrate.unknowns]]\nkey = \"integration.rtol\"\nvalues = [1e-4, 1e-3]\n\
+         [[calibrate.cases]]\nname = \"8 Hz\"\nset = { \"excitation.frequency_hz\" = 8.0 }\nk_class = \"chaotic\"\n",
+        "<test>",
+        &[],
+    )
+    .expect_err("an unknown over an unused tolerance")
+    .to_string();
+    assert!(
+        e.contains("calibrate.unknowns[1].key") && e.contains("\"fixed\""),
+        "{e}"
+    );
+}

@@ -592,7 +592,7 @@ fn read_map(
     } else {
         metrics
     };
-    note_switched_off(&mut r, &mode, &metrics, early_stop)?;
+    note_switched_off(&mut r, &mode, &metrics, (early_stop, bifurcation))?;
     let settle_max_s = super::settle::read_settle(
         &mut r,
         &scene,
@@ -633,8 +633,10 @@ fn read_map(
         notes,
         gpu_layout,
     };
-    // Every axis key must be a scene key that takes this kind of value: check the first point.
-    spec.instance_scene(0)?;
+    // Every axis key must be a scene key that takes this kind of value, and one the scene
+    // uses: check the first point.
+    let first = spec.instance_scene(0)?;
+    MAP_AXES.refuse_unused(&spec.axes, &first)?;
     Ok(spec)
 }
 
@@ -644,21 +646,23 @@ fn note_switched_off(
     r: &mut Reader,
     mode: &MapMode,
     metrics: &[Metric],
-    early_stop: bool,
+    (early_stop, bifurcation): (bool, bool),
 ) -> Result<(), ConfigError> {
     use super::scene::note_unused;
     if !matches!(mode, MapMode::Refined(_)) {
         note_unused(
             r,
-            &[
-                "map.refine_spacing",
-                "map.refine_follow",
-                "map.refine_threshold",
-                "map.refine_audit",
-                "map.refine_audit_min",
-                "map.refine_seed",
-            ],
-            "map.refine is not true",
+            (
+                &[
+                    "map.refine_spacing",
+                    "map.refine_follow",
+                    "map.refine_threshold",
+                    "map.refine_audit",
+                    "map.refine_audit_min",
+                    "map.refine_seed",
+                ],
+                "map.refine is not true",
+            ),
         )?;
     }
     if !matches!(
@@ -670,29 +674,39 @@ fn note_switched_off(
     ) {
         note_unused(
             r,
-            &[
-                "map.initial_angle_min_deg",
-                "map.initial_angle_max_deg",
-                "map.initial_rate_min_deg_s",
-                "map.initial_rate_max_deg_s",
-                "map.initial_seed",
-            ],
-            "map.initial_states does not draw starts",
+            (
+                &[
+                    "map.initial_angle_min_deg",
+                    "map.initial_angle_max_deg",
+                    "map.initial_rate_min_deg_s",
+                    "map.initial_rate_max_deg_s",
+                    "map.initial_seed",
+                ],
+                "map.initial_states does not draw starts",
+            ),
         )?;
     }
     if !metrics.contains(&Metric::Lyapunov) {
         note_unused(
             r,
-            &[
-                "map.lyapunov_window_s",
-                "map.lyapunov_align_periods",
-                "map.lyapunov_perturbation",
-            ],
-            "lambda1 is not among map.metrics",
+            (
+                &[
+                    "map.lyapunov_window_s",
+                    "map.lyapunov_align_periods",
+                    "map.lyapunov_perturbation",
+                ],
+                "lambda1 is not among map.metrics",
+            ),
+        )?;
+    }
+    if !bifurcation {
+        note_unused(
+            r,
+            (&["map.bifurcation_samples"], "map.bifurcation is not true"),
         )?;
     }
     if !early_stop {
-        note_unused(r, &["map.early_stop_tol"], "map.early_stop = false")?;
+        note_unused(r, (&["map.early_stop_tol"], "map.early_stop = false"))?;
     }
     Ok(())
 }

@@ -395,16 +395,7 @@ fn read_scene(r: &mut Reader) -> Result<Scene, ConfigError> {
         sample_rate_hz: r.number("output.sample_rate_hz", 1000.0, Range::Positive, "Hz")?,
     };
     let initial = Initial {
-        angle_deg: r.number(
-            "initial.angle_deg",
-            if limiter.enabled {
-                limiter.clearance_deg
-            } else {
-                0.0
-            },
-            Range::Open(-90.0, 90.0),
-            "deg",
-        )?,
+        angle_deg: read_start_angle(r, &limiter)?,
         rate_deg_s: r.number("initial.rate_deg_s", 0.0, Range::Any, "deg/s")?,
         voltage_v: r.number("initial.voltage_v", 0.0, Range::Any, "V")?,
     };
@@ -529,10 +520,91 @@ fn read_beam_damping(r: &mut Reader, library_beta_s: f64) -> Result<BeamDamping,
     })
 }
 
+/// Keys of a part that is switched off, and the setting that switches it off.
+type SwitchedOff = (&'static [&'static str], &'static str);
+
+/// The limiter's keys, unused with `limiter.enabled = false`.
+const LIMITER_OFF: SwitchedOff = (
+    &[
+        "limiter.clearance_deg",
+        "limiter.contact_arc_m",
+        "limiter.stiffness_n_per_m",
+        "limiter.damping_ns_per_m",
+        "limiter.damping_law",
+    ],
+    "limiter.enabled = false",
+);
+
+/// The patch's keys, unused with `piezo.enabled = false`.
+const PIEZO_OFF: SwitchedOff = (
+    &[
+        "piezo.segments",
+        "piezo.capacitance_f",
+        "piezo.load_ohm",
+        "piezo.coupling_nm_per_v",
+        "initial.voltage_v",
+    ],
+    "piezo.enabled = false",
+);
+
+/// A sweep's keys, unused under harmonic forcing.
+const SWEEP_OFF: SwitchedOff = (
+    &[
+        "excitation.sweep_start_hz",
+        "excitation.sweep_end_hz",
+        "excitation.sweep_duration_s",
+    ],
+    "only used with excitation.kind = \"sweep\"",
+);
+
+/// The frequency of harmonic forcing, unused by a sweep.
+const HARMONIC_OFF: SwitchedOff = (
+    &["excitation.frequency_hz"],
+    "a sweep runs from excitation.sweep_start_hz to excitation.sweep_end_hz",
+);
+
+/// The tolerances, unused at fixed steps.
+const TOLERANCES_OFF: SwitchedOff = (
+    &["integration.rtol", "integration.atol"],
+    "integration.step is \"fixed\"",
+);
+
+/// A given step, unused at adaptive steps.
+const STEP_OFF: SwitchedOff = (
+    &["integration.dt_s"],
+    "integration.step is \"adaptive\" (the tolerances set the steps)",
+);
+
+impl Scene {
+    /// The keys this scene does not use, each with the setting that switches it off: a
+    /// value given for one changes nothing of a run (a note says so), and a sweep over one
+    /// (a map axis, a design variable, an unknown) would give identical cells.
+    pub fn unused_keys(&self) -> Vec<(&'static str, &'static str)> {
+        let mut off: Vec<SwitchedOff> = Vec::new();
+        if !self.limiter.enabled {
+            off.push(LIMITER_OFF);
+        }
+        if !self.piezo.enabled {
+            off.push(PIEZO_OFF);
+        }
+        off.push(match self.excitation.kind {
+            ExcitationKind::Harmonic { .. } => SWEEP_OFF,
+            ExcitationKind::Sweep { .. } => HARMONIC_OFF,
+        });
+        off.push(match self.integration.step {
+            StepControl::Fixed => TOLERANCES_OFF,
+            StepControl::Adaptive { .. } => STEP_OFF,
+        });
+        off.into_iter()
+            .flat_map(|(keys, why)| keys.iter().map(move |k| (*k, why)))
+            .collect()
+    }
+}
+
 /// The one rule for keys of a part that is switched off (the limiter, the piezo, a sweep under
 /// a harmonic forcing): they are accepted, and each one the scene sets is named in a note
 /// (printed as a warning) saying it is not used.
-pub(super) fn note_unused(r: &mut Reader, keys: &[&str], why: &str) -> Result<(), ConfigError> {
+pub(super) fn note_unused(r: &mut Reader, (keys, why): SwitchedOff) -> Result<(), ConfigError> {
     for k in keys {
         if r.given(k)? {
             r.note(format!("{k} is set but not used: {why}"));
@@ -544,17 +616,7 @@ pub(super) fn note_unused(r: &mut Reader, keys: &[&str], why: &str) -> Result<()
 fn read_limiter(r: &mut Reader, length_m: f64) -> Result<Limiter, ConfigError> {
     let limiter = read_limiter_keys(r, length_m)?;
     if !limiter.enabled {
-        note_unused(
-            r,
-            &[
-                "limiter.clearance_deg",
-                "limiter.contact_arc_m",
-                "limiter.stiffness_n_per_m",
-                "limiter.damping_ns_per_m",
-                "limiter.damping_law",
-            ],
-            "limiter.enabled = false",
-        )?;
+        note_unused(r, LIMITER_OFF)?;
     }
     Ok(limiter)
 }
@@ -630,6 +692,23 @@ fn read_integration(r: &mut Reader) -> Result<Integration, ConfigError> {
     })
 }
 
+/// `initial.angle_deg`: by default leaning on the +x bumper (`limiter.clearance_deg`, 0
+/// without bumpers); with the bumpers on, within their reach, ±`limiter.clearance_deg`: a
+/// start beyond a bumper would begin inside it, its penetration a spring force no run
+/// could have built up.
+fn read_start_angle(r: &mut Reader, limiter: &Limiter) -> Result<f64, ConfigError> {
+    if !limiter.enabled {
+        return r.number("initial.angle_deg", 0.0, Range::Open(-90.0, 90.0), "deg");
+    }
+    let c = limiter.clearance_deg;
+    r.number(
+        "initial.angle_deg",
+        c,
+        Range::Closed(-c, c),
+        "deg (within the bumpers' reach, ±limiter.clearance_deg)",
+    )
+}
+
 /// `integration.step` and its tolerances: `"adaptive"` by default, `"fixed"` where
 /// `integration.dt_s` is given (a step in seconds keeps its meaning). Adaptive steps run the
 /// embedded estimate of the method's pair (RK4's third-order one, or the IMEX pair's); a
@@ -653,19 +732,11 @@ fn read_step_control(r: &mut Reader, dt_s: TimeStep) -> Result<StepControl, Conf
         "",
     )?;
     if !adaptive {
-        note_unused(
-            r,
-            &["integration.rtol", "integration.atol"],
-            "integration.step is \"fixed\"",
-        )?;
+        note_unused(r, TOLERANCES_OFF)?;
         return Ok(StepControl::Fixed);
     }
     if matches!(dt_s, TimeStep::Seconds(_)) {
-        note_unused(
-            r,
-            &["integration.dt_s"],
-            "integration.step is \"adaptive\" (the tolerances set the steps)",
-        )?;
+        note_unused(r, STEP_OFF)?;
     }
     Ok(StepControl::Adaptive { rtol, atol })
 }
@@ -692,15 +763,7 @@ fn read_excitation(r: &mut Reader, duration_s: f64) -> Result<Excitation, Config
             )?,
         }
     } else {
-        note_unused(
-            r,
-            &[
-                "excitation.sweep_start_hz",
-                "excitation.sweep_end_hz",
-                "excitation.sweep_duration_s",
-            ],
-            "only used with excitation.kind = \"sweep\"",
-        )?;
+        note_unused(r, SWEEP_OFF)?;
         ExcitationKind::Harmonic { frequency_hz }
     };
     Ok(Excitation {
@@ -728,17 +791,7 @@ fn read_piezo(r: &mut Reader, segments: usize) -> Result<Piezo, ConfigError> {
         });
     }
     if !enabled {
-        note_unused(
-            r,
-            &[
-                "piezo.segments",
-                "piezo.capacitance_f",
-                "piezo.load_ohm",
-                "piezo.coupling_nm_per_v",
-                "initial.voltage_v",
-            ],
-            "piezo.enabled = false",
-        )?;
+        note_unused(r, PIEZO_OFF)?;
     }
     Ok(Piezo {
         enabled,

@@ -19,6 +19,7 @@
 
 use super::error::ConfigError;
 use super::reader::{Range, Reader};
+use super::scene::Scene;
 use crate::text::num;
 use serde::Serialize;
 use toml::{Table, Value};
@@ -198,6 +199,24 @@ impl SweepList {
             });
         }
         Ok(keys)
+    }
+
+    /// Refuse an entry over a key that `scene` (a point's, its swept values set) does not
+    /// use ([`Scene::unused_keys`]): every point would be the same.
+    pub fn refuse_unused(&self, keys: &[SweptKey], scene: &Scene) -> Result<(), ConfigError> {
+        let unused = scene.unused_keys();
+        for (i, k) in keys.iter().enumerate() {
+            if let Some((_, why)) = unused.iter().find(|(u, _)| *u == k.key) {
+                return Err(ConfigError::Inconsistent {
+                    key: format!("{}[{}].key", self.section, i + 1),
+                    reason: format!(
+                        "`{}` cannot be {}: this scene does not use it ({why}), so every one of its {} would be the same",
+                        k.key, self.entry, self.points
+                    ),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// The entries of the list: an array of 1 to `max_entries` tables.

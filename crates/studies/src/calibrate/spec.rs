@@ -485,6 +485,7 @@ fn check_scenes(spec: &CalibrationSpec) -> Result<(), ConfigError> {
                     key: "calibrate.cases".into(),
                     reason: format!("case `{}` gives an invalid scene: {e}", case.name),
                 })?;
+            UNKNOWNS.refuse_unused(&spec.unknowns, &scene)?;
             let angle = scene.initial.angle_deg;
             if widest.is_none_or(|(_, a)| angle.abs() > a.abs()) {
                 widest = Some((case, angle));

@@ -520,6 +520,8 @@ fn read_search(
         max_batch_instances,
     };
     check_variables(&spec)?;
+    let first: Vec<f64> = spec.variables.iter().map(|v| v.values[0]).collect();
+    SEARCH_VARIABLES.refuse_unused(&spec.variables, &spec.design_table(&first)?.1)?;
     Ok(spec)
 }
 
