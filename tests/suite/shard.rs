@@ -336,3 +336,59 @@ fn rehash(dir: &Path, rows: &[f64]) {
     m["values_sha256"] = values_sha256(&[rows, &tails]).into();
     std::fs::write(&manifest, serde_json::to_string_pretty(&m).unwrap()).unwrap();
 }
+
+#[test]
+fn merge_holds_every_manifest_count_to_its_range_and_adds_without_wrapping() {
+    let root = out_dir("counts");
+    let (a, b) = (shard(&root, 0, 2), shard(&root, 1, 2));
+    let path = |d: &Path| d.join("shard.json");
+    let read = |d: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(path(d)).unwrap()).unwrap()
+    };
+    let (clean_a, clean_b) = (read(&a), read(&b));
+    let write = |d: &Path, v: &serde_json::Value| {
+        std::fs::write(path(d), serde_json::to_string_pretty(v).unwrap()).unwrap()
+    };
+    let refused = |says: &str| {
+        let o = merge(&[&a, &b], &root.join("merged"));
+        let e = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert_eq!(o.status.code(), Some(2), "{says}: {e}");
+        assert!(e.contains(says), "{says}: {e}");
+    };
+    // Two counts that each fit but whose sum would wrap.
+    let (mut ma, mut mb) = (clean_a.clone(), clean_b.clone());
+    ma["sub_steps"] = u64::MAX.into();
+    mb["sub_steps"] = u64::MAX.into();
+    write(&a, &ma);
+    write(&b, &mb);
+    refused("sub_steps values add up beyond");
+    write(&b, &clean_b);
+    // Fewer sub-steps than base steps, a negative time, more early stops than members.
+    let cases: [(&str, serde_json::Value, &str); 3] = [
+        ("sub_steps", 3.into(), "fewer than the"),
+        ("stopped_early", 1_000_000.into(), "more than its"),
+        (
+            "timings_s",
+            serde_json::json!({"plan_s": 0.0, "device_s": 0.0, "integrate_s": 0.0,
+            "reduce_s": 0.0, "total_s": -1e308, "gpu": null}),
+            "not a time from 0",
+        ),
+    ];
+    for (field, value, says) in cases {
+        let mut m = clean_a.clone();
+        m[field] = value;
+        write(&a, &m);
+        refused(says);
+    }
+    // A shard index past the count is named as such, not as a missing field.
+    let mut m = clean_a.clone();
+    m["shard"]["index"] = 7.into();
+    write(&a, &m);
+    refused("the index must be below the count");
+    // The values' hash is hex in either case.
+    let mut m = clean_a.clone();
+    m["values_sha256"] = m["values_sha256"].as_str().unwrap().to_uppercase().into();
+    write(&a, &m);
+    ok(&merge(&[&a, &b], &root.join("merged")));
+    let _ = std::fs::remove_dir_all(&root);
+}

@@ -40,7 +40,7 @@ pub fn json_damage(name: &str, e: &serde_json::Error) -> String {
             format!("{name} is not complete JSON ({at}): the file is damaged")
         }
         Category::Data => format!(
-            "{name} does not hold the fields this version writes ({at}): it is damaged or from another version; rerun what wrote it"
+            "{name} does not hold the fields this version writes ({e}): it is damaged or from another version; rerun what wrote it"
         ),
     }
 }

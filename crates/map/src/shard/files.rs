@@ -68,8 +68,10 @@ pub struct ShardManifest {
     /// The columns of `shard_results.npy`, by name ([`shard_columns`]).
     pub columns: Vec<String>,
     /// SHA-256 of the shard's values (`shard_results.npy`, then `shard_strobe.npy`) as
-    /// little-endian f64 ([`values_sha256`]): `merge` refuses a shard whose files no longer
-    /// hold what its run wrote.
+    /// little-endian f64 ([`values_sha256`], hex in either case): `merge` refuses a shard
+    /// whose files no longer hold what its run wrote. It detects damage, not tampering: who
+    /// edits the values can write their hash too, so `merge` also holds every row and count
+    /// to the rules of the engines' results.
     pub values_sha256: String,
 }
 
@@ -97,9 +99,14 @@ impl<'de> Deserialize<'de> for Shard {
             count: u32,
         }
         let r = Raw::deserialize(d)?;
-        format!("{}/{}", r.index, r.count)
-            .parse()
-            .map_err(serde::de::Error::custom)
+        format!("{}/{}", r.index, r.count).parse().map_err(|_| {
+            serde::de::Error::custom(format!(
+                "shard index {} of {} shards: the index must be below the count, and the count from 1 to {}",
+                r.index,
+                r.count,
+                crate::map::shard::MAX_SHARDS
+            ))
+        })
     }
 }
 
@@ -216,7 +223,7 @@ pub fn read_shard(dir: &Path) -> Result<ShardData, ShardReadError> {
     }
     let at = column_positions(&manifest.columns).map_err(&fail)?;
     let strobe = read_strobe(dir, &manifest).map_err(&fail)?;
-    if values_sha256(&[&rows, &strobe]) != manifest.values_sha256 {
+    if !values_sha256(&[&rows, &strobe]).eq_ignore_ascii_case(&manifest.values_sha256) {
         return Err(fail(
             "its values are not those its run wrote (their SHA-256 differs from shard.json's values_sha256): a file was changed or damaged; rerun the shard".into(),
         ));

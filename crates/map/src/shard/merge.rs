@@ -62,6 +62,16 @@ pub enum MergeError {
         /// What is wrong with it.
         reason: String,
     },
+    /// A manifest field no run could have written, or counts that do not add up.
+    #[error("`{dir}`: shard.json's {field} {reason}; rerun that shard")]
+    BadManifest {
+        /// The shard folder.
+        dir: String,
+        /// The field.
+        field: &'static str,
+        /// What is wrong with it.
+        reason: String,
+    },
     /// The stored scene does not read back.
     #[error("the scene stored in `{dir}` no longer reads: {source}")]
     Scene {
@@ -130,7 +140,9 @@ pub fn merge_shards(dirs: &[PathBuf]) -> Result<Merged, MergeError> {
     let plan = EnsemblePlan::new(&spec)?;
     for s in &shards {
         check_rows(s, &spec, &plan)?;
+        check_manifest(s, &spec, &plan)?;
     }
+    check_sums(&shards)?;
     let mut run = assemble(plan, shards.iter().map(part).collect());
     crate::map::confidence::fill_run(&spec.shape(), &mut run);
     Ok(Merged { spec, run })
@@ -162,6 +174,103 @@ fn check_rows(s: &ShardData, spec: &MapSpec, plan: &EnsemblePlan) -> Result<(), 
         r.check_rule(&spec.metrics, &rule)
             .map_err(|reason| bad(k, reason))?;
     }
+    Ok(())
+}
+
+/// The longest time a manifest may report for a stage (s): about 31 years.
+const MAX_STAGE_S: f64 = 1e9;
+
+/// Every numeric field of shard `s`'s manifest within what its run could have written: each
+/// time finite, from 0 to [`MAX_STAGE_S`]; at most one early stop per member; sub-steps
+/// (adaptive maps only) at least one per base step its rows integrated; a bifurcation tail
+/// only where the map draws one, and no longer than it keeps.
+fn check_manifest(s: &ShardData, spec: &MapSpec, plan: &EnsemblePlan) -> Result<(), MergeError> {
+    let m = &s.manifest;
+    let bad = |field: &'static str, reason: String| MergeError::BadManifest {
+        dir: s.dir.display().to_string(),
+        field,
+        reason,
+    };
+    let mut times = Vec::new();
+    numbers(
+        &serde_json::to_value(&m.timings_s).unwrap_or_default(),
+        &mut times,
+    );
+    if let Some(t) = times.iter().find(|t| !(0.0..=MAX_STAGE_S).contains(*t)) {
+        let t = pendulum_atlas_core::text::num(*t);
+        return Err(bad(
+            "timings_s",
+            format!("holds {t}, not a time from 0 to 1e9 s"),
+        ));
+    }
+    if m.stopped_early > m.members {
+        let n = m.stopped_early;
+        return Err(bad(
+            "stopped_early",
+            format!("is {n}, more than its {} members", m.members),
+        ));
+    }
+    let base_steps = s
+        .results
+        .iter()
+        .try_fold(0u64, |a, r| a.checked_add(r.steps));
+    match (plan.is_adaptive(), m.sub_steps, base_steps) {
+        (true, Some(n), Some(b)) if n < b => Err(bad(
+            "sub_steps",
+            format!("is {n}, fewer than the {b} base steps its rows integrated"),
+        )),
+        (true, None, _) => Err(bad(
+            "sub_steps",
+            "is missing for a map of adaptive steps".into(),
+        )),
+        (false, Some(n), _) => Err(bad("sub_steps", format!("is {n} for a map of fixed steps"))),
+        _ => Ok(()),
+    }?;
+    let keep = if spec.bifurcation {
+        spec.bifurcation_samples as usize
+    } else {
+        0
+    };
+    if m.strobe_tail > keep {
+        let n = m.strobe_tail;
+        return Err(bad(
+            "strobe_tail",
+            format!("is {n}, more than the {keep} samples this map keeps"),
+        ));
+    }
+    Ok(())
+}
+
+/// Every number in `v`, depth first.
+fn numbers(v: &serde_json::Value, out: &mut Vec<f64>) {
+    match v {
+        serde_json::Value::Number(n) => out.extend(n.as_f64()),
+        serde_json::Value::Array(a) => a.iter().for_each(|x| numbers(x, out)),
+        serde_json::Value::Object(o) => o.values().for_each(|x| numbers(x, out)),
+        _ => {}
+    }
+}
+
+/// The shards' counts added without wrapping: dispatches within a `u32`, sub-steps within a
+/// `u64` (the merged map's `map.json` reports both).
+fn check_sums(shards: &[ShardData]) -> Result<(), MergeError> {
+    let overflow = |field: &'static str| {
+        MergeError::BadManifest {
+        dir: shards.iter().map(|s| s.dir.display().to_string()).collect::<Vec<_>>().join(", "),
+        field,
+        reason: "values add up beyond what the count holds (2^32 dispatches, 2^64 sub-steps) across these shards".into(),
+    }
+    };
+    shards
+        .iter()
+        .try_fold(0u32, |a, s| a.checked_add(s.manifest.dispatches))
+        .ok_or_else(|| overflow("dispatches"))?;
+    shards
+        .iter()
+        .try_fold(0u64, |a, s| {
+            a.checked_add(s.manifest.sub_steps.unwrap_or(0))
+        })
+        .ok_or_else(|| overflow("sub_steps"))?;
     Ok(())
 }
 
