@@ -77,10 +77,9 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     }
     let scene = a.scene.load()?;
     let m = scene.modes()?;
-    let mut plan = StepPlan::for_scene(&scene)?;
+    let plan = StepPlan::for_scene(&scene)?;
     let f32 = a.precision == Some(Precision::F32);
-    plan.warnings
-        .extend(pendulum_atlas_core::engine::adaptive::f32_tolerance_warning(plan.control, f32));
+    pendulum_atlas_core::engine::adaptive::check_f32_tolerance(plan.control, f32)?;
     let piezo = scene.piezo_params();
     let size = run_size(&scene, &plan, &a.out)?;
     let inputs: Vec<&std::path::Path> = a.scene.scene.iter().map(|p| p.as_path()).collect();

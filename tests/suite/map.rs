@@ -1475,11 +1475,12 @@ fn map_json_counts_the_sub_steps_an_adaptive_map_tried_on_every_engine() {
     assert_eq!(fixed, None, "fixed steps have no sub-steps");
 }
 
-/// Adaptive steps finer than f32 resolves are warned of in f32, not in f64, by a map and by a
-/// single run: the steps would be forced to the ladder's finest level. (rtol 9e-5 is just past
-/// the limit, and still fast.)
+/// Adaptive steps finer than f32 resolves are refused in f32, before any step, by a map, a
+/// single run and a search, and accepted in f64: in f32 every sub-step would be forced to the
+/// ladder's finest level (a 2-s run at rtol 1e-10 took 75.8 s). (rtol 9e-5 is just past the
+/// limit, and fast in f64.)
 #[test]
-fn an_adaptive_tolerance_finer_than_f32_resolves_is_warned_of() {
+fn an_adaptive_tolerance_finer_than_f32_resolves_is_refused_in_f32() {
     let sets = [
         "map.axes=[{key=\"excitation.frequency_hz\",values=[8.0]},{key=\"excitation.amplitude_m\",values=[0.009]}]",
         "map.metrics=[\"hops\"]",
@@ -1488,45 +1489,50 @@ fn an_adaptive_tolerance_finer_than_f32_resolves_is_warned_of() {
         "integration.step=\"adaptive\"",
         "integration.rtol=9e-5",
     ];
-    for (precision, warned) in [("f32", true), ("f64", false)] {
-        let out = out_dir(&format!("f32-tolerance-{precision}"));
-        let mut cmd = bin();
-        cmd.args([
-            "map",
-            "--quiet",
-            "--backend",
-            "cpu",
-            "--precision",
-            precision,
-        ]);
-        for s in sets {
-            cmd.args(["--set", s]);
+    let search = [
+        "integration.duration_s=4.0",
+        "integration.transient_s=2.0",
+        "search.refine.rounds=0",
+        "search.verify=false",
+        "search.variables=[{key=\"limiter.clearance_deg\",values=[10.0]}]",
+        "search.band={start_hz=20.0,end_hz=21.0,count=2,base_acceleration_m_s2=2.0}",
+        "search.baseline.zoom_count=0",
+        "integration.step=\"adaptive\"",
+        "integration.rtol=9e-5",
+    ];
+    for (precision, refused) in [("f32", true), ("f64", false)] {
+        let runs: [(&str, Vec<&str>, &[&str]); 3] = [
+            ("map", vec!["map", "--quiet", "--backend", "cpu"], &sets),
+            ("simulate", vec!["simulate"], &sets[2..]),
+            (
+                "search",
+                vec!["search", "--quiet", "--backend", "cpu"],
+                &search,
+            ),
+        ];
+        for (name, args, sets) in runs {
+            let out = out_dir(&format!("f32-tolerance-{name}-{precision}"));
+            let mut cmd = bin();
+            cmd.args(&args).args(["--precision", precision]);
+            for s in sets {
+                cmd.args(["--set", s]);
+            }
+            let o = cmd.arg("--out").arg(&out).output().unwrap();
+            let stderr = String::from_utf8_lossy(&o.stderr);
+            if refused {
+                assert_eq!(o.status.code(), Some(2), "{name}: {stderr}");
+                assert!(
+                    stderr.contains("finer than f32 resolves"),
+                    "{name}: {stderr}"
+                );
+                assert!(
+                    stderr.contains("integration.rtol >= 1e-4"),
+                    "{name}: {stderr}"
+                );
+            } else {
+                assert!(o.status.success(), "{name}: {stderr}");
+            }
+            std::fs::remove_dir_all(&out).ok();
         }
-        let o = cmd.arg("--out").arg(&out).output().unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let j = map_json(&out);
-        let warnings = j["warnings"].to_string();
-        assert_eq!(
-            warnings.contains("finer than f32 resolves"),
-            warned,
-            "{precision}: {warnings}"
-        );
-        std::fs::remove_dir_all(&out).ok();
-        // A single run says it too, before it starts.
-        let out = out_dir(&format!("f32-tolerance-simulate-{precision}"));
-        let mut cmd = bin();
-        cmd.args(["simulate", "--precision", precision]);
-        for s in &sets[2..] {
-            cmd.args(["--set", s]);
-        }
-        let o = cmd.arg("--out").arg(&out).output().unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let stderr = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(
-            stderr.contains("finer than f32 resolves"),
-            warned,
-            "{stderr}"
-        );
-        std::fs::remove_dir_all(&out).ok();
     }
 }

@@ -11,10 +11,9 @@ pub mod shard;
 pub mod size;
 
 use pendulum_atlas_core::config::{MapMode, MapSpec};
-use pendulum_atlas_core::engine::adaptive::f32_tolerance_warning;
 use pendulum_atlas_core::engine::gpu::GpuTimings;
 use pendulum_atlas_core::engine::{
-    Engine, EngineError, EngineInfo, EnsemblePlan, Precision, Progress, Readback, add_counts,
+    Engine, EngineError, EngineInfo, EnsemblePlan, Progress, Readback, add_counts,
 };
 use pendulum_atlas_core::reduce::{
     AttractorMap, AttractorRule, InstanceResult, ReduceOptions, attractor_map, basin_map,
@@ -544,13 +543,6 @@ fn run_engine(
     progress: Progress,
 ) -> Result<(MapRun, Vec<Vec<f64>>), EngineError> {
     let t_all = Instant::now();
-    let mut plan = plan;
-    let f32 = engine.info().precision == Precision::F32;
-    if let Some(first) = plan.instances.first() {
-        let w = f32_tolerance_warning(first.control, f32);
-        plan.warnings
-            .extend(w.filter(|w| !plan.warnings.contains(w)));
-    }
     let readback = Readback {
         strobe: strobe_tail.is_some(),
         strobe_last: strobe_tail.map(|k| k as u32),

@@ -129,6 +129,16 @@ pub enum EngineError {
         /// The kernel's limit.
         max: usize,
     },
+    /// Adaptive steps to a tolerance below what f32 resolves.
+    #[error(
+        "integration.rtol = {rtol:e} is finer than f32 resolves (at least {floor:e}): every sub-step would be forced to the finest level, hundreds of times slower; run in f64 (--precision f64, the CPU engine) or set integration.rtol >= {floor:e}"
+    )]
+    ToleranceBelowF32 {
+        /// The tolerance asked for.
+        rtol: f64,
+        /// The finest an f32 engine meets.
+        floor: f64,
+    },
     /// lavapipe ends any shader invocation after 65535 loop iterations.
     #[error(
         "the software GPU adapter ({adapter}) stops a shader after 65535 loop iterations; {what} needs about {loops}: {remedy}"

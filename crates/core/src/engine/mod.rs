@@ -484,6 +484,10 @@ impl Engine {
         readback: Readback,
         progress: Progress,
     ) -> Result<EngineRun, EngineError> {
+        let f32 = self.info.precision == Precision::F32;
+        for p in &plan.instances {
+            adaptive::check_f32_tolerance(p.control, f32)?;
+        }
         let mut run = match &self.inner {
             EngineImpl::Cpu(c) => EnsembleEngine::run(c, plan, reduce, readback, progress),
             EngineImpl::Gpu(g) => EnsembleEngine::run(g.as_ref(), plan, reduce, readback, progress),

@@ -63,6 +63,7 @@ pub fn run_scene<O: Observer<f32> + Observer<f64>>(
 ) -> Result<SceneRun, EngineError> {
     let twin =
         |d0: f64| SingleTwin::for_run(scene, plan, d0, LyapunovSettings::default().align_periods);
+    crate::engine::adaptive::check_f32_tolerance(plan.control, precision == Precision::F32)?;
     let (outcome, lyapunov) = match (integrator, precision) {
         (Integrator::Reference, Precision::F32) => return Err(EngineError::ReferenceNeedsF64),
         (Integrator::Reference, Precision::F64) => {
