@@ -1536,3 +1536,33 @@ fn an_adaptive_tolerance_finer_than_f32_resolves_is_refused_in_f32() {
         }
     }
 }
+
+/// A map with the verdict does not warn that K comes from fewer than the comfortable number of
+/// stroboscopic samples (the verdict reads such a K as not firm and decides by λ1 and the
+/// period); a map of K without the verdict still does.
+#[test]
+fn the_short_k_warning_comes_only_where_no_verdict_weighs_k() {
+    let sets = [
+        "map.axes=[{key=\"excitation.frequency_hz\",values=[8.0,9.0]},{key=\"excitation.amplitude_m\",values=[0.009]}]",
+        "integration.duration_s=20.0",
+        "integration.transient_s=4.0",
+    ];
+    for (metrics, warned) in [("[\"K\",\"regime\"]", false), ("[\"K\"]", true)] {
+        let out = out_dir(&format!("short-k-{warned}"));
+        let mut cmd = bin();
+        cmd.args(["map", "--quiet", "--backend", "cpu"]);
+        for s in sets {
+            cmd.args(["--set", s]);
+        }
+        cmd.args(["--set", &format!("map.metrics={metrics}")]);
+        let o = cmd.arg("--out").arg(&out).output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(
+            stderr.contains("stroboscopic samples (fewest"),
+            warned,
+            "{metrics}: {stderr}"
+        );
+        std::fs::remove_dir_all(&out).ok();
+    }
+}

@@ -294,7 +294,9 @@ impl EnsemblePlan {
                 ));
             }
         }
-        if opts.wants(Metric::K) {
+        // The verdict reads a K from fewer samples as not firm and decides by λ1 and the
+        // period (`reduce::regime`): a short K misleads only a map that shows K without it.
+        if opts.wants(Metric::K) && !opts.wants(Metric::Regime) {
             warnings.extend(short_k_warning(&instances));
         }
         let early_stop = opts.early_stop;
@@ -472,7 +474,7 @@ impl<'a> Solved<'a> {
 }
 
 /// The warning when some instances give the 0–1 test fewer samples than it needs to be reliable
-/// (long-period orbits can then read as chaotic).
+/// (long-period orbits can then read as chaotic), for a map without the verdict.
 fn short_k_warning(instances: &[InstancePlan]) -> Option<String> {
     let comfortable = crate::analysis::ZERO_ONE_COMFORTABLE_SAMPLES as u32;
     let short: Vec<u32> = instances
