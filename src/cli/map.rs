@@ -222,7 +222,7 @@ pub(super) fn read_map(
 
 /// No more shards than instances (`flag` names the option in the message).
 pub(super) fn check_shard_count(flag: &str, count: u32, spec: &MapSpec) -> anyhow::Result<()> {
-    pendulum_atlas_map::map::check_shardable(spec).map_err(|e| anyhow::anyhow!("{flag}: {e}"))?;
+    pendulum_atlas_map::map::check_shards(spec).map_err(|e| anyhow::anyhow!("{flag}: {e}"))?;
     if count as usize > spec.instances() {
         anyhow::bail!(
             "{flag}: {count} shards of a map of {} instances; use at most {} shards",

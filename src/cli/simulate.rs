@@ -21,8 +21,10 @@ use std::time::Instant;
 #[derive(Debug, Clone, Copy, PartialEq, clap::ValueEnum, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum IntegratorChoice {
-    /// The fixed-step engine the maps use: the scene's `integration.method` (RK4 or IMEX, or
-    /// the cheaper of the two for "auto") at the plan's dt. `rk4` is accepted for it too.
+    /// The engine's stepper, as the maps take it: the scene's `integration.method` (RK4 or
+    /// IMEX, or the cheaper of the two for "auto"), at adaptive steps within the plan's base
+    /// step (`integration.step = "adaptive"`, the default) or at its fixed dt. `rk4` is
+    /// accepted for it too.
     #[value(alias = "rk4")]
     Engine,
     /// Adaptive DOP853 with contact events, f64 (for validation; slower).

@@ -156,3 +156,66 @@ fn damaged_files_of_ours_are_described_in_words() {
         assert!(msg.contains("shard.json"), "{msg}");
     }
 }
+
+/// Numbers in analysis messages and warnings are written compactly (1e300, not 301 digits),
+/// the step-limit refusal of adaptive steps advises what changes base steps (not
+/// `integration.dt_s`, which would switch to fixed steps), and `slurm` refuses, before writing
+/// a job, a settled map and a basin map, naming the key that makes each unshardable.
+#[test]
+fn refusals_name_what_to_change_and_write_numbers_compactly() {
+    let dir = scratch("compact");
+    let rec: String = std::iter::once("t,a\n".to_string())
+        .chain((0..2000).map(|i| format!("{},{}\n", i as f64 / 100.0, (i as f64 / 10.0).sin())))
+        .collect();
+    std::fs::write(dir.join("rec.csv"), rec).unwrap();
+    let analyze = |extra: &[&str]| {
+        let mut args = vec![
+            "analyze", "rec.csv", "--signal", "a", "--out", "an", "--force",
+        ];
+        args.extend_from_slice(extra);
+        args.into_iter().map(String::from).collect::<Vec<_>>()
+    };
+    let a = analyze(&["--time", "t", "--forcing-hz", "1e300"]);
+    let a: Vec<&str> = a.iter().map(String::as_str).collect();
+    let msg = refused(&a, &dir);
+    assert!(msg.contains("1e300 Hz"), "{msg}");
+    // A warning of a run that goes through.
+    let a = analyze(&["--sample-rate-hz", "1e300", "--forcing-hz", "2"]);
+    let o = bin().args(&a).current_dir(&dir).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("4e297 samples per s"), "{err}");
+    assert_eq!(internals(&err), None, "{err}");
+    // Adaptive steps: the base steps, and what changes them.
+    let msg = refused(
+        &[
+            "simulate",
+            "--set",
+            "integration.duration_s=1e9",
+            "--set",
+            "beam.segments=3",
+        ],
+        &dir,
+    );
+    assert!(
+        msg.contains("base steps") && msg.contains("output.sample_rate_hz"),
+        "{msg}"
+    );
+    assert!(!msg.contains("integration.dt_s"), "{msg}");
+    let slurm = |sets: &[&str], names: &str| {
+        let mut args = vec!["slurm", "--shards", "2", "--out", "jobs"];
+        for s in sets {
+            args.extend(["--set", s]);
+        }
+        let msg = refused(&args, &dir);
+        assert!(msg.contains(names), "{names}: {msg}");
+        assert!(!dir.join("jobs").exists(), "refused before writing a job");
+    };
+    slurm(&["map.settle_max_s=68"], "map.settle_max_s");
+    slurm(
+        &[
+            "map.axes=[{key=\"initial.angle_deg\",values=[-10.0,10.0]},{key=\"initial.rate_deg_s\",values=[0.0,5.0]}]",
+        ],
+        "key `map.axes`",
+    );
+}

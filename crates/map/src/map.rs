@@ -258,6 +258,21 @@ pub fn check_shardable(spec: &MapSpec) -> Result<(), EngineError> {
     }
 }
 
+/// Refuse to split a map into shards merged later (`--shard`, `slurm`), before any file is
+/// written: [`check_shardable`], and settling, which needs the whole grid (a cell's
+/// confidence counts its neighbours' verdicts) where a shard has only its own cells.
+pub fn check_shards(spec: &MapSpec) -> Result<(), EngineError> {
+    check_shardable(spec)?;
+    if spec.settle_max_s.is_some() {
+        return Err(pendulum_atlas_core::config::ConfigError::Inconsistent {
+            key: "map.settle_max_s".into(),
+            reason: "settling needs the whole grid (a cell's confidence counts its neighbours' verdicts): run the map in one piece or with --devices, or drop map.settle_max_s".into(),
+        }
+        .into());
+    }
+    Ok(())
+}
+
 /// Keep `shard`'s instances of the whole map's `plan` (all without one), integrate and reduce
 /// them; planning time (since `t0`) counts in the run's timings.
 fn run_map_part(
@@ -719,14 +734,7 @@ pub fn run_map_shard(
     engine: &Engine,
     progress: Progress,
 ) -> Result<MapRun, EngineError> {
-    check_shardable(spec)?;
-    if spec.settle_max_s.is_some() {
-        return Err(pendulum_atlas_core::config::ConfigError::Inconsistent {
-            key: "map.settle_max_s".into(),
-            reason: "settling needs the whole grid (a cell's confidence counts its neighbours' verdicts): run the map in one piece or with --devices, or drop map.settle_max_s".into(),
-        }
-        .into());
-    }
+    check_shards(spec)?;
     let t0 = Instant::now();
     let plan = EnsemblePlan::new_with(spec, progress)?;
     run_map_part(spec, Cow::Owned(plan), Some(shard), engine, progress, t0)

@@ -1,6 +1,7 @@
 //! The one error type of the analysis stage, so callers can tell bad input from bad arguments
 //! and print a message that says how to mend it.
 
+use crate::text::num;
 use thiserror::Error;
 
 /// What was wrong with the data or the arguments handed to an analysis function.
@@ -31,9 +32,12 @@ pub enum AnalysisError {
     },
     /// Time stamps that should be uniform are not, within the tolerance.
     #[error(
-        "time stamps are not uniform: the step before sample {index} is {step_s} s, but the \
-         median step is {expected_s} s (relative tolerance {rel_tol}); resample the record onto \
-         a uniform grid first"
+        "time stamps are not uniform: the step before sample {index} is {} s, but the \
+         median step is {} s (relative tolerance {}); resample the record onto a uniform grid \
+         first",
+        num(*step_s),
+        num(*expected_s),
+        num(*rel_tol)
     )]
     NonUniformTime {
         /// Index of the later sample of the offending step.
@@ -47,7 +51,9 @@ pub enum AnalysisError {
     },
     /// Time stamps go backwards or repeat, so no interpolation is defined.
     #[error(
-        "time stamps must increase strictly, but t[{index}] = {current_s} s follows {previous_s} s"
+        "time stamps must increase strictly, but t[{index}] = {} s follows {} s",
+        num(*current_s),
+        num(*previous_s)
     )]
     NonIncreasingTime {
         /// Index of the sample that does not advance.
@@ -69,8 +75,10 @@ pub enum AnalysisError {
     },
     /// The transient leaves too little of the record to analyse.
     #[error(
-        "the transient of {transient_s} s leaves {remaining} of the samples of a {record_s} s \
-         record, but at least {needed} are needed: shorten the transient"
+        "the transient of {} s leaves {remaining} of the samples of a {} s record, but at \
+         least {needed} are needed: shorten the transient",
+        num(*transient_s),
+        num(*record_s)
     )]
     TransientTooLong {
         /// The transient asked for, in seconds.
@@ -84,9 +92,13 @@ pub enum AnalysisError {
     },
     /// The forcing period is too short for the record's sampling to resolve.
     #[error(
-        "a forcing frequency of {forcing_hz} Hz is not resolved by a record sampled at \
-         {sample_rate_hz} Hz: stroboscopic samples need at least {min_samples_per_period} \
-         samples per forcing period, so the forcing must lie in (0, {max_forcing_hz}] Hz"
+        "a forcing frequency of {} Hz is not resolved by a record sampled at {} Hz: \
+         stroboscopic samples need at least {} samples per forcing period, so the forcing must \
+         lie in (0, {}] Hz",
+        num(*forcing_hz),
+        num(*sample_rate_hz),
+        num(*min_samples_per_period),
+        num(*max_forcing_hz)
     )]
     ForcingUnresolved {
         /// The forcing frequency asked for, in Hz.
@@ -100,8 +112,9 @@ pub enum AnalysisError {
     },
     /// The series does not vary, so indicators that measure variation are undefined.
     #[error(
-        "{what} is constant (every sample equals {value} to within {rel_range:e} of its \
-         magnitude): there is no motion for K, R, a spectrum or a wavelet to describe"
+        "{what} is constant (every sample equals {} to within {rel_range:e} of its \
+         magnitude): there is no motion for K, R, a spectrum or a wavelet to describe",
+        num(*value)
     )]
     ConstantSignal {
         /// Which input was constant.

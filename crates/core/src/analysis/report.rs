@@ -8,6 +8,7 @@
 //! with no AR(1) model for the wavelet significance) is left out, and
 //! [`RecordAnalysis::skipped`] says why: the other indicators are still valid.
 
+use crate::text::num;
 use std::collections::BTreeMap;
 
 use super::checks::{ensure_finite, ensure_positive, ensure_same_len, ensure_varying};
@@ -366,7 +367,9 @@ pub fn analyze_record(
     if wavelet.summary.block_average > 1 {
         warnings.push(format!(
             "wavelet computed on the record block-averaged by {} to {} samples per {}",
-            wavelet.summary.block_average, wavelet.summary.rate_hz, opts.time_unit
+            wavelet.summary.block_average,
+            num(wavelet.summary.rate_hz),
+            opts.time_unit
         ));
     }
     if let Some(reason) = wavelet.skipped {
@@ -415,7 +418,8 @@ fn validate_record_input(
     ensure_positive("sample rate", sample_rate_hz)?;
     if !start_s.is_finite() {
         return Err(AnalysisError::InvalidArgument(format!(
-            "the start time must be finite, got {start_s}"
+            "the start time must be finite, got {}",
+            num(start_s)
         )));
     }
     if let Some(f) = opts.forcing_hz {
@@ -426,7 +430,7 @@ fn validate_record_input(
     {
         return Err(AnalysisError::InvalidArgument(format!(
             "the clearance must lie in the open interval (0, 90) deg, got {} deg",
-            c.to_degrees()
+            num(c.to_degrees())
         )));
     }
     validate_wavelet_settings(&opts.wavelet)
@@ -439,20 +443,21 @@ fn validate_wavelet_settings(w: &WaveletSettings) -> Result<(), AnalysisError> {
     if !(w.dj.is_finite() && w.dj > 0.0 && w.dj <= 1.0) {
         return Err(AnalysisError::InvalidArgument(format!(
             "the wavelet scale spacing dj must lie in (0, 1] octave, got {}",
-            w.dj
+            num(w.dj)
         )));
     }
     if !(w.confidence > 0.0 && w.confidence < 1.0) {
         return Err(AnalysisError::InvalidArgument(format!(
             "the confidence level must lie in (0, 1), got {}",
-            w.confidence
+            num(w.confidence)
         )));
     }
     if let Lag1Choice::Fixed(a) = w.lag1
         && !(a.is_finite() && a.abs() < 1.0)
     {
         return Err(AnalysisError::InvalidArgument(format!(
-            "the lag-1 autocorrelation must lie in (-1, 1), got {a}"
+            "the lag-1 autocorrelation must lie in (-1, 1), got {}",
+            num(a)
         )));
     }
     ensure_positive("the wavelet's largest sample rate", w.max_rate_hz)
@@ -463,7 +468,8 @@ fn validate_wavelet_settings(w: &WaveletSettings) -> Result<(), AnalysisError> {
 fn transient_samples(len: usize, rate_hz: f64, transient_s: f64) -> Result<usize, AnalysisError> {
     if !(transient_s.is_finite() && transient_s >= 0.0) {
         return Err(AnalysisError::InvalidArgument(format!(
-            "the transient must be finite and >= 0 s, got {transient_s}"
+            "the transient must be finite and >= 0 s, got {}",
+            num(transient_s)
         )));
     }
     let skip = ((transient_s * rate_hz).ceil() as usize).min(len);
@@ -694,7 +700,8 @@ fn lag1_of(
                             "the Allen-Smith (pycwt ar1) lag-1 estimate has no solution for \
                              this series (its lag-1 correlation is too close to 1: a smooth or \
                              trending record); the wavelet significance uses the sample \
-                             autocorrelation {a} instead"
+                             autocorrelation {} instead",
+                            num(*a)
                         )
                     });
                     (sample, "sample (allen-smith has no solution)", warning)

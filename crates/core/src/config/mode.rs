@@ -100,9 +100,15 @@ impl MapMode {
     /// change; `None` when they can (plain maps).
     pub fn unshardable(&self) -> Option<(&'static str, &'static str)> {
         match self {
-            MapMode::Attractors { .. } => Some((
+            MapMode::Attractors {
+                starts: Some(_), ..
+            } => Some((
                 "map.initial_states",
                 "a map that labels attractors cannot be sharded yet: run it in one piece (drop --shard and --devices)",
+            )),
+            MapMode::Attractors { starts: None, .. } => Some((
+                "map.axes",
+                "a map over the start (an axis over initial.angle_deg or initial.rate_deg_s) labels attractors, and such a map cannot be sharded yet: run it in one piece (drop --shard and --devices)",
             )),
             MapMode::Continuation(_) => Some((
                 "map.continuation",

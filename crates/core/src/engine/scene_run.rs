@@ -15,7 +15,8 @@ use serde::Serialize;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Integrator {
-    /// The fixed-step engine the maps use, at the plan's step.
+    /// The engine's stepper, as the maps take it: adaptive steps within the plan's base step,
+    /// or its fixed step.
     Engine,
     /// Adaptive DOP853 with contact events, `f64` only (for validation; slower).
     Reference,

@@ -42,11 +42,20 @@ pub struct RunSize {
 pub enum TooLarge {
     /// More steps than the engines count.
     #[error(
-        "the run needs {steps:.3e} steps; the limit is {MAX_STEPS} (2^32 - 1): shorten integration.duration_s or lengthen integration.dt_s"
+        "the run needs {steps:.3e} {}steps; the limit is {MAX_STEPS} (2^32 - 1): shorten integration.duration_s or {}",
+        if *adaptive { "base " } else { "" },
+        if *adaptive {
+            "lower output.sample_rate_hz (adaptive steps take base steps of the method's automatic step, at most the output interval)"
+        } else {
+            "lengthen integration.dt_s"
+        }
     )]
     Steps {
         /// Steps the run needs.
         steps: f64,
+        /// The steps are the base steps of adaptive steps (where `integration.dt_s` would
+        /// switch to fixed steps).
+        adaptive: bool,
     },
     /// A run shorter than half a step.
     #[error(
@@ -93,7 +102,16 @@ impl RunSize {
     ) -> Result<RunSize, TooLarge> {
         let duration_s = scene.integration.duration_s;
         let columns = super::row_columns(scene.piezo_params().is_some()).len();
-        let size = RunSize::new(duration_s, plan.dt_s, plan.sample_every, columns)?;
+        let adaptive = matches!(
+            plan.control,
+            pendulum_atlas_core::config::StepControl::Adaptive { .. }
+        );
+        let size = RunSize::new(duration_s, plan.dt_s, plan.sample_every, columns).map_err(
+            |e| match e {
+                TooLarge::Steps { steps, .. } => TooLarge::Steps { steps, adaptive },
+                other => other,
+            },
+        )?;
         if size.steps == 0 {
             return Err(TooLarge::NoStep {
                 duration_s,
@@ -114,7 +132,10 @@ impl RunSize {
     ) -> Result<RunSize, TooLarge> {
         let steps = (duration_s / dt_s).round();
         if steps.is_nan() || steps > MAX_STEPS as f64 {
-            return Err(TooLarge::Steps { steps });
+            return Err(TooLarge::Steps {
+                steps,
+                adaptive: false,
+            });
         }
         let steps = steps as u64;
         let rows = steps / sample_every.max(1) + 1;
@@ -171,7 +192,7 @@ mod tests {
     fn a_vanishing_step_is_too_many_steps_not_a_saturated_count() {
         let e = RunSize::new(2.0, 1e-300, 1, 9).unwrap_err();
         assert!(
-            matches!(e, TooLarge::Steps { steps } if steps > 1e299),
+            matches!(e, TooLarge::Steps { steps, .. } if steps > 1e299),
             "{e}"
         );
         let ok = RunSize::new(2.0, 5e-4, 2, 9).unwrap();
