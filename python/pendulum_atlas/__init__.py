@@ -9,35 +9,45 @@ as the ``pendulum-atlas`` command, returned as ``xarray`` datasets.
 >>> ds = pa.map(scene)                                      # doctest: +SKIP
 """
 
-from __future__ import annotations
+import os as _os
+import tempfile as _tempfile
+import typing as _t
 
-import os
-import tempfile
-from typing import Callable, Optional
+import numpy as _np
+import xarray as _xr
 
-import numpy as np
-import xarray as xr
+#: Where a map or run integrates: a hardware GPU, else lavapipe or the CPU, whichever is
+#: faster (``"auto"``); any wgpu adapter (``"gpu"``); the CPU engine (``"cpu"``).
+Backend = _t.Literal["auto", "gpu", "cpu"]
+#: The float type: single precision, as the GPU integrates, or double.
+Precision = _t.Literal["f32", "f64"]
+#: A single run's integrator: the maps' engine, or the DOP853 reference (f64).
+Integrator = _t.Literal["engine", "reference"]
+#: The 0-1 test's samples of a record.
+Sampling = _t.Literal["stroboscopic", "extrema", "uniform"]
 
 
 def _quiet_headless_vulkan() -> None:
     """Give the Vulkan loader a runtime folder where the session has none (a server, a
     container), as the command does: without one it prints "error: XDG_RUNTIME_DIR is invalid
     or not set" on every map, which is no error of the user's."""
-    if os.environ.get("XDG_RUNTIME_DIR"):
+    if _os.environ.get("XDG_RUNTIME_DIR"):
         return
-    user = os.environ.get("USER", "user")
-    folder = os.path.join(tempfile.gettempdir(), f"pendulum-atlas-runtime-{user}")
+    user = _os.environ.get("USER", "user")
+    folder = _os.path.join(_tempfile.gettempdir(), f"pendulum-atlas-runtime-{user}")
     try:
-        os.makedirs(folder, mode=0o700, exist_ok=True)
+        _os.makedirs(folder, mode=0o700, exist_ok=True)
     except OSError:
         return
-    os.environ["XDG_RUNTIME_DIR"] = folder
+    _os.environ["XDG_RUNTIME_DIR"] = folder
 
 
 _quiet_headless_vulkan()
 
 from . import _native  # noqa: E402  (after the runtime folder is set)
-from ._dataset import map_dataset, open_run, run_dataset  # noqa: E402
+from ._dataset import map_dataset as _map_dataset  # noqa: E402
+from ._dataset import open_run  # noqa: E402
+from ._dataset import run_dataset as _run_dataset  # noqa: E402
 from ._scene import Scene  # noqa: E402
 
 __version__ = _native.__version__
@@ -48,6 +58,10 @@ __all__ = [
     "Scene",
     "SceneError",
     "EngineError",
+    "Backend",
+    "Precision",
+    "Integrator",
+    "Sampling",
     "map",
     "simulate",
     "analyze",
@@ -59,10 +73,11 @@ __all__ = [
 
 def map(
     scene: Scene,
-    backend: str = "auto",
-    precision: Optional[str] = None,
+    backend: Backend = "auto",
+    precision: Precision | None = None,
     progress: bool = True,
-) -> xr.Dataset:
+    axes: _t.Mapping[str, _t.Sequence[float] | tuple[float, float, int]] | None = None,
+) -> _xr.Dataset:
     """Run a map scene on the GPU or the CPU engine and return its dataset.
 
     Dimensions and coordinates are the map's axes (units in each coordinate's ``attrs``); one
@@ -77,9 +92,15 @@ def map(
     ``"f32"`` or ``"f64"``. ``progress``: a tqdm bar (terminal or Jupyter). The interpreter's
     lock is released while the engine runs; Ctrl-C stops the map at its next progress point
     and raises ``KeyboardInterrupt``.
+
+    ``axes``: the map's axes in place of the scene's ``map.axes``, key → values, or key →
+    ``(start, end, count)``, in grid order, e.g.
+    ``axes={"excitation.frequency_hz": (4.0, 12.0, 33), "excitation.amplitude_m": [0.01, 0.02]}``.
     """
     if not isinstance(scene, Scene):
         raise TypeError(f"map() takes a pendulum_atlas.Scene, not {type(scene).__name__}")
+    if axes is not None:
+        scene = scene.copy().set("map.axes", _axes_list(axes))
     if not scene.is_map:
         raise SceneError(
             "this scene has no [map] section: map() runs a map scene (see Scene.default_map()); "
@@ -89,15 +110,30 @@ def map(
         out = _native.run_map_scene(
             scene.text, scene.origin, scene.sets, backend, precision, bar.update
         )
-    return map_dataset(out["manifest"], out["arrays"])
+    return _map_dataset(out["manifest"], out["arrays"])
+
+
+def _axes_list(axes: _t.Mapping[str, _t.Any]) -> list[dict[str, _t.Any]]:
+    """``map.axes`` from ``{key: values}`` or ``{key: (start, end, count)}``."""
+    if not isinstance(axes, _t.Mapping) or not axes:
+        raise TypeError("axes takes a dict of one to three keys: key -> values, or key -> (start, end, count)")
+    out = []
+    for key, spec in axes.items():
+        if isinstance(spec, tuple) and len(spec) == 3 and isinstance(spec[2], int):
+            start, end, count = spec
+            out.append({"key": key, "start": float(start), "end": float(end), "count": count})
+        else:
+            values = [float(v) for v in _np.asarray(spec, dtype=float).ravel()]
+            out.append({"key": key, "values": values})
+    return out
 
 
 def simulate(
     scene: Scene,
-    integrator: str = "engine",
-    precision: Optional[str] = None,
+    integrator: Integrator = "engine",
+    precision: Precision | None = None,
     progress: bool = True,
-) -> xr.Dataset:
+) -> _xr.Dataset:
     """Integrate one scene and return its trajectory over ``time`` (s).
 
     Variables are the columns of ``simulate``'s ``trajectory.csv`` (``x0_m``, ``alpha_rad``,
@@ -105,7 +141,7 @@ def simulate(
     ``dominant_hz``, ``line_ratio``, ``period``, ``hops``) are attributes, and
     ``attrs["run_json"]`` holds the ``run.json`` the command would write.
 
-    ``integrator``: ``"engine"`` (the maps' fixed-step RK4/IMEX) or ``"reference"``
+    ``integrator``: ``"engine"`` (the maps' stepper: RK4 or IMEX, adaptive or fixed) or ``"reference"``
     (adaptive DOP853, f64). ``precision``: ``None`` (f64), ``"f32"`` or ``"f64"``. Ctrl-C
     stops the run at its next output row and raises ``KeyboardInterrupt``.
     """
@@ -115,19 +151,19 @@ def simulate(
         out = _native.run_single_scene(
             scene.text, scene.origin, scene.sets, integrator, precision, bar.update
         )
-    return run_dataset(out["columns"], out["units"], out["report"])
+    return _run_dataset(out["columns"], out["units"], out["report"])
 
 
 def analyze(
-    signal,
+    signal: _t.Any,
     sample_rate_hz: float,
-    forcing_hz: Optional[float] = None,
-    reference=None,
+    forcing_hz: float | None = None,
+    reference: _t.Any = None,
     transient_s: float = 0.0,
     start_s: float = 0.0,
-    clearance_deg: Optional[float] = None,
-    sampling: Optional[str] = None,
-) -> dict:
+    clearance_deg: float | None = None,
+    sampling: Sampling | None = None,
+) -> dict[str, _t.Any]:
     """The paper's indicators of a uniformly sampled record, as ``analyze`` computes them for
     a CSV (``docs/analysis.md``).
 
@@ -143,12 +179,12 @@ def analyze(
     ``statistics`` (period, hops, range), ``wavelet`` and the options used. A record the
     analysis refuses raises ``ValueError`` with the reason.
     """
-    x = np.ascontiguousarray(signal, dtype=np.float64)
+    x = _np.ascontiguousarray(signal, dtype=_np.float64)
     if x.ndim != 1:
         raise ValueError(f"signal must be one-dimensional, got shape {x.shape}")
     ref = None
     if reference is not None:
-        ref = np.ascontiguousarray(reference, dtype=np.float64)
+        ref = _np.ascontiguousarray(reference, dtype=_np.float64)
         if ref.shape != x.shape:
             raise ValueError(f"reference has shape {ref.shape}, the signal {x.shape}: give one value per sample")
     return _native.analyze_signal(
@@ -184,21 +220,21 @@ class _Bar:
     def __enter__(self) -> "_Bar":
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         if self._bar is not None:
             self._bar.close()
 
 
 def read_record(
-    path,
+    path: str | _os.PathLike[str],
     signal: str,
-    reference: Optional[str] = None,
-    time: Optional[str] = None,
+    reference: str | None = None,
+    time: str | None = None,
     time_unit: str = "s",
-    sample_rate_hz: Optional[float] = None,
+    sample_rate_hz: float | None = None,
     resample: bool = False,
     allow_gaps: bool = False,
-) -> dict:
+) -> dict[str, _t.Any]:
     """A measured CSV record read exactly as ``pendulum-atlas analyze`` reads it: the columns
     ``signal`` (and ``reference``) on a uniform grid, from the ``time`` column (resampled
     linearly at its median rate with ``resample=True``; gaps refused unless ``allow_gaps``) or
@@ -209,6 +245,8 @@ def read_record(
     ``warnings`` the command would print. Pass them on to :func:`analyze`. A file the command
     refuses raises ``ValueError`` with the same message.
     """
+    if not isinstance(path, (str, _os.PathLike)):
+        raise TypeError(f"read_record() takes a path, not {type(path).__name__}")
     return _native.read_record(
-        str(path), signal, reference, time, time_unit, sample_rate_hz, resample, allow_gaps
+        _os.fspath(path), signal, reference, time, time_unit, sample_rate_hz, resample, allow_gaps
     )

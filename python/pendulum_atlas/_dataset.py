@@ -139,4 +139,24 @@ def open_run(folder: str | os.PathLike) -> xr.Dataset:
     for name in manifest.get("files", []):
         if name.endswith(".npy"):
             arrays[name[: -len(".npy")]] = np.load(folder / name, allow_pickle=False)
+    _check_shapes(folder, manifest, arrays)
     return map_dataset(manifest, arrays)
+
+
+def _check_shapes(folder: Path, manifest: dict, arrays: Mapping[str, np.ndarray]) -> None:
+    """Every array of a map folder shaped as its ``map.json`` says: the grid's shape (with one
+    leading axis more for the per-label arrays), and each axis as long as the grid along it."""
+    shape = tuple(manifest["shape"])
+    for name, values in arrays.items():
+        if name.startswith("axis") and name[4:].isdigit():
+            i = int(name[4:])
+            ok = i < len(shape) and values.shape == (shape[i],)
+            want = f"({shape[i]},)" if i < len(shape) else "no such axis"
+        else:
+            ok = values.shape == shape or values.shape[1:] == shape
+            want = f"{shape} (or one leading axis more)"
+        if not ok:
+            raise ValueError(
+                f"{folder / (name + '.npy')} has shape {values.shape}, but map.json says {want}: "
+                "the folder was altered or mixes two maps; run the map again"
+            )

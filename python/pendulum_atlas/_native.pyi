@@ -90,7 +90,8 @@ def read_record(
     """A measured CSV record read as ``pendulum-atlas analyze`` reads it, on a uniform grid."""
 
 def cell_pins(text: str, origin: str, sets: list[str], cell_sets: list[str]) -> dict[str, Any]:
-    """The method, step and row rate a map took for one cell, as scene keys and values."""
+    """The method, step control, step and row rate a map took for one cell (every axis
+    given, each on its grid), as scene keys and values."""
 
 def read_map_manifest(path: str) -> dict[str, Any]:
     """A map folder's ``map.json``, read and checked (fields, files by name only), as a dict."""

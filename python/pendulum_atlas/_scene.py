@@ -87,9 +87,13 @@ class Scene:
         set to the given value, e.g. ``scene.cell(frequency_hz=8.0, amplitude_m=0.02)``
         (an axis by its full key works too: ``**{"excitation.frequency_hz": 8.0}``).
 
-        The integration method, the step and the row rate the map took for that cell are
-        pinned (``integration.method``, ``integration.dt_s``, ``output.sample_rate_hz``), as
-        the explorer pins them, so that :func:`pendulum_atlas.simulate` runs what the map ran."""
+        Every axis needs a value, and each value must be one of its axis's (a value read back
+        from the dataset's coordinate is): anything else is not a cell the map ran, and raises
+        :class:`pendulum_atlas.SceneError`. The integration method, the step control, the step
+        and the row rate the map took for that cell are pinned (``integration.method``,
+        ``integration.step``, ``integration.dt_s`` at fixed steps or
+        ``integration.base_step_s`` at adaptive ones, ``output.sample_rate_hz``), as the
+        explorer pins them, so that :func:`pendulum_atlas.simulate` runs what the map ran."""
         if not self.is_map:
             raise ValueError("cell() takes a map scene (one with a [map] section)")
         single = Scene(self._base, f"{self._origin} (a cell of the map)")

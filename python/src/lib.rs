@@ -12,14 +12,14 @@ use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pendulum_atlas_core::analysis::{RecordOptions, Sampling, analyze_record};
 use pendulum_atlas_core::config::{
     ConfigError, DEFAULT_MAP_TOML, MapSpec, PAPER_SCENE_TOML, Scene, apply_override, lookup_key,
-    map_from_toml, parse_toml, set_key,
+    map_from_toml, parse_override_value, parse_toml, set_key,
 };
 use pendulum_atlas_core::engine::{
     Backend, Engine, EngineError, EnsembleOptions, EnsemblePlan, Integrator, Precision, StepPlan,
 };
 use pendulum_atlas_core::model::Status;
 use pendulum_atlas_map::machine::memory_available;
-use pendulum_atlas_map::map::cell::pinned_cell;
+use pendulum_atlas_map::map::cell::{cell_index, pinned_cell};
 use pendulum_atlas_map::map::run_map;
 use pendulum_atlas_map::output::budget::RunSize;
 use pendulum_atlas_map::output::manifest::{Manifest, MapManifest};
@@ -567,9 +567,11 @@ fn read_record<'py>(
     Ok(d)
 }
 
-/// The keys that pin one cell of a map to what the map ran: `{"integration.method",
-/// "integration.dt_s", "output.sample_rate_hz"}` for the map `text` (with `sets`) at the cell
-/// whose axis keys `cell_sets` set (`pendulum_atlas_map::map::cell`, as the explorer's).
+/// The keys that pin one cell of a map to what the map ran: the method, the step control,
+/// its step (`integration.dt_s` at fixed steps, `integration.base_step_s` at adaptive ones)
+/// and the row rate, for the map `text` (with `sets`) at the cell whose axis keys
+/// `cell_sets` set (every axis, each on its grid; `pendulum_atlas_map::map::cell`, as the
+/// explorer's).
 #[pyfunction]
 fn cell_pins<'py>(
     py: Python<'py>,
@@ -579,27 +581,46 @@ fn cell_pins<'py>(
     cell_sets: Vec<String>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let spec = map_from_toml(text, origin, &sets).map_err(scene_error)?;
-    let mut table = spec.base_table.clone();
+    // The cell by its axis values (every axis, each on the grid); other keys as given.
+    let axis_keys: Vec<&str> = spec.axes.iter().map(|a| a.key.as_str()).collect();
+    let mut coords = Vec::new();
+    let mut others = Vec::new();
     for s in &cell_sets {
+        let (key, raw) = s.split_once('=').unwrap_or((s.as_str(), ""));
+        let key = key.trim();
+        if axis_keys.contains(&key) {
+            let v = parse_override_value(raw);
+            let x = v
+                .as_float()
+                .or(v.as_integer().map(|i| i as f64))
+                .ok_or_else(|| {
+                    SceneError::new_err(format!("cell(): {key} takes a number, got {raw}"))
+                })?;
+            coords.push((key.to_string(), x));
+        } else {
+            others.push(s);
+        }
+    }
+    let k = cell_index(&spec, &coords).map_err(|e| SceneError::new_err(format!("cell(): {e}")))?;
+    let mut table = spec.instance_table(k).map_err(scene_error)?;
+    for s in others {
         apply_override(&mut table, s).map_err(scene_error)?;
     }
-    let pinned = py
-        .detach(|| -> Result<toml::Table, EngineError> {
-            let method = EnsemblePlan::new(&spec)?.method;
-            set_key(
-                &mut table,
-                "integration.method",
-                toml::Value::String(method.name().into()),
-            )?;
-            pinned_cell(table, &EnsembleOptions::from_spec(&spec))
-        })
+    let (pinned, keys) = py
+        .detach(
+            || -> Result<(toml::Table, &'static [&'static str]), EngineError> {
+                let method = EnsemblePlan::new(&spec)?.method;
+                set_key(
+                    &mut table,
+                    "integration.method",
+                    toml::Value::String(method.name().into()),
+                )?;
+                pinned_cell(table, &EnsembleOptions::from_spec(&spec))
+            },
+        )
         .map_err(engine_error)?;
     let d = PyDict::new(py);
-    for key in [
-        "integration.method",
-        "integration.dt_s",
-        "output.sample_rate_hz",
-    ] {
+    for &key in keys {
         let value = lookup_key(&pinned, key)
             .ok_or_else(|| PyRuntimeError::new_err(format!("{key} was not pinned")))?;
         d.set_item(

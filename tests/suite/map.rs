@@ -1566,3 +1566,47 @@ fn the_short_k_warning_comes_only_where_no_verdict_weighs_k() {
         std::fs::remove_dir_all(&out).ok();
     }
 }
+
+/// A cell of an adaptive map (the default) is pinned as adaptive steps of the base step its
+/// map took, with the map's tolerances: its single run takes those base steps, not fixed steps
+/// of that length (a fixed step would be another integrator: on an 8 × 6 default plane the
+/// reruns then differed from the map in K class on 6 of 48 cells). A fixed-step map's cell
+/// keeps its fixed step.
+#[test]
+fn a_cell_rerun_takes_the_step_control_and_step_its_map_took() {
+    use pendulum_atlas_core::config::{StepControl, TimeStep, map_from_toml};
+    use pendulum_atlas_core::engine::{EnsembleOptions, EnsemblePlan, StepPlan};
+    use pendulum_atlas_map::map::cell::{PINNED_ADAPTIVE_KEYS, PINNED_KEYS, pinned_cell};
+    for (step, keys) in [("adaptive", &PINNED_ADAPTIVE_KEYS), ("fixed", &PINNED_KEYS)] {
+        let text = format!(
+            "[beam]\nsegments = 3\n[integration]\nstep = \"{step}\"\nrtol = 3e-4\n\
+             [map]\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [7.0, 9.0]\n"
+        );
+        let spec = map_from_toml(&text, "<test>", &[]).expect("map");
+        let plan = EnsemblePlan::new(&spec).expect("plan");
+        let (table, pinned) = pinned_cell(
+            spec.instance_table(1).unwrap(),
+            &EnsembleOptions::from_spec(&spec),
+        )
+        .expect("pinned");
+        assert_eq!(pinned, keys);
+        let scene = pendulum_atlas_core::config::Scene::from_table(table).expect("cell scene");
+        let run = StepPlan::for_scene(&scene).expect("step plan");
+        let map_cell = &plan.instances[1];
+        assert_eq!(run.dt_s, map_cell.dt_s, "{step}: the map's step");
+        assert_eq!(
+            run.control, map_cell.control,
+            "{step}: the map's step control"
+        );
+        match step {
+            "adaptive" => {
+                assert_eq!(
+                    scene.integration.base_step_s,
+                    TimeStep::Seconds(map_cell.dt_s)
+                );
+                assert!(matches!(run.control, StepControl::Adaptive { rtol, .. } if rtol == 3e-4));
+            }
+            _ => assert_eq!(scene.integration.dt_s, TimeStep::Seconds(map_cell.dt_s)),
+        }
+    }
+}

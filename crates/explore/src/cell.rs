@@ -95,7 +95,8 @@ pub fn cell_scene(folder: &RunFolder, k: usize, v: usize) -> Result<CellScene, E
         }
     };
     table = pendulum_atlas_map::map::cell::pinned_cell(table, &opts)
-        .map_err(|e| fail(e.to_string()))?;
+        .map_err(|e| fail(e.to_string()))?
+        .0;
     let scene = Scene::from_table(table.clone()).map_err(|e| fail(e.to_string()))?;
     Ok(CellScene {
         scene,

@@ -199,8 +199,11 @@ pub struct Integration {
     pub duration_s: f64,
     /// Time discarded before indicators are computed (s).
     pub transient_s: f64,
-    /// Time step.
+    /// Time step of fixed steps.
     pub dt_s: TimeStep,
+    /// The base step of adaptive steps (`integration.base_step_s`; automatic by default): a
+    /// map's cell rerun alone pins the base step its map took.
+    pub base_step_s: TimeStep,
     /// Safety factor of the automatic step (on RK4's stability limit, or on the IMEX method's
     /// limits).
     pub dt_safety: f64,
@@ -563,9 +566,13 @@ const HARMONIC_OFF: SwitchedOff = (
     "a sweep runs from excitation.sweep_start_hz to excitation.sweep_end_hz",
 );
 
-/// The tolerances, unused at fixed steps.
+/// The keys of adaptive steps, unused at fixed steps.
 const TOLERANCES_OFF: SwitchedOff = (
-    &["integration.rtol", "integration.atol"],
+    &[
+        "integration.rtol",
+        "integration.atol",
+        "integration.base_step_s",
+    ],
     "integration.step is \"fixed\"",
 );
 
@@ -655,18 +662,8 @@ fn read_integration(r: &mut Reader) -> Result<Integration, ConfigError> {
         Range::NonNegative,
         "s",
     )?;
-    let dt_s = match r.raw("integration.dt_s")? {
-        None => TimeStep::Auto,
-        Some(toml::Value::String(s)) if s == "auto" => TimeStep::Auto,
-        Some(toml::Value::String(s)) => {
-            return Err(ConfigError::BadChoice {
-                key: "integration.dt_s".into(),
-                value: s.clone(),
-                choices: "\"auto\" or a positive number of seconds".into(),
-            });
-        }
-        Some(_) => TimeStep::Seconds(r.number("integration.dt_s", 0.0, Range::Positive, "s")?),
-    };
+    let dt_s = read_time_step(r, "integration.dt_s")?;
+    let base_step_s = read_time_step(r, "integration.base_step_s")?;
     let method = match r
         .choice("integration.method", "auto", &["auto", "rk4", "imex"])?
         .as_str()
@@ -687,8 +684,25 @@ fn read_integration(r: &mut Reader) -> Result<Integration, ConfigError> {
         duration_s,
         transient_s,
         dt_s,
+        base_step_s,
         dt_safety,
         step,
+    })
+}
+
+/// A step key: `"auto"` (the default) or a positive number of seconds.
+fn read_time_step(r: &mut Reader, key: &str) -> Result<TimeStep, ConfigError> {
+    Ok(match r.raw(key)? {
+        None => TimeStep::Auto,
+        Some(toml::Value::String(s)) if s == "auto" => TimeStep::Auto,
+        Some(toml::Value::String(s)) => {
+            return Err(ConfigError::BadChoice {
+                key: key.into(),
+                value: s.clone(),
+                choices: "\"auto\" or a positive number of seconds".into(),
+            });
+        }
+        Some(_) => TimeStep::Seconds(r.number(key, 0.0, Range::Positive, "s")?),
     })
 }
 

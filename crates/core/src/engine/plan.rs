@@ -575,8 +575,8 @@ fn attach_imex_matrices(instances: &mut [InstancePlan]) -> usize {
 
 /// Steps per forcing period: a multiple of `samples_per_period` whose step is at most the
 /// method's automatic step `dt_auto_s` (or the given step): the step is only ever shortened.
-/// With adaptive steps, the base step is at most [`ADAPTIVE_BASE_MAX_S`] for IMEX and RK4's
-/// automatic step for the explicit pair.
+/// With adaptive steps, the base step is at most the given `integration.base_step_s`, else
+/// [`ADAPTIVE_BASE_MAX_S`] for IMEX and RK4's automatic step for the explicit pair.
 fn steps_per_period(
     opts: &EnsembleOptions,
     scene: &Scene,
@@ -584,13 +584,15 @@ fn steps_per_period(
     (method, dt_auto_s): (Method, f64),
 ) -> u64 {
     let sp = u64::from(opts.samples_per_period);
-    let dt = match (scene.integration.step, scene.integration.dt_s) {
-        (StepControl::Adaptive { .. }, _) if method == Method::Rk4 => {
+    let i = &scene.integration;
+    let dt = match (i.step, i.dt_s, i.base_step_s) {
+        (StepControl::Adaptive { .. }, _, TimeStep::Seconds(base)) => base,
+        (StepControl::Adaptive { .. }, _, TimeStep::Auto) if method == Method::Rk4 => {
             dt_auto_s.min(ADAPTIVE_BASE_MAX_S)
         }
-        (StepControl::Adaptive { .. }, _) => ADAPTIVE_BASE_MAX_S,
-        (StepControl::Fixed, TimeStep::Auto) => dt_auto_s,
-        (StepControl::Fixed, TimeStep::Seconds(dt)) => dt,
+        (StepControl::Adaptive { .. }, _, TimeStep::Auto) => ADAPTIVE_BASE_MAX_S,
+        (StepControl::Fixed, TimeStep::Auto, _) => dt_auto_s,
+        (StepControl::Fixed, TimeStep::Seconds(dt), _) => dt,
     };
     let blocks = (period_s / (sp as f64 * dt) - 1e-9).ceil().max(1.0) as u64;
     sp * blocks

@@ -62,15 +62,21 @@ impl StepPlan {
             scene.integration.dt_s
         };
         let mut chosen = choose_method(scene.integration.method, given, &steps);
+        // The step taken: a fixed step given, or the base step of adaptive steps given.
+        let taken = if adaptive {
+            scene.integration.base_step_s
+        } else {
+            given
+        };
         if adaptive {
             chosen.reason = format!("{}; {}", chosen.reason, chosen.method.adaptive_reason());
-            if chosen.method == Method::Imex {
+            if chosen.method == Method::Imex && taken == TimeStep::Auto {
                 return Ok(Self::adaptive(scene, steps, chosen.reason));
             }
         }
         let out_dt = 1.0 / scene.output.sample_rate_hz;
         let mut warnings = Vec::new();
-        let (dt_s, sample_every, dt_source) = match given {
+        let (dt_s, sample_every, dt_source) = match taken {
             TimeStep::Auto => {
                 let f_max = scene.excitation.kind.max_frequency_hz();
                 let dt_forcing = 1.0 / (AUTO_STEPS_PER_FORCING_PERIOD * f_max);
@@ -87,7 +93,10 @@ impl StepPlan {
                 (out_dt / per_row, per_row as u64, DtSource::Auto)
             }
             TimeStep::Seconds(dt) => {
-                warnings.extend(given_step_warning(chosen.method, dt, &steps));
+                // A base step is refined by the error control where the method needs it.
+                if !adaptive {
+                    warnings.extend(given_step_warning(chosen.method, dt, &steps));
+                }
                 let every = (out_dt / dt).round().max(1.0) as u64;
                 if ((every as f64) * dt - out_dt).abs() > 1e-9 * out_dt {
                     warnings.push(format!(
