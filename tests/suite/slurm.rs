@@ -178,7 +178,7 @@ fn slurm_refuses_a_map_that_cannot_be_sharded_before_writing_jobs() {
     let basin = "map.axes=[{key=\"initial.angle_deg\",values=[-10.0,10.0]},{key=\"initial.rate_deg_s\",values=[0.0,20.0]}]";
     for (sets, key) in [
         (vec![f, "map.initial_states=2"], "map.initial_states"),
-        (vec![basin], "map.initial_states"),
+        (vec![basin], "map.axes"),
         (vec![f, "map.continuation=up"], "map.continuation"),
     ] {
         let job = out_dir(&format!("slurm-refused-{}", key.replace('.', "_")));

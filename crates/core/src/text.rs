@@ -40,9 +40,58 @@ pub fn json_damage(name: &str, e: &serde_json::Error) -> String {
             format!("{name} is not complete JSON ({at}): the file is damaged")
         }
         Category::Data => format!(
-            "{name} does not hold the fields this version writes ({e}): it is damaged or from another version; rerun what wrote it"
+            "{name} does not hold the fields this version writes ({}): it is damaged or from another version; rerun what wrote it",
+            serde_words(&e.to_string())
         ),
     }
+}
+
+/// serde's account of a value it refused, with the names of Rust's types put in words:
+/// `expected usize` reads `expected a whole number from 0`, `expected struct Manifest`
+/// reads `expected a table of fields`.
+fn serde_words(message: &str) -> String {
+    const TYPES: [(&str, &str); 9] = [
+        ("usize", "a whole number from 0"),
+        ("u64", "a whole number from 0"),
+        ("u32", "a whole number from 0"),
+        ("u16", "a whole number from 0"),
+        ("u8", "a whole number from 0"),
+        ("i64", "a whole number"),
+        ("i32", "a whole number"),
+        ("f64", "a number"),
+        ("f32", "a number"),
+    ];
+    let mut out = String::with_capacity(message.len());
+    let mut rest = message;
+    while let Some(at) = rest.find("expected ") {
+        let (before, after) = rest.split_at(at + "expected ".len());
+        out.push_str(before);
+        let word_end = after
+            .find(|c: char| !(c.is_alphanumeric() || c == '_'))
+            .unwrap_or(after.len());
+        let (word, tail) = after.split_at(word_end);
+        rest = match (word, TYPES.iter().find(|(t, _)| *t == word)) {
+            (_, Some((_, words))) => {
+                out.push_str(words);
+                tail
+            }
+            ("struct" | "enum", None) => {
+                out.push_str(if word == "struct" {
+                    "a table of fields"
+                } else {
+                    "one of the names this version writes"
+                });
+                let name = tail.trim_start();
+                let end = name
+                    .find(|c: char| !(c.is_alphanumeric() || c == '_'))
+                    .unwrap_or(name.len());
+                &name[end..]
+            }
+            _ => after,
+        };
+    }
+    out.push_str(rest);
+    out
 }
 
 /// A byte count for people: "1.2 GB".
@@ -74,6 +123,26 @@ pub fn duration(seconds: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn serde_names_of_rust_types_read_as_words() {
+        assert_eq!(
+            serde_words("invalid value: integer `-1`, expected usize at line 1 column 14"),
+            "invalid value: integer `-1`, expected a whole number from 0 at line 1 column 14"
+        );
+        assert_eq!(
+            serde_words("invalid type: string \"a\", expected struct ShardManifest"),
+            "invalid type: string \"a\", expected a table of fields"
+        );
+        assert_eq!(
+            serde_words("invalid type: null, expected f64"),
+            "invalid type: null, expected a number"
+        );
+        assert_eq!(
+            serde_words("invalid length 2, expected a sequence"),
+            "invalid length 2, expected a sequence"
+        );
+    }
 
     #[test]
     fn durations_read_in_the_unit_that_fits() {

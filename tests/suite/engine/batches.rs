@@ -110,7 +110,8 @@ fn the_zero_one_passes_take_one_submission_and_the_run_counts_its_round_trips() 
         (g.submissions, g.read_back_bytes, run.dispatches)
     };
     // Each integration dispatch (their number follows the wall time) is one submission and
-    // one read of the 11 instances' `done` flags; the rest is the reductions and results.
+    // one read of the 11 instances' `done` flags; the rest is the reductions and results (and
+    // the kernel clock's read, where the adapter has timestamps: one per 64 dispatches).
     let rest = |(subs, bytes, dispatches): (u64, u64, u32)| {
         let d = u64::from(dispatches);
         assert!(

@@ -385,7 +385,7 @@ fn run_sized(
         (budget, clock.as_mut()),
         progress,
     )?;
-    timings.integrate_kernel_s = clock.map(|c| c.total_s);
+    timings.integrate_kernel_s = clock.map(|c| c.finish(ctx)).transpose()?;
     if let Some(finish) = &kernels.early_finish {
         let done = submit(ctx, finish, &bufs.bind, (sizes.n_inst as u32).div_ceil(WG));
         wait(ctx, done)?;
@@ -734,9 +734,6 @@ fn submit_timed(
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, bind, &[]);
         pass.dispatch_workgroups(groups, 1, 1);
-    }
-    if let Some(c) = clock {
-        c.resolve(&mut enc);
     }
     ctx.submit(enc.finish())
 }
