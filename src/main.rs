@@ -7,11 +7,22 @@ use clap::Parser;
 fn main() {
     quiet_headless_vulkan();
     let args = cli::Cli::parse();
-    if let Err(e) = cli::run(args) {
-        cli::abandon_out();
-        eprintln!("error: {}", message(&e));
+    let ran = cli::run(args);
+    match &ran {
+        Err(e) if e.downcast_ref::<cli::RunFailed>().is_none() => cli::abandon_out(),
+        _ => cli::keep_out(),
+    }
+    if let Err(e) = ran {
+        eprintln!(
+            "error: {}",
+            pendulum_atlas_core::text::printable(&message(&e))
+        );
         let failed_run = e.downcast_ref::<cli::RunFailed>().is_some();
-        std::process::exit(if failed_run { 3 } else { 2 });
+        std::process::exit(match (failed_run, cli::interrupted()) {
+            (_, true) => 130,
+            (true, false) => 3,
+            (false, false) => 2,
+        });
     }
 }
 

@@ -77,7 +77,8 @@ def map_dataset(manifest: dict, arrays: Mapping[str, np.ndarray]) -> xr.Dataset:
 
 def run_dataset(columns: Mapping[str, np.ndarray], units: Mapping[str, str], report: dict) -> xr.Dataset:
     """A single run's dataset: one variable per trajectory column over ``time`` (s), the
-    run's ``run.json`` in ``attrs["run_json"]`` and its indicators as attributes."""
+    run's ``run.json`` in ``attrs["run_json"]`` and its indicators as attributes; for a map
+    cell, ``attrs["map_cell"]``: the cell's values as its map computes them."""
     time = columns["t_s"]
     data_vars = {
         name: ("time", values, {"units": units[name]})
@@ -94,6 +95,9 @@ def run_dataset(columns: Mapping[str, np.ndarray], units: Mapping[str, str], rep
         "impacts": report["impacts"],
     }
     attrs.update(_indicators(report))
+    if "map_cell" in report:
+        # A map cell: its values as its map computes them (name -> number or code name).
+        attrs["map_cell"] = report["map_cell"]["values"]
     attrs["run_json"] = json.dumps(report)
     return xr.Dataset(data_vars, coords, attrs)
 

@@ -37,6 +37,6 @@ pub fn to_python<'py>(py: Python<'py>, v: &Value) -> PyResult<Bound<'py, PyAny>>
 /// Any serialisable value (a manifest, a report) as a Python object ([`to_python`]).
 pub fn serialised<'py>(py: Python<'py>, v: &impl serde::Serialize) -> PyResult<Bound<'py, PyAny>> {
     let value = serde_json::to_value(v)
-        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(crate::said(&e)))?;
     to_python(py, &value)
 }

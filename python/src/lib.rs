@@ -19,7 +19,9 @@ use pendulum_atlas_core::engine::{
 };
 use pendulum_atlas_core::model::Status;
 use pendulum_atlas_map::machine::memory_available;
-use pendulum_atlas_map::map::cell::{cell_index, pinned_cell};
+use pendulum_atlas_map::map::cell::{
+    CELL_SECTION, cell_index, cell_section, map_cell_report, pinned_cell, read_cell_scene,
+};
 use pendulum_atlas_map::map::run_map;
 use pendulum_atlas_map::output::budget::RunSize;
 use pendulum_atlas_map::output::manifest::{Manifest, MapManifest};
@@ -59,7 +61,13 @@ mod py_errors {
 }
 
 fn scene_error(e: ConfigError) -> PyErr {
-    SceneError::new_err(e.to_string())
+    SceneError::new_err(said(e))
+}
+
+/// A message for Python, with what it quotes from inputs made safe for the terminal a
+/// traceback is printed on (`text::printable`).
+pub(crate) fn said(e: impl std::fmt::Display) -> String {
+    pendulum_atlas_core::text::printable(&e.to_string())
 }
 
 /// An engine error in Python terms: what mends it spelt as the function's arguments.
@@ -74,7 +82,7 @@ fn engine_error(e: EngineError) -> PyErr {
     };
     match e {
         EngineError::Config(c) => scene_error(c),
-        other => py_errors::EngineError::new_err(format!("{other}{mend}")),
+        other => py_errors::EngineError::new_err(said(format!("{other}{mend}"))),
     }
 }
 
@@ -105,7 +113,7 @@ fn parse_integrator(name: &str) -> PyResult<Integrator> {
         "engine" => Ok(Integrator::Engine),
         "reference" => Ok(Integrator::Reference),
         _ => Err(PyValueError::new_err(format!(
-            "integrator={name:?}: use 'engine' (the maps' fixed-step RK4/IMEX) or 'reference' (adaptive DOP853, f64)"
+            "integrator={name:?}: use 'engine' (the maps' RK4/IMEX, adaptive or fixed steps as the scene says) or 'reference' (adaptive DOP853, f64)"
         ))),
     }
 }
@@ -165,7 +173,7 @@ fn toml_value_at(v: &Bound<'_, PyAny>, depth: usize) -> PyResult<toml::Value> {
 /// (every field it needs, files listed by name only), as a dict.
 #[pyfunction]
 fn read_map_manifest(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Bound<'_, PyAny>> {
-    let manifest = MapManifest::read(&path).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let manifest = MapManifest::read(&path).map_err(|e| PyValueError::new_err(said(&e)))?;
     serialised(py, &manifest)
 }
 
@@ -218,8 +226,7 @@ fn set_arg(key: &str, value: &Bound<'_, PyAny>) -> PyResult<String> {
 #[pyfunction]
 fn check_scene(text: &str, origin: &str, sets: Vec<String>) -> PyResult<(String, String, String)> {
     let table = parse_toml(text, origin).map_err(scene_error)?;
-    let to_text =
-        |t: &toml::Table| toml::to_string(t).map_err(|e| SceneError::new_err(e.to_string()));
+    let to_text = |t: &toml::Table| toml::to_string(t).map_err(|e| SceneError::new_err(said(&e)));
     if table.contains_key("map") {
         let spec = map_from_toml(text, origin, &sets).map_err(scene_error)?;
         return Ok((
@@ -228,7 +235,7 @@ fn check_scene(text: &str, origin: &str, sets: Vec<String>) -> PyResult<(String,
             to_text(&spec.base_table)?,
         ));
     }
-    Scene::from_toml(text, origin, &sets).map_err(scene_error)?;
+    read_cell_scene(text, origin, &sets).map_err(scene_error)?;
     let mut resolved = table;
     for s in &sets {
         apply_override(&mut resolved, s).map_err(scene_error)?;
@@ -339,15 +346,15 @@ impl From<EngineError> for WorkError {
 fn work_error(e: WorkError) -> PyErr {
     match e {
         WorkError::Engine(e) => engine_error(e),
-        WorkError::Report(e) => PyRuntimeError::new_err(format!("run.json of the run: {e}")),
+        WorkError::Report(e) => PyRuntimeError::new_err(said(format!("run.json of the run: {e}"))),
     }
 }
 
 fn simulate_work(
     scene: &Scene,
     plan: &StepPlan,
-    integrator: Integrator,
-    precision: Precision,
+    (integrator, precision): (Integrator, Precision),
+    cell: Option<&MapSpec>,
     ticker: &Arc<poll::Ticker>,
 ) -> Result<RunOut, WorkError> {
     let total = plan.steps;
@@ -375,7 +382,7 @@ fn simulate_work(
     let analysis = (run.outcome.status == Status::Ok)
         .then(|| record_analysis(scene, plan, &rec.rows))
         .and_then(|r| {
-            r.map_err(|e| warnings.push(format!("analysis of the run skipped: {e}")))
+            r.map_err(|e| warnings.push(said(format!("analysis of the run skipped: {e}"))))
                 .ok()
         });
     let modes = scene.modes().map_err(EngineError::from)?;
@@ -388,7 +395,11 @@ fn simulate_work(
         rows: rec.rows.len(),
         wall_time_s,
     };
-    let report = RunReport::new(facts, &warnings, analysis.as_ref());
+    let mut report = RunReport::new(facts, &warnings, analysis.as_ref());
+    if let Some(spec) = cell {
+        let t = Arc::clone(ticker);
+        report.map_cell = Some(map_cell_report(spec, &|d, n, u| t.report(d, n, u))?);
+    }
     let columns = row_columns(scene.piezo_params().is_some())
         .iter()
         .map(|&(name, unit, get)| (name, unit, rec.rows.iter().map(get).collect()))
@@ -403,7 +414,7 @@ fn simulate_work(
 fn check_run_size(scene: &Scene, plan: &StepPlan) -> PyResult<()> {
     RunSize::of_run(scene, plan)
         .and_then(|size| size.check_against(memory_available(), None, Path::new(".")))
-        .map_err(|e| SceneError::new_err(e.to_string()))
+        .map_err(|e| SceneError::new_err(said(&e)))
 }
 
 /// Run a plain scene once: `{"columns": {name: ndarray}, "units": {name: unit}, "report":
@@ -427,7 +438,7 @@ fn run_single_scene<'py>(
             "this scene has a [map] section: simulate runs one scene; use pendulum_atlas.map, or scene.cell(...) for one cell of the map",
         ));
     }
-    let scene = Scene::from_toml(text, origin, &sets).map_err(scene_error)?;
+    let (scene, cell) = read_cell_scene(text, origin, &sets).map_err(scene_error)?;
     let integrator = parse_integrator(integrator)?;
     let precision = parse_precision(precision)?.unwrap_or(Precision::F64);
     if integrator == Integrator::Reference && precision == Precision::F32 {
@@ -436,7 +447,13 @@ fn run_single_scene<'py>(
     let plan = StepPlan::for_scene(&scene).map_err(|e| scene_error(e.into()))?;
     check_run_size(&scene, &plan)?;
     let out = run_polled(py, progress.as_ref(), move |ticker| {
-        simulate_work(&scene, &plan, integrator, precision, ticker)
+        simulate_work(
+            &scene,
+            &plan,
+            (integrator, precision),
+            cell.as_ref(),
+            ticker,
+        )
     })?
     .map_err(work_error)?;
     let columns = PyDict::new(py);
@@ -502,7 +519,7 @@ fn analyze_signal<'py>(
                 &opts,
             )
         })
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        .map_err(|e| PyValueError::new_err(said(&e)))?;
     serialised(py, &analysis)
 }
 
@@ -552,7 +569,7 @@ fn read_record<'py>(
     };
     let record = py
         .detach(|| read_record_file(&source))
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        .map_err(|e| PyValueError::new_err(said(&e)))?;
     let d = PyDict::new(py);
     d.set_item("signal", PyArray1::from_vec(py, record.signal))?;
     match record.reference {
@@ -562,8 +579,9 @@ fn read_record<'py>(
     d.set_item("sample_rate_hz", record.rate)?;
     d.set_item("start_s", record.start)?;
     d.set_item("resampled", record.resampled)?;
-    d.set_item("notes", record.notes)?;
-    d.set_item("warnings", record.warnings)?;
+    let safe = |lines: Vec<String>| lines.iter().map(said).collect::<Vec<_>>();
+    d.set_item("notes", safe(record.notes))?;
+    d.set_item("warnings", safe(record.warnings))?;
     Ok(d)
 }
 
@@ -601,7 +619,8 @@ fn cell_pins<'py>(
             others.push(s);
         }
     }
-    let k = cell_index(&spec, &coords).map_err(|e| SceneError::new_err(format!("cell(): {e}")))?;
+    let k = cell_index(&spec, &coords)
+        .map_err(|e| SceneError::new_err(said(format!("cell(): {e}"))))?;
     let mut table = spec.instance_table(k).map_err(scene_error)?;
     for s in others {
         apply_override(&mut table, s).map_err(scene_error)?;
@@ -626,6 +645,14 @@ fn cell_pins<'py>(
         d.set_item(
             key,
             convert::to_python(py, &serde_json::to_value(value).unwrap_or_default())?,
+        )?;
+    }
+    // A plain map's cell carries its map's settings of a cell's values (`[cell]`), so that
+    // `simulate` reports the cell's values as the map computes them.
+    if let Some(section) = cell_section(&spec) {
+        d.set_item(
+            CELL_SECTION,
+            convert::to_python(py, &serde_json::to_value(section).unwrap_or_default())?,
         )?;
     }
     Ok(d)

@@ -394,6 +394,18 @@ def test_a_record_the_cli_refuses_raises_the_same_message(tmp_path):
         pa.read_record(data, "y", sample_rate_hz=10.0)
 
 
+def test_control_characters_of_a_record_reach_the_message_escaped(tmp_path):
+    data = tmp_path / "hostile.csv"
+    rows = "".join(f"{0.1 * k!r},{k}\n" for k in range(60))
+    data.write_text("t_s,x_rad\n" + rows + "6.0,\x1b]0;owned\x07\x1b[2J\x00\n")
+    with pytest.raises(ValueError) as refused:
+        pa.read_record(data, "x_rad", time="t_s")
+    message = str(refused.value)
+    assert "is not a number" in message
+    assert not any(c in message for c in "\x1b\x07\x00"), message
+    assert "\\u{1b}]0;owned" in message
+
+
 def test_a_scene_key_cannot_carry_a_value_of_its_own():
     scene = pa.Scene.paper()
     for key in ["beam.segments=5 #", "beam.segments #", "beam..segments", ""]:
@@ -446,6 +458,28 @@ def test_a_cell_of_a_map_runs_with_the_maps_method_and_step(small_map_file):
     spp = 1.0 / (run["dt_s"] * f)
     assert abs(spp - round(spp)) < 1e-6 and round(spp) % 16 == 0, spp
     assert manifest["dt_s"]["min"] <= run["dt_s"] <= manifest["dt_s"]["max"]
+
+
+def test_every_cell_reruns_with_the_maps_own_values(small_map_file):
+    # The map's own settings of a cell's values (samples_per_period, the early stop off, ...)
+    # travel in the cell's [cell]; on the CPU in f64 the rerun is the map's numbers exactly.
+    scene = pa.Scene.from_toml(small_map_file).update(SETS)
+    ds = pa.map(scene, backend="cpu", precision="f64", progress=False)
+    for f in ds.frequency_hz.values:
+        for a in ds.amplitude_m.values:
+            cell = scene.cell(frequency_hz=float(f), amplitude_m=float(a))
+            assert "[cell]" in cell.to_toml()
+            values = pa.simulate(cell, progress=False).attrs["map_cell"]
+            numbers = [n for n in values if n not in ("regime", "status")]
+            assert {"K", "R", "period", "hops"} <= set(numbers), numbers
+            for name in numbers:
+                want = float(ds[name].sel(frequency_hz=f, amplitude_m=a))
+                got = values[name]
+                same = np.isnan(want) if got is None else got == want
+                assert same, (name, float(f), float(a), got, want)
+            attrs = ds["regime"].attrs
+            meaning = dict(zip(attrs["flag_values"], attrs["flag_meanings"].split()))
+            assert values["regime"] == meaning[int(ds["regime"].sel(frequency_hz=f, amplitude_m=a))]
 
 
 def test_the_namespace_holds_only_what_it_exports():

@@ -391,13 +391,13 @@ fn explain(e: AnalysisError, a: &AnalyzeArgs) -> anyhow::Error {
 /// K and R on one line, then the notes and anything left out.
 fn print_summary(a: &AnalyzeArgs, r: &RecordAnalysis, msgs: &Messages) {
     for n in &msgs.notes {
-        eprintln!("note: {n}");
+        tell!("note: {n}");
     }
     for w in &msgs.warnings {
-        eprintln!("warning: {w}");
+        tell!("warning: {w}");
     }
     for (what, why) in &r.skipped {
-        eprintln!("warning: {what} not computed: {why}");
+        tell!("warning: {what} not computed: {why}");
     }
     let k = r
         .zero_one
@@ -410,5 +410,5 @@ fn print_summary(a: &AnalyzeArgs, r: &RecordAnalysis, msgs: &Messages) {
         .as_ref()
         .map(|p| format!(", R = {:.3}", p.r))
         .unwrap_or_default();
-    eprintln!("{k}{rr}; wrote {}", a.out.display());
+    tell!("{k}{rr}; wrote {}", a.out.display());
 }

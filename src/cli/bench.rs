@@ -153,15 +153,15 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
                 quick: a.quick,
                 gpu: gpu.as_ref(),
             },
-            &|line| eprintln!("{line}"),
+            &|line| tell!("{line}"),
         )?;
         let files = write_stiff_map(&a.out, &report)?;
-        println!(
+        say!(
             "bench --stiff-map: {} cells in {:.0} s",
             report.cells.len(),
             report.total_s
         );
-        println!("wrote {} files to {}", files.len(), a.out.display());
+        say!("wrote {} files to {}", files.len(), a.out.display());
         return Ok(());
     }
     if a.stiff {
@@ -170,15 +170,15 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
                 quick: a.quick,
                 gpu: gpu.as_ref(),
             },
-            &|line| eprintln!("{line}"),
+            &|line| tell!("{line}"),
         )?;
         let files = write_stiff(&a.out, &report)?;
-        println!(
+        say!(
             "bench --stiff: {} runs in {:.0} s",
             report.horizon.len(),
             report.total_s
         );
-        println!("wrote {} files to {}", files.len(), a.out.display());
+        say!("wrote {} files to {}", files.len(), a.out.display());
         return Ok(());
     }
     let report = run_bench(
@@ -186,15 +186,15 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
             quick: a.quick,
             gpu: gpu.as_ref(),
         },
-        &|line| eprintln!("{line}"),
+        &|line| tell!("{line}"),
     )?;
     let files = write_bench(&a.out, &report)?;
-    println!(
+    say!(
         "bench: {} configurations in {:.0} s",
         report.configs.len(),
         report.total_s
     );
-    println!("wrote {} files to {}", files.len(), a.out.display());
+    say!("wrote {} files to {}", files.len(), a.out.display());
     Ok(())
 }
 
@@ -209,15 +209,15 @@ fn cpu_throughput(
             peers: a.peers.clone(),
             gpu,
         },
-        &|line| eprintln!("{line}"),
+        &|line| tell!("{line}"),
     )?;
     let files = write_cpu_throughput(&a.out, &report)?;
-    println!(
+    say!(
         "bench --cpu-throughput: {} configurations in {:.0} s",
         report.rows.len(),
         report.total_s
     );
-    println!("wrote {} files to {}", files.len(), a.out.display());
+    say!("wrote {} files to {}", files.len(), a.out.display());
     Ok(())
 }
 
@@ -229,15 +229,15 @@ fn refine(a: &BenchArgs, gpu: Option<&pendulum_atlas_core::engine::Engine>) -> a
             quick: a.quick,
             gpu,
         },
-        &|line| eprintln!("{line}"),
+        &|line| tell!("{line}"),
     )?;
     let files = write_refine(&a.out, &report)?;
-    println!(
+    say!(
         "bench --refine: {} maps in {:.0} s",
         report.rows.len(),
         report.total_s
     );
-    println!("wrote {} files to {}", files.len(), a.out.display());
+    say!("wrote {} files to {}", files.len(), a.out.display());
     Ok(())
 }
 
@@ -248,15 +248,15 @@ fn verdict(a: &BenchArgs, gpu: Option<&pendulum_atlas_core::engine::Engine>) -> 
             quick: a.quick,
             gpu,
         },
-        &|line| eprintln!("{line}"),
+        &|line| tell!("{line}"),
     )?;
     let files = write_verdict(&a.out, &report)?;
-    println!(
+    say!(
         "bench --verdict: {} candidates in {:.0} s",
         report.scores.len(),
         report.total_s
     );
-    println!("wrote {} files to {}", files.len(), a.out.display());
+    say!("wrote {} files to {}", files.len(), a.out.display());
     Ok(())
 }
 
@@ -307,15 +307,15 @@ fn throughput(
             peers: a.peers.clone(),
             segments,
         },
-        &|line| eprintln!("{line}"),
+        &|line| tell!("{line}"),
     )?;
     let files = write_throughput(&a.out, &report)?;
     let measured = report.rows.iter().filter(|r| r.skipped.is_none()).count();
-    println!(
+    say!(
         "bench --throughput: {measured} of {} rows measured in {:.0} s",
         report.rows.len(),
         report.total_s
     );
-    println!("wrote {} files to {}", files.len(), a.out.display());
+    say!("wrote {} files to {}", files.len(), a.out.display());
     Ok(())
 }

@@ -32,6 +32,7 @@ pub struct CalibrateArgs {
 
 /// Run `calibrate`.
 pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
+    super::catch_interrupts();
     let spec = load_calibration(&a.scene, &a.sets)?;
     let engine = a.engine.open()?;
     super::claim_out_reading(Product::Calibrate, &a.out, a.force, &[&a.scene])?;
@@ -56,7 +57,7 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
         .zip(&best.values)
         .map(|(u, v)| format!("{} = {v}", u.key))
         .collect();
-    println!(
+    say!(
         "calibrate: {} candidates, {} instances in {wall:.1} s on {}; best matches {} of {} observations at {}",
         run.candidates.len(),
         run.instances,
@@ -65,7 +66,7 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
         run.observations,
         values.join(", ")
     );
-    println!("wrote {} files to {}", files.len(), a.out.display());
+    say!("wrote {} files to {}", files.len(), a.out.display());
     if !run.usable() {
         return Err(super::RunFailed(format!(
             "no run of any of the {} candidates ended ok (every one diverged, turned non-finite or escaped): nothing could be compared with the observations; see candidates.csv in {}",

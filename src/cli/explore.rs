@@ -64,7 +64,7 @@ pub fn run(a: ExploreArgs) -> anyhow::Result<()> {
         limits,
     };
     serve(folder, &opts, |addr| {
-        println!(
+        say!(
             "explore: {} cells of {} at http://{addr}/ (Ctrl-C stops)",
             cells,
             a.run_dir.display()

@@ -3,8 +3,8 @@
 
 use super::engine::{EngineArgs, hint};
 use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, MapSpec, map_from_toml, scene_text};
+use pendulum_atlas_core::engine::Engine;
 use pendulum_atlas_core::engine::gpu::list_adapters;
-use pendulum_atlas_core::engine::{Engine, no_progress};
 use pendulum_atlas_core::model::Status;
 use pendulum_atlas_map::map::hardware_default::hardware_default;
 use pendulum_atlas_map::map::size::check_map_size;
@@ -67,6 +67,7 @@ pub struct MergeArgs {
 
 /// Run `map`.
 pub fn run(a: MapArgs) -> anyhow::Result<()> {
+    super::catch_interrupts();
     let mut sets = a.sets.clone();
     if a.yes {
         sets.push("map.accept_huge=true".into());
@@ -90,7 +91,7 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
         .transpose()?
         .flatten()
     {
-        eprintln!("{}", choice.reason);
+        tell!("{}", choice.reason);
         let sets = [sets.clone(), choice.sets].concat();
         spec = pendulum_atlas_core::config::load_map(None, &sets)?;
     }
@@ -128,7 +129,7 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
 /// figures; say them when accepted.
 fn check_size(spec: &MapSpec, shards: u32, engine: &Engine) -> anyhow::Result<()> {
     if let Some(accepted) = check_map_size(spec, shards, engine).map_err(hint)? {
-        eprintln!("{accepted}");
+        tell!("{accepted}");
     }
     Ok(())
 }
@@ -145,7 +146,7 @@ fn run_on_devices(a: &MapArgs, devices: &str, spec: &MapSpec) -> anyhow::Result<
     let inputs: Vec<&std::path::Path> = a.scene.iter().map(|p| p.as_path()).collect();
     super::claim_out_reading(Product::Map, &a.out, a.force, &inputs)?;
     if !a.quiet {
-        eprintln!(
+        tell!(
             "map of {} instances over {} devices: {}",
             spec.instances(),
             engines.len(),
@@ -156,7 +157,7 @@ fn run_on_devices(a: &MapArgs, devices: &str, spec: &MapSpec) -> anyhow::Result<
                 .join(", ")
         );
     }
-    let run = run_map_on_devices(spec, &engines, &no_progress).map_err(hint)?;
+    let run = run_map_on_devices(spec, &engines, &super::until_interrupted).map_err(hint)?;
     let files = write_map(&a.out, spec, &run)?;
     report(&run, files.len(), &a.out)
 }
@@ -192,10 +193,10 @@ fn device_indices(devices: &str) -> anyhow::Result<Vec<usize>> {
 pub fn adapters() -> anyhow::Result<()> {
     let list = list_adapters();
     if list.is_empty() {
-        println!("no GPU adapter (install a Vulkan driver, or mesa-vulkan-drivers for lavapipe)");
+        say!("no GPU adapter (install a Vulkan driver, or mesa-vulkan-drivers for lavapipe)");
     }
     for l in list {
-        println!(
+        say!(
             "{}: {} ({}, {}{})",
             l.index,
             l.name,
@@ -215,7 +216,7 @@ pub(super) fn read_map(
     let (text, origin) = scene_text(scene, DEFAULT_MAP_TOML, "configs/maps/default.toml")?;
     let spec = map_from_toml(&text, &origin, sets)?;
     for note in &spec.notes {
-        eprintln!("warning: {note}");
+        tell!("warning: {note}");
     }
     Ok((text, spec))
 }
@@ -238,7 +239,7 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<()> {
     super::claim_out(Product::Map, &a.out, a.force)?;
     let merged = merge_shards(&a.shards)?;
     let files = write_map(&a.out, &merged.spec, &merged.run)?;
-    println!(
+    say!(
         "merged {} shards of {} instances",
         merged.run.shards.len(),
         merged.spec.instances()
@@ -314,7 +315,7 @@ fn report(run: &MapRun, files: usize, out: &std::path::Path) -> anyhow::Result<(
         _ => String::new(),
     };
     let steps = run.runs.map_or(run.plan.total_steps, |c| c.planned_steps);
-    println!(
+    say!(
         "map: {} instances ({} ok){runs} on {} [{}], N = {}, {:.2e} instance-steps in {:.1} s ({:.3e} instance-steps/s, {:.3e} segment-steps/s)",
         run.results.len(),
         ok,
@@ -327,9 +328,9 @@ fn report(run: &MapRun, files: usize, out: &std::path::Path) -> anyhow::Result<(
         run.segment_steps_per_s()
     );
     for w in &run.plan.warnings {
-        eprintln!("warning: {w}");
+        tell!("warning: {w}");
     }
-    println!(
+    say!(
         "method: {} ({}), dt {:.3e}..{:.3e} s",
         run.plan.method.name(),
         run.plan.method_reason,
@@ -337,15 +338,21 @@ fn report(run: &MapRun, files: usize, out: &std::path::Path) -> anyhow::Result<(
         run.plan.dt_range_s.1
     );
     if let Some(c) = &run.continuation {
-        println!("{}", continuation_summary(c));
+        say!("{}", continuation_summary(c));
     }
     if let Some(s) = &run.settle {
-        println!(
+        say!(
             "settled: {} cells below confidence {} ran on to {} s ({} stopped on a confirmed orbit); {} verdicts changed, {} chaotic cells settled, in {:.1} s",
-            s.cells, s.firm, s.max_s, s.stopped_early, s.changed, s.chaos_settled, s.wall_s
+            s.cells,
+            s.firm,
+            s.max_s,
+            s.stopped_early,
+            s.changed,
+            s.chaos_settled,
+            s.wall_s
         );
     }
-    println!("wrote {files} files to {}", out.display());
+    say!("wrote {files} files to {}", out.display());
     if ok == 0 {
         return Err(super::RunFailed(format!(
             "no instance of the map ended ok ({} failed; see status_counts in map.json)",

@@ -1,6 +1,21 @@
 //! The command-line interface: argument parsing and one function per subcommand.
 //! Each command loads a validated scene, calls the library, and writes files.
 
+/// `eprintln!` with what the line quotes from inputs (a CSV cell, a key, a path) made safe
+/// for the terminal (`text::printable`): every message of the CLI is printed by it or `say!`.
+macro_rules! tell {
+    ($($t:tt)*) => {
+        eprintln!("{}", pendulum_atlas_core::text::printable(&format!($($t)*)))
+    };
+}
+
+/// `println!` made safe for the terminal as [`tell!`] is.
+macro_rules! say {
+    ($($t:tt)*) => {
+        println!("{}", pendulum_atlas_core::text::printable(&format!($($t)*)))
+    };
+}
+
 mod analyze;
 mod bench;
 mod calibrate;
@@ -84,10 +99,32 @@ pub enum Command {
 /// The output folder this process created when it claimed it (none when it existed before).
 static CREATED_OUT: std::sync::Mutex<Option<std::path::PathBuf>> = std::sync::Mutex::new(None);
 
-/// After a failed command: remove the output folder it created, when nothing but its lock
+/// The earlier run of the command's output folder, set aside by `--force` until the run ends.
+static EARLIER: std::sync::Mutex<Option<pendulum_atlas_map::output::earlier::Replacement>> =
+    std::sync::Mutex::new(None);
+
+/// After a command that completed (exit status 0, or 3 for a run that wrote its files but
+/// failed): delete the earlier run that `--force` set aside.
+pub fn keep_out() {
+    if let Some(earlier) = EARLIER.lock().unwrap_or_else(|e| e.into_inner()).take()
+        && let Err(e) = earlier.keep()
+    {
+        tell!("warning: the earlier run's files set aside by --force stay aside: {e}");
+    }
+}
+
+/// After a failed command: put back the earlier run that `--force` set aside (the files this
+/// run wrote deleted), and remove the output folder it created, when nothing but its lock
 /// file is in it, so that a failed run leaves no empty folder behind. A folder that existed
 /// before, or that holds anything else, is left as it is.
 pub fn abandon_out() {
+    if let Some(earlier) = EARLIER.lock().unwrap_or_else(|e| e.into_inner()).take() {
+        let count = earlier.count();
+        match earlier.undo() {
+            Ok(()) => tell!("the earlier run's {count} file(s) in --out are kept as they were"),
+            Err(e) => tell!("warning: the earlier run's files could not all be put back: {e}"),
+        }
+    }
     let Some(dir) = CREATED_OUT.lock().unwrap_or_else(|e| e.into_inner()).take() else {
         return;
     };
@@ -122,20 +159,63 @@ fn claim_out_reading(
 ) -> anyhow::Result<()> {
     product.refuse_inputs(out, inputs)?;
     let created = !out.exists();
-    let (lock, cleared) = product.claim(out, force)?;
+    let (lock, earlier) = product.claim(out, force)?;
     if created {
         *CREATED_OUT.lock().unwrap_or_else(|e| e.into_inner()) = Some(out.to_path_buf());
     }
     // Held until the process ends: no other run writes into `out` meanwhile.
     std::mem::forget(lock);
-    if cleared > 0 {
-        eprintln!(
-            "--force: deleted {cleared} file(s) of an earlier `{}` run in {}",
+    if let Some(earlier) = earlier {
+        tell!(
+            "--force: {} file(s) of an earlier `{}` run in {} set aside, deleted once this run is complete",
+            earlier.count(),
             product.command(),
             out.display()
         );
+        *EARLIER.lock().unwrap_or_else(|e| e.into_inner()) = Some(earlier);
     }
     Ok(())
+}
+
+/// Set by the first Ctrl-C: the engines stop at their next progress report and the run fails
+/// as cancelled (an earlier run that `--force` set aside is put back); a second Ctrl-C ends
+/// the process at once (the next run into the folder puts the earlier run back).
+static INTERRUPTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Catch Ctrl-C for [`INTERRUPTED`]: called by the commands whose engines report progress
+/// (map, simulate, calibrate), before they claim their folder; the others end at once.
+fn catch_interrupts() {
+    let caught = ctrlc::set_handler(|| {
+        if INTERRUPTED.swap(true, std::sync::atomic::Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+        eprintln!("\ninterrupted: stopping at the next step (Ctrl-C again quits at once)");
+    });
+    if let Err(e) = caught {
+        tell!("warning: Ctrl-C will end the process without cleaning up: {e}");
+    }
+}
+
+/// Whether Ctrl-C was pressed.
+pub fn interrupted() -> bool {
+    INTERRUPTED.load(std::sync::atomic::Ordering::SeqCst)
+}
+
+/// `Break` once Ctrl-C was pressed: an engine's progress callback stops the run there.
+fn go_on() -> std::ops::ControlFlow<()> {
+    match interrupted() {
+        true => std::ops::ControlFlow::Break(()),
+        false => std::ops::ControlFlow::Continue(()),
+    }
+}
+
+/// An engine progress callback that only stops the run on Ctrl-C.
+fn until_interrupted(
+    _: u64,
+    _: u64,
+    _: pendulum_atlas_core::engine::ProgressUnit,
+) -> std::ops::ControlFlow<()> {
+    go_on()
 }
 
 /// A progress bar in `template` (hidden when `quiet`), for the ensemble commands.
@@ -162,7 +242,7 @@ fn bar_progress(
         bar.set_length(total);
         bar.set_position(done);
         bar.set_prefix(unit.name());
-        std::ops::ControlFlow::Continue(())
+        go_on()
     }
 }
 
@@ -190,7 +270,7 @@ impl SceneArgs {
     pub fn load(&self) -> anyhow::Result<pendulum_atlas_core::config::Scene> {
         let scene = pendulum_atlas_core::config::load_scene(self.scene.as_deref(), &self.sets)?;
         for note in &scene.notes {
-            eprintln!("warning: {note}");
+            tell!("warning: {note}");
         }
         Ok(scene)
     }

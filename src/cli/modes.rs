@@ -42,7 +42,7 @@ pub fn run(a: ModesArgs) -> anyhow::Result<()> {
         method_reason: chosen.reason,
     };
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&r)?);
+        say!("{}", serde_json::to_string_pretty(&r)?);
     } else {
         print_text(&r);
     }
@@ -51,30 +51,34 @@ pub fn run(a: ModesArgs) -> anyhow::Result<()> {
 
 fn print_text(r: &ModesReport) {
     let m = &r.modes;
-    println!("natural frequencies (Hz):");
+    say!("natural frequencies (Hz):");
     for (i, f) in m.frequencies_hz.iter().enumerate() {
-        println!("  {:>3}  {f:.6}", i + 1);
+        say!("  {:>3}  {f:.6}", i + 1);
     }
     let rates: Vec<String> = m
         .unstable_rates_per_s
         .iter()
         .map(|r| format!("{r:.6}"))
         .collect();
-    println!("unstable growth rates (1/s): {}", rates.join(", "));
+    say!("unstable growth rates (1/s): {}", rates.join(", "));
     let d = &r.damping;
-    println!(
+    say!(
         "joint damping: beta = {:.4e} s, b = {:.4e} N m s/rad per joint, zeta_1 = {:.4}",
-        d.damping_time_s, d.joint_damping_nms, d.first_mode_damping_ratio
+        d.damping_time_s,
+        d.joint_damping_nms,
+        d.first_mode_damping_ratio
     );
-    println!(
+    say!(
         "max|lambda| = {:.4e} 1/s, RK4 dt_auto = {:.4e} s, RK4 stable limit = {:.4e} s",
-        m.spectral_radius_per_s, m.dt_auto_s, m.dt_stable_s
+        m.spectral_radius_per_s,
+        m.dt_auto_s,
+        m.dt_stable_s
     );
-    println!(
+    say!(
         "IMEX dt_auto = {:.4e} s (explicit part's max|lambda| = {:.4e} 1/s, first clamped mode {:.2} Hz)",
         r.method_steps.imex_auto_s,
         r.method_steps.explicit_radius_per_s,
         r.method_steps.first_mode_hz
     );
-    println!("method: {} ({})", r.method, r.method_reason);
+    say!("method: {} ({})", r.method, r.method_reason);
 }

@@ -23,7 +23,7 @@ pub struct ReproduceArgs {
 /// Run all cases (in parallel) and write table2.csv/.md, REPORT.md and the figures.
 pub fn run(a: ReproduceArgs) -> anyhow::Result<()> {
     super::claim_out(Product::Reproduce, &a.out, a.force)?;
-    eprintln!(
+    tell!(
         "reproducing {} cases of the paper{} on {} threads into {}",
         paper_cases().len(),
         if a.quick { " (quick)" } else { "" },
@@ -31,9 +31,9 @@ pub fn run(a: ReproduceArgs) -> anyhow::Result<()> {
         a.out.display()
     );
     let opts = ReproduceOptions { quick: a.quick };
-    let r = reproduce(&a.out, &opts, &|line| eprintln!("  {line}"))
+    let r = reproduce(&a.out, &opts, &|line| tell!("  {line}"))
         .with_context(|| format!("reproduce into {}", a.out.display()))?;
-    eprintln!(
+    tell!(
         "wrote {} files in {:.1} s; see {}",
         r.files.len(),
         r.wall_s,

@@ -63,9 +63,9 @@ pub fn run(a: SearchArgs) -> anyhow::Result<()> {
     let files = write_search(&a.out, &spec, &run, verification.as_ref(), &origin)?;
     for st in &run.stages {
         for w in &st.warnings {
-            eprintln!("warning ({}): {w}", st.stage);
+            tell!("warning ({}): {w}", st.stage);
         }
-        println!(
+        say!(
             "{}: {} designs, {} instances, {:.2e} instance-steps in {:.1} s ({:.3e} instance-steps/s)",
             st.stage,
             st.designs,
@@ -79,11 +79,11 @@ pub fn run(a: SearchArgs) -> anyhow::Result<()> {
     let b = &run.baseline.metrics;
     let word = spec.weighting.name();
     let m = best.ranked(spec.weighting).0;
-    println!(
+    say!(
         "ranked by {}",
         spec.weighting.describe(spec.initial_states.len())
     );
-    println!(
+    say!(
         "search on {} [{}]: {} designs in {:.1} s; best #{}: {word} bandwidth {:.2} Hz (baseline {:.2} Hz), {word} band-averaged power {:.3e} W (baseline {:.3e} W)",
         run.engine.kind.name(),
         run.engine.device,
@@ -96,10 +96,10 @@ pub fn run(a: SearchArgs) -> anyhow::Result<()> {
         b.band_average_w
     );
     if let Some(line) = top_attractor_line(best, &spec) {
-        println!("{line}");
+        say!("{line}");
     }
     if let Some(v) = &verification {
-        println!(
+        say!(
             "re-simulated with the simulate engine: {word} band-averaged power {:.3e} W vs {:.3e} W from the search (median point {:.2} %, largest {:.1} % at {} Hz)",
             v.simulate_band_average_w,
             v.search_band_average_w,
@@ -108,7 +108,7 @@ pub fn run(a: SearchArgs) -> anyhow::Result<()> {
             v.max_rel_diff_at_hz
         );
     }
-    println!("wrote {} files to {}", files.len(), a.out.display());
+    say!("wrote {} files to {}", files.len(), a.out.display());
     if !run.usable() {
         return Err(super::RunFailed(format!(
             "no instance of any of the {} designs ended ok (every one diverged, turned non-finite or escaped): the ranking means nothing; see designs.csv in {}",

@@ -2,11 +2,13 @@
 
 use super::SceneArgs;
 use indicatif::{ProgressBar, ProgressStyle};
-use pendulum_atlas_core::config::{Scene, StepControl};
+use pendulum_atlas_core::config::{MapSpec, Scene, StepControl, read_scene_file};
 use pendulum_atlas_core::engine::{
     Integrator, Outcome, Precision as EnginePrecision, RunLyapunov, SceneRun, StepPlan, run_scene,
 };
 use pendulum_atlas_core::model::Status;
+use pendulum_atlas_core::text::num;
+use pendulum_atlas_map::map::cell::{map_cell_report, read_cell_scene};
 use pendulum_atlas_map::output::budget::RunSize;
 use pendulum_atlas_map::output::files::write_json;
 use pendulum_atlas_map::output::folder::Product;
@@ -72,12 +74,13 @@ pub struct SimulateArgs {
 
 /// Run one simulation and write its files.
 pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
+    super::catch_interrupts();
     if a.integrator == IntegratorChoice::Reference && a.precision == Some(Precision::F32) {
         anyhow::bail!(
             "--integrator reference runs in f64 only: drop --precision f32, or use --integrator engine for an f32 run"
         );
     }
-    let scene = a.scene.load()?;
+    let (scene, cell) = load_cell_scene(&a.scene)?;
     let m = scene.modes()?;
     let plan = StepPlan::for_scene(&scene)?;
     let f32 = a.precision == Some(Precision::F32);
@@ -115,14 +118,19 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
         rows: rec.rows.len(),
         wall_time_s: wall,
     };
-    let report = RunReport::new(facts, &warnings, analysis.as_ref());
+    let mut report = RunReport::new(facts, &warnings, analysis.as_ref());
+    if let Some(spec) = &cell {
+        let values = map_cell_report(spec, &super::until_interrupted)?;
+        say_map_cell(&values);
+        report.map_cell = Some(values);
+    }
     // The manifest last: its presence means the folder is complete.
     write_json(&a.out.join("run.json"), &report)?;
     if let RunLyapunov::Measured {
         per_s, se_per_s, ..
     } = &run.lyapunov
     {
-        eprintln!(
+        tell!(
             "largest Lyapunov exponent lambda1 = {per_s:.4} ± {se_per_s:.4} 1/s (twin trajectory)"
         );
     }
@@ -154,9 +162,9 @@ fn finish(
     analysed: bool,
 ) -> anyhow::Result<()> {
     for w in &warnings[plan.warnings.len()..] {
-        eprintln!("warning: {w}");
+        tell!("warning: {w}");
     }
-    eprintln!(
+    tell!(
         "{} in {wall:.2} s, status {}: wrote {} files to {} (trajectory.csv, run.json{})",
         steps_taken(plan, outcome),
         outcome.status,
@@ -182,6 +190,43 @@ fn finish(
 
 /// Integrate with a progress bar: the recorded rows, the run (outcome, λ1, precision) and the
 /// wall time (s).
+/// The scene with its overrides, and the map of its one cell where it is a map cell (a
+/// `[cell]` section, as `explore` and `Scene.cell` write it; `map::cell`).
+fn load_cell_scene(args: &SceneArgs) -> anyhow::Result<(Scene, Option<MapSpec>)> {
+    let Some(path) = &args.scene else {
+        return Ok((args.load()?, None));
+    };
+    let text = read_scene_file(path)?;
+    let (scene, cell) = read_cell_scene(&text, &path.display().to_string(), &args.sets)?;
+    for note in &scene.notes {
+        tell!("warning: {note}");
+    }
+    Ok((scene, cell))
+}
+
+/// A map cell's values as its map computes them, on one line.
+fn say_map_cell(report: &serde_json::Value) {
+    let values: Vec<String> = report["values"]
+        .as_object()
+        .into_iter()
+        .flatten()
+        .filter(|(name, _)| {
+            ["K", "R", "period", "hops", "lyapunov", "regime"].contains(&name.as_str())
+        })
+        .map(|(name, v)| match v {
+            serde_json::Value::String(s) => format!("{name} {s}"),
+            serde_json::Value::Number(x) => {
+                format!("{name} {}", num(x.as_f64().unwrap_or(f64::NAN)))
+            }
+            _ => format!("{name} none"),
+        })
+        .collect();
+    tell!(
+        "as its map computes this cell (cpu f64): {}",
+        values.join(", ")
+    );
+}
+
 fn integrate_with_progress(
     a: &SimulateArgs,
     scene: &Scene,
@@ -192,12 +237,13 @@ fn integrate_with_progress(
         ..Default::default()
     };
     let bar = progress_bar(plan, scene.beam.segments, a.integrator);
-    if let Some(b) = bar.clone() {
-        rec.on_row = Some(Box::new(move |step| {
+    let b = bar.clone();
+    rec.on_row = Some(Box::new(move |step| {
+        if let Some(b) = &b {
             b.set_position(step);
-            std::ops::ControlFlow::Continue(())
-        }));
-    }
+        }
+        super::go_on()
+    }));
     let started = Instant::now();
     let precision = match a.precision.unwrap_or(Precision::F64) {
         Precision::F64 => EnginePrecision::F64,
@@ -224,7 +270,7 @@ fn announce(plan: &StepPlan, integrator: IntegratorChoice, size: &RunSize) {
     let adaptive = integrator == IntegratorChoice::Engine
         && matches!(plan.control, StepControl::Adaptive { .. });
     if integrator == IntegratorChoice::Engine {
-        eprintln!(
+        tell!(
             "method: {} ({}), {} = {:.3e} s",
             plan.method.name(),
             plan.method_reason,
@@ -232,7 +278,7 @@ fn announce(plan: &StepPlan, integrator: IntegratorChoice, size: &RunSize) {
             plan.dt_s
         );
     }
-    eprintln!(
+    tell!(
         "run: {} {}steps, {} rows (about {} in memory, {} of trajectory.csv)",
         size.steps,
         if adaptive { "base " } else { "" },
@@ -241,18 +287,16 @@ fn announce(plan: &StepPlan, integrator: IntegratorChoice, size: &RunSize) {
         pendulum_atlas_core::text::bytes(size.csv_bytes)
     );
     for w in &plan.warnings {
-        eprintln!("warning: {w}");
+        tell!("warning: {w}");
     }
 }
 
 /// A progress bar for runs expected to take more than a second or two.
 fn progress_bar(plan: &StepPlan, segments: usize, integ: IntegratorChoice) -> Option<ProgressBar> {
     let work = plan.steps as f64 * segments as f64;
-    let factor = match integ {
-        IntegratorChoice::Engine => 1.0,
-        IntegratorChoice::Reference => 20.0,
-    };
-    if work * factor < 2e7 {
+    // The reference integrator's steps follow the stiffness (a 1e12 N/m bumper takes
+    // seconds per millisecond simulated), so its bar, with its estimate, is always shown.
+    if integ == IntegratorChoice::Engine && work < 2e7 {
         return None;
     }
     let bar = ProgressBar::new(plan.steps);

@@ -58,7 +58,7 @@ pub fn run(mut a: SlurmArgs) -> anyhow::Result<()> {
         if !spec.accept_huge {
             return Err(hint(verdict));
         }
-        eprintln!("{verdict}");
+        tell!("{verdict}");
     }
     if let Some(p) = &a.partition {
         check_partition(p)?;
@@ -67,7 +67,7 @@ pub fn run(mut a: SlurmArgs) -> anyhow::Result<()> {
         check_time(t)?;
     }
     if a.gpus_per_shard > 1 {
-        eprintln!(
+        tell!(
             "warning: --gpus-per-shard {}: a shard runs on one GPU; use more shards to use more GPUs",
             a.gpus_per_shard
         );
@@ -84,7 +84,7 @@ pub fn run(mut a: SlurmArgs) -> anyhow::Result<()> {
     write_bytes(&job.dir.join("scene.toml"), text.as_bytes())?;
     write_bytes(&job.dir.join("array.sbatch"), array.as_bytes())?;
     write_bytes(&job.dir.join("merge.sbatch"), merge.as_bytes())?;
-    println!(
+    say!(
         "{} shards of {} instances; scripts in {}",
         a.shards,
         spec.instances(),
@@ -104,7 +104,7 @@ pub fn run(mut a: SlurmArgs) -> anyhow::Result<()> {
     };
     manifest(serde_json::Value::Null)?;
     if !a.submit {
-        println!("submit with:\n  {submit}");
+        say!("submit with:\n  {submit}");
         return Ok(());
     }
     let (array, merge) = submit_both(&job).map_err(|e| {
@@ -179,7 +179,7 @@ fn submit_both(job: &SlurmJob) -> anyhow::Result<(String, String)> {
         &[format!("--dependency=afterok:{array}")],
         &job.dir.join("merge.sbatch"),
     )?;
-    println!(
+    say!(
         "submitted: array job {array} ({} tasks), merge job {merge} after it",
         job.shards
     );

@@ -460,6 +460,21 @@ fn io_errors_name_the_path() {
     assert!(e.contains(&blocker.display().to_string()), "{e}");
 }
 
+/// A CSV cell that holds terminal controls (retitle, clear, NUL) is quoted escaped.
+#[test]
+fn control_characters_of_a_cell_reach_the_terminal_escaped() {
+    let d = dir("controls");
+    let data = d.join("hostile.csv");
+    write_csv(&data, uniform_times());
+    let mut text = std::fs::read_to_string(&data).unwrap();
+    text.push_str("20.0,0.0,\u{1b}]0;owned\u{7}\u{1b}[2J\0\n");
+    std::fs::write(&data, text).unwrap();
+    let e = failure(&analyze(&data, &A, &d.join("out")));
+    assert!(e.contains("is not a number"), "{e}");
+    assert!(!e.contains(['\u{1b}', '\u{7}', '\0']), "{e:?}");
+    assert!(e.contains("\\u{1b}]0;owned\\u{7}\\u{1b}[2J\\u{0}"), "{e}");
+}
+
 #[test]
 fn empty_csv_says_it_is_empty() {
     let d = dir("empty");

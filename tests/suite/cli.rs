@@ -574,7 +574,7 @@ fn a_rerun_into_a_used_folder_is_refused_unless_forced_and_force_clears_only_its
     let o = small_simulate(&out, &["--set", "excitation.frequency_hz=5", "--force"]);
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{e}");
-    assert!(e.contains("--force: deleted"), "{e}");
+    assert!(e.contains("--force: ") && e.contains("set aside"), "{e}");
     let stale = std::fs::read(out.join("wavelet_signif_ratio.npy")).unwrap_or_default();
     assert_ne!(stale, b"old", "the earlier run's file is gone or rewritten");
     assert_eq!(std::fs::read(out.join("notes.txt")).unwrap(), b"mine");

@@ -472,6 +472,30 @@ fn bad_search_scenes_are_refused_with_the_key_named() {
     assert!(e.contains("piezo.enabled"), "{e}");
 }
 
+/// A search whose first round alone is above the map's guard (the default search with 100000
+/// band frequencies) is refused before any work with its figures, and runs when accepted.
+#[test]
+fn a_huge_search_is_refused_before_any_work_unless_accepted() {
+    let e = search_error(&["search.band.count=100000"]);
+    for part in [
+        "search.band.count",
+        "100000 frequencies",
+        "instance-steps",
+        "search.accept_huge",
+    ] {
+        assert!(e.contains(part), "{part}: {e}");
+    }
+    let accepted = search_from_toml(
+        pendulum_atlas_studies::harvest::DEFAULT_SEARCH_TOML,
+        "<default search>",
+        &[
+            "search.band.count=100000".into(),
+            "search.accept_huge=true".into(),
+        ],
+    );
+    assert!(accepted.is_ok(), "{:?}", accepted.err());
+}
+
 #[test]
 fn a_bad_design_variable_stops_the_command_with_its_name() {
     let o = bin()

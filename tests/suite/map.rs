@@ -823,6 +823,46 @@ fn folder_files(dir: &std::path::Path) -> Vec<String> {
     names
 }
 
+/// A forced map killed outright leaves the earlier map set aside beside its own partial
+/// files; the next run into the folder puts the earlier map back, whole, before its checks, so
+/// that it is refused as a folder that holds a map (issue 61).
+#[test]
+fn an_earlier_map_left_aside_by_a_killed_run_is_put_back() {
+    let out = out_dir("killed-force");
+    let run = |extra: &[&str]| {
+        bin()
+            .args(["map", "--backend", "cpu", "--quiet", "--out"])
+            .arg(&out)
+            .args(TINY)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    assert!(run(&[]).status.success());
+    let before: Vec<(String, Vec<u8>)> = folder_files(&out)
+        .into_iter()
+        .map(|n| (n.clone(), std::fs::read(out.join(&n)).unwrap()))
+        .collect();
+    // What a forced run killed while writing leaves: the earlier files aside, a partial array
+    // and a temporary file of its own.
+    let aside = out.join(".pendulum-atlas.earlier");
+    std::fs::create_dir(&aside).unwrap();
+    for (name, _) in &before {
+        std::fs::rename(out.join(name), aside.join(name)).unwrap();
+    }
+    std::fs::write(out.join("K.npy"), "partial").unwrap();
+    std::fs::write(out.join(".R.tmp-999.npy"), "partial").unwrap();
+    let o = run(&[]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("already holds"), "{e}");
+    let after: Vec<(String, Vec<u8>)> = folder_files(&out)
+        .into_iter()
+        .map(|n| (n.clone(), std::fs::read(out.join(&n)).unwrap_or_default()))
+        .collect();
+    assert_eq!(after, before, "the earlier map, whole, and nothing else");
+}
+
 /// `--force` deletes exactly the files the earlier map's own `map.json` lists, whatever
 /// feature wrote them (attractors, basins, starts), so that none is left beside a new map.
 #[test]
@@ -1046,6 +1086,58 @@ fn a_folder_deleted_and_made_again_during_the_run_is_not_written_into() {
     assert_eq!(folder_files(&out), ["notes.txt"], "{err}");
 }
 
+/// A cancel reaches an instance while it runs: the CPU engine asks the progress callback
+/// every few forcing periods, so that a cell settling for minutes (or a 2000-s run, as here)
+/// stops within milliseconds of Ctrl-C instead of at its end (issue 61). The first question
+/// comes while no instance has finished, and the cancelled instance asks no more.
+#[test]
+fn a_cancel_reaches_an_instance_while_it_runs() {
+    use pendulum_atlas_core::config::map_from_toml;
+    use pendulum_atlas_core::engine::{
+        CpuLoop, Engine, EngineError, EnsemblePlan, Precision, ProgressUnit, Readback,
+    };
+    use pendulum_atlas_core::reduce::ReduceOptions;
+    use std::sync::Mutex;
+    let spec = map_from_toml(
+        "[beam]\nsegments = 3\n[integration]\nduration_s = 2000.0\ntransient_s = 5.0\n\
+         [map]\nmetrics = [\"K\"]\n\
+         [[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [8.0]\n",
+        "<test>",
+        &[],
+    )
+    .unwrap();
+    let plan = EnsemblePlan::new(&spec).unwrap();
+    for cpu_loop in [CpuLoop::Scalar, CpuLoop::Simd] {
+        let asked: Mutex<Vec<u64>> = Mutex::new(Vec::new());
+        let cancel = |done: u64, _: u64, unit: ProgressUnit| {
+            if unit == ProgressUnit::Instances {
+                asked.lock().unwrap().push(done);
+            }
+            std::ops::ControlFlow::Break(())
+        };
+        let engine = Engine::cpu_with(Precision::F64, cpu_loop);
+        let err = engine
+            .run(
+                &plan,
+                &ReduceOptions::from_spec(&spec),
+                Readback::default(),
+                &cancel,
+            )
+            .expect_err("a cancelled run");
+        assert!(matches!(err, EngineError::Cancelled), "{cpu_loop:?}: {err}");
+        let asked = asked.into_inner().unwrap();
+        assert_eq!(
+            asked.first(),
+            Some(&0),
+            "{cpu_loop:?}: asked while running: {asked:?}"
+        );
+        assert!(
+            asked.len() <= 2,
+            "{cpu_loop:?}: asked again after the cancel: {asked:?}"
+        );
+    }
+}
+
 /// Planning a huge map reports its progress every few thousand runs, and a cancel there
 /// (Ctrl-C in `pa.map`) stops it at once with `Cancelled`, before the ensemble is built.
 #[test]
@@ -1127,6 +1219,32 @@ fn a_huge_map_is_refused_with_its_figures_unless_accepted() {
     )
     .unwrap();
     assert!(check_map_size(&small, 1, &engine).unwrap().is_none());
+}
+
+/// The guard counts settling at its most: the default map settling to 1e5 s (3.5e11
+/// instance-steps if every cell runs on) is refused with the settling named, while the same
+/// map settling to 68 s passes.
+#[test]
+fn settling_counts_in_the_huge_map_guard() {
+    use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, map_from_toml};
+    use pendulum_atlas_map::map::size::check_map_size;
+    let engine =
+        pendulum_atlas_core::engine::Engine::cpu(pendulum_atlas_core::engine::Precision::F32);
+    let settling = |max_s: &str| {
+        let spec = map_from_toml(
+            DEFAULT_MAP_TOML,
+            "default",
+            &[format!("map.settle_max_s={max_s}")],
+        )
+        .unwrap();
+        check_map_size(&spec, 1, &engine)
+    };
+    let refused = settling("100000.0").unwrap_err().to_string();
+    assert!(
+        refused.contains("more settling") && refused.contains("map.settle_max_s"),
+        "{refused}"
+    );
+    assert!(settling("68.0").unwrap().is_none());
 }
 
 /// Continuation down a clearance axis: the state a cell ended in, leaning on its 4° bumper,

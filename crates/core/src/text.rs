@@ -94,6 +94,27 @@ fn serde_words(message: &str) -> String {
     out
 }
 
+/// `s` safe to print on a terminal: its control characters (C0 but the newline, DEL, C1) and
+/// the bidirectional overrides written as escapes (`\u{1b}`, `\0`), so that an input quoted
+/// in a message (a CSV cell, a key, a file name) cannot retitle, clear or move the terminal or
+/// reorder what it shows. Every message the CLI and the Python package print passes here.
+pub fn printable(s: &str) -> String {
+    let unsafe_char = |c: char| {
+        (c != '\n' && c.is_control())
+            || ('\u{202a}'..='\u{202e}').contains(&c)
+            || ('\u{2066}'..='\u{2069}').contains(&c)
+    };
+    if !s.chars().any(unsafe_char) {
+        return s.to_string();
+    }
+    s.chars()
+        .map(|c| match unsafe_char(c) {
+            true => c.escape_unicode().to_string(),
+            false => c.to_string(),
+        })
+        .collect()
+}
+
 /// A byte count for people: "1.2 GB".
 pub fn bytes(n: u64) -> String {
     const UNITS: [&str; 5] = ["B", "kB", "MB", "GB", "TB"];
@@ -123,6 +144,16 @@ pub fn duration(seconds: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn control_characters_are_printed_as_escapes() {
+        assert_eq!(
+            printable("cell `\u{1b}]0;owned\u{7}` and \u{1b}[2J\0"),
+            "cell `\\u{1b}]0;owned\\u{7}` and \\u{1b}[2J\\u{0}"
+        );
+        assert_eq!(printable("a\nb ± é"), "a\nb ± é");
+        assert_eq!(printable("x\u{202e}y\u{9b}"), "x\\u{202e}y\\u{9b}");
+    }
 
     #[test]
     fn serde_names_of_rust_types_read_as_words() {

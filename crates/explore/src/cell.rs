@@ -11,10 +11,15 @@ use super::folder::{RunFolder, Source};
 use super::search_folder::split_variant;
 use pendulum_atlas_core::analysis::{RecordAnalysis, stroboscopic};
 use pendulum_atlas_core::config::{Scene, set_key};
-use pendulum_atlas_core::engine::{EnsembleOptions, Instance, Outcome, StepPlan, integrate};
+use pendulum_atlas_core::engine::{
+    EnsembleOptions, Instance, Outcome, ProgressUnit, StepPlan, integrate,
+};
 use pendulum_atlas_core::model::Status;
 use pendulum_atlas_core::model::linear::LinearError;
 use pendulum_atlas_core::text::bytes;
+use pendulum_atlas_map::map::cell::{
+    CELL_SECTION, cell_section, cell_values, read_cell_scene, rerun_cell,
+};
 use pendulum_atlas_map::output::TrajectoryRecorder;
 use pendulum_atlas_map::output::budget::RunSize;
 use serde::Serialize;
@@ -37,8 +42,10 @@ const SPECTRUM_MAX_HARMONIC: f64 = 6.0;
 pub struct CellScene {
     /// The validated scene.
     pub scene: Scene,
-    /// Its text.
+    /// Its text (with `[cell]` for a cell of a plain map).
     pub toml: String,
+    /// A plain map's cell: the map of that cell alone (`map::cell::read_cell_scene`).
+    pub cell: Option<pendulum_atlas_core::config::MapSpec>,
 }
 
 /// The scene of cell `k` run as variant `v` (a case, or a frequency and initial state; 0 for
@@ -97,11 +104,13 @@ pub fn cell_scene(folder: &RunFolder, k: usize, v: usize) -> Result<CellScene, E
     table = pendulum_atlas_map::map::cell::pinned_cell(table, &opts)
         .map_err(|e| fail(e.to_string()))?
         .0;
-    let scene = Scene::from_table(table.clone()).map_err(|e| fail(e.to_string()))?;
-    Ok(CellScene {
-        scene,
-        toml: scene_text(folder, k, v, &table)?,
-    })
+    if let Some(section) = folder.source.map().and_then(cell_section) {
+        table.insert(CELL_SECTION.into(), Value::Table(section));
+    }
+    let toml = scene_text(folder, k, v, &table)?;
+    let (scene, cell) =
+        read_cell_scene(&toml, "<the cell>", &[]).map_err(|e| fail(e.to_string()))?;
+    Ok(CellScene { scene, toml, cell })
 }
 
 fn set(table: &mut Table, key: &str, v: Value) -> Result<(), ExploreError> {
@@ -182,6 +191,9 @@ pub struct CellRun {
     pub simulated: BTreeMap<&'static str, Option<f64>>,
     /// The map's stored values of every metric for this cell (empty for other folders).
     pub map: BTreeMap<String, Option<f64>>,
+    /// A plain map's cell: its values as the map computes them, rerun on the CPU engine in
+    /// f64 (`map::cell::rerun_cell`): the map's numbers exactly where the map ran there.
+    pub rerun: serde_json::Map<String, serde_json::Value>,
     /// What the folder says of this cell and variant, in words (a calibration's judgements,
     /// a search's power there).
     pub notes: Vec<String>,
@@ -305,6 +317,7 @@ pub fn run_cell(
         wall_s: started.elapsed().as_secs_f64(),
         simulated: simulated_values(analysis.as_ref()),
         map: map_values(folder, k),
+        rerun: rerun_values(k, &cs, control)?,
         notes: notes(folder, k, v),
         variant: folder.variants.get(v).cloned(),
         alpha: thin(&t, &alpha),
@@ -371,6 +384,28 @@ fn analyse(
             None
         }
     }
+}
+
+/// A plain map's cell rerun as its map computes it (`run.json`'s `map_cell` of `simulate`);
+/// nothing for other cells. A cancel from the page stops it.
+fn rerun_values(
+    k: usize,
+    cs: &CellScene,
+    control: &Arc<CellControl>,
+) -> Result<serde_json::Map<String, serde_json::Value>, ExploreError> {
+    let Some(spec) = &cs.cell else {
+        return Ok(serde_json::Map::new());
+    };
+    let c = control.clone();
+    let go_on = move |_: u64, _: u64, _: ProgressUnit| match c.is_cancelled() {
+        true => ControlFlow::Break(()),
+        false => ControlFlow::Continue(()),
+    };
+    let r = rerun_cell(spec, &go_on).map_err(|e| match e {
+        pendulum_atlas_core::engine::EngineError::Cancelled => ExploreError::Cancelled(k),
+        e => ExploreError::Cell(format!("cell {k}: {e}")),
+    })?;
+    Ok(cell_values(spec, &r))
 }
 
 /// K, R and period as `simulate` writes them in `run.json` (`analysis`).

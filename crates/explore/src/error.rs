@@ -92,6 +92,11 @@ pub enum ExploreError {
     /// A cell run cancelled from the page.
     #[error("cell {0}: the run was cancelled; click the cell to run it again")]
     Cancelled(usize),
+    /// The folder was deleted, replaced or rerun since the server opened it.
+    #[error(
+        "{0} was replaced or rerun since explore opened it: this page shows the earlier run; stop explore (Ctrl-C) and start it again to see the new one"
+    )]
+    Replaced(String),
     /// The cell's scene could not be rebuilt, integrated or analysed.
     #[error("{0}")]
     Cell(String),

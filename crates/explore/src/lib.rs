@@ -24,6 +24,7 @@ mod folder;
 mod jobs;
 mod map_folder;
 mod open;
+mod seal;
 mod search_folder;
 mod server;
 mod sources;
@@ -78,9 +79,10 @@ pub fn serve(
     opts: &ServeOptions,
     ready: impl FnOnce(SocketAddr),
 ) -> std::io::Result<()> {
+    let seal = seal::Seal::take(&folder.dir, folder.product.manifest());
     let folder = Arc::new(folder);
     let jobs = Jobs::start(folder.clone(), opts.workers, opts.queue, opts.limits);
-    let app = Arc::new(server::App { folder, jobs });
+    let app = Arc::new(server::App { folder, jobs, seal });
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_io()

@@ -12,7 +12,8 @@
 //! | `POST /api/job/J/cancel`       | stop job J (waiting or running); where it stands     |
 //! | `GET /files/NAME`              | a PNG the manifest lists (`bifurcation.png`, ...)    |
 //!
-//! Every index is checked (`400` with the accepted range), an unknown quantity is `404` with
+//! Every request first checks that the folder is still the one opened (`seal`): `409` once it
+//! was replaced or rerun. Every index is checked (`400` with the accepted range), an unknown quantity is `404` with
 //! the ones there are, a full queue is `503`. Only files listed in the manifest with a `.png`
 //! name are served, looked up by name, so no path reaches outside the folder.
 
@@ -41,6 +42,8 @@ pub struct App {
     pub folder: Arc<RunFolder>,
     /// The queue of cell runs.
     pub jobs: Arc<Jobs>,
+    /// The folder as opened, checked before every request.
+    pub seal: super::seal::Seal,
 }
 
 type Shared = State<Arc<App>>;
@@ -55,6 +58,7 @@ impl IntoResponse for ExploreError {
             | ExploreError::BadSlice { .. }
             | ExploreError::BadJobId(_) => StatusCode::BAD_REQUEST,
             ExploreError::QueueFull { .. } => StatusCode::SERVICE_UNAVAILABLE,
+            ExploreError::Replaced(_) => StatusCode::CONFLICT,
             ExploreError::Cell(_)
             | ExploreError::TooLarge { .. }
             | ExploreError::TooLong { .. }
@@ -93,7 +97,20 @@ pub fn router(app: Arc<App>) -> Router {
                 axum::Json(json!({ "error": "no such page: the API is under /api (see `explore`'s help)" })),
             )
         })
+        .layer(axum::middleware::from_fn_with_state(app.clone(), unchanged))
         .with_state(app)
+}
+
+/// Answer a request only while the folder is the one opened (`seal`).
+async fn unchanged(
+    State(app): Shared,
+    request: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> Response {
+    match app.seal.check() {
+        Ok(()) => next.run(request).await,
+        Err(e) => e.into_response(),
+    }
 }
 
 fn asset(kind: &'static str, body: &'static str) -> Response {
@@ -106,7 +123,19 @@ async fn map_info(State(app): Shared) -> Response {
     let axes: Vec<_> = f
         .axes
         .iter()
-        .map(|a| json!({ "key": a.key, "label": a.label, "values": a.values }))
+        .map(|a| {
+            // The PNG maps' own ticks: round values within the cell edges.
+            let grid = pendulum_atlas_map::render::grid_axis(&a.values);
+            let ticks: Vec<_> = grid
+                .ticks
+                .iter()
+                .map(|(value, label)| json!({ "value": value, "label": label }))
+                .collect();
+            json!({
+                "key": a.key, "label": a.label, "values": a.values,
+                "edges": grid.edges, "ticks": ticks,
+            })
+        })
         .collect();
     let metrics: Vec<_> = f
         .columns

@@ -52,6 +52,64 @@ fn a_lost_device_or_an_out_of_memory_ends_the_run_with_one_clear_error() {
     }
 }
 
+/// The files of `dir` (the lock aside) with their bytes, sorted by name.
+fn files_of(dir: &std::path::Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap())
+        .filter(|e| e.file_name() != ".pendulum-atlas.lock")
+        .map(|e| {
+            let bytes = std::fs::read(e.path()).unwrap_or_default();
+            (e.file_name().to_string_lossy().into_owned(), bytes)
+        })
+        .collect();
+    files.sort();
+    files
+}
+
+/// A map run with `--force` over an earlier map that fails on a lost device leaves the earlier
+/// map whole: every file as it was, none of the new run's, nothing set aside (issue 61).
+#[test]
+fn a_forced_map_that_fails_keeps_the_earlier_map_whole() {
+    if gpu().is_none() {
+        return;
+    }
+    let out = std::env::temp_dir().join(format!("pendulum-atlas-keep-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let map = |backend: &str, fault: &str, force: bool| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_pendulum-atlas"));
+        c.args([
+            "map",
+            "--backend",
+            backend,
+            "--quiet",
+            "--set",
+            AXES,
+            "--out",
+        ])
+        .arg(&out)
+        .env(GPU_FAULT_ENV, fault);
+        if force {
+            c.arg("--force");
+        }
+        c.output().unwrap()
+    };
+    assert!(map("cpu", "", false).status.success());
+    std::fs::write(out.join("notes.txt"), "the user's").unwrap();
+    let before = files_of(&out);
+    assert!(before.iter().any(|(n, _)| n == "map.json"));
+    let o = map("gpu", "lose_device", true);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(matches!(o.status.code(), Some(c) if c != 0), "{err}");
+    assert!(err.contains("kept as they were"), "{err}");
+    assert_eq!(
+        files_of(&out),
+        before,
+        "the earlier map and the user's file, as they were"
+    );
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
 #[test]
 fn an_unknown_fault_is_refused_with_the_accepted_values() {
     if gpu().is_none() {

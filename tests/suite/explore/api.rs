@@ -702,3 +702,71 @@ fn a_map_run_both_ways_shows_both_sweeps_and_says_a_rerun_starts_afresh() {
         "{note}"
     );
 }
+
+/// Copy the plain files of `from` into a new folder `to`.
+fn copy_folder(from: &std::path::Path, to: &std::path::Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        if e.file_type().unwrap().is_file() && e.file_name() != ".pendulum-atlas.lock" {
+            std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
+        }
+    }
+}
+
+/// A folder replaced while it is served (deleted and made again, as a rerun with --force
+/// into a fresh copy would) is no longer served as the earlier run: every request answers
+/// 409 with what to do, instead of the old data beside the new pictures (issue 61).
+#[test]
+fn a_folder_replaced_while_served_is_refused_with_what_to_do() {
+    let dir = scratch("replaced");
+    copy_folder(small_map(), &dir);
+    let server = Server::start(&dir, &[]);
+    json(&server, "GET", "/api/map", 200);
+    let old = dir.with_extension("old");
+    let _ = std::fs::remove_dir_all(&old);
+    std::fs::rename(&dir, &old).unwrap();
+    copy_folder(&old, &dir);
+    for path in ["/api/map", "/api/cell/0", "/files/K.png"] {
+        let (status, body) = request(&server, "GET", path);
+        assert_eq!(status, 409, "{path}: {body}");
+        assert!(
+            body.contains("replaced or rerun") && body.contains("start it again"),
+            "{body}"
+        );
+    }
+    drop(server);
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&old);
+}
+
+/// The axes carry the PNG maps' round ticks (5, 6, ... 10 over cells centred at 5 ... 10),
+/// not cell centres, each within the cell edges the page draws (issue 61).
+#[test]
+fn the_axes_carry_the_round_ticks_of_the_png_maps() {
+    let s = Server::start(small_map(), &[]);
+    let m = json(&s, "GET", "/api/map", 200);
+    let labels = |axis: &serde_json::Value| -> Vec<String> {
+        axis["ticks"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|t| t["label"].as_str().unwrap().to_string())
+            .collect()
+    };
+    assert_eq!(labels(&m["axes"][0]), ["5", "6", "7", "8", "9", "10"]);
+    for axis in m["axes"].as_array().unwrap() {
+        let edges: Vec<f64> = serde_json::from_value(axis["edges"].clone()).unwrap();
+        let values: Vec<f64> = serde_json::from_value(axis["values"].clone()).unwrap();
+        assert_eq!(edges.len(), values.len() + 1);
+        let ticks = axis["ticks"].as_array().unwrap();
+        assert!(ticks.len() >= 2, "{axis}");
+        for t in ticks {
+            let v = t["value"].as_f64().unwrap();
+            assert!(
+                v >= edges[0] && v <= edges[values.len()],
+                "{v} outside {edges:?}"
+            );
+        }
+    }
+}

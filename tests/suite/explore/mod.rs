@@ -4,6 +4,7 @@
 mod api;
 mod browser;
 mod folders;
+mod rerun;
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};

@@ -48,11 +48,12 @@ function cellAt(px, py) {
   return { ix, iy, k: f.cells[iy * f.nx + ix], at: iy * f.nx + ix };
 }
 
-function tickIndices(n, most) {
-  const step = Math.max(1, Math.ceil(n / most));
-  const out = [];
-  for (let i = 0; i < n; i += step) out.push(i);
-  return out;
+// Where value v lies on an axis of cell edges, in cells from the first edge: within its cell
+// linearly, as the PNG maps place their ticks (the server gives both, from the same code).
+function cellsAt(edges, v) {
+  let i = 0;
+  while (i < edges.length - 2 && v >= edges[i + 1]) i++;
+  return i + (v - edges[i]) / (edges[i + 1] - edges[i]);
 }
 
 function drawMap() {
@@ -82,17 +83,19 @@ function drawMap() {
   g.fillStyle = "#222"; g.font = "12px sans-serif";
   const xa = m.axes[0];
   g.textAlign = "center"; g.textBaseline = "top";
-  for (const i of tickIndices(f.nx, 8)) {
-    const r = cellRect(i, 0);
-    g.fillText(fmt(xa.values[i], 3), r.x + r.w / 2, a.y + a.h + 4);
+  for (const t of xa.ticks) {
+    const x = a.x + cellsAt(xa.edges, t.value) / f.nx * a.w;
+    g.fillRect(Math.round(x), a.y + a.h, 1, 3);
+    g.fillText(t.label, x, a.y + a.h + 4);
   }
   g.fillText(xa.label, a.x + a.w / 2, a.y + a.h + 24);
   if (m.axes.length > 1) {
     const ya = m.axes[1];
     g.textAlign = "right"; g.textBaseline = "middle";
-    for (const i of tickIndices(f.ny, 10)) {
-      const r = cellRect(0, i);
-      g.fillText(fmt(ya.values[i], 3), a.x - 4, r.y + r.h / 2);
+    for (const t of ya.ticks) {
+      const y = a.y + a.h - cellsAt(ya.edges, t.value) / f.ny * a.h;
+      g.fillRect(a.x - 3, Math.round(y), 3, 1);
+      g.fillText(t.label, a.x - 5, y);
     }
     g.save(); g.translate(16, a.y + a.h / 2); g.rotate(-Math.PI / 2);
     g.textAlign = "center"; g.fillText(ya.label, 0, 0); g.restore();
@@ -253,12 +256,12 @@ function showCell(r) {
   for (const [simKey, mapKey, label] of ROWS) {
     const tr = document.createElement("tr");
     const th = document.createElement("th"); th.textContent = label; tr.append(th);
-    for (const [who, v] of [["sim", r.simulated[simKey]], ["map", r.map[mapKey]]]) {
+    for (const [who, v] of [["sim", r.simulated[simKey]], ["map", r.map[mapKey]], ["rerun", r.rerun[mapKey] ?? r.rerun[simKey]]]) {
       const td = document.createElement("td");
       td.id = `${who}-${simKey}`;
       td.dataset.value = v === null || v === undefined ? "" : String(v);
       // A period of 0 (simulate) or none stored (a map's no-data grey) means none was found.
-      const none = simKey === "period" && (v === 0 || (who === "map" && v === null && r.status === "ok"));
+      const none = simKey === "period" && (v === 0 || (who !== "sim" && v === null && r.status === "ok"));
       td.textContent = none ? "none" : fmt(v);
       tr.append(td);
     }
@@ -270,6 +273,8 @@ function showCell(r) {
   $("download").setAttribute("download", `cell_${r.cell}.toml`);
   const isMap = Object.keys(r.map).length > 0;
   for (const el of document.querySelectorAll("#cellValues th:nth-child(3), #cellValues td:nth-child(3)")) el.hidden = !isMap;
+  const rerun = Object.keys(r.rerun).length > 0;
+  for (const el of document.querySelectorAll("#cellValues th:nth-child(4), #cellValues td:nth-child(4)")) el.hidden = !rerun;
   const n = $("notes"); n.innerHTML = "";
   for (const t of r.notes) { const li = document.createElement("li"); li.textContent = t; n.append(li); }
   const w = $("warnings"); w.innerHTML = "";

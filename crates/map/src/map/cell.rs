@@ -4,11 +4,51 @@
 //! `integration.base_step_s`, with the same tolerances), and rows at a whole number of steps
 //! so that the record's sample rate is exact. The explorer's "run this cell" and Python's
 //! `Scene.cell` both come here.
+//!
+//! A map cell's scene also carries a `[cell]` section ([`cell_section`]: the map's keys that
+//! shape a cell's values), so that `simulate` (and `pa.simulate`) reports beside its
+//! record's analysis the cell's values as the map computes them ([`read_cell_scene`],
+//! [`rerun_cell`]): a map of that cell alone, with the same plan, loop and reductions, so the
+//! same numbers, bit for bit, as a map run on the CPU engine in f64 (`docs/guide/maps.md`,
+//! "A cell again").
 
-use pendulum_atlas_core::config::{ConfigError, MapSpec, Scene, StepControl, set_key};
-use pendulum_atlas_core::engine::{EngineError, EnsembleOptions, EnsemblePlan};
+use pendulum_atlas_core::config::{
+    ConfigError, ExcitationKind, MapMode, MapSpec, Scene, StepControl, apply_override,
+    map_from_toml, parse_toml, set_key,
+};
+use pendulum_atlas_core::engine::{
+    Engine, EngineError, EnsembleOptions, EnsemblePlan, Precision, Progress,
+};
+use pendulum_atlas_core::reduce::InstanceResult;
+use pendulum_atlas_core::schema::{FIELDS, Stage};
 use pendulum_atlas_core::text::num;
 use toml::{Table, Value};
+
+/// The section of a cell's scene that holds the map's settings of its values.
+pub const CELL_SECTION: &str = "cell";
+
+/// The `[map]` keys that shape one cell's values, kept in a cell's `[cell]`: what the
+/// cell's run records and how it is reduced (metrics, the strobe, R's series, the 0–1 test's
+/// c values, the period test, the early stop, λ1's twin). The others are the grid's (its
+/// axes, settling, starts, continuation, refinement, the bifurcation picture) and are left
+/// out: a cell of a map that settles, continues or refines reruns as a plain cell.
+pub const CELL_MAP_KEYS: [&str; 15] = [
+    "metrics",
+    "samples_per_period",
+    "strobe_phase",
+    "r_max_samples",
+    "phase_convention",
+    "k_n_c",
+    "k_seed",
+    "period_max",
+    "period_window",
+    "period_tol_rad",
+    "early_stop",
+    "early_stop_tol",
+    "lyapunov_window_s",
+    "lyapunov_align_periods",
+    "lyapunov_perturbation",
+];
 
 /// The keys [`pinned_cell`] sets: the method, the step control and its step, the row rate.
 pub const PINNED_KEYS: [&str; 4] = [
@@ -96,4 +136,132 @@ pub fn cell_index(spec: &MapSpec, coords: &[(String, f64)]) -> Result<usize, Con
         k = k * values.len() + i;
     }
     Ok(k)
+}
+
+/// The `[cell]` section of a cell of `spec`: the map's [`CELL_MAP_KEYS`] (empty where the
+/// map keeps every default). `None` for a map whose cells are not one plain run each (starts,
+/// continuation, refinement) or that settles: their values depend on other runs.
+pub fn cell_section(spec: &MapSpec) -> Option<Table> {
+    if !matches!(spec.mode, MapMode::Plain) || spec.settle_max_s.is_some() {
+        return None;
+    }
+    let mut section = Table::new();
+    if let Some(Value::Table(map)) = spec.source_table.get("map") {
+        for key in CELL_MAP_KEYS {
+            if let Some(v) = map.get(key) {
+                section.insert(key.into(), v.clone());
+            }
+        }
+    }
+    Some(section)
+}
+
+/// A scene's TOML text with its overrides `sets`: the scene, and, where it has a `[cell]`
+/// section (a map cell, as [`cell_section`] writes it), the map of that cell alone, whose one
+/// run [`rerun_cell`] gives the cell's values as its map computed them.
+pub fn read_cell_scene(
+    text: &str,
+    origin: &str,
+    sets: &[String],
+) -> Result<(Scene, Option<MapSpec>), ConfigError> {
+    let mut table = parse_toml(text, origin)?;
+    for s in sets {
+        apply_override(&mut table, s)?;
+    }
+    let Some(cell) = table.remove(CELL_SECTION) else {
+        return Ok((Scene::from_table(table)?, None));
+    };
+    let scene = Scene::from_table(table.clone())?;
+    let ExcitationKind::Harmonic { frequency_hz, .. } = scene.excitation.kind else {
+        return Err(ConfigError::Inconsistent {
+            key: CELL_SECTION.into(),
+            reason: "a map cell has harmonic excitation (its map's stroboscopic section needs one forcing period)".into(),
+        });
+    };
+    let Value::Table(mut map) = cell else {
+        return Err(ConfigError::Inconsistent {
+            key: CELL_SECTION.into(),
+            reason: "[cell] holds the map's settings of a cell's values, as a table".into(),
+        });
+    };
+    if let Some(key) = map.keys().find(|k| !CELL_MAP_KEYS.contains(&k.as_str())) {
+        return Err(ConfigError::Inconsistent {
+            key: format!("{CELL_SECTION}.{key}"),
+            reason: format!(
+                "[cell] takes the map keys that shape a cell's values: {}",
+                CELL_MAP_KEYS.join(", ")
+            ),
+        });
+    }
+    // The map of this one cell: an axis of the scene's own frequency (the same scene).
+    let mut axis = Table::new();
+    axis.insert(
+        "key".into(),
+        Value::String("excitation.frequency_hz".into()),
+    );
+    axis.insert(
+        "values".into(),
+        Value::Array(vec![Value::Float(frequency_hz)]),
+    );
+    map.insert("axes".into(), Value::Array(vec![Value::Table(axis)]));
+    table.insert("map".into(), Value::Table(map));
+    let text = toml::to_string(&table).map_err(|e| ConfigError::Inconsistent {
+        key: CELL_SECTION.into(),
+        reason: format!("the cell's map does not write as TOML: {e}"),
+    })?;
+    let spec = map_from_toml(&text, origin, &[])?;
+    Ok((scene, Some(spec)))
+}
+
+/// The values of the one cell of `spec` (a map of one cell and one start, as
+/// [`read_cell_scene`] makes it) as the map computes them on the CPU engine in f64: the map's
+/// plan, lanes and reductions.
+pub fn rerun_cell(spec: &MapSpec, progress: Progress) -> Result<InstanceResult, EngineError> {
+    let runs = spec.instances() * spec.starts_per_cell();
+    if runs != 1 {
+        return Err(EngineError::Config(ConfigError::Inconsistent {
+            key: "map.axes".into(),
+            reason: format!(
+                "a run of one map cell takes a [map] of one cell and one start, and this one has {runs} runs: run it with `map`, or take one cell of it (explore, Scene.cell)"
+            ),
+        }));
+    }
+    let run = super::run_map(spec, &Engine::cpu(Precision::F64), progress)?;
+    Ok(run.results[0])
+}
+
+/// The values of `r`, a cell of a map of `spec`'s metrics, by the schema's names: numbers
+/// (null where not formed), the regime and status by name. The confidence, which the grid's
+/// neighbours give, is left out.
+pub fn cell_values(
+    spec: &MapSpec,
+    r: &InstanceResult,
+) -> serde_json::Map<String, serde_json::Value> {
+    FIELDS
+        .iter()
+        .filter(|f| f.in_map && f.formed_for(&spec.metrics) && f.stage != Stage::Confidence)
+        .map(|f| {
+            let value = match f.name {
+                "regime" | "status" => serde_json::Value::String(f.code_name(r)),
+                _ => serde_json::Number::from_f64((f.get)(r))
+                    .map_or(serde_json::Value::Null, Into::into),
+            };
+            (f.name.to_string(), value)
+        })
+        .collect()
+}
+
+/// What `run.json`'s `map_cell` holds for the one cell of `spec` (a map cell's scene, read by
+/// [`read_cell_scene`]): its values as its map computes them ([`rerun_cell`],
+/// [`cell_values`]), the engine, and how far they carry.
+pub fn map_cell_report(
+    spec: &MapSpec,
+    progress: Progress,
+) -> Result<serde_json::Value, EngineError> {
+    let r = rerun_cell(spec, progress)?;
+    Ok(serde_json::json!({
+        "engine": "cpu f64, SIMD lanes (the CPU engine's map)",
+        "values": cell_values(spec, &r),
+        "note": "this cell's values as its map computes them (a map of this cell alone): bit for bit those of a map run on the CPU engine in f64; a map run in f32 (the GPU) can differ where the orbit is sensitive; the verdict's confidence needs the cell's neighbours and is not given",
+    }))
 }

@@ -7,7 +7,8 @@
 //! ([`PROBE_RUNS_CPU`] on the CPU, [`PROBE_RUNS_GPU`] on a GPU) over [`PROBE_PERIODS`] forcing periods with
 //! no transient and one cheap metric give the engine's rate (instance-steps/s); the map's
 //! instance-steps over that rate is the estimate. A GPU's rate grows with the instance count,
-//! so there the estimate is an upper bound.
+//! so there the estimate is an upper bound. Settling (`map.settle_max_s`) counts as every cell
+//! running on to `settle_max_s` (its most): the guard holds whatever the map's verdicts.
 
 use crate::map::host_bytes_estimate;
 use pendulum_atlas_core::config::{MapSpec, Metric};
@@ -43,6 +44,8 @@ pub struct MapSize {
     pub runs: usize,
     /// Steps of one run at the base scene's step.
     pub steps: u64,
+    /// Steps a run may add by settling (a rerun to `map.settle_max_s`; 0 without settling).
+    pub settle_steps: u64,
     /// Segments N.
     pub segments: usize,
     /// Host memory to plan and hold it (bytes): the whole map's, which every shard plans.
@@ -61,18 +64,20 @@ impl MapSize {
     pub fn of_shard(spec: &MapSpec, shards: u32) -> Result<MapSize, EngineError> {
         let plan = StepPlan::for_scene(&spec.scene)?;
         let runs = spec.instances() * spec.starts_per_cell();
+        let per_s = plan.steps as f64 / spec.scene.integration.duration_s;
         Ok(MapSize {
             runs: runs.div_ceil(shards.max(1) as usize),
             steps: plan.steps,
+            settle_steps: settle_steps(spec, per_s),
             segments: spec.scene.beam.segments,
             memory_bytes: host_bytes_estimate(spec),
             shards: shards.max(1),
         })
     }
 
-    /// Instance-steps in all.
+    /// Instance-steps in all, settling's most included.
     pub fn work(&self) -> f64 {
-        self.runs as f64 * self.steps as f64
+        self.runs as f64 * (self.steps as f64 + self.settle_steps as f64)
     }
 
     /// Whether the map is above one of the sizes at which `map` asks first.
@@ -93,8 +98,12 @@ impl MapSize {
                 duration(self.work() / rate)
             )
         });
+        let settling = match self.settle_steps {
+            0 => String::new(),
+            n => format!(" and up to {n} more settling (map.settle_max_s)"),
+        };
         format!(
-            "{whose}: {} runs of about {} steps each at N = {} ({:.2e} instance-steps), about {} of memory{time}",
+            "{whose}: {} runs of about {} steps each{settling} at N = {} ({:.2e} instance-steps), about {} of memory{time}",
             self.runs,
             self.steps,
             self.segments,
@@ -134,6 +143,7 @@ pub fn check_map_size(
     // the single-run plan of the first estimate only approaches.
     let size = MapSize {
         steps: (probe.steps_per_s * spec.scene.integration.duration_s).round() as u64,
+        settle_steps: settle_steps(spec, probe.steps_per_s),
         ..first
     };
     if !size.is_huge() {
@@ -148,6 +158,13 @@ pub fn check_map_size(
     } else {
         Err(verdict)
     }
+}
+
+/// The steps a run adds at most by settling, at `per_s` steps per simulated second: a rerun
+/// from its start to `map.settle_max_s` (`settle.rs`).
+fn settle_steps(spec: &MapSpec, per_s: f64) -> u64 {
+    spec.settle_max_s
+        .map_or(0, |max_s| (per_s * max_s).round() as u64)
 }
 
 /// What the probe found.

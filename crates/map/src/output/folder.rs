@@ -3,7 +3,8 @@
 //!
 //! - a folder that does not exist is created;
 //! - a folder holding files this command writes (its [`Product`]'s names and patterns) is refused,
-//!   unless `--force`, which deletes those files first and nothing else;
+//!   unless `--force`, which replaces those files and nothing else, once the new run is
+//!   complete (`earlier.rs`: they are set aside and put back if the new run fails);
 //! - a folder holding another command's manifest (say `map.json` where `simulate` is asked to
 //!   write) is refused even with `--force`: the two runs would mix.
 //!
@@ -11,6 +12,7 @@
 //! lock on its folder ([`FolderLock`], the file `.pendulum-atlas.lock`) from the check to its
 //! exit, so that a second run into the same folder is refused instead of mixing its files in.
 
+use super::earlier::{self, Replacement};
 use super::error::OutputError;
 pub use super::held::check_held;
 use super::held::hold;
@@ -194,10 +196,14 @@ impl Product {
     }
 
     /// Make `dir` this product's: create it and lock it for this run, then check that it
-    /// holds no earlier run (see the module's rules); with `force`, delete the files this
-    /// product writes there. Returns the lock, to hold until the run ends, and the number of
-    /// files deleted.
-    pub fn claim(self, dir: &Path, force: bool) -> Result<(FolderLock, usize), OutputError> {
+    /// holds no earlier run (see the module's rules); with `force`, set the earlier run's
+    /// files aside. Returns the lock, to hold until the run ends, and the earlier run set
+    /// aside, to keep or undo when the run ends (`earlier.rs`).
+    pub fn claim(
+        self,
+        dir: &Path,
+        force: bool,
+    ) -> Result<(FolderLock, Option<Replacement>), OutputError> {
         if dir.exists() && !dir.is_dir() {
             return Err(OutputError::NotAFolder(dir.display().to_string()));
         }
@@ -209,7 +215,8 @@ impl Product {
     }
 
     /// The check of [`Product::claim`] on a locked folder.
-    fn clear(self, dir: &Path, force: bool) -> Result<usize, OutputError> {
+    fn clear(self, dir: &Path, force: bool) -> Result<Option<Replacement>, OutputError> {
+        earlier::recover(dir, self)?;
         if let Some(other) = self.foreign_manifest(dir) {
             return Err(OutputError::OtherRun {
                 dir: dir.display().to_string(),
@@ -221,7 +228,7 @@ impl Product {
         self.refuse_blocked(dir)?;
         let ours = self.earlier_run(dir)?;
         if ours.is_empty() {
-            return Ok(0);
+            return Ok(None);
         }
         if !force {
             return Err(OutputError::FolderInUse {
@@ -231,10 +238,7 @@ impl Product {
                 examples: examples(&ours, self.manifest()),
             });
         }
-        for p in &ours {
-            std::fs::remove_file(p).map_err(|e| OutputError::io(p, e))?;
-        }
-        Ok(ours.len())
+        Replacement::set_aside(dir, self, &ours).map(Some)
     }
 
     /// Refuse an entry of `dir` that is not a regular file (a folder, a symlink, a FIFO) under
@@ -435,9 +439,10 @@ impl FolderLock {
 }
 
 /// What `--force` does, for each command's `--help`.
-pub const FORCE_HELP: &str = "Replace an earlier run in --out: delete the files this command \
-    writes there first (other files are left alone). Without it, a folder that already holds \
-    such files is refused, so that no file of an earlier run is left beside the new ones";
+pub const FORCE_HELP: &str = "Replace an earlier run in --out: its files are set aside and \
+    deleted once the new run is complete, or put back if it fails (other files are left \
+    alone). Without it, a folder that already holds such files is refused, so that no file of \
+    an earlier run is left beside the new ones";
 
 /// The target name of a temporary file (`.NAME.tmp-PID.EXT` → `NAME.EXT`).
 fn temp_target(name: &str) -> Option<String> {

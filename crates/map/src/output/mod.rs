@@ -4,6 +4,7 @@
 #[cfg(feature = "pictures")]
 pub mod analysis;
 pub mod budget;
+pub mod earlier;
 mod error;
 pub mod files;
 pub mod folder;

@@ -61,6 +61,10 @@ pub struct RunReport<'a> {
     pub analysis: Option<&'a RecordAnalysis>,
     /// λ1, or why there is none.
     pub lyapunov: &'a RunLyapunov,
+    /// For a map cell (a scene with `[cell]`): the cell's values as its map computes them
+    /// (`map::cell::rerun_cell`), with the engine that computed them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub map_cell: Option<serde_json::Value>,
 }
 
 /// What a single run was and how it went, for [`RunReport::new`].
@@ -130,6 +134,7 @@ impl<'a> RunReport<'a> {
             warnings,
             analysis,
             lyapunov: &f.run.lyapunov,
+            map_cell: None,
         }
     }
 }

@@ -43,6 +43,35 @@ fn cell_edges(c: &[f64]) -> Vec<f64> {
     e
 }
 
+/// A map axis as the heatmaps draw it, for drawing it elsewhere (the explorer): its cell
+/// edges and its labelled ticks, each a value and its label.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GridAxis {
+    /// Cell edges: midpoints between centres, the ends half a step out.
+    pub edges: Vec<f64>,
+    /// Round values within the edges ([`nice_ticks`]; a single cell: its centre), labelled.
+    pub ticks: Vec<(f64, String)>,
+}
+
+/// The axis of a map over cell centres `values`, as [`heatmap`] draws it.
+pub fn grid_axis(values: &[f64]) -> GridAxis {
+    let (edges, axis) = grid_spec(values);
+    let ticks = axis.ticks.iter().map(|&t| (t, axis.label(t))).collect();
+    GridAxis { edges, ticks }
+}
+
+/// The cell edges of centres `values` and the linear axis over them, with round ticks (a
+/// single cell gets a single tick at its centre).
+fn grid_spec(values: &[f64]) -> (Vec<f64>, AxisSpec) {
+    let edges = cell_edges(values);
+    let n = values.len();
+    let mut axis = AxisSpec::fixed(edges[0], edges[n], false);
+    if n == 1 {
+        axis.ticks = values.to_vec();
+    }
+    (edges, axis)
+}
+
 /// Index of the cell of `v` given the edges (None outside).
 fn cell_of(edges: &[f64], v: f64) -> Option<usize> {
     if !(v >= edges[0] && v <= edges[edges.len() - 1]) {
@@ -425,16 +454,7 @@ pub fn heatmap(
     let bad = |k: usize| invalid.get(k).copied().unwrap_or(false);
     let inferred = |k: usize| marked.get(k).copied().unwrap_or(false);
     let range = palette.range(values, invalid);
-    let (xe, ye) = (cell_edges(x.values), cell_edges(y.values));
-    let mut xa = AxisSpec::fixed(xe[0], xe[nx], false);
-    let mut ya = AxisSpec::fixed(ye[0], ye[ny], false);
-    // A single cell gets a single tick at its centre.
-    if nx == 1 {
-        xa.ticks = x.values.to_vec();
-    }
-    if ny == 1 {
-        ya.ticks = y.values.to_vec();
-    }
+    let ((xe, xa), (ye, ya)) = (grid_spec(x.values), grid_spec(y.values));
 
     let root = canvas(path, SIZE)?;
     let body = titled(&root, title)?;

@@ -24,7 +24,9 @@ use plotters::style::FontStyle;
 pub use charts::{histogram, line_chart, scatter, scatter_groups, stacked_panels, zero_one_figure};
 pub use colormap::viridis;
 pub use error::RenderError;
-pub use maps::{CellMarks, HATCH_PX, cell_colour, colour_range, heatmap, scalogram};
+pub use maps::{
+    CellMarks, GridAxis, HATCH_PX, cell_colour, colour_range, grid_axis, heatmap, scalogram,
+};
 pub use palette::{Category, INVALID_COLOR, NODATA_COLOR, Palette};
 pub use plotters::style::RGBColor;
 

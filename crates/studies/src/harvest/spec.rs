@@ -495,6 +495,7 @@ fn read_search(
         count: r.integer("search.baseline.zoom_count", 41, 0, 10_000)? as usize,
     };
     let verify = r.boolean("search.verify", true)?;
+    let accept_huge = r.boolean("search.accept_huge", false)?;
     let max_batch_instances = r.integer(
         "search.max_batch_instances",
         MAX_BATCH_INSTANCES as i64,
@@ -520,9 +521,34 @@ fn read_search(
         max_batch_instances,
     };
     check_variables(&spec)?;
+    check_size(&spec, accept_huge)?;
     let first: Vec<f64> = spec.variables.iter().map(|v| v.values[0]).collect();
     SEARCH_VARIABLES.refuse_unused(&spec.variables, &spec.design_table(&first)?.1)?;
     Ok(spec)
+}
+
+/// Refuse a search whose first round alone is above the map's guard
+/// ([`pendulum_atlas_map::map::size::HUGE_WORK`] instance-steps: designs × frequencies ×
+/// starts runs of the base scene's steps) unless `search.accept_huge`: refused before any
+/// work, with its figures, instead of running for hours.
+fn check_size(spec: &SearchSpec, accepted: bool) -> Result<(), ConfigError> {
+    use pendulum_atlas_map::map::size::HUGE_WORK;
+    let Ok(plan) = pendulum_atlas_core::engine::StepPlan::for_scene(&spec.scene) else {
+        return Ok(()); // the run itself names what its scene lacks
+    };
+    let (designs, band) = (spec.grid_designs(), spec.band.frequencies_hz.len());
+    let starts = spec.initial_states.len().max(1);
+    let work = designs as f64 * band as f64 * starts as f64 * plan.steps as f64;
+    if accepted || work <= HUGE_WORK {
+        return Ok(());
+    }
+    Err(ConfigError::Inconsistent {
+        key: "search.band.count".into(),
+        reason: format!(
+            "the first round alone is {designs} designs × {band} frequencies × {starts} starts of about {} steps ({work:.2e} instance-steps, above {HUGE_WORK:.0e}, hours of work): use fewer frequencies, designs (search.variables) or starts, or set search.accept_huge = true to run it",
+            plan.steps
+        ),
+    })
 }
 
 /// `[search.band]`: the frequencies and the base excitation (acceleration or amplitude).

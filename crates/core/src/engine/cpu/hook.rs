@@ -14,6 +14,13 @@ use crate::model::{Chain, Lane, Real, Status, Workspace};
 use crate::reduce::{LyapunovSums, Tally, TwinPlan};
 use std::ops::ControlFlow;
 
+/// Whether a run should end now: asked by a hook every few forcing periods, so that
+/// a cancel reaches an instance that runs for minutes (a settled cell, a long single run).
+pub(super) type Stop<'a> = &'a (dyn Fn() -> bool + Sync);
+
+/// Forcing periods between two questions to [`Stop`] (a few milliseconds of work at N = 3).
+const STOP_EVERY: u64 = 16;
+
 /// Lane `lane` of a state of vectors.
 pub(super) struct LaneView<'a, V> {
     pub(super) y: &'a [V],
@@ -104,6 +111,9 @@ enum EarlyPhase {
 /// The per-step bookkeeping of an ensemble instance.
 pub(super) struct EnsembleHook<'a, T> {
     plan: &'a InstancePlan,
+    /// Asked at the end of every [`STOP_EVERY`]-th forcing period: `true` ends the run there
+    /// (the run was cancelled; its results are not used).
+    stop: Option<Stop<'a>>,
     pub(super) raw: RawInstance,
     /// The accumulators of the current forcing period, and the well last visited (kept
     /// through the transient).
@@ -142,6 +152,7 @@ impl<'a, T: Real> EnsembleHook<'a, T> {
         let tp = plan.transient_periods;
         EnsembleHook {
             plan,
+            stop: None,
             raw: RawInstance {
                 tally: Tally {
                     status: Status::Ok,
@@ -175,6 +186,11 @@ impl<'a, T: Real> EnsembleHook<'a, T> {
                 .map(|(t, d0)| TwinTracker::new(t, d0, segments, dim, tp)),
             twin_state: Vec::new(),
         }
+    }
+
+    /// The hook, ending its run at the first period's end at which `stop` says so.
+    pub(super) fn with_stop(self, stop: Option<Stop<'a>>) -> Self {
+        EnsembleHook { stop, ..self }
     }
 
     /// Whether λ1's twin is running (the loop must advance it).
@@ -294,6 +310,9 @@ impl<'a, T: Real> EnsembleHook<'a, T> {
     /// The end of forcing period `q` (0-based): its tally into the run's after the transient,
     /// into the early stop's ring; `Break` when a closing orbit stops here.
     fn period_end(&mut self, q: u64) -> ControlFlow<()> {
+        if q % STOP_EVERY == STOP_EVERY - 1 && self.stop.is_some_and(|stop| stop()) {
+            return ControlFlow::Break(());
+        }
         let done = std::mem::take(&mut self.period);
         if q >= u64::from(self.plan.transient_periods) {
             done.add_to(&mut self.raw.tally);

@@ -51,10 +51,12 @@ where
     let groups = lane_groups(plan, V::LANES);
     let done = AtomicU64::new(0);
     let total = plan.instances.len() as u64;
+    // Asked at every lane's period ends, so that a cancel stops running groups too.
+    let stop = || progress(done.load(Ordering::Relaxed), total, ProgressUnit::Instances).is_break();
     let runs: Vec<Vec<RawInstance>> = groups
         .par_iter()
         .map(|g| {
-            let raw = run_group::<V>(plan, g, d0);
+            let raw = run_group::<V>(plan, g, d0, &stop);
             let n = done.fetch_add(g.len() as u64, Ordering::Relaxed) + g.len() as u64;
             super::goes_on(progress(n, total, ProgressUnit::Instances))?;
             Ok(raw)
@@ -230,7 +232,12 @@ struct Vectors<V: Lane> {
 /// Integrate the instances `members` of `plan` side by side in the lanes of `V`, with λ1's
 /// twins at separation `d0` in a second vector: fixed steps all together ([`fixed_steps`]),
 /// adaptive ones each lane its own ([`ladder_steps`]).
-fn run_group<V: Lane>(plan: &EnsemblePlan, members: &[usize], d0: Option<f64>) -> Vec<RawInstance>
+fn run_group<V: Lane>(
+    plan: &EnsemblePlan,
+    members: &[usize],
+    d0: Option<f64>,
+    stop: &(dyn Fn() -> bool + Sync),
+) -> Vec<RawInstance>
 where
     V::Scalar: Real,
 {
@@ -254,7 +261,8 @@ where
         .map(|&p| LaneState {
             plan: p,
             chain: Chain::new(&p.params),
-            hook: EnsembleHook::new(p, plan.want_strobe, plan.want_rseries, plan.early_stop, d0),
+            hook: EnsembleHook::new(p, plan.want_strobe, plan.want_rseries, plan.early_stop, d0)
+                .with_stop(Some(stop)),
             end: None,
             y_end: Vec::new(),
             sub_steps: 0,

@@ -39,21 +39,24 @@ pub fn run_instance<T: Real>(
     want_strobe: bool,
     want_rseries: bool,
 ) -> RawInstance {
-    run_instance_with::<T>(plan, want_strobe, want_rseries, None, None)
+    run_instance_with::<T>(plan, want_strobe, want_rseries, None, None, None)
 }
 
 /// [`run_instance`], stopping early once a periodic orbit is confirmed when `early` is given,
-/// with λ1's twin at separation `separation` when the plan has one.
+/// with λ1's twin at separation `separation` when the plan has one, ending at the first
+/// forcing period's end at which `stop` says so (a cancel; asked every few periods).
 pub fn run_instance_with<T: Real>(
     plan: &InstancePlan,
     want_strobe: bool,
     want_rseries: bool,
     early: Option<EarlyStop>,
     separation: Option<f64>,
+    stop: Option<&(dyn Fn() -> bool + Sync)>,
 ) -> RawInstance {
     let chain: Chain<T> = Chain::new(&plan.params);
     let mut y: Vec<T> = plan.y0.iter().map(|&v| T::of(v)).collect();
-    let mut hook = EnsembleHook::<T>::new(plan, want_strobe, want_rseries, early, separation);
+    let mut hook =
+        EnsembleHook::<T>::new(plan, want_strobe, want_rseries, early, separation).with_stop(stop);
     let (steps, dim) = (plan.total_steps(), y.len());
     // The loop over one stepper type; each arm below builds its own.
     macro_rules! run_with {
@@ -242,7 +245,8 @@ impl CpuEngine {
 }
 
 /// Integrate every instance on the CPU (λ1's twins at separation `d0`); progress counts
-/// finished instances, and a cancel stops the instances not yet started.
+/// finished instances, and is asked every few forcing periods whether to go on, so that a
+/// cancel stops the running instances within milliseconds and the others before they start.
 fn integrate_all<T: Real>(
     plan: &EnsemblePlan,
     d0: Option<f64>,
@@ -250,11 +254,12 @@ fn integrate_all<T: Real>(
 ) -> Result<Vec<RawInstance>, EngineError> {
     let done = AtomicU64::new(0);
     let total = plan.instances.len() as u64;
+    let stop = || progress(done.load(Ordering::Relaxed), total, ProgressUnit::Instances).is_break();
     plan.instances
         .par_iter()
         .map(|p| {
-            let r =
-                run_instance_with::<T>(p, plan.want_strobe, plan.want_rseries, plan.early_stop, d0);
+            let (strobe, rseries) = (plan.want_strobe, plan.want_rseries);
+            let r = run_instance_with::<T>(p, strobe, rseries, plan.early_stop, d0, Some(&stop));
             let n = done.fetch_add(1, Ordering::Relaxed) + 1;
             goes_on(progress(n, total, ProgressUnit::Instances))?;
             Ok(r)

@@ -1,0 +1,116 @@
+//! An earlier run replaced only once the new one is complete. `--force` moves the earlier
+//! run's files aside into [`EARLIER_DIR`] inside the folder (renames, nothing copied or
+//! rewritten); the new run writes its own; then either
+//! - [`Replacement::keep`]: the new run completed, the earlier files are deleted; or
+//! - [`Replacement::undo`]: it failed (a lost GPU, a refusal found late, Ctrl-C), what it wrote
+//!   is deleted and the earlier files move back, whole.
+//!
+//! A run killed outright leaves the earlier files aside; the next claim of the folder puts
+//! them back first ([`recover`]), unless the killed run had written its manifest (it was
+//! complete). The user's own files are never moved.
+
+use super::error::OutputError;
+use super::folder::Product;
+use std::path::{Path, PathBuf};
+
+/// The folder, inside an output folder, that holds an earlier run's files while a new run
+/// replaces them.
+pub const EARLIER_DIR: &str = ".pendulum-atlas.earlier";
+
+/// An earlier run set aside for a new one: kept aside until the new run ends.
+#[derive(Debug)]
+pub struct Replacement {
+    dir: PathBuf,
+    product: Product,
+    /// The names of the earlier run's files, now in [`EARLIER_DIR`].
+    moved: Vec<String>,
+    /// The names of the files left in the folder when the new run began.
+    present: Vec<String>,
+}
+
+impl Replacement {
+    /// Move `files` (the earlier run's, in `dir`) aside, and note what stays in `dir`.
+    pub(super) fn set_aside(
+        dir: &Path,
+        product: Product,
+        files: &[PathBuf],
+    ) -> Result<Replacement, OutputError> {
+        let aside = dir.join(EARLIER_DIR);
+        std::fs::create_dir(&aside).map_err(|e| OutputError::io(&aside, e))?;
+        let mut moved = Vec::with_capacity(files.len());
+        for p in files {
+            let Some(name) = p.file_name() else { continue };
+            std::fs::rename(p, aside.join(name)).map_err(|e| OutputError::io(p, e))?;
+            moved.push(name.to_string_lossy().into_owned());
+        }
+        Ok(Replacement {
+            dir: dir.to_path_buf(),
+            product,
+            moved,
+            present: names(dir)?,
+        })
+    }
+
+    /// How many files of the earlier run are set aside.
+    pub fn count(&self) -> usize {
+        self.moved.len()
+    }
+
+    /// The new run is complete: delete the earlier run's files.
+    pub fn keep(self) -> Result<(), OutputError> {
+        let aside = self.dir.join(EARLIER_DIR);
+        std::fs::remove_dir_all(&aside).map_err(|e| OutputError::io(&aside, e))
+    }
+
+    /// The new run failed: delete the files it wrote (this product's names that were not in
+    /// the folder when it began) and move the earlier run's files back.
+    pub fn undo(self) -> Result<(), OutputError> {
+        for name in names(&self.dir)? {
+            if self.product.writes(&name) && !self.present.contains(&name) {
+                let p = self.dir.join(&name);
+                std::fs::remove_file(&p).map_err(|e| OutputError::io(&p, e))?;
+            }
+        }
+        put_back(&self.dir)
+    }
+}
+
+/// Before a folder is claimed: an earlier run left aside by a run killed outright is put back
+/// (over the killed run's partial files of the same names, its temporary files deleted), or,
+/// where the killed run wrote `product`'s manifest (it was complete), deleted.
+pub(super) fn recover(dir: &Path, product: Product) -> Result<(), OutputError> {
+    let aside = dir.join(EARLIER_DIR);
+    if !aside.is_dir() {
+        return Ok(());
+    }
+    if dir.join(product.manifest()).is_file() {
+        return std::fs::remove_dir_all(&aside).map_err(|e| OutputError::io(&aside, e));
+    }
+    for name in names(dir)? {
+        if name.starts_with('.') && product.writes(&name) {
+            let p = dir.join(&name);
+            std::fs::remove_file(&p).map_err(|e| OutputError::io(&p, e))?;
+        }
+    }
+    put_back(dir)
+}
+
+/// Move every file of [`EARLIER_DIR`] back into `dir` and remove the emptied folder.
+fn put_back(dir: &Path) -> Result<(), OutputError> {
+    let aside = dir.join(EARLIER_DIR);
+    for name in names(&aside)? {
+        let from = aside.join(&name);
+        std::fs::rename(&from, dir.join(&name)).map_err(|e| OutputError::io(&from, e))?;
+    }
+    std::fs::remove_dir(&aside).map_err(|e| OutputError::io(&aside, e))
+}
+
+/// The names of the regular files in `dir`.
+fn names(dir: &Path) -> Result<Vec<String>, OutputError> {
+    let entries = std::fs::read_dir(dir).map_err(|e| OutputError::io(dir, e))?;
+    Ok(entries
+        .filter_map(Result::ok)
+        .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect())
+}
