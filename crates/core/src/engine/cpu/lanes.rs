@@ -30,10 +30,9 @@ use crate::engine::plan::{EnsemblePlan, InstancePlan};
 use crate::engine::rk4::{Rk4Scratch, rk4_step, rk4_step_twin};
 use crate::engine::state_view::StateView;
 use crate::engine::twin::{onset_saltation, onsets_of};
-use crate::engine::{EngineError, Progress, ProgressUnit};
+use crate::engine::{EngineError, Progress};
 use crate::model::{Chain, Lane, ModelParams, Real, Status, Workspace, health_due};
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Stage fractions of a step at which RK4 takes the cart (start, middle, end).
 const RK4_STAGES: [f64; 3] = [0.0, 0.5, 1.0];
@@ -49,16 +48,14 @@ where
     V::Scalar: Real,
 {
     let groups = lane_groups(plan, V::LANES);
-    let done = AtomicU64::new(0);
-    let total = plan.instances.len() as u64;
-    // Asked at every lane's period ends, so that a cancel stops running groups too.
-    let stop = || progress(done.load(Ordering::Relaxed), total, ProgressUnit::Instances).is_break();
+    // Asked at every lane's period ends too, so that a cancel stops running groups.
+    let asked = super::Asker::new(progress, plan.instances.len() as u64);
+    let stop = || !asked.go_on();
     let runs: Vec<Vec<RawInstance>> = groups
         .par_iter()
         .map(|g| {
             let raw = run_group::<V>(plan, g, d0, &stop);
-            let n = done.fetch_add(g.len() as u64, Ordering::Relaxed) + g.len() as u64;
-            super::goes_on(progress(n, total, ProgressUnit::Instances))?;
+            asked.finished(g.len() as u64)?;
             Ok(raw)
         })
         .collect::<Result<_, EngineError>>()?;

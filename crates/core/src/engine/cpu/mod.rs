@@ -29,7 +29,7 @@ use hook::{EnsembleHook, PhaseClock};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::ops::ControlFlow;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
 /// Integrate one instance with the plan's method in the float type `T`, as the GPU kernel
@@ -252,25 +252,61 @@ fn integrate_all<T: Real>(
     d0: Option<f64>,
     progress: Progress,
 ) -> Result<Vec<RawInstance>, EngineError> {
-    let done = AtomicU64::new(0);
-    let total = plan.instances.len() as u64;
-    let stop = || progress(done.load(Ordering::Relaxed), total, ProgressUnit::Instances).is_break();
+    let asked = Asker::new(progress, plan.instances.len() as u64);
+    let stop = || !asked.go_on();
     plan.instances
         .par_iter()
         .map(|p| {
             let (strobe, rseries) = (plan.want_strobe, plan.want_rseries);
             let r = run_instance_with::<T>(p, strobe, rseries, plan.early_stop, d0, Some(&stop));
-            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
-            goes_on(progress(n, total, ProgressUnit::Instances))?;
+            asked.finished(1)?;
             Ok(r)
         })
         .collect()
 }
 
-/// [`EngineError::Cancelled`] when a progress callback asked to stop.
-pub(super) fn goes_on(flow: ControlFlow<()>) -> Result<(), EngineError> {
-    match flow {
-        ControlFlow::Continue(()) => Ok(()),
-        ControlFlow::Break(()) => Err(EngineError::Cancelled),
+/// The progress of a CPU run, counted in finished instances: told as instances finish and
+/// asked from within running ones whether to go on ([`hook::Stop`]). Once it says stop it is
+/// not asked again, so that a cancel costs the callback no more calls than those in flight.
+pub(super) struct Asker<'a> {
+    progress: Progress<'a>,
+    total: u64,
+    done: AtomicU64,
+    cancelled: AtomicBool,
+}
+
+impl<'a> Asker<'a> {
+    pub(super) fn new(progress: Progress<'a>, total: u64) -> Self {
+        Asker {
+            progress,
+            total,
+            done: AtomicU64::new(0),
+            cancelled: AtomicBool::new(false),
+        }
+    }
+
+    /// Whether to go on, with the instances finished so far.
+    pub(super) fn go_on(&self) -> bool {
+        self.ask(self.done.load(Ordering::Relaxed))
+    }
+
+    /// Count `k` more finished instances; [`EngineError::Cancelled`] where the run stops.
+    pub(super) fn finished(&self, k: u64) -> Result<(), EngineError> {
+        let n = self.done.fetch_add(k, Ordering::Relaxed) + k;
+        match self.ask(n) {
+            true => Ok(()),
+            false => Err(EngineError::Cancelled),
+        }
+    }
+
+    fn ask(&self, done: u64) -> bool {
+        if self.cancelled.load(Ordering::Relaxed) {
+            return false;
+        }
+        let go = (self.progress)(done, self.total, ProgressUnit::Instances).is_continue();
+        if !go {
+            self.cancelled.store(true, Ordering::Relaxed);
+        }
+        go
     }
 }
