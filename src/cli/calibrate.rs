@@ -10,7 +10,7 @@ use std::time::Instant;
 /// Arguments of `calibrate`.
 #[derive(Debug, clap::Args)]
 pub struct CalibrateArgs {
-    /// Calibration scene (TOML with a [calibrate] section: cases with their observations and
+    /// Calibration scene (TOML with a \[calibrate\] section: cases with their observations and
     /// the unknowns with their ranges; see configs/calibrate/).
     pub scene: PathBuf,
     /// Override a scene or calibrate key, e.g. `--set calibrate.initial_states=5`.

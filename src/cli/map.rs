@@ -19,7 +19,7 @@ use std::path::PathBuf;
 /// Arguments of `map`.
 #[derive(Debug, clap::Args)]
 pub struct MapArgs {
-    /// Map scene (TOML with a [map] section; see configs/maps/). Omit it to run the embedded
+    /// Map scene (TOML with a \[map\] section; see configs/maps/). Omit it to run the embedded
     /// default map (configs/maps/default.toml).
     pub scene: Option<PathBuf>,
     /// Override a scene or map key, e.g. `--set beam.segments=5 --set map.samples_per_period=32`.

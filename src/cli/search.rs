@@ -8,7 +8,7 @@ use std::path::PathBuf;
 /// Arguments of `search`.
 #[derive(Debug, clap::Args)]
 pub struct SearchArgs {
-    /// Search scene (TOML with a [search] section; see configs/harvest/). Omit it to run the
+    /// Search scene (TOML with a \[search\] section; see configs/harvest/). Omit it to run the
     /// embedded default search (configs/harvest/default.toml).
     pub scene: Option<PathBuf>,
     /// Override a scene or search key, e.g. `--set search.band.base_acceleration_m_s2=5 --set search.refine.rounds=0`.

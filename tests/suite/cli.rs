@@ -1275,3 +1275,24 @@ fn scenes_and_records_are_read_from_pipes() {
     );
     assert!(analysed.join("analysis.json").is_file());
 }
+
+/// A `[cell]` section holds only the map keys that shape a cell's values: anything else is
+/// refused before any work, naming the key and the keys it takes.
+#[test]
+fn a_cell_section_with_a_key_it_does_not_take_is_refused() {
+    let out = out_dir("cell-section");
+    std::fs::create_dir_all(&out).unwrap();
+    let scene = out.join("cell.toml");
+    std::fs::write(&scene, "[beam]\nsegments = 3\n[cell]\naxes = []\n").unwrap();
+    let o = bin()
+        .arg("simulate")
+        .arg(&scene)
+        .arg("--out")
+        .arg(out.join("sim"))
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("cell.axes") && e.contains("k_seed"), "{e}");
+    assert!(!out.join("sim").exists(), "nothing is written");
+}

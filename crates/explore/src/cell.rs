@@ -225,7 +225,7 @@ pub struct CellRun {
 pub const MEMORY_PER_ROW_BYTE: u64 = 18;
 
 /// The memory a run of `scene` over `plan` holds in `explore` (bytes, estimated): its rows
-/// times [`MEMORY_PER_ROW_BYTE`].
+/// times `MEMORY_PER_ROW_BYTE`.
 pub fn cell_memory_bytes(scene: &Scene, plan: &StepPlan) -> Result<u64, ExploreError> {
     let size = RunSize::of_run(scene, plan).map_err(|e| ExploreError::Cell(e.to_string()))?;
     Ok(size.memory_bytes.saturating_mul(MEMORY_PER_ROW_BYTE))

@@ -119,7 +119,7 @@ fn links(meta: &std::fs::Metadata) -> u64 {
 impl RunFolder {
     /// The bytes of picture `name` when it may be served: listed in the manifest (by plain
     /// name), a `.png`, and, as opened, a regular file with one link, at most
-    /// [`PICTURE_MAX_BYTES`]. The file is opened without following a symlink and without
+    /// `PICTURE_MAX_BYTES`. The file is opened without following a symlink and without
     /// blocking, and the checks are made on the opened handle, so a picture swapped for a
     /// symlink or a FIFO between a check and the read is never followed. A hard link (a
     /// second name of a file that may lie outside the folder) is refused: the pictures a

@@ -1,7 +1,7 @@
 //! pendulum-atlas-studies: the studies built on maps and single runs. Each is a stage of its
 //! own that reads a scene, runs the core's engines (often through a map) and writes its files.
 //!
-//! - [`bench`]: work-precision, throughput, stiff-chain, refinement and verdict studies
+//! - `bench`: work-precision, throughput, stiff-chain, refinement and verdict studies
 //!   (`pendulum-atlas bench`).
 //! - [`reproduce`]: the paper's cases, figures and report in one call.
 //! - [`harvest`]: the broadband-harvesting design search (`pendulum-atlas search`).

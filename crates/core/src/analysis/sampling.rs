@@ -212,7 +212,7 @@ pub const MAX_RESAMPLE_GROWTH: usize = 16;
 
 /// Resamples `x(t)` on the uniform grid `t[0] + i/rate_hz` up to `t[last]`, by linear
 /// interpolation between bracketing samples. Returns `(times, values)`; refused when it would
-/// make more than [`MAX_RESAMPLE_GROWTH`] times the samples (a stray time stamp).
+/// make more than `MAX_RESAMPLE_GROWTH` times the samples (a stray time stamp).
 pub fn resample_uniform(
     t: &[f64],
     x: &[f64],

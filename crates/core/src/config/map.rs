@@ -80,7 +80,7 @@ pub struct MapSpec {
     /// Relative tolerance of the early-stop confirmation (`None`: by the float type).
     pub early_stop_tol: Option<f64>,
     /// `map.settle_max_s`: rerun the cells whose verdict is not firm up to this time (s), with
-    /// the early stop ([`super::settle`]); `None`: the map's length is final.
+    /// the early stop (`super::settle`); `None`: the map's length is final.
     pub settle_max_s: Option<f64>,
     /// How λ1's twin runs (used when `lyapunov` is among the metrics).
     pub lyapunov: LyapunovSettings,
@@ -259,7 +259,7 @@ impl MapSpec {
             .expect("planning that always goes on ends"))
     }
 
-    /// [`MapSpec::run_scenes`], asking `go_on(run)` at every [`PLAN_CHECK_RUNS`]-th run
+    /// [`MapSpec::run_scenes`], asking `go_on(run)` at every `PLAN_CHECK_RUNS`-th run
     /// whether to go on; `None` when it said no (a cancel while a huge map is planned).
     pub fn run_scenes_while(
         &self,
@@ -347,7 +347,7 @@ impl MapSpec {
     }
 
     /// The same map run for `duration_s` seconds, the transient lengthened so that the
-    /// indicators keep their window (the settling stage's rerun, [`super::settle`]).
+    /// indicators keep their window (the settling stage's rerun, `super::settle`).
     pub fn lengthened(&self, duration_s: f64) -> Result<MapSpec, ConfigError> {
         let i = &self.scene.integration;
         let transient_s = duration_s - (i.duration_s - i.transient_s);

@@ -48,7 +48,7 @@ pub fn read_scene_file(path: &std::path::Path) -> Result<String, ConfigError> {
     })
 }
 
-/// `message` with every line cut to [`MAX_QUOTED_LINE`] characters, so that an error quoting
+/// `message` with every line cut to `MAX_QUOTED_LINE` characters, so that an error quoting
 /// a huge input line stays short.
 pub fn shorten_lines(message: &str) -> String {
     message

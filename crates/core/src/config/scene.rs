@@ -160,7 +160,7 @@ pub enum MethodChoice {
     Auto,
     /// Classical RK4: every term explicit, step bound by the stiffest joint mode.
     Rk4,
-    /// ARK3(2)4L[2]SA: joint springs and dampers implicit, step set by accuracy.
+    /// ARK3(2)4L\[2\]SA: joint springs and dampers implicit, step set by accuracy.
     Imex,
 }
 

@@ -157,7 +157,7 @@ pub struct SweepList {
 
 impl SweepList {
     /// The entries of the list `v`, each checked (key a string that `refusal` accepts and not
-    /// swept twice, values by [`read_sweep`]), and at most `max_points` grid points in all.
+    /// swept twice, values by `read_sweep`), and at most `max_points` grid points in all.
     /// With a `base` scene table, integer keys are marked and their values must be whole.
     pub fn read(
         &self,

@@ -1,7 +1,7 @@
 //! Error-controlled steps (`integration.step = "adaptive"`; `docs/model.md`, "Adaptive
 //! steps"): an embedded pair on a ladder of steps aligned to the plan's base step `H` (the
 //! sample grid). Two pairs climb it ([`Rungs`]):
-//! - IMEX ([`ImexRungs`]): ARK3(2)4L[2]SA with its embedded second-order solution, the error
+//! - IMEX ([`ImexRungs`]): ARK3(2)4L\[2\]SA with its embedded second-order solution, the error
 //!   filtered through the implicit solve; its base step is the output interval's fraction
 //!   ([`crate::engine::plan::ADAPTIVE_BASE_MAX_S`] at most);
 //! - explicit ([`crate::engine::rk4::Rk4Rungs`]): classical RK4 with an embedded third-order
@@ -162,7 +162,7 @@ impl<T: Real> Rungs<T> for ImexRungs<T> {
         self.at(k).stages(chain, ws, y, &|i| acc(C[i]))
     }
 
-    /// The embedded error filtered through the implicit solve ([`Imex::filtered_error`]).
+    /// The embedded error filtered through the implicit solve (`Imex::filtered_error`).
     fn error(
         &mut self,
         k: usize,

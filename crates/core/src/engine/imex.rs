@@ -1,4 +1,4 @@
-//! A stiff-aware integrator: the additive Runge–Kutta pair ARK3(2)4L[2]SA of Kennedy &
+//! A stiff-aware integrator: the additive Runge–Kutta pair ARK3(2)4L\[2\]SA of Kennedy &
 //! Carpenter (2003), with the linear joint springs and dampers implicit and everything else
 //! explicit (`docs/model.md`, "Time step").
 //!

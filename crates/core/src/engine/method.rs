@@ -41,7 +41,7 @@ pub fn imex_step_cost(segments: usize) -> f64 {
 pub enum Method {
     /// Classical RK4.
     Rk4,
-    /// ARK3(2)4L[2]SA with the joint springs and dampers implicit.
+    /// ARK3(2)4L\[2\]SA with the joint springs and dampers implicit.
     Imex,
 }
 

@@ -410,7 +410,7 @@ impl Engine {
     }
 
     /// Open the engine a user asked for. `precision` defaults to `f64` on the CPU and `f32`
-    /// on a GPU; `auto` on a software adapter measures which is faster (see [`auto`]).
+    /// on a GPU; `auto` on a software adapter measures which is faster (see `auto`).
     pub fn open(backend: Backend, precision: Option<Precision>) -> Result<Engine, EngineError> {
         let t0 = Instant::now();
         match (backend, precision) {

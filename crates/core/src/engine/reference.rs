@@ -49,7 +49,7 @@ impl Default for ReferenceOptions {
 pub const STIFF_STEP_CAP: f64 = 6.0;
 
 impl ReferenceOptions {
-    /// The default tolerances with the step capped at [`STIFF_STEP_CAP`]`/max|λ|` for a chain
+    /// The default tolerances with the step capped at `STIFF_STEP_CAP``/max|λ|` for a chain
     /// whose linearisation has spectral radius `spectral_radius_per_s`: stiffness answered by a
     /// step below the stability limit, instead of the error controller finding that limit by
     /// trial and rejection. The cap changes the steps, not the tolerances: the result stays the

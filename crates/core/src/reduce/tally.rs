@@ -33,7 +33,7 @@ pub struct Span {
 
 impl Tally {
     /// The accumulator-based metrics (everything but K, R and period), NaN when not requested
-    /// or when the instance failed; K, R and period NaN until [`reduce_series`] fills them.
+    /// or when the instance failed; K, R and period NaN until `reduce_series` fills them.
     pub fn result(&self, span: Span, metrics: &[Metric]) -> InstanceResult {
         let mut out = InstanceResult::unset(self.status, self.steps);
         if self.status != Status::Ok {

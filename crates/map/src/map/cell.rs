@@ -178,12 +178,24 @@ pub fn read_cell_scene(
             reason: "a map cell has harmonic excitation (its map's stroboscopic section needs one forcing period)".into(),
         });
     };
-    let Value::Table(mut map) = cell else {
+    let Value::Table(map) = cell else {
         return Err(ConfigError::Inconsistent {
             key: CELL_SECTION.into(),
             reason: "[cell] holds the map's settings of a cell's values, as a table".into(),
         });
     };
+    let spec = one_cell_map(table, map, frequency_hz, origin)?;
+    Ok((scene, Some(spec)))
+}
+
+/// The map of one cell: the scene `table`, the `[cell]` keys `map` and an axis of the scene's
+/// own frequency `frequency_hz` (so that its one run is the scene itself).
+fn one_cell_map(
+    mut table: Table,
+    mut map: Table,
+    frequency_hz: f64,
+    origin: &str,
+) -> Result<MapSpec, ConfigError> {
     if let Some(key) = map.keys().find(|k| !CELL_MAP_KEYS.contains(&k.as_str())) {
         return Err(ConfigError::Inconsistent {
             key: format!("{CELL_SECTION}.{key}"),
@@ -193,7 +205,6 @@ pub fn read_cell_scene(
             ),
         });
     }
-    // The map of this one cell: an axis of the scene's own frequency (the same scene).
     let mut axis = Table::new();
     axis.insert(
         "key".into(),
@@ -209,8 +220,7 @@ pub fn read_cell_scene(
         key: CELL_SECTION.into(),
         reason: format!("the cell's map does not write as TOML: {e}"),
     })?;
-    let spec = map_from_toml(&text, origin, &[])?;
-    Ok((scene, Some(spec)))
+    map_from_toml(&text, origin, &[])
 }
 
 /// The values of the one cell of `spec` (a map of one cell and one start, as

@@ -6,7 +6,7 @@
 //!   is deleted and the earlier files move back, whole.
 //!
 //! A run killed outright leaves the earlier files aside; the next claim of the folder puts
-//! them back first ([`recover`]), unless the killed run had written its manifest (it was
+//! them back first (`recover`), unless the killed run had written its manifest (it was
 //! complete). The user's own files are never moved.
 
 use super::error::OutputError;

@@ -132,7 +132,7 @@ fn check_script_path(what: &'static str, p: &Path) -> Result<(), SlurmSpecError>
 
 impl SlurmJob {
     /// Refuse what the scripts cannot hold: the job folder and the binary are checked by
-    /// [`check_script_path`], the partition and time by their own rules, every argument
+    /// `check_script_path`, the partition and time by their own rules, every argument
     /// for a NUL byte.
     pub fn check(&self) -> Result<(), SlurmSpecError> {
         check_script_path("--out", &self.dir)?;

@@ -16,7 +16,7 @@
 //!    skipped rungs that take seconds.);
 //! 3. flop per step counted by [`flops`] (the engine's own RK4 and IMEX steps on a counting
 //!    number type), FLOP/s against the adapter's FP32 peak ([`peak_flop_per_s`]);
-//! 4. K only against all metrics ([`metric_rows`]): a slice of the default map at its real
+//! 4. K only against all metrics (`metric_rows`): a slice of the default map at its real
 //!    horizon per N, with the integration and the reductions timed apart;
 //! 5. the peers' results (`benches/peers/`, JSON) from `--peers`.
 

@@ -9,7 +9,7 @@
 //! automatic step (part (a) shows that its integration error is negligible there).
 //!
 //! Stages of [`run_bench`]: the reference trajectory, the reference map, one
-//! [`ConfigResult`] per configuration ([`measure_config`]), [`scaling`], [`k_only`].
+//! [`ConfigResult`] per configuration (`measure_config`), `scaling`, `k_only`.
 
 pub mod cpu_report;
 pub mod cpu_throughput;

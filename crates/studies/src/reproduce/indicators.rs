@@ -108,10 +108,10 @@ pub fn sync_class(r_paper: f64) -> SyncClass {
 /// What became of a run and its twin.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub enum TwinVerdict {
-    /// |Δα| grew beyond [`TWIN_SEPARATED_RAD`].
+    /// |Δα| grew beyond `TWIN_SEPARATED_RAD`.
     #[serde(rename = "separate")]
     Separate,
-    /// |Δα| shrank below [`TWIN_CONVERGED_RAD`].
+    /// |Δα| shrank below `TWIN_CONVERGED_RAD`.
     #[serde(rename = "converge")]
     Converge,
     /// In between.
@@ -140,7 +140,7 @@ pub struct TwinDivergence {
     pub perturbation_deg: f64,
     /// Largest |α − α_twin| after the transient (rad).
     pub max_after_transient_rad: f64,
-    /// First time |α − α_twin| exceeded [`TWIN_SEPARATED_RAD`] (s), if it did.
+    /// First time |α − α_twin| exceeded `TWIN_SEPARATED_RAD` (s), if it did.
     pub separated_at_s: Option<f64>,
     /// Separate, converge or stay close.
     pub verdict: TwinVerdict,

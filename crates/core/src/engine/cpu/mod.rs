@@ -1,7 +1,7 @@
 //! The CPU ensemble engine: every instance integrated by the shared RK4 loop in `f32` or `f64`,
 //! spread over rayon's threads, its recorded series reduced with the analysis library.
 //!
-//! Each instance runs the step loop of [`crate::engine::rk4`] with an [`EnsembleHook`] that
+//! Each instance runs the step loop of [`crate::engine::rk4`] with an `EnsembleHook` that
 //! keeps the accumulators after the transient, records the stroboscopic and R samples, and
 //! (with [`EarlyStop`]) ends a confirmed periodic orbit early.
 

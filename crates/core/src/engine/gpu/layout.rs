@@ -1,7 +1,7 @@
 //! The structs the GPU kernels read and write, `#[repr(C)]` and [`bytemuck::Pod`], mirrored
 //! member for member in `shaders/common.wgsl` (a test compares both layouts with naga).
 //!
-//! [`GpuInstanceParams`] is filled from the one parameter struct, [`ModelParams`], and the
+//! [`GpuInstanceParams`] is filled from the one parameter struct, `ModelParams`, and the
 //! instance's step plan: no physical coefficient is derived anywhere else.
 
 use crate::config::StepControl;
@@ -134,7 +134,7 @@ pub fn levers_of(p: &InstancePlan, segments: usize) -> Vec<f32> {
 }
 
 impl GpuInstanceParams {
-    /// From an instance plan (its [`ModelParams`] and step plan), its IMEX matrices at
+    /// From an instance plan (its `ModelParams` and step plan), its IMEX matrices at
     /// `imex_offset` of the matrix buffer, λ1's twin (when the plan has one) at separation
     /// `twin_d0`.
     pub fn from_plan(p: &InstancePlan, imex_offset: u32, twin_d0: f64) -> GpuInstanceParams {

@@ -7,7 +7,7 @@
 //!
 //! Stages of [`GpuEngine::run`]: the kernels of the plan's [`KernelKey`] (compiled once per
 //! [`GpuContext`], in the plan's [`state_layout`]), buffers sized against the adapter and
-//! allocated in error scopes ([`buffers`]), integration dispatches sized by wall time, the R
+//! allocated in error scopes (`buffers`), integration dispatches sized by wall time, the R
 //! and K reductions (one submission each), the read-back through one kept buffer.
 //!
 //! Every wait is bounded and checks the device's health: a lost device, an allocation that
@@ -149,7 +149,7 @@ pub struct GpuLimits {
     /// At most this many instances at a time (`None`: as many as the adapter's limits allow).
     pub max_batch: Option<usize>,
     /// How the reductions are sliced (`None`: above a size, by a timed probe to
-    /// [`DISPATCH_TARGET`], `slices.rs`).
+    /// `DISPATCH_TARGET`, `slices.rs`).
     pub reduce_slice: Option<Slicing>,
 }
 
@@ -241,7 +241,7 @@ fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings, layout: StateLayout)
 
 /// Integrate and reduce every instance of `plan` on the GPU of `ctx`: in one run when the
 /// plan fits the adapter's limits (and `limits.max_batch`), else in consecutive batches of the
-/// most instances that fit ([`buffers::batch_capacity`]), their results joined in plan order.
+/// most instances that fit (`buffers::batch_capacity`), their results joined in plan order.
 pub fn run_gpu(
     ctx: &GpuContext,
     plan: &EnsemblePlan,

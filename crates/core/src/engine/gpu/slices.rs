@@ -1,6 +1,6 @@
 //! The reductions in slices: every reduction pass runs over the instances in dispatches of at
 //! most a slice of them, the slice sized so that one dispatch takes about
-//! [`DISPATCH_TARGET`](super::DISPATCH_TARGET) of wall time, as the integration's dispatches do
+//! `DISPATCH_TARGET` of wall time, as the integration's dispatches do
 //! (a long single dispatch is what a desktop GPU's watchdog kills).
 //!
 //! 1. **Probe.** Up to [`PROBE_INSTANCES`] instances a pass is one dispatch, as small as the
