@@ -28,24 +28,31 @@ pub fn scratch(name: &str) -> PathBuf {
 pub fn small_map() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
-        let out = scratch("map");
-        let o = bin()
-            .args(["map", "--backend", "cpu", "--quiet", "--out"])
-            .arg(&out)
-            .args([
-                "--set",
+        cpu_map(
+            "map",
+            &[
                 "map.axes=[{key=\"excitation.frequency_hz\",start=5.0,end=10.0,count=6},\
                  {key=\"excitation.amplitude_m\",start=0.006,end=0.02,count=4}]",
-                "--set",
                 "integration.duration_s=24.0",
-                "--set",
                 "integration.transient_s=4.0",
-            ])
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        out
+            ],
+        )
     })
+}
+
+/// A map of the default scene with `sets` on the CPU engine (its default precision, f64),
+/// in the scratch folder `name`.
+pub fn cpu_map(name: &str, sets: &[&str]) -> PathBuf {
+    let out = scratch(name);
+    let mut cmd = bin();
+    cmd.args(["map", "--backend", "cpu", "--quiet", "--out"])
+        .arg(&out);
+    for s in sets {
+        cmd.args(["--set", s]);
+    }
+    let o = cmd.output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    out
 }
 
 /// A running `explore` server, stopped when dropped.

@@ -4,7 +4,7 @@
 //! bit (the regime and status by name; the verdict's confidence, which needs the neighbours,
 //! is not rerun).
 
-use super::{Server, bin, json, npy, request, scratch, small_map, wait_job};
+use super::{Server, bin, cpu_map, json, npy, request, scratch, small_map, wait_job};
 use pendulum_atlas_core::model::Status;
 use pendulum_atlas_core::schema::Regime;
 use serde_json::{Map, Value};
@@ -64,6 +64,9 @@ fn holds_the_maps_values(dir: &Path, k: usize, values: &Map<String, Value>, who:
 
 /// Every cell of the map in `dir`, rerun by the explorer and by `simulate` on its scene.
 fn every_cell_reruns_as_its_map(dir: &Path, tag: &str) {
+    let manifest: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("map.json")).unwrap()).unwrap();
+    assert_eq!(manifest["precision"], "f64", "a map of the CPU engine in f64");
     let s = Server::start(dir, &[]);
     let cells = json(&s, "GET", "/api/map", 200)["cells"].as_u64().unwrap() as usize;
     let work = scratch(&format!("rerun-{tag}"));
@@ -104,32 +107,16 @@ fn every_cell_of_an_adaptive_map_reruns_as_its_map() {
 
 #[test]
 fn every_cell_of_a_fixed_step_map_reruns_as_its_map() {
-    let out = scratch("fixed-map");
-    let o = bin()
-        .args([
-            "map",
-            "--backend",
-            "cpu",
-            "--precision",
-            "f64",
-            "--quiet",
-            "--out",
-        ])
-        .arg(&out)
-        .args([
-            "--set",
+    let out = cpu_map(
+        "fixed-map",
+        &[
             "map.axes=[{key=\"excitation.frequency_hz\",start=6.0,end=10.0,count=3},\
              {key=\"excitation.amplitude_m\",start=0.008,end=0.02,count=2}]",
-            "--set",
             "integration.duration_s=24.0",
-            "--set",
             "integration.transient_s=4.0",
-            "--set",
             "integration.dt_s=2e-4",
-        ])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        ],
+    );
     let manifest: Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("map.json")).unwrap()).unwrap();
     assert!(
