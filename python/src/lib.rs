@@ -649,7 +649,7 @@ fn cell_pins<'py>(
     }
     // A plain map's cell carries its map's settings of a cell's values (`[cell]`), so that
     // `simulate` reports the cell's values as the map computes them.
-    if let Some(section) = cell_section(&spec) {
+    if let Some(section) = cell_section(&spec, None) {
         d.set_item(
             CELL_SECTION,
             convert::to_python(py, &serde_json::to_value(section).unwrap_or_default())?,

@@ -3,10 +3,11 @@
 
 use super::engine::{EngineArgs, hint};
 use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, MapSpec, map_from_toml, scene_text};
-use pendulum_atlas_core::engine::Engine;
 use pendulum_atlas_core::engine::gpu::list_adapters;
+use pendulum_atlas_core::engine::{Backend, Engine, EngineInfo, EngineKind};
 use pendulum_atlas_core::model::Status;
 use pendulum_atlas_map::map::hardware_default::hardware_default;
+use pendulum_atlas_map::map::settle::settle;
 use pendulum_atlas_map::map::size::check_map_size;
 use pendulum_atlas_map::map::{
     MapRun, check_host_memory, check_shardable, run_map, run_map_on_devices, run_map_shard,
@@ -63,6 +64,13 @@ pub struct MergeArgs {
     /// Replace an earlier map in --out (its files only).
     #[arg(long)]
     pub force: bool,
+    /// Leave the cells whose verdict is not firm as the shards computed them, instead of
+    /// running them on (the settling stage, `map.settle_max_s`, on the shards' engine).
+    #[arg(long)]
+    pub no_settle: bool,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
 }
 
 /// Run `map`.
@@ -223,7 +231,7 @@ pub(super) fn read_map(
 
 /// No more shards than instances (`flag` names the option in the message).
 pub(super) fn check_shard_count(flag: &str, count: u32, spec: &MapSpec) -> anyhow::Result<()> {
-    pendulum_atlas_map::map::check_shards(spec).map_err(|e| anyhow::anyhow!("{flag}: {e}"))?;
+    pendulum_atlas_map::map::check_shardable(spec).map_err(|e| anyhow::anyhow!("{flag}: {e}"))?;
     if count as usize > spec.instances() {
         anyhow::bail!(
             "{flag}: {count} shards of a map of {} instances; use at most {} shards",
@@ -236,8 +244,23 @@ pub(super) fn check_shard_count(flag: &str, count: u32, spec: &MapSpec) -> anyho
 
 /// Run `merge`.
 pub fn merge(a: MergeArgs) -> anyhow::Result<()> {
+    super::catch_interrupts();
     super::claim_out(Product::Map, &a.out, a.force)?;
-    let merged = merge_shards(&a.shards)?;
+    let mut merged = merge_shards(&a.shards)?;
+    if a.no_settle {
+        merged.spec.settle_max_s = None;
+    }
+    if merged.spec.settle_max_s.is_some() {
+        let engine = shards_engine(&merged.run.engine)?;
+        let bar = super::progress_bar(
+            a.quiet,
+            "{spinner} {msg} [{bar:40}] {pos}/{len} {elapsed_precise} (eta {eta})",
+        );
+        bar.set_message("settling the merged map");
+        let progress = super::bar_progress(&bar);
+        settle(&merged.spec, &mut merged.run, &engine, &progress).map_err(hint)?;
+        bar.finish_and_clear();
+    }
     let files = write_map(&a.out, &merged.spec, &merged.run)?;
     say!(
         "merged {} shards of {} instances",
@@ -245,6 +268,24 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<()> {
         merged.spec.instances()
     );
     report(&merged.run, files.len(), &a.out)
+}
+
+/// The engine the shards ran on (its kind, float type and CPU loop), opened here for the
+/// settling stage, so that a merged map settles as the whole map does.
+fn shards_engine(info: &EngineInfo) -> anyhow::Result<Engine> {
+    let mut engine = match info.kind {
+        EngineKind::Cpu => Engine::cpu(info.precision),
+        EngineKind::Gpu => Engine::open(Backend::Gpu, Some(info.precision)).map_err(|e| {
+            anyhow::anyhow!(
+                "the shards ran on the GPU ({}), and the merge runs their unsettled cells on with the same engine, but it does not open here: {e} [merge on a machine with a GPU, or add --no-settle]",
+                info.device
+            )
+        })?,
+    };
+    if let Some(l) = info.cpu_loop {
+        engine.set_cpu_loop(l);
+    }
+    Ok(engine)
 }
 
 /// One line on a map run by continuation: its axis and directions, restarts, and the bands
@@ -342,10 +383,12 @@ fn report(run: &MapRun, files: usize, out: &std::path::Path) -> anyhow::Result<(
     }
     if let Some(s) = &run.settle {
         say!(
-            "settled: {} cells below confidence {} ran on to {} s ({} stopped on a confirmed orbit); {} verdicts changed, {} chaotic cells settled, in {:.1} s",
+            "settled: {} cells below confidence {} ran on to {} s ({} continued from the map's end, {} rerun from their start; {} stopped on a confirmed orbit); {} verdicts changed, {} chaotic cells settled, in {:.1} s",
             s.cells,
             s.firm,
             s.max_s,
+            s.continued,
+            s.rerun,
             s.stopped_early,
             s.changed,
             s.chaos_settled,

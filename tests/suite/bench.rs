@@ -1,5 +1,6 @@
 //! The work-precision report: files, table and pictures from a study's results.
 
+use pendulum_atlas_core::config::SettleFrom;
 use pendulum_atlas_core::engine::{EngineKind, Precision};
 use pendulum_atlas_studies::bench::report::write_bench;
 use pendulum_atlas_studies::bench::{BenchConfig, BenchReport, ConfigResult, KOnly, Scaling};
@@ -250,11 +251,17 @@ fn the_verdict_study_scores_candidates_on_the_settled_cells_of_its_reference() {
     let longest = f.durations_s[1];
     assert!(t.stop_s.windows(2).all(|w| w[0] <= w[1]), "{t:?}");
     assert!(t.stop_s.iter().all(|&x| x > 0.0 && x <= longest), "{t:?}");
-    assert_eq!(g.curve.len(), 2);
-    let (off, on) = (&g.curve[0], &g.curve[1]);
+    assert_eq!(g.curve.len(), 3);
+    let (off, on, start) = (&g.curve[0], &g.curve[1], &g.curve[2]);
     assert_eq!((off.settle_max_s, off.rerun, off.changed), (None, 0, 0));
     assert_eq!(on.settle_max_s, Some(68.0));
+    assert_eq!(
+        (on.from, start.from),
+        (Some(SettleFrom::End), Some(SettleFrom::Start))
+    );
     assert!(on.rerun > 0 && on.changed <= on.rerun, "{on:?}");
+    // Both ways run the same cells on (their first runs are the same map).
+    assert_eq!(start.rerun, on.rerun, "{start:?}");
     for p in &g.curve {
         assert_eq!(p.settled, t.settled);
         assert!(

@@ -66,7 +66,7 @@ fn check_map_dir(out: &std::path::Path, backend: &str) {
     let mut lines = csv.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "excitation.frequency_hz,limiter.clearance_deg,K,R,period,hops,impacts_per_s,alpha_min_rad,alpha_max_rad,power_w,line_ratio,lyapunov,lyapunov_se,regime_confidence,verdict_confidence,regime,status,inferred"
+        "excitation.frequency_hz,limiter.clearance_deg,K,R,period,hops,impacts_per_s,alpha_min_rad,alpha_max_rad,power_w,line_ratio,lyapunov,lyapunov_se,regime_confidence,verdict_confidence,regime,ran_on,status,inferred"
     );
     let rows: Vec<&str> = lines.collect();
     assert_eq!(rows.len(), 6);
@@ -100,7 +100,8 @@ fn check_map_dir(out: &std::path::Path, backend: &str) {
             confidence.is_nan() || (0.5..=1.0).contains(&confidence),
             "{r}"
         );
-        assert_eq!(cells[16], "ok");
+        assert!(["0", "1"].contains(&cells[16]), "ran_on: {r}");
+        assert_eq!(cells[17], "ok");
         let verdict: f64 = cells[14].parse().unwrap_or(f64::NAN);
         assert_eq!(verdict.is_nan(), confidence.is_nan(), "{r}");
         assert!(
@@ -158,13 +159,18 @@ fn check_map_dir(out: &std::path::Path, backend: &str) {
     assert!(json["lyapunov"]["separation"].as_f64().unwrap() > 0.0);
 }
 
-/// `verdict_confidence.npy` of the `nx` × `ny` map in `out` is the shipped table's accuracy for
-/// each cell's verdict and the share of its neighbours (cells one step away along either axis
-/// or both) with the same verdict, capped by `regime_confidence`; counted here with plain
-/// loops over the grid.
+/// `verdict_confidence.npy` of the `nx` × `ny` map in `out` is its table's accuracy for each
+/// cell's verdict and the share of its neighbours (cells one step away along either axis or
+/// both) with the same verdict, capped by `regime_confidence`; counted here with plain loops
+/// over the grid. The table: the settled one where `map.json` says the map settled, else the
+/// shipped one.
 pub fn check_verdict_confidence(out: &std::path::Path, codes: &[i8], shape: (i64, i64)) {
-    use pendulum_atlas_map::map::confidence::SHIPPED;
-    check_verdict_confidence_with(out, codes, shape, &SHIPPED);
+    use pendulum_atlas_map::map::confidence::{SETTLED, SHIPPED};
+    let settled = !map_json(out)["settle"].is_null();
+    let table = if settled { &SETTLED } else { &SHIPPED };
+    let said = &map_json(out)["regime"]["confidence"]["table"];
+    assert_eq!(said, if settled { "settled" } else { "shipped" });
+    check_verdict_confidence_with(out, codes, shape, table);
 }
 
 /// [`check_verdict_confidence`] with the table `table`.
@@ -1316,7 +1322,7 @@ fn run_windows(backend: &str, name: &str, extra: &[&str]) -> (std::path::PathBuf
 }
 
 #[test]
-fn settling_reruns_the_cells_that_are_not_firm_as_the_longer_map_runs_them() {
+fn settling_from_the_start_runs_the_cells_that_are_not_firm_as_the_longer_map_runs_them() {
     settling_case("cpu");
 }
 
@@ -1331,15 +1337,21 @@ fn settling_runs_on_the_gpu_as_on_the_cpu() {
 /// The settled map of [`WINDOWS`] on `backend` against its plain map and its 68-s map.
 fn settling_case(backend: &str) {
     use pendulum_atlas_map::output::npy::read_npy;
-    let (plain, _) = run_windows(backend, "settle-plain", &[]);
-    let (settled, said) = run_windows(backend, "settle-68", &["map.settle_max_s=68.0"]);
-    // The same cells for 68 s, the indicators' window kept at 24 s: what a rerun must give.
+    let (plain, _) = run_windows(backend, "settle-plain", &["map.settle=false"]);
+    let (settled, said) = run_windows(
+        backend,
+        "settle-68",
+        &["map.settle_max_s=68.0", "map.settle_from=\"start\""],
+    );
+    // The same cells for 68 s in one run, the indicators' window kept at 24 s: what a cell
+    // rerun from its start must give.
     let (long, _) = run_windows(
         backend,
         "settle-long",
         &[
             "integration.duration_s=68.0",
             "integration.transient_s=44.0",
+            "map.settle=false",
         ],
     );
     let (_, before) = read_npy::<i8>(&plain.join("regime.npy")).unwrap();
@@ -1393,13 +1405,22 @@ fn settling_case(backend: &str) {
         "{report}"
     );
     assert!(map_json(&plain)["settle"].is_null());
+    assert_eq!(
+        (report["continued"].as_u64(), report["rerun"].as_u64()),
+        (Some(0), Some(n as u64)),
+        "{report}"
+    );
     assert!(
         said.contains(&format!(
-            "settled: {n} cells below confidence 0.9 ran on to 68 s"
+            "settled: {n} cells below confidence 0.9 ran on to 68 s (0 continued from the map's end, {n} rerun from their start;"
         )),
         "{said}"
     );
-    // Steps: a rerun cell integrated both runs.
+    assert_eq!(
+        npy_u8(&settled, "ran_on.npy"),
+        rerun.iter().map(|&r| u8::from(r)).collect::<Vec<_>>()
+    );
+    // Steps: a continued cell integrated the long run's steps, a rerun cell both runs.
     let steps = |d: &std::path::Path| {
         map_json(d)["steps"]["integrated_instance_steps"]
             .as_u64()
@@ -1418,15 +1439,90 @@ fn settling_case(backend: &str) {
         (6, 4),
         &pendulum_atlas_map::map::confidence::SETTLED,
     );
+    continued_case(backend, (&plain, &settled, &long), &rerun);
     for d in [plain, settled, long] {
         std::fs::remove_dir_all(d).ok();
     }
 }
 
+fn npy_u8(dir: &std::path::Path, name: &str) -> Vec<u8> {
+    pendulum_atlas_map::output::npy::read_npy::<u8>(&dir.join(name))
+        .unwrap()
+        .1
+}
+
+/// The default settling (from the map's end) of [`WINDOWS`] on `backend` against the same
+/// map's raw run `plain`, its settling from the start `restarted` and its 68-s map `long`:
+/// the same cells run on; a cell that ran the whole 34 s goes on from there, which saves
+/// integrating those 34 s again; a cell whose orbit settles in both ends on the 68-s run's
+/// orbit (the compensation of the sums restarts at zero, so only a stable orbit is the same).
+fn continued_case(
+    backend: &str,
+    (plain, restarted, long): (&std::path::Path, &std::path::Path, &std::path::Path),
+    run_on: &[bool],
+) {
+    let (settled, _) = run_windows(backend, "settle-end", &[]);
+    let report = map_json(&settled)["settle"].clone();
+    assert_eq!(report["from"], "end", "{report}");
+    let (continued, rerun) = (report["continued"].as_u64(), report["rerun"].as_u64());
+    let n = run_on.iter().filter(|r| **r).count() as u64;
+    assert_eq!(
+        continued.zip(rerun).map(|(c, r)| c + r),
+        Some(n),
+        "{report}"
+    );
+    assert!(continued > Some(0), "{report}");
+    let want: Vec<u8> = run_on.iter().map(|&r| u8::from(r)).collect();
+    assert_eq!(npy_u8(&settled, "ran_on.npy"), want);
+    let steps = |d: &std::path::Path| map_json(d)["settle"]["steps"].as_u64().unwrap();
+    assert!(steps(&settled) < steps(restarted), "{report}");
+    let regime = |d: &std::path::Path| {
+        pendulum_atlas_map::output::npy::read_npy::<i8>(&d.join("regime.npy"))
+            .unwrap()
+            .1
+    };
+    let (end, one) = (regime(&settled), regime(long));
+    let (period_end, period_one) = (npy_f64(&settled, "period.npy"), npy_f64(long, "period.npy"));
+    let mut compared = 0;
+    for k in (0..24).filter(|&k| run_on[k]) {
+        if end[k] != 1 || one[k] != 1 || period_end[k] != period_one[k] {
+            continue;
+        }
+        let (r_end, r_one) = (npy_f64(&settled, "R.npy")[k], npy_f64(long, "R.npy")[k]);
+        assert!(
+            (r_end - r_one).abs() < 1e-3,
+            "R, cell {k}: {r_end} against {r_one}"
+        );
+        // λ1 of a settled orbit within three standard errors: the early stop ends each run
+        // once its estimate is good to about 10 %, at its own instant.
+        let l = |d: &std::path::Path, name: &str| npy_f64(d, name)[k];
+        let (l_end, l_one) = (l(&settled, "lyapunov.npy"), l(long, "lyapunov.npy"));
+        let se = l(&settled, "lyapunov_se.npy") + l(long, "lyapunov_se.npy");
+        assert!(
+            (l_end - l_one).abs() <= 3.0 * se,
+            "λ1, cell {k}: {l_end} against {l_one} ± {se}"
+        );
+        compared += 1;
+    }
+    assert!(
+        compared > 0,
+        "no continued cell settled on the 68-s run's orbit"
+    );
+    // The cells that stay as they were are the raw map's.
+    let (k_end, k_plain) = (npy_f64(&settled, "K.npy"), npy_f64(plain, "K.npy"));
+    for k in (0..24).filter(|&k| !run_on[k]) {
+        assert_eq!(k_end[k].to_bits(), k_plain[k].to_bits(), "cell {k}");
+    }
+    std::fs::remove_dir_all(settled).ok();
+}
+
 #[test]
 fn settling_is_refused_where_it_cannot_run() {
     let cases: [(&[&str], &str); 5] = [
-        (&["map.settle_max_s=20.0"], "above integration.duration_s"),
+        (
+            &["map.settle_max_s=50.0"],
+            "at least integration.duration_s plus the indicators' window",
+        ),
         (&["map.settle_max_s=1e6"], "100000"),
         (
             &["map.settle_max_s=68.0", "map.metrics=[\"K\", \"period\"]"],
@@ -1457,22 +1553,124 @@ fn settling_is_refused_where_it_cannot_run() {
         );
         assert!(!out.join("map.json").exists(), "{sets:?}");
     }
-    // A shard cannot see its cells' neighbours.
-    let out = out_dir("settle-shard");
+    // Asked for by map.settle alone, with the reason.
+    let out = out_dir("settle-asked");
     let o = bin()
         .args(["map", "--backend", "cpu", "--set", WINDOWS])
-        .args(["--set", "map.settle_max_s=68.0", "--shard", "1/2"])
+        .args(["--set", "map.settle=true", "--set", "map.early_stop=false"])
         .arg("--out")
         .arg(&out)
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
-    assert_ne!(o.status.code(), Some(0), "{err}");
+    assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(
-        err.contains("map.settle_max_s") && err.contains("whole grid"),
+        err.contains("`map.settle`") && err.contains("map.early_stop = true"),
+        "{err}"
+    );
+    // map.settle = false with a settling time is a contradiction.
+    let o = bin()
+        .args(["map", "--backend", "cpu", "--set", WINDOWS])
+        .args([
+            "--set",
+            "map.settle=false",
+            "--set",
+            "map.settle_max_s=68.0",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("map.settle = false keeps the raw map"),
         "{err}"
     );
     std::fs::remove_dir_all(&out).ok();
+}
+
+#[test]
+fn settling_is_on_by_default_where_a_map_can_settle_and_off_where_it_cannot() {
+    let (settled, _) = run_windows("cpu", "settle-default", &[]);
+    assert_eq!(map_json(&settled)["settle"]["max_s"], 68.0);
+    // Without the early stop a map cannot settle: unasked, it runs raw.
+    let (raw, _) = run_windows("cpu", "settle-default-raw", &["map.early_stop=false"]);
+    assert!(map_json(&raw)["settle"].is_null());
+    for d in [settled, raw] {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
+
+#[test]
+fn a_sharded_map_settles_in_its_merge_as_the_whole_map_does() {
+    let (whole, _) = run_windows("cpu", "settle-whole", &[]);
+    let shards: Vec<std::path::PathBuf> = (0..2)
+        .map(|i| {
+            let d = out_dir(&format!("settle-shard-{i}"));
+            let o = bin()
+                .args(["map", "--backend", "cpu", "--set", WINDOWS])
+                .args(["--shard", &format!("{i}/2"), "--out"])
+                .arg(&d)
+                .output()
+                .unwrap();
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            assert!(d.join("shard_state.npy").exists());
+            d
+        })
+        .collect();
+    let merged = out_dir("settle-merged");
+    let o = bin()
+        .arg("merge")
+        .args(&shards)
+        .arg("--out")
+        .arg(&merged)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report = map_json(&merged)["settle"].clone();
+    assert_eq!(
+        report["cells"],
+        map_json(&whole)["settle"]["cells"],
+        "{report}"
+    );
+    assert!(report["continued"].as_u64() > Some(0), "{report}");
+    for name in [
+        "K.npy",
+        "R.npy",
+        "period.npy",
+        "lyapunov.npy",
+        "verdict_confidence.npy",
+    ] {
+        let (a, b) = (npy_f64(&whole, name), npy_f64(&merged, name));
+        for k in 0..a.len() {
+            assert!(
+                a[k].to_bits() == b[k].to_bits(),
+                "{name}, cell {k}: whole {} against merged {}",
+                a[k],
+                b[k]
+            );
+        }
+    }
+    // --no-settle keeps the shards' own cells: the raw map's.
+    let (raw, _) = run_windows("cpu", "settle-raw", &["map.settle=false"]);
+    let o = bin()
+        .arg("merge")
+        .args(&shards)
+        .args(["--no-settle", "--out"])
+        .arg(&merged)
+        .arg("--force")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(map_json(&merged)["settle"].is_null());
+    let bits = |d: &std::path::Path| -> Vec<u64> {
+        npy_f64(d, "K.npy").iter().map(|v| v.to_bits()).collect()
+    };
+    assert_eq!(bits(&raw), bits(&merged));
+    for d in shards.into_iter().chain([whole, merged, raw]) {
+        std::fs::remove_dir_all(d).ok();
+    }
 }
 
 /// A map with adaptive steps runs in the CPU engine's SIMD lanes and on the GPU, each cell's

@@ -211,7 +211,6 @@ fn refusals_name_what_to_change_and_write_numbers_compactly() {
         assert!(msg.contains(names), "{names}: {msg}");
         assert!(!dir.join("jobs").exists(), "refused before writing a job");
     };
-    slurm(&["map.settle_max_s=68"], "map.settle_max_s");
     slurm(
         &[
             "map.axes=[{key=\"initial.angle_deg\",values=[-10.0,10.0]},{key=\"initial.rate_deg_s\",values=[0.0,5.0]}]",

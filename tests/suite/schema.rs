@@ -183,6 +183,12 @@ fn permute_columns(dir: &Path) {
         .cloned()
         .collect();
     m["columns"] = serde_json::Value::Array(reversed);
-    m["values_sha256"] = values_sha256(&[&permuted, &[]]).into();
+    let state = dir.join("shard_state.npy");
+    let states: Vec<f64> = if state.exists() {
+        read_npy(&state).unwrap().1
+    } else {
+        Vec::new()
+    };
+    m["values_sha256"] = values_sha256(&[&permuted, &[], &states]).into();
     std::fs::write(dir.join("shard.json"), m.to_string()).unwrap();
 }

@@ -78,6 +78,9 @@ fn manifest(dir: &Path) -> serde_json::Value {
     }
     // GPU dispatches are sized by wall time: a scheduling count, like a timing.
     m["steps"].as_object_mut().unwrap().remove("dispatches");
+    if let Some(settle) = m["settle"].as_object_mut() {
+        settle.remove("wall_s");
+    }
     v
 }
 
@@ -324,16 +327,19 @@ fn merge_refuses_shard_rows_no_engine_could_have_written() {
 fn rehash(dir: &Path, rows: &[f64]) {
     use pendulum_atlas_map::output::npy::read_npy;
     use pendulum_atlas_map::shard::files::values_sha256;
-    let strobe = dir.join("shard_strobe.npy");
-    let tails: Vec<f64> = if strobe.exists() {
-        read_npy(&strobe).unwrap().1
-    } else {
-        Vec::new()
+    let values = |name: &str| -> Vec<f64> {
+        let path = dir.join(name);
+        if path.exists() {
+            read_npy(&path).unwrap().1
+        } else {
+            Vec::new()
+        }
     };
+    let (tails, states) = (values("shard_strobe.npy"), values("shard_state.npy"));
     let manifest = dir.join("shard.json");
     let mut m: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&manifest).unwrap()).unwrap();
-    m["values_sha256"] = values_sha256(&[rows, &tails]).into();
+    m["values_sha256"] = values_sha256(&[rows, &tails, &states]).into();
     std::fs::write(&manifest, serde_json::to_string_pretty(&m).unwrap()).unwrap();
 }
 

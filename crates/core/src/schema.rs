@@ -267,6 +267,9 @@ pub struct InstanceResult {
     /// calibrated in `docs/bench/VERDICT.md`); NaN outside a map, in a shard before its merge,
     /// and where the verdict is undecided, failed or not asked for.
     pub verdict_confidence: f64,
+    /// Whether the map's settling stage ran the cell on past the map's length
+    /// (`map.settle_max_s`, `pendulum_atlas_map::map::settle`).
+    pub ran_on: bool,
     /// How the integration ended.
     pub status: Status,
     /// Steps actually integrated (fewer than planned when the instance failed or stopped
@@ -297,6 +300,7 @@ impl InstanceResult {
             },
             regime_confidence: nan,
             verdict_confidence: nan,
+            ran_on: false,
             status,
             steps,
         }
@@ -359,6 +363,9 @@ pub enum Stage {
     Verdict,
     /// The map's confidence stage, from the grid's neighbours (`pendulum-atlas-map`).
     Confidence,
+    /// The map's settling stage, which runs the cells that are not firm on
+    /// (`pendulum-atlas-map`).
+    Settle,
 }
 
 impl Stage {
@@ -541,7 +548,7 @@ const fn slot(member: &'static str, ty: WgslType, initial: f32) -> Option<GpuSlo
 
 /// Every per-cell result, in output order (`grid.csv`'s columns after the axes, the map's
 /// arrays, the shard's columns after the grid index).
-pub const FIELDS: [Field; 16] = [
+pub const FIELDS: [Field; 17] = [
     value_field!(
         "K",
         "1",
@@ -687,6 +694,22 @@ pub const FIELDS: [Field; 16] = [
             let c = whole_in(v, -128.0, 127.0)?;
             r.regime = Regime::from_code(c as i64)
                 .ok_or_else(|| format!("is {}, an unknown regime code", crate::text::num(v)))?;
+            Ok(())
+        },
+    },
+    Field {
+        name: "ran_on",
+        unit: "",
+        dtype: Dtype::U8,
+        description: "1 where the settling stage ran the cell on past the map's length (map.settle_max_s), else 0",
+        metric: Some(Metric::Regime),
+        stage: Stage::Settle,
+        range: Range::Code,
+        in_map: true,
+        gpu: None,
+        get: |r| f64::from(u8::from(r.ran_on)),
+        set: |r, v| {
+            r.ran_on = whole_in(v, 0.0, 1.0)? == 1.0;
             Ok(())
         },
     },

@@ -57,6 +57,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         columns,
         status: vec![0; cells],
         inferred: Vec::new(),
+        ran_on: Vec::new(),
         variants: spec.cases.iter().map(|c| c.name.clone()).collect(),
         segments: Scene::from_table(spec.base_table.clone())
             .map_err(|e| bad(&path, e.to_string()))?

@@ -104,7 +104,8 @@ pub fn cell_scene(folder: &RunFolder, k: usize, v: usize) -> Result<CellScene, E
     table = pendulum_atlas_map::map::cell::pinned_cell(table, &opts)
         .map_err(|e| fail(e.to_string()))?
         .0;
-    if let Some(section) = folder.source.map().and_then(cell_section) {
+    let ran_on = folder.ran_on.get(k).copied();
+    if let Some(section) = folder.source.map().and_then(|s| cell_section(s, ran_on)) {
         table.insert(CELL_SECTION.into(), Value::Table(section));
     }
     let toml = scene_text(folder, k, v, &table)?;

@@ -71,6 +71,9 @@ pub struct RunFolder {
     pub status: Vec<u8>,
     /// Per cell, whether refinement filled it from its block (empty: none was).
     pub inferred: Vec<bool>,
+    /// Per cell of a settling map, whether the settling stage ran it on (`ran_on.npy`;
+    /// empty for other runs).
+    pub ran_on: Vec<bool>,
     /// The files the manifest lists.
     pub files: Vec<String>,
     /// The ways a cell can be run (cases, or frequency and initial state); none for a map.

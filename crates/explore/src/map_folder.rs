@@ -48,6 +48,14 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
     } else {
         Vec::new()
     };
+    let ran_on = if manifest.files.iter().any(|f| f == "ran_on.npy") {
+        read_array::<u8>(dir, "ran_on.npy", &spec)?
+            .into_iter()
+            .map(|f| f == 1)
+            .collect()
+    } else {
+        Vec::new()
+    };
     let starts = if manifest.files.iter().any(|f| f == "start.npy") {
         read_array::<i32>(dir, "start.npy", &spec)?
             .into_iter()
@@ -91,6 +99,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         columns,
         status,
         inferred,
+        ran_on,
         variants,
         segments: spec.scene.beam.segments,
         source: Source::Map(Box::new(spec), Box::new(manifest)),

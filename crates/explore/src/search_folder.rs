@@ -85,6 +85,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         columns,
         status: vec![0; cells],
         inferred: Vec::new(),
+        ran_on: Vec::new(),
         variants,
         segments: spec.scene.beam.segments,
         source: Source::Search(Box::new(Search {

@@ -115,6 +115,10 @@ pub struct MapRun {
     pub continuation: Option<continuation::ContinuationRun>,
     /// What the settling stage did, when `map.settle_max_s` is set.
     pub settle: Option<settle::SettleReport>,
+    /// Each instance's state at the end of its run, kept for the settling stage where the
+    /// map settles (empty otherwise, and after that stage).
+    #[serde(skip)]
+    pub final_state: Vec<Vec<f64>>,
 }
 
 /// The size of a map's ensemble when cells ran several starts: what was integrated in all.
@@ -173,6 +177,7 @@ impl MapRun {
             runs: None,
             continuation: None,
             settle: None,
+            final_state: Vec::new(),
         }
     }
 
@@ -237,11 +242,21 @@ pub fn check_host_memory(spec: &MapSpec) -> Result<(), EngineError> {
 
 /// Plan, integrate and reduce a map on an opened engine.
 pub fn run_map(spec: &MapSpec, engine: &Engine, progress: Progress) -> Result<MapRun, EngineError> {
+    run_map_settling(spec, settle::Which::Unsettled, engine, progress)
+}
+
+/// [`run_map`], its settling stage on the cells `which`.
+fn run_map_settling(
+    spec: &MapSpec,
+    which: settle::Which,
+    engine: &Engine,
+    progress: Progress,
+) -> Result<MapRun, EngineError> {
     let t0 = Instant::now();
     let plan = EnsemblePlan::new_with(spec, progress)?;
     let mut run = run_map_part(spec, Cow::Owned(plan), None, engine, progress, t0)?;
     confidence::fill_run(&spec.shape(), &mut run);
-    settle::settle(spec, &mut run, engine, progress)?;
+    settle::settle_cells(spec, &mut run, which, engine, progress)?;
     Ok(run)
 }
 
@@ -256,21 +271,6 @@ pub fn check_shardable(spec: &MapSpec) -> Result<(), EngineError> {
         .into()),
         None => Ok(()),
     }
-}
-
-/// Refuse to split a map into shards merged later (`--shard`, `slurm`), before any file is
-/// written: [`check_shardable`], and settling, which needs the whole grid (a cell's
-/// confidence counts its neighbours' verdicts) where a shard has only its own cells.
-pub fn check_shards(spec: &MapSpec) -> Result<(), EngineError> {
-    check_shardable(spec)?;
-    if spec.settle_max_s.is_some() {
-        return Err(pendulum_atlas_core::config::ConfigError::Inconsistent {
-            key: "map.settle_max_s".into(),
-            reason: "settling needs the whole grid (a cell's confidence counts its neighbours' verdicts): run the map in one piece or with --devices, or drop map.settle_max_s".into(),
-        }
-        .into());
-    }
-    Ok(())
 }
 
 /// Keep `shard`'s instances of the whole map's `plan` (all without one), integrate and reduce
@@ -316,13 +316,10 @@ fn run_map_part(
     let tail = spec
         .bifurcation
         .then_some(spec.bifurcation_samples as usize);
-    let mut run = run_plan(
-        plan,
-        &ReduceOptions::from_spec(spec),
-        tail,
-        engine,
-        progress,
-    )?;
+    let opts = ReduceOptions::from_spec(spec);
+    let keep = spec.settle_max_s.is_some();
+    let (mut run, final_state) = run_engine(plan, &opts, tail, keep, engine, progress)?;
+    run.final_state = final_state;
     run.timings.plan_s = plan_s;
     run.timings.total_s += plan_s;
     Ok(run)
@@ -610,6 +607,9 @@ pub struct MapPart {
     pub stopped_early: usize,
     /// Its sub-steps tried (adaptive steps).
     pub sub_steps: Option<u64>,
+    /// Final states in member order, for the settling stage (empty where the map does not
+    /// settle).
+    pub final_state: Vec<Vec<f64>>,
 }
 
 /// The parts' results in grid order, their times summed, as one run of `plan` (the whole map).
@@ -619,6 +619,8 @@ pub fn assemble(plan: EnsemblePlan, parts: Vec<MapPart>) -> MapRun {
     let mut results = vec![None; n];
     let with_tail = parts.iter().any(|p| !p.strobe_tail.is_empty());
     let mut strobe_tail = vec![Vec::new(); if with_tail { n } else { 0 }];
+    let with_state = parts.iter().all(|p| p.final_state.len() == p.members.len());
+    let mut final_state = vec![Vec::new(); if with_state { n } else { 0 }];
     let mut timings = MapTimings::default();
     let mut shards = Vec::new();
     let mut devices: Vec<String> = Vec::new();
@@ -627,6 +629,9 @@ pub fn assemble(plan: EnsemblePlan, parts: Vec<MapPart>) -> MapRun {
             results[k] = Some(p.results[j]);
             if with_tail {
                 strobe_tail[k] = p.strobe_tail[j].clone();
+            }
+            if with_state {
+                final_state[k] = p.final_state[j].clone();
             }
         }
         let t = &p.timings;
@@ -660,6 +665,7 @@ pub fn assemble(plan: EnsemblePlan, parts: Vec<MapPart>) -> MapRun {
     );
     let mut run = MapRun::new(results, plan, engine, timings, counts, strobe_tail);
     run.shards = shards;
+    run.final_state = final_state;
     run
 }
 
@@ -707,6 +713,7 @@ pub fn run_map_on_devices(
                         dispatches: run.dispatches,
                         stopped_early: run.stopped_early,
                         sub_steps: run.sub_steps,
+                        final_state: run.final_state,
                     })
                 })
             })
@@ -727,14 +734,15 @@ pub fn run_map_on_devices(
 
 /// Plan the whole map (so that every instance gets the step and method of the unsharded
 /// run), then integrate and reduce only `shard`'s instances; the results are in member order
-/// ([`Shard::members`]).
+/// ([`Shard::members`]). A map that settles keeps its final states: `merge` settles the
+/// whole grid ([`settle::settle`]).
 pub fn run_map_shard(
     spec: &MapSpec,
     shard: Shard,
     engine: &Engine,
     progress: Progress,
 ) -> Result<MapRun, EngineError> {
-    check_shards(spec)?;
+    check_shardable(spec)?;
     let t0 = Instant::now();
     let plan = EnsemblePlan::new_with(spec, progress)?;
     run_map_part(spec, Cow::Owned(plan), Some(shard), engine, progress, t0)

@@ -18,14 +18,15 @@ use pendulum_atlas_core::reduce::{ReduceOptions, k_of, line_of, period_of, r_of}
 use pendulum_atlas_map::map::{MapRun, run_map};
 
 /// A small map scene over (f, A) at N = 3 with the given extra TOML and map section, integrated
-/// with `under`'s method.
+/// with `under`'s method. Raw (`map.settle = false`): the engine cases test one run per cell,
+/// and the settling stage has its own tests (`map.rs`).
 pub fn tiny_map(under: Under, extra: &str, map: &str) -> MapSpec {
     let integration = if extra.contains("[integration]") {
         String::new()
     } else {
         "[integration]\nduration_s = 21.0\ntransient_s = 2.0\n".to_string()
     };
-    let text = format!("[beam]\nsegments = 3\n{integration}{extra}\n[map]\n{map}");
+    let text = format!("[beam]\nsegments = 3\n{integration}{extra}\n[map]\nsettle = false\n{map}");
     map_from_toml(&text, "<test>", &under.sets()).expect("valid test map")
 }
 
@@ -284,6 +285,7 @@ fn stress_scene(under: Under, name: &str, sets: &[String]) -> MapSpec {
         .join(name);
     let mut sets = sets.to_vec();
     sets.extend(under.sets());
+    sets.push("map.settle=false".into());
     pendulum_atlas_core::config::load_map(Some(&path), &sets).expect("valid stress scene")
 }
 
@@ -416,7 +418,7 @@ pub fn ten_thousand_forcing_periods_keep_the_phase_and_the_energy(under: Under) 
 
 pub fn metrics_not_requested_are_not_computed(under: Under) {
     let s = map_from_toml(
-        "[beam]\nsegments = 3\n[integration]\nduration_s = 3.0\ntransient_s = 0.5\n[map]\n\
+        "[beam]\nsegments = 3\n[integration]\nduration_s = 3.0\ntransient_s = 0.5\n[map]\nsettle = false\n\
          metrics = [\"hops\"]\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [5.0, 8.0]",
         "<stress>",
         &under.sets(),

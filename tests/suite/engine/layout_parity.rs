@@ -36,7 +36,7 @@ fn the_global_layout_gives_the_private_layouts_results() {
     for method in ["rk4", "imex"] {
         let text = format!(
             "[beam]\nsegments = 3\n[integration]\nduration_s = 20.0\ntransient_s = 2.0\n\
-method = \"{method}\"\n[map]\nlyapunov_window_s = 6.0\n\
+method = \"{method}\"\n[map]\nsettle = false\nlyapunov_window_s = 6.0\n\
 [[map.axes]]\nkey = \"excitation.frequency_hz\"\nstart = 6.0\nend = 11.0\ncount = 3\n\
 [[map.axes]]\nkey = \"excitation.amplitude_m\"\nvalues = [0.001, 0.012]\n"
         );
@@ -100,7 +100,7 @@ fn the_kernels_give_the_same_bits_with_and_without_runtime_checks() {
     ] {
         let text = format!(
             "[beam]\nsegments = 3\n[integration]\nduration_s = 20.0\ntransient_s = 2.0\n\
-method = \"{method}\"\nstep = \"{step}\"\n[map]\nlyapunov_window_s = 6.0\n\
+method = \"{method}\"\nstep = \"{step}\"\n[map]\nsettle = false\nlyapunov_window_s = 6.0\n\
 [[map.axes]]\nkey = \"excitation.frequency_hz\"\nstart = 6.0\nend = 11.0\ncount = 3\n\
 [[map.axes]]\nkey = \"excitation.amplitude_m\"\nvalues = [0.001, 0.012]\n"
         );

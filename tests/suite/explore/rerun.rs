@@ -50,6 +50,10 @@ fn holds_the_maps_values(dir: &Path, k: usize, values: &Map<String, Value>, who:
                     .as_str();
                 assert_eq!(v.as_str(), Some(want), "{who}: cell {k} status");
             }
+            "ran_on" => {
+                let want = codes(dir, "ran_on")[k];
+                assert_eq!(v.as_f64(), Some(want as f64), "{who}: cell {k} ran_on");
+            }
             _ => {
                 let want = npy(dir, name)[k];
                 let got = v.as_f64().unwrap_or(f64::NAN);
@@ -66,7 +70,10 @@ fn holds_the_maps_values(dir: &Path, k: usize, values: &Map<String, Value>, who:
 fn every_cell_reruns_as_its_map(dir: &Path, tag: &str) {
     let manifest: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("map.json")).unwrap()).unwrap();
-    assert_eq!(manifest["precision"], "f64", "a map of the CPU engine in f64");
+    assert_eq!(
+        manifest["precision"], "f64",
+        "a map of the CPU engine in f64"
+    );
     let s = Server::start(dir, &[]);
     let cells = json(&s, "GET", "/api/map", 200)["cells"].as_u64().unwrap() as usize;
     let work = scratch(&format!("rerun-{tag}"));

@@ -21,6 +21,7 @@ use super::gpu::LayoutChoice;
 use super::mode::{MapMode, ModeKeys, RefineFollow, RefineSpec};
 use super::reader::{Range, Reader, apply_override, parse_toml, set_key};
 use super::scene::{ExcitationKind, Scene};
+use super::settle::SettleFrom;
 use super::starts::StartSet;
 use super::sweep::{MapAxis, SweepList, lookup_key};
 use crate::analysis::PhaseConvention;
@@ -79,9 +80,11 @@ pub struct MapSpec {
     pub early_stop: bool,
     /// Relative tolerance of the early-stop confirmation (`None`: by the float type).
     pub early_stop_tol: Option<f64>,
-    /// `map.settle_max_s`: rerun the cells whose verdict is not firm up to this time (s), with
-    /// the early stop (`super::settle`); `None`: the map's length is final.
+    /// `map.settle_max_s`: run the cells whose verdict is not firm on up to this time (s),
+    /// with the early stop (`super::settle`); `None`: the map's length is final.
     pub settle_max_s: Option<f64>,
+    /// `map.settle_from`: where a cell run on starts again.
+    pub settle_from: SettleFrom,
     /// How λ1's twin runs (used when `lyapunov` is among the metrics).
     pub lyapunov: LyapunovSettings,
     /// `map.accept_huge`: run a map above the size at which `map` asks first (`--yes`).
@@ -603,6 +606,7 @@ fn read_map(
             axes: &axes,
         },
     )?;
+    let settle_from = super::settle::read_settle_from(&mut r)?;
     let mut notes = scene.notes.clone();
     notes.extend(r.take_notes());
     r.finish()?;
@@ -627,6 +631,7 @@ fn read_map(
         early_stop,
         early_stop_tol,
         settle_max_s,
+        settle_from,
         lyapunov,
         accept_huge,
         mode,

@@ -39,7 +39,7 @@ pub use scene::{
     LIBRARY_SEGMENTS, Limiter, MAX_SEGMENTS, MethodChoice, Output, PAPER_SCENE_TOML, Piezo, Pivot,
     PivotMode, Scene, StepControl, TimeStep, Tip, load_scene,
 };
-pub use settle::{FIRM, SETTLE_LIMIT_S};
+pub use settle::{FIRM, SETTLE_LIMIT_S, SettleFrom};
 pub use starts::{MAX_START_RATE_DEG_S, MAX_STARTS, Start, StartSet, StartSource, latin_hypercube};
 pub use sweep::{
     AxisScale, MapAxis, SweepList, SweptKey, axis_label, entry_tables, key_unit, lookup_key,

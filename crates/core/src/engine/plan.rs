@@ -82,6 +82,24 @@ pub struct InstancePlan {
 }
 
 impl InstancePlan {
+    /// This run from the end of its period `periods` on, to be started from the state it
+    /// had there (the map's settling stage continues a cell so): the same steps, strobe
+    /// instants, R series, twin and early stop as the whole run, counted from that period.
+    /// `None` where period `periods` lies after the transient (the window would be cut).
+    pub fn continued_after(&self, periods: u32) -> Option<InstancePlan> {
+        if periods > self.transient_periods {
+            return None;
+        }
+        let shift = u64::from(periods) * u64::from(self.spp);
+        let r_start = u32::try_from(u64::from(self.r_start).checked_sub(shift)?).ok()?;
+        Some(InstancePlan {
+            total_periods: self.total_periods - periods,
+            transient_periods: self.transient_periods - periods,
+            r_start,
+            ..self.clone()
+        })
+    }
+
     /// Total steps.
     pub fn total_steps(&self) -> u64 {
         u64::from(self.total_periods) * u64::from(self.spp)

@@ -30,8 +30,8 @@ pub const CELL_SECTION: &str = "cell";
 /// The `[map]` keys that shape one cell's values, kept in a cell's `[cell]`: what the
 /// cell's run records and how it is reduced (metrics, the strobe, R's series, the 0–1 test's
 /// c values, the period test, the early stop, λ1's twin). The others are the grid's (its
-/// axes, settling, starts, continuation, refinement, the bifurcation picture) and are left
-/// out: a cell of a map that settles, continues or refines reruns as a plain cell.
+/// axes, starts, continuation, refinement, the bifurcation picture) and are left out; a
+/// settling map's cell carries its settling time and whether it ran on ([`cell_section`]).
 pub const CELL_MAP_KEYS: [&str; 15] = [
     "metrics",
     "samples_per_period",
@@ -49,6 +49,15 @@ pub const CELL_MAP_KEYS: [&str; 15] = [
     "lyapunov_align_periods",
     "lyapunov_perturbation",
 ];
+
+/// `[cell]`'s settling time of a cell of a settling map (its map's `map.settle_max_s`).
+const SETTLE_MAX_S: &str = "settle_max_s";
+
+/// `[cell]`'s start of a cell run on (its map's `map.settle_from`).
+const SETTLE_FROM: &str = "settle_from";
+
+/// `[cell]`'s flag of a cell of a settling map that its map ran on.
+const RAN_ON: &str = "ran_on";
 
 /// The keys [`pinned_cell`] sets: the method, the step control and its step, the row rate.
 pub const PINNED_KEYS: [&str; 4] = [
@@ -139,13 +148,23 @@ pub fn cell_index(spec: &MapSpec, coords: &[(String, f64)]) -> Result<usize, Con
 }
 
 /// The `[cell]` section of a cell of `spec`: the map's [`CELL_MAP_KEYS`] (empty where the
-/// map keeps every default). `None` for a map whose cells are not one plain run each (starts,
-/// continuation, refinement) or that settles: their values depend on other runs.
-pub fn cell_section(spec: &MapSpec) -> Option<Table> {
-    if !matches!(spec.mode, MapMode::Plain) || spec.settle_max_s.is_some() {
+/// map keeps every default), and for a map that settles, its `settle_max_s` and whether the
+/// cell `ran_on` (the cell's result: the map's neighbours decided it). `None` for a map whose
+/// cells are not one plain run each (starts, continuation, refinement), and for a cell of a
+/// settling map whose `ran_on` is not known (a map scene without its run).
+pub fn cell_section(spec: &MapSpec, ran_on: Option<bool>) -> Option<Table> {
+    if !matches!(spec.mode, MapMode::Plain) {
         return None;
     }
     let mut section = Table::new();
+    if let Some(max_s) = spec.settle_max_s {
+        section.insert(SETTLE_MAX_S.into(), Value::Float(max_s));
+        section.insert(
+            SETTLE_FROM.into(),
+            Value::String(spec.settle_from.name().into()),
+        );
+        section.insert(RAN_ON.into(), Value::Boolean(ran_on?));
+    }
     if let Some(Value::Table(map)) = spec.source_table.get("map") {
         for key in CELL_MAP_KEYS {
             if let Some(v) = map.get(key) {
@@ -196,15 +215,18 @@ fn one_cell_map(
     frequency_hz: f64,
     origin: &str,
 ) -> Result<MapSpec, ConfigError> {
-    if let Some(key) = map.keys().find(|k| !CELL_MAP_KEYS.contains(&k.as_str())) {
+    let taken =
+        |k: &str| CELL_MAP_KEYS.contains(&k) || [SETTLE_MAX_S, SETTLE_FROM, RAN_ON].contains(&k);
+    if let Some(key) = map.keys().find(|k| !taken(k)) {
         return Err(ConfigError::Inconsistent {
             key: format!("{CELL_SECTION}.{key}"),
             reason: format!(
-                "[cell] takes the map keys that shape a cell's values: {}",
+                "[cell] takes the map keys that shape a cell's values ({}), and a settling map's {SETTLE_MAX_S}, {SETTLE_FROM} and {RAN_ON}",
                 CELL_MAP_KEYS.join(", ")
             ),
         });
     }
+    settle_keys(&mut map)?;
     let mut axis = Table::new();
     axis.insert(
         "key".into(),
@@ -223,9 +245,41 @@ fn one_cell_map(
     map_from_toml(&text, origin, &[])
 }
 
+/// `[cell]`'s settling keys as the map of one cell takes them: a cell its map ran on settles
+/// (it runs on whatever its own confidence), any other does not (`map.settle = false`).
+fn settle_keys(map: &mut Table) -> Result<(), ConfigError> {
+    let ran_on = match map.remove(RAN_ON) {
+        None => false,
+        Some(Value::Boolean(b)) => b,
+        Some(_) => {
+            return Err(ConfigError::Inconsistent {
+                key: format!("{CELL_SECTION}.{RAN_ON}"),
+                reason: "true or false: whether the cell's map ran it on".into(),
+            });
+        }
+    };
+    let max_s = map.remove(SETTLE_MAX_S);
+    match (ran_on, max_s) {
+        (true, Some(v)) => {
+            map.insert(SETTLE_MAX_S.into(), v);
+        }
+        (true, None) => {
+            return Err(ConfigError::Inconsistent {
+                key: format!("{CELL_SECTION}.{RAN_ON}"),
+                reason: format!("a cell its map ran on needs the map's {SETTLE_MAX_S}"),
+            });
+        }
+        (false, _) => {
+            map.remove(SETTLE_FROM);
+            map.insert("settle".into(), Value::Boolean(false));
+        }
+    }
+    Ok(())
+}
+
 /// The values of the one cell of `spec` (a map of one cell and one start, as
 /// [`read_cell_scene`] makes it) as the map computes them on the CPU engine in f64: the map's
-/// plan, lanes and reductions.
+/// plan, lanes and reductions, and where its map ran it on, the settling stage.
 pub fn rerun_cell(spec: &MapSpec, progress: Progress) -> Result<InstanceResult, EngineError> {
     let runs = spec.instances() * spec.starts_per_cell();
     if runs != 1 {
@@ -236,7 +290,8 @@ pub fn rerun_cell(spec: &MapSpec, progress: Progress) -> Result<InstanceResult, 
             ),
         }));
     }
-    let run = super::run_map(spec, &Engine::cpu(Precision::F64), progress)?;
+    let cpu = Engine::cpu(Precision::F64);
+    let run = super::run_map_settling(spec, super::settle::Which::Every, &cpu, progress)?;
     Ok(run.results[0])
 }
 

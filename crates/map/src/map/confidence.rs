@@ -194,14 +194,68 @@ fn neighbour(shape: &[usize], index: &[usize], mut offset: usize) -> Option<usiz
     Some(flat)
 }
 
+/// Where both tables were fitted (`docs/bench/VERDICT.md`).
+pub const FITTED_ON: &str = "the default map's forcing plane (excitation.frequency_hz x excitation.amplitude_m, N = 3, 34 s): 361 cells of two subgrids against a converged reference";
+
+/// The table a whole map `run` reads, by name: [`SETTLED`] where it settled, else [`SHIPPED`].
+fn table_of(run: &crate::map::MapRun) -> (&'static str, &'static Calibration) {
+    match run.settle {
+        Some(_) => ("settled", &SETTLED),
+        None => ("shipped", &SHIPPED),
+    }
+}
+
+/// What the confidence stage says of a map as a whole (`map.json`'s `regime.confidence`):
+/// how many of its verdicts are firm, and how many the table expects right.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Summary {
+    /// The table the map read (`settled` or `shipped`).
+    pub table: &'static str,
+    /// Where that table was fitted ([`FITTED_ON`]).
+    pub fitted_on: &'static str,
+    /// Cells with a verdict (not undecided, not failed).
+    pub decided: usize,
+    /// Of those, cells at `verdict_confidence` ≥ [`FIRM`](pendulum_atlas_core::config::FIRM).
+    pub firm: usize,
+    /// `firm / decided`.
+    pub firm_share: f64,
+    /// The share of the decided cells the table expects right: their mean confidence.
+    pub expected_right: f64,
+    /// The same over the firm cells.
+    pub expected_right_firm: f64,
+    /// What the figures hold for.
+    pub note: &'static str,
+}
+
+/// The map's [`Summary`] (`None`: no cell has a verdict confidence).
+pub fn summary(run: &crate::map::MapRun) -> Option<Summary> {
+    let firm_at = pendulum_atlas_core::config::FIRM;
+    let all: Vec<f64> = run
+        .results
+        .iter()
+        .map(|r| r.verdict_confidence)
+        .filter(|c| c.is_finite())
+        .collect();
+    let firm: Vec<f64> = all.iter().copied().filter(|&c| c >= firm_at).collect();
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let table = table_of(run).0;
+    (!all.is_empty()).then(|| Summary {
+        table,
+        fitted_on: FITTED_ON,
+        decided: all.len(),
+        firm: firm.len(),
+        firm_share: firm.len() as f64 / all.len() as f64,
+        expected_right: mean(&all),
+        expected_right_firm: mean(&firm),
+        note: "expected from the table, measured on the plane it was fitted on; on another plane, N or run length it is a guide, not a measurement (docs/bench/VERDICT.md)",
+    })
+}
+
 /// Fill `verdict_confidence` of a whole map `run` of `shape`: its cells, and each leg of a
 /// continuation (the first leg's results are the cells). A settled run reads [`SETTLED`],
 /// any other [`SHIPPED`].
 pub fn fill_run(shape: &[usize], run: &mut crate::map::MapRun) {
-    let table = match run.settle {
-        Some(_) => &SETTLED,
-        None => &SHIPPED,
-    };
+    let table = table_of(run).1;
     fill(shape, &mut run.results, table);
     if let Some(c) = &mut run.continuation {
         for leg in &mut c.legs {

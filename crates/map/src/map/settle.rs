@@ -1,22 +1,28 @@
-//! The map's settling stage (`map.settle_max_s`; `docs/analysis.md`, §10 "Settling"): the
-//! cells whose verdict is not firm run on, with the early stop, so that transient chaos gets
-//! the time to settle.
+//! The map's settling stage (`map.settle_max_s`, on by default; `docs/analysis.md`, §10
+//! "Settling"): the cells whose verdict is not firm run on, with the early stop, so that
+//! transient chaos gets the time to settle.
 //!
 //! ```text
-//! run on:   undecided, or verdict_confidence < FIRM (0.9); a failed cell is final
-//! rerun:    from the cell's start for settle_max_s, transient settle_max_s − (T − T_tr),
-//!           the early stop on: a cell stops once its orbit is confirmed and λ1 shrinks it
-//! result:   the rerun's indicators replace the cell's; steps add up; verdict_confidence is
-//!           computed again over the whole grid (the neighbours' new verdicts included),
-//!           from the table measured on settled maps (`confidence::SETTLED`)
+//! run on:    undecided, or verdict_confidence < FIRM (0.9); a failed cell is final
+//! continue:  a cell that ran the map's whole length T (P forcing periods) goes on from its
+//!            final state as the cell's run of T_s from period P on: the same steps, strobe
+//!            instants, indicators' window W = T − T_tr and early stop as one run of T_s
+//!            (`InstancePlan::continued_after`); the forcing's phase carries over
+//! rerun:     a cell the early stop ended before T, and every cell with
+//!            `map.settle_from = "start"`, runs again from its start for T_s, transient
+//!            T_s − W: one run of T_s, bit for bit
+//! result:    the run-on's indicators replace the cell's; steps add up; verdict_confidence is
+//!            computed again over the whole grid (the neighbours' new verdicts included),
+//!            from the table measured on settled maps (`confidence::SETTLED`)
 //! ```
 //!
-//! One pass: a firm cell whose neighbour changes its verdict is not rerun. The stage is the
-//! map's, so it needs the whole grid (`run_map`, `--devices`), not a shard.
+//! One pass: a firm cell whose neighbour changes its verdict is not run on. The stage needs
+//! the whole grid: `run_map` and `--devices` run it after the map, `merge` after the shards
+//! (which keep their cells' final states for it).
 
-use super::{MapRun, confidence, run_plan};
-use pendulum_atlas_core::config::{FIRM, MapSpec};
-use pendulum_atlas_core::engine::{Engine, EngineError, EnsemblePlan, Progress};
+use super::{MapRun, confidence, run_engine};
+use pendulum_atlas_core::config::{FIRM, MapSpec, SettleFrom};
+use pendulum_atlas_core::engine::{Engine, EngineError, EnsemblePlan, Progress, add_counts};
 use pendulum_atlas_core::reduce::{InstanceResult, ReduceOptions, Regime};
 use serde::Serialize;
 use std::time::Instant;
@@ -26,20 +32,36 @@ use std::time::Instant;
 pub struct SettleReport {
     /// `map.settle_max_s` (s).
     pub max_s: f64,
+    /// `map.settle_from`: where a cell run on starts again.
+    pub from: SettleFrom,
     /// The confidence below which a cell ran on.
     pub firm: f64,
     /// Cells run on.
     pub cells: usize,
+    /// Of those, cells continued from their final state.
+    pub continued: usize,
+    /// Of those, cells rerun from their start (stopped early before the map's length).
+    pub rerun: usize,
     /// Of those, cells stopped early (their orbit confirmed before `max_s`).
     pub stopped_early: usize,
     /// Of those, cells whose verdict changed.
     pub changed: usize,
     /// Cells that were chaotic at the map's length and periodic or regular after it.
     pub chaos_settled: usize,
-    /// Instance-steps of the reruns.
+    /// Instance-steps of the runs on.
     pub steps: u64,
     /// Wall time of the stage (s).
     pub wall_s: f64,
+}
+
+/// Which cells the stage runs on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Which {
+    /// Those whose verdict is not firm ([`unsettled`]): a map's stage.
+    Unsettled,
+    /// Every cell that did not fail: a map cell run again on its own, which its map ran on
+    /// (`map::cell::rerun_cell`).
+    Every,
 }
 
 /// The cells the stage runs on: decided but not firm, or undecided; never a failed one.
@@ -54,10 +76,22 @@ pub fn unsettled(results: &[InstanceResult]) -> Vec<usize> {
 }
 
 /// Run `spec`'s unsettled cells of `run` on (when `map.settle_max_s` is set) on `engine`,
-/// and put their results in place.
+/// and put their results in place. `run.final_state` must hold every cell's final state
+/// (the map keeps them when it settles); it is emptied here.
 pub fn settle(
     spec: &MapSpec,
     run: &mut MapRun,
+    engine: &Engine,
+    progress: Progress,
+) -> Result<(), EngineError> {
+    settle_cells(spec, run, Which::Unsettled, engine, progress)
+}
+
+/// [`settle`] on the cells `which`.
+pub(crate) fn settle_cells(
+    spec: &MapSpec,
+    run: &mut MapRun,
+    which: Which,
     engine: &Engine,
     progress: Progress,
 ) -> Result<(), EngineError> {
@@ -65,32 +99,54 @@ pub fn settle(
         return Ok(());
     };
     let t0 = Instant::now();
-    let members = unsettled(&run.results);
+    let members = match which {
+        Which::Unsettled => unsettled(&run.results),
+        Which::Every => (0..run.results.len())
+            .filter(|&k| run.results[k].regime != Regime::Failed)
+            .collect(),
+    };
+    let long = spec.lengthened(max_s)?;
+    let long_plan = EnsemblePlan::new(&long)?;
+    let (continued, rerun) = match spec.settle_from {
+        SettleFrom::End => split(run, &long_plan, &members),
+        SettleFrom::Start => (Vec::new(), members.clone()),
+    };
     let mut report = SettleReport {
         max_s,
+        from: spec.settle_from,
         firm: FIRM,
         cells: members.len(),
+        continued: continued.len(),
+        rerun: rerun.len(),
         stopped_early: 0,
         changed: 0,
         chaos_settled: 0,
         steps: 0,
         wall_s: 0.0,
     };
-    if !members.is_empty() {
-        let long = spec.lengthened(max_s)?;
-        let plan = EnsemblePlan::new(&long)?.select(&members);
-        let tail = (!run.strobe_tail.is_empty()).then_some(spec.bifurcation_samples as usize);
-        let rerun = run_plan(
-            plan,
-            &ReduceOptions::from_spec(&long),
-            tail,
-            engine,
-            progress,
-        )?;
-        report.stopped_early = rerun.stopped_early;
-        run.sub_steps = pendulum_atlas_core::engine::add_counts(run.sub_steps, rerun.sub_steps);
-        put_in_place(run, &members, &rerun, &mut report);
-        add_times(run, &rerun);
+    let mut shifted = long_plan.clone();
+    for &k in &continued {
+        let done = run.plan.instances[k].total_periods;
+        let inst = &mut shifted.instances[k];
+        *inst = inst.continued_after(done).expect("split kept it");
+        inst.y0 = std::mem::take(&mut run.final_state[k]);
+    }
+    run.final_state = Vec::new();
+    let groups = [
+        (continued.clone(), shifted.select(&continued)),
+        (rerun.clone(), long_plan.select(&rerun)),
+    ];
+    let tail = (!run.strobe_tail.is_empty()).then_some(spec.bifurcation_samples as usize);
+    let opts = ReduceOptions::from_spec(&long);
+    for (cells, plan) in groups {
+        if cells.is_empty() {
+            continue;
+        }
+        let (part, _) = run_engine(plan, &opts, tail, false, engine, progress)?;
+        report.stopped_early += part.stopped_early;
+        run.sub_steps = add_counts(run.sub_steps, part.sub_steps);
+        put_in_place(run, &cells, &part, &mut report);
+        add_times(run, &part);
     }
     report.wall_s = t0.elapsed().as_secs_f64();
     run.timings.total_s += report.wall_s;
@@ -99,13 +155,29 @@ pub fn settle(
     Ok(())
 }
 
-/// The reruns' results (and tails) in the cells `members` of `run`, counted in `report`.
+/// `members` split into the cells that ran the map's whole length, kept their final state
+/// and lie within the transient of their run on `long` (continued), and the rest (stopped
+/// early: rerun from their start).
+fn split(run: &MapRun, long: &EnsemblePlan, members: &[usize]) -> (Vec<usize>, Vec<usize>) {
+    members.iter().partition(|&&k| {
+        let first = &run.plan.instances[k];
+        let whole = run.results[k].steps == first.total_steps();
+        let kept = run.final_state.get(k).is_some_and(|y| !y.is_empty());
+        let fits = long.instances[k]
+            .continued_after(first.total_periods)
+            .is_some();
+        whole && kept && fits
+    })
+}
+
+/// The runs on's results (and tails) in the cells `members` of `run`, counted in `report`.
 fn put_in_place(run: &mut MapRun, members: &[usize], rerun: &MapRun, report: &mut SettleReport) {
     for (j, &k) in members.iter().enumerate() {
         let old = run.results[k];
         let mut new = rerun.results[j];
         report.steps += new.steps;
         new.steps += old.steps;
+        new.ran_on = true;
         report.changed += usize::from(new.regime != old.regime);
         report.chaos_settled += usize::from(
             old.regime == Regime::Chaotic
@@ -118,7 +190,7 @@ fn put_in_place(run: &mut MapRun, members: &[usize], rerun: &MapRun, report: &mu
     }
 }
 
-/// The rerun's stage times added to the map's (its total is the stage's own wall time).
+/// The run on's stage times added to the map's (its total is the stage's own wall time).
 fn add_times(run: &mut MapRun, rerun: &MapRun) {
     let (t, r) = (&mut run.timings, &rerun.timings);
     t.plan_s += r.plan_s;

@@ -382,6 +382,7 @@ fn regime_json(spec: &MapSpec, run: &MapRun) -> serde_json::Value {
             "k_firm_samples": pendulum_atlas_core::analysis::ZERO_ONE_COMFORTABLE_SAMPLES,
             "doc": "docs/analysis.md, section 10",
         },
+        "confidence": crate::map::confidence::summary(run),
     })
 }
 

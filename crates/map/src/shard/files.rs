@@ -6,6 +6,9 @@
 //!   ([`shard_columns`]; codes and counts as numbers, NaN kept as NaN), read back by name;
 //! - `shard_strobe.npy`: float64, one row per member, the stroboscopic tail of a bifurcation
 //!   diagram (only when the map draws one);
+//! - `shard_state.npy`: float64, one row per member, its state at the end of its run (only
+//!   when the map settles: `merge` continues the cells that are not firm from there; rows
+//!   of a grid whose state lengths differ are padded with NaN);
 //! - `scene.toml`: the map scene as given (the `--set` overrides are in the manifest);
 //! - `shard.json`: the manifest, written last.
 
@@ -65,9 +68,13 @@ pub struct ShardManifest {
     pub sub_steps: Option<u64>,
     /// Stroboscopic samples kept per instance for the bifurcation diagram (0: none).
     pub strobe_tail: usize,
+    /// Width of `shard_state.npy`'s rows (0: no final states, the map does not settle).
+    #[serde(default)]
+    pub final_state: usize,
     /// The columns of `shard_results.npy`, by name ([`shard_columns`]).
     pub columns: Vec<String>,
-    /// SHA-256 of the shard's values (`shard_results.npy`, then `shard_strobe.npy`) as
+    /// SHA-256 of the shard's values (`shard_results.npy`, `shard_strobe.npy`, then
+    /// `shard_state.npy`) as
     /// little-endian f64 ([`values_sha256`], hex in either case): `merge` refuses a shard
     /// whose files no longer hold what its run wrote. It detects damage, not tampering: who
     /// edits the values can write their hash too, so `merge` also holds every row and count
@@ -125,6 +132,8 @@ pub struct ShardData {
     pub results: Vec<InstanceResult>,
     /// Stroboscopic tails, in member order (empty without a bifurcation diagram).
     pub strobe_tail: Vec<Vec<f64>>,
+    /// Final states, in member order (empty where the map does not settle).
+    pub final_state: Vec<Vec<f64>>,
 }
 
 /// A result's row of `shard_results.npy`: its grid index, then every field of the schema.
@@ -161,6 +170,12 @@ pub fn write_shard(
         write_npy_f64(&p, &[members.len(), tail], &flat)?;
         written.push(p);
     }
+    let (width, state) = padded(&run.final_state);
+    if width > 0 {
+        let p = dir.join("shard_state.npy");
+        write_npy_f64(&p, &[members.len(), width], &state)?;
+        written.push(p);
+    }
     written.push(write_bytes(&dir.join("scene.toml"), scene_text.as_bytes())?);
     let manifest = ShardManifest {
         version: env!("CARGO_PKG_VERSION").into(),
@@ -176,11 +191,24 @@ pub fn write_shard(
         stopped_early: run.stopped_early,
         sub_steps: run.sub_steps,
         strobe_tail: tail,
+        final_state: width,
         columns: columns.iter().map(|c| c.to_string()).collect(),
-        values_sha256: values_sha256(&[&data, &flat]),
+        values_sha256: values_sha256(&[&data, &flat, &state]),
     };
     written.push(write_json(&dir.join(SHARD_JSON), &manifest)?);
     Ok(written)
+}
+
+/// `rows` as one flat block of rows of the longest one's width, the shorter padded with NaN:
+/// `(width, values)`.
+fn padded(rows: &[Vec<f64>]) -> (usize, Vec<f64>) {
+    let width = rows.iter().map(Vec::len).max().unwrap_or(0);
+    let mut flat = Vec::with_capacity(rows.len() * width);
+    for r in rows {
+        flat.extend_from_slice(r);
+        flat.resize(flat.len() + width - r.len(), f64::NAN);
+    }
+    (width, flat)
 }
 
 /// The shard's manifest in its folder.
@@ -223,7 +251,8 @@ pub fn read_shard(dir: &Path) -> Result<ShardData, ShardReadError> {
     }
     let at = column_positions(&manifest.columns).map_err(&fail)?;
     let strobe = read_strobe(dir, &manifest).map_err(&fail)?;
-    if !values_sha256(&[&rows, &strobe]).eq_ignore_ascii_case(&manifest.values_sha256) {
+    let state = read_state(dir, &manifest).map_err(&fail)?;
+    if !values_sha256(&[&rows, &strobe, &state]).eq_ignore_ascii_case(&manifest.values_sha256) {
         return Err(fail(
             "its values are not those its run wrote (their SHA-256 differs from shard.json's values_sha256): a file was changed or damaged; rerun the shard".into(),
         ));
@@ -239,6 +268,10 @@ pub fn read_shard(dir: &Path) -> Result<ShardData, ShardReadError> {
         0 => Vec::new(),
         k => strobe.chunks_exact(k).map(<[f64]>::to_vec).collect(),
     };
+    let final_state = match manifest.final_state {
+        0 => Vec::new(),
+        k => state.chunks_exact(k).map(unpadded).collect(),
+    };
     Ok(ShardData {
         dir: dir.to_path_buf(),
         manifest,
@@ -246,7 +279,32 @@ pub fn read_shard(dir: &Path) -> Result<ShardData, ShardReadError> {
         members,
         results,
         strobe_tail,
+        final_state,
     })
+}
+
+/// A row of `shard_state.npy` without its NaN padding.
+fn unpadded(row: &[f64]) -> Vec<f64> {
+    let end = row.iter().rposition(|v| !v.is_nan()).map_or(0, |i| i + 1);
+    row[..end].to_vec()
+}
+
+/// The shard's final states, flat (none when it kept none), checked against the manifest's
+/// shape.
+fn read_state(dir: &Path, manifest: &ShardManifest) -> Result<Vec<f64>, String> {
+    if manifest.final_state == 0 {
+        return Ok(Vec::new());
+    }
+    let (shape, flat) = read_npy(&dir.join("shard_state.npy"))?;
+    if shape != [manifest.members, manifest.final_state] {
+        return Err(format!(
+            "shard_state.npy has shape {}, the manifest says {} × {}",
+            pendulum_atlas_core::text::shape(&shape),
+            manifest.members,
+            manifest.final_state
+        ));
+    }
+    Ok(flat)
 }
 
 /// The shard's stroboscopic tails, flat (none when it kept none), checked against the

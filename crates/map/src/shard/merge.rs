@@ -174,6 +174,19 @@ fn check_rows(s: &ShardData, spec: &MapSpec, plan: &EnsemblePlan) -> Result<(), 
         r.check_rule(&spec.metrics, &rule)
             .map_err(|reason| bad(k, reason))?;
     }
+    let ok = s.results.iter().map(|r| r.status.is_ok());
+    for ((&k, y), ok) in s.members.iter().zip(&s.final_state).zip(ok) {
+        let want = plan.instances[k].y0.len();
+        if ok && (y.len() != want || y.iter().any(|v| !v.is_finite())) {
+            return Err(bad(
+                k,
+                format!(
+                    "its final state has {} finite values of the {want} its state holds",
+                    y.iter().filter(|v| v.is_finite()).count()
+                ),
+            ));
+        }
+    }
     Ok(())
 }
 
@@ -358,5 +371,6 @@ fn part(s: &ShardData) -> MapPart {
         dispatches: s.manifest.dispatches,
         stopped_early: s.manifest.stopped_early,
         sub_steps: s.manifest.sub_steps,
+        final_state: s.final_state.clone(),
     }
 }

@@ -320,8 +320,12 @@ fn default_map_rows(
     } else {
         DEFAULT_MAP_TOML.to_string()
     };
-    let spec =
-        map_from_toml(&text, "configs/maps/default.toml", &[]).map_err(PeerCaseError::from)?;
+    let spec = map_from_toml(
+        &text,
+        "configs/maps/default.toml",
+        &["map.settle=false".into()],
+    )
+    .map_err(PeerCaseError::from)?;
     let engines: Vec<Engine> = [Precision::F64, Precision::F32]
         .iter()
         .flat_map(|&p| [CpuLoop::Scalar, CpuLoop::Simd].map(|l| Engine::cpu_with(p, l)))

@@ -146,6 +146,8 @@ fn spec(grid: (usize, usize), early: bool, refine: bool) -> Result<MapSpec, Engi
     let sets = vec![
         format!("map.early_stop={early}"),
         format!("map.refine={refine}"),
+        // The full map against the refined one, both raw (a refined map does not settle).
+        "map.settle=false".to_string(),
     ];
     Ok(map_from_toml(&text, "the default map", &sets)?)
 }

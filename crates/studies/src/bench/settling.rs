@@ -15,6 +15,7 @@ use super::reference::Reference;
 use super::reliability::{
     Firm, Reliability, Scored, firm_of, grid_index, reliability, score_subgrid,
 };
+use pendulum_atlas_core::config::SettleFrom;
 use pendulum_atlas_core::engine::{Engine, EngineError, no_progress};
 use pendulum_atlas_core::reduce::Regime;
 use pendulum_atlas_map::map::confidence::SETTLED;
@@ -57,6 +58,8 @@ pub struct Transient {
 pub struct CurvePoint {
     /// `map.settle_max_s` (`None`: not settled).
     pub settle_max_s: Option<f64>,
+    /// `map.settle_from` (`None`: not settled).
+    pub from: Option<SettleFrom>,
     /// Wall time of the whole map (s).
     pub wall_s: f64,
     /// Cells run on.
@@ -136,6 +139,7 @@ fn point(
     cells: &[(usize, i8, f64)],
     settle_max_s: Option<f64>,
 ) -> CurvePoint {
+    let from = run.settle.as_ref().map(|s| s.from);
     let right = |k: usize, want: i8| run.results[k].regime.code() == want;
     let scored: Vec<(f64, bool)> = cells
         .iter()
@@ -143,6 +147,7 @@ fn point(
         .collect();
     CurvePoint {
         settle_max_s,
+        from,
         wall_s: run.timings.total_s,
         rerun: run.settle.as_ref().map_or(0, |s| s.cells),
         changed: run.settle.as_ref().map_or(0, |s| s.changed),
@@ -180,16 +185,30 @@ pub fn settling(
         &SETTLE_CURVE_S
     };
     let mut table_run = None;
-    for &t in times {
-        let spec = spec_with(&[format!("map.settle_max_s={t}")])?;
+    // Every time from the map's end (the default); the table's time from the start too,
+    // which is one run of that length.
+    let runs = times.iter().flat_map(|&t| {
+        let starts = (t == SETTLED_TABLE_S).then_some((t, SettleFrom::Start));
+        std::iter::once((t, SettleFrom::End)).chain(starts)
+    });
+    for (t, from) in runs {
+        let spec = spec_with(&[
+            format!("map.settle_max_s={t}"),
+            format!("map.settle_from=\"{}\"", from.name()),
+        ])?;
         let run = run_map(&spec, &engine, &no_progress)?;
         let p = point(&run, whole, &cells, Some(t));
         progress(&format!(
-            "settle {t} s: {} cells run on, {}/{} right, {} firm ({:.1} s)",
-            p.rerun, p.right, p.settled, p.firm.cells, p.wall_s
+            "settle {t} s from the {}: {} cells run on, {}/{} right, {} firm ({:.1} s)",
+            from.name(),
+            p.rerun,
+            p.right,
+            p.settled,
+            p.firm.cells,
+            p.wall_s
         ));
         curve.push(p);
-        if t == SETTLED_TABLE_S {
+        if t == SETTLED_TABLE_S && from == SettleFrom::End {
             table_run = Some(run);
         }
     }

@@ -179,8 +179,14 @@ fn subgrid(sets: &[String], thin: usize) -> Result<MapSpec, EngineError> {
 }
 
 /// The same from the `offset`th value of each axis.
+/// The map is raw (`map.settle = false`) unless `sets` asks for settling: the study's
+/// candidates and references are each one run of their length.
 fn subgrid_at(sets: &[String], thin: usize, offset: usize) -> Result<MapSpec, EngineError> {
-    let mut spec = map_from_toml(DEFAULT_MAP_TOML, "the default map", sets)?;
+    let mut sets = sets.to_vec();
+    if !sets.iter().any(|s| s.starts_with("map.settle")) {
+        sets.push("map.settle=false".into());
+    }
+    let mut spec = map_from_toml(DEFAULT_MAP_TOML, "the default map", &sets)?;
     for axis in &mut spec.axes {
         axis.values = axis
             .values

@@ -267,20 +267,22 @@ fn settling(s: &mut String, g: &Settling) {
     let _ = writeln!(
         s,
         "The whole default map with `map.settle_max_s`: the cells below confidence {FIRM} (or \
-         undecided) run again for that long, with the early stop; the rest keep their verdict. \
+         undecided) run on to that time, with the early stop, from the map's end (the default) or \
+         from their start (one run of that length); the rest keep their verdict. \
          Wall time of the whole map (one run each, the same engine); \"right\" over the settled \
          cells of both subgrids; \"transient chaos right\" over the {} cells above; firm verdicts \
          with the table the map applies (`SHIPPED` unsettled, `SETTLED` settled).\n\n\
-         | settle_max_s | wall (s) | × unsettled | cells run on | verdicts changed | right of settled | transient chaos right | firm of settled | right of firm |\n\
-         |---|---|---|---|---|---|---|---|---|",
+         | settle_max_s | from | wall (s) | × unsettled | cells run on | verdicts changed | right of settled | transient chaos right | firm of settled | right of firm |\n\
+         |---|---|---|---|---|---|---|---|---|---|",
         t.settle_later
     );
     let base = g.curve.first().map_or(f64::NAN, |p| p.wall_s);
     for p in &g.curve {
         let _ = writeln!(
             s,
-            "| {} | {:.1} | {:.2} | {} | {} | {}/{} ({:.1} %) | {}/{} | {}/{} ({:.1} %) | {}/{} ({:.1} %) |",
+            "| {} | {} | {:.1} | {:.2} | {} | {} | {}/{} ({:.1} %) | {}/{} | {}/{} ({:.1} %) | {}/{} ({:.1} %) |",
             p.settle_max_s.map_or("off".into(), |x| format!("{x} s")),
+            p.from.map_or("–", |f| f.name()),
             p.wall_s,
             p.wall_s / base,
             p.rerun,
