@@ -94,10 +94,12 @@ class Scene:
         ``integration.step``, ``integration.dt_s`` at fixed steps or
         ``integration.base_step_s`` at adaptive ones, ``output.sample_rate_hz``), as the
         explorer pins them, so that :func:`pendulum_atlas.simulate` runs what the map ran. A
-        cell of a plain map also carries the map's settings of a cell's values (a ``[cell]``
-        section): :func:`pendulum_atlas.simulate` then gives, in ``attrs["map_cell"]``, the
-        cell's values as the map computes them (on the CPU in f64: the map's own numbers,
-        bit for bit, where the map ran there)."""
+        cell of a plain map that does not settle (``map.settle = false``, or a map that
+        cannot) also carries the map's settings of a cell's values (a ``[cell]`` section):
+        :func:`pendulum_atlas.simulate` then gives, in ``attrs["map_cell"]``, the cell's
+        values as the map computes them (on the CPU in f64: the map's own numbers, bit for
+        bit, where the map ran there). A settling map's cell has none: whether the map ran it
+        on depends on its run (the explorer's download of the cell carries it)."""
         if not self.is_map:
             raise ValueError("cell() takes a map scene (one with a [map] section)")
         single = Scene(self._base, f"{self._origin} (a cell of the map)")

@@ -648,7 +648,8 @@ fn cell_pins<'py>(
         )?;
     }
     // A plain map's cell carries its map's settings of a cell's values (`[cell]`), so that
-    // `simulate` reports the cell's values as the map computes them.
+    // `simulate` reports the cell's values as the map computes them; not a settling map's,
+    // whose `ran_on` only its run knows.
     if let Some(section) = cell_section(&spec, None) {
         d.set_item(
             CELL_SECTION,

@@ -6,9 +6,12 @@
 //! run on:    undecided, or verdict_confidence < FIRM (0.9); a failed cell is final
 //! continue:  a cell that ran the map's whole length T (P forcing periods) goes on from its
 //!            final state as the cell's run of T_s from period P on: the same steps, strobe
-//!            instants, indicators' window W = T − T_tr and early stop as one run of T_s
-//!            (`InstancePlan::continued_after`); the forcing's phase carries over
-//! rerun:     a cell the early stop ended before T, and every cell with
+//!            instants and indicators' window W = T − T_tr as one run of T_s
+//!            (`InstancePlan::continued_after`); the forcing's phase carries over; the sums'
+//!            compensation and the early stop's watch start again (so a chaotic cell takes
+//!            another, equally accurate trajectory, and an orbit is confirmed anew)
+//! rerun:     a cell the early stop ended before T (continuing it saved no time: its watch
+//!            starts again, measured on the default map), and every cell with
 //!            `map.settle_from = "start"`, runs again from its start for T_s, transient
 //!            T_s − W: one run of T_s, bit for bit
 //! result:    the run-on's indicators replace the cell's; steps add up; verdict_confidence is

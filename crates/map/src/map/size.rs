@@ -160,8 +160,10 @@ pub fn check_map_size(
     }
 }
 
-/// The steps a run adds at most by settling, at `per_s` steps per simulated second: a rerun
-/// from its start to `map.settle_max_s` (`settle.rs`).
+/// The steps a run adds at most by settling, at `per_s` steps per simulated second: a run
+/// from its start to `map.settle_max_s` (`settle.rs`; a cell continued from the map's end adds
+/// `settle_max_s − duration_s`, one the early stop ended or `map.settle_from = "start"`
+/// reruns the whole).
 fn settle_steps(spec: &MapSpec, per_s: f64) -> u64 {
     spec.settle_max_s
         .map_or(0, |max_s| (per_s * max_s).round() as u64)
