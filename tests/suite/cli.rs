@@ -626,6 +626,9 @@ fn map_checks_its_output_folder_before_any_work() {
             "--quiet",
             "--set",
             "integration.duration_s=1e4",
+            // Raw: settling to 2e4 s would make it a huge map, refused as such first.
+            "--set",
+            "map.settle=false",
         ])
         .arg("--out")
         .arg(&file)

@@ -554,3 +554,19 @@ fn a_sweep_over_a_key_the_scene_does_not_use_is_refused_before_any_work() {
         "{e}"
     );
 }
+
+#[test]
+fn settling_defaults_to_twice_the_run_and_a_run_too_long_for_that_maps_raw() {
+    use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, map_from_toml};
+    let map = |sets: &[&str]| {
+        let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+        map_from_toml(DEFAULT_MAP_TOML, "the default map", &sets)
+    };
+    assert_eq!(map(&[]).unwrap().settle_max_s, Some(68.0));
+    let long = "integration.duration_s=50001.0";
+    assert_eq!(map(&[long]).unwrap().settle_max_s, None);
+    let err = map(&[long, "map.settle=true"]).unwrap_err().to_string();
+    assert!(err.contains("beyond its limit of 100000 s"), "{err}");
+    let given = map(&[long, "map.settle_max_s=100000.0"]).unwrap();
+    assert_eq!(given.settle_max_s, Some(100000.0));
+}

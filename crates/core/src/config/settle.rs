@@ -7,7 +7,8 @@
 //! that a cell that settles stops soon after its orbit is confirmed:
 //!
 //! ```text
-//! default:    settle_max_s = 2 T                     (T = integration.duration_s)
+//! default:    settle_max_s = 2 T   (T = integration.duration_s; a map whose 2 T is over
+//!                                   the limit runs raw unless given a settle_max_s)
 //! continued:  from the state at T for T_s − T, transient T_s − T − W
 //!             (the indicators' window W = T − T_tr keeps the map's length and ends at T_s)
 //! accepted:   T + W ≤ T_s ≤ 100 000 s
@@ -112,7 +113,14 @@ pub(super) fn read_settle(
     } else {
         "map.settle"
     };
-    match why_not(&cx) {
+    let why = why_not(&cx).or_else(|| {
+        (max_s.is_none() && 2.0 * i.duration_s > SETTLE_LIMIT_S).then(|| {
+            format!(
+                "twice integration.duration_s, the default settling time, is beyond its limit of {SETTLE_LIMIT_S} s: set map.settle_max_s (or map.settle = false)"
+            )
+        })
+    });
+    match why {
         None => Ok(Some(max_s.unwrap_or(2.0 * i.duration_s))),
         Some(_) if !asked && max_s.is_none() => Ok(None),
         Some(reason) => Err(ConfigError::Inconsistent {
