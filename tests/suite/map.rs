@@ -1538,56 +1538,41 @@ fn settling_is_refused_where_it_cannot_run() {
         ),
     ];
     for (sets, says) in cases {
-        let out = out_dir("settle-refused");
-        let mut cmd = bin();
-        cmd.args(["map", "--backend", "cpu", "--set", WINDOWS]);
-        for s in sets {
-            cmd.args(["--set", s]);
-        }
-        let o = cmd.arg("--out").arg(&out).output().unwrap();
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{sets:?}: {err}");
+        let err = refused_windows(sets);
         assert!(
             err.contains("map.settle_max_s") && err.contains(says),
             "{sets:?}: {err}"
         );
-        assert!(!out.join("map.json").exists(), "{sets:?}");
     }
     // Asked for by map.settle alone, with the reason.
-    let out = out_dir("settle-asked");
-    let o = bin()
-        .args(["map", "--backend", "cpu", "--set", WINDOWS])
-        .args(["--set", "map.settle=true", "--set", "map.early_stop=false"])
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
+    let err = refused_windows(&["map.settle=true", "map.early_stop=false"]);
     assert!(
         err.contains("`map.settle`") && err.contains("map.early_stop = true"),
         "{err}"
     );
     // map.settle = false with a settling time is a contradiction.
-    let o = bin()
-        .args(["map", "--backend", "cpu", "--set", WINDOWS])
-        .args([
-            "--set",
-            "map.settle=false",
-            "--set",
-            "map.settle_max_s=68.0",
-        ])
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
+    let err = refused_windows(&["map.settle=false", "map.settle_max_s=68.0"]);
     assert!(
         err.contains("map.settle = false keeps the raw map"),
         "{err}"
     );
+}
+
+/// The stderr of the [`WINDOWS`] map with `sets` on the CPU, which must be refused (exit 2)
+/// before it writes anything.
+fn refused_windows(sets: &[&str]) -> String {
+    let out = out_dir("settle-refused");
+    let mut cmd = bin();
+    cmd.args(["map", "--backend", "cpu", "--set", WINDOWS]);
+    for s in sets {
+        cmd.args(["--set", s]);
+    }
+    let o = cmd.arg("--out").arg(&out).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(2), "{sets:?}: {err}");
+    assert!(!out.join("map.json").exists(), "{sets:?}");
     std::fs::remove_dir_all(&out).ok();
+    err
 }
 
 #[test]

@@ -40,22 +40,15 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
     let families = read_families(dir, &manifest)?;
     columns.extend(attractor_columns(dir, &spec, families.as_deref())?);
     let status = read_array::<u8>(dir, "status.npy", &spec)?;
-    let inferred = if manifest.files.iter().any(|f| f == "inferred.npy") {
-        read_array::<u8>(dir, "inferred.npy", &spec)?
-            .into_iter()
-            .map(|f| f == 1)
-            .collect()
-    } else {
-        Vec::new()
+    let flags = |name: &str| -> Result<Vec<bool>, ExploreError> {
+        if !manifest.files.iter().any(|f| f == name) {
+            return Ok(Vec::new());
+        }
+        let flags = read_array::<u8>(dir, name, &spec)?;
+        Ok(flags.into_iter().map(|f| f == 1).collect())
     };
-    let ran_on = if manifest.files.iter().any(|f| f == "ran_on.npy") {
-        read_array::<u8>(dir, "ran_on.npy", &spec)?
-            .into_iter()
-            .map(|f| f == 1)
-            .collect()
-    } else {
-        Vec::new()
-    };
+    let inferred = flags("inferred.npy")?;
+    let ran_on = flags("ran_on.npy")?;
     let starts = if manifest.files.iter().any(|f| f == "start.npy") {
         read_array::<i32>(dir, "start.npy", &spec)?
             .into_iter()

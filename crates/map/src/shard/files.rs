@@ -250,8 +250,9 @@ pub fn read_shard(dir: &Path) -> Result<ShardData, ShardReadError> {
         )));
     }
     let at = column_positions(&manifest.columns).map_err(&fail)?;
-    let strobe = read_strobe(dir, &manifest).map_err(&fail)?;
-    let state = read_state(dir, &manifest).map_err(&fail)?;
+    let block = |name, width| read_block(dir, name, manifest.members, width).map_err(&fail);
+    let strobe = block("shard_strobe.npy", manifest.strobe_tail)?;
+    let state = block("shard_state.npy", manifest.final_state)?;
     if !values_sha256(&[&rows, &strobe, &state]).eq_ignore_ascii_case(&manifest.values_sha256) {
         return Err(fail(
             "its values are not those its run wrote (their SHA-256 differs from shard.json's values_sha256): a file was changed or damaged; rerun the shard".into(),
@@ -289,37 +290,17 @@ fn unpadded(row: &[f64]) -> Vec<f64> {
     row[..end].to_vec()
 }
 
-/// The shard's final states, flat (none when it kept none), checked against the manifest's
-/// shape.
-fn read_state(dir: &Path, manifest: &ShardManifest) -> Result<Vec<f64>, String> {
-    if manifest.final_state == 0 {
+/// The shard's `name` (`shard_strobe.npy`, `shard_state.npy`): `width` values per member,
+/// flat (none when it kept none, `width` 0), checked against the manifest's shape.
+fn read_block(dir: &Path, name: &str, members: usize, width: usize) -> Result<Vec<f64>, String> {
+    if width == 0 {
         return Ok(Vec::new());
     }
-    let (shape, flat) = read_npy(&dir.join("shard_state.npy"))?;
-    if shape != [manifest.members, manifest.final_state] {
+    let (shape, flat) = read_npy(&dir.join(name))?;
+    if shape != [members, width] {
         return Err(format!(
-            "shard_state.npy has shape {}, the manifest says {} × {}",
+            "{name} has shape {}, the manifest says {members} × {width}",
             pendulum_atlas_core::text::shape(&shape),
-            manifest.members,
-            manifest.final_state
-        ));
-    }
-    Ok(flat)
-}
-
-/// The shard's stroboscopic tails, flat (none when it kept none), checked against the
-/// manifest's shape.
-fn read_strobe(dir: &Path, manifest: &ShardManifest) -> Result<Vec<f64>, String> {
-    if manifest.strobe_tail == 0 {
-        return Ok(Vec::new());
-    }
-    let (shape, flat) = read_npy(&dir.join("shard_strobe.npy"))?;
-    if shape != [manifest.members, manifest.strobe_tail] {
-        return Err(format!(
-            "shard_strobe.npy has shape {}, the manifest says {} × {}",
-            pendulum_atlas_core::text::shape(&shape),
-            manifest.members,
-            manifest.strobe_tail
         ));
     }
     Ok(flat)
