@@ -6,11 +6,12 @@ use pendulum_atlas_studies::bench::cpu_report::write_cpu_throughput;
 use pendulum_atlas_studies::bench::cpu_throughput::{CpuThroughputOptions, run_cpu_throughput};
 use pendulum_atlas_studies::bench::gpu_report::write_throughput;
 use pendulum_atlas_studies::bench::gpu_throughput::{SEGMENTS, ThroughputOptions, run_throughput};
+use pendulum_atlas_studies::bench::planes::{fit_planes, read_plane, write_planes};
 use pendulum_atlas_studies::bench::stiff::{StiffOptions, run_stiff};
 use pendulum_atlas_studies::bench::stiff_map::{StiffMapOptions, run_stiff_map};
 use pendulum_atlas_studies::bench::stiff_map_report::write_stiff_map;
 use pendulum_atlas_studies::bench::stiff_report::write_stiff;
-use pendulum_atlas_studies::bench::verdict::{VerdictOptions, run_verdict};
+use pendulum_atlas_studies::bench::verdict::{Plane, VerdictOptions, run_verdict};
 use pendulum_atlas_studies::bench::verdict_report::write_verdict;
 use pendulum_atlas_studies::bench::{BenchOptions, report::write_bench, run_bench};
 use std::path::PathBuf;
@@ -47,13 +48,25 @@ pub struct BenchArgs {
     /// metrics; the peers' results from --peers (writes GPU.md and gpu_throughput.json).
     #[arg(long, conflicts_with_all = ["stiff", "stiff_map", "cpu_throughput"])]
     pub throughput: bool,
-    /// The map's accuracy instead: a converged reference of a 192-cell subgrid of the default
-    /// map (CPU f64, 2000 s and 4000 s), then the default map's settings (duration, λ1 window,
-    /// float type, engine, which indicators decide) scored against it, and the whole map's
-    /// cost with and without the verdict (writes VERDICT.md and verdict.json; about half an
-    /// hour on 2 cores, `--quick` a minute).
+    /// The map's accuracy instead: a converged reference of a 192-cell subgrid of the plane
+    /// (CPU f64, 1000 s and 2000 s at rtol 1e-6, and 1000 s at 1e-7), then the map's settings
+    /// (duration, λ1 window, float type, engine, which indicators decide) scored against it,
+    /// the whole map's cost with and without the verdict, the reliability of its confidence
+    /// and settling (writes VERDICT.md and verdict.json; about half an hour on 2 cores,
+    /// `--quick` two minutes).
     #[arg(long, conflicts_with_all = ["stiff", "stiff_map", "cpu_throughput", "throughput"])]
     pub verdict: bool,
+    /// The confidence fitted beyond one plane instead: read the verdict studies in these
+    /// folders (one per plane, each from `bench --verdict --plane P`), fit the confidence
+    /// tables on all of them and on all but each one, and score each plane held out (writes
+    /// PLANES.md and planes.json; seconds).
+    #[arg(long, num_args = 2.., value_name = "DIR",
+          conflicts_with_all = ["stiff", "stiff_map", "cpu_throughput", "throughput", "verdict", "refine"])]
+    pub verdict_fit: Vec<PathBuf>,
+    /// The plane of --verdict: `forcing` (the default map), `clearance` (frequency × the
+    /// bumpers' clearance at 9 mm) or `piezo` (the forcing plane with the patch harvesting).
+    #[arg(long, value_enum, default_value_t = PlaneArg::Forcing, requires = "verdict")]
+    pub plane: PlaneArg,
     /// What the early stop and adaptive refinement skip instead: the default map's scene on a
     /// 257 × 193 grid in full, with the early stop, and with both, on the CPU engine and (when
     /// open) the GPU engine: instance-steps, wall time, equal regimes (writes REFINE.md and
@@ -101,6 +114,8 @@ pub struct BenchArgs {
 fn study(a: &BenchArgs) -> Product {
     if a.verdict {
         Product::BenchVerdict
+    } else if !a.verdict_fit.is_empty() {
+        Product::BenchPlanes
     } else if a.refine {
         Product::BenchRefine
     } else if a.throughput {
@@ -122,6 +137,9 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
         anyhow::bail!("--peers needs --cpu-throughput or --throughput");
     }
     super::claim_out(study(&a), &a.out, a.force)?;
+    if !a.verdict_fit.is_empty() {
+        return verdict_fit(&a);
+    }
     // The GPU device is opened once here and reused by every configuration.
     let mut gpu = match a.backend {
         BackendArg::Cpu => None,
@@ -241,12 +259,59 @@ fn refine(a: &BenchArgs, gpu: Option<&pendulum_atlas_core::engine::Engine>) -> a
     Ok(())
 }
 
+/// `bench --verdict-fit DIR…`.
+fn verdict_fit(a: &BenchArgs) -> anyhow::Result<()> {
+    let planes = a
+        .verdict_fit
+        .iter()
+        .map(|d| read_plane(d))
+        .collect::<Result<Vec<_>, _>>()?;
+    let report = fit_planes(&planes, &a.verdict_fit)?;
+    let files = write_planes(&a.out, &report)?;
+    for t in &report.tables {
+        for h in &t.held_out {
+            tell!(
+                "{} held out of {}: {} of {} settled cells firm, {} right",
+                h.plane.name(),
+                t.which.table(),
+                h.firm.cells,
+                h.firm.settled,
+                h.firm.right
+            );
+        }
+    }
+    say!("wrote {} files to {}", files.len(), a.out.display());
+    Ok(())
+}
+
+/// The planes of `bench --verdict`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PlaneArg {
+    /// The embedded default map: frequency × amplitude (configs/maps/default.toml).
+    Forcing,
+    /// Frequency × clearance at A = 9 mm (configs/maps/verdict_clearance.toml).
+    Clearance,
+    /// The forcing plane with the piezo patch (configs/maps/verdict_piezo.toml).
+    Piezo,
+}
+
+impl From<PlaneArg> for Plane {
+    fn from(p: PlaneArg) -> Plane {
+        match p {
+            PlaneArg::Forcing => Plane::Forcing,
+            PlaneArg::Clearance => Plane::Clearance,
+            PlaneArg::Piezo => Plane::Piezo,
+        }
+    }
+}
+
 /// `bench --verdict`.
 fn verdict(a: &BenchArgs, gpu: Option<&pendulum_atlas_core::engine::Engine>) -> anyhow::Result<()> {
     let report = run_verdict(
         &VerdictOptions {
             quick: a.quick,
             gpu,
+            plane: a.plane.into(),
         },
         &|line| tell!("{line}"),
     )?;

@@ -182,14 +182,40 @@ fn every_map_of_the_study_gives_k_enough_samples() {
     }
 }
 
+/// Every plane of the verdict study is a map of 64 × 48 cells (so that its subgrids thin
+/// alike) over two keys, with the verdict among its metrics and settling on.
+#[test]
+fn every_plane_of_the_verdict_study_is_a_settling_map_of_64_by_48_cells() {
+    use pendulum_atlas_core::config::Metric;
+    use pendulum_atlas_core::config::map_from_toml;
+    use pendulum_atlas_studies::bench::verdict::Plane;
+    let mut keys = Vec::new();
+    for p in Plane::ALL {
+        let spec = map_from_toml(p.scene(), p.path(), &[]).unwrap_or_else(|e| panic!("{p:?}: {e}"));
+        assert_eq!(spec.shape(), vec![64, 48], "{p:?}");
+        assert!(spec.metrics.contains(&Metric::Regime), "{p:?}");
+        assert!(spec.settle_max_s.is_some(), "{p:?} does not settle");
+        keys.push((
+            spec.axes.iter().map(|a| a.key.clone()).collect::<Vec<_>>(),
+            spec.scene.piezo.enabled,
+        ));
+    }
+    // No two planes are the same map.
+    assert!(
+        keys[0] != keys[1] && keys[1] != keys[2] && keys[0] != keys[2],
+        "{keys:?}"
+    );
+}
+
 #[test]
 fn the_verdict_study_scores_candidates_on_the_settled_cells_of_its_reference() {
-    use pendulum_atlas_studies::bench::verdict::{Decider, VerdictOptions, run_verdict};
+    use pendulum_atlas_studies::bench::verdict::{Decider, Plane, VerdictOptions, run_verdict};
     use pendulum_atlas_studies::bench::verdict_report::write_verdict;
     let r = run_verdict(
         &VerdictOptions {
             quick: true,
             gpu: None,
+            plane: Plane::Forcing,
         },
         &|_| {},
     )
@@ -201,10 +227,17 @@ fn the_verdict_study_scores_candidates_on_the_settled_cells_of_its_reference() {
     assert_eq!(f.counts.iter().sum::<usize>(), 48);
     assert_eq!(f.settled, f.is_settled.iter().filter(|s| **s).count());
     assert!(f.settled + f.changed <= 48, "{f:?}");
+    // Subgrid A's reference checks its steps as well as its length; B's its length only.
+    assert!(f.tightened.is_some_and(|n| n <= 48), "{f:?}");
+    assert_eq!(r.second.tightened, None);
     for s in &r.scores {
         assert_eq!((s.settled, s.cells), (f.settled, 48));
         assert!(
             s.agree <= s.settled && s.period_right <= s.periodic,
+            "{s:?}"
+        );
+        assert!(
+            s.ref_periodic <= s.settled && s.ref_period_found <= s.ref_periodic,
             "{s:?}"
         );
     }
@@ -294,5 +327,28 @@ fn the_verdict_study_scores_candidates_on_the_settled_cells_of_its_reference() {
         "{page}"
     );
     assert_eq!(files.len(), 2);
+    // A fit across planes reads the scored cells back: the raw map's and the settled map's,
+    // both subgrids, as the study scored them.
+    let back = pendulum_atlas_studies::bench::planes::read_plane(&dir).expect("read back");
+    assert_eq!(back.plane, Plane::Forcing);
+    assert_eq!(back.raw.len(), f.settled + r.second.settled);
+    assert_eq!(back.settled.len(), back.raw.len());
+    let right = |cells: &[pendulum_atlas_studies::bench::reliability::ScoredCell]| {
+        cells.iter().filter(|c| c.right).count()
+    };
+    let binned = |rel: &pendulum_atlas_studies::bench::reliability::Reliability| {
+        rel.tables[2].1.iter().map(|b| b.right).sum::<usize>()
+    };
+    let unbinned = |cells: &[pendulum_atlas_studies::bench::reliability::ScoredCell]| {
+        cells
+            .iter()
+            .filter(|c| c.confidence.is_none() && c.right)
+            .count()
+    };
+    assert_eq!(right(&back.raw), binned(rel) + unbinned(&back.raw));
+    assert_eq!(
+        right(&back.settled),
+        binned(&g.reliability) + unbinned(&back.settled)
+    );
     std::fs::remove_dir_all(&dir).ok();
 }

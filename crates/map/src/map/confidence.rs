@@ -80,7 +80,8 @@ pub const SETTLED: Calibration = Calibration {
 };
 
 /// The bins of the table: (class, neighbourhood).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Bin {
     /// Chaotic, every neighbour agreeing.
     ChaoticAll,

@@ -52,11 +52,13 @@ pub enum Product {
     BenchVerdict,
     /// `bench --refine`: `REFINE.md`, `refine.json`.
     BenchRefine,
+    /// `bench --verdict-fit`: `PLANES.md`, `planes.json`.
+    BenchPlanes,
 }
 
 impl Product {
     /// Every product, for finding whose manifest a folder holds.
-    pub const ALL: [Product; 15] = [
+    pub const ALL: [Product; 16] = [
         Product::Simulate,
         Product::Map,
         Product::Shard,
@@ -72,6 +74,7 @@ impl Product {
         Product::BenchGpu,
         Product::BenchVerdict,
         Product::BenchRefine,
+        Product::BenchPlanes,
     ];
 
     /// The command that writes it (the bench studies share one and may share a folder).
@@ -91,7 +94,8 @@ impl Product {
             | Product::BenchCpu
             | Product::BenchGpu
             | Product::BenchVerdict
-            | Product::BenchRefine => "bench",
+            | Product::BenchRefine
+            | Product::BenchPlanes => "bench",
         }
     }
 
@@ -113,6 +117,7 @@ impl Product {
             Product::BenchGpu => "gpu_throughput.json",
             Product::BenchVerdict => "verdict.json",
             Product::BenchRefine => "refine.json",
+            Product::BenchPlanes => "planes.json",
         }
     }
 
@@ -159,6 +164,7 @@ impl Product {
             Product::BenchGpu => &["GPU.md"],
             Product::BenchVerdict => &["VERDICT.md"],
             Product::BenchRefine => &["REFINE.md"],
+            Product::BenchPlanes => &["PLANES.md"],
         }
     }
 

@@ -17,6 +17,7 @@ pub mod flops;
 pub mod gpu_report;
 pub mod gpu_throughput;
 pub mod peer_case;
+pub mod planes;
 pub mod reference;
 pub mod refine;
 pub mod reliability;

@@ -13,6 +13,11 @@ pub struct Reference {
     pub wall_s: f64,
     /// Cells whose verdict changes when the run doubles.
     pub changed: usize,
+    /// Cells whose verdict or period changes when the shorter run's tolerances are divided by
+    /// ten (`None`: not checked on this subgrid).
+    pub tightened: Option<usize>,
+    /// The relative tolerance of the runs' adaptive steps.
+    pub rtol: f64,
     /// Cells decided alike by both runs.
     pub settled: usize,
     /// Cells.

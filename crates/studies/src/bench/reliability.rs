@@ -13,7 +13,7 @@ use pendulum_atlas_core::config::c_order_index;
 use pendulum_atlas_core::reduce::Regime;
 use pendulum_atlas_map::map::MapRun;
 use pendulum_atlas_map::map::confidence::{Bin, Calibration, agreement};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// The confidence at or above which a verdict is called firm: the settling stage's threshold.
 pub use pendulum_atlas_core::config::FIRM;
@@ -21,15 +21,40 @@ pub use pendulum_atlas_core::config::FIRM;
 /// Edges of the reliability bins (the last bin includes 1).
 pub const EDGES: [f64; 6] = [0.0, 0.5, 0.7, 0.9, 0.95, 1.0];
 
+/// One settled cell as the confidence stage sees it.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
+pub struct ScoredCell {
+    /// Its bin (`None`: undecided or failed).
+    pub bin: Option<Bin>,
+    /// Its `verdict_confidence` (`None`: NaN, undecided).
+    pub confidence: Option<f64>,
+    /// Its λ1 confidence (`regime_confidence`, which caps it; `None`: NaN).
+    pub regime_confidence: Option<f64>,
+    /// Whether its verdict is the reference's.
+    pub right: bool,
+}
+
+impl ScoredCell {
+    /// (confidence, right), NaN where there is none.
+    fn shipped(&self) -> (f64, bool) {
+        (self.confidence.unwrap_or(f64::NAN), self.right)
+    }
+
+    /// The confidence table `t` gives the cell, capped by its λ1 confidence as the map caps
+    /// it (NaN where undecided).
+    pub fn under(&self, t: &Calibration) -> (f64, bool) {
+        let phi = self.regime_confidence.unwrap_or(f64::NAN);
+        (self.bin.map_or(f64::NAN, |b| t.of(b).min(phi)), self.right)
+    }
+}
+
 /// One subgrid's cells as the confidence stage sees them.
 #[derive(Debug, Clone, Serialize)]
 pub struct Scored {
     /// Which subgrid.
     pub name: &'static str,
-    /// Per settled cell: its bin (`None`: undecided), its confidence, its λ1 confidence
-    /// (`regime_confidence`, which caps it), and whether its verdict is the reference's.
-    #[serde(skip)]
-    pub cells: Vec<(Option<Bin>, f64, f64, bool)>,
+    /// Its settled cells.
+    pub cells: Vec<ScoredCell>,
     /// Settled cells.
     pub settled: usize,
 }
@@ -84,6 +109,8 @@ pub struct Reliability {
     pub shipped: Calibration,
     /// Whether the shipped table equals the pooled fit.
     pub shipped_is_pooled: bool,
+    /// The scored cells of both subgrids (what a fit across planes reads back).
+    pub scored: Vec<Scored>,
 }
 
 /// The settled cells of the subgrid at `offset` (every `thin`th value of each axis) of the
@@ -106,12 +133,13 @@ pub fn score_subgrid(
         let k = grid_index(shape, (thin, offset), j);
         let r = &run.results[k];
         let bin = Bin::of(r.regime, agreement(shape, k, |m| verdicts[m]));
-        cells.push((
+        let finite = |x: f64| x.is_finite().then_some(x);
+        cells.push(ScoredCell {
             bin,
-            r.verdict_confidence,
-            r.regime_confidence,
-            r.regime.code() == want,
-        ));
+            confidence: finite(r.verdict_confidence),
+            regime_confidence: finite(r.regime_confidence),
+            right: r.regime.code() == want,
+        });
     }
     Scored {
         name,
@@ -134,7 +162,7 @@ pub fn grid_index(shape: &[usize], (thin, offset): (usize, usize), j: usize) -> 
 }
 
 /// The reliability table of confidences `conf` (NaN: undecided, in no bin).
-fn table(cells: &[(f64, bool)]) -> Vec<BinRow> {
+pub fn table(cells: &[(f64, bool)]) -> Vec<BinRow> {
     EDGES
         .windows(2)
         .map(|w| {
@@ -165,32 +193,28 @@ pub fn firm_of(cells: &[(f64, bool)], settled: usize) -> Firm {
     }
 }
 
-/// The confidence `t` gives each cell of `s`, capped by its λ1 confidence as the map caps it
-/// (NaN where undecided).
+/// The confidence `t` gives each cell of `s`.
 fn under(t: &Calibration, s: &Scored) -> Vec<(f64, bool)> {
-    s.cells
-        .iter()
-        .map(|(b, _, phi, ok)| (b.map_or(f64::NAN, |b| t.of(b).min(*phi)), *ok))
-        .collect()
+    s.cells.iter().map(|c| c.under(t)).collect()
 }
 
 fn fitted(s: &[&Scored]) -> Calibration {
-    let cells: Vec<(Bin, bool)> = s
-        .iter()
-        .flat_map(|s| {
-            s.cells
-                .iter()
-                .filter_map(|(b, _, _, ok)| b.map(|b| (b, *ok)))
-        })
+    fit(s.iter().flat_map(|s| &s.cells))
+}
+
+/// The table fitted on `cells`.
+pub fn fit<'a>(cells: impl IntoIterator<Item = &'a ScoredCell>) -> Calibration {
+    let binned: Vec<(Bin, bool)> = cells
+        .into_iter()
+        .filter_map(|c| c.bin.map(|b| (b, c.right)))
         .collect();
-    Calibration::fit(&cells)
+    Calibration::fit(&binned)
 }
 
 /// Stage 5 on the two scored subgrids of a map whose confidence came from `shipped`.
 pub fn reliability(a: &Scored, b: &Scored, applied: &Calibration) -> Reliability {
-    let shipped = |s: &Scored| -> Vec<(f64, bool)> {
-        s.cells.iter().map(|(_, c, _, ok)| (*c, *ok)).collect()
-    };
+    let shipped =
+        |s: &Scored| -> Vec<(f64, bool)> { s.cells.iter().map(ScoredCell::shipped).collect() };
     let both: Vec<(f64, bool)> = shipped(a).into_iter().chain(shipped(b)).collect();
     let tables = vec![
         ("A", table(&shipped(a)), firm_of(&shipped(a), a.settled)),
@@ -216,6 +240,7 @@ pub fn reliability(a: &Scored, b: &Scored, applied: &Calibration) -> Reliability
     ];
     let pooled = fitted(&[a, b]);
     Reliability {
+        scored: vec![a.clone(), b.clone()],
         tables,
         cross,
         pooled,

@@ -2,14 +2,17 @@
 //! per cell is the one a converged run gives, and at what wall time.
 //!
 //! Stages of [`run_verdict`]:
-//! 1. **Subgrid**: the embedded default map (`configs/maps/default.toml`) thinned to every
-//!    [`THIN`]th frequency and amplitude (16 × 12 = 192 cells), same scene and start.
+//! 1. **Subgrid**: the study's [`Plane`] (by default the embedded default map,
+//!    `configs/maps/default.toml`) thinned to every [`THIN`]th value of each axis
+//!    (16 × 12 = 192 cells), same scene and start.
 //! 2. **Reference**: the subgrid on the CPU engine in f64 for [`REFERENCE_S`] seconds and for
-//!    twice that (transient half the run), every indicator of the verdict at its strictest
-//!    useful setting (period window [`REFERENCE_PERIOD_WINDOW`], tolerance
-//!    [`REFERENCE_PERIOD_TOL_RAD`] rad). The share of cells whose verdict changes on doubling
-//!    shows that the reference has converged; the longer run's verdict is the reference, and a
-//!    cell is **settled** where both runs reach the same decided verdict.
+//!    twice that (transient half the run), adaptive steps at tolerances [`REFERENCE_RTOL`] and
+//!    [`REFERENCE_ATOL`], every indicator of the verdict at its strictest useful setting (period
+//!    window [`REFERENCE_PERIOD_WINDOW`], tolerance [`REFERENCE_PERIOD_TOL_RAD`] rad). Two
+//!    checks show that it has converged: the share of cells whose verdict changes on doubling
+//!    the run (its length), and on subgrid A the share whose verdict or period changes when the
+//!    shorter run's tolerances are divided by ten (its steps). The longer run's verdict is the
+//!    reference, and a cell is **settled** where both runs reach the same decided verdict.
 //! 3. **Candidates**: the subgrid under the settings a map could use — duration, the λ1
 //!    window, float type, engine, and which indicators decide ([`Decider`]) — each scored on
 //!    the settled cells: the share with the reference's verdict, the share of its periodic cells
@@ -25,27 +28,80 @@ use super::reliability::{Reliability, reliability, score_subgrid};
 use super::settling::{Settling, Subgrid, settling};
 use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, MapSpec, map_from_toml};
 use pendulum_atlas_core::engine::{Engine, EngineError, EngineKind, Precision, no_progress};
-use pendulum_atlas_core::reduce::Regime;
+use pendulum_atlas_core::reduce::{InstanceResult, Regime};
 use pendulum_atlas_map::map::confidence::SHIPPED;
 use pendulum_atlas_map::map::{MapRun, run_map};
 use serde::Serialize;
 use std::time::Instant;
 
-/// Every this-many-th frequency and amplitude of the default map's grid.
+/// Every this-many-th value of each axis of the plane's grid.
 pub const THIN: usize = 4;
 
+/// The plane a study runs on: a map scene of 64 × 48 cells over two keys, which the study
+/// thins into its subgrids A and B. Each plane builds its own reference.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Plane {
+    /// The embedded default map: forcing frequency × amplitude.
+    Forcing,
+    /// Frequency × the bumpers' clearance at A = 9 mm.
+    Clearance,
+    /// The forcing plane with the piezo patch harvesting.
+    Piezo,
+}
+
+impl Plane {
+    /// Every plane, in the study's order.
+    pub const ALL: [Plane; 3] = [Plane::Forcing, Plane::Clearance, Plane::Piezo];
+
+    /// The plane's name (`--plane`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Plane::Forcing => "forcing",
+            Plane::Clearance => "clearance",
+            Plane::Piezo => "piezo",
+        }
+    }
+
+    /// Where its scene lives in the repository.
+    pub fn path(self) -> &'static str {
+        match self {
+            Plane::Forcing => "configs/maps/default.toml",
+            Plane::Clearance => "configs/maps/verdict_clearance.toml",
+            Plane::Piezo => "configs/maps/verdict_piezo.toml",
+        }
+    }
+
+    /// Its map scene (TOML).
+    pub fn scene(self) -> &'static str {
+        match self {
+            Plane::Forcing => DEFAULT_MAP_TOML,
+            Plane::Clearance => include_str!("../../../../configs/maps/verdict_clearance.toml"),
+            Plane::Piezo => include_str!("../../../../configs/maps/verdict_piezo.toml"),
+        }
+    }
+}
+
 /// The reference's shorter run (s); the longer is twice this.
-pub const REFERENCE_S: f64 = 2000.0;
+pub const REFERENCE_S: f64 = 1000.0;
+
+/// The reference's relative tolerance of adaptive steps. At the maps' 1e-3 the strobe of a
+/// stable orbit jitters from return to return by more than the reference's period tolerance
+/// (each return takes other steps), and the reference called 20 of the 27 period-3 cells of
+/// subgrid A regular. At 1e-5, 1e-6 and 1e-7 (400-s runs of subgrid A) the verdicts agree on
+/// 188 of 192 cells and the regular class is empty but for one cell.
+pub const REFERENCE_RTOL: f64 = 1e-6;
+
+/// The reference's absolute tolerance (rad, rad/s), with [`REFERENCE_RTOL`].
+pub const REFERENCE_ATOL: f64 = 1e-8;
 
 /// The reference's period window (stroboscopic samples that must repeat).
 pub const REFERENCE_PERIOD_WINDOW: u32 = 64;
 
-/// The reference's period tolerance (rad). With the maps' own 1e-3, 5 of the 192 cells change
-/// their verdict when the run doubles from 2000 to 4000 s (chaotic bands narrower than 1e-3 rad
-/// that pass for an orbit in one run and not in the other); with 1e-4, 2. The price: a stable
-/// orbit of the fixed-step map that jitters by 1e-4 to 1e-3 rad from return to return (the
-/// onset of a contact falls at another point of a step each time) has no period in the
-/// reference, which calls it regular where a map may call it periodic.
+/// The reference's period tolerance (rad). With the maps' own 1e-3, 5 of the 192 cells changed
+/// their verdict when the run doubled from 2000 to 4000 s (chaotic bands narrower than 1e-3 rad
+/// that pass for an orbit in one run and not in the other); with 1e-4, 2. It needs steps whose
+/// error stays well below it from return to return ([`REFERENCE_RTOL`]).
 pub const REFERENCE_PERIOD_TOL_RAD: f64 = 1e-4;
 
 /// Which indicators decide a cell's verdict.
@@ -100,6 +156,10 @@ pub struct Score {
     pub periodic: usize,
     /// Of those, cells the reference calls periodic with the same period.
     pub period_right: usize,
+    /// Settled cells the reference calls periodic.
+    pub ref_periodic: usize,
+    /// Of those, cells the candidate calls periodic with the reference's period.
+    pub ref_period_found: usize,
     /// Cells the candidate leaves undecided (of all cells).
     pub undecided: usize,
     /// Cells in the subgrid.
@@ -114,6 +174,10 @@ impl Score {
     /// Share of periodic cells with the right period (%).
     pub fn period_pct(&self) -> f64 {
         pct(self.period_right, self.periodic)
+    }
+    /// Share of the reference's periodic cells given their period (%).
+    pub fn found_pct(&self) -> f64 {
+        pct(self.ref_period_found, self.ref_periodic)
     }
     /// Share of undecided cells (%).
     pub fn undecided_pct(&self) -> f64 {
@@ -145,6 +209,8 @@ pub struct Cost {
 /// Everything the study measured.
 #[derive(Debug, Clone, Serialize)]
 pub struct VerdictReport {
+    /// The plane.
+    pub plane: Plane,
     /// The subgrid takes every this-many-th value of each axis.
     pub thin: usize,
     /// Subgrid shape (frequencies, amplitudes).
@@ -171,22 +237,29 @@ pub struct VerdictOptions<'a> {
     pub quick: bool,
     /// The GPU engine, when one is open: its candidates join the CPU's.
     pub gpu: Option<&'a Engine>,
+    /// The plane.
+    pub plane: Plane,
 }
 
 /// The default map with `sets` applied, thinned to every `thin`th value of each axis.
-fn subgrid(sets: &[String], thin: usize) -> Result<MapSpec, EngineError> {
-    subgrid_at(sets, thin, 0)
+fn subgrid(plane: Plane, sets: &[String], thin: usize) -> Result<MapSpec, EngineError> {
+    subgrid_at(plane, sets, thin, 0)
 }
 
 /// The same from the `offset`th value of each axis.
 /// The map is raw (`map.settle = false`) unless `sets` asks for settling: the study's
 /// candidates and references are each one run of their length.
-fn subgrid_at(sets: &[String], thin: usize, offset: usize) -> Result<MapSpec, EngineError> {
+fn subgrid_at(
+    plane: Plane,
+    sets: &[String],
+    thin: usize,
+    offset: usize,
+) -> Result<MapSpec, EngineError> {
     let mut sets = sets.to_vec();
     if !sets.iter().any(|s| s.starts_with("map.settle")) {
         sets.push("map.settle=false".into());
     }
-    let mut spec = map_from_toml(DEFAULT_MAP_TOML, "the default map", &sets)?;
+    let mut spec = map_from_toml(plane.scene(), plane.path(), &sets)?;
     for axis in &mut spec.axes {
         axis.values = axis
             .values
@@ -214,10 +287,38 @@ fn timed(spec: &MapSpec, engine: &Engine) -> Result<(MapRun, f64), EngineError> 
     Ok((run, t0.elapsed().as_secs_f64()))
 }
 
+/// Which checks of convergence a reference run makes besides doubling its length.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Checks {
+    /// Doubling only.
+    Length,
+    /// Doubling, and the shorter run again at a tenth of the tolerances.
+    LengthAndSteps,
+}
+
+/// The reference's `--set` overrides of a run of `duration` s at tolerances `rtol`, `atol`.
+fn reference_sets(duration: f64, rtol: f64, atol: f64) -> Vec<String> {
+    let mut sets = timing_sets(duration, duration / 2.0, "[\"K\", \"period\", \"regime\"]");
+    sets.extend([
+        format!("map.period_window={REFERENCE_PERIOD_WINDOW}"),
+        format!("map.period_tol_rad={REFERENCE_PERIOD_TOL_RAD}"),
+        "map.lyapunov_window_s=\"whole\"".into(),
+        format!("integration.rtol={rtol:e}"),
+        format!("integration.atol={atol:e}"),
+    ]);
+    sets
+}
+
 /// Stage 2: the reference runs and their agreement, on the subgrid from `offset`.
-fn reference_run(quick: bool, thin: usize, offset: usize) -> Result<Reference, EngineError> {
+fn reference_run(
+    plane: Plane,
+    quick: bool,
+    thin: usize,
+    offset: usize,
+    checks: Checks,
+) -> Result<Reference, EngineError> {
     let short = if quick {
-        REFERENCE_S / 10.0
+        REFERENCE_S / 20.0
     } else {
         REFERENCE_S
     };
@@ -225,14 +326,30 @@ fn reference_run(quick: bool, thin: usize, offset: usize) -> Result<Reference, E
     let mut runs = Vec::new();
     let mut wall = 0.0;
     for d in [short, 2.0 * short] {
-        let mut sets = timing_sets(d, d / 2.0, "[\"K\", \"period\", \"regime\"]");
-        sets.push(format!("map.period_window={REFERENCE_PERIOD_WINDOW}"));
-        sets.push(format!("map.period_tol_rad={REFERENCE_PERIOD_TOL_RAD}"));
-        sets.push("map.lyapunov_window_s=\"whole\"".into());
-        let (run, s) = timed(&subgrid_at(&sets, thin, offset)?, &engine)?;
+        let sets = reference_sets(d, REFERENCE_RTOL, REFERENCE_ATOL);
+        let (run, s) = timed(&subgrid_at(plane, &sets, thin, offset)?, &engine)?;
         wall += s;
         runs.push(run);
     }
+    let tightened = match checks {
+        Checks::Length => None,
+        Checks::LengthAndSteps => {
+            let sets = reference_sets(short, REFERENCE_RTOL / 10.0, REFERENCE_ATOL / 10.0);
+            let (fine, s) = timed(&subgrid_at(plane, &sets, thin, offset)?, &engine)?;
+            wall += s;
+            let moved = |(x, y): (&InstanceResult, &InstanceResult)| {
+                x.regime != y.regime || x.period != y.period
+            };
+            Some(
+                runs[0]
+                    .results
+                    .iter()
+                    .zip(&fine.results)
+                    .filter(|p| moved(*p))
+                    .count(),
+            )
+        }
+    };
     let (a, b) = (&runs[0].results, &runs[1].results);
     let decided = |r: Regime| matches!(r, Regime::Periodic | Regime::Regular | Regime::Chaotic);
     let is_settled: Vec<bool> = a
@@ -252,6 +369,8 @@ fn reference_run(quick: bool, thin: usize, offset: usize) -> Result<Reference, E
             .zip(b)
             .filter(|(x, y)| x.regime != y.regime)
             .count(),
+        tightened,
+        rtol: REFERENCE_RTOL,
         settled: is_settled.iter().filter(|s| **s).count(),
         cells: b.len(),
         regime: b.iter().map(|r| r.regime.code()).collect(),
@@ -275,7 +394,7 @@ fn stop_times(run: &MapRun) -> Vec<f64> {
 }
 
 /// The verdict of a cell under `decider`.
-fn verdict(r: &pendulum_atlas_core::reduce::InstanceResult, decider: Decider) -> Regime {
+fn verdict(r: &InstanceResult, decider: Decider) -> Regime {
     match decider {
         Decider::Rule => r.regime,
         Decider::KAndPeriod if r.status != pendulum_atlas_core::model::Status::Ok => Regime::Failed,
@@ -290,7 +409,7 @@ fn score(
     c: Candidate,
     engine: &Engine,
     reference: &Reference,
-    thin: usize,
+    (plane, thin): (Plane, usize),
 ) -> Result<Score, EngineError> {
     let metrics = match c.decider {
         Decider::Rule => "[\"K\", \"period\", \"regime\"]",
@@ -301,13 +420,18 @@ fn score(
         Some(w) => format!("map.lyapunov_window_s={w}"),
         None => "map.lyapunov_window_s=\"whole\"".into(),
     });
-    let (run, wall_s) = timed(&subgrid(&sets, thin)?, engine)?;
+    let (run, wall_s) = timed(&subgrid(plane, &sets, thin)?, engine)?;
     let got: Vec<Regime> = run.results.iter().map(|r| verdict(r, c.decider)).collect();
     let settled: Vec<usize> = (0..got.len())
         .filter(|&k| reference.is_settled[k])
         .collect();
     let periodic: Vec<usize> = (0..got.len())
         .filter(|&k| got[k] == Regime::Periodic)
+        .collect();
+    let ref_periodic: Vec<usize> = settled
+        .iter()
+        .copied()
+        .filter(|&k| reference.regime[k] == Regime::Periodic.code())
         .collect();
     Ok(Score {
         candidate: c,
@@ -320,14 +444,21 @@ fn score(
         periodic: periodic.len(),
         period_right: periodic
             .iter()
-            .filter(|&&k| {
-                reference.regime[k] == Regime::Periodic.code()
-                    && reference.period[k] == run.results[k].period
-            })
+            .filter(|&&k| same_period(k, reference, &run.results[k]))
+            .count(),
+        ref_periodic: ref_periodic.len(),
+        ref_period_found: ref_periodic
+            .iter()
+            .filter(|&&k| got[k] == Regime::Periodic && same_period(k, reference, &run.results[k]))
             .count(),
         undecided: got.iter().filter(|r| **r == Regime::Undecided).count(),
         cells: got.len(),
     })
+}
+
+/// Whether the reference calls cell `k` periodic with the period of `r`.
+fn same_period(k: usize, reference: &Reference, r: &InstanceResult) -> bool {
+    reference.regime[k] == Regime::Periodic.code() && reference.period[k] == r.period
 }
 
 /// The candidates of the study on one engine.
@@ -370,15 +501,16 @@ fn candidates(quick: bool, backend: EngineKind) -> Vec<Candidate> {
 }
 
 /// Stage 4: the whole default map without and with the verdict; the latter's run too.
-fn cost(engine: &Engine) -> Result<(Cost, MapRun), EngineError> {
+fn cost(plane: Plane, engine: &Engine) -> Result<(Cost, MapRun), EngineError> {
     let baseline = subgrid(
+        plane,
         &[
             "map.metrics=[\"K\", \"R\", \"period\", \"hops\", \"impacts_per_s\", \"alpha_range\"]"
                 .into(),
         ],
         1,
     )?;
-    let shipped = subgrid(&[], 1)?;
+    let shipped = subgrid(plane, &[], 1)?;
     let (run, baseline_s) = timed(&baseline, engine)?;
     let (whole, verdict_s) = timed(&shipped, engine)?;
     let info = engine.info();
@@ -397,8 +529,9 @@ pub fn run_verdict(
     progress: &dyn Fn(&str),
 ) -> Result<VerdictReport, EngineError> {
     let t0 = Instant::now();
+    let plane = opts.plane;
     let thin = if opts.quick { 2 * THIN } else { THIN };
-    let reference = reference_run(opts.quick, thin, 0)?;
+    let reference = reference_run(plane, opts.quick, thin, 0, Checks::LengthAndSteps)?;
     progress(&format!(
         "reference: {} of {} cells change on doubling, {} settled ({:.0} s)",
         reference.changed, reference.cells, reference.settled, reference.wall_s
@@ -411,7 +544,7 @@ pub fn run_verdict(
     for (kind, gpu) in engines {
         for c in candidates(opts.quick, kind) {
             let cpu = Engine::cpu(c.precision);
-            let s = score(c, gpu.unwrap_or(&cpu), &reference, thin)?;
+            let s = score(c, gpu.unwrap_or(&cpu), &reference, (plane, thin))?;
             progress(&format!(
                 "{} {} {} s, window {:?} s, {}: {:.1} % agree, {:.1} % periods right, {:.1} % undecided ({:.1} s)",
                 kind.name(),
@@ -429,12 +562,15 @@ pub fn run_verdict(
     }
     let cpu64 = Engine::cpu(Precision::F64);
     let (cost, whole) = if opts.quick {
-        (None, run_map(&subgrid(&[], 1)?, &cpu64, &no_progress)?)
+        (
+            None,
+            run_map(&subgrid(plane, &[], 1)?, &cpu64, &no_progress)?,
+        )
     } else {
-        let (c, whole) = cost(&cpu64)?;
+        let (c, whole) = cost(plane, &cpu64)?;
         (Some(c), whole)
     };
-    let second = reference_run(opts.quick, thin, thin / 2)?;
+    let second = reference_run(plane, opts.quick, thin, thin / 2, Checks::Length)?;
     progress(&format!(
         "reference B (from value {}): {} of {} cells change on doubling, {} settled ({:.0} s)",
         thin / 2 + 1,
@@ -443,7 +579,7 @@ pub fn run_verdict(
         second.settled,
         second.wall_s
     ));
-    let shape = subgrid(&[], 1)?.shape();
+    let shape = subgrid(plane, &[], 1)?.shape();
     let score = |name, offset, r: &Reference| {
         score_subgrid(
             name,
@@ -471,13 +607,14 @@ pub fn run_verdict(
             reference: &second,
         },
     ];
-    let spec_with = |sets: &[String]| subgrid(sets, 1);
+    let spec_with = |sets: &[String]| subgrid(plane, sets, 1);
     let settling = settling(&whole, &spec_with, (&grids, thin), opts.quick, progress)?;
     let shape = {
-        let spec = subgrid(&[], thin)?;
+        let spec = subgrid(plane, &[], thin)?;
         [spec.axes[0].values.len(), spec.axes[1].values.len()]
     };
     Ok(VerdictReport {
+        plane,
         thin,
         shape,
         reference,

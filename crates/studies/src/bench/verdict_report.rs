@@ -1,5 +1,6 @@
 //! Files of `bench --verdict`: `verdict.json` and `VERDICT.md`.
 
+use super::reference::Reference;
 use super::reliability::{FIRM, Firm, Reliability};
 use super::settling::{SETTLED_TABLE_S, Settling};
 use super::verdict::{REFERENCE_PERIOD_TOL_RAD, REFERENCE_PERIOD_WINDOW, Score, VerdictReport};
@@ -30,13 +31,13 @@ fn score_rows(out: &mut String, r: &VerdictReport) {
     let base = r.scores.first().map_or(f64::NAN, |s| s.wall_s);
     let _ = writeln!(
         out,
-        "| engine | float | run / transient (s) | λ1 window | decided by | verdict = reference | periods right | undecided | wall (s) | × first row |\n|---|---|---|---|---|---|---|---|---|---|"
+        "| engine | float | run / transient (s) | λ1 window | decided by | verdict = reference | periods right | reference's periods found | undecided | wall (s) | × first row |\n|---|---|---|---|---|---|---|---|---|---|---|"
     );
     for s in &r.scores {
         let c = &s.candidate;
         let _ = writeln!(
             out,
-            "| {} | {} | {} / {} | {} | {} | {}/{} ({:.1} %) | {}/{} ({:.1} %) | {}/{} ({:.1} %) | {:.2} | {:.2} |",
+            "| {} | {} | {} / {} | {} | {} | {}/{} ({:.1} %) | {}/{} ({:.1} %) | {}/{} ({:.1} %) | {}/{} ({:.1} %) | {:.2} | {:.2} |",
             c.backend.name(),
             c.precision.name(),
             c.duration_s,
@@ -49,6 +50,9 @@ fn score_rows(out: &mut String, r: &VerdictReport) {
             s.period_right,
             s.periodic,
             s.period_pct(),
+            s.ref_period_found,
+            s.ref_periodic,
+            s.found_pct(),
             s.undecided,
             s.cells,
             s.undecided_pct(),
@@ -64,24 +68,31 @@ fn markdown(r: &VerdictReport) -> String {
     let _ = writeln!(
         s,
         "# The map's accuracy: verdicts against a converged reference\n\n\
-         Written by `pendulum-atlas bench --verdict` (`src/bench/verdict.rs`). The embedded \
-         default map's grid thinned to every {}th frequency and amplitude: {} × {} = {} cells, \
-         N = 3, same scene and start.\n",
-        r.thin, r.shape[0], r.shape[1], f.cells
+         Written by `pendulum-atlas bench --verdict --plane {}` \
+         (`crates/studies/src/bench/verdict.rs`). The plane `{}` thinned to every {}th value of \
+         each axis: {} × {} = {} cells, same scene and start.\n",
+        r.plane.name(),
+        r.plane.path(),
+        r.thin,
+        r.shape[0],
+        r.shape[1],
+        f.cells
     );
     let _ = writeln!(
         s,
-        "## Reference\n\nCPU f64, runs of {} s and {} s (transient half the run), period window \
-         {} samples at {} rad. Doubling the run changes the verdict of **{} of {} cells ({:.1} %)**; \
-         {} cells are settled (both runs reach the same decided verdict). Verdicts of the longer \
-         run: {}. Wall time {:.0} s.\n",
+        "## Reference\n\nCPU f64, runs of {} s and {} s (transient half the run), adaptive steps \
+         at rtol {:e} and atol a hundredth of it, period window {} samples at {} rad. Doubling the \
+         run changes the verdict of **{} of {} cells ({:.1} %)**; {}. {} cells are settled (both \
+         runs reach the same decided verdict). Verdicts of the longer run: {}. Wall time {:.0} s.\n",
         f.durations_s[0],
         f.durations_s[1],
+        f.rtol,
         REFERENCE_PERIOD_WINDOW,
         REFERENCE_PERIOD_TOL_RAD,
         f.changed,
         f.cells,
         100.0 * f.changed as f64 / f.cells as f64,
+        tightened(f),
         f.settled,
         Regime::ALL
             .iter()
@@ -95,7 +106,8 @@ fn markdown(r: &VerdictReport) -> String {
         s,
         "## Candidates\n\n\"verdict = reference\" is over the settled cells; \"periods right\" \
          over the cells the candidate calls periodic (the reference periodic with the same \
-         period); \"undecided\" over all cells. Wall time of the subgrid alone, noisy at a few \
+         period); \"reference's periods found\" over the settled cells the reference calls \
+         periodic (the candidate periodic with the same period); \"undecided\" over all cells. Wall time of the subgrid alone, noisy at a few \
          seconds; the whole map's cost is below.\n"
     );
     score_rows(&mut s, r);
@@ -115,6 +127,19 @@ fn markdown(r: &VerdictReport) -> String {
     settling(&mut s, &r.settling);
     let _ = writeln!(s, "\nStudy wall time {:.0} s.", r.total_s);
     s
+}
+
+/// The step check of a reference, in words.
+fn tightened(f: &Reference) -> String {
+    match f.tightened {
+        Some(n) => format!(
+            "dividing the shorter run's tolerances by ten changes the verdict or period of **{n} \
+             of {} cells ({:.1} %)**",
+            f.cells,
+            100.0 * n as f64 / f.cells as f64
+        ),
+        None => "its steps are not checked on this subgrid".into(),
+    }
 }
 
 /// `3rd`, `5th`.
