@@ -11,15 +11,16 @@
 #       benches/gpu_lease.sh run
 #   benches/gpu_lease.sh unpack FILE      # here: the results into docs/bench/gpu/<adapter>/
 #
-# `run` checks that a hardware adapter is listed (not only llvmpipe), runs the default map
-# (what the hardware probe picks), then `bench --throughput` at N = 3 and 17 in each state layout
-# (gpu.layout; GPU rows only, each row within 6 s), the map as written (N = 3, 64 x 48) on the
-# GPU in both layouts and on the CPU engine for parity, and last the GPU peers
-# (benches/peers/run_gpu_peers.sh: the CUDA kernel and JAX on the same GPU, at most 120 s).
-# On an NVIDIA H100 (2026-11-26) the whole took 280 s (docs/bench/gpu/nvidia-h100-80gb-hbm3/).
-# Each step is bounded by `timeout`; its log and results go under $OUT as they finish, so a
-# call cut short still brings back what it had: one tarball, gpu_lease.tar.gz, plus each
-# layout's GPU.md and the log to read at once.
+# `run` checks that a hardware adapter is listed (not only llvmpipe), runs the default map as
+# the README runs it (auto backend: what the hardware probe picks), then `bench --throughput`
+# at N = 3, 9 and 17, RK4 and IMEX, 10^3 to 10^6 instances (GPU rows only, each within 6 s;
+# kernel time from the device's clock beside wall time), the N = 17 default plane (34 s,
+# adaptive steps, lambda1 and the regime, raw as issue 58's target reads it), the map as
+# written (N = 3, 64 x 48) on the GPU and on the CPU engine for parity, and last the GPU peers
+# (benches/peers/run_gpu_peers.sh: the CUDA kernel and JAX on the same GPU, at most 100 s).
+# Each step is bounded by `timeout` (560 s in all); its log and results go under $OUT as they
+# finish, so a call cut short still brings back what it had: one tarball, gpu_lease.tar.gz,
+# plus GPU.md and the log to read at once.
 # Budget: one call of under 10 minutes on an H100 (the study's rows are each bounded by
 # --row-budget-s); give the call timeout_s 600.
 #
@@ -87,41 +88,44 @@ run() {
     exit 3
   fi
   local small=(--set 'map.axes=[{key="excitation.frequency_hz",start=11.0,end=12.0,count=4},{key="excitation.amplitude_m",start=0.004,end=0.025,count=4}]')
-  # Order: what the lease is for first (the two layouts' occupancy sweep), the peers last; each
-  # step is bounded by `timeout`, so the whole call stays under 8 minutes on an H100.
-  echo "== default map"
+  # Order: what the lease is for first, the peers last; each step is bounded by `timeout`.
+  echo "== default map (as the README runs it)"
   SECONDS=0
   if [ -n "$dry" ]; then
-    "$bin" map "${small[@]}" --backend gpu --out "$work/map" --force
+    "$bin" map "${small[@]}" --out "$work/map" --force
   else
-    timeout 90 "$bin" map --backend gpu --out "$work/map" --force || echo "default map: rc $?"
+    timeout 60 "$bin" map --out "$work/map" --force || echo "default map: rc $?"
   fi
   echo "default map: ${SECONDS} s"
   rm -f "$work/map"/*.npy "$work/map"/*.csv
   pack
-  # The occupancy sweep (10^3 to 10^6 instances at N = 3 and 17) in both state layouts.
-  local study=(--no-cpu --segments 3,17 --row-budget-s 6)
+  # The occupancy sweep: 10^3 to 10^6 instances at N = 3, 9, 17, RK4 and IMEX.
+  local study=(--no-cpu --segments 3,9,17 --row-budget-s 6)
   [ -z "$dry" ] || study=(--no-cpu --segments 3 --max-instances 1000 --row-budget-s 5)
-  for layout in private global; do
-    echo "== bench --throughput --gpu-layout $layout ${study[*]}"
-    SECONDS=0
-    timeout 150 "$bin" bench --throughput --gpu-layout "$layout" "${study[@]}" \
-      --out "$work/gpu_$layout" --force || echo "study ($layout): rc $?"
-    echo "study ($layout): ${SECONDS} s"
-    [ -f "$work/gpu_$layout/GPU.md" ] && cp "$work/gpu_$layout/GPU.md" "$out/GPU_$layout.md"
-    pack
-  done
-  # Parity on this hardware: the map as written (N = 3, 64 x 48) on the GPU in both state
-  # layouts and on the CPU engine in f64; their .npy files come back to be compared cell by cell.
+  echo "== bench --throughput ${study[*]}"
+  SECONDS=0
+  timeout 180 "$bin" bench --throughput "${study[@]}" --out "$work/gpu" --force || echo "study: rc $?"
+  echo "study: ${SECONDS} s"
+  [ -f "$work/gpu/GPU.md" ] && cp "$work/gpu/GPU.md" "$out/GPU.md"
+  pack
+  # The N = 17 default plane: 64 x 48 cells, 34 s, adaptive steps, lambda1 and the regime.
+  echo "== N = 17 default plane"
+  local plane=(--set beam.segments=17 --set map.settle=false)
+  [ -z "$dry" ] || plane+=("${small[@]}")
+  SECONDS=0
+  timeout 120 "$bin" map --backend gpu "${plane[@]}" --out "$work/plane17" --force || echo "N = 17 plane: rc $?"
+  echo "N = 17 plane: ${SECONDS} s"
+  rm -f "$work/plane17"/*.png "$work/plane17"/*.csv
+  pack
+  # Parity on this hardware: the map as written (N = 3, 64 x 48) on the GPU and on the CPU
+  # engine in f64; their .npy files come back to be compared cell by cell.
   echo "== parity maps"
   local parity=(--set beam.segments=3)
   [ -z "$dry" ] || parity+=("${small[@]}")
-  for layout in private global; do
-    SECONDS=0
-    timeout 60 "$bin" map --backend gpu "${parity[@]}" --set "gpu.layout=\"$layout\"" \
-      --out "$work/parity_gpu_$layout" --force || echo "parity map ($layout): rc $?"
-    echo "parity map, GPU ($layout): ${SECONDS} s"
-  done
+  SECONDS=0
+  timeout 40 "$bin" map --backend gpu "${parity[@]}" --out "$work/parity_gpu" --force \
+    || echo "parity map (GPU): rc $?"
+  echo "parity map, GPU: ${SECONDS} s"
   SECONDS=0
   timeout 60 "$bin" map --backend cpu "${parity[@]}" --out "$work/parity_cpu" --force \
     || echo "parity map (CPU): rc $?"
@@ -130,9 +134,9 @@ run() {
   pack
   local peers_rc=0
   if [ -z "$dry" ]; then
-    echo "== peers (at most 120 s)"
+    echo "== peers (at most 100 s)"
     SECONDS=0
-    timeout 120 benches/peers/run_gpu_peers.sh docs/bench/cpu "$work/peers" || peers_rc=$?
+    timeout 100 benches/peers/run_gpu_peers.sh docs/bench/cpu "$work/peers" || peers_rc=$?
     [ "$peers_rc" -eq 0 ] || echo "peers failed (rc $peers_rc): what they wrote comes back"
     rm -f "$work/peers/rk4_chain"
     echo "peers: ${SECONDS} s"
@@ -243,6 +247,7 @@ unpack() {
   for d in "$tmp"/gpu*/; do cp -r "$d" "$dest/$(basename "$d")"; done
   [ -d "$tmp/peers" ] && cp -r "$tmp/peers" "$dest/peers"
   [ -d "$tmp/map" ] && cp "$tmp/map/map.json" "$dest/default_map.json"
+  [ -d "$tmp/plane17" ] && cp -r "$tmp/plane17" "$dest/plane17"
   for d in "$tmp"/parity_*/; do cp -r "$d" "$dest/$(basename "$d")"; done
   cp "$tmp/adapters.txt" "$dest/adapters.txt"
   find "$dest" -name .pendulum-atlas.lock -delete   # the run's folder locks, not results

@@ -89,11 +89,6 @@ pub struct BenchArgs {
     #[arg(long, value_delimiter = ',', requires = "throughput",
           value_parser = clap::value_parser!(u64).range(1..=64))]
     pub segments: Vec<u64>,
-    /// Where the --throughput study's GPU kernels keep their working arrays: private
-    /// (per-invocation arrays) or global (a storage buffer); the rows name it. Default: each
-    /// workload's `gpu.layout` (auto).
-    #[arg(long, requires = "throughput", value_parser = ["private", "global"])]
-    pub gpu_layout: Option<String>,
     /// Leave the CPU engine out of the --throughput study.
     #[arg(long, requires = "throughput")]
     pub no_cpu: bool,
@@ -141,18 +136,11 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
         return verdict_fit(&a);
     }
     // The GPU device is opened once here and reused by every configuration.
-    let mut gpu = match a.backend {
+    let gpu = match a.backend {
         BackendArg::Cpu => None,
         BackendArg::Gpu => Some(super::engine::EngineArgs::gpu_engine()?),
         BackendArg::Auto => super::engine::EngineArgs::gpu_engine().ok(),
     };
-    if let (Some(g), Some(layout)) = (gpu.as_mut(), a.gpu_layout.as_deref()) {
-        use pendulum_atlas_core::engine::gpu::state_layout::StateLayout;
-        g.set_gpu_layout(Some(match layout {
-            "global" => StateLayout::Global,
-            _ => StateLayout::Private,
-        }));
-    }
     if a.cpu_throughput {
         return cpu_throughput(&a, gpu.as_ref());
     }

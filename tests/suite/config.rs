@@ -570,3 +570,23 @@ fn settling_defaults_to_twice_the_run_and_a_run_too_long_for_that_maps_raw() {
     let given = map(&[long, "map.settle_max_s=100000.0"]).unwrap();
     assert_eq!(given.settle_max_s, Some(100000.0));
 }
+
+/// The removed `gpu.layout` (the working arrays in a storage buffer, slower on every adapter
+/// measured) is refused by name with the reason, in a scene or from `--set`; any other key of
+/// `[gpu]` is an unknown key.
+#[test]
+fn the_removed_gpu_layout_is_refused_with_its_reason() {
+    use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, map_from_toml};
+    let in_scene = format!("{DEFAULT_MAP_TOML}\n[gpu]\nlayout = \"global\"\n");
+    let from_set = ["gpu.layout=\"private\"".to_string()];
+    for e in [
+        map_from_toml(&in_scene, "<test>", &[]).unwrap_err(),
+        map_from_toml(DEFAULT_MAP_TOML, "<test>", &from_set).unwrap_err(),
+    ] {
+        let m = e.to_string();
+        assert!(m.contains("gpu.layout") && m.contains("was removed"), "{m}");
+    }
+    let other = map_from_toml(DEFAULT_MAP_TOML, "<test>", &["gpu.kernel=\"x\"".into()]);
+    let m = other.unwrap_err().to_string();
+    assert!(m.contains("unknown key `gpu.kernel`"), "{m}");
+}

@@ -143,7 +143,7 @@ fn throughput_refuses_bad_options_with_the_accepted_range() {
 }
 
 /// `benches/gpu_lease.sh run --dry`, the device call's script on whatever adapter there is
-/// (lavapipe here): every step runs and packs its results, both state layouts included.
+/// (lavapipe here): every step runs and packs its results.
 #[test]
 fn the_gpu_lease_script_runs_dry_on_this_adapter() {
     if crate::engine::gpu().is_none() {
@@ -166,21 +166,23 @@ fn the_gpu_lease_script_runs_dry_on_this_adapter() {
         .unwrap();
     let log = String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{log}");
-    for f in [
-        "log.txt",
-        "gpu_lease.tar.gz",
-        "GPU_private.md",
-        "GPU_global.md",
-    ] {
+    for f in ["log.txt", "gpu_lease.tar.gz", "GPU.md"] {
         assert!(out.join(f).is_file(), "{f} missing: {log}");
     }
-    let global = std::fs::read_to_string(out.join("GPU_global.md")).unwrap();
-    assert!(global.contains("[gpu.layout = global]"), "{global}");
-    for d in ["parity_gpu_private", "parity_gpu_global", "parity_cpu"] {
+    let study = std::fs::read_to_string(out.join("GPU.md")).unwrap();
+    assert!(
+        study.contains("| rk4 |") && study.contains("| imex |"),
+        "{study}"
+    );
+    for d in ["map", "plane17", "parity_gpu", "parity_cpu"] {
         assert!(
-            tmp.join("work").join(d).join("K.npy").is_file(),
+            tmp.join("work").join(d).join("map.json").is_file(),
             "{d}: {log}"
         );
     }
+    assert!(
+        log.contains("N = 17 plane:") && !log.contains(": rc "),
+        "{log}"
+    );
     std::fs::remove_dir_all(&tmp).ok();
 }

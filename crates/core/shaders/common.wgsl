@@ -155,7 +155,7 @@ struct Control {
 @group(0) @binding(11) var<storage, read_write> done: array<u32>;
 // The contact levers λ_i, N words per instance, sample-major: lever i of instance `inst` at
 // [at(inst, i)] (zero past the contact segment).
-@group(0) @binding(13) var<storage, read> levers: array<f32>;
+@group(0) @binding(12) var<storage, read> levers: array<f32>;
 
 // Word j of instance `inst` in the per-instance series (strobe, rwork, kc): sample-major, as
 // the state is, so that neighbouring invocations read and write neighbouring words (coalesced

@@ -446,7 +446,7 @@ pub fn a_map_runs_end_to_end_into_its_files(under: Under) {
     pendulum_atlas_map::output::map::write_map(&dir, &spec, &run).expect("files");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("map.json")).unwrap()).unwrap();
-    let backend = if matches!(under.eng, super::Eng::Gpu | super::Eng::GpuGlobal) {
+    let backend = if matches!(under.eng, super::Eng::Gpu) {
         "gpu"
     } else {
         "cpu"
@@ -546,7 +546,7 @@ pub fn a_cancel_from_the_progress_callback_stops_the_map(under: Under) {
     let err = run_map(&spec, engine, &cancel).expect_err("a cancelled map has no results");
     assert!(matches!(err, EngineError::Cancelled), "{err}");
     let after = calls.load(Ordering::SeqCst);
-    let in_flight = if matches!(under.eng, super::Eng::Gpu | super::Eng::GpuGlobal) {
+    let in_flight = if matches!(under.eng, super::Eng::Gpu) {
         1
     } else {
         1 + threads

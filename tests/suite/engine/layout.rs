@@ -6,7 +6,6 @@ use pendulum_atlas_core::engine::gpu::kernels::{SHADER_STAGES, shader_header, sh
 use pendulum_atlas_core::engine::gpu::layout::{
     ACCUM_ENGINE_WORDS, GpuAccum, GpuControl, GpuInstanceParams,
 };
-use pendulum_atlas_core::engine::gpu::state_layout::StateLayout;
 use pendulum_atlas_core::model::{CHECK_EVERY, Status};
 use pendulum_atlas_core::schema::{GPU_SLOTS, gpu_fields};
 
@@ -22,11 +21,7 @@ fn module() -> naga::Module {
 }
 
 fn module_for(segments: usize) -> naga::Module {
-    module_in(segments, StateLayout::Private)
-}
-
-fn module_in(segments: usize, layout: StateLayout) -> naga::Module {
-    let src = shader_source(segments, layout);
+    let src = shader_source(segments);
     naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{}", e.emit_to_string(&src)))
 }
 
@@ -111,19 +106,14 @@ fn the_assembled_shader_validates_without_an_adapter() {
     )
     .validate(&module())
     .unwrap_or_else(|e| panic!("{e:?}"));
-    // The global layout's source (the working arrays in a storage buffer) validates too, at
-    // the smallest and the largest N, and has no working array left in private memory.
-    for n in [1, 17, 64] {
-        let m = module_in(n, StateLayout::Global);
+    // At the smallest and the largest N too: the arrays are sized by N (MAX_SEG).
+    for n in [1, 64] {
         naga::valid::Validator::new(
             naga::valid::ValidationFlags::all(),
             naga::valid::Capabilities::default(),
         )
-        .validate(&m)
-        .unwrap_or_else(|e| panic!("global layout, N = {n}: {e:?}"));
-        let src = shader_source(n, StateLayout::Global);
-        assert!(!src.contains("array<f32, MAX_SEG>;"), "N = {n}");
-        assert!(src.contains("var<storage, read_write> work"), "N = {n}");
+        .validate(&module_for(n))
+        .unwrap_or_else(|e| panic!("N = {n}: {e:?}"));
     }
     // Every stage file of shaders/ is part of the assembly, and nothing else is there.
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/core/shaders");

@@ -14,7 +14,7 @@ mod continuation;
 mod faults;
 mod lanes;
 mod layout;
-mod layout_parity;
+mod runtime_checks;
 mod skip;
 mod verdict;
 
@@ -34,8 +34,6 @@ pub enum Eng {
     SimdF32,
     /// The GPU engine (f32).
     Gpu,
-    /// The GPU engine with its working arrays in a storage buffer (`gpu.layout = "global"`).
-    GpuGlobal,
 }
 
 /// An engine, an integration method and a step control.
@@ -62,13 +60,12 @@ impl Under {
             Eng::SimdF64 => Some(SIMD64.get_or_init(|| Engine::cpu(Precision::F64))),
             Eng::SimdF32 => Some(SIMD32.get_or_init(|| Engine::cpu(Precision::F32))),
             Eng::Gpu => gpu(),
-            Eng::GpuGlobal => gpu_global(),
         }
     }
 
     /// Single precision: the looser parity tolerances apply.
     pub fn is_f32(self) -> bool {
-        matches!(self.eng, Eng::SimdF32 | Eng::Gpu | Eng::GpuGlobal)
+        matches!(self.eng, Eng::SimdF32 | Eng::Gpu)
     }
 
     /// The CPU engine in f64 with the same method and step control: the reference of the
@@ -107,20 +104,6 @@ pub fn gpu() -> Option<&'static Engine> {
         );
     }
     e.as_ref()
-}
-
-/// A GPU engine of its own that runs every plan in the global layout, or `None` as [`gpu`].
-pub fn gpu_global() -> Option<&'static Engine> {
-    static GPU: OnceLock<Option<Engine>> = OnceLock::new();
-    gpu()?;
-    GPU.get_or_init(|| {
-        let mut e = Engine::open(Backend::Gpu, None).ok()?;
-        e.set_gpu_layout(Some(
-            pendulum_atlas_core::engine::gpu::state_layout::StateLayout::Global,
-        ));
-        Some(e)
-    })
-    .as_ref()
 }
 
 /// A GPU engine of its own whose kernels are built with wgpu's runtime checks, or `None` as
@@ -270,28 +253,6 @@ mod skip_suite {
     engine_suite!(skip:
         a_map_with_the_early_stop_equals_the_map_without_it,
         a_refined_map_keeps_its_computed_cells_and_fills_only_uniform_blocks,
-    );
-}
-
-/// The parity cases again on the GPU with its working arrays in a storage buffer
-/// (`gpu.layout = "global"`), with RK4. The rest of the suite runs on the private layout
-/// only: lavapipe integrates the global layout about 16× slower (its IMEX maps alone took over
-/// three minutes of CI), and `layout_parity.rs` checks the two layouts against each other:
-/// the same bits with RK4, the same statuses, verdicts and settled orbits with IMEX.
-mod global_layout_suite {
-    use super::cases;
-    use super::{Eng, Under};
-    engine_method!(
-        cases,
-        gpu_global_rk4,
-        GpuGlobal,
-        Rk4,
-        [
-            holder_angle_over_a_short_horizon_matches_the_reference_integrator,
-            reductions_equal_the_analysis_library_on_the_engines_own_series,
-            maps_agree_with_the_f64_cpu_engine_on_classes_r_and_statuses,
-            diverging_instances_are_flagged_like_on_the_f64_cpu_engine
-        ]
     );
 }
 

@@ -1,32 +1,23 @@
-//! The map's `[gpu]` keys: settings of the GPU engine that do not change the physics.
+//! The map's `[gpu]` section: settings of the GPU engine that do not change the physics.
+//!
+//! No key is read from it today. `gpu.layout` chose where an invocation kept its working
+//! arrays: `private` (`var<private>`) or `global` (a storage buffer, structure of arrays). The
+//! global layout was slower on every adapter measured (lavapipe 16.5×; an NVIDIA H100 in 29 of
+//! 29 rows) and was removed with the key; a scene that still sets it is refused with that reason.
 
-use serde::{Deserialize, Serialize};
+use super::error::ConfigError;
+use toml::Value;
 
-/// `gpu.layout`: where the GPU engine keeps an invocation's working arrays
-/// (`crate::engine::gpu::state_layout`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum LayoutChoice {
-    /// The engine's rule (today: private).
-    #[default]
-    Auto,
-    /// `var<private>` arrays.
-    Private,
-    /// A structure-of-arrays storage buffer.
-    Global,
-}
-
-impl LayoutChoice {
-    /// The accepted values of `gpu.layout`.
-    pub const NAMES: [&'static str; 3] = ["auto", "private", "global"];
-
-    /// The choice named `name`.
-    pub fn from_name(name: &str) -> Option<LayoutChoice> {
-        match name {
-            "auto" => Some(LayoutChoice::Auto),
-            "private" => Some(LayoutChoice::Private),
-            "global" => Some(LayoutChoice::Global),
-            _ => None,
-        }
+/// Refuse the removed keys of a map's `[gpu]` section `gpu`, each with its reason.
+pub fn refuse_removed(gpu: Option<&Value>) -> Result<(), ConfigError> {
+    if gpu.and_then(|g| g.get("layout")).is_some() {
+        return Err(ConfigError::Inconsistent {
+            key: "gpu.layout".into(),
+            reason: "was removed: the GPU kernels keep each invocation's arrays in private \
+                     memory, the layout measured faster on every adapter (docs/model.md §14); \
+                     delete the key"
+                .into(),
+        });
     }
+    Ok(())
 }

@@ -17,7 +17,6 @@
 use super::continuation::ContinuationSpec;
 use super::error::ConfigError;
 use super::field::SceneField;
-use super::gpu::LayoutChoice;
 use super::mode::{MapMode, ModeKeys, RefineFollow, RefineSpec};
 use super::reader::{Range, Reader, apply_override, parse_toml, set_key};
 use super::scene::{ExcitationKind, Scene};
@@ -95,8 +94,6 @@ pub struct MapSpec {
     /// Keys set but not used (the base scene's and the map's own), for the user.
     #[serde(skip)]
     pub notes: Vec<String>,
-    /// `gpu.layout`: where the GPU engine keeps an invocation's working arrays.
-    pub gpu_layout: LayoutChoice,
 }
 
 /// The size of the twin's separation, `d0` in the weighted state norm (`docs/analysis.md`, §9).
@@ -544,13 +541,11 @@ fn read_map(
     if !map.is_empty() {
         wrapped.insert("map".into(), Value::Table(map));
     }
+    super::gpu::refuse_removed(gpu.as_ref())?;
     if let Some(g) = gpu {
         wrapped.insert("gpu".into(), g);
     }
     let mut r = Reader::new(wrapped);
-    let gpu_layout =
-        LayoutChoice::from_name(&r.choice("gpu.layout", "auto", &LayoutChoice::NAMES)?)
-            .expect("a name the reader accepted");
 
     let axes = MAP_AXES.read(axes_value, None, axis_refusal)?;
     let metrics = read_metrics(metrics_value, &scene)?;
@@ -636,7 +631,6 @@ fn read_map(
         accept_huge,
         mode,
         notes,
-        gpu_layout,
     };
     // Every axis key must be a scene key that takes this kind of value, and one the scene
     // uses: check the first point.

@@ -372,20 +372,6 @@ impl Engine {
         }
     }
 
-    /// On the GPU engine, keep every plan's working arrays in `layout` (`None`: each plan's
-    /// own, from the map's `gpu.layout`), and say so in the engine's name (`info().device`),
-    /// so that a bench's rows name the layout. For tests and benches.
-    pub fn set_gpu_layout(&mut self, layout: Option<gpu::state_layout::StateLayout>) {
-        if let EngineImpl::Gpu(g) = &mut self.inner {
-            g.set_layout(layout);
-            let adapter = g.context().adapter_name.clone();
-            self.info.device = match layout {
-                Some(l) => format!("{adapter} [gpu.layout = {}]", l.name()),
-                None => adapter,
-            };
-        }
-    }
-
     /// The GPU engine on adapter `index` of [`gpu::list_adapters`].
     pub fn gpu_adapter(index: usize) -> Result<Engine, EngineError> {
         let t0 = Instant::now();

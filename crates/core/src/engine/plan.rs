@@ -10,7 +10,7 @@
 //! need: the stroboscopic α (K, period, bifurcation) and a power-of-two uniform α series at
 //! `samples_per_period` per period (R). Trajectories are never stored.
 
-use crate::config::{LayoutChoice, StepControl};
+use crate::config::StepControl;
 use crate::config::{
     LyapunovSettings, MapSpec, MethodChoice, Metric, Perturbation, Scene, TimeStep,
 };
@@ -181,9 +181,6 @@ pub struct EnsemblePlan {
     /// The twins' separation d0, when λ1 is asked for (resolved per float type by the engine:
     /// [`EnsemblePlan::twin_separation`]).
     pub perturbation: Option<Perturbation>,
-    /// Where the GPU engine keeps an invocation's working arrays, as asked (a map's
-    /// `gpu.layout`; `auto` for other ensembles): the GPU engine resolves it.
-    pub gpu_layout: LayoutChoice,
 }
 
 /// How the instances of an ensemble are sampled, and what they record.
@@ -262,9 +259,7 @@ impl EnsemblePlan {
         if !go_on(total) {
             return Err(EngineError::Cancelled);
         }
-        let mut plan = EnsemblePlan::from_scenes(&scenes, &EnsembleOptions::from_spec(spec))?;
-        plan.gpu_layout = spec.gpu_layout;
-        Ok(plan)
+        EnsemblePlan::from_scenes(&scenes, &EnsembleOptions::from_spec(spec))
     }
 
     /// Plan an ensemble of arbitrary validated scenes (a grid, a list of designs × frequencies
@@ -411,7 +406,6 @@ impl EnsemblePlan {
             perturbation: opts
                 .records(Source::Twin)
                 .then_some(opts.lyapunov.perturbation),
-            gpu_layout: LayoutChoice::Auto,
             instances,
         }
     }

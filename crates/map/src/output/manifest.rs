@@ -73,10 +73,6 @@ pub struct MapManifest {
     pub adapter: String,
     /// Float type (`f32` or `f64`).
     pub precision: String,
-    /// Where the GPU kernels kept their working arrays (`gpu.layout` resolved: `private` or
-    /// `global`); absent on the CPU engine.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub gpu_layout: Option<String>,
     /// Rigid segments N.
     pub segments: usize,
     /// Integration method (`rk4` or `imex`).

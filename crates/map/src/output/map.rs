@@ -6,7 +6,6 @@ use super::manifest::{ManifestAxis, MapManifest, StepRange};
 use crate::map::MapRun;
 use crate::map::continuation::ContinuationRun;
 use pendulum_atlas_core::config::{MapSpec, Metric};
-use pendulum_atlas_core::engine::gpu::state_layout::resolve;
 use pendulum_atlas_core::model::Status;
 use pendulum_atlas_core::reduce::{InstanceResult, Regime};
 use pendulum_atlas_core::schema::{Dtype, FIELDS, Field};
@@ -219,8 +218,6 @@ pub fn map_manifest(spec: &MapSpec, run: &MapRun, files: &[String]) -> MapManife
         backend_reason: run.engine.reason.clone(),
         adapter: run.engine.device.clone(),
         precision: word(&run.engine.precision),
-        gpu_layout: (run.engine.kind == pendulum_atlas_core::engine::EngineKind::Gpu)
-            .then(|| resolve(run.plan.gpu_layout).name().to_string()),
         segments: run.plan.segments,
         method: word(&run.plan.method),
         method_reason: run.plan.method_reason.clone(),

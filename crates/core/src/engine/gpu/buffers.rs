@@ -4,9 +4,8 @@
 use crate::engine::error::{EngineError, GpuFaultKind};
 use crate::engine::gpu::ReduceSettings;
 use crate::engine::gpu::context::GpuContext;
-use crate::engine::gpu::kernels::{KernelKey, WG, work_rows_per_instance};
+use crate::engine::gpu::kernels::{KernelKey, WG};
 use crate::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams, levers_of};
-use crate::engine::gpu::state_layout::StateLayout;
 use crate::engine::imex::ImexMatrices;
 use crate::engine::ladder::MAX_LEVEL;
 use crate::engine::method::Method;
@@ -30,13 +29,12 @@ pub struct Sizes {
     pub rwork_bytes: u64,
     pub kc_bytes: u64,
     pub early_bytes: u64,
-    pub work_bytes: u64,
     pub levers_bytes: u64,
 }
 
 impl Sizes {
     /// Bytes of the per-instance buffers: parameters, state, accumulators, the series, the
-    /// work space and the K_c values (the rest is a few kilobytes).
+    /// early-stop rings, the contact levers and the K_c values (the rest is a few kilobytes).
     pub fn device_bytes(&self) -> u64 {
         let n = self.n_inst as u64;
         n * (size_of::<GpuInstanceParams>() as u64 + 4 * self.state_len as u64)
@@ -45,7 +43,6 @@ impl Sizes {
             + self.rwork_bytes
             + self.kc_bytes
             + self.early_bytes
-            + self.work_bytes
             + self.levers_bytes
             + 8 * n
     }
@@ -84,7 +81,6 @@ impl Sizes {
             rwork_bytes: bytes(f.rwork)?,
             kc_bytes: bytes(f.kc)?,
             early_bytes: bytes(f.early)?,
-            work_bytes: bytes(f.work)?,
             levers_bytes: bytes(f.levers)?,
         })
     }
@@ -103,7 +99,6 @@ struct Footprint {
     rwork: (&'static str, u64),
     kc: (&'static str, u64),
     early: (&'static str, u64),
-    work: (&'static str, u64),
     levers: (&'static str, u64),
 }
 
@@ -147,18 +142,11 @@ impl Footprint {
                     4 * u64::from(GpuControl::zeroed().with_early(plan).1),
                 ),
             ),
-            work: (
-                "working arrays (gpu.layout = global)",
-                on(
-                    key.layout == StateLayout::Global,
-                    4 * (work_rows_per_instance() * plan.segments.max(1)) as u64,
-                ),
-            ),
             levers: ("contact levers", 4 * plan.segments.max(1) as u64),
         }
     }
 
-    fn buffers(&self) -> [(&'static str, u64); 9] {
+    fn buffers(&self) -> [(&'static str, u64); 8] {
         [
             self.levers,
             self.params,
@@ -168,7 +156,6 @@ impl Footprint {
             self.rwork,
             self.kc,
             self.early,
-            self.work,
         ]
     }
 }
@@ -431,7 +418,6 @@ impl Buffers {
         let rwork = create("rwork", sizes.rwork_bytes, sto);
         let kc = create("kc", sizes.kc_bytes, sto);
         let early = create("early", sizes.early_bytes, sto);
-        let work = create("work", sizes.work_bytes, sto);
         let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
         let control_buf = create("control", size_of::<GpuControl>() as u64, uniform);
         let invalid = pollster::block_on(invalid.pop());
@@ -461,8 +447,7 @@ impl Buffers {
                 entry(9, &early),
                 entry(10, &active),
                 entry(11, &done),
-                entry(12, &work),
-                entry(13, &levers),
+                entry(12, &levers),
             ],
         });
         Ok(Buffers {

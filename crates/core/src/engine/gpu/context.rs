@@ -3,7 +3,6 @@
 
 use crate::engine::error::{EngineError, GpuFaultKind};
 use crate::engine::gpu::kernels::{KernelKey, Kernels, shader_source};
-use crate::engine::gpu::state_layout::StateLayout;
 use std::cell::Cell;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -85,9 +84,8 @@ pub struct GpuContext {
     pipeline_layout: wgpu::PipelineLayout,
     /// Whether the kernels are built with wgpu's runtime checks ([`GpuContext::set_runtime_checks`]).
     runtime_checks: bool,
-    /// One shader module per segment count (its arrays are sized by N), state layout and
-    /// runtime checks.
-    modules: Mutex<HashMap<(usize, StateLayout, bool), Arc<wgpu::ShaderModule>>>,
+    /// One shader module per segment count (its arrays are sized by N) and runtime checks.
+    modules: Mutex<HashMap<(usize, bool), Arc<wgpu::ShaderModule>>>,
     kernels: Mutex<HashMap<KernelKey, Arc<Kernels>>>,
     health: Arc<Mutex<Health>>,
     /// The read-back buffer, kept across dispatches and runs and grown when too small.
@@ -263,7 +261,7 @@ impl GpuContext {
         cache
             .entry(*key)
             .or_insert_with(|| {
-                let module = self.module(key.segments, key.layout, key.runtime_checks);
+                let module = self.module(key.segments, key.runtime_checks);
                 Arc::new(Kernels::compile(
                     &self.device,
                     &self.pipeline_layout,
@@ -274,7 +272,7 @@ impl GpuContext {
             .clone()
     }
 
-    /// The shader module of chains of `segments` segments in `layout`, compiled on first use,
+    /// The shader module of chains of `segments` segments, compiled on first use,
     /// with wgpu's runtime checks where `checked`.
     ///
     /// Without them (the default) the module is trusted: wgpu adds no bounds check to an index
@@ -292,19 +290,14 @@ impl GpuContext {
     ///   constant, and the insertion sort of `k_final` moves down to index 0 at most.
     ///
     /// The engine suite runs maps with the checks on and off and requires the same bits.
-    fn module(
-        &self,
-        segments: usize,
-        layout: StateLayout,
-        checked: bool,
-    ) -> Arc<wgpu::ShaderModule> {
+    fn module(&self, segments: usize, checked: bool) -> Arc<wgpu::ShaderModule> {
         let mut modules = self.modules.lock().unwrap_or_else(|e| e.into_inner());
         modules
-            .entry((segments, layout, checked))
+            .entry((segments, checked))
             .or_insert_with(|| {
                 let desc = wgpu::ShaderModuleDescriptor {
                     label: Some("ensemble kernels"),
-                    source: wgpu::ShaderSource::Wgsl(shader_source(segments, layout).into()),
+                    source: wgpu::ShaderSource::Wgsl(shader_source(segments).into()),
                 };
                 Arc::new(if checked {
                     self.device.create_shader_module(desc)
@@ -379,8 +372,7 @@ fn pick_adapter(choice: AdapterChoice) -> Result<wgpu::Adapter, EngineError> {
         })
 }
 
-/// Bindings 0–13 of the kernels (see `shaders/common.wgsl`; 12 is the global layout's work
-/// buffer, a placeholder in the private layout; 13 the contact levers).
+/// Bindings 0–12 of the kernels (see `shaders/common.wgsl`; 12 the contact levers).
 fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
         binding,
@@ -416,8 +408,7 @@ fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             storage(9, false),
             storage(10, true),
             storage(11, false),
-            storage(12, false),
-            storage(13, true),
+            storage(12, true),
             uniform,
         ],
     })

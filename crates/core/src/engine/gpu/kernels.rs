@@ -9,7 +9,6 @@
 //! the shader never carries its own copy of a rule or coefficient defined in Rust.
 
 use crate::engine::gpu::layout::{TWIN_BROKEN, TWIN_RUNNING};
-use crate::engine::gpu::state_layout::{StateLayout, globalise, work_rows};
 use crate::engine::imex::{AE, AI, B, B_HAT, C, GAMMA};
 use crate::engine::ladder::{self, GROW, MAX_LEVEL};
 use crate::engine::method::Method;
@@ -110,24 +109,9 @@ pub fn shader_header(segments: usize) -> String {
     h
 }
 
-/// The complete WGSL source of the ensemble kernels for chains of `segments` segments, with
-/// the working arrays in `layout`.
-pub fn shader_source(segments: usize, layout: StateLayout) -> String {
-    let body = match layout {
-        StateLayout::Private => SHADER_BODY.to_string(),
-        StateLayout::Global => globalise(SHADER_BODY, &INSTANCE_LINES),
-    };
-    shader_header(segments) + &body
-}
-
-/// The lines where an entry point learns its instance (the global layout's `G_INST` is set
-/// after each).
-const INSTANCE_LINES: [&str; 2] = ["let inst = live[gid.x];", "let inst = gid.x;"];
-
-/// Rows of `MAX_SEG` words of the working arrays of one instance (the global layout's share
-/// of the work buffer).
-pub fn work_rows_per_instance() -> usize {
-    work_rows(SHADER_BODY)
+/// The complete WGSL source of the ensemble kernels for chains of `segments` segments.
+pub fn shader_source(segments: usize) -> String {
+    shader_header(segments) + SHADER_BODY
 }
 
 /// Everything the kernels are specialised on (their override constants): one compiled set of
@@ -164,8 +148,6 @@ pub struct KernelKey {
     pub want_early: bool,
     /// Adaptive steps on the ladder ([`crate::engine::adaptive`]), IMEX or RK4 by `method`.
     pub adaptive: bool,
-    /// Where the working arrays live.
-    pub layout: StateLayout,
     /// Built with wgpu's runtime checks ([`crate::engine::GpuContext::set_runtime_checks`]).
     pub runtime_checks: bool,
 }

@@ -6,7 +6,7 @@
 //! per-instance results (plus, when asked, the recorded series) come back.
 //!
 //! Stages of [`GpuEngine::run`]: the kernels of the plan's [`KernelKey`] (compiled once per
-//! [`GpuContext`], in the plan's [`state_layout`]), buffers sized against the adapter and
+//! [`GpuContext`]), buffers sized against the adapter and
 //! allocated in error scopes (`buffers`), integration dispatches sized by wall time, the R
 //! and K reductions (one submission each), the read-back through one kept buffer.
 //!
@@ -23,7 +23,6 @@ pub mod kernels;
 mod ladder_check;
 pub mod layout;
 pub mod slices;
-pub mod state_layout;
 
 pub use context::{AdapterChoice, AdapterListing, DeviceCounts, GpuContext, list_adapters};
 
@@ -43,7 +42,6 @@ use kernels::{KernelKey, Kernels, WG};
 use layout::{GPU_MAX_SEGMENTS, GpuAccum, GpuControl};
 use serde::Serialize;
 use slices::{Pass, Slicing, run_passes};
-use state_layout::StateLayout;
 use std::time::{Duration, Instant};
 
 /// Environment variable that turns "no GPU adapter" from a skip into a test failure.
@@ -140,7 +138,6 @@ impl ReduceSettings {
 pub struct GpuEngine {
     ctx: GpuContext,
     limits: GpuLimits,
-    layout: Option<StateLayout>,
 }
 
 /// How the engine splits its work, where a caller sets it (tests and benches).
@@ -159,14 +156,7 @@ impl GpuEngine {
         GpuEngine {
             ctx,
             limits: GpuLimits::default(),
-            layout: None,
         }
-    }
-
-    /// Run every plan with its working arrays in `layout` (`None`: each plan's own
-    /// `gpu_layout`, from the map's `gpu.layout`). For tests and benches.
-    pub fn set_layout(&mut self, layout: Option<StateLayout>) {
-        self.layout = layout;
     }
 
     /// Build the kernels with wgpu's runtime checks, or without ([`GpuContext::set_runtime_checks`]).
@@ -200,23 +190,12 @@ impl EnsembleEngine for GpuEngine {
         readback: Readback,
         progress: Progress,
     ) -> Result<EngineRun, EngineError> {
-        let layout = self
-            .layout
-            .unwrap_or(state_layout::resolve(plan.gpu_layout));
-        run_gpu(
-            &self.ctx,
-            plan,
-            reduce,
-            readback,
-            layout,
-            self.limits,
-            progress,
-        )
+        run_gpu(&self.ctx, plan, reduce, readback, self.limits, progress)
     }
 }
 
-/// The specialisation a plan needs, with its working arrays in `layout`.
-fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings, layout: StateLayout) -> KernelKey {
+/// The specialisation a plan needs.
+fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings) -> KernelKey {
     let want = |m: Metric| plan.metrics.contains(&m);
     KernelKey {
         segments: plan.segments,
@@ -234,7 +213,6 @@ fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings, layout: StateLayout)
         want_twin: Metric::any_from(&plan.metrics, Source::Twin),
         want_early: plan.early_stop.is_some(),
         adaptive: plan.is_adaptive(),
-        layout,
         runtime_checks: false,
     }
 }
@@ -247,7 +225,6 @@ pub fn run_gpu(
     plan: &EnsemblePlan,
     opts: &ReduceOptions,
     readback: Readback,
-    layout: StateLayout,
     limits: GpuLimits,
     progress: Progress,
 ) -> Result<EngineRun, EngineError> {
@@ -264,7 +241,7 @@ pub fn run_gpu(
     let reduce = ReduceSettings::from_options(opts);
     let key = KernelKey {
         runtime_checks: ctx.runtime_checks(),
-        ..kernel_key(plan, &reduce, layout)
+        ..kernel_key(plan, &reduce)
     };
     let n = plan.instances.len();
     let cap = batch_capacity(ctx, plan, &key)?.min(limits.max_batch.unwrap_or(usize::MAX));
