@@ -26,8 +26,7 @@ pub struct Reference {
     pub regime: Vec<i8>,
     /// The longer run's period per cell.
     pub period: Vec<f64>,
-    /// Whether a cell is settled.
-    #[serde(skip)]
+    /// Whether a cell is settled (both runs reach the same decided verdict).
     pub is_settled: Vec<bool>,
     /// The time the longer run's early stop stopped each cell at (s; NaN: it ran to its end).
     pub stop_s: Vec<f64>,
