@@ -87,9 +87,9 @@ pub const REFERENCE_S: f64 = 1000.0;
 
 /// The reference's relative tolerance of adaptive steps. At the maps' 1e-3 the strobe of a
 /// stable orbit jitters from return to return by more than the reference's period tolerance
-/// (each return takes other steps), and the reference called 20 of the 27 period-3 cells of
-/// subgrid A regular. At 1e-5, 1e-6 and 1e-7 (400-s runs of subgrid A) the verdicts agree on
-/// 188 of 192 cells and the regular class is empty but for one cell.
+/// (each return takes other steps), and the reference called 20 cells of subgrid A regular that
+/// are period 3 at 1e-5, 1e-6 and 1e-7. At those three (400-s runs of subgrid A) the verdicts
+/// agree on 188 of 192 cells and the regular class is empty but for one cell.
 pub const REFERENCE_RTOL: f64 = 1e-6;
 
 /// The reference's absolute tolerance (rad, rad/s), with [`REFERENCE_RTOL`].

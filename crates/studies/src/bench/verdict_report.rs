@@ -114,7 +114,7 @@ fn markdown(r: &VerdictReport) -> String {
     if let Some(c) = &r.cost {
         let _ = writeln!(
             s,
-            "\n## Cost of the whole default map\n\n{} cells on {}: today's metrics (K, R, period, \
+            "\n## Cost of the whole map\n\n{} cells on {}: today's metrics (K, R, period, \
              hops, impacts, α range) {:.1} s; as shipped (with the verdict) {:.1} s, **{:.2}×**.\n",
             c.cells,
             c.engine,
@@ -173,7 +173,7 @@ fn reliability(s: &mut String, r: &VerdictReport) {
     let _ = writeln!(
         s,
         "\n## Reliability of `verdict_confidence`\n\n\
-         The default map as shipped, run whole (so that every cell has its neighbours), scored \
+         The plane's map as shipped (raw), run whole (so that every cell has its neighbours), scored \
          on subgrid A (the study's, above) and on subgrid B: every {}th value of each axis from \
          the {}, with a reference of its own ({} s and {} s; {} of {} cells change on \
          doubling, {} settled; wall time {:.0} s). Bins of `verdict_confidence` over the settled \
@@ -275,7 +275,7 @@ fn settling(s: &mut String, g: &Settling) {
     let _ = writeln!(
         s,
         "\n## Transient chaos and settling (`map.settle_max_s`)\n\n\
-         Of the {} settled cells of A and B, the default map as shipped calls {} chaotic. The \
+         Of the {} settled cells of A and B, the plane's map as shipped (raw) calls {} chaotic. The \
          reference settles **{} of those** as periodic or regular: chaos at 34 s that is a \
          transient. The reference's early stop (orbit confirmed, λ1 shrinking) stopped {} of \
          them, at {} s (median {} s, largest {} s); {} ran to the reference's end (regular, no \
@@ -291,7 +291,7 @@ fn settling(s: &mut String, g: &Settling) {
     );
     let _ = writeln!(
         s,
-        "The whole default map with `map.settle_max_s`: the cells below confidence {FIRM} (or \
+        "The whole map of the plane with `map.settle_max_s`: the cells below confidence {FIRM} (or \
          undecided) run on to that time, with the early stop, from the map's end (the default) or \
          from their start (one run of that length); the rest keep their verdict. \
          Wall time of the whole map (one run each, the same engine); \"right\" over the settled \
