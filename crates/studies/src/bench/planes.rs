@@ -14,6 +14,7 @@
 
 use super::reliability::{BinRow, FIRM, Firm, ScoredCell, firm_of, fit, table};
 use super::verdict::Plane;
+use super::verdict_report::calibration_row;
 use pendulum_atlas_map::map::confidence::Calibration;
 use pendulum_atlas_map::output::OutputError;
 use pendulum_atlas_map::output::files::{create_dir, write_bytes, write_json};
@@ -275,28 +276,6 @@ pub fn write_planes(dir: &Path, r: &PlanesReport) -> Result<Vec<PathBuf>, Output
     ])
 }
 
-fn num(x: f64) -> String {
-    if x.is_nan() {
-        "–".into()
-    } else {
-        format!("{x}")
-    }
-}
-
-fn calibration_cells(t: &Calibration) -> String {
-    [
-        t.chaotic_all,
-        t.chaotic_some,
-        t.periodic_half,
-        t.periodic_few,
-        t.regular,
-        t.chaotic_mean,
-        t.periodic_mean,
-    ]
-    .map(num)
-    .join(" | ")
-}
-
 fn markdown(r: &PlanesReport) -> String {
     let mut s = String::new();
     let names: Vec<&str> = r.planes.iter().map(|p| p.name()).collect();
@@ -328,14 +307,14 @@ fn table_section(s: &mut String, t: &TableFit) {
             Which::Raw => "raw",
             Which::Settled => "settled",
         },
-        calibration_cells(&t.pooled)
+        calibration_row(&t.pooled)
     );
     for h in &t.held_out {
         let _ = writeln!(
             s,
             "| all but {} | {} |",
             h.plane.name(),
-            calibration_cells(&h.table)
+            calibration_row(&h.table)
         );
     }
     let _ = writeln!(

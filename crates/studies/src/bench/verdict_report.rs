@@ -154,17 +154,25 @@ fn ordinal(n: usize) -> String {
     format!("{n}{suffix}")
 }
 
-fn calibration_row(t: &Calibration) -> String {
-    format!(
-        "{} | {} | {} | {} | {} | {} | {}",
+/// A table's seven accuracies as the cells of a Markdown row (`–` where a bin had no cell).
+pub(crate) fn calibration_row(t: &Calibration) -> String {
+    [
         t.chaotic_all,
         t.chaotic_some,
         t.periodic_half,
         t.periodic_few,
         t.regular,
         t.chaotic_mean,
-        t.periodic_mean
-    )
+        t.periodic_mean,
+    ]
+    .map(|x| {
+        if x.is_nan() {
+            "–".into()
+        } else {
+            format!("{x}")
+        }
+    })
+    .join(" | ")
 }
 
 /// Stage 5: the reliability of `verdict_confidence` and the cross-fit of its table.
