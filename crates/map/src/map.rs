@@ -286,16 +286,19 @@ fn run_map_part(
     if shard.is_some() {
         check_shardable(spec)?;
     }
+    // The reductions' options, the same for every mode and every ensemble of the map.
+    let opts = ReduceOptions::from_spec(spec);
     match &spec.mode {
         MapMode::Attractors { .. } => {
-            return run_starts(plan.into_owned(), spec, engine, progress, t0);
+            return run_starts(plan.into_owned(), (spec, &opts), engine, progress, t0);
         }
         MapMode::Continuation(cs) => {
-            return run_continued(plan.into_owned(), spec, cs, engine, progress, t0);
+            let plan = plan.into_owned();
+            return run_continued(plan, (spec, &opts), cs, engine, progress, t0);
         }
         MapMode::Refined(rs) => {
             let plan_s = t0.elapsed().as_secs_f64();
-            let mut run = run_refined(plan.into_owned(), rs, spec, engine, progress)?;
+            let mut run = run_refined(plan.into_owned(), rs, (spec, &opts), engine, progress)?;
             run.timings.plan_s = plan_s;
             run.timings.total_s += plan_s;
             return Ok(run);
@@ -316,7 +319,6 @@ fn run_map_part(
     let tail = spec
         .bifurcation
         .then_some(spec.bifurcation_samples as usize);
-    let opts = ReduceOptions::from_spec(spec);
     let keep = spec.settle_max_s.is_some();
     let (mut run, final_state) = run_engine(plan, &opts, tail, keep, engine, progress)?;
     run.final_state = final_state;
@@ -331,7 +333,7 @@ fn run_map_part(
 /// picks each cell's representative.
 fn run_starts(
     plan: EnsemblePlan,
-    spec: &MapSpec,
+    (spec, opts): (&MapSpec, &ReduceOptions),
     engine: &Engine,
     progress: Progress,
     t0: Instant,
@@ -341,13 +343,7 @@ fn run_starts(
         .bifurcation
         .then_some(spec.bifurcation_samples as usize);
     let tail = bifurcation.unwrap_or(0).max(spec.period_max as usize);
-    let mut run = run_plan(
-        plan,
-        &ReduceOptions::from_spec(spec),
-        Some(tail),
-        engine,
-        progress,
-    )?;
+    let mut run = run_plan(plan, opts, Some(tail), engine, progress)?;
     let t_stage = Instant::now();
     let k = spec.starts_per_cell();
     let rule = AttractorRule::for_period_tol(spec.period_tol_rad);
@@ -434,7 +430,7 @@ impl StageTotals {
 /// direction, and `continuation` every direction and their hysteresis.
 fn run_continued(
     plan: EnsemblePlan,
-    spec: &MapSpec,
+    (spec, opts): (&MapSpec, &ReduceOptions),
     cs: &pendulum_atlas_core::config::ContinuationSpec,
     engine: &Engine,
     progress: Progress,
@@ -442,7 +438,6 @@ fn run_continued(
 ) -> Result<MapRun, EngineError> {
     let plan_s = t0.elapsed().as_secs_f64();
     let t_all = Instant::now();
-    let opts = ReduceOptions::from_spec(spec);
     let tail = (spec.period_max as usize).max(spec.bifurcation_samples as usize);
     let steps = (spec.axes[cs.axis].values.len() * cs.sweep.directions().len()) as u64;
     let mut step = 0u64;
@@ -460,7 +455,7 @@ fn run_continued(
         let j = step;
         let step_progress =
             |done: u64, total: u64, unit| progress(j * total + done, steps * total, unit);
-        let (run, final_state) = run_engine(part, &opts, Some(tail), true, engine, &step_progress)?;
+        let (run, final_state) = run_engine(part, opts, Some(tail), true, engine, &step_progress)?;
         step += 1;
         totals.add(&run);
         Ok(continuation::StepRun {
@@ -511,15 +506,14 @@ fn run_continued(
 fn run_refined(
     plan: EnsemblePlan,
     rs: &pendulum_atlas_core::config::RefineSpec,
-    spec: &MapSpec,
+    (spec, opts): (&MapSpec, &ReduceOptions),
     engine: &Engine,
     progress: Progress,
 ) -> Result<MapRun, EngineError> {
     let t_all = Instant::now();
-    let opts = ReduceOptions::from_spec(spec);
     let mut totals = StageTotals::default();
     let refined = refine::refine(spec, rs, |members| {
-        let run = run_plan(plan.select(members), &opts, None, engine, progress)?;
+        let run = run_plan(plan.select(members), opts, None, engine, progress)?;
         totals.add(&run);
         Ok(run.results)
     })?;

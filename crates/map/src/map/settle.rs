@@ -140,7 +140,9 @@ pub(crate) fn settle_cells(
         (rerun.clone(), long_plan.select(&rerun)),
     ];
     let tail = (!run.strobe_tail.is_empty()).then_some(spec.bifurcation_samples as usize);
-    let opts = ReduceOptions::from_spec(&long);
+    // (The map's own options: they do not depend on the run's length. Settling is a stage of
+    // its own, which `merge` runs on a merged map, so it reads them from the scene too.)
+    let opts = ReduceOptions::from_spec(spec);
     for (cells, plan) in groups {
         if cells.is_empty() {
             continue;
