@@ -7,11 +7,14 @@ use pendulum_atlas_studies::bench::cpu_throughput::{CpuThroughputOptions, run_cp
 use pendulum_atlas_studies::bench::gpu_report::write_throughput;
 use pendulum_atlas_studies::bench::gpu_throughput::{SEGMENTS, ThroughputOptions, run_throughput};
 use pendulum_atlas_studies::bench::planes::{fit_planes, read_plane, write_planes};
+use pendulum_atlas_studies::bench::reference::kept_references;
 use pendulum_atlas_studies::bench::stiff::{StiffOptions, run_stiff};
 use pendulum_atlas_studies::bench::stiff_map::{StiffMapOptions, run_stiff_map};
 use pendulum_atlas_studies::bench::stiff_map_report::write_stiff_map;
 use pendulum_atlas_studies::bench::stiff_report::write_stiff;
-use pendulum_atlas_studies::bench::verdict::{Plane, VerdictOptions, run_verdict};
+use pendulum_atlas_studies::bench::verdict::{
+    Kept, Plane, VerdictOptions, recover_settled, reference_durations, run_verdict, thinning,
+};
 use pendulum_atlas_studies::bench::verdict_report::write_verdict;
 use pendulum_atlas_studies::bench::{BenchOptions, report::write_bench, run_bench};
 use std::path::PathBuf;
@@ -67,6 +70,11 @@ pub struct BenchArgs {
     /// bumpers' clearance at 9 mm) or `piezo` (the forcing plane with the patch harvesting).
     #[arg(long, value_enum, default_value_t = PlaneArg::Forcing, requires = "verdict")]
     pub plane: PlaneArg,
+    /// Keep the references of an earlier --verdict study of the same plane (its folder, with
+    /// verdict.json) instead of running them again: they depend only on the plane, so a study
+    /// of the map's settings takes minutes instead of half an hour.
+    #[arg(long, value_name = "DIR", requires = "verdict")]
+    pub reference_from: Option<PathBuf>,
     /// What the early stop and adaptive refinement skip instead: the default map's scene on a
     /// 257 × 193 grid in full, with the early stop, and with both, on the CPU engine and (when
     /// open) the GPU engine: instance-steps, wall time, equal regimes (writes REFINE.md and
@@ -295,11 +303,29 @@ impl From<PlaneArg> for Plane {
 
 /// `bench --verdict`.
 fn verdict(a: &BenchArgs, gpu: Option<&pendulum_atlas_core::engine::Engine>) -> anyhow::Result<()> {
+    let plane: Plane = a.plane.into();
+    let kept = match &a.reference_from {
+        Some(dir) => {
+            let thin = thinning(a.quick);
+            let (mut ra, mut rb) = kept_references(dir, plane, thin, reference_durations(a.quick))?;
+            let from = dir.display().to_string();
+            for (r, offset) in [(&mut ra, 0), (&mut rb, thin / 2)] {
+                if recover_settled((plane, thin, offset), r, &from)? {
+                    tell!(
+                        "recovered the settled flags of a reference in {from} (its shorter run again)"
+                    );
+                }
+            }
+            Some(Kept { from, a: ra, b: rb })
+        }
+        None => None,
+    };
     let report = run_verdict(
         &VerdictOptions {
             quick: a.quick,
             gpu,
-            plane: a.plane.into(),
+            plane,
+            kept,
         },
         &|line| tell!("{line}"),
     )?;

@@ -216,6 +216,7 @@ fn the_verdict_study_scores_candidates_on_the_settled_cells_of_its_reference() {
             quick: true,
             gpu: None,
             plane: Plane::Forcing,
+            kept: None,
         },
         &|_| {},
     )
@@ -350,5 +351,47 @@ fn the_verdict_study_scores_candidates_on_the_settled_cells_of_its_reference() {
         right(&back.settled),
         binned(&g.reliability) + unbinned(&back.settled)
     );
+    // A later study may keep both references (`--reference-from`): they read back as they
+    // were, NaN periods included; another plane or subgrid is refused by name.
+    use pendulum_atlas_studies::bench::reference::kept_references;
+    use pendulum_atlas_studies::bench::verdict::{reference_durations, thinning};
+    let (ka, kb) = kept_references(
+        &dir,
+        Plane::Forcing,
+        thinning(true),
+        reference_durations(true),
+    )
+    .expect("kept references");
+    let same = |x: &[f64], y: &[f64]| {
+        x.len() == y.len()
+            && x.iter()
+                .zip(y)
+                .all(|(a, b)| a == b || (a.is_nan() && b.is_nan()))
+    };
+    assert_eq!((&ka.regime, &ka.is_settled), (&f.regime, &f.is_settled));
+    assert!(same(&ka.period, &f.period) && same(&ka.stop_s, &f.stop_s));
+    assert_eq!(
+        (&kb.regime, kb.settled),
+        (&r.second.regime, r.second.settled)
+    );
+    let other = kept_references(
+        &dir,
+        Plane::Clearance,
+        thinning(true),
+        reference_durations(true),
+    )
+    .expect_err("another plane");
+    assert!(
+        other.to_string().contains("its plane is `forcing`"),
+        "{other}"
+    );
+    let full = kept_references(
+        &dir,
+        Plane::Forcing,
+        thinning(false),
+        reference_durations(false),
+    )
+    .expect_err("another subgrid");
+    assert!(full.to_string().contains("every 8th value"), "{full}");
     std::fs::remove_dir_all(&dir).ok();
 }

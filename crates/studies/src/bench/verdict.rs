@@ -23,7 +23,7 @@
 //! 6. **Settling**: transient chaos, and `map.settle_max_s`'s accuracy against its cost
 //!    ([`super::settling`]).
 
-use super::reference::Reference;
+use super::reference::{KeptError, Reference};
 use super::reliability::{Reliability, reliability, score_subgrid};
 use super::settling::{Settling, Subgrid, settling};
 use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, MapSpec, map_from_toml};
@@ -229,6 +229,8 @@ pub struct VerdictReport {
     pub settling: Settling,
     /// Wall time of the study (s).
     pub total_s: f64,
+    /// Where the references were kept from (`None`: run by this study).
+    pub reference_kept_from: Option<String>,
 }
 
 /// Options of [`run_verdict`].
@@ -239,6 +241,18 @@ pub struct VerdictOptions<'a> {
     pub gpu: Option<&'a Engine>,
     /// The plane.
     pub plane: Plane,
+    /// The references of an earlier study of the plane, kept instead of run again.
+    pub kept: Option<Kept>,
+}
+
+/// References kept from an earlier study ([`super::reference::kept_references`]).
+pub struct Kept {
+    /// The folder they were read from.
+    pub from: String,
+    /// Subgrid A's.
+    pub a: Reference,
+    /// Subgrid B's.
+    pub b: Reference,
 }
 
 /// The default map with `sets` applied, thinned to every `thin`th value of each axis.
@@ -309,6 +323,22 @@ fn reference_sets(duration: f64, rtol: f64, atol: f64) -> Vec<String> {
     sets
 }
 
+/// The reference's two run lengths (s): [`REFERENCE_S`] and twice that, a twentieth of both in
+/// `--quick`.
+pub fn reference_durations(quick: bool) -> [f64; 2] {
+    let short = if quick {
+        REFERENCE_S / 20.0
+    } else {
+        REFERENCE_S
+    };
+    [short, 2.0 * short]
+}
+
+/// The subgrid's thinning: [`THIN`], twice that in `--quick`.
+pub fn thinning(quick: bool) -> usize {
+    if quick { 2 * THIN } else { THIN }
+}
+
 /// Stage 2: the reference runs and their agreement, on the subgrid from `offset`.
 fn reference_run(
     plane: Plane,
@@ -317,11 +347,7 @@ fn reference_run(
     offset: usize,
     checks: Checks,
 ) -> Result<Reference, EngineError> {
-    let short = if quick {
-        REFERENCE_S / 20.0
-    } else {
-        REFERENCE_S
-    };
+    let [short, _] = reference_durations(quick);
     let engine = Engine::cpu(Precision::F64);
     let mut runs = Vec::new();
     let mut wall = 0.0;
@@ -351,11 +377,10 @@ fn reference_run(
         }
     };
     let (a, b) = (&runs[0].results, &runs[1].results);
-    let decided = |r: Regime| matches!(r, Regime::Periodic | Regime::Regular | Regime::Chaotic);
     let is_settled: Vec<bool> = a
         .iter()
         .zip(b)
-        .map(|(x, y)| decided(y.regime) && x.regime == y.regime)
+        .map(|(x, y)| decided(y.regime.code()) && x.regime == y.regime)
         .collect();
     let mut counts = [0usize; 5];
     for r in b {
@@ -379,6 +404,47 @@ fn reference_run(
         stop_s: stop_times(&runs[1]),
         counts,
     })
+}
+
+/// Whether a verdict code is decided (periodic, regular or chaotic).
+fn decided(code: i8) -> bool {
+    [Regime::Periodic, Regime::Regular, Regime::Chaotic]
+        .iter()
+        .any(|g| g.code() == code)
+}
+
+/// The settled flags of a kept reference (of the subgrid from `offset`) from a study that
+/// predates them: its shorter run again (CPU f64, deterministic), the flags from it and the
+/// stored longer run's verdicts. It must reproduce the stored counts of cells that change on
+/// doubling and of settled cells. Returns whether it ran.
+pub fn recover_settled(
+    (plane, thin, offset): (Plane, usize, usize),
+    r: &mut Reference,
+    from: &str,
+) -> Result<bool, KeptError> {
+    if r.is_settled.len() == r.cells {
+        return Ok(false);
+    }
+    let sets = reference_sets(r.durations_s[0], r.rtol, REFERENCE_ATOL);
+    let spec = subgrid_at(plane, &sets, thin, offset)?;
+    let (short, _) = timed(&spec, &Engine::cpu(Precision::F64))?;
+    let pairs = || short.results.iter().zip(&r.regime);
+    let is_settled: Vec<bool> = pairs()
+        .map(|(x, &y)| decided(y) && x.regime.code() == y)
+        .collect();
+    let changed = pairs().filter(|(x, y)| x.regime.code() != **y).count();
+    let settled = is_settled.iter().filter(|s| **s).count();
+    if (changed, settled) != (r.changed, r.settled) {
+        return Err(KeptError::NotReproduced {
+            path: from.to_string(),
+            changed,
+            settled,
+            stored_changed: r.changed,
+            stored_settled: r.settled,
+        });
+    }
+    r.is_settled = is_settled;
+    Ok(true)
 }
 
 /// When the early stop stopped each instance of `run` (s; NaN where it ran to its end).
@@ -530,8 +596,14 @@ pub fn run_verdict(
 ) -> Result<VerdictReport, EngineError> {
     let t0 = Instant::now();
     let plane = opts.plane;
-    let thin = if opts.quick { 2 * THIN } else { THIN };
-    let reference = reference_run(plane, opts.quick, thin, 0, Checks::LengthAndSteps)?;
+    let thin = thinning(opts.quick);
+    let (reference, kept_b) = match &opts.kept {
+        Some(k) => (k.a.clone(), Some(k.b.clone())),
+        None => (
+            reference_run(plane, opts.quick, thin, 0, Checks::LengthAndSteps)?,
+            None,
+        ),
+    };
     progress(&format!(
         "reference: {} of {} cells change on doubling, {} settled ({:.0} s)",
         reference.changed, reference.cells, reference.settled, reference.wall_s
@@ -570,7 +642,10 @@ pub fn run_verdict(
         let (c, whole) = cost(plane, &cpu64)?;
         (Some(c), whole)
     };
-    let second = reference_run(plane, opts.quick, thin, thin / 2, Checks::Length)?;
+    let second = match kept_b {
+        Some(b) => b,
+        None => reference_run(plane, opts.quick, thin, thin / 2, Checks::Length)?,
+    };
     progress(&format!(
         "reference B (from value {}): {} of {} cells change on doubling, {} settled ({:.0} s)",
         thin / 2 + 1,
@@ -624,5 +699,6 @@ pub fn run_verdict(
         reliability,
         settling,
         total_s: t0.elapsed().as_secs_f64(),
+        reference_kept_from: opts.kept.as_ref().map(|k| k.from.clone()),
     })
 }

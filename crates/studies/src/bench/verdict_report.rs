@@ -83,7 +83,7 @@ fn markdown(r: &VerdictReport) -> String {
         "## Reference\n\nCPU f64, runs of {} s and {} s (transient half the run), adaptive steps \
          at rtol {:e} and atol a hundredth of it, period window {} samples at {} rad. Doubling the \
          run changes the verdict of **{} of {} cells ({:.1} %)**; {}. {} cells are settled (both \
-         runs reach the same decided verdict). Verdicts of the longer run: {}. Wall time {:.0} s.\n",
+         runs reach the same decided verdict). Verdicts of the longer run: {}. Wall time {:.0} s{}.\n",
         f.durations_s[0],
         f.durations_s[1],
         f.rtol,
@@ -100,7 +100,14 @@ fn markdown(r: &VerdictReport) -> String {
             .map(|(g, n)| format!("{} {n}", g.name()))
             .collect::<Vec<_>>()
             .join(", "),
-        f.wall_s
+        f.wall_s,
+        match &r.reference_kept_from {
+            Some(dir) => format!(
+                " (kept with subgrid B's from the study in `{dir}`, \
+                 `--reference-from`; not part of this study's wall time)"
+            ),
+            None => String::new(),
+        }
     );
     let _ = writeln!(
         s,
