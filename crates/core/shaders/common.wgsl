@@ -1,8 +1,8 @@
 // Common definitions of the ensemble kernels of pendulum-atlas: specialisation constants, the
 // data structures shared with Rust, the bindings and the integrator's per-invocation state.
 //
-// The kernels are assembled from seven files (common, integrate, early, imex, reduce_r,
-// reduce_k, verdict; see src/engine/gpu/kernels.rs) behind a header generated from the Rust
+// The kernels are assembled from eight files (common, integrate, schedule, early, imex,
+// reduce_r, reduce_k, verdict; see src/engine/gpu/kernels.rs) behind a header generated from the Rust
 // definitions: the status and regime codes, the health-check interval CHECK_EVERY, the array
 // bound MAX_SEG (the scene's N), the IMEX method's tableaux, the adaptive ladder's rules
 // (src/engine/ladder.rs) and the `Accum` struct, whose first words are the result schema's
@@ -124,7 +124,8 @@ struct Control {
     e_r_off: u32,
     e_r_len: u32,
     pass_budget: u32,
-    pad1: u32,
+    // The half of `live` this dispatch reads (0 or n_inst); `compact` writes the other.
+    live_from: u32,
 }
 
 @group(0) @binding(0) var<storage, read> params: array<InstanceParams>;
@@ -149,13 +150,19 @@ struct Control {
 // (ctl.e_alpha_off), the tallies of the last p_max periods (ctl.e_period_off, 5 words each),
 // α at the R instants of the last p_max periods (ctl.e_r_off, ctl.e_r_len words).
 @group(0) @binding(9) var<storage, read_write> early: array<f32>;
-// The instances still integrating, `live` (compacted by the host between dispatches: ctl.n_active).
-@group(0) @binding(10) var<storage, read> live: array<u32>;
+// The instances still integrating, ctl.n_active of them from ctl.live_from, in two halves of
+// n_inst words: each dispatch reads one, and `compact` (shaders/schedule.wgsl) keeps the
+// unfinished ones in the other.
+@group(0) @binding(10) var<storage, read_write> live: array<u32>;
 // 1 once an instance has finished (failed, stopped early, or run all its steps).
 @group(0) @binding(11) var<storage, read_write> done: array<u32>;
 // The contact levers λ_i, N words per instance, sample-major: lever i of instance `inst` at
 // [at(inst, i)] (zero past the contact segment).
 @group(0) @binding(12) var<storage, read> levers: array<f32>;
+// The integration's schedule, written on the device (shaders/schedule.wgsl): the next
+// dispatch's workgroup count (words 0–2, an indirect dispatch's arguments), then the
+// instances still integrating (word SCHED_LIVE).
+@group(0) @binding(13) var<storage, read_write> sched: array<atomic<u32>>;
 
 // Word j of instance `inst` in the per-instance series (strobe, rwork, kc): sample-major, as
 // the state is, so that neighbouring invocations read and write neighbouring words (coalesced

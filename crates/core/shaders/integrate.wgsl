@@ -760,7 +760,7 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
     if gid.x >= ctl.n_active {
         return;
     }
-    let inst = live[gid.x];
+    let inst = live[ctl.live_from + gid.x];
     let n_inst = ctl.n_inst;
     var a = acc[inst];
     P = params[inst];

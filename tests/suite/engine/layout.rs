@@ -93,7 +93,7 @@ fn parameter_structs_have_the_same_layout_in_rust_and_wgsl() {
         "Control",
         offsets!(GpuControl; n_inst, steps_per_dispatch, strobe_stride, rwork_stride,
             period_max, period_window, period_tol, c_index, slice_first, slice_end, n_active,
-            e_p_max, e_window, e_tol, e_alpha_off, e_period_off, e_r_off, e_r_len, pass_budget, pad1),
+            e_p_max, e_window, e_tol, e_alpha_off, e_period_off, e_r_off, e_r_len, pass_budget, live_from),
         size_of::<GpuControl>(),
     );
 }

@@ -44,7 +44,8 @@ impl Sizes {
             + self.kc_bytes
             + self.early_bytes
             + self.levers_bytes
-            + 8 * n
+            + 12 * n
+            + 32
     }
 }
 
@@ -345,8 +346,12 @@ fn adaptive_loops(n: usize, levers: usize, adaptive: bool) -> usize {
 
 /// The buffers of a run and their bind group (which keeps the others alive).
 pub struct Buffers {
-    pub active: wgpu::Buffer,
-    pub done: wgpu::Buffer,
+    /// The integration's schedule (`shaders/schedule.wgsl`): the next dispatch's workgroup
+    /// count, then the instances still integrating (word [`super::layout::SCHED_LIVE`]).
+    pub sched: wgpu::Buffer,
+    /// The integration dispatch's indirect arguments, copied from `sched`'s first words (a
+    /// buffer bound as storage cannot also be a dispatch's indirect arguments).
+    pub args: wgpu::Buffer,
     pub state: wgpu::Buffer,
     pub accum: wgpu::Buffer,
     pub strobe: wgpu::Buffer,
@@ -385,10 +390,20 @@ impl Buffers {
             .collect();
         let (state, accum) = initial_state(plan, sizes);
         let levers = levers_sample_major(plan, sizes.n_inst);
-        let all: Vec<u32> = (0..sizes.n_inst as u32).collect();
+        // The live list's two halves: every instance in the first, the second written by the
+        // device's first compaction.
+        let all: Vec<u32> = (0..sizes.n_inst as u32)
+            .chain(std::iter::repeat_n(0, sizes.n_inst))
+            .collect();
+        let sched = [
+            (sizes.n_inst as u32).div_ceil(WG),
+            1,
+            1,
+            sizes.n_inst as u32,
+        ];
         let turns = c_turns(reduce);
         let zeros = vec![0u32; sizes.n_inst];
-        let filled: [(&str, &[u8]); 8] = [
+        let filled: [(&str, &[u8]); 9] = [
             ("params", bytemuck::cast_slice(&params)),
             ("state", bytemuck::cast_slice(&state)),
             ("accum", bytemuck::cast_slice(&accum)),
@@ -397,6 +412,7 @@ impl Buffers {
             ("active", bytemuck::cast_slice(&all)),
             ("done", bytemuck::cast_slice(&zeros)),
             ("levers", bytemuck::cast_slice(&levers)),
+            ("sched", bytemuck::cast_slice(&sched)),
         ];
         let dev = &ctx.device;
         let oom = dev.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
@@ -412,19 +428,33 @@ impl Buffers {
                 mapped_at_creation: false,
             })
         };
-        let [params, state, accum, turns, imex, active, done, levers] =
-            filled.map(|(label, bytes)| create(label, bytes.len() as u64, sto));
+        let [
+            params,
+            state,
+            accum,
+            turns,
+            imex,
+            active,
+            done,
+            levers,
+            sched,
+        ] = filled.map(|(label, bytes)| create(label, bytes.len() as u64, sto));
         let strobe = create("strobe", sizes.strobe_bytes, sto);
         let rwork = create("rwork", sizes.rwork_bytes, sto);
         let kc = create("kc", sizes.kc_bytes, sto);
         let early = create("early", sizes.early_bytes, sto);
+        let args = create(
+            "args",
+            16,
+            wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
+        );
         let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
         let control_buf = create("control", size_of::<GpuControl>() as u64, uniform);
         let invalid = pollster::block_on(invalid.pop());
         let oom = pollster::block_on(oom.pop());
         allocation_checked(ctx, oom, invalid)?;
         let targets = [
-            &params, &state, &accum, &turns, &imex, &active, &done, &levers,
+            &params, &state, &accum, &turns, &imex, &active, &done, &levers, &sched,
         ];
         for (buffer, (_, bytes)) in targets.iter().zip(&filled) {
             write_padded(ctx, buffer, bytes);
@@ -448,11 +478,12 @@ impl Buffers {
                 entry(10, &active),
                 entry(11, &done),
                 entry(12, &levers),
+                entry(13, &sched),
             ],
         });
         Ok(Buffers {
-            active,
-            done,
+            sched,
+            args,
             state,
             accum,
             strobe,

@@ -406,9 +406,10 @@ fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             storage(7, false),
             storage(8, true),
             storage(9, false),
-            storage(10, true),
+            storage(10, false),
             storage(11, false),
             storage(12, true),
+            storage(13, false),
             uniform,
         ],
     })

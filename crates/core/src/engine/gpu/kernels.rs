@@ -8,7 +8,7 @@
 //! per-invocation arrays, the scene's N (so no private array is larger than the scene needs):
 //! the shader never carries its own copy of a rule or coefficient defined in Rust.
 
-use crate::engine::gpu::layout::{TWIN_BROKEN, TWIN_RUNNING};
+use crate::engine::gpu::layout::{SCHED_LIVE, TWIN_BROKEN, TWIN_RUNNING};
 use crate::engine::imex::{AE, AI, B, B_HAT, C, GAMMA};
 use crate::engine::ladder::{self, GROW, MAX_LEVEL};
 use crate::engine::method::Method;
@@ -19,13 +19,17 @@ use crate::reduce::regime::{REGIME_FLAT_PER_PERIOD, REGIME_K_CHAOS, REGIME_Z};
 use std::fmt::Write;
 
 /// The stage files of the ensemble kernels, in assembly order: common definitions,
-/// integration (RK4, λ1's twin), the early stop, the IMEX method, the R reduction, the 0–1 test and period,
-/// λ1 and the regime.
-pub const SHADER_STAGES: [(&str, &str); 7] = [
+/// integration (RK4, λ1's twin), its schedule on the device, the early stop, the IMEX method,
+/// the R reduction, the 0–1 test and period, λ1 and the regime.
+pub const SHADER_STAGES: [(&str, &str); 8] = [
     ("common.wgsl", include_str!("../../../shaders/common.wgsl")),
     (
         "integrate.wgsl",
         include_str!("../../../shaders/integrate.wgsl"),
+    ),
+    (
+        "schedule.wgsl",
+        include_str!("../../../shaders/schedule.wgsl"),
     ),
     ("early.wgsl", include_str!("../../../shaders/early.wgsl")),
     ("imex.wgsl", include_str!("../../../shaders/imex.wgsl")),
@@ -47,6 +51,7 @@ pub const SHADER_STAGES: [(&str, &str); 7] = [
 pub const SHADER_BODY: &str = concat!(
     include_str!("../../../shaders/common.wgsl"),
     include_str!("../../../shaders/integrate.wgsl"),
+    include_str!("../../../shaders/schedule.wgsl"),
     include_str!("../../../shaders/early.wgsl"),
     include_str!("../../../shaders/imex.wgsl"),
     include_str!("../../../shaders/reduce_r.wgsl"),
@@ -94,6 +99,7 @@ pub fn shader_header(segments: usize) -> String {
     );
     let _ = writeln!(h, "const TWIN_RUNNING: u32 = {TWIN_RUNNING}u;");
     let _ = writeln!(h, "const TWIN_BROKEN: u32 = {TWIN_BROKEN}u;");
+    let _ = writeln!(h, "const SCHED_LIVE: u32 = {SCHED_LIVE}u;");
     let _ = writeln!(h, "const MAX_SEG: u32 = {}u;", segments.max(1));
     let _ = writeln!(h, "const IMEX_GAMMA: f32 = {GAMMA:e};");
     h.push_str(&wgsl_array("IMEX_C", &C));
@@ -188,6 +194,10 @@ impl KernelKey {
 pub struct Kernels {
     /// The integration kernel.
     pub integrate: wgpu::ComputePipeline,
+    /// The device's compaction of the live list after each integration dispatch.
+    pub compact: wgpu::ComputePipeline,
+    /// The next integration dispatch's workgroup count, from the compaction's count.
+    pub schedule: wgpu::ComputePipeline,
     /// The dominant line of the R series (before the R kernels overwrite it).
     pub line: Option<wgpu::ComputePipeline>,
     /// The three R kernels (α's analytic signal, the cart's, then R).
@@ -226,6 +236,8 @@ impl Kernels {
         };
         Kernels {
             integrate: pipeline("integrate"),
+            compact: pipeline("compact"),
+            schedule: pipeline("schedule"),
             line: key.want_line.then(|| pipeline("line")),
             r: key
                 .want_r

@@ -417,9 +417,14 @@ pub struct GpuControl {
     /// Adaptive steps: sub-steps an invocation tries per dispatch, the dispatch's size (within
     /// a software adapter's loop budget). A dispatch may end within a base step.
     pub pass_budget: u32,
-    /// Padding to a multiple of 16 bytes (a uniform block).
-    pub pad1: u32,
+    /// The half of the `live` list the integration dispatch reads (0 or `n_inst`); the
+    /// device's compaction writes the other (`shaders/schedule.wgsl`).
+    pub live_from: u32,
 }
+
+/// Word of the schedule buffer (`sched`) that counts the instances still integrating; words
+/// 0–2 are the next integration dispatch's workgroup count (an indirect dispatch).
+pub const SCHED_LIVE: u32 = 3;
 
 /// Words of one tally in the early stop's period ring (hops, impacts, Σ v²/R_L, α min, max).
 pub const EARLY_PERIOD_WORDS: u32 = 5;

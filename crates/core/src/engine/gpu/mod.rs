@@ -39,7 +39,7 @@ use buffers::{Buffers, Sizes, batch_capacity, software_step_budget};
 use bytemuck::Zeroable;
 use clock::KernelClock;
 use kernels::{KernelKey, Kernels, WG};
-use layout::{GPU_MAX_SEGMENTS, GpuAccum, GpuControl};
+use layout::{GPU_MAX_SEGMENTS, GpuAccum, GpuControl, SCHED_LIVE};
 use serde::Serialize;
 use slices::{Pass, Slicing, run_passes};
 use std::time::{Duration, Instant};
@@ -81,7 +81,7 @@ pub struct GpuTimings {
     /// Queue submissions of the run (every batch's together).
     #[serde(default)]
     pub submissions: u64,
-    /// Bytes the run copied back to the host (results, `done` flags, kept series).
+    /// Bytes the run copied back to the host (results, the live count per dispatch, kept series).
     #[serde(default)]
     pub read_back_bytes: u64,
 }
@@ -406,8 +406,10 @@ fn run_sized(
 
 /// Integration in bounded dispatches, each aimed at [`DISPATCH_TARGET`] of wall time. After
 /// each, the instances that finished (failed, stopped early, or ran all their steps) leave the
-/// work: the host reads the `done` flags and compacts the `active` list the next dispatch
-/// covers, so no workgroup waits on finished invocations.
+/// work on the device (`shaders/schedule.wgsl`): a compaction keeps the others in the live
+/// list's other half and sizes the next dispatch, which is indirect, so no workgroup waits on
+/// finished invocations. The host reads back one word per dispatch, the count still
+/// integrating, to know when all have finished and to report progress.
 fn integrate(
     ctx: &GpuContext,
     kernels: &Kernels,
@@ -423,7 +425,7 @@ fn integrate(
         .map(|p| p.total_steps())
         .max()
         .unwrap_or(0);
-    let mut active: Vec<u32> = (0..n as u32).collect();
+    let mut live = n as u32;
     let (mut done, mut chunk, mut dispatches) = (0u64, 64u64, 0u32);
     let lose = fault::failpoint()? == Some(fault::Failpoint::LoseDevice);
     // Adaptive steps: a dispatch is sized in passes (one sub-step tried each), not in base
@@ -431,7 +433,7 @@ fn integrate(
     // flight covers more base steps than one in contact, instead of waiting for it. A dispatch
     // may so end within a base step, and the run goes on until every instance has finished.
     let adaptive = plan.is_adaptive();
-    while !active.is_empty() && (adaptive || done < max_steps) {
+    while live > 0 && (adaptive || done < max_steps) {
         // (Adaptive: not cut to the steps left, since an instance may lag behind `done`.)
         let left = if adaptive { u64::MAX } else { max_steps - done };
         let this = chunk.min(left).min(budget.unwrap_or(u64::MAX));
@@ -440,18 +442,12 @@ fn integrate(
         } else {
             control.steps_per_dispatch = this as u32;
         }
-        control.n_active = active.len() as u32;
+        // (n_active is the device's count, copied in by the dispatch's first command.)
+        control.live_from = (dispatches % 2) * n as u32;
         ctx.queue
             .write_buffer(&bufs.control, 0, bytemuck::bytes_of(control));
         let started = Instant::now();
-        let groups = (active.len() as u32).div_ceil(WG);
-        let submitted = submit_timed(
-            ctx,
-            &kernels.integrate,
-            &bufs.bind,
-            groups,
-            clock.as_deref(),
-        );
+        let submitted = submit_chunk(ctx, kernels, bufs, clock.as_deref());
         if lose {
             ctx.lose();
         }
@@ -465,18 +461,12 @@ fn integrate(
         if !adaptive && progress(done, max_steps, ProgressUnit::Steps).is_break() {
             return Err(EngineError::Cancelled);
         }
-        let finished: Vec<u32> = read_buffer(ctx, &bufs.done, 4 * n as u64)?;
-        let before = active.len();
-        active.retain(|&i| finished[i as usize] == 0);
+        live = read_range::<u32>(ctx, &bufs.sched, 4 * u64::from(SCHED_LIVE), 4)?[0];
         // (Adaptive: a dispatch's passes say little of the base steps covered, so progress
         // counts the instances finished, as the CPU engine's does.)
-        let finished_n = (n - active.len()) as u64;
+        let finished_n = (n - live as usize) as u64;
         if adaptive && progress(finished_n, n as u64, ProgressUnit::Instances).is_break() {
             return Err(EngineError::Cancelled);
-        }
-        if active.len() != before && !active.is_empty() {
-            ctx.queue
-                .write_buffer(&bufs.active, 0, bytemuck::cast_slice(&active));
         }
         // Aim each dispatch at DISPATCH_TARGET, growing at most 4× at a time.
         let scale = DISPATCH_TARGET.as_secs_f64() / took.as_secs_f64().max(1e-6);
@@ -690,6 +680,41 @@ fn submit(
     groups: u32,
 ) -> wgpu::SubmissionIndex {
     submit_timed(ctx, pipeline, bind, groups, None)
+}
+
+/// Byte offset of `n_active` in the control block.
+const N_ACTIVE_OFFSET: u64 = std::mem::offset_of!(GpuControl, n_active) as u64;
+
+/// One dispatch of the integration and its schedule, in one submission: the device's count of
+/// the instances still integrating becomes `n_active` and the dispatch's size (indirect), the
+/// integration runs (timed by `clock` where there is one), then the compaction and the next
+/// size (`shaders/schedule.wgsl`).
+fn submit_chunk(
+    ctx: &GpuContext,
+    kernels: &Kernels,
+    bufs: &Buffers,
+    clock: Option<&KernelClock>,
+) -> wgpu::SubmissionIndex {
+    let live_word = 4 * u64::from(SCHED_LIVE);
+    let mut enc = ctx
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    enc.copy_buffer_to_buffer(&bufs.sched, live_word, &bufs.control, N_ACTIVE_OFFSET, 4);
+    enc.copy_buffer_to_buffer(&bufs.sched, 0, &bufs.args, 0, 12);
+    let indirect = |enc: &mut wgpu::CommandEncoder, pipeline, timed: Option<&KernelClock>| {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: None,
+            timestamp_writes: timed.map(KernelClock::writes),
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &bufs.bind, &[]);
+        pass.dispatch_workgroups_indirect(&bufs.args, 0);
+    };
+    indirect(&mut enc, &kernels.integrate, clock);
+    enc.clear_buffer(&bufs.sched, live_word, Some(4));
+    indirect(&mut enc, &kernels.compact, None);
+    record_pass(&mut enc, &kernels.schedule, &bufs.bind, 1);
+    ctx.submit(enc.finish())
 }
 
 /// [`submit`], the pass timed by `clock` where there is one.
