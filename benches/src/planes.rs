@@ -1,6 +1,6 @@
-//! The confidence fitted beyond one plane (`pendulum-atlas bench --verdict-fit DIR…`).
+//! The confidence fitted beyond one plane (`pendulum-atlas-lab verdict-fit DIR…`).
 //!
-//! Each `DIR` holds one plane's verdict study (`bench --verdict --plane P --out DIR`): its
+//! Each `DIR` holds one plane's verdict study (`pendulum-atlas-lab verdict --plane P --out DIR`): its
 //! `verdict.json` keeps the scored cells of both subgrids, for the raw map and for the settled
 //! map, against that plane's own converged reference. From them, for each table of the
 //! confidence stage (`SHIPPED` for raw maps, `SETTLED` for settled ones):
@@ -45,7 +45,7 @@ pub enum PlanesError {
     },
     /// A `verdict.json` lacks what the fit reads.
     #[error(
-        "`{path}` is not a verdict study of this version ({reason}); run `pendulum-atlas bench --verdict --plane P --out DIR` again"
+        "`{path}` is not a verdict study of this version ({reason}); run `pendulum-atlas-lab verdict --plane P --out DIR` again"
     )]
     Parse {
         /// The file.
@@ -247,7 +247,7 @@ pub fn fit_planes(planes: &[PlaneCells], dirs: &[PathBuf]) -> Result<PlanesRepor
     if planes.len() < 2 {
         return Err(PlanesError::Planes(format!(
             "a fit across planes needs at least 2 studies of different planes (got {}); \
-             run `bench --verdict --plane P` for each of {}",
+             run `pendulum-atlas-lab verdict --plane P` for each of {}",
             planes.len(),
             Plane::ALL.map(Plane::name).join(", ")
         )));
@@ -282,7 +282,7 @@ fn markdown(r: &PlanesReport) -> String {
     let _ = writeln!(
         s,
         "# The confidence fitted beyond one plane\n\n\
-         Written by `pendulum-atlas bench --verdict-fit {}` (`crates/studies/src/bench/planes.rs`) \
+         Written by `pendulum-atlas-lab verdict-fit {}` (`benches/src/planes.rs`) \
          from the verdict studies of the planes {}, each scored against its own converged \
          reference. Target on a plane held out of the fit: firm cells (confidence ≥ {FIRM}) \
          ≥ {TARGET_RIGHT_PCT} % right and ≥ {TARGET_FIRM_PCT} % of the settled cells, with bins \

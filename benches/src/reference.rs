@@ -1,7 +1,7 @@
-//! The converged reference of the verdict study (`bench --verdict`): each cell run twice,
+//! The converged reference of the verdict study (`pendulum-atlas-lab verdict`): each cell run twice,
 //! long and twice as long, and the verdicts of the cells both runs decide alike. The
 //! settling study scores against it too. A study may keep the references of an earlier study
-//! of the same plane ([`kept_references`], `bench --verdict --reference-from DIR`): they depend
+//! of the same plane ([`kept_references`], `pendulum-atlas-lab verdict --reference-from DIR`): they depend
 //! only on the plane and the reference's settings, not on the map's.
 
 use super::verdict::{Plane, REFERENCE_RTOL};

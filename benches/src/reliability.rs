@@ -1,4 +1,4 @@
-//! Stage 5 of `bench --verdict`: does the map's `verdict_confidence` predict its error?
+//! Stage 5 of `pendulum-atlas-lab verdict`: does the map's `verdict_confidence` predict its error?
 //!
 //! The default map as shipped is run whole, so that every cell has its neighbours, and its
 //! cells on two disjoint subgrids are scored against a converged reference of each (subgrid A:

@@ -1,4 +1,4 @@
-//! Stage 6 of `bench --verdict`: transient chaos, and what settling (`map.settle_max_s`)
+//! Stage 6 of `pendulum-atlas-lab verdict`: transient chaos, and what settling (`map.settle_max_s`)
 //! buys.
 //!
 //! - **Transient chaos named**: the cells of both subgrids that the default map (as shipped)

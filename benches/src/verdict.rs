@@ -1,4 +1,4 @@
-//! The map's accuracy, `pendulum-atlas bench --verdict`: how often the default map's verdict
+//! The map's accuracy, `pendulum-atlas-lab verdict`: how often the default map's verdict
 //! per cell is the one a converged run gives, and at what wall time.
 //!
 //! Stages of [`run_verdict`]:
@@ -76,8 +76,8 @@ impl Plane {
     pub fn scene(self) -> &'static str {
         match self {
             Plane::Forcing => DEFAULT_MAP_TOML,
-            Plane::Clearance => include_str!("../../../../configs/maps/verdict_clearance.toml"),
-            Plane::Piezo => include_str!("../../../../configs/maps/verdict_piezo.toml"),
+            Plane::Clearance => include_str!("../../configs/maps/verdict_clearance.toml"),
+            Plane::Piezo => include_str!("../../configs/maps/verdict_piezo.toml"),
         }
     }
 }

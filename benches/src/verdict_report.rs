@@ -1,4 +1,4 @@
-//! Files of `bench --verdict`: `verdict.json` and `VERDICT.md`.
+//! Files of `pendulum-atlas-lab verdict`: `verdict.json` and `VERDICT.md`.
 
 use super::reference::Reference;
 use super::reliability::{FIRM, Firm, Reliability};
@@ -68,8 +68,8 @@ fn markdown(r: &VerdictReport) -> String {
     let _ = writeln!(
         s,
         "# The map's accuracy: verdicts against a converged reference\n\n\
-         Written by `pendulum-atlas bench --verdict --plane {}` \
-         (`crates/studies/src/bench/verdict.rs`). The plane `{}` thinned to every {}th value of \
+         Written by `pendulum-atlas-lab verdict --plane {}` \
+         (`benches/src/verdict.rs`). The plane `{}` thinned to every {}th value of \
          each axis: {} × {} = {} cells, same scene and start.\n",
         r.plane.name(),
         r.plane.path(),

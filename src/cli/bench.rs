@@ -6,16 +6,10 @@ use pendulum_atlas_studies::bench::cpu_report::write_cpu_throughput;
 use pendulum_atlas_studies::bench::cpu_throughput::{CpuThroughputOptions, run_cpu_throughput};
 use pendulum_atlas_studies::bench::gpu_report::write_throughput;
 use pendulum_atlas_studies::bench::gpu_throughput::{SEGMENTS, ThroughputOptions, run_throughput};
-use pendulum_atlas_studies::bench::planes::{fit_planes, read_plane, write_planes};
-use pendulum_atlas_studies::bench::reference::kept_references;
 use pendulum_atlas_studies::bench::stiff::{StiffOptions, run_stiff};
 use pendulum_atlas_studies::bench::stiff_map::{StiffMapOptions, run_stiff_map};
 use pendulum_atlas_studies::bench::stiff_map_report::write_stiff_map;
 use pendulum_atlas_studies::bench::stiff_report::write_stiff;
-use pendulum_atlas_studies::bench::verdict::{
-    Kept, Plane, VerdictOptions, recover_settled, reference_durations, run_verdict, thinning,
-};
-use pendulum_atlas_studies::bench::verdict_report::write_verdict;
 use pendulum_atlas_studies::bench::{BenchOptions, report::write_bench, run_bench};
 use std::path::PathBuf;
 
@@ -51,35 +45,11 @@ pub struct BenchArgs {
     /// metrics; the peers' results from --peers (writes GPU.md and gpu_throughput.json).
     #[arg(long, conflicts_with_all = ["stiff", "stiff_map", "cpu_throughput"])]
     pub throughput: bool,
-    /// The map's accuracy instead: a converged reference of a 192-cell subgrid of the plane
-    /// (CPU f64, 1000 s and 2000 s at rtol 1e-6, and 1000 s at 1e-7), then the map's settings
-    /// (duration, λ1 window, float type, engine, which indicators decide) scored against it,
-    /// the whole map's cost with and without the verdict, the reliability of its confidence
-    /// and settling (writes VERDICT.md and verdict.json; about half an hour on 2 cores,
-    /// `--quick` two minutes).
-    #[arg(long, conflicts_with_all = ["stiff", "stiff_map", "cpu_throughput", "throughput"])]
-    pub verdict: bool,
-    /// The confidence fitted beyond one plane instead: read the verdict studies in these
-    /// folders (one per plane, each from `bench --verdict --plane P`), fit the confidence
-    /// tables on all of them and on all but each one, and score each plane held out (writes
-    /// PLANES.md and planes.json; seconds).
-    #[arg(long, num_args = 2.., value_name = "DIR",
-          conflicts_with_all = ["stiff", "stiff_map", "cpu_throughput", "throughput", "verdict", "refine"])]
-    pub verdict_fit: Vec<PathBuf>,
-    /// The plane of --verdict: `forcing` (the default map), `clearance` (frequency × the
-    /// bumpers' clearance at 9 mm) or `piezo` (the forcing plane with the patch harvesting).
-    #[arg(long, value_enum, default_value_t = PlaneArg::Forcing, requires = "verdict")]
-    pub plane: PlaneArg,
-    /// Keep the references of an earlier --verdict study of the same plane (its folder, with
-    /// verdict.json) instead of running them again: they depend only on the plane, so a study
-    /// of the map's settings takes minutes instead of half an hour.
-    #[arg(long, value_name = "DIR", requires = "verdict")]
-    pub reference_from: Option<PathBuf>,
     /// What the early stop and adaptive refinement skip instead: the default map's scene on a
     /// 257 × 193 grid in full, with the early stop, and with both, on the CPU engine and (when
     /// open) the GPU engine: instance-steps, wall time, equal regimes (writes REFINE.md and
     /// refine.json; about 15 minutes on 2 cores, `--quick` half a minute).
-    #[arg(long, conflicts_with_all = ["stiff", "stiff_map", "cpu_throughput", "throughput", "verdict"])]
+    #[arg(long, conflicts_with_all = ["stiff", "stiff_map", "cpu_throughput", "throughput"])]
     pub refine: bool,
     /// The largest rung of the --throughput ladder (instances, 1000 to 1000000).
     #[arg(long, default_value_t = 1_000_000, requires = "throughput",
@@ -115,11 +85,7 @@ pub struct BenchArgs {
 
 /// The study asked for, as the files it writes.
 fn study(a: &BenchArgs) -> Product {
-    if a.verdict {
-        Product::BenchVerdict
-    } else if !a.verdict_fit.is_empty() {
-        Product::BenchPlanes
-    } else if a.refine {
+    if a.refine {
         Product::BenchRefine
     } else if a.throughput {
         Product::BenchGpu
@@ -140,9 +106,6 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
         anyhow::bail!("--peers needs --cpu-throughput or --throughput");
     }
     super::claim_out(study(&a), &a.out, a.force)?;
-    if !a.verdict_fit.is_empty() {
-        return verdict_fit(&a);
-    }
     // The GPU device is opened once here and reused by every configuration.
     let gpu = match a.backend {
         BackendArg::Cpu => None,
@@ -154,9 +117,6 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
     }
     if a.throughput {
         return throughput(&a, gpu.as_ref());
-    }
-    if a.verdict {
-        return verdict(&a, gpu.as_ref());
     }
     if a.refine {
         return refine(&a, gpu.as_ref());
@@ -249,90 +209,6 @@ fn refine(a: &BenchArgs, gpu: Option<&pendulum_atlas_core::engine::Engine>) -> a
     say!(
         "bench --refine: {} maps in {:.0} s",
         report.rows.len(),
-        report.total_s
-    );
-    say!("wrote {} files to {}", files.len(), a.out.display());
-    Ok(())
-}
-
-/// `bench --verdict-fit DIR…`.
-fn verdict_fit(a: &BenchArgs) -> anyhow::Result<()> {
-    let planes = a
-        .verdict_fit
-        .iter()
-        .map(|d| read_plane(d))
-        .collect::<Result<Vec<_>, _>>()?;
-    let report = fit_planes(&planes, &a.verdict_fit)?;
-    let files = write_planes(&a.out, &report)?;
-    for t in &report.tables {
-        for h in &t.held_out {
-            tell!(
-                "{} held out of {}: {} of {} settled cells firm, {} right",
-                h.plane.name(),
-                t.which.table(),
-                h.firm.cells,
-                h.firm.settled,
-                h.firm.right
-            );
-        }
-    }
-    say!("wrote {} files to {}", files.len(), a.out.display());
-    Ok(())
-}
-
-/// The planes of `bench --verdict`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum PlaneArg {
-    /// The embedded default map: frequency × amplitude (configs/maps/default.toml).
-    Forcing,
-    /// Frequency × clearance at A = 9 mm (configs/maps/verdict_clearance.toml).
-    Clearance,
-    /// The forcing plane with the piezo patch (configs/maps/verdict_piezo.toml).
-    Piezo,
-}
-
-impl From<PlaneArg> for Plane {
-    fn from(p: PlaneArg) -> Plane {
-        match p {
-            PlaneArg::Forcing => Plane::Forcing,
-            PlaneArg::Clearance => Plane::Clearance,
-            PlaneArg::Piezo => Plane::Piezo,
-        }
-    }
-}
-
-/// `bench --verdict`.
-fn verdict(a: &BenchArgs, gpu: Option<&pendulum_atlas_core::engine::Engine>) -> anyhow::Result<()> {
-    let plane: Plane = a.plane.into();
-    let kept = match &a.reference_from {
-        Some(dir) => {
-            let thin = thinning(a.quick);
-            let (mut ra, mut rb) = kept_references(dir, plane, thin, reference_durations(a.quick))?;
-            let from = dir.display().to_string();
-            for (r, offset) in [(&mut ra, 0), (&mut rb, thin / 2)] {
-                if recover_settled((plane, thin, offset), r, &from)? {
-                    tell!(
-                        "recovered the settled flags of a reference in {from} (its shorter run again)"
-                    );
-                }
-            }
-            Some(Kept { from, a: ra, b: rb })
-        }
-        None => None,
-    };
-    let report = run_verdict(
-        &VerdictOptions {
-            quick: a.quick,
-            gpu,
-            plane,
-            kept,
-        },
-        &|line| tell!("{line}"),
-    )?;
-    let files = write_verdict(&a.out, &report)?;
-    say!(
-        "bench --verdict: {} candidates in {:.0} s",
-        report.scores.len(),
         report.total_s
     );
     say!("wrote {} files to {}", files.len(), a.out.display());

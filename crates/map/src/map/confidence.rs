@@ -5,7 +5,7 @@
 //! side of its class boundary over this window". It is 1.0 on cells whose verdict is wrong:
 //! transient chaos near the periodic windows, orbits on a window's border. Those cells have
 //! neighbours with another verdict. So the stage looks up the accuracy measured against the
-//! converged reference of `pendulum-atlas bench --verdict` for the cell's class and its
+//! converged reference of `pendulum-atlas-lab verdict` for the cell's class and its
 //! neighbourhood:
 //!
 //! ```text
@@ -22,8 +22,8 @@
 //! ```
 //!
 //! Each table is fitted on three planes at N = 3 and 34 s, each scored against its own
-//! converged reference (`pendulum-atlas bench --verdict --plane P`: two 192-cell subgrids per
-//! plane, runs of 1000 s and 2000 s at rtol 1e-6) and pooled by `bench --verdict-fit`
+//! converged reference (`pendulum-atlas-lab verdict --plane P`: two 192-cell subgrids per
+//! plane, runs of 1000 s and 2000 s at rtol 1e-6) and pooled by `pendulum-atlas-lab verdict-fit`
 //! (`docs/bench/PLANES.md`, 2026-11-27): the default forcing plane, frequency × clearance at
 //! 9 mm, and the forcing plane with the piezo patch; 1134 settled cells. [`SHIPPED`] is fitted on
 //! the raw maps, [`SETTLED`] on the maps settled to 68 s from their end (whose cells run on

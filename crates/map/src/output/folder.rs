@@ -48,11 +48,11 @@ pub enum Product {
     BenchCpu,
     /// `bench --throughput`: `GPU.md`, `gpu_throughput.json`.
     BenchGpu,
-    /// `bench --verdict`: `VERDICT.md`, `verdict.json`.
+    /// `pendulum-atlas-lab verdict` (the lab, `benches/`): `VERDICT.md`, `verdict.json`.
     BenchVerdict,
     /// `bench --refine`: `REFINE.md`, `refine.json`.
     BenchRefine,
-    /// `bench --verdict-fit`: `PLANES.md`, `planes.json`.
+    /// `pendulum-atlas-lab verdict-fit`: `PLANES.md`, `planes.json`.
     BenchPlanes,
 }
 
@@ -77,7 +77,8 @@ impl Product {
         Product::BenchPlanes,
     ];
 
-    /// The command that writes it (the bench studies share one and may share a folder).
+    /// The command that writes it (the bench studies, the lab's among them, share one and
+    /// may share a folder).
     pub fn command(self) -> &'static str {
         match self {
             Product::Simulate => "simulate",

@@ -17,18 +17,12 @@ pub mod flops;
 pub mod gpu_report;
 pub mod gpu_throughput;
 pub mod peer_case;
-pub mod planes;
-pub mod reference;
 pub mod refine;
-pub mod reliability;
 pub mod report;
-pub mod settling;
 pub mod stiff;
 pub mod stiff_map;
 pub mod stiff_map_report;
 pub mod stiff_report;
-pub mod verdict;
-pub mod verdict_report;
 
 use pendulum_atlas_core::config::{Metric, Scene, TimeStep};
 use pendulum_atlas_core::engine::{

@@ -1,0 +1,21 @@
+//! The lab of pendulum-atlas: studies that fit or check the product, run by its developers,
+//! never by a map (`pendulum-atlas-lab`, `benches/src/main.rs`). It sits on top of core and
+//! map, beside the command line; nothing the product runs depends on it.
+//!
+//! Stages of the verdict study (`pendulum-atlas-lab verdict`, [`verdict::run_verdict`]):
+//! 1. [`verdict`]: the plane's subgrid, its converged [`mod@reference`], the map's settings scored
+//!    against it, the whole map's cost;
+//! 2. [`reliability`]: whether `verdict_confidence` predicts the verdict's error, and the
+//!    confidence tables fitted on the scored cells;
+//! 3. [`settling`]: transient chaos, and settling's accuracy against its cost;
+//! 4. [`verdict_report`]: `VERDICT.md` and `verdict.json`.
+//!
+//! Across studies: [`planes`] (`pendulum-atlas-lab verdict-fit`) fits the confidence tables
+//! the map ships on several planes' studies and scores each plane held out.
+
+pub mod planes;
+pub mod reference;
+pub mod reliability;
+pub mod settling;
+pub mod verdict;
+pub mod verdict_report;
