@@ -10,12 +10,15 @@
 //! 3. [`settling`]: transient chaos, and settling's accuracy against its cost;
 //! 4. [`verdict_report`]: `VERDICT.md` and `verdict.json`.
 //!
-//! Across studies: [`planes`] (`pendulum-atlas-lab verdict-fit`) fits the confidence tables
+//! A study may keep an earlier study's references ([`kept`]), read back from its
+//! `verdict.json` ([`study_file`]). Across studies: [`planes`] (`pendulum-atlas-lab verdict-fit`) fits the confidence tables
 //! the map ships on several planes' studies and scores each plane held out.
 
+pub mod kept;
 pub mod planes;
 pub mod reference;
 pub mod reliability;
 pub mod settling;
+pub mod study_file;
 pub mod verdict;
 pub mod verdict_report;

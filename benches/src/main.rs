@@ -8,10 +8,10 @@
 use anyhow::Context;
 use clap::{Parser, Subcommand, ValueEnum};
 use pendulum_atlas_core::engine::{Backend, Engine};
+use pendulum_atlas_lab::kept::{kept_references, recover_settled};
 use pendulum_atlas_lab::planes::{fit_planes, read_plane, write_planes};
-use pendulum_atlas_lab::reference::kept_references;
 use pendulum_atlas_lab::verdict::{
-    Kept, Plane, VerdictOptions, recover_settled, reference_durations, run_verdict, thinning,
+    Kept, Plane, VerdictOptions, reference_durations, run_verdict, thinning,
 };
 use pendulum_atlas_lab::verdict_report::write_verdict;
 use pendulum_atlas_map::output::folder::{LOCK_FILE, Product};

@@ -13,6 +13,7 @@
 //! ≥ [`TARGET_FIRM_PCT`] % of the settled cells, with bins that rise.
 
 use super::reliability::{BinRow, FIRM, Firm, ScoredCell, firm_of, fit, table};
+use super::study_file::{StudyFileError, read_study};
 use super::verdict::Plane;
 use super::verdict_report::calibration_row;
 use pendulum_atlas_map::map::confidence::Calibration;
@@ -35,24 +36,9 @@ pub const RISING_MIN_CELLS: usize = 5;
 /// What can stop the fit.
 #[derive(Debug, Error)]
 pub enum PlanesError {
-    /// A study's `verdict.json` could not be read.
-    #[error("cannot read `{path}`: {source}")]
-    Read {
-        /// The file.
-        path: String,
-        /// The operating system's reason.
-        source: std::io::Error,
-    },
-    /// A `verdict.json` lacks what the fit reads.
-    #[error(
-        "`{path}` is not a verdict study of this version ({reason}); run `pendulum-atlas-lab verdict --plane P --out DIR` again"
-    )]
-    Parse {
-        /// The file.
-        path: String,
-        /// What is missing or wrong.
-        reason: String,
-    },
+    /// A study's `verdict.json` could not be read back.
+    #[error(transparent)]
+    Study(#[from] StudyFileError),
     /// The planes given cannot be fitted across.
     #[error("{0}")]
     Planes(String),
@@ -129,16 +115,7 @@ struct StoredStudy {
 
 /// The scored cells of the study in `dir` (its `verdict.json`).
 pub fn read_plane(dir: &Path) -> Result<PlaneCells, PlanesError> {
-    let path = dir.join("verdict.json");
-    let shown = path.display().to_string();
-    let text = std::fs::read_to_string(&path).map_err(|source| PlanesError::Read {
-        path: shown.clone(),
-        source,
-    })?;
-    let study: StoredStudy = serde_json::from_str(&text).map_err(|e| PlanesError::Parse {
-        path: shown,
-        reason: e.to_string(),
-    })?;
+    let (study, _): (StoredStudy, _) = read_study(dir)?;
     let flat = |r: StoredReliability| -> Vec<ScoredCell> {
         r.scored.into_iter().flat_map(|s| s.cells).collect()
     };

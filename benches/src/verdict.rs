@@ -23,7 +23,7 @@
 //! 6. **Settling**: transient chaos, and `map.settle_max_s`'s accuracy against its cost
 //!    ([`super::settling`]).
 
-use super::reference::{KeptError, Reference};
+use super::reference::Reference;
 use super::reliability::{Reliability, reliability, score_subgrid};
 use super::settling::{Settling, Subgrid, settling};
 use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, MapSpec, map_from_toml};
@@ -245,7 +245,7 @@ pub struct VerdictOptions<'a> {
     pub kept: Option<Kept>,
 }
 
-/// References kept from an earlier study ([`super::reference::kept_references`]).
+/// References kept from an earlier study ([`super::kept::kept_references`]).
 pub struct Kept {
     /// The folder they were read from.
     pub from: String,
@@ -263,7 +263,7 @@ fn subgrid(plane: Plane, sets: &[String], thin: usize) -> Result<MapSpec, Engine
 /// The same from the `offset`th value of each axis.
 /// The map is raw (`map.settle = false`) unless `sets` asks for settling: the study's
 /// candidates and references are each one run of their length.
-fn subgrid_at(
+pub(crate) fn subgrid_at(
     plane: Plane,
     sets: &[String],
     thin: usize,
@@ -295,7 +295,7 @@ fn timing_sets(duration: f64, transient: f64, metrics: &str) -> Vec<String> {
     ]
 }
 
-fn timed(spec: &MapSpec, engine: &Engine) -> Result<(MapRun, f64), EngineError> {
+pub(crate) fn timed(spec: &MapSpec, engine: &Engine) -> Result<(MapRun, f64), EngineError> {
     let t0 = Instant::now();
     let run = run_map(spec, engine, &no_progress)?;
     Ok((run, t0.elapsed().as_secs_f64()))
@@ -311,7 +311,7 @@ enum Checks {
 }
 
 /// The reference's `--set` overrides of a run of `duration` s at tolerances `rtol`, `atol`.
-fn reference_sets(duration: f64, rtol: f64, atol: f64) -> Vec<String> {
+pub(crate) fn reference_sets(duration: f64, rtol: f64, atol: f64) -> Vec<String> {
     let mut sets = timing_sets(duration, duration / 2.0, "[\"K\", \"period\", \"regime\"]");
     sets.extend([
         format!("map.period_window={REFERENCE_PERIOD_WINDOW}"),
@@ -407,44 +407,10 @@ fn reference_run(
 }
 
 /// Whether a verdict code is decided (periodic, regular or chaotic).
-fn decided(code: i8) -> bool {
+pub(crate) fn decided(code: i8) -> bool {
     [Regime::Periodic, Regime::Regular, Regime::Chaotic]
         .iter()
         .any(|g| g.code() == code)
-}
-
-/// The settled flags of a kept reference (of the subgrid from `offset`) from a study that
-/// predates them: its shorter run again (CPU f64, deterministic), the flags from it and the
-/// stored longer run's verdicts. It must reproduce the stored counts of cells that change on
-/// doubling and of settled cells. Returns whether it ran.
-pub fn recover_settled(
-    (plane, thin, offset): (Plane, usize, usize),
-    r: &mut Reference,
-    from: &str,
-) -> Result<bool, KeptError> {
-    if r.is_settled.len() == r.cells {
-        return Ok(false);
-    }
-    let sets = reference_sets(r.durations_s[0], r.rtol, REFERENCE_ATOL);
-    let spec = subgrid_at(plane, &sets, thin, offset)?;
-    let (short, _) = timed(&spec, &Engine::cpu(Precision::F64))?;
-    let pairs = || short.results.iter().zip(&r.regime);
-    let is_settled: Vec<bool> = pairs()
-        .map(|(x, &y)| decided(y) && x.regime.code() == y)
-        .collect();
-    let changed = pairs().filter(|(x, y)| x.regime.code() != **y).count();
-    let settled = is_settled.iter().filter(|s| **s).count();
-    if (changed, settled) != (r.changed, r.settled) {
-        return Err(KeptError::NotReproduced {
-            path: from.to_string(),
-            changed,
-            settled,
-            stored_changed: r.changed,
-            stored_settled: r.settled,
-        });
-    }
-    r.is_settled = is_settled;
-    Ok(true)
 }
 
 /// When the early stop stopped each instance of `run` (s; NaN where it ran to its end).

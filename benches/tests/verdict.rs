@@ -174,7 +174,7 @@ fn the_verdict_study_scores_candidates_on_the_settled_cells_of_its_reference() {
     );
     // A later study may keep both references (`--reference-from`): they read back as they
     // were, NaN periods included; another plane or subgrid is refused by name.
-    use pendulum_atlas_lab::reference::kept_references;
+    use pendulum_atlas_lab::kept::kept_references;
     use pendulum_atlas_lab::verdict::{reference_durations, thinning};
     let (ka, kb) = kept_references(
         &dir,
