@@ -72,6 +72,7 @@ impl Sizes {
         };
         bytes(f.params)?;
         bytes(f.state)?;
+        bytes(f.live)?;
         Ok(Sizes {
             n_inst,
             state_len: f.state_len,
@@ -101,6 +102,7 @@ struct Footprint {
     kc: (&'static str, u64),
     early: (&'static str, u64),
     levers: (&'static str, u64),
+    live: (&'static str, u64),
 }
 
 impl Footprint {
@@ -144,11 +146,14 @@ impl Footprint {
                 ),
             ),
             levers: ("contact levers", 4 * plan.segments.max(1) as u64),
+            // Two halves of one word each (`shaders/schedule.wgsl`).
+            live: ("live list", 8),
         }
     }
 
-    fn buffers(&self) -> [(&'static str, u64); 8] {
+    fn buffers(&self) -> [(&'static str, u64); 9] {
         [
+            self.live,
             self.levers,
             self.params,
             self.state,
