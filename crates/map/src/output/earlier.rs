@@ -10,8 +10,16 @@
 //! complete). The user's own files are never moved.
 
 use super::error::OutputError;
-use super::folder::Product;
 use std::path::{Path, PathBuf};
+
+/// The names a kind of run writes, as far as setting its earlier run aside needs them
+/// (`folder::Product` is the one kind there is; the trait keeps this file from importing it).
+pub trait RunFiles: std::fmt::Debug + Send + Sync {
+    /// Whether a file of this name is this kind of run's (its temporary files included).
+    fn writes(&self, name: &str) -> bool;
+    /// The name of its manifest, written last, when the run is complete.
+    fn manifest(&self) -> &'static str;
+}
 
 /// The folder, inside an output folder, that holds an earlier run's files while a new run
 /// replaces them.
@@ -21,7 +29,7 @@ pub const EARLIER_DIR: &str = ".pendulum-atlas.earlier";
 #[derive(Debug)]
 pub struct Replacement {
     dir: PathBuf,
-    product: Product,
+    product: Box<dyn RunFiles>,
     /// The names of the earlier run's files, now in [`EARLIER_DIR`].
     moved: Vec<String>,
     /// The names of the files left in the folder when the new run began.
@@ -32,7 +40,7 @@ impl Replacement {
     /// Move `files` (the earlier run's, in `dir`) aside, and note what stays in `dir`.
     pub(super) fn set_aside(
         dir: &Path,
-        product: Product,
+        product: Box<dyn RunFiles>,
         files: &[PathBuf],
     ) -> Result<Replacement, OutputError> {
         let aside = dir.join(EARLIER_DIR);
@@ -78,7 +86,7 @@ impl Replacement {
 /// Before a folder is claimed: an earlier run left aside by a run killed outright is put back
 /// (over the killed run's partial files of the same names, its temporary files deleted), or,
 /// where the killed run wrote `product`'s manifest (it was complete), deleted.
-pub(super) fn recover(dir: &Path, product: Product) -> Result<(), OutputError> {
+pub(super) fn recover(dir: &Path, product: &dyn RunFiles) -> Result<(), OutputError> {
     let aside = dir.join(EARLIER_DIR);
     if !aside.is_dir() {
         return Ok(());

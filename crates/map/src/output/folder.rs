@@ -12,7 +12,7 @@
 //! lock on its folder ([`FolderLock`], the file `.pendulum-atlas.lock`) from the check to its
 //! exit, so that a second run into the same folder is refused instead of mixing its files in.
 
-use super::earlier::{self, Replacement};
+use super::earlier::{self, Replacement, RunFiles};
 use super::error::OutputError;
 pub use super::held::check_held;
 use super::held::hold;
@@ -223,7 +223,7 @@ impl Product {
 
     /// The check of [`Product::claim`] on a locked folder.
     fn clear(self, dir: &Path, force: bool) -> Result<Option<Replacement>, OutputError> {
-        earlier::recover(dir, self)?;
+        earlier::recover(dir, &self)?;
         if let Some(other) = self.foreign_manifest(dir) {
             return Err(OutputError::OtherRun {
                 dir: dir.display().to_string(),
@@ -245,7 +245,7 @@ impl Product {
                 examples: examples(&ours, self.manifest()),
             });
         }
-        Replacement::set_aside(dir, self, &ours).map(Some)
+        Replacement::set_aside(dir, Box::new(self), &ours).map(Some)
     }
 
     /// Refuse an entry of `dir` that is not a regular file (a folder, a symlink, a FIFO) under
@@ -325,6 +325,15 @@ impl Product {
             .into_iter()
             .filter(|p| p.command() != self.command())
             .find(|p| dir.join(p.manifest()).is_file())
+    }
+}
+
+impl RunFiles for Product {
+    fn writes(&self, name: &str) -> bool {
+        Product::writes(*self, name)
+    }
+    fn manifest(&self) -> &'static str {
+        Product::manifest(*self)
     }
 }
 
