@@ -1,9 +1,9 @@
 //! `pendulum-atlas calibrate`: which values of the unknowns reproduce the observations.
 
 use super::engine::{EngineArgs, hint};
+use pendulum_atlas_design::about::StudyAbout;
+use pendulum_atlas_design::calibrate::{load_calibration, run_calibration, write_calibration};
 use pendulum_atlas_map::output::folder::Product;
-use pendulum_atlas_studies::about::StudyAbout;
-use pendulum_atlas_studies::calibrate::{load_calibration, run_calibration, write_calibration};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -43,7 +43,7 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
     let progress = super::bar_progress(&bar);
     let started = Instant::now();
     let run = run_calibration(&spec, &engine, &progress).map_err(|e| match e {
-        pendulum_atlas_studies::calibrate::CalibrateError::Engine(e) => hint(e),
+        pendulum_atlas_design::calibrate::CalibrateError::Engine(e) => hint(e),
         other => other.into(),
     })?;
     bar.finish_and_clear();

@@ -1,8 +1,8 @@
 //! `pendulum-atlas search`: the broadband-harvesting design search over a harvester scene.
 
 use super::engine::EngineArgs;
+use pendulum_atlas_design::harvest::{load_search, run_search, verify_design, write_search};
 use pendulum_atlas_map::output::folder::Product;
-use pendulum_atlas_studies::harvest::{load_search, run_search, verify_design, write_search};
 use std::path::PathBuf;
 
 /// Arguments of `search`.
@@ -123,8 +123,8 @@ pub fn run(a: SearchArgs) -> anyhow::Result<()> {
 /// With the expected weighting: where the best design's high-power attractor is most likely,
 /// in one line (its power and basin fraction at that frequency).
 fn top_attractor_line(
-    best: &pendulum_atlas_studies::harvest::DesignResult,
-    spec: &pendulum_atlas_studies::harvest::SearchSpec,
+    best: &pendulum_atlas_design::harvest::DesignResult,
+    spec: &pendulum_atlas_design::harvest::SearchSpec,
 ) -> Option<String> {
     let f = &spec.band.frequencies_hz;
     let (j, t) = best

@@ -3,8 +3,8 @@
 
 use pendulum_atlas_core::engine::{Engine, EnsembleOptions, EnsemblePlan, Precision, no_progress};
 use pendulum_atlas_core::reduce::{InstanceResult, ReduceOptions};
+use pendulum_atlas_design::calibrate::{Observation, calibration_from_toml, run_calibration};
 use pendulum_atlas_map::map::run_plan;
-use pendulum_atlas_studies::calibrate::{Observation, calibration_from_toml, run_calibration};
 
 /// N = 3, 22-s runs (2 s transient: 100 stroboscopic samples at 5 Hz for K), the paper's
 /// bumpers.

@@ -291,7 +291,7 @@ fn setting_a_swept_key_is_an_error_that_names_the_axis() {
         .expect("map");
     assert_eq!(spec.scene.limiter.clearance_deg, 15.0);
     let err =
-        pendulum_atlas_studies::harvest::load_search(None, &["limiter.clearance_deg=15".into()])
+        pendulum_atlas_design::harvest::load_search(None, &["limiter.clearance_deg=15".into()])
             .expect_err("a design variable cannot be set");
     assert!(err.to_string().contains("design variable"), "{err}");
 }
@@ -526,8 +526,8 @@ fn a_sweep_over_a_key_the_scene_does_not_use_is_refused_before_any_work() {
     assert!(map("", "integration.rtol").is_ok());
     assert!(map("", "integration.dt_s").is_ok());
     // A design variable and an unknown follow the same rule.
-    let e = pendulum_atlas_studies::harvest::search_from_toml(
-        pendulum_atlas_studies::harvest::DEFAULT_SEARCH_TOML,
+    let e = pendulum_atlas_design::harvest::search_from_toml(
+        pendulum_atlas_design::harvest::DEFAULT_SEARCH_TOML,
         "<default search>",
         &[
             "integration.step=\"fixed\"".into(),
@@ -540,7 +540,7 @@ fn a_sweep_over_a_key_the_scene_does_not_use_is_refused_before_any_work() {
         e.contains("search.variables[1].key") && e.contains("\"fixed\""),
         "{e}"
     );
-    let e = pendulum_atlas_studies::calibrate::calibration_from_toml(
+    let e = pendulum_atlas_design::calibrate::calibration_from_toml(
         "[integration]\nstep = \"fixed\"\n[calibrate]\n\
          [[calibrate.unknowns]]\nkey = \"integration.rtol\"\nvalues = [1e-4, 1e-3]\n\
          [[calibrate.cases]]\nname = \"8 Hz\"\nset = { \"excitation.frequency_hz\" = 8.0 }\nk_class = \"chaotic\"\n",

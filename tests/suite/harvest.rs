@@ -3,7 +3,7 @@
 //! backends (with its power re-checked by `simulate`, as a user would), and its input errors.
 
 use pendulum_atlas_core::engine::{Engine, Precision};
-use pendulum_atlas_studies::harvest::{
+use pendulum_atlas_design::harvest::{
     SearchSpec, band_average_w, band_metrics, bandwidth_hz, mean_curve, robust_curve, run_search,
     search_from_toml,
 };
@@ -129,7 +129,7 @@ fn tiny_spec(extra_sets: &[&str]) -> SearchSpec {
     .collect();
     sets.extend(extra_sets.iter().map(|s| s.to_string()));
     search_from_toml(
-        pendulum_atlas_studies::harvest::DEFAULT_SEARCH_TOML,
+        pendulum_atlas_design::harvest::DEFAULT_SEARCH_TOML,
         "<default search>",
         &sets,
     )
@@ -399,7 +399,7 @@ fn search_runs_end_to_end_on_the_gpu() {
 fn search_error(sets: &[&str]) -> String {
     let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
     search_from_toml(
-        pendulum_atlas_studies::harvest::DEFAULT_SEARCH_TOML,
+        pendulum_atlas_design::harvest::DEFAULT_SEARCH_TOML,
         "<default search>",
         &sets,
     )
@@ -486,7 +486,7 @@ fn a_huge_search_is_refused_before_any_work_unless_accepted() {
         assert!(e.contains(part), "{part}: {e}");
     }
     let accepted = search_from_toml(
-        pendulum_atlas_studies::harvest::DEFAULT_SEARCH_TOML,
+        pendulum_atlas_design::harvest::DEFAULT_SEARCH_TOML,
         "<default search>",
         &[
             "search.band.count=100000".into(),
@@ -516,7 +516,7 @@ fn a_bad_design_variable_stops_the_command_with_its_name() {
 
 #[test]
 fn the_expected_weighting_ranks_designs_by_the_mean_power_over_sampled_starts() {
-    use pendulum_atlas_studies::harvest::{TOP_POWER_SHARE, Weighting};
+    use pendulum_atlas_design::harvest::{TOP_POWER_SHARE, Weighting};
     let spec = tiny_spec(&[
         "search.band={start_hz=6.0,end_hz=14.0,count=3,base_acceleration_m_s2=2.0}",
         "search.variables=[{key=\"limiter.clearance_deg\",values=[8.0,12.0,16.0]}]",

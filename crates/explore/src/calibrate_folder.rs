@@ -9,11 +9,9 @@ use super::folder::{
 };
 use super::sources::{Calibration, Judged};
 use pendulum_atlas_core::config::{Scene, axis_label};
+use pendulum_atlas_design::calibrate::{CalibrateManifest, CalibrationSpec, calibration_from_toml};
 use pendulum_atlas_map::output::folder::Product;
 use pendulum_atlas_map::render::Palette;
-use pendulum_atlas_studies::calibrate::{
-    CalibrateManifest, CalibrationSpec, calibration_from_toml,
-};
 use std::path::Path;
 
 /// The grid rows of `candidates.csv`: matched in all, distance, and the judgements per case.

@@ -76,10 +76,7 @@ pub fn cell_scene(folder: &RunFolder, k: usize, v: usize) -> Result<CellScene, E
                 .spec
                 .scene_table(&c.spec.cases[v], &values, 0.0)
                 .map_err(|e| fail(e.to_string()))?;
-            (
-                t,
-                pendulum_atlas_studies::calibrate::run::options(&c.spec).0,
-            )
+            (t, pendulum_atlas_design::calibrate::run::options(&c.spec).0)
         }
         Source::Search(s) => {
             let spec = &s.spec;
@@ -97,7 +94,7 @@ pub fn cell_scene(folder: &RunFolder, k: usize, v: usize) -> Result<CellScene, E
                 .map_err(|e| fail(e.to_string()))?;
             (
                 t,
-                pendulum_atlas_studies::harvest::search::ensemble_options(spec),
+                pendulum_atlas_design::harvest::search::ensemble_options(spec),
             )
         }
     };

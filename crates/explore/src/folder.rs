@@ -14,11 +14,11 @@
 use super::error::ExploreError;
 use super::sources::{Calibration, Search};
 use pendulum_atlas_core::config::{MapSpec, c_order_index, grid_point};
+use pendulum_atlas_design::calibrate::CalibrationSpec;
+use pendulum_atlas_design::harvest::spec::SearchSpec;
 use pendulum_atlas_map::output::folder::Product;
 use pendulum_atlas_map::output::manifest::{Manifest, ManifestError, MapManifest};
 use pendulum_atlas_map::render::Palette;
-use pendulum_atlas_studies::calibrate::CalibrationSpec;
-use pendulum_atlas_studies::harvest::spec::SearchSpec;
 use std::path::{Path, PathBuf};
 
 /// One axis of the grid.

@@ -9,10 +9,10 @@ use super::folder::{
 };
 use super::sources::{Found, InstanceKey, Search};
 use pendulum_atlas_core::config::axis_label;
+use pendulum_atlas_design::harvest::SearchManifest;
+use pendulum_atlas_design::harvest::spec::{SearchSpec, search_from_toml};
 use pendulum_atlas_map::output::folder::Product;
 use pendulum_atlas_map::render::Palette;
-use pendulum_atlas_studies::harvest::SearchManifest;
-use pendulum_atlas_studies::harvest::spec::{SearchSpec, search_from_toml};
 use std::collections::HashMap;
 use std::path::Path;
 

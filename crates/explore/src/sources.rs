@@ -1,8 +1,8 @@
 //! What explore keeps of a calibration or a search beside its grid, read once by
 //! `calibrate_folder` and `search_folder` and held in a [`super::folder::Source`].
 
-use pendulum_atlas_studies::calibrate::CalibrationSpec;
-use pendulum_atlas_studies::harvest::spec::SearchSpec;
+use pendulum_atlas_design::calibrate::CalibrationSpec;
+use pendulum_atlas_design::harvest::spec::SearchSpec;
 use std::collections::HashMap;
 
 /// How a candidate fared on one observation, as `candidates.csv` says.
@@ -24,7 +24,7 @@ pub struct Calibration {
     /// The calibration, rebuilt from `calibrate_scene.toml`.
     pub spec: CalibrationSpec,
     /// Its `calibrate.json`.
-    pub manifest: pendulum_atlas_studies::calibrate::CalibrateManifest,
+    pub manifest: pendulum_atlas_design::calibrate::CalibrateManifest,
     /// Per cell and case, the observations judged (empty where the grid has no candidate).
     pub judged: Vec<Vec<Vec<Judged>>>,
 }
@@ -50,7 +50,7 @@ pub struct Search {
     /// The search, rebuilt from `search_scene.toml`.
     pub spec: SearchSpec,
     /// Its `search.json`.
-    pub manifest: pendulum_atlas_studies::harvest::SearchManifest,
+    pub manifest: pendulum_atlas_design::harvest::SearchManifest,
     /// Per cell: its design's id in `instances.csv`.
     pub design: Vec<Option<String>>,
     /// What the search found per instance.

@@ -1,16 +1,14 @@
-//! pendulum-atlas-studies: the studies built on maps and single runs. Each is a stage of its
-//! own that reads a scene, runs the core's engines (often through a map) and writes its files.
+//! pendulum-atlas-studies: the studies a user runs on their own machine, built on maps and
+//! single runs. Each is a stage of its own that reads a scene, runs the core's engines (often
+//! through a map) and writes its files.
 //!
-//! - `bench`: work-precision, throughput, stiff-chain, refinement and verdict studies
+//! - `bench`: work-precision, throughput, stiff-chain and refinement studies
 //!   (`pendulum-atlas bench`).
 //! - [`reproduce`]: the paper's cases, figures and report in one call.
-//! - [`harvest`]: the broadband-harvesting design search (`pendulum-atlas search`).
-//! - [`calibrate`]: which values of the unknown parameters reproduce what was observed.
-//! - [`about`]: what ran a study, as its manifest states it.
+//!
+//! The design search and calibration are in `pendulum-atlas-design`; the studies that fit or
+//! check the product (the verdict's references and its fits) are the lab's, in `benches/`.
 #![warn(missing_docs)]
 
-pub mod about;
 pub mod bench;
-pub mod calibrate;
-pub mod harvest;
 pub mod reproduce;

@@ -468,7 +468,7 @@ pub fn a_map_runs_end_to_end_into_its_files(under: Under) {
 }
 
 pub fn a_search_runs_end_to_end_and_agrees_with_single_runs(under: Under) {
-    use pendulum_atlas_studies::harvest::{run_search, search_from_toml, verify_design};
+    use pendulum_atlas_design::harvest::{run_search, search_from_toml, verify_design};
     let Some(engine) = under.engine() else { return };
     // Two clearances, short runs at a step converged in power (RK4 with the penalty bumper
     // converges slowly in power), so that the search and `simulate` must agree closely.
@@ -487,7 +487,7 @@ pub fn a_search_runs_end_to_end_and_agrees_with_single_runs(under: Under) {
     .chain(under.sets())
     .collect();
     let spec = search_from_toml(
-        pendulum_atlas_studies::harvest::DEFAULT_SEARCH_TOML,
+        pendulum_atlas_design::harvest::DEFAULT_SEARCH_TOML,
         "<tiny>",
         &sets,
     )
