@@ -72,9 +72,7 @@ struct Out {
     /// Output folder.
     #[arg(long, default_value = "runs/lab")]
     out: PathBuf,
-    /// Replace an earlier run in --out: its files set aside first and deleted once this run
-    /// is complete (other files are left alone). Without it, a folder holding them is refused.
-    #[arg(long)]
+    #[arg(long, help = pendulum_atlas_map::output::folder::FORCE_HELP)]
     force: bool,
 }
 

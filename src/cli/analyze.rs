@@ -79,9 +79,7 @@ pub struct AnalyzeArgs {
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
-    /// Replace an earlier run in --out: delete the files this command writes there first
-    /// (other files are left alone). Without it, a folder holding such files is refused.
-    #[arg(long)]
+    #[arg(long, help = pendulum_atlas_map::output::folder::FORCE_HELP)]
     pub force: bool,
     /// Wavelet transform and significance.
     #[command(flatten)]

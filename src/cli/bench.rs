@@ -77,9 +77,7 @@ pub struct BenchArgs {
     /// Output folder.
     #[arg(long, default_value = "runs/bench")]
     pub out: PathBuf,
-    /// Replace an earlier run in --out: delete the files this study writes there first
-    /// (other files are left alone). Without it, a folder holding such files is refused.
-    #[arg(long)]
+    #[arg(long, help = pendulum_atlas_map::output::folder::FORCE_HELP)]
     pub force: bool,
 }
 

@@ -39,9 +39,7 @@ pub struct MapArgs {
     /// or indices from `pendulum-atlas adapters`, e.g. `0,1`.
     #[arg(long, value_name = "all|I,J,...", conflicts_with = "adapter")]
     pub devices: Option<String>,
-    /// Replace an earlier run in --out: delete the files this command writes there first
-    /// (other files are left alone). Without it, a folder holding such files is refused.
-    #[arg(long)]
+    #[arg(long, help = pendulum_atlas_map::output::folder::FORCE_HELP)]
     pub force: bool,
     /// No progress bar.
     #[arg(long)]

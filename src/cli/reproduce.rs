@@ -14,9 +14,7 @@ pub struct ReproduceArgs {
     /// Fewer segments (N = 3) and 12 s runs: the same pipeline in seconds, for CI and a first look.
     #[arg(long)]
     quick: bool,
-    /// Replace an earlier run in --out: delete the files this command writes there first
-    /// (other files are left alone). Without it, a folder holding such files is refused.
-    #[arg(long)]
+    #[arg(long, help = pendulum_atlas_map::output::folder::FORCE_HELP)]
     force: bool,
 }
 

@@ -19,9 +19,7 @@ pub struct SearchArgs {
     /// Output folder.
     #[arg(long, default_value = "runs/harvest")]
     pub out: PathBuf,
-    /// Replace an earlier run in --out: delete the files this command writes there first
-    /// (other files are left alone). Without it, a folder holding such files is refused.
-    #[arg(long)]
+    #[arg(long, help = pendulum_atlas_map::output::folder::FORCE_HELP)]
     pub force: bool,
     /// No progress bar.
     #[arg(long)]

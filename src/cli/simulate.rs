@@ -66,9 +66,7 @@ pub struct SimulateArgs {
     /// Output folder (created if needed).
     #[arg(long)]
     out: PathBuf,
-    /// Replace an earlier run in --out: delete the files this command writes there first
-    /// (other files are left alone). Without it, a folder holding such files is refused.
-    #[arg(long)]
+    #[arg(long, help = pendulum_atlas_map::output::folder::FORCE_HELP)]
     force: bool,
 }
 

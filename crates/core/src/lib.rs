@@ -1,6 +1,6 @@
 //! pendulum-atlas-core: the numerical core of pendulum-atlas, from a scene to the numbers of
 //! one instance. No files, pictures, servers or command lines: those live in the crates above
-//! (`pendulum-atlas-map`, `-studies`, `-explore` and the `pendulum-atlas` binary).
+//! (`pendulum-atlas-map`, `-design`, `-studies`, `-explore` and the `pendulum-atlas` binary).
 //!
 //! The physics is written down in `docs/model.md` and the indicators in `docs/analysis.md`;
 //! module docs name the sections they implement. The modules follow the pipeline a run goes

@@ -150,7 +150,7 @@ impl Metric {
     }
 
     /// Whether any of `metrics` is recorded from `source`.
-    pub fn any_from(metrics: &[Metric], source: Source) -> bool {
+    pub(crate) fn any_from(metrics: &[Metric], source: Source) -> bool {
         metrics.iter().any(|m| m.source() == source)
     }
 }
@@ -371,7 +371,7 @@ pub enum Stage {
 impl Stage {
     /// Whether the GPU kernels leave this stage's value itself in the result's slot (the
     /// tally's slots hold accumulators that [`Stage::Tally`] turns into values on the host).
-    pub fn gpu_final(self) -> bool {
+    pub(crate) fn gpu_final(self) -> bool {
         matches!(self, Stage::Series | Stage::Lyapunov)
     }
 }
@@ -398,7 +398,7 @@ pub enum Range {
 
 impl Range {
     /// Whether `v` (not NaN) lies in this range.
-    pub fn admits(self, v: f64) -> bool {
+    pub(crate) fn admits(self, v: f64) -> bool {
         let whole = v.fract() == 0.0;
         match self {
             Range::Signed1 => (-1.0..=1.0).contains(&v),

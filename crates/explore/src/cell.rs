@@ -220,7 +220,7 @@ pub struct CellRun {
 /// Memory a cell run holds per byte of its rows: the rows themselves, the analysis's copies
 /// of α and the cart, its spectra and the wavelet transform of the (block-averaged) record.
 /// Measured with `simulate` on the default scene (see `docs/bench/EXPLORE.md`).
-pub const MEMORY_PER_ROW_BYTE: u64 = 18;
+pub(crate) const MEMORY_PER_ROW_BYTE: u64 = 18;
 
 /// The memory a run of `scene` over `plan` holds in `explore` (bytes, estimated): its rows
 /// times `MEMORY_PER_ROW_BYTE`.
@@ -248,7 +248,7 @@ impl CellControl {
     }
 
     /// Whether the run was asked to stop.
-    pub fn is_cancelled(&self) -> bool {
+    pub(crate) fn is_cancelled(&self) -> bool {
         self.cancelled.load(Ordering::Relaxed)
     }
 }

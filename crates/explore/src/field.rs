@@ -52,14 +52,17 @@ pub struct Field {
 }
 
 /// Cells along x and y of the page: `(n0, n1 or 1)`.
-pub fn page_shape(folder: &RunFolder) -> (usize, usize) {
+pub(crate) fn page_shape(folder: &RunFolder) -> (usize, usize) {
     let s = folder.shape();
     (s[0], s.get(1).copied().unwrap_or(1))
 }
 
 /// The slice (text from a request: indices of the axes beyond the second, comma-separated;
 /// none: all 0), each checked against its axis.
-pub fn slice_index(folder: &RunFolder, given: Option<&str>) -> Result<Vec<usize>, ExploreError> {
+pub(crate) fn slice_index(
+    folder: &RunFolder,
+    given: Option<&str>,
+) -> Result<Vec<usize>, ExploreError> {
     let extra = &folder.shape()[folder.shape().len().min(2)..];
     let Some(given) = given.filter(|g| !g.is_empty()) else {
         return Ok(vec![0; extra.len()]);
@@ -132,7 +135,7 @@ pub fn field(folder: &RunFolder, name: &str, slice: &[usize]) -> Result<Field, E
 }
 
 /// The status name of a stored code (`unknown` for a code no status has).
-pub fn status_name(code: u8) -> &'static str {
+pub(crate) fn status_name(code: u8) -> &'static str {
     Status::ALL
         .iter()
         .find(|s| s.code() == code)

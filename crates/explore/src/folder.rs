@@ -104,7 +104,7 @@ pub struct CellAttractor {
 }
 
 /// The largest picture served (bytes): far above any map's PNG.
-pub const PICTURE_MAX_BYTES: u64 = 256 << 20;
+pub(crate) const PICTURE_MAX_BYTES: u64 = 256 << 20;
 
 /// How many names the file of `meta` has.
 fn links(meta: &std::fs::Metadata) -> u64 {
@@ -127,7 +127,7 @@ impl RunFolder {
     /// symlink or a FIFO between a check and the read is never followed. A hard link (a
     /// second name of a file that may lie outside the folder) is refused: the pictures a
     /// command writes have one name.
-    pub fn read_picture(&self, name: &str) -> Option<Vec<u8>> {
+    pub(crate) fn read_picture(&self, name: &str) -> Option<Vec<u8>> {
         if !name.ends_with(".png") || !self.files.iter().any(|f| f == name) {
             return None;
         }
@@ -199,7 +199,11 @@ impl RunFolder {
 }
 
 /// A whole number below `count`, or the error naming the range.
-pub fn parse_index(given: &str, count: usize, what: &'static str) -> Result<usize, ExploreError> {
+pub(crate) fn parse_index(
+    given: &str,
+    count: usize,
+    what: &'static str,
+) -> Result<usize, ExploreError> {
     given
         .parse::<usize>()
         .ok()
@@ -213,7 +217,7 @@ pub fn parse_index(given: &str, count: usize, what: &'static str) -> Result<usiz
 
 /// The manifest `M` of `dir`, read by the type its writer fills ([`Manifest::read`]): a
 /// missing one is a missing file, a damaged one a bad file.
-pub fn read_manifest<M: Manifest>(dir: &Path) -> Result<M, ExploreError> {
+pub(crate) fn read_manifest<M: Manifest>(dir: &Path) -> Result<M, ExploreError> {
     let path = dir.join(M::NAME);
     M::read(&path).map_err(|e| match e {
         ManifestError::Unreadable { .. } => ExploreError::MissingFile {
@@ -225,13 +229,13 @@ pub fn read_manifest<M: Manifest>(dir: &Path) -> Result<M, ExploreError> {
 }
 
 /// A JSON file of the folder that is not its manifest (`attractors.json`).
-pub fn read_json(path: &Path) -> Result<serde_json::Value, ExploreError> {
+pub(crate) fn read_json(path: &Path) -> Result<serde_json::Value, ExploreError> {
     let text = std::fs::read_to_string(path).map_err(|e| bad(path, e.to_string()))?;
     serde_json::from_str(&text).map_err(|e| bad(path, format!("not JSON: {e}")))
 }
 
 /// The text of a file the folder must hold; `hint` says why it may be missing.
-pub fn read_text(dir: &Path, name: &str, hint: &str) -> Result<String, ExploreError> {
+pub(crate) fn read_text(dir: &Path, name: &str, hint: &str) -> Result<String, ExploreError> {
     let path = dir.join(name);
     std::fs::read_to_string(&path).map_err(|_| ExploreError::MissingFile {
         path: path.display().to_string(),
@@ -288,7 +292,7 @@ pub fn num(s: &str) -> f64 {
 }
 
 /// The grid cell whose axis values are `values` (equal within 1e-9 relative), if any.
-pub fn grid_cell(axes: &[Axis], values: &[f64]) -> Option<usize> {
+pub(crate) fn grid_cell(axes: &[Axis], values: &[f64]) -> Option<usize> {
     let mut k = 0;
     for (a, &v) in axes.iter().zip(values) {
         let i = a

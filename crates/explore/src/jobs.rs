@@ -15,7 +15,7 @@ use std::collections::{HashMap, VecDeque};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 
 /// Finished jobs kept for repeated clicks.
-pub const KEEP_DONE: usize = 64;
+pub(crate) const KEEP_DONE: usize = 64;
 
 /// Where a job stands, as the page polls it.
 #[derive(Debug, Clone, Serialize)]

@@ -15,7 +15,7 @@ type Stamp = ((u64, u64), (u64, u64, Option<SystemTime>));
 
 /// The stamp of a served folder, and whether its change was told.
 #[derive(Debug)]
-pub struct Seal {
+pub(crate) struct Seal {
     dir: PathBuf,
     manifest: PathBuf,
     stamp: Option<Stamp>,

@@ -169,7 +169,7 @@ fn read_instances(
 }
 
 /// Variant `v` as (initial state index, frequency index).
-pub fn split_variant(spec: &SearchSpec, v: usize) -> (usize, usize) {
+pub(crate) fn split_variant(spec: &SearchSpec, v: usize) -> (usize, usize) {
     let nf = spec.band.frequencies_hz.len();
     (v / nf, v % nf)
 }

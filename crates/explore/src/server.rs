@@ -37,7 +37,7 @@ const APP_JS: &str = include_str!("assets/app.js");
 const STYLE_CSS: &str = include_str!("assets/style.css");
 
 /// What every handler shares.
-pub struct App {
+pub(crate) struct App {
     /// The map folder.
     pub folder: Arc<RunFolder>,
     /// The queue of cell runs.
@@ -72,7 +72,7 @@ impl IntoResponse for ExploreError {
 }
 
 /// The router of the page and the API.
-pub fn router(app: Arc<App>) -> Router {
+pub(crate) fn router(app: Arc<App>) -> Router {
     Router::new()
         .route("/", get(|| async { asset("text/html; charset=utf-8", INDEX_HTML) }))
         .route("/app.js", get(|| async { asset("text/javascript; charset=utf-8", APP_JS) }))

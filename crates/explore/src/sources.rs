@@ -42,7 +42,7 @@ pub struct Found {
 }
 
 /// `(design id, initial state name, frequency index)`.
-pub type InstanceKey = (String, String, usize);
+pub(crate) type InstanceKey = (String, String, usize);
 
 /// A search and what `instances.csv` says of each grid design.
 #[derive(Debug)]

@@ -11,7 +11,7 @@ pub fn memory_available() -> Option<u64> {
 }
 
 /// Space free to this user on the file system of `dir` or its nearest existing ancestor.
-pub fn free_space(dir: &Path) -> Option<u64> {
+pub(crate) fn free_space(dir: &Path) -> Option<u64> {
     dir.ancestors()
         .find(|p| p.exists())
         .and_then(|p| fs4::available_space(p).ok())

@@ -213,7 +213,7 @@ impl MapRun {
 /// about 1 kB per instance plus 200 B per segment (its plan's coefficient vectors; measured:
 /// a peak RSS of 342 404 KiB for 200 000 instances at N = 3, files included) and its
 /// bifurcation tail.
-pub fn host_bytes_estimate(spec: &MapSpec) -> u64 {
+pub(crate) fn host_bytes_estimate(spec: &MapSpec) -> u64 {
     let tail = if spec.bifurcation {
         8 * u64::from(spec.bifurcation_samples)
     } else {

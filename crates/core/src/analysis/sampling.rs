@@ -208,7 +208,7 @@ pub fn time_gaps(t: &[f64], max_median_steps: f64) -> Result<Vec<TimeGap>, Analy
 }
 
 /// Most samples a resampled record may have, as a multiple of the samples it came from.
-pub const MAX_RESAMPLE_GROWTH: usize = 16;
+pub(crate) const MAX_RESAMPLE_GROWTH: usize = 16;
 
 /// Resamples `x(t)` on the uniform grid `t[0] + i/rate_hz` up to `t[last]`, by linear
 /// interpolation between bracketing samples. Returns `(times, values)`; refused when it would

@@ -88,7 +88,7 @@ impl MotherWavelet {
     }
 
     /// Fourier factor `λ = 4π/(ω0 + √(2 + ω0²))`: the Fourier period per unit scale.
-    pub fn fourier_factor(&self) -> f64 {
+    pub(crate) fn fourier_factor(&self) -> f64 {
         let MotherWavelet::Morlet { omega0 } = *self;
         4.0 * PI / (omega0 + (2.0 + omega0 * omega0).sqrt())
     }
@@ -105,7 +105,7 @@ impl MotherWavelet {
     }
 
     /// Reconstruction factor `Cδ` (TC98 Table 2): tabulated for `ω0 = 6` only.
-    pub fn c_delta(&self) -> Option<f64> {
+    pub(crate) fn c_delta(&self) -> Option<f64> {
         let MotherWavelet::Morlet { omega0 } = *self;
         (omega0 == MORLET_OMEGA0).then_some(MORLET_C_DELTA)
     }
@@ -188,7 +188,7 @@ pub struct WaveletResult {
 }
 
 /// Fourier factor `λ` of the default Morlet wavelet (`ω0 = 6`); see
-/// [`MotherWavelet::fourier_factor`] for another `ω0`.
+/// `MotherWavelet::fourier_factor` for another `ω0`.
 pub fn morlet_fourier_factor() -> f64 {
     MotherWavelet::default().fourier_factor()
 }
@@ -601,7 +601,7 @@ fn transformed_signal(
 
 /// Most wavelet coefficients (scales × samples) one transform computes: 2 GiB of complex
 /// values.
-pub const MAX_WAVELET_CELLS: usize = 1 << 27;
+pub(crate) const MAX_WAVELET_CELLS: usize = 1 << 27;
 
 /// Scales `s0·2^{j·δj}`, `j = 0…J`, with pycwt's defaults for `s0` and `J`.
 ///

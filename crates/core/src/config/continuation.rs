@@ -86,7 +86,7 @@ impl ContinuationSpec {
 const SWEEPS: [&str; 3] = ["up", "down", "both"];
 
 /// Read `map.continuation` and `map.continuation_axis` against the map's axes.
-pub fn read_continuation(
+pub(crate) fn read_continuation(
     r: &mut Reader,
     axes: &[MapAxis],
 ) -> Result<Option<ContinuationSpec>, ConfigError> {

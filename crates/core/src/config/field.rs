@@ -92,7 +92,7 @@ impl SceneField {
     }
 
     /// The field of a dotted key, if it is one.
-    pub fn of_key(key: &str) -> Option<SceneField> {
+    pub(crate) fn of_key(key: &str) -> Option<SceneField> {
         SceneField::ALL.into_iter().find(|f| f.key() == key)
     }
 

@@ -9,7 +9,7 @@ use super::error::ConfigError;
 use toml::Value;
 
 /// Refuse the removed keys of a map's `[gpu]` section `gpu`, each with its reason.
-pub fn refuse_removed(gpu: Option<&Value>) -> Result<(), ConfigError> {
+pub(crate) fn refuse_removed(gpu: Option<&Value>) -> Result<(), ConfigError> {
     if gpu.and_then(|g| g.get("layout")).is_some() {
         return Err(ConfigError::Inconsistent {
             key: "gpu.layout".into(),

@@ -133,7 +133,7 @@ impl Default for LyapunovSettings {
 }
 
 /// Runs between two checks of [`MapSpec::run_scenes_while`]'s `go_on` (a few ms of planning).
-pub const PLAN_CHECK_RUNS: usize = 4096;
+pub(crate) const PLAN_CHECK_RUNS: usize = 4096;
 
 impl MapSpec {
     /// Shape of the grid (one entry per axis).
@@ -192,12 +192,6 @@ impl MapSpec {
             MapMode::Attractors { starts, .. } => starts.as_ref(),
             _ => None,
         }
-    }
-
-    /// Whether the map labels attractors: several starts per cell, or a basin picture (an
-    /// axis over the start itself, `initial.angle_deg` or `initial.rate_deg_s`).
-    pub fn labels_attractors(&self) -> bool {
-        matches!(self.mode, MapMode::Attractors { .. })
     }
 
     /// Whether the map is a basin picture: every axis a key of the start, so that every cell
@@ -261,7 +255,7 @@ impl MapSpec {
 
     /// [`MapSpec::run_scenes`], asking `go_on(run)` at every `PLAN_CHECK_RUNS`-th run
     /// whether to go on; `None` when it said no (a cancel while a huge map is planned).
-    pub fn run_scenes_while(
+    pub(crate) fn run_scenes_while(
         &self,
         go_on: &(dyn Fn(u64) -> bool + Sync),
     ) -> Result<Option<Vec<Scene>>, ConfigError> {
@@ -891,7 +885,7 @@ fn read_phase_convention(r: &mut Reader) -> Result<PhaseConvention, ConfigError>
 }
 
 /// The keys of a start: an axis over one of them draws a basin picture.
-pub const START_KEYS: [&str; 2] = ["initial.angle_deg", "initial.rate_deg_s"];
+pub(crate) const START_KEYS: [&str; 2] = ["initial.angle_deg", "initial.rate_deg_s"];
 
 /// The metrics an attractor's fingerprint reads (`docs/analysis.md`, "Attractors"): the
 /// regime (which brings λ1, the period and K), the α range, the hops and, with the piezo on,

@@ -22,7 +22,7 @@ pub struct DampingReport {
 
 impl Scene {
     /// The beam, tip, root and gravity as the model describes them.
-    pub fn chain_design(&self) -> ChainDesign {
+    pub(crate) fn chain_design(&self) -> ChainDesign {
         let b = &self.beam;
         ChainDesign {
             tube: Tube {
@@ -42,7 +42,7 @@ impl Scene {
     }
 
     /// The bumpers, when enabled.
-    pub fn bumper_design(&self) -> Option<BumperDesign> {
+    pub(crate) fn bumper_design(&self) -> Option<BumperDesign> {
         let l = &self.limiter;
         l.enabled.then(|| BumperDesign {
             contact_arc_m: l.contact_arc_m,
@@ -65,7 +65,7 @@ impl Scene {
     }
 
     /// The cart motion.
-    pub fn cart_motion(&self) -> CartMotion {
+    pub(crate) fn cart_motion(&self) -> CartMotion {
         CartMotion {
             amplitude_m: self.excitation.amplitude_m,
             kind: self.excitation.kind,
@@ -76,7 +76,7 @@ impl Scene {
     /// Whether `other` has the same model coefficients as this scene but for the cart's
     /// motion: the same beam, tip, bumpers, gravity, pivot and piezo (what
     /// [`Scene::model_params`] reads besides the excitation).
-    pub fn same_structure(&self, other: &Scene) -> bool {
+    pub(crate) fn same_structure(&self, other: &Scene) -> bool {
         self.beam == other.beam
             && self.tip == other.tip
             && self.limiter == other.limiter
@@ -102,12 +102,6 @@ impl Scene {
             BeamDamping::JointNms(b) => b / p.joint_stiffness_nm,
         };
         Ok(p.with_damping_time(beta_s))
-    }
-
-    /// The library reading's damping time β = 0.35 N m s/rad / (EI/(L/17)) for this scene's
-    /// tube (s): Table 1's per-joint constant at the paper's N = 17.
-    pub fn library_damping_time_s(&self) -> f64 {
-        super::scene::library_damping_time_s(&self.chain_design().tube)
     }
 
     /// The joint damping a run uses: β, the per-joint b at this N, and ζ1 of the first clamped

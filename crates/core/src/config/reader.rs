@@ -129,7 +129,7 @@ pub fn set_key(table: &mut Table, key: &str, value: Value) -> Result<(), ConfigE
 }
 
 /// The dotted keys of every value (not section) in `table`.
-pub fn leaf_keys(table: &Table) -> BTreeSet<String> {
+pub(crate) fn leaf_keys(table: &Table) -> BTreeSet<String> {
     fn walk(t: &Table, prefix: &str, out: &mut BTreeSet<String>) {
         for (k, v) in t {
             let key = if prefix.is_empty() {
@@ -244,7 +244,7 @@ impl Reader {
 
     /// Wrap a table whose keys `defaults` come from the embedded default scene, not from the
     /// user: [`Reader::given`] does not count them.
-    pub fn with_defaults(table: Table, defaults: BTreeSet<String>) -> Self {
+    pub(crate) fn with_defaults(table: Table, defaults: BTreeSet<String>) -> Self {
         Reader {
             defaults,
             ..Reader::new(table)
@@ -262,7 +262,7 @@ impl Reader {
     }
 
     /// The remarks recorded so far.
-    pub fn take_notes(&mut self) -> Vec<String> {
+    pub(crate) fn take_notes(&mut self) -> Vec<String> {
         std::mem::take(&mut self.notes)
     }
 

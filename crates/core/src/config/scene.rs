@@ -315,11 +315,6 @@ impl Scene {
         Ok(scene)
     }
 
-    /// Total pendulum mass (beam + tip) (kg).
-    pub fn total_mass_kg(&self) -> f64 {
-        self.beam.mass_kg + self.tip.mass_kg
-    }
-
     /// How one run of this scene is analysed (`simulate`, and `explore` for a clicked cell):
     /// holder angle against cart position after the transient, stroboscopic at the forcing
     /// frequency (at the extrema for a sweep), hops judged against the clearance.
@@ -418,11 +413,11 @@ fn read_scene(r: &mut Reader) -> Result<Scene, ConfigError> {
 }
 
 /// The beam masses the model is meant for (kg): a milligram to ten tonnes.
-pub const BEAM_MASS_RANGE_KG: (f64, f64) = (1e-6, 1e4);
+pub(crate) const BEAM_MASS_RANGE_KG: (f64, f64) = (1e-6, 1e4);
 
 /// How many times the beam's mass the tip mass (and the holder's inertia over the beam's
 /// m L²) may be: beyond it the chain's mass matrix loses its precision in `f64`.
-pub const MAX_MASS_RATIO: f64 = 1e6;
+pub(crate) const MAX_MASS_RATIO: f64 = 1e6;
 
 /// A given step must sample the forcing above its Nyquist rate, two steps per period of the
 /// highest forcing frequency: slower, the cart's motion aliases (at one step per half period
@@ -486,7 +481,7 @@ fn read_beam(r: &mut Reader) -> Result<Beam, ConfigError> {
 
 /// The library reading's β for a tube: `b / k` with `b` = [`LIBRARY_JOINT_DAMPING_NMS`] and
 /// `k = EI / (L / 17)` (s), the same for every N of the scene.
-pub fn library_damping_time_s(tube: &Tube) -> f64 {
+pub(crate) fn library_damping_time_s(tube: &Tube) -> f64 {
     LIBRARY_JOINT_DAMPING_NMS
         / (tube.bending_stiffness_nm2() / (tube.length_m / LIBRARY_SEGMENTS as f64))
 }
@@ -586,7 +581,7 @@ impl Scene {
     /// The keys this scene does not use, each with the setting that switches it off: a
     /// value given for one changes nothing of a run (a note says so), and a sweep over one
     /// (a map axis, a design variable, an unknown) would give identical cells.
-    pub fn unused_keys(&self) -> Vec<(&'static str, &'static str)> {
+    pub(crate) fn unused_keys(&self) -> Vec<(&'static str, &'static str)> {
         let mut off: Vec<SwitchedOff> = Vec::new();
         if !self.limiter.enabled {
             off.push(LIMITER_OFF);

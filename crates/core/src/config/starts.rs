@@ -76,7 +76,7 @@ impl StartSet {
 /// reach in every cell: the smallest clearance where an axis sweeps it), the grid (at most
 /// `max_runs` runs in all, the map's instance limit) and the axes (no axis may set the start
 /// itself). `None` when the key is absent: one start per cell, the scene's own.
-pub fn read_starts(
+pub(crate) fn read_starts(
     r: &mut Reader,
     value: Option<Value>,
     scene: &Scene,

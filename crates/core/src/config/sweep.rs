@@ -72,7 +72,7 @@ impl SweptKey {
     }
 
     /// A value in the space steps are taken in (ln for log keys).
-    pub fn to_step_space(&self, v: f64) -> f64 {
+    pub(crate) fn to_step_space(&self, v: f64) -> f64 {
         match self.scale {
             AxisScale::Linear => v,
             AxisScale::Log => v.ln(),
@@ -80,7 +80,7 @@ impl SweptKey {
     }
 
     /// Back from step space.
-    pub fn from_step_space(&self, u: f64) -> f64 {
+    pub(crate) fn value_from_step_space(&self, u: f64) -> f64 {
         match self.scale {
             AxisScale::Linear => u,
             AxisScale::Log => u.exp(),
@@ -88,7 +88,7 @@ impl SweptKey {
     }
 
     /// The mean spacing of the values in step space (0 for a single value: the key is fixed).
-    pub fn grid_step(&self) -> f64 {
+    pub(crate) fn grid_step(&self) -> f64 {
         let n = self.values.len();
         if n < 2 {
             return 0.0;
@@ -97,7 +97,7 @@ impl SweptKey {
     }
 
     /// Clamp to the range of the values and round integer keys.
-    pub fn admissible(&self, v: f64) -> f64 {
+    pub(crate) fn admissible(&self, v: f64) -> f64 {
         let v = v.clamp(self.lo(), self.hi());
         if self.integer { v.round() } else { v }
     }
@@ -116,7 +116,7 @@ pub fn neighbours(keys: &[SweptKey], centre: &[f64], shrink: f64) -> Vec<Vec<f64
         for sign in [-1.0, 1.0] {
             let u = key.to_step_space(centre[i]) + sign * step;
             let mut cand = centre.to_vec();
-            cand[i] = key.admissible(key.from_step_space(u));
+            cand[i] = key.admissible(key.value_from_step_space(u));
             out.push(cand);
         }
     }
@@ -202,7 +202,7 @@ impl SweepList {
     }
 
     /// Refuse an entry over a key that `scene` (a point's, its swept values set) does not
-    /// use ([`Scene::unused_keys`]): every point would be the same.
+    /// use (`Scene::unused_keys`): every point would be the same.
     pub fn refuse_unused(&self, keys: &[SweptKey], scene: &Scene) -> Result<(), ConfigError> {
         let unused = scene.unused_keys();
         for (i, k) in keys.iter().enumerate() {

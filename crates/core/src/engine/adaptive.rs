@@ -1,9 +1,9 @@
 //! Error-controlled steps (`integration.step = "adaptive"`; `docs/model.md`, "Adaptive
 //! steps"): an embedded pair on a ladder of steps aligned to the plan's base step `H` (the
 //! sample grid). Two pairs climb it ([`Rungs`]):
-//! - IMEX ([`ImexRungs`]): ARK3(2)4L\[2\]SA with its embedded second-order solution, the error
+//! - IMEX (`ImexRungs`): ARK3(2)4L\[2\]SA with its embedded second-order solution, the error
 //!   filtered through the implicit solve; its base step is the output interval's fraction
-//!   ([`crate::engine::plan::ADAPTIVE_BASE_MAX_S`] at most);
+//!   (`crate::engine::plan::ADAPTIVE_BASE_MAX_S` at most);
 //! - explicit ([`crate::engine::rk4::Rk4Rungs`]): classical RK4 with an embedded third-order
 //!   solution from one more evaluation at the step's end, which is the next step's first
 //!   (first same as last: four evaluations per try); its base step is RK4's automatic
@@ -77,7 +77,7 @@ pub struct SubstepStats {
 
 impl SubstepStats {
     /// Sub-steps tried: accepted and rejected.
-    pub fn tries(&self) -> u64 {
+    pub(crate) fn tries(&self) -> u64 {
         self.accepted + self.rejected
     }
 
@@ -100,7 +100,7 @@ impl SubstepStats {
 /// built when first used; the state's summation compensation passes to the level that takes
 /// the next sub-step.
 #[derive(Debug, Clone)]
-pub struct ImexRungs<T> {
+pub(crate) struct ImexRungs<T> {
     params: Arc<ModelParams>,
     base_s: f64,
     dim: usize,
@@ -208,10 +208,10 @@ pub struct Adaptive<T, R> {
 }
 
 /// Adaptive steps of the IMEX pair.
-pub type AdaptiveImex<T> = Adaptive<T, ImexRungs<T>>;
+pub(crate) type AdaptiveImex<T> = Adaptive<T, ImexRungs<T>>;
 
 /// Adaptive steps of the explicit pair (RK4 with its embedded third-order solution).
-pub type AdaptiveRk4<T> = Adaptive<T, Rk4Rungs<T>>;
+pub(crate) type AdaptiveRk4<T> = Adaptive<T, Rk4Rungs<T>>;
 
 impl<T: Real> AdaptiveRk4<T> {
     /// The explicit stepper over base steps of `base_s` seconds (RK4's stable step),

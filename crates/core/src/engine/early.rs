@@ -50,7 +50,7 @@ use crate::reduce::Tally;
 
 /// The accumulators of one forcing period.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PeriodTally {
+pub(crate) struct PeriodTally {
     /// Hops between the wells.
     pub hops: u32,
     /// Bumper contact onsets.
@@ -77,7 +77,7 @@ impl Default for PeriodTally {
 
 impl PeriodTally {
     /// Add this period to the run's tally.
-    pub fn add_to(&self, t: &mut Tally) {
+    pub(crate) fn add_to(&self, t: &mut Tally) {
         t.hops += self.hops;
         t.impacts += self.impacts;
         t.power_sum_w += self.power_sum_w;
@@ -88,7 +88,7 @@ impl PeriodTally {
 
 /// The rings of one instance's early stop.
 #[derive(Debug, Clone)]
-pub struct EarlyTracker<T> {
+pub(crate) struct EarlyTracker<T> {
     rule: EarlyStop,
     /// Whole states at the last `p_max + 1` stroboscopic instants.
     states: Vec<Vec<T>>,
@@ -124,7 +124,7 @@ impl<T: Real> EarlyTracker<T> {
 
     /// Keep the state at stroboscopic instant `abs`; the period of the orbit when it is
     /// confirmed there.
-    pub fn at_strobe(&mut self, abs: u64, y: &(impl StateView<T> + ?Sized)) -> Option<u32> {
+    pub(crate) fn at_strobe(&mut self, abs: u64, y: &(impl StateView<T> + ?Sized)) -> Option<u32> {
         let (ns, na) = (self.states.len() as u64, self.alphas.len() as u64);
         let slot = &mut self.states[(abs % ns) as usize];
         slot.clear();
@@ -155,18 +155,18 @@ impl<T: Real> EarlyTracker<T> {
     }
 
     /// Keep the tally of period `q` (0-based).
-    pub fn end_period(&mut self, q: u64, t: PeriodTally) {
+    pub(crate) fn end_period(&mut self, q: u64, t: PeriodTally) {
         let n = self.periods.len() as u64;
         self.periods[(q % n) as usize] = t;
     }
 
     /// Whether α at R instants is kept.
-    pub fn wants_r(&self) -> bool {
+    pub(crate) fn wants_r(&self) -> bool {
         !self.r_ring.is_empty()
     }
 
     /// Keep α at the R instant `step` (a multiple of `r_every`).
-    pub fn r_sample(&mut self, step: u64, r_every: u64, alpha: f64) {
+    pub(crate) fn r_sample(&mut self, step: u64, r_every: u64, alpha: f64) {
         let n = self.r_ring.len() as u64;
         self.r_ring[((step / r_every) % n) as usize] = alpha;
     }
@@ -174,7 +174,7 @@ impl<T: Real> EarlyTracker<T> {
     /// Fill what the run after period boundary `stop_period` would have added (see the
     /// module doc): the tally of the periods after the transient, the stroboscopic α after
     /// the transient (`strobe`, empty when not recorded) and the R series (`r_alpha`).
-    pub fn continue_orbit(
+    pub(crate) fn continue_orbit(
         &self,
         p: u32,
         stop_period: u64,

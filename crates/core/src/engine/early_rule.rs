@@ -37,7 +37,7 @@ impl EarlyStop {
     };
 
     /// The tolerance in the float type `T` (f32 or f64).
-    pub fn tol_in<T: Real>(&self) -> f64 {
+    pub(crate) fn tol_in<T: Real>(&self) -> f64 {
         self.tol.unwrap_or(if T::NAME == "f32" {
             EARLY_TOL_F32
         } else {

@@ -301,14 +301,14 @@ impl<T: Lane> Imex<T> {
 
 impl<T: Lane> Imex<T> {
     /// Forget the summation compensation of lane `i` (a twin starting there).
-    pub fn zero_compensation_lane(&mut self, i: usize) {
+    pub(crate) fn zero_compensation_lane(&mut self, i: usize) {
         for c in &mut self.comp {
             *c = c.with_lane(i, <T::Scalar as num_traits::Zero>::zero());
         }
     }
 
     /// The same matrices and step with nothing carried over (a twin trajectory's stepper).
-    pub fn fresh_lanes(&self) -> Self {
+    pub(crate) fn fresh_lanes(&self) -> Self {
         let mut s = self.clone();
         s.comp.fill(T::splat(0.0));
         s
@@ -330,7 +330,7 @@ impl<T: Lane> Imex<T> {
     /// of the twin evaluated with the bumpers on the branches of the main stage
     /// ([`Chain::rates_on`], `crate::engine::twin`).
     #[inline]
-    pub fn step_pair(
+    pub(crate) fn step_pair(
         &mut self,
         chain: &Chain<T>,
         ws: &mut Workspace<T>,

@@ -19,13 +19,13 @@
 use crate::model::{Branches, Chain, Lane, Real, Workspace};
 
 /// The finest level: `H / 2^20`, a microsecond of a one-second base step.
-pub const MAX_LEVEL: u32 = 20;
+pub(crate) const MAX_LEVEL: u32 = 20;
 
 /// The error below which the next step may double (its error then about 8× as large).
-pub const GROW: f64 = 0.1;
+pub(crate) const GROW: f64 = 0.1;
 
 /// A base step in units of the finest step: positions within it are counted in these.
-pub const UNIT: u64 = 1 << MAX_LEVEL;
+pub(crate) const UNIT: u64 = 1 << MAX_LEVEL;
 
 /// The tolerances of the error norm.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -39,7 +39,7 @@ pub struct Tolerance {
 impl Tolerance {
     /// The scaled error `e = max_s |x_s| / (atol + rtol·|y_s|)` of lane `lane` of the estimate
     /// `err` for a step from `y`, in f64 from the lane's values (lane 0 of a scalar).
-    pub fn scaled_error<V: Lane>(&self, err: &[V], y: &[V], lane: usize) -> f64 {
+    pub(crate) fn scaled_error<V: Lane>(&self, err: &[V], y: &[V], lane: usize) -> f64 {
         err.iter()
             .zip(y)
             .map(|(x, y)| self.ratio(x.lane(lane).wide(), y.lane(lane).wide()))
@@ -55,7 +55,7 @@ impl Tolerance {
 /// Where one instance stands on the ladder: the level of its next sub-step and its position
 /// within the base step (in units of the finest step).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Rung {
+pub(crate) struct Rung {
     /// The level k of the next sub-step (`h = H / 2^k`).
     pub level: u32,
     /// The position within the base step, in [`UNIT`]s of the finest step.
@@ -92,7 +92,7 @@ impl Rung {
     /// Move past an accepted sub-step of scaled error `e`: the position advances, and the
     /// level coarsens by one where the new position is aligned to the coarser step and
     /// `e ≤ GROW`. True when the base step is complete (the position back at 0).
-    pub fn advance(&mut self, e: f64) -> bool {
+    pub(crate) fn advance(&mut self, e: f64) -> bool {
         let (k, span) = (self.level, self.span());
         self.pos += span;
         if k > 0 && self.pos.is_multiple_of(span << 1) && e <= GROW {
@@ -107,7 +107,7 @@ impl Rung {
 }
 
 /// The ladder's rules in WGSL, for the kernels' generated header: the same functions as
-/// [`Tolerance::ratio`], [`Rung::judge`] and [`Rung::advance`] (`unit` is [`UNIT`]).
+/// [`Tolerance::ratio`], `Rung::judge` and `Rung::advance` (`unit` is `UNIT`).
 pub const WGSL: &str = "\
 // The adaptive ladder's rules (src/engine/ladder.rs, generated into this header).
 // |x| / (atol + rtol |y|): Tolerance::ratio.

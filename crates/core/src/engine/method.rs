@@ -14,7 +14,7 @@
 //!   3.6e-4 rad over 0.5 s at N = 5, 9, 17; 1/500 keeps the holder angle within 1e-4 rad of
 //!   the DOP853 reference (`bench --stiff`, `docs/bench/STIFF.md`).
 //! - `auto` picks the method with the smaller cost per simulated second, steps times the cost
-//!   of one step ([`imex_step_cost`] RK4 steps).
+//!   of one step (`imex_step_cost` RK4 steps).
 
 use crate::config::{MethodChoice, Scene, TimeStep};
 use crate::model::linear::{LinearError, clamped_first_omega, explicit_part_radius};
@@ -22,16 +22,16 @@ use crate::model::{ModelParams, modes};
 use serde::Serialize;
 
 /// The explicit tableau's stability boundary on the negative real axis (|z| ≈ 3.665).
-pub const IMEX_EXPLICIT_LIMIT: f64 = 3.665;
+pub(crate) const IMEX_EXPLICIT_LIMIT: f64 = 3.665;
 
 /// Steps per period of the first clamped bending mode that the IMEX step resolves.
-pub const IMEX_STEPS_PER_FIRST_MODE: f64 = 500.0;
+pub(crate) const IMEX_STEPS_PER_FIRST_MODE: f64 = 500.0;
 
 /// Cost of one IMEX step in RK4 steps at N segments: both take four derivatives (O(N) each);
 /// the IMEX method adds its N × N products (about 9 N² multiply-adds against RK4's ~160 N per
 /// step), so the ratio grows as `1 + N/16`. Measured on the CPU engine in f64
 /// (`bench --stiff`): 1.4 at N = 9, 2.1 at N = 17.
-pub fn imex_step_cost(segments: usize) -> f64 {
+pub(crate) fn imex_step_cost(segments: usize) -> f64 {
     1.0 + segments as f64 / 16.0
 }
 
@@ -55,7 +55,7 @@ impl Method {
     }
 
     /// What sets its steps under `integration.step = "adaptive"`.
-    pub fn adaptive_reason(self) -> &'static str {
+    pub(crate) fn adaptive_reason(self) -> &'static str {
         match self {
             Method::Rk4 => {
                 "integration.step = \"adaptive\": RK4's embedded third-order solution sets each step, within RK4's automatic step"
@@ -104,7 +104,7 @@ impl MethodSteps {
 
     /// The IMEX method's limit at safety 1 (s): the explicit half's stability limit or the
     /// accuracy bound, whichever is smaller.
-    pub fn imex_limit_s(&self) -> f64 {
+    pub(crate) fn imex_limit_s(&self) -> f64 {
         let stability = IMEX_EXPLICIT_LIMIT / self.explicit_radius_per_s.max(1e-300);
         stability.min(1.0 / (IMEX_STEPS_PER_FIRST_MODE * self.first_mode_hz))
     }
@@ -123,7 +123,7 @@ impl MethodSteps {
     }
 
     /// Cost of one simulated second in RK4 steps, each method at its automatic step.
-    pub fn cost_per_s(&self, method: Method) -> f64 {
+    pub(crate) fn cost_per_s(&self, method: Method) -> f64 {
         match method {
             Method::Rk4 => 1.0 / self.rk4_auto_s,
             Method::Imex => imex_step_cost(self.segments) / self.imex_auto_s,

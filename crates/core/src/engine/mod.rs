@@ -5,7 +5,7 @@
 //!    scenes; [`StepPlan`] does the same for a single run;
 //! 2. [`Engine::open`]: the engine is chosen and opened once by the caller (a GPU device and
 //!    its compiled kernels live in [`gpu::GpuContext`] and are reused by every batch);
-//! 3. [`Engine::run`]: both engines implement [`EnsembleEngine`]: the CPU engine ([`cpu`],
+//! 3. [`Engine::run`]: both engines implement `EnsembleEngine`: the CPU engine ([`cpu`],
 //!    rayon, `f32`/`f64`) runs the shared step loop of [`stepper`] with [`rk4`]; the GPU engine ([`gpu`],
 //!    WGSL, `f32`) mirrors it in `shaders/`; each reduces its instances to
 //!    [`crate::reduce::InstanceResult`]s;
@@ -29,9 +29,9 @@ pub mod method;
 pub mod plan;
 mod reference;
 pub mod rk4;
-pub mod scene_run;
+pub(crate) mod scene_run;
 mod single;
-pub mod state_view;
+pub(crate) mod state_view;
 mod step_plan;
 pub mod stepper;
 pub mod twin;
@@ -43,9 +43,9 @@ pub use gpu::{GpuContext, GpuEngine};
 pub use plan::{EnsembleOptions, EnsemblePlan, InstancePlan};
 pub use reference::{ReferenceOptions, integrate_reference};
 pub use scene_run::{Integrator, RunLyapunov, SceneRun, run_scene};
+pub(crate) use single::integrate_with_twin;
 pub use single::{
     Instance, NoObserver, Observer, Outcome, POLL_STEPS, SingleTwin, integrate, integrate_batch,
-    integrate_with, integrate_with_twin,
 };
 pub use step_plan::{DtSource, StepPlan};
 
@@ -259,7 +259,7 @@ impl EngineRun {
 }
 
 /// The one interface of the engines: a plan in, per-instance results out.
-pub trait EnsembleEngine {
+pub(crate) trait EnsembleEngine {
     /// Integrate and reduce every instance of `plan`.
     fn run(
         &self,
@@ -365,7 +365,7 @@ impl Engine {
     }
 
     /// On the GPU engine, build the kernels with wgpu's runtime checks (`on`) or without them
-    /// (the default; [`GpuContext::set_runtime_checks`]). For tests and benches.
+    /// (the default; `GpuContext::set_runtime_checks`). For tests and benches.
     pub fn set_gpu_runtime_checks(&mut self, on: bool) {
         if let EngineImpl::Gpu(g) = &mut self.inner {
             g.set_runtime_checks(on);
@@ -462,7 +462,7 @@ impl Engine {
         }
     }
 
-    /// The same engine's results in plan order (see [`EnsembleEngine::run`]).
+    /// The same engine's results in plan order (see `EnsembleEngine::run`).
     pub fn run(
         &self,
         plan: &EnsemblePlan,

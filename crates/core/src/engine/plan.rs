@@ -106,18 +106,18 @@ impl InstancePlan {
     }
 
     /// Steps of the transient.
-    pub fn transient_steps(&self) -> u64 {
+    pub(crate) fn transient_steps(&self) -> u64 {
         u64::from(self.transient_periods) * u64::from(self.spp)
     }
 
     /// Time after the transient (s).
-    pub fn post_transient_s(&self) -> f64 {
+    pub(crate) fn post_transient_s(&self) -> f64 {
         f64::from(self.total_periods - self.transient_periods) / self.frequency_hz
     }
 
     /// The cart at `(step mod spp + frac)/spp` of a forcing period (exact phase).
     #[inline]
-    pub fn cart_at(&self, step: u64, frac: f64) -> CartState {
+    pub(crate) fn cart_at(&self, step: u64, frac: f64) -> CartState {
         let phase_steps = step % u64::from(self.spp);
         let cycles = (phase_steps as f64 + frac) / f64::from(self.spp);
         self.params.cart.at_phase(cycles)
@@ -125,7 +125,7 @@ impl InstancePlan {
 
     /// What the IMEX matrices of this instance depend on: its structure and its (base) step.
     /// Instances with equal keys share one set (and, with adaptive steps, one ladder).
-    pub fn imex_key(&self) -> Vec<u64> {
+    pub(crate) fn imex_key(&self) -> Vec<u64> {
         let mut bits = self.params.structure_bits();
         bits.push(self.dt_s.to_bits());
         bits
@@ -612,7 +612,7 @@ fn steps_per_period(
 
 /// The longest base step of adaptive steps in an ensemble (s): the hook's per-step tallies
 /// (hops, α range, power) and λ1's renormalisations see the state this often at least.
-pub const ADAPTIVE_BASE_MAX_S: f64 = 1e-3;
+pub(crate) const ADAPTIVE_BASE_MAX_S: f64 = 1e-3;
 
 fn plan_instance(
     opts: &EnsembleOptions,

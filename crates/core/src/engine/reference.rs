@@ -46,7 +46,7 @@ impl Default for ReferenceOptions {
 /// boundary on the negative real axis. With the library damping at N = 17 (max|λ| = 1.0e7 s⁻¹)
 /// 0.2 s took 6.5 s with the cap against 7.1 s without (5.5/ρ: 6.9 s, 7/ρ: 7.0 s), both within
 /// 1.6e-12 rad of each other.
-pub const STIFF_STEP_CAP: f64 = 6.0;
+pub(crate) const STIFF_STEP_CAP: f64 = 6.0;
 
 impl ReferenceOptions {
     /// The default tolerances with the step capped at `STIFF_STEP_CAP``/max|λ|` for a chain

@@ -7,7 +7,7 @@ use crate::engine::stepper::{CartClock, Stepper, compensated_add};
 use crate::model::{Branches, BumperLoad, Chain, ContactLaw, Lane, Real, Workspace};
 
 /// Scratch of one RK4 step: the four stage derivatives and a stage state; and the state's
-/// summation compensation, carried from step to step ([`compensated_add`]).
+/// summation compensation, carried from step to step (`compensated_add`).
 #[derive(Debug, Clone)]
 pub struct Rk4Scratch<T> {
     k: [Vec<T>; 4],
@@ -17,7 +17,7 @@ pub struct Rk4Scratch<T> {
 
 impl<T: Lane> Rk4Scratch<T> {
     /// Forget the summation compensation of lane `i` (a twin starting there).
-    pub fn zero_compensation_lane(&mut self, i: usize) {
+    pub(crate) fn zero_compensation_lane(&mut self, i: usize) {
         for c in &mut self.comp {
             *c = c.with_lane(i, <T::Scalar as num_traits::Zero>::zero());
         }
@@ -51,7 +51,7 @@ pub fn rk4_step<T: Lane>(
 /// One RK4 step of `y` and of λ1's twin beside it: every stage of the twin evaluated with the
 /// bumpers on the branches of the main stage ([`Chain::rates_on`], `crate::engine::twin`).
 #[inline]
-pub fn rk4_step_twin<T: Lane>(
+pub(crate) fn rk4_step_twin<T: Lane>(
     chain: &Chain<T>,
     ws: &mut Workspace<T>,
     y: &mut [T],
@@ -147,7 +147,7 @@ fn stage<T: Lane>(out: &mut [T], y: &[T], k: &[T], h: T) {
     }
 }
 
-/// Classical RK4 at a fixed step, as a [`Stepper`].
+/// Classical RK4 at a fixed step, as a `Stepper`.
 #[derive(Debug, Clone)]
 pub struct Rk4<T> {
     dt: T,

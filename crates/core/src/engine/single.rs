@@ -176,7 +176,7 @@ pub struct SingleTwin {
 impl SingleTwin {
     /// The twin of a run of `scene` over `plan` at separation `d0`, aligned over `align`
     /// renormalisations; `Err` says why the run is too short for one.
-    pub fn for_run(
+    pub(crate) fn for_run(
         scene: &Scene,
         plan: &StepPlan,
         d0: f64,
@@ -266,7 +266,7 @@ pub fn integrate<T: Real, O: Observer<T>>(
 
 /// [`integrate`] with λ1's twin when `twin` is given: the outcome, and λ1 once the run
 /// ended `ok` with every renormalisation of the window done.
-pub fn integrate_with_twin<T: Real, O: Observer<T>>(
+pub(crate) fn integrate_with_twin<T: Real, O: Observer<T>>(
     inst: &Instance<T>,
     plan: &StepPlan,
     twin: Option<SingleTwin>,
@@ -295,17 +295,6 @@ pub fn integrate_with_twin<T: Real, O: Observer<T>>(
             run_single(inst, plan, &mut Imex::new(&m, dim), twin, obs)
         }
     }
-}
-
-/// Integrate one instance with `stepper` (whose step must be the plan's) over the plan,
-/// calling the observer at every output row.
-pub fn integrate_with<T: Real, S: Stepper<T>, O: Observer<T>>(
-    inst: &Instance<T>,
-    plan: &StepPlan,
-    stepper: &mut S,
-    obs: &mut O,
-) -> Outcome {
-    run_single(inst, plan, stepper, None, obs).0
 }
 
 /// One run with `stepper` over the plan, the observer at every row, λ1's twin when given.

@@ -4,19 +4,15 @@
 
 /// A state the bookkeeping reads: one instance's slice `[θ; θ̇; v]`, or one lane of a state
 /// of vectors.
-pub trait StateView<T> {
+pub(crate) trait StateView<T> {
     /// Component `k`.
     fn at(&self, k: usize) -> T;
     /// Components.
     fn len(&self) -> usize;
-    /// No components.
-    fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
 }
 
 /// A state the bookkeeping also writes (the twin of λ1, renormalised).
-pub trait StateViewMut<T>: StateView<T> {
+pub(crate) trait StateViewMut<T>: StateView<T> {
     /// Set component `k`.
     fn set(&mut self, k: usize, v: T);
 }

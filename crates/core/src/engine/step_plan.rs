@@ -162,11 +162,11 @@ impl StepPlan {
 /// Fewest steps per period of the fastest forcing an automatic step takes: below two the
 /// cart's motion aliases (a given step that coarse is refused, `integration.dt_s`), and 16 is
 /// what a map takes at least (`map.samples_per_period`'s default).
-pub const AUTO_STEPS_PER_FORCING_PERIOD: f64 = 16.0;
+pub(crate) const AUTO_STEPS_PER_FORCING_PERIOD: f64 = 16.0;
 
 /// The warning for a given step beyond what `method` handles: RK4's stable limit, or the IMEX
 /// method's automatic step at safety 1 (its explicit stability and accuracy bound).
-pub fn given_step_warning(method: Method, dt: f64, steps: &MethodSteps) -> Option<String> {
+pub(crate) fn given_step_warning(method: Method, dt: f64, steps: &MethodSteps) -> Option<String> {
     match method {
         Method::Rk4 if dt > steps.rk4_stable_s => Some(format!(
             "integration.dt_s = {dt:e} s exceeds the RK4 stability limit {:e} s of the linearised model; instances that blow up are flagged `diverged`",

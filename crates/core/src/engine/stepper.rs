@@ -1,9 +1,9 @@
 //! The one step loop that every CPU path runs (single runs and the CPU ensemble engine alike;
-//! the WGSL kernel mirrors it, see `shaders/integrate.wgsl`), over any [`Stepper`].
+//! the WGSL kernel mirrors it, see `shaders/integrate.wgsl`), over any `Stepper`.
 //!
-//! The loop takes the cart from a [`CartClock`] (time-based for single runs, exact-phase for
+//! The loop takes the cart from a `CartClock` (time-based for single runs, exact-phase for
 //! ensembles), counts bumper contact onsets, checks the state's health by the model's rules
-//! ([`health_due`], [`Guard::check`]) and hands every step to a [`StepHook`], which records what
+//! ([`health_due`], [`Guard::check`]) and hands every step to a `StepHook`, which records what
 //! its caller needs and may end the run early.
 
 use crate::engine::twin::{onset_saltation, onsets_of};
@@ -11,7 +11,7 @@ use crate::model::{Chain, Guard, Lane, Real, Status, Workspace, health_due};
 use std::ops::ControlFlow;
 
 /// Where the cart is at each step of a run.
-pub trait CartClock {
+pub(crate) trait CartClock {
     /// Cart acceleration (m/s²) at `frac` of step `step` (0-based): t = (step + frac)·dt.
     fn acceleration(&self, step: u64, frac: f64) -> f64;
     /// Cart velocity (m/s) after `step` steps.
@@ -19,7 +19,7 @@ pub trait CartClock {
 }
 
 /// A fixed-step integration method: advances the state by one step.
-pub trait Stepper<T: Real> {
+pub(crate) trait Stepper<T: Real> {
     /// The same method at the same step with nothing carried over (no summation
     /// compensation): the stepper of a twin trajectory.
     fn fresh(&self) -> Self
@@ -65,7 +65,7 @@ pub trait Stepper<T: Real> {
 /// (a chaotic cell computed as regular). The compensation carries the rounded-away part into
 /// the next step, so the sum is accurate to a few roundings whatever the step count.
 #[inline]
-pub fn compensated_add<T: Lane>(y: &mut T, comp: &mut T, inc: T) {
+pub(crate) fn compensated_add<T: Lane>(y: &mut T, comp: &mut T, inc: T) {
     let corrected = inc - *comp;
     let sum = *y + corrected;
     *comp = (sum - *y) - corrected;
@@ -73,7 +73,7 @@ pub fn compensated_add<T: Lane>(y: &mut T, comp: &mut T, inc: T) {
 }
 
 /// What a run does with each step.
-pub trait StepHook<T: Real> {
+pub(crate) trait StepHook<T: Real> {
     /// Whether the state after `step` steps is recorded (its health is then checked first, so
     /// a failed state is never recorded).
     fn records(&self, step: u64) -> bool;
@@ -97,7 +97,7 @@ pub trait StepHook<T: Real> {
 
 /// How a step loop ended.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LoopEnd {
+pub(crate) struct LoopEnd {
     /// `Ok` unless a health check failed.
     pub status: Status,
     /// Steps taken.
@@ -105,7 +105,7 @@ pub struct LoopEnd {
 }
 
 /// Integrate `y` over `steps` steps of `stepper`, the cart given by `clock`.
-pub fn run_steps<T: Real, S: Stepper<T>, C: CartClock, H: StepHook<T>>(
+pub(crate) fn run_steps<T: Real, S: Stepper<T>, C: CartClock, H: StepHook<T>>(
     chain: &Chain<T>,
     guard: &Guard,
     y: &mut [T],

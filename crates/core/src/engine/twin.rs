@@ -1,13 +1,13 @@
 //! The twin trajectory of λ1 ([`crate::reduce::lyapunov`]) as the step loops run it: the loop
 //! advances the twin's state with the main state's step (same method, step, cart and float
-//! type); a [`TwinTracker`] starts it, measures its separation and renormalises it at the
+//! type); a `TwinTracker` starts it, measures its separation and renormalises it at the
 //! stroboscopic instants, and sums the log-growths. The scalar loop, the SIMD lanes and the
 //! WGSL kernel (`shaders/integrate.wgsl`, `twin_sample`, `twin_saltation`) follow the same
 //! steps.
 //!
 //! **Contacts.** The bumper force is piecewise smooth: each bumper is free, pushing, or pushing
 //! with its damper ([`crate::model::Branches`]). The twin takes every stage on the branches of
-//! the main trajectory's stage ([`crate::model::Chain::rates_on`]): its separation is then the
+//! the main trajectory's stage (`crate::model::Chain::rates_on`): its separation is then the
 //! derivative of the fixed-step map along the main orbit (the variational equations solved by
 //! a finite difference), with no spurious jump where the twin and the main trajectory would
 //! sit on two sides of a switch inside one step. (Without this, a fixed-step periodic orbit
@@ -19,7 +19,7 @@
 //! begins: by `c_c δ̇` with either law. The trajectory `Δδ` deeper in the bumper met the jump
 //! `τ = Δδ/δ̇` earlier and took the extra impulse `c_c δ̇ τ = c_c Δδ`: the saltation of the
 //! flow, `S = I + (f⁺ − f⁻)∇hᵀ/(∇hᵀ f⁻)` with `h = δ`, which no fixed step sees (the onset falls
-//! on one stage for both). [`onset_saltation`] adds it after every step in which the main
+//! on one stage for both). `onset_saltation` adds it after every step in which the main
 //! trajectory begins a contact:
 //!
 //! ```text
@@ -37,7 +37,7 @@ use crate::reduce::{LyapunovSums, TwinPlan};
 /// Add the saltation of a contact onset to the twin's separation (see the module doc):
 /// `onsets` says, per bumper (+x, −x), whether the main trajectory `y` began touching it in
 /// the step just taken.
-pub fn onset_saltation<T: Real>(
+pub(crate) fn onset_saltation<T: Real>(
     chain: &Chain<T>,
     ws: &mut Workspace<T>,
     y: &[T],
@@ -70,13 +70,13 @@ pub fn onset_saltation<T: Real>(
 }
 
 /// Per bumper (+x, −x), whether a contact began: touching `now`, not `before`.
-pub fn onsets_of(before: (bool, bool), now: (bool, bool)) -> (bool, bool) {
+pub(crate) fn onsets_of(before: (bool, bool), now: (bool, bool)) -> (bool, bool) {
     (now.0 && !before.0, now.1 && !before.1)
 }
 
 /// The bookkeeping of one instance's twin.
 #[derive(Debug, Clone)]
-pub struct TwinTracker {
+pub(crate) struct TwinTracker {
     plan: TwinPlan,
     d0: f64,
     /// The initial separation, of unit norm ([`TwinPlan::direction`]).
@@ -119,12 +119,12 @@ impl TwinTracker {
     }
 
     /// Whether the twin has started by instant `abs` (it starts at its first instant).
-    pub fn started_by(&self, abs: u32) -> bool {
+    pub(crate) fn started_by(&self, abs: u32) -> bool {
         abs >= self.start_abs
     }
 
     /// The last instant it renormalises at (absolute index).
-    pub fn last_abs(&self) -> u32 {
+    pub(crate) fn last_abs(&self) -> u32 {
         self.start_abs + self.plan.align + self.plan.window
     }
 
@@ -138,7 +138,7 @@ impl TwinTracker {
 
     /// Start over at instant `abs` with a window of `window` renormalisations (λ1 of a
     /// confirmed orbit: [`crate::engine::early`]).
-    pub fn restart(&mut self, abs: u32, window: u32) {
+    pub(crate) fn restart(&mut self, abs: u32, window: u32) {
         self.start_abs = abs;
         self.plan.window = window;
         self.running = false;
@@ -167,7 +167,7 @@ impl TwinTracker {
     /// At stroboscopic instant `j` (absolute index, transient included), with the main state
     /// `y` and the twin's state `twin`: start the twin at `y + d0·u`, or measure `g = ln(d/d0)`
     /// and pull the twin back to distance `d0` along its separation.
-    pub fn at_sample<T: Real>(
+    pub(crate) fn at_sample<T: Real>(
         &mut self,
         j: u32,
         y: &(impl StateView<T> + ?Sized),

@@ -232,7 +232,7 @@ impl<T: Lane> Chain<T> {
     }
 
     /// One instance per lane: lane i holds `ps[i % ps.len()]`. The instances must share the
-    /// structure (segments, bumper lever count and law, piezo span): [`Chain::same_structure`].
+    /// structure (segments, bumper lever count and law, piezo span): `Chain::same_structure`.
     pub fn from_lanes(ps: &[ModelParams]) -> Self {
         let p = &ps[0];
         debug_assert!(ps.iter().all(|q| Self::same_structure(p, q)));
@@ -275,7 +275,7 @@ impl<T: Lane> Chain<T> {
 
     /// Whether two instances can share a vector: the same segments, bumper levers and law,
     /// and piezo span.
-    pub fn same_structure(a: &ModelParams, b: &ModelParams) -> bool {
+    pub(crate) fn same_structure(a: &ModelParams, b: &ModelParams) -> bool {
         let bumpers = |p: &ModelParams| p.contact.as_ref().map(|c| (c.levers_m.len(), c.law));
         let piezo = |p: &ModelParams| p.piezo.as_ref().map(|z| z.last_segment);
         a.segments == b.segments && bumpers(a) == bumpers(b) && piezo(a) == piezo(b)
@@ -397,7 +397,7 @@ impl<T: Lane> Chain<T> {
 
     /// [`Chain::rates`] with each bumper on the given branch of its law (lane by lane): the
     /// twin of λ1 evaluated on its main trajectory's branches.
-    pub fn rates_on(
+    pub(crate) fn rates_on(
         &self,
         ws: &mut Workspace<T>,
         cart_acc: T,
@@ -506,7 +506,7 @@ impl<T: Lane> Chain<T> {
     /// The angular accelerations `M(θ)⁻¹ (λ_i cos θ_i)` (1/(s² N)) of a unit horizontal force
     /// at the bumpers' contact point, at the angles of `y`, into `out` (length N); false without
     /// bumpers. The response to an impulse there: what a contact's jump in force does.
-    pub fn lever_response(&self, ws: &mut Workspace<T>, y: &[T], out: &mut [T]) -> bool {
+    pub(crate) fn lever_response(&self, ws: &mut Workspace<T>, y: &[T], out: &mut [T]) -> bool {
         let Some(c) = &self.contact else {
             return false;
         };
@@ -524,7 +524,7 @@ impl<T: Lane> Chain<T> {
     }
 
     /// The bumpers' damping c_c (N s/m), `None` without bumpers.
-    pub fn contact_damping(&self) -> Option<T> {
+    pub(crate) fn contact_damping(&self) -> Option<T> {
         self.contact.as_ref().map(|c| c.cc)
     }
 }
@@ -577,7 +577,7 @@ impl<T: Real> Chain<T> {
     }
 
     /// The branch of the exact law each bumper (+x, −x) is on at this state.
-    pub fn bumper_modes(&self, ws: &mut Workspace<T>, y: &[T]) -> (BumperMode, BumperMode) {
+    pub(crate) fn bumper_modes(&self, ws: &mut Workspace<T>, y: &[T]) -> (BumperMode, BumperMode) {
         let Some(c) = &self.contact else {
             return (BumperMode::Free, BumperMode::Free);
         };

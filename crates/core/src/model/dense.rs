@@ -5,7 +5,7 @@ use crate::model::params::ModelParams;
 use nalgebra::{DMatrix, DVector};
 
 /// The mass matrix M_ij = ℓ² μ_ij cos(θ_i − θ_j) + δ_ij J (+ J_h at (1,1)).
-pub fn mass_matrix(p: &ModelParams, theta: &[f64]) -> DMatrix<f64> {
+pub(crate) fn mass_matrix(p: &ModelParams, theta: &[f64]) -> DMatrix<f64> {
     let n = p.segments;
     let l2 = p.seg_length_m * p.seg_length_m;
     let mut m = DMatrix::zeros(n, n);
@@ -20,7 +20,7 @@ pub fn mass_matrix(p: &ModelParams, theta: &[f64]) -> DMatrix<f64> {
 }
 
 /// Q without the applied couples: velocity terms, gravity and cart acceleration.
-pub fn inertial_forces(
+pub(crate) fn inertial_forces(
     p: &ModelParams,
     theta: &[f64],
     omega: &[f64],

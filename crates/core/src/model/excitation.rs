@@ -42,7 +42,7 @@ impl ExcitationKind {
     }
 
     /// The highest instantaneous frequency the cart reaches (Hz).
-    pub fn max_frequency_hz(&self) -> f64 {
+    pub(crate) fn max_frequency_hz(&self) -> f64 {
         match *self {
             ExcitationKind::Harmonic { frequency_hz } => frequency_hz,
             ExcitationKind::Sweep {
@@ -116,12 +116,12 @@ impl CartMotion {
 
     /// Cart state at `t = (step + stage)·dt`, phase reduced modulo one cycle.
     #[inline]
-    pub fn at_step(&self, step: u64, stage: f64, dt_s: f64) -> CartState {
+    pub(crate) fn at_step(&self, step: u64, stage: f64, dt_s: f64) -> CartState {
         self.at_time((step as f64 + stage) * dt_s)
     }
 
     /// Cart state at time `t` (s).
-    pub fn at_time(&self, t: f64) -> CartState {
+    pub(crate) fn at_time(&self, t: f64) -> CartState {
         let (cycles, f, fdot) = self.phase_at(t);
         let phase = TAU * cycles.fract();
         let (s, c) = phase.sin_cos();
@@ -148,7 +148,7 @@ impl CartMotion {
     /// Harmonic cart state `cycles` ∈ [0, 1) of a period after a whole number of periods
     /// (φ = cycles + φ0): x0 = A sin 2πφ, ẋ0 = Aω cos 2πφ, ẍ0 = −Aω² sin 2πφ.
     #[inline]
-    pub fn at_phase(&self, cycles: f64) -> CartState {
+    pub(crate) fn at_phase(&self, cycles: f64) -> CartState {
         let amp = self.amplitudes();
         let (s, c) = (TAU * (cycles + self.phase_cycles)).sin_cos();
         CartState {
@@ -156,10 +156,5 @@ impl CartMotion {
             v_m_s: amp.velocity_m_s * c,
             a_m_s2: -amp.acceleration_m_s2 * s,
         }
-    }
-
-    /// Instantaneous forcing frequency at `t` (Hz).
-    pub fn frequency_at(&self, t: f64) -> f64 {
-        self.phase_from_zero(t).1
     }
 }

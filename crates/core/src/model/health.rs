@@ -113,7 +113,7 @@ pub struct Guard {
 impl Guard {
     /// A generous bound: 10⁴ times the energy scale of gravity, the cart's motion and a
     /// bumper compressed by a tenth of the beam. A physical run stays orders of magnitude below.
-    pub fn for_params(p: &ModelParams) -> Guard {
+    pub(crate) fn for_params(p: &ModelParams) -> Guard {
         let mass = p.seg_mass_kg * p.segments as f64 + p.tip_mass_kg;
         let l = p.length_m();
         let w = std::f64::consts::TAU * p.cart.kind.max_frequency_hz();

@@ -47,7 +47,7 @@ pub enum LinearError {
 }
 
 /// The stability boundary of classical RK4 on the negative real axis, |z| ≈ 2.785 (the automatic step uses 2.78).
-pub const RK4_REAL_AXIS_LIMIT: f64 = 2.78;
+pub(crate) const RK4_REAL_AXIS_LIMIT: f64 = 2.78;
 
 /// Modal summary of a scene.
 #[derive(Debug, Clone, Serialize)]
@@ -65,7 +65,7 @@ pub struct Modes {
 }
 
 /// Linear stiffness about θ = 0: springs minus the gravity "negative stiffness" w_i ℓ g.
-pub fn stiffness_matrix(p: &ModelParams) -> DMatrix<f64> {
+pub(crate) fn stiffness_matrix(p: &ModelParams) -> DMatrix<f64> {
     let n = p.segments;
     let mut k = spring_pattern(n, p.joint_stiffness_nm, p.root_stiffness_nm);
     for i in 0..n {
@@ -75,7 +75,7 @@ pub fn stiffness_matrix(p: &ModelParams) -> DMatrix<f64> {
 }
 
 /// The tridiagonal pattern of joint elements plus a root element at (1,1).
-pub fn spring_pattern(n: usize, joint: f64, root: f64) -> DMatrix<f64> {
+pub(crate) fn spring_pattern(n: usize, joint: f64, root: f64) -> DMatrix<f64> {
     let mut k = DMatrix::zeros(n, n);
     k[(0, 0)] += root;
     for i in 1..n {
@@ -116,7 +116,7 @@ pub fn generalized_eigenvalues(p: &ModelParams) -> Result<Vec<f64>, LinearError>
 }
 
 /// ω1 (rad/s): the first natural frequency of the chain clamped to a still cart without gravity
-/// ([`ModelParams::clamped_cantilever`]), the reference of the damping ratio ζ1.
+/// (`ModelParams::clamped_cantilever`), the reference of the damping ratio ζ1.
 pub fn clamped_first_omega(p: &ModelParams) -> Result<f64, LinearError> {
     let ev = generalized_eigenvalues(&p.clamped_cantilever())?;
     ev.iter()
@@ -128,7 +128,7 @@ pub fn clamped_first_omega(p: &ModelParams) -> Result<f64, LinearError> {
 
 /// The stiffness-proportional damping time β = 2ζ1/ω1 (s) that gives the first clamped bending
 /// mode the damping ratio `zeta1`.
-pub fn damping_time_for_ratio(p: &ModelParams, zeta1: f64) -> Result<f64, LinearError> {
+pub(crate) fn damping_time_for_ratio(p: &ModelParams, zeta1: f64) -> Result<f64, LinearError> {
     if zeta1 == 0.0 {
         return Ok(0.0);
     }
@@ -141,7 +141,7 @@ pub fn first_mode_damping_ratio(p: &ModelParams) -> Result<f64, LinearError> {
 }
 
 /// The first-order Jacobian about θ = 0 with dampers, an engaged bumper, and the piezo.
-pub fn jacobian(p: &ModelParams) -> Result<DMatrix<f64>, LinearError> {
+pub(crate) fn jacobian(p: &ModelParams) -> Result<DMatrix<f64>, LinearError> {
     let n = p.segments;
     let mut k = stiffness_matrix(p);
     let mut c = spring_pattern(n, p.joint_damping_nms, 0.0);
@@ -197,7 +197,7 @@ pub fn jacobian_eigenvalues(p: &ModelParams) -> Result<Vec<Complex<f64>>, Linear
 /// Spectral radius (1/s) of the first-order Jacobian without the joint and root springs and
 /// dampers: what is left when those linear terms are treated implicitly (gravity, an engaged
 /// bumper, the piezo circuit, all through the straight beam's mass matrix).
-pub fn explicit_part_radius(p: &ModelParams) -> Result<f64, LinearError> {
+pub(crate) fn explicit_part_radius(p: &ModelParams) -> Result<f64, LinearError> {
     let mut q = p.clone();
     q.joint_stiffness_nm = 0.0;
     q.root_stiffness_nm = 0.0;
@@ -209,14 +209,14 @@ pub fn explicit_part_radius(p: &ModelParams) -> Result<f64, LinearError> {
 }
 
 /// |R(z)| for classical RK4, R(z) = 1 + z + z²/2 + z³/6 + z⁴/24.
-pub fn rk4_amplification(z: Complex<f64>) -> f64 {
+pub(crate) fn rk4_amplification(z: Complex<f64>) -> f64 {
     let one = Complex::new(1.0, 0.0);
     (one + z * (one + z * (0.5 + z * (1.0 / 6.0 + z / 24.0)))).norm()
 }
 
 /// Largest dt with |R(λ dt)| ≤ 1 for every eigenvalue with Re λ ≤ 0 (unstable physical modes
 /// grow whatever the step and are not a stability limit of the integrator).
-pub fn rk4_stable_dt(eigs: &[Complex<f64>]) -> f64 {
+pub(crate) fn rk4_stable_dt(eigs: &[Complex<f64>]) -> f64 {
     let mut dt_max = f64::INFINITY;
     for &lam in eigs {
         let r = lam.norm();

@@ -27,7 +27,7 @@ pub struct Tube {
 
 impl Tube {
     /// Bending stiffness EI = E π (D⁴ − d⁴)/64 (N m²).
-    pub fn bending_stiffness_nm2(&self) -> f64 {
+    pub(crate) fn bending_stiffness_nm2(&self) -> f64 {
         self.youngs_modulus_pa
             * PI
             * (self.outer_diameter_m.powi(4) - self.inner_diameter_m.powi(4))
@@ -190,7 +190,7 @@ pub struct ModelParams {
 
 impl ModelParams {
     /// The coefficients of a built pendulum, with the stiffness-proportional joint dampers off
-    /// (β = 0; the bearing damper kept). Set β with [`ModelParams::with_damping_time`].
+    /// (β = 0; the bearing damper kept). Set β with `ModelParams::with_damping_time`.
     pub fn undamped(
         chain: &ChainDesign,
         bumpers: Option<&BumperDesign>,
@@ -226,7 +226,7 @@ impl ModelParams {
 
     /// The same pendulum with stiffness-proportional damping β (s): joint dampers b = βk and a
     /// root damper βk0 (clamped) plus the bearing damper.
-    pub fn with_damping_time(mut self, beta_s: f64) -> ModelParams {
+    pub(crate) fn with_damping_time(mut self, beta_s: f64) -> ModelParams {
         self.beta_s = beta_s;
         self.joint_damping_nms = beta_s * self.joint_stiffness_nm;
         self.root_damping_nms = beta_s * self.root_stiffness_nm + self.bearing_damping_nms;
@@ -234,7 +234,7 @@ impl ModelParams {
     }
 
     /// The same pendulum driven by another cart motion.
-    pub fn with_cart(&self, cart: CartMotion) -> ModelParams {
+    pub(crate) fn with_cart(&self, cart: CartMotion) -> ModelParams {
         ModelParams {
             cart,
             ..self.clone()
@@ -242,19 +242,19 @@ impl ModelParams {
     }
 
     /// Length of the first-order state vector: N angles, N rates, one voltage slot.
-    pub fn state_len(&self) -> usize {
+    pub(crate) fn state_len(&self) -> usize {
         2 * self.segments + 1
     }
 
     /// w_i = m/2 + m(N − i) + M (1-based i): the mass "carried" by segment i's centre lever.
-    pub fn carried_mass_kg(&self, i0: usize) -> f64 {
+    pub(crate) fn carried_mass_kg(&self, i0: usize) -> f64 {
         let n = self.segments;
         let i = i0 + 1;
         self.seg_mass_kg * 0.5 + self.seg_mass_kg * (n - i) as f64 + self.tip_mass_kg
     }
 
     /// μ_ij of the mass matrix (0-based indices).
-    pub fn mu_kg(&self, i0: usize, j0: usize) -> f64 {
+    pub(crate) fn mu_kg(&self, i0: usize, j0: usize) -> f64 {
         if i0 == j0 {
             self.carried_mass_kg(i0) - self.seg_mass_kg * 0.25
         } else {
@@ -269,7 +269,12 @@ impl ModelParams {
 
     /// A straight beam at holder angle `angle_rad`, every segment at rate `rate_rad_s`, the
     /// patch at `voltage_v`: the state `[θ; θ̇; v]`.
-    pub fn straight_state(&self, angle_rad: f64, rate_rad_s: f64, voltage_v: f64) -> Vec<f64> {
+    pub(crate) fn straight_state(
+        &self,
+        angle_rad: f64,
+        rate_rad_s: f64,
+        voltage_v: f64,
+    ) -> Vec<f64> {
         let n = self.segments;
         let mut y = vec![0.0; self.state_len()];
         y[..n].fill(angle_rad);
@@ -282,7 +287,7 @@ impl ModelParams {
 
     /// Every coefficient but the cart's, as bit patterns: two chains with equal bits have the
     /// same linearisation (the key under which ensembles share one eigenproblem).
-    pub fn structure_bits(&self) -> Vec<u64> {
+    pub(crate) fn structure_bits(&self) -> Vec<u64> {
         let mut bits = vec![self.segments as u64];
         bits.extend(
             [
@@ -317,7 +322,7 @@ impl ModelParams {
 
     /// The same chain clamped to a still cart with no gravity, bumpers or piezo: the cantilever
     /// whose first bending mode defines the damping ratio ζ1.
-    pub fn clamped_cantilever(&self) -> ModelParams {
+    pub(crate) fn clamped_cantilever(&self) -> ModelParams {
         let mut c = self.clone();
         c.root_stiffness_nm = 2.0 * self.ei_nm2 / self.seg_length_m;
         c.g_m_s2 = 0.0;

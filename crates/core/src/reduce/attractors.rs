@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 
 /// Least overlap of two α ranges, over their union, for non-periodic runs to be one
 /// attractor.
-pub const RANGE_OVERLAP: f64 = 0.5;
+pub(crate) const RANGE_OVERLAP: f64 = 0.5;
 
 /// Cycle tolerances of the distance rule.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -62,7 +62,7 @@ pub enum Wells {
 
 impl Wells {
     /// The wells of an α range (rad).
-    pub fn of_range(min_rad: f64, max_rad: f64) -> Wells {
+    pub(crate) fn of_range(min_rad: f64, max_rad: f64) -> Wells {
         if min_rad > 0.0 {
             Wells::Positive
         } else if max_rad < 0.0 {
@@ -177,7 +177,7 @@ fn canonical_cycle(cycle: &[f64]) -> Vec<f64> {
 }
 
 /// `min_r max_j |a_j − b_{(j+r) mod p}|` for cycles of one length (∞ otherwise).
-pub fn cycle_distance(a: &[f64], b: &[f64]) -> f64 {
+pub(crate) fn cycle_distance(a: &[f64], b: &[f64]) -> f64 {
     if a.len() != b.len() || a.is_empty() {
         return f64::INFINITY;
     }

@@ -68,28 +68,28 @@ use serde::Serialize;
 pub const LYAPUNOV_BLOCKS: usize = 8;
 
 /// The fewest renormalisations λ1 is averaged over: two per block.
-pub const LYAPUNOV_MIN_WINDOW: u32 = 2 * LYAPUNOV_BLOCKS as u32;
+pub(crate) const LYAPUNOV_MIN_WINDOW: u32 = 2 * LYAPUNOV_BLOCKS as u32;
 
 /// The twin's separation d0 in f64 when none is given: inside the range where λ1 does not
 /// depend on it. Measured on the default map's 192-cell subgrid (34 s, N = 3): over d0 = 1e-10
 /// to 1e-5, λ1 of the periodic cells moves by at most 3.5e-6 of itself, at 1e-4 by 3.5e-4, at
 /// 1e-3 by 3.4e-3 (the nonlinearity of the smooth forces); chaotic cells move far less than
 /// their standard errors (`docs/bench/LYAPUNOV.md`).
-pub const SEPARATION_F64: f64 = 1e-8;
+pub(crate) const SEPARATION_F64: f64 = 1e-8;
 
 /// The twin's separation d0 in f32 (the CPU engine's and the GPU's) when none is given: small
 /// separations drown in the rounding of the state (λ1 of the same periodic orbits, median
 /// error against f64: CPU 3.4e-3 at 1e-5 and 2.4e-4 at 1e-4; GPU 7.4e-3 at 1e-5, 8.8e-4 at
 /// 1e-4 and 17 % at 1e-6, its twin and main state rounding apart more than the CPU's).
-pub const SEPARATION_F32: f64 = 1e-4;
+pub(crate) const SEPARATION_F32: f64 = 1e-4;
 
 /// The smallest d0 accepted in f32: below it the GPU's IMEX twin drowns in rounding on some
 /// orbits (λ1 of the period-2 orbit at 4 Hz, 4 mm, N = 3: −1.63 1/s at 1e-5 against −3.27 at
 /// 1e-4 and 1e-3, and −3.29 from the DOP853 monodromy).
-pub const SEPARATION_F32_MIN: f64 = 1e-4;
+pub(crate) const SEPARATION_F32_MIN: f64 = 1e-4;
 
 /// The smallest d0 accepted in f64 (measured down to it).
-pub const SEPARATION_F64_MIN: f64 = 1e-10;
+pub(crate) const SEPARATION_F64_MIN: f64 = 1e-10;
 
 /// The largest d0 accepted: a bound of the settings ([`crate::config::SEPARATION_MAX`]).
 pub use crate::config::SEPARATION_MAX;
@@ -108,13 +108,6 @@ pub struct TwinPlan {
     pub norm: TwinNorm,
     /// Time between renormalisations: the forcing period (s).
     pub period_s: f64,
-}
-
-impl TwinPlan {
-    /// The last stroboscopic sample the twin renormalises at.
-    pub fn last_sample(&self) -> u32 {
-        self.start_sample + self.align + self.window
-    }
 }
 
 /// The energy norm of the twin's separation (see the module's documentation): the chain's
@@ -174,7 +167,7 @@ impl TwinNorm {
     }
 
     /// `Q = uᵀ M₀ u` (kg m²): the straight chain's inertia about its pivot.
-    pub fn rigid_inertia(&self, n: usize) -> f64 {
+    pub(crate) fn rigid_inertia(&self, n: usize) -> f64 {
         self.inertia_form(n, |_| 1.0, |_| 1.0)
     }
 
@@ -245,7 +238,7 @@ pub struct LyapunovSums {
 
 /// The block of growth `k` of a window of `window` growths.
 #[inline]
-pub fn block_of(k: u32, window: u32) -> usize {
+pub(crate) fn block_of(k: u32, window: u32) -> usize {
     (u64::from(k) * LYAPUNOV_BLOCKS as u64 / u64::from(window.max(1))) as usize
 }
 
@@ -263,7 +256,7 @@ impl LyapunovSums {
 
     /// The sums of a window twice as long whose first half is this one: blocks merged in pairs
     /// (`⌊k·B/2W⌋ = ⌊⌊k·B/W⌋/2⌋`, so growth `k` stays where it belongs), the second half empty.
-    pub fn merge_pairs(&mut self) {
+    pub(crate) fn merge_pairs(&mut self) {
         let half = LYAPUNOV_BLOCKS / 2;
         for b in 0..half {
             self.sums[b] = self.sums[2 * b] + self.sums[2 * b + 1];

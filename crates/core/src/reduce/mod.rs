@@ -32,7 +32,7 @@ pub use tally::{Span, Tally};
 
 /// The natural log of the span of positive f64 values (`ln(f64::MAX / f64::MIN_POSITIVE)`): no
 /// twin measures a growth per renormalisation beyond it.
-pub const LN_F64_RANGE: f64 = 1418.2;
+pub(crate) const LN_F64_RANGE: f64 = 1418.2;
 
 /// What a result read back is held to besides its own ranges ([`InstanceResult::check_rule`]).
 #[derive(Debug, Clone, Copy)]
@@ -106,7 +106,7 @@ impl InstanceResult {
 
     /// [`InstanceResult::check`], and the rules that tie a result to its map and its own
     /// numbers (what a shard row read back must obey): a period at most `period_max`; λ1
-    /// within what a twin in f64 can measure (|λ1|·T at most [`LN_F64_RANGE`] per forcing
+    /// within what a twin in f64 can measure (|λ1|·T at most `LN_F64_RANGE` per forcing
     /// period); a verdict whose shape fits the period (periodic cells have one, regular and
     /// chaotic cells none); a confidence that is the one its regime and λ1 give; and, where
     /// the verdict was formed in f64 from these very numbers (`rule.exact_verdict`: the CPU

@@ -157,7 +157,7 @@ pub fn confidence(regime: Regime, e: &Evidence) -> f64 {
 
 /// Φ(x), the standard normal distribution function, from the complementary error function
 /// of `libm` (the Rust port of musl's): Φ(x) = erfc(−x/√2)/2; Φ(+∞) = 1.
-pub fn normal_cdf(x: f64) -> f64 {
+pub(crate) fn normal_cdf(x: f64) -> f64 {
     0.5 * libm::erfc(-x / std::f64::consts::SQRT_2)
 }
 

@@ -5,7 +5,7 @@
 //! 1. [`spec`]: a scene plus a `[calibrate]` section, validated into a
 //!    [`CalibrationSpec`]: the unknowns (scene keys with ranges, like map axes), the cases
 //!    (scene overrides, each with its observations) and how many initial states judge a case.
-//! 2. [`observe`]: the observations (K class or value, R, period, hops, α range) and how a
+//! 2. `observe`: the observations (K class or value, R, period, hops, α range) and how a
 //!    case's runs are judged against each: a distance in units of its tolerance, matched when
 //!    the agreement share of the runs match.
 //! 3. [`run`]: the coarse grid of candidates, then refinement around the best, each stage one
@@ -14,7 +14,7 @@
 //! 4. [`files`]: `candidates.csv`, `best_scene.toml`, `REPORT.md`, `calibrate.json`.
 
 pub mod files;
-pub mod observe;
+pub(crate) mod observe;
 pub mod run;
 pub mod spec;
 

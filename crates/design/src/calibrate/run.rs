@@ -2,7 +2,7 @@
 //! the best, each stage one ensemble of candidates × cases × initial states on the engine.
 //!
 //! A candidate's **score** is the number of observations it matches over all cases; ties are
-//! broken by the sum of its distances, each capped at [`DISTANCE_CAP`] so that one failed run
+//! broken by the sum of its distances, each capped at `DISTANCE_CAP` so that one failed run
 //! does not outweigh the rest.
 
 use super::observe::{Judgement, judge};
@@ -15,7 +15,7 @@ use serde::Serialize;
 use std::collections::HashSet;
 
 /// Largest distance counted per observation in the tie-break.
-pub const DISTANCE_CAP: f64 = 5.0;
+pub(crate) const DISTANCE_CAP: f64 = 5.0;
 
 /// One candidate: values of the unknowns and how it fares on every observation.
 #[derive(Debug, Clone, Serialize)]

@@ -39,7 +39,7 @@ use serde::Serialize;
 use toml::{Table, Value};
 
 /// Largest number of grid candidates.
-pub const MAX_CANDIDATES: usize = 10_000;
+pub(crate) const MAX_CANDIDATES: usize = 10_000;
 
 /// One unknown parameter: a scene key and the values the coarse grid takes, a [`SweptKey`]
 /// like a design variable of the harvesting search (the same step space and refinement).
@@ -383,7 +383,7 @@ fn value_tol(r: &mut Reader, key: &str, range: Range) -> Result<Option<(f64, f64
 }
 
 /// Default relative tolerance of a line observation.
-pub const LINE_REL_TOL: f64 = 0.05;
+pub(crate) const LINE_REL_TOL: f64 = 0.05;
 
 /// `"p/q"` or `{ fraction = "p/q", tol = t }`: the dominant line at `p/q` of the forcing
 /// frequency within the relative tolerance `t` (default [`LINE_REL_TOL`]).

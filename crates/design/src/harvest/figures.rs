@@ -26,7 +26,7 @@ fn short_value(key: &str, x: f64) -> String {
 }
 
 /// Short label of a design for legends: `#id` and its values.
-pub fn design_label(spec: &SearchSpec, id: usize, values: &[f64]) -> String {
+pub(crate) fn design_label(spec: &SearchSpec, id: usize, values: &[f64]) -> String {
     let parts: Vec<String> = spec
         .variables
         .iter()
@@ -38,7 +38,7 @@ pub fn design_label(spec: &SearchSpec, id: usize, values: &[f64]) -> String {
 
 /// `pareto.png`: every design's bandwidth against its band-averaged power (log scale), both
 /// of the ranked curve, the Pareto front joined, the best design and the baseline marked.
-pub fn pareto_figure(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<()> {
+pub(crate) fn pareto_figure(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<()> {
     let pts: Vec<(f64, f64, bool)> = run
         .designs
         .iter()
@@ -147,7 +147,7 @@ fn draw_best_and_baseline(
 
 /// `power_vs_frequency.png`: the ranked P(f) (robust or expected) of the top designs, the
 /// baseline's P(f) and the threshold, on a log power axis.
-pub fn power_figure(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<()> {
+pub(crate) fn power_figure(path: &Path, spec: &SearchSpec, run: &SearchRun) -> Result<()> {
     let top = run.top(spec.report_top);
     let labels: Vec<String> = top
         .iter()

@@ -32,7 +32,7 @@ fn num(v: f64) -> String {
 }
 
 /// A power in engineering units for reports.
-pub fn watts(p: f64) -> String {
+pub(crate) fn watts(p: f64) -> String {
     if !p.is_finite() {
         return format!("{p}");
     }
@@ -188,7 +188,7 @@ fn write_verification_csv(path: &Path, v: &Verification) -> Result<PathBuf, Outp
 }
 
 /// Mean hops per instance (after the transient) over a design's ok instances.
-pub fn mean_hops(d: &DesignResult) -> f64 {
+pub(crate) fn mean_hops(d: &DesignResult) -> f64 {
     let v: Vec<f64> = d
         .hops
         .iter()
@@ -263,7 +263,7 @@ fn write_instances_csv(
 /// the search and, when the design was re-simulated, K < 0.5 there too. Irregular
 /// (chaotic) responses depend on the step, so only a regular one can be expected to match a
 /// re-simulation with another step closely.
-pub fn check_point(
+pub(crate) fn check_point(
     spec: &SearchSpec,
     d: &DesignResult,
     verification: Option<&Verification>,

@@ -215,7 +215,7 @@ struct Batches<'a> {
 
 /// Whether the runs are long enough for the period test (it needs 20 stroboscopic samples
 /// after the transient at the lowest frequency).
-pub fn period_test_possible(spec: &SearchSpec) -> bool {
+pub(crate) fn period_test_possible(spec: &SearchSpec) -> bool {
     let i = &spec.scene.integration;
     (i.duration_s - i.transient_s) * spec.band.start_hz() >= 20.5
 }

@@ -33,7 +33,7 @@ use toml::{Table, Value};
 pub const DEFAULT_SEARCH_TOML: &str = include_str!("../../../../configs/harvest/default.toml");
 
 /// Largest number of designs in the initial grid.
-pub const MAX_GRID_DESIGNS: usize = 100_000;
+pub(crate) const MAX_GRID_DESIGNS: usize = 100_000;
 
 /// One design variable: a numeric scene key and the values the grid takes, a [`SweptKey`]
 /// like a map axis.
@@ -150,7 +150,7 @@ pub struct InitialState {
 
 impl InitialState {
     /// The initial angle for a design with this clearance (deg).
-    pub fn angle_for(&self, clearance_deg: f64) -> f64 {
+    pub(crate) fn angle_for(&self, clearance_deg: f64) -> f64 {
         match (self.well, self.angle_deg) {
             (Some(w), _) => w * clearance_deg,
             (None, Some(a)) => a,
@@ -217,10 +217,10 @@ impl Weighting {
 }
 
 /// Largest sampled starts of `search.basin_starts`.
-pub const MAX_BASIN_STARTS: usize = 1024;
+pub(crate) const MAX_BASIN_STARTS: usize = 1024;
 
 /// Largest |holder rate| of the sampled starts of the expected weighting (deg/s).
-pub const BASIN_RATE_DEG_S: f64 = 200.0;
+pub(crate) const BASIN_RATE_DEG_S: f64 = 200.0;
 
 /// What "best" means.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -276,14 +276,14 @@ pub struct SearchSpec {
     /// Re-simulate the best design with the single-run engine of `simulate`.
     pub verify: bool,
     /// Most instances in one ensemble: larger batches run as several chunks. By default a
-    /// stage's instances go to the engine together (up to [`MAX_BATCH_INSTANCES`]), and the
+    /// stage's instances go to the engine together (up to `MAX_BATCH_INSTANCES`), and the
     /// GPU engine splits them by the adapter's limits; a smaller value bounds the host memory
     /// one ensemble takes.
     pub max_batch_instances: usize,
 }
 
 /// The default and the largest `search.max_batch_instances`.
-pub const MAX_BATCH_INSTANCES: usize = 4_000_000;
+pub(crate) const MAX_BATCH_INSTANCES: usize = 4_000_000;
 
 impl SearchSpec {
     /// Number of designs in the initial grid.
@@ -292,7 +292,7 @@ impl SearchSpec {
     }
 
     /// Design `k` of the initial grid (C order: last variable fastest).
-    pub fn grid_design(&self, k: usize) -> Vec<f64> {
+    pub(crate) fn grid_design(&self, k: usize) -> Vec<f64> {
         let mut rem = k;
         let mut out = vec![0.0; self.variables.len()];
         for (i, v) in self.variables.iter().enumerate().rev() {
@@ -357,7 +357,7 @@ impl SearchSpec {
     }
 
     /// The linear baseline's table: the base scene clamped, without bumpers, at rest.
-    pub fn baseline_table(&self) -> Result<Table, ConfigError> {
+    pub(crate) fn baseline_table(&self) -> Result<Table, ConfigError> {
         let mut t = self.base_table.clone();
         for (key, value) in [
             ("pivot.mode", Value::String("clamped".into())),
@@ -373,7 +373,7 @@ impl SearchSpec {
 }
 
 /// `key = value, key = value` for reports and errors.
-pub fn describe_design(vars: &[DesignVariable], values: &[f64]) -> String {
+pub(crate) fn describe_design(vars: &[DesignVariable], values: &[f64]) -> String {
     vars.iter()
         .zip(values)
         .map(|(v, x)| format!("{} = {x}", v.key))

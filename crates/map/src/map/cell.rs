@@ -32,7 +32,7 @@ pub const CELL_SECTION: &str = "cell";
 /// c values, the period test, the early stop, λ1's twin). The others are the grid's (its
 /// axes, starts, continuation, refinement, the bifurcation picture) and are left out; a
 /// settling map's cell carries its settling time and whether it ran on ([`cell_section`]).
-pub const CELL_MAP_KEYS: [&str; 15] = [
+pub(crate) const CELL_MAP_KEYS: [&str; 15] = [
     "metrics",
     "samples_per_period",
     "strobe_phase",
@@ -147,7 +147,7 @@ pub fn cell_index(spec: &MapSpec, coords: &[(String, f64)]) -> Result<usize, Con
     Ok(k)
 }
 
-/// The `[cell]` section of a cell of `spec`: the map's [`CELL_MAP_KEYS`] (empty where the
+/// The `[cell]` section of a cell of `spec`: the map's `CELL_MAP_KEYS` (empty where the
 /// map keeps every default), and for a map that settles, its `settle_max_s` and whether the
 /// cell `ran_on` (the cell's result: the map's neighbours decided it). `None` for a map whose
 /// cells are not one plain run each (starts, continuation, refinement), and for a cell of a

@@ -31,7 +31,7 @@
 //! table of the other two: settled, 86.6–88.3 % of its settled cells at 0.9 or above, 99.4–99.7 %
 //! of those right; raw, 83.6–86.3 %, 98.5–99.4 % right; on every plane the bins are right more
 //! often as the confidence rises. Measured on those planes, N and run length: a map far from
-//! them reads the table as a guide, not a measurement ([`FITTED_ON`]; `map.json`'s
+//! them reads the table as a guide, not a measurement (`FITTED_ON`; `map.json`'s
 //! `regime.confidence` says so). A regular verdict is the weak bin (0.4): against a reference
 //! converged in its steps almost no cell is regular, and the map's regular cells are stable
 //! orbits whose period it has not yet confirmed.
@@ -203,7 +203,7 @@ fn neighbour(shape: &[usize], index: &[usize], mut offset: usize) -> Option<usiz
 }
 
 /// Where both tables were fitted (`docs/bench/VERDICT.md`).
-pub const FITTED_ON: &str = "three planes at N = 3 and 34 s (excitation.frequency_hz x excitation.amplitude_m; excitation.frequency_hz x limiter.clearance_deg at 9 mm; the forcing plane with the piezo patch): 1134 cells of six subgrids against converged references";
+pub(crate) const FITTED_ON: &str = "three planes at N = 3 and 34 s (excitation.frequency_hz x excitation.amplitude_m; excitation.frequency_hz x limiter.clearance_deg at 9 mm; the forcing plane with the piezo patch): 1134 cells of six subgrids against converged references";
 
 /// The table a whole map `run` reads, by name: [`SETTLED`] where it settled, else [`SHIPPED`].
 fn table_of(run: &crate::map::MapRun) -> (&'static str, &'static Calibration) {
@@ -219,7 +219,7 @@ fn table_of(run: &crate::map::MapRun) -> (&'static str, &'static Calibration) {
 pub struct Summary {
     /// The table the map read (`settled` or `shipped`).
     pub table: &'static str,
-    /// Where that table was fitted ([`FITTED_ON`]).
+    /// Where that table was fitted (`FITTED_ON`).
     pub fitted_on: &'static str,
     /// Cells with a verdict (not undecided, not failed).
     pub decided: usize,
@@ -262,7 +262,7 @@ pub fn summary(run: &crate::map::MapRun) -> Option<Summary> {
 /// Fill `verdict_confidence` of a whole map `run` of `shape`: its cells, and each leg of a
 /// continuation (the first leg's results are the cells). A settled run reads [`SETTLED`],
 /// any other [`SHIPPED`].
-pub fn fill_run(shape: &[usize], run: &mut crate::map::MapRun) {
+pub(crate) fn fill_run(shape: &[usize], run: &mut crate::map::MapRun) {
     let table = table_of(run).1;
     fill(shape, &mut run.results, table);
     if let Some(c) = &mut run.continuation {

@@ -3,7 +3,7 @@
 //! neighbour ended in, as an experiment sweeps its frequency and the harvester stays on the
 //! attractor it is on until that attractor ends.
 //!
-//! Stages of [`continue_map`], per direction (up, down, or up then down):
+//! Stages of `continue_map`, per direction (up, down, or up then down):
 //! 1. **Path**: the axis's indices in the order of the direction, by value
 //!    ([`ContinuationSpec::order`]). Every grid line along the axis (every combination of the
 //!    other axes) is one path, and all lines step together: step `j` runs, in one ensemble, the
@@ -13,7 +13,7 @@
 //!    so the forcing phase carries on too (`excitation.phase_deg` is the same for both). A
 //!    cell whose predecessor failed starts from the scene's state again and is counted as
 //!    restarted; so does a cell whose bumpers the carried state lies beyond, deeper than it
-//!    lay beyond its predecessor's ([`carried_state_fits`]: a step to a smaller clearance),
+//!    lay beyond its predecessor's (`carried_state_fits`: a step to a smaller clearance),
 //!    counted as restarted and as `beyond_bumpers`.
 //! 3. **Hysteresis** (both directions): a cell's two runs differ when their fingerprints
 //!    ([`Fingerprint`], the rule of [`AttractorRule`]) are not one attractor, or one failed and
@@ -27,7 +27,7 @@ use pendulum_atlas_core::reduce::{AttractorRule, Fingerprint, InstanceResult};
 use serde::Serialize;
 
 /// What one ensemble of a path's step brings back, in the order of its cells.
-pub struct StepRun {
+pub(crate) struct StepRun {
     /// Each cell's results.
     pub results: Vec<InstanceResult>,
     /// Each cell's stroboscopic tail.
@@ -97,7 +97,7 @@ pub struct ContinuationRun {
 /// it at all). A state leaning on its bumper is carried on; one that a smaller clearance would
 /// put inside the bumper is not (the penalty contact would start from a penetration no motion
 /// of the beam produced).
-pub fn carried_state_fits(prev: &ModelParams, next: &ModelParams, y: &[f64]) -> bool {
+pub(crate) fn carried_state_fits(prev: &ModelParams, next: &ModelParams, y: &[f64]) -> bool {
     let depth = |p: &ModelParams| Chain::<f64>::new(p).penetrations(y);
     match (depth(prev), depth(next)) {
         (Some((pr, pl)), Some((nr, nl))) => {
@@ -112,7 +112,7 @@ pub fn carried_state_fits(prev: &ModelParams, next: &ModelParams, y: &[f64]) -> 
 /// `cells` together, each from its start (`None`: the scene's state); `fits(cell,
 /// predecessor, state)` says whether a predecessor's final state may start the cell
 /// ([`carried_state_fits`] of their parameters).
-pub fn continue_map(
+pub(crate) fn continue_map(
     spec: &MapSpec,
     cs: &ContinuationSpec,
     fits: impl Fn(usize, usize, &[f64]) -> bool,
@@ -133,7 +133,7 @@ pub fn continue_map(
 }
 
 /// The grid points at the `j`-th axis value of every line, as (point, predecessor) pairs.
-pub fn step_cells(
+pub(crate) fn step_cells(
     shape: &[usize],
     axis: usize,
     order: &[usize],

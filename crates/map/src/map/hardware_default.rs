@@ -1,5 +1,5 @@
 //! The embedded default map on a hardware GPU: the paper's N = 17 and the finest grid of
-//! [`GRIDS`] that a probe on the adapter says finishes within [`TARGET_S`], or the map as
+//! `GRIDS` that a probe on the adapter says finishes within `TARGET_S`, or the map as
 //! written when none does.
 //!
 //! The CPU engine and the software adapter keep the embedded map as it is (N = 3, 64 × 48):
@@ -12,9 +12,9 @@
 //!    rate depends on n: a map of a few thousand instances fills a large GPU only partly (on
 //!    an H200, 3072 instances of N = 17 ran 10× slower per instance-step than 16 384);
 //! 3. the estimate of a grid is its work (the planned steps plus λ1's twin steps) / r(n) ×
-//!    [`REDUCE_MARGIN`] (the reductions and the transfers). r(n)/n cannot grow with n, so the
+//!    `REDUCE_MARGIN` (the reductions and the transfers). r(n)/n cannot grow with n, so the
 //!    estimates grow with the grid and the probes stop at the first grid over the target;
-//! 4. the finest grid within [`TARGET_S`] is taken; when even the coarsest is over it, the
+//! 4. the finest grid within `TARGET_S` is taken; when even the coarsest is over it, the
 //!    embedded map runs as written, and the message says what N = 17 would have cost.
 
 use pendulum_atlas_core::config::{ConfigError, DEFAULT_MAP_TOML, map_from_toml};
@@ -22,16 +22,16 @@ use pendulum_atlas_core::engine::{Engine, EngineError, EnsemblePlan, Readback, n
 use pendulum_atlas_core::reduce::ReduceOptions;
 
 /// Grids (frequency count × amplitude count) from coarse to fine.
-pub const GRIDS: [(usize, usize); 3] = [(64, 48), (128, 96), (256, 192)];
+pub(crate) const GRIDS: [(usize, usize); 3] = [(64, 48), (128, 96), (256, 192)];
 
 /// The wall time a default map should stay within (s).
-pub const TARGET_S: f64 = 60.0;
+pub(crate) const TARGET_S: f64 = 60.0;
 
 /// Factor on the integration estimate for the reductions and transfers.
-pub const REDUCE_MARGIN: f64 = 1.3;
+pub(crate) const REDUCE_MARGIN: f64 = 1.3;
 
 /// The paper's segment count.
-pub const PAPER_SEGMENTS: usize = 17;
+pub(crate) const PAPER_SEGMENTS: usize = 17;
 
 /// What can stop the choice.
 #[derive(Debug, thiserror::Error)]
@@ -55,7 +55,7 @@ pub struct HardwareDefault {
 
 /// One probed grid: its rate at its own instance count and its estimated wall time.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct GridEstimate {
+pub(crate) struct GridEstimate {
     /// Frequency count × amplitude count.
     pub grid: (usize, usize),
     /// Instance-steps per second of the probe at this grid's instance count.
@@ -65,7 +65,7 @@ pub struct GridEstimate {
 }
 
 /// The `--set` override of the default map's axes on `grid`.
-pub fn axes_set((nf, na): (usize, usize)) -> String {
+pub(crate) fn axes_set((nf, na): (usize, usize)) -> String {
     format!(
         "map.axes=[{{key=\"excitation.frequency_hz\",start=4.0,end=12.0,count={nf}}},\
 {{key=\"excitation.amplitude_m\",start=0.004,end=0.025,count={na}}}]"
@@ -81,7 +81,7 @@ pub fn applies(user_sets: &[String]) -> bool {
 }
 
 /// The finest probed grid within [`TARGET_S`] (estimates from coarse to fine), or `None`.
-pub fn choose_grid(estimates: &[GridEstimate]) -> Option<(usize, usize)> {
+pub(crate) fn choose_grid(estimates: &[GridEstimate]) -> Option<(usize, usize)> {
     estimates
         .iter()
         .rev()
@@ -101,7 +101,7 @@ fn probe_sets(grid: (usize, usize)) -> Vec<String> {
 
 /// Steps a plan integrates: every instance's steps, plus its λ1 twin's over the twin's
 /// periods (the twin is a second state integrated beside the main one).
-pub fn work_steps(plan: &EnsemblePlan) -> u64 {
+pub(crate) fn work_steps(plan: &EnsemblePlan) -> u64 {
     plan.instances
         .iter()
         .map(|p| {

@@ -1,10 +1,10 @@
 //! A map's size before any work: its runs, their steps, the memory it holds and an estimate
-//! of its integration time. A map above [`HUGE_RUNS`] runs, [`HUGE_MEMORY`] bytes or
+//! of its integration time. A map above `HUGE_RUNS` runs, `HUGE_MEMORY` bytes or
 //! [`HUGE_WORK`] instance-steps runs only when accepted (`map --yes`, `map.accept_huge`);
 //! otherwise it is refused with these figures before it is planned.
 //!
 //! The time is estimated by a probe on the engine that would run the map: its first runs
-//! ([`PROBE_RUNS_CPU`] on the CPU, [`PROBE_RUNS_GPU`] on a GPU) over [`PROBE_PERIODS`] forcing periods with
+//! (`PROBE_RUNS_CPU` on the CPU, `PROBE_RUNS_GPU` on a GPU) over `PROBE_PERIODS` forcing periods with
 //! no transient and one cheap metric give the engine's rate (instance-steps/s); the map's
 //! instance-steps over that rate is the estimate. A GPU's rate grows with the instance count,
 //! so there the estimate is an upper bound. Settling (`map.settle_max_s`) counts as every cell
@@ -19,23 +19,23 @@ use pendulum_atlas_core::reduce::ReduceOptions;
 use pendulum_atlas_core::text::{bytes, duration};
 
 /// Runs (cells × starts) above which a map asks first.
-pub const HUGE_RUNS: usize = 1_000_000;
+pub(crate) const HUGE_RUNS: usize = 1_000_000;
 
 /// Host memory (bytes) above which a map asks first.
-pub const HUGE_MEMORY: u64 = 4 << 30;
+pub(crate) const HUGE_MEMORY: u64 = 4 << 30;
 
 /// Instance-steps above which a map asks first (about 2 h of the 2-core machine's CPU
 /// engine at N = 3).
 pub const HUGE_WORK: f64 = 1e11;
 
 /// Forcing periods each probe run integrates (with no transient).
-pub const PROBE_PERIODS: f64 = 8.0;
+pub(crate) const PROBE_PERIODS: f64 = 8.0;
 
 /// Runs of the timing probe on the CPU engine.
-pub const PROBE_RUNS_CPU: usize = 64;
+pub(crate) const PROBE_RUNS_CPU: usize = 64;
 
 /// Runs of the timing probe on the GPU engine.
-pub const PROBE_RUNS_GPU: usize = 4096;
+pub(crate) const PROBE_RUNS_GPU: usize = 4096;
 
 /// A map's size (or a shard's), estimated before any work.
 #[derive(Debug, Clone, PartialEq)]

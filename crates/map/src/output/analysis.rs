@@ -14,7 +14,7 @@ use std::path::Path;
 
 /// Write spectrum.csv, the wavelet and phase arrays (.npy) and the PNGs of an analysis of the
 /// uniform record `signal` (and `reference`) sampled at `rate_hz` from `start_s`.
-pub fn write_analysis(
+pub(crate) fn write_analysis(
     out: &Path,
     r: &RecordAnalysis,
     signal: &[f64],
@@ -260,7 +260,7 @@ pub struct RecordInput {
 /// `analysis.json`: every number, setting and warning of the analysis, its time unit and its
 /// input. Written last: its presence means the folder is complete.
 #[derive(Debug, Clone, Serialize)]
-pub struct AnalysisManifest<'a> {
+pub(crate) struct AnalysisManifest<'a> {
     /// The analysis.
     #[serde(flatten)]
     pub analysis: &'a RecordAnalysis,
@@ -275,8 +275,8 @@ impl AnalysisManifest<'_> {
     pub const NAME: &'static str = "analysis.json";
 }
 
-/// Every file of the analysis of `record` into `out`: [`write_analysis`], then
-/// `analysis.json` ([`AnalysisManifest`]).
+/// Every file of the analysis of `record` into `out`: `write_analysis`, then
+/// `analysis.json` (`AnalysisManifest`).
 pub fn write_record_analysis(
     out: &Path,
     analysis: &RecordAnalysis,

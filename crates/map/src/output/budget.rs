@@ -4,9 +4,9 @@
 //!
 //! - steps ≤ 2³² (the limit the map engines have too);
 //! - memory: every row is held until it is written (`size_of::<Row>()` bytes) plus the copies the
-//!   analysis makes (α and the cart, 16 bytes a row): at most [`MEMORY_SHARE`] of what the
+//!   analysis makes (α and the cart, 16 bytes a row): at most `MEMORY_SHARE` of what the
 //!   machine has available;
-//! - disk: [`CSV_BYTES_PER_VALUE`] bytes per CSV value (the shortest round-trip decimal of an
+//! - disk: `CSV_BYTES_PER_VALUE` bytes per CSV value (the shortest round-trip decimal of an
 //!   f64 and its separator, about 20 characters), at most the space left on the output's
 //!   file system.
 
@@ -16,13 +16,13 @@ use pendulum_atlas_core::text::bytes;
 use std::path::Path;
 
 /// The share of available memory a run may plan to use.
-pub const MEMORY_SHARE: f64 = 0.8;
+pub(crate) const MEMORY_SHARE: f64 = 0.8;
 
 /// Bytes per value of `trajectory.csv` (digits, sign, exponent and the separator).
-pub const CSV_BYTES_PER_VALUE: u64 = 21;
+pub(crate) const CSV_BYTES_PER_VALUE: u64 = 21;
 
 /// The largest number of steps of one run.
-pub const MAX_STEPS: u64 = u32::MAX as u64;
+pub(crate) const MAX_STEPS: u64 = u32::MAX as u64;
 
 /// The size of one run.
 #[derive(Debug, Clone, Copy, PartialEq)]

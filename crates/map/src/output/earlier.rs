@@ -1,5 +1,5 @@
 //! An earlier run replaced only once the new one is complete. `--force` moves the earlier
-//! run's files aside into [`EARLIER_DIR`] inside the folder (renames, nothing copied or
+//! run's files aside into `EARLIER_DIR` inside the folder (renames, nothing copied or
 //! rewritten); the new run writes its own; then either
 //! - [`Replacement::keep`]: the new run completed, the earlier files are deleted; or
 //! - [`Replacement::undo`]: it failed (a lost GPU, a refusal found late, Ctrl-C), what it wrote
@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 
 /// The names a kind of run writes, as far as setting its earlier run aside needs them
 /// (`folder::Product` is the one kind there is; the trait keeps this file from importing it).
-pub trait RunFiles: std::fmt::Debug + Send + Sync {
+pub(crate) trait RunFiles: std::fmt::Debug + Send + Sync {
     /// Whether a file of this name is this kind of run's (its temporary files included).
     fn writes(&self, name: &str) -> bool;
     /// The name of its manifest, written last, when the run is complete.
@@ -23,7 +23,7 @@ pub trait RunFiles: std::fmt::Debug + Send + Sync {
 
 /// The folder, inside an output folder, that holds an earlier run's files while a new run
 /// replaces them.
-pub const EARLIER_DIR: &str = ".pendulum-atlas.earlier";
+pub(crate) const EARLIER_DIR: &str = ".pendulum-atlas.earlier";
 
 /// An earlier run set aside for a new one: kept aside until the new run ends.
 #[derive(Debug)]

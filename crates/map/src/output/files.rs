@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 /// The temporary sibling of `target` (same folder, same extension, so that writers that pick a
 /// format by extension, such as PNG encoders, still do).
-pub fn temp_path(target: &Path) -> PathBuf {
+pub(crate) fn temp_path(target: &Path) -> PathBuf {
     let name = target
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())

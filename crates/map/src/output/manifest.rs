@@ -16,7 +16,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 /// The name of the manifest in a map's folder.
-pub const MAP_JSON: &str = "map.json";
+pub(crate) const MAP_JSON: &str = "map.json";
 
 /// One axis of the map as `map.json` states it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -214,7 +214,7 @@ impl Manifest for MapManifest {
 /// The list of files any manifest keeps under `files` (and nothing else of it): what a
 /// rerun with `--force` may delete ([`super::folder`]).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct FileList {
+pub(crate) struct FileList {
     /// The files, by name in the folder.
     pub files: Vec<String>,
 }

@@ -23,7 +23,7 @@ pub use folder::{
 
 /// The results a map folder stores (the result schema's rows with `in_map`), in `grid.csv`
 /// order: the values, then the codes (`regime`, `status`).
-pub fn map_fields() -> impl Iterator<Item = &'static Field> {
+pub(crate) fn map_fields() -> impl Iterator<Item = &'static Field> {
     FIELDS.iter().filter(|f| f.in_map)
 }
 
@@ -55,28 +55,28 @@ pub enum ArrayData {
     I32(Vec<i32>),
 }
 
-/// The stems of a map's arrays besides the results ([`map_fields`]) and the axes
+/// The stems of a map's arrays besides the results (`map_fields`) and the axes
 /// (`axis0`, ...): every name [`map_arrays`] gives, and what the folder check recognises as a
 /// map's own where no `map.json` lists the files (a killed map), so that a new array named
 /// here is known to both. The second direction of a continuation adds `_down` to the
 /// results' stems; `hysteresis` and the attractors' stems are also pictures.
 pub mod stem {
     /// Refinement's inferred flags.
-    pub const INFERRED: &str = "inferred";
+    pub(crate) const INFERRED: &str = "inferred";
     /// Distinct attractors per cell.
-    pub const ATTRACTORS: &str = "attractors";
+    pub(crate) const ATTRACTORS: &str = "attractors";
     /// The most likely attractor's label.
-    pub const ATTRACTOR: &str = "attractor";
+    pub(crate) const ATTRACTOR: &str = "attractor";
     /// Share of failed starts.
-    pub const FAILED_FRACTION: &str = "failed_fraction";
+    pub(crate) const FAILED_FRACTION: &str = "failed_fraction";
     /// The representative start.
-    pub const START: &str = "start";
+    pub(crate) const START: &str = "start";
     /// The first start of each attractor.
-    pub const ATTRACTOR_START: &str = "attractor_start";
+    pub(crate) const ATTRACTOR_START: &str = "attractor_start";
     /// Basin fraction per attractor.
-    pub const BASIN_FRACTION: &str = "basin_fraction";
+    pub(crate) const BASIN_FRACTION: &str = "basin_fraction";
     /// Where up and down ended on different attractors.
-    pub const HYSTERESIS: &str = "hysteresis";
+    pub(crate) const HYSTERESIS: &str = "hysteresis";
     /// Every one of them.
     pub const ALL: [&str; 8] = [
         INFERRED,
@@ -91,7 +91,7 @@ pub mod stem {
 }
 
 /// The file of a map's attractor table.
-pub const ATTRACTORS_JSON: &str = "attractors.json";
+pub(crate) const ATTRACTORS_JSON: &str = "attractors.json";
 
 /// One array of a map: its name (the `.npy` file's stem), shape and values (C order).
 #[derive(Debug, Clone, PartialEq)]

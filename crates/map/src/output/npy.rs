@@ -65,8 +65,10 @@ pub fn write_npy_u8(
     write_npy(path, shape, data_row_major)
 }
 
-/// Writes an int8 array (e.g. category codes) of the given `shape` to `path`.
-pub fn write_npy_i8(
+/// Writes an int8 array (e.g. category codes) of the given `shape` to `path`. Only the map's
+/// folder writer, behind the `pictures` feature, writes one.
+#[cfg(feature = "pictures")]
+pub(crate) fn write_npy_i8(
     path: &Path,
     shape: &[usize],
     data_row_major: &[i8],

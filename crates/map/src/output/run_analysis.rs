@@ -1,6 +1,6 @@
 //! The files of the analysis of one simulated run (`pendulum-atlas simulate`): the paper's
 //! indicators of the holder angle against the cart after the transient
-//! ([`super::analysis::write_analysis`]) and the time series figure (the paper's Figs. 3–5).
+//! (`super::analysis::write_analysis`) and the time series figure (the paper's Figs. 3–5).
 
 use super::OutputError;
 use super::analysis::write_analysis;

@@ -133,11 +133,11 @@ impl Table {
 
 /// Longest first line read before a record is refused as not CSV (bytes): a header names a
 /// few columns.
-pub const MAX_HEADER_BYTES: u64 = 1 << 20;
+pub(crate) const MAX_HEADER_BYTES: u64 = 1 << 20;
 
 /// Largest record read from a stream (a pipe, `/dev/stdin`, `<(...)`): its size is not known
 /// before it is read, so it is read up to this and refused beyond it (bytes).
-pub const MAX_STREAM_BYTES: u64 = 256 << 20;
+pub(crate) const MAX_STREAM_BYTES: u64 = 256 << 20;
 
 /// How many bytes of the record at `path` may be read: a regular file whose values fit in
 /// memory (its parsed columns take at most about its size again) is read whole; a stream is

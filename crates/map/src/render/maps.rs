@@ -49,7 +49,7 @@ fn cell_edges(c: &[f64]) -> Vec<f64> {
 pub struct GridAxis {
     /// Cell edges: midpoints between centres, the ends half a step out.
     pub edges: Vec<f64>,
-    /// Round values within the edges ([`nice_ticks`]; a single cell: its centre), labelled.
+    /// Round values within the edges (`nice_ticks`; a single cell: its centre), labelled.
     pub ticks: Vec<(f64, String)>,
 }
 
@@ -347,7 +347,7 @@ pub fn cell_colour(value: f64, invalid: bool, range: (f64, f64)) -> RGBColor {
 
 /// `text` broken at spaces into lines no wider than `width` px in the font of `px` pixels (a
 /// word wider than that stands on a line of its own).
-pub fn wrap_text(text: &str, px: u32, width: u32) -> Result<Vec<String>> {
+pub(crate) fn wrap_text(text: &str, px: u32, width: u32) -> Result<Vec<String>> {
     super::ensure_font()?;
     let fits = |line: &str| -> Result<bool> {
         let (w, _) = font(px)

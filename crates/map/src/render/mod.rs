@@ -65,13 +65,13 @@ pub struct Axis<'a> {
 }
 
 /// Font family name under which the embedded font is registered.
-pub const FONT: &str = "sans-serif";
+pub(crate) const FONT: &str = "sans-serif";
 /// Title font size (px).
-pub const TITLE_PX: u32 = 26;
+pub(crate) const TITLE_PX: u32 = 26;
 /// Axis description font size (px).
-pub const LABEL_PX: u32 = 20;
+pub(crate) const LABEL_PX: u32 = 20;
 /// Tick label / legend font size (px).
-pub const TICK_PX: u32 = 16;
+pub(crate) const TICK_PX: u32 = 16;
 
 static FONT_BYTES: &[u8] = include_bytes!(concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -81,7 +81,7 @@ static FONT_ONCE: Once = Once::new();
 static FONT_OK: AtomicBool = AtomicBool::new(false);
 
 /// Registers the embedded DejaVu Sans font with plotters (idempotent).
-pub fn ensure_font() -> Result<()> {
+pub(crate) fn ensure_font() -> Result<()> {
     FONT_ONCE.call_once(|| {
         let ok = plotters::style::register_font(FONT, FontStyle::Normal, FONT_BYTES).is_ok();
         FONT_OK.store(ok, Ordering::SeqCst);
@@ -94,7 +94,7 @@ pub fn ensure_font() -> Result<()> {
 }
 
 /// Text style helper.
-pub fn font(px: u32) -> TextStyle<'static> {
+pub(crate) fn font(px: u32) -> TextStyle<'static> {
     (FONT, px).into_font().color(&BLACK)
 }
 
@@ -113,9 +113,9 @@ pub const PALETTE: [RGBColor; 10] = [
 ];
 
 /// Grid line colour.
-pub const GRID: RGBColor = RGBColor(225, 225, 225);
+pub(crate) const GRID: RGBColor = RGBColor(225, 225, 225);
 /// Minor grid line colour.
-pub const GRID_MINOR: RGBColor = RGBColor(242, 242, 242);
+pub(crate) const GRID_MINOR: RGBColor = RGBColor(242, 242, 242);
 
 /// A resolved axis in plotting coordinates (log10 of data for log axes).
 #[derive(Debug, Clone)]
@@ -212,7 +212,7 @@ impl AxisSpec {
     }
 
     /// The plotters coordinate for this axis.
-    pub fn coord(&self) -> Coord {
+    pub(crate) fn coord(&self) -> Coord {
         Coord {
             inner: (self.lo..self.hi).into(),
             ticks: self.ticks.clone(),
@@ -259,7 +259,7 @@ pub fn plot_value(v: f64, log: bool) -> Option<f64> {
 }
 
 /// Drawing area of the bitmap backend in pixel coordinates.
-pub type Area<'b> = DrawingArea<BitMapBackend<'b>, plotters::coord::Shift>;
+pub(crate) type Area<'b> = DrawingArea<BitMapBackend<'b>, plotters::coord::Shift>;
 /// A configured 2-D chart.
 pub type Chart<'a, 'b> = ChartContext<'a, BitMapBackend<'b>, Cartesian2d<Coord, Coord>>;
 
@@ -319,7 +319,7 @@ pub fn draw_legend<'a, 'b: 'a>(
 }
 
 /// Draws a centred figure title at the top of `area`; returns the area below it.
-pub fn titled<'b>(area: &Area<'b>, title: &str) -> Result<Area<'b>> {
+pub(crate) fn titled<'b>(area: &Area<'b>, title: &str) -> Result<Area<'b>> {
     Ok(area.margin(10, 0, 0, 0).titled(title, font(TITLE_PX))?)
 }
 
@@ -332,7 +332,7 @@ pub fn canvas(path: &std::path::Path, size: (u32, u32)) -> Result<Area<'_>> {
 }
 
 /// Min and max over the finite values, or None if there are none.
-pub fn finite_min_max(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
+pub(crate) fn finite_min_max(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
     values
         .filter(|v| v.is_finite())
         .fold(None, |acc, v| match acc {
@@ -342,7 +342,7 @@ pub fn finite_min_max(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
 }
 
 /// "Nice" ticks (1, 2, 2.5, 5 × 10^k steps) inside `[lo, hi]`, at most `max_n`.
-pub fn nice_ticks(lo: f64, hi: f64, max_n: usize) -> Vec<f64> {
+pub(crate) fn nice_ticks(lo: f64, hi: f64, max_n: usize) -> Vec<f64> {
     let span = hi - lo;
     if !(span.is_finite() && span > 0.0) {
         return vec![];
@@ -448,7 +448,7 @@ pub fn segments(s: &Series, xa: &AxisSpec, ya: &AxisSpec) -> Vec<Vec<(f64, f64)>
 }
 
 /// Checks that every series has equal-length x and y.
-pub fn check_series(series: &[Series]) -> Result<()> {
+pub(crate) fn check_series(series: &[Series]) -> Result<()> {
     for s in series {
         if s.x.len() != s.y.len() {
             bad_input!(

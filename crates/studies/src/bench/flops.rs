@@ -2,7 +2,7 @@
 //! number type that counts its operations ([`Counted`]), not estimated by hand.
 //!
 //! `sin`/`cos` pairs are counted apart: the SIMD loop computes each with `wide`'s polynomial,
-//! whose floating-point operations [`SIN_COS_FLOP`] counts (its integer and blend operations are
+//! whose floating-point operations `SIN_COS_FLOP` counts (its integer and blend operations are
 //! not flops and not counted).
 
 use pendulum_atlas_core::engine::imex::{Imex, ImexMatrices};
@@ -16,7 +16,7 @@ use std::sync::Arc;
 /// Floating-point operations of one lane of `wide::f32x8::sin_cos` (abs, the quadrant's
 /// multiply and round, three fused reductions (2 each), x², two degree-2 polynomials with
 /// their scaling, and the final sums: 26).
-pub const SIN_COS_FLOP: u64 = 26;
+pub(crate) const SIN_COS_FLOP: u64 = 26;
 
 thread_local! {
     static OPS: Cell<[u64; 3]> = const { Cell::new([0; 3]) };
@@ -118,7 +118,7 @@ pub struct FlopCount {
     pub divisions: u64,
     /// sin/cos pairs.
     pub sin_cos: u64,
-    /// All of it in flop (a division 1, a sin/cos pair [`SIN_COS_FLOP`]).
+    /// All of it in flop (a division 1, a sin/cos pair `SIN_COS_FLOP`).
     pub flop_per_step: u64,
     /// `flop_per_step / N`.
     pub flop_per_segment_step: f64,

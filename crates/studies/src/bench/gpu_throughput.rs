@@ -7,8 +7,8 @@
 //!    earlier reading of the damping, ζ1 = 0.0035, where RK4's step is the chain's and not the
 //!    joint dampers') and the IMEX method (on the library reading); one forcing period per
 //!    instance from rest in the well, α range only: the integration kernel is what is timed;
-//! 2. the instance ladder 10³ … 10⁶ ([`LADDER`]) per workload and engine, after an untimed
-//!    pilot of [`PILOT`] instances that compiles the kernels: each rung runs until it ends or
+//! 2. the instance ladder 10³ … 10⁶ (`LADDER`) per workload and engine, after an untimed
+//!    pilot of `PILOT` instances that compiles the kernels: each rung runs until it ends or
 //!    its wall time passes the row budget; a rung stopped there gives the rate of the steps it
 //!    took, and the larger rungs are listed as skipped. (No rung is skipped on an estimate:
 //!    a GPU's rate grows with the instance count until the device is full, so a small run's
@@ -33,10 +33,10 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Instance counts of the ladder.
-pub const LADDER: [usize; 4] = [1_000, 10_000, 100_000, 1_000_000];
+pub(crate) const LADDER: [usize; 4] = [1_000, 10_000, 100_000, 1_000_000];
 
 /// Instances of the pilot run that gives each workload's first rate (not reported).
-pub const PILOT: usize = 64;
+pub(crate) const PILOT: usize = 64;
 
 /// Segment counts of the study.
 pub const SEGMENTS: [usize; 3] = [3, 9, 17];

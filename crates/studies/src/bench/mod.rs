@@ -16,7 +16,7 @@ pub mod cpu_throughput;
 pub mod flops;
 pub mod gpu_report;
 pub mod gpu_throughput;
-pub mod peer_case;
+pub(crate) mod peer_case;
 pub mod refine;
 pub mod report;
 pub mod stiff;

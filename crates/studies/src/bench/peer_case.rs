@@ -12,7 +12,7 @@ use pendulum_atlas_core::model::ModelParams;
 use serde::Serialize;
 
 /// Steps of the check trajectory (short enough that rounding has not yet separated peers).
-pub const CHECK_STEPS: u64 = 256;
+pub(crate) const CHECK_STEPS: u64 = 256;
 
 /// One instance of the case.
 #[derive(Debug, Clone, Serialize)]
@@ -60,7 +60,7 @@ pub enum PeerCaseError {
 
 /// The default map at N segments with RK4 at fixed steps (and the overrides `extra`), the plan
 /// of its `count` instances spread evenly over the grid.
-pub fn default_map_plan(
+pub(crate) fn default_map_plan(
     n: usize,
     count: usize,
     extra: &[&str],
@@ -79,7 +79,7 @@ pub fn default_map_plan(
 }
 
 /// The peer case of the default map at N segments, `count` instances.
-pub fn peer_case(n: usize, count: usize) -> Result<PeerCase, PeerCaseError> {
+pub(crate) fn peer_case(n: usize, count: usize) -> Result<PeerCase, PeerCaseError> {
     let plan = default_map_plan(n, count, &[])?;
     let instances = plan
         .instances

@@ -28,10 +28,10 @@ use serde::Serialize;
 use std::time::Instant;
 
 /// Points per axis of the study's grid (frequency, amplitude): 256 × 192 intervals.
-pub const REFINE_GRID: (usize, usize) = (257, 193);
+pub(crate) const REFINE_GRID: (usize, usize) = (257, 193);
 
 /// Points per axis of `--quick` (32 × 24 intervals).
-pub const REFINE_GRID_QUICK: (usize, usize) = (33, 25);
+pub(crate) const REFINE_GRID_QUICK: (usize, usize) = (33, 25);
 
 /// Settings replayed: (coarse spacing, audit minimum), those whose spacing divides the grid;
 /// the shipped audit share. An audit minimum of 0 never goes deeper: corners alone decide.

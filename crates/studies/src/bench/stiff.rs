@@ -3,7 +3,7 @@
 //!
 //! Part (a), work against precision: for each N, damping reading, method, stepping (a multiple
 //! of the method's automatic step, or adaptive steps of the IMEX pair at a tolerance) and
-//! engine, one instance over [`HORIZON_S`] at 8 Hz / 9 mm; its holder angle against the DOP853
+//! engine, one instance over `HORIZON_S` at 8 Hz / 9 mm; its holder angle against the DOP853
 //! reference at the same N and damping (the integration error alone), and its wall time.
 //!
 //! Part (b), maps: a small (f, A) map at the library damping integrated by RK4 at its
@@ -29,7 +29,7 @@ use serde::Serialize;
 use std::time::Instant;
 
 /// The horizon of part (a) (s): several impacts, before chaos separates the trajectories.
-pub const HORIZON_S: f64 = 0.5;
+pub(crate) const HORIZON_S: f64 = 0.5;
 
 /// Which reading of Table 1's "damping constant 0.35" (and contact damping) a scene uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -65,7 +65,7 @@ impl Reading {
 /// How a run of the study steps.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case")]
-pub enum Stepping {
+pub(crate) enum Stepping {
     /// `method` at `factor` times its automatic step.
     Fixed {
         /// The method.
@@ -107,7 +107,7 @@ impl Stepping {
 
 /// The name of a run's stepping in tables and curves: the method, and "adaptive" with its
 /// relative tolerance.
-pub fn stepping_label(method: Method, rtol: Option<f64>) -> String {
+pub(crate) fn stepping_label(method: Method, rtol: Option<f64>) -> String {
     match rtol {
         None => method.name().into(),
         Some(r) => format!("{} adaptive {r:.0e}", method.name()),

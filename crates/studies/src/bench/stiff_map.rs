@@ -5,7 +5,7 @@
 //! forcing periods, integrated as:
 //! - `rk4`: RK4 at its automatic step, CPU f64: the reference map;
 //! - `imex`: the IMEX method at its automatic step on each engine;
-//! - `imex-twin`: the same from a start perturbed by [`TWIN_RATE_DEG_S`] (CPU f64);
+//! - `imex-twin`: the same from a start perturbed by `TWIN_RATE_DEG_S` (CPU f64);
 //! - `imex-half`: the IMEX method at half its automatic step (CPU f64).
 //!
 //! A chaotic trajectory's K over 100 periods scatters about 0.5 and its class can change with
@@ -24,7 +24,7 @@ use serde::Serialize;
 use std::time::Instant;
 
 /// Perturbation of the twin's initial rate of every segment (deg/s).
-pub const TWIN_RATE_DEG_S: f64 = 1e-3;
+pub(crate) const TWIN_RATE_DEG_S: f64 = 1e-3;
 
 /// The K class threshold.
 const K_CHAOTIC: f64 = 0.5;

@@ -72,7 +72,7 @@ impl CaseBasins {
     }
 
     /// Share of the starts on attractors of the paper's class.
-    pub fn paper_class_fraction(&self) -> f64 {
+    pub(crate) fn paper_class_fraction(&self) -> f64 {
         self.attractors
             .iter()
             .filter(|a| a.paper_class)

@@ -251,7 +251,7 @@ impl PaperCase {
     }
 
     /// The `--quick` overrides: a 3-segment chain and 24 s runs (the sweep compressed into them).
-    pub fn quick_overrides(&self) -> Vec<String> {
+    pub(crate) fn quick_overrides(&self) -> Vec<String> {
         let mut sets = vec![
             format!("beam.segments={QUICK_SEGMENTS}"),
             format!("integration.duration_s={QUICK_DURATION_S:?}"),
@@ -276,7 +276,7 @@ impl PaperCase {
     }
 
     /// A compact label for titles: `8 Hz/9 mm`.
-    pub fn short_label(&self) -> String {
+    pub(crate) fn short_label(&self) -> String {
         match self.frequency_hz {
             Some(f) => format!("{} Hz/{} mm", f, self.amplitude_mm),
             None => format!("4 → 8 Hz/{} mm", self.amplitude_mm),
@@ -284,7 +284,7 @@ impl PaperCase {
     }
 
     /// The paper's name of the time-series figure: `Fig. 4a`.
-    pub fn figure_name(&self) -> String {
+    pub(crate) fn figure_name(&self) -> String {
         let stem = self.figure.trim_start_matches("fig");
         let num: String = stem.chars().take_while(|c| c.is_ascii_digit()).collect();
         let letter: String = stem.chars().skip(num.len()).collect();
@@ -292,7 +292,7 @@ impl PaperCase {
     }
 
     /// File-name suffix with the forcing: `f8_A9` (`sweep_4_8Hz_A9` for the sweep).
-    pub fn file_tag(&self) -> String {
+    pub(crate) fn file_tag(&self) -> String {
         match self.frequency_hz {
             Some(f) => format!("f{}_A{}", f, self.amplitude_mm),
             None => format!("sweep_4_8Hz_A{}", self.amplitude_mm),

@@ -45,7 +45,7 @@ fn line<'a>(x_label: &'a str, y_label: &'a str, x: &'a [f64], y: &'a [f64]) -> P
 
 /// Figs. 3–5: cart displacement, holder angle and chord reduction over the whole run, and the
 /// spectra of angle and chord after the transient (log scale, up to six times the forcing).
-pub fn time_series_fig3_5(
+pub(crate) fn time_series_fig3_5(
     out: &Path,
     case: &PaperCase,
     sim: &Simulation,
@@ -107,7 +107,7 @@ fn c_ends(c: &[f64]) -> Vec<f64> {
 
 /// Fig. 6: the local extrema of α (upper panel) and K_c against c for both estimators with
 /// their medians (lower panel).
-pub fn zero_one_fig6(
+pub(crate) fn zero_one_fig6(
     out: &Path,
     case: &PaperCase,
     panel: char,
@@ -177,7 +177,7 @@ pub fn zero_one_fig6(
 }
 
 /// Fig. 7: histogram of Δφ (cart → holder angle) in the paper's convention.
-pub fn phase_fig7(
+pub(crate) fn phase_fig7(
     out: &Path,
     case: &PaperCase,
     panel: char,
@@ -205,7 +205,7 @@ pub fn phase_fig7(
 }
 
 /// Fig. 9a: cart displacement, holder angle and angular velocity of the sweep.
-pub fn sweep_fig9a(
+pub(crate) fn sweep_fig9a(
     out: &Path,
     case: &PaperCase,
     sim: &Simulation,
@@ -235,7 +235,7 @@ pub fn sweep_fig9a(
 }
 
 /// Fig. 9b: scalograms of the cart displacement (`which = "base"`) or of the angle.
-pub fn sweep_fig9b(
+pub(crate) fn sweep_fig9b(
     out: &Path,
     case: &PaperCase,
     s: &SweepAnalysis,
@@ -270,7 +270,7 @@ pub fn sweep_fig9b(
 }
 
 /// Fig. 10: the last [`FIG10_WINDOW_S`] seconds of displacement, angle and angular velocity.
-pub fn experiment_fig10(
+pub(crate) fn experiment_fig10(
     out: &Path,
     case: &PaperCase,
     sim: &Simulation,
@@ -306,7 +306,7 @@ pub fn experiment_fig10(
 }
 
 /// Fig. 11: spectra of displacement, angle and angular velocity after the transient.
-pub fn experiment_fig11(
+pub(crate) fn experiment_fig11(
     out: &Path,
     case: &PaperCase,
     a: &StationaryAnalysis,
@@ -340,7 +340,7 @@ pub fn experiment_fig11(
 }
 
 /// Fig. 12: phase portrait, holder angle against cart displacement, after the transient.
-pub fn experiment_fig12(
+pub(crate) fn experiment_fig12(
     out: &Path,
     case: &PaperCase,
     sim: &Simulation,

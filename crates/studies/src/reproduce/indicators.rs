@@ -22,18 +22,18 @@ pub const K_CHAOTIC_THRESHOLD: f64 = 0.5;
 pub const R_PAPER_SYNC_THRESHOLD: f64 = 0.70;
 /// |Δα| (rad) above which twin runs count as having separated (about a sixth of the gap
 /// between the wells at ±20°).
-pub const TWIN_SEPARATED_RAD: f64 = 0.1;
+pub(crate) const TWIN_SEPARATED_RAD: f64 = 0.1;
 /// |Δα| (rad) below which twin runs count as having converged onto one motion.
-pub const TWIN_CONVERGED_RAD: f64 = 1e-3;
+pub(crate) const TWIN_CONVERGED_RAD: f64 = 1e-3;
 /// Start-angle change of the twin run (deg): 10⁻⁴ deg ≈ 1.7 µrad.
 pub const TWIN_PERTURBATION_DEG: f64 = 1e-4;
 /// Sample rate the sweep's wavelet transform works at (Hz): periods from 40 ms up.
-pub const SWEEP_WAVELET_RATE_HZ: f64 = 50.0;
+pub(crate) const SWEEP_WAVELET_RATE_HZ: f64 = 50.0;
 /// Longest period of the sweep's scalograms (s).
-pub const SWEEP_MAX_PERIOD_S: f64 = 8.0;
+pub(crate) const SWEEP_MAX_PERIOD_S: f64 = 8.0;
 /// The band of periods the paper names for the sweep's angle response (§3.2: "a number of
 /// shorter periodics in the region 0.32–0.64 s").
-pub const SWEEP_PAPER_BAND_S: (f64, f64) = (0.32, 0.64);
+pub(crate) const SWEEP_PAPER_BAND_S: (f64, f64) = (0.32, 0.64);
 
 /// The regime a K value stands for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

@@ -183,7 +183,7 @@ pub fn reproduce(
 
 /// The overrides of the earlier reading of Table 1's damping: ζ1 = 0.35 % of the first clamped
 /// mode and Kelvin–Voigt contact damping (`docs/model.md`, "Damping").
-pub const EARLIER_READING: [&str; 2] = [
+pub(crate) const EARLIER_READING: [&str; 2] = [
     "beam.damping_ratio=0.0035",
     "limiter.damping_law=\"kelvin_voigt\"",
 ];

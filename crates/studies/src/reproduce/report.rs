@@ -23,13 +23,13 @@ use summary::summary;
 use sweep::sweep;
 
 /// A spectral line at least this many times its neighbourhood's median counts as visible.
-pub const LINE_VISIBLE: f64 = 3.0;
+pub(crate) const LINE_VISIBLE: f64 = 3.0;
 /// A strongest line below this prominence is a broad band rather than a clear peak.
-pub const LINE_CLEAR: f64 = 10.0;
+pub(crate) const LINE_CLEAR: f64 = 10.0;
 /// Our R (paper convention) within this of the published R counts as agreeing.
-pub const R_AGREE: f64 = 0.05;
+pub(crate) const R_AGREE: f64 = 0.05;
 /// Our R (paper convention) within this of 2/π counts as "random" (unlocked) phases.
-pub const R_RANDOM_BAND: f64 = 0.02;
+pub(crate) const R_RANDOM_BAND: f64 = 0.02;
 
 /// One harmonically forced case with its analysis and table row.
 pub struct CaseResult<'a> {

@@ -43,7 +43,7 @@ impl Simulation {
     }
 
     /// Index of the first row after the transient.
-    pub fn transient_rows(&self) -> usize {
+    pub(crate) fn transient_rows(&self) -> usize {
         ((self.scene.integration.transient_s * self.rate_hz()).ceil() as usize).min(self.rows.len())
     }
 }

@@ -169,7 +169,7 @@ pub fn num(x: f64, digits: usize) -> String {
 }
 
 /// A K value, marked † when the 0–1 test's oversampling check fired.
-pub fn k_cell(k: f64, oversampled: bool) -> String {
+pub(crate) fn k_cell(k: f64, oversampled: bool) -> String {
     format!("{}{}", num(k, 2), if oversampled { " †" } else { "" })
 }
 

@@ -45,7 +45,7 @@ pub fn run_instance<T: Real>(
 /// [`run_instance`], stopping early once a periodic orbit is confirmed when `early` is given,
 /// with λ1's twin at separation `separation` when the plan has one, ending at the first
 /// forcing period's end at which `stop` says so (a cancel; asked every few periods).
-pub fn run_instance_with<T: Real>(
+pub(crate) fn run_instance_with<T: Real>(
     plan: &InstancePlan,
     want_strobe: bool,
     want_rseries: bool,

@@ -19,7 +19,7 @@ const SOFTWARE_LOOP_BUDGET: usize = 60_000;
 /// Per-instance strides and buffer sizes of a run (bytes; at least 16, a placeholder for a
 /// series no metric needs).
 #[derive(Debug, Clone, Copy)]
-pub struct Sizes {
+pub(crate) struct Sizes {
     pub n_inst: usize,
     pub state_len: usize,
     pub strobe_stride: u32,
@@ -177,7 +177,7 @@ fn buffer_limit(ctx: &GpuContext) -> u64 {
 /// within the binding limit, and every dispatch within the workgroup-count limit. A larger
 /// plan is run in batches of at most this many; an error names the buffer when a single
 /// instance is already too large.
-pub fn batch_capacity(
+pub(crate) fn batch_capacity(
     ctx: &GpuContext,
     plan: &EnsemblePlan,
     key: &KernelKey,
@@ -202,7 +202,7 @@ pub fn batch_capacity(
 
 /// Integration steps one invocation may take per dispatch on a software adapter (`None` on
 /// hardware), after checking that every reduction kernel fits lavapipe's loop limit.
-pub fn software_step_budget(
+pub(crate) fn software_step_budget(
     ctx: &GpuContext,
     plan: &EnsemblePlan,
     key: &KernelKey,
@@ -350,7 +350,7 @@ fn adaptive_loops(n: usize, levers: usize, adaptive: bool) -> usize {
 }
 
 /// The buffers of a run and their bind group (which keeps the others alive).
-pub struct Buffers {
+pub(crate) struct Buffers {
     /// The integration's schedule (`shaders/schedule.wgsl`): the next dispatch's workgroup
     /// count, then the instances still integrating (word [`super::layout::SCHED_LIVE`]).
     pub sched: wgpu::Buffer,
@@ -369,7 +369,7 @@ impl Buffers {
     /// Create and fill every buffer of `plan` (λ1's twins at separation `twin_d0`). The
     /// buffers are created empty inside out-of-memory and validation error scopes, checked,
     /// and only then filled through the queue: a failed allocation is an error, not a panic.
-    pub fn upload(
+    pub(crate) fn upload(
         ctx: &GpuContext,
         plan: &EnsemblePlan,
         reduce: &ReduceSettings,
@@ -582,7 +582,7 @@ fn initial_state(plan: &EnsemblePlan, sizes: &Sizes) -> (Vec<f32>, Vec<GpuAccum>
 /// zero offsets for RK4 (fixed or adaptive). Adaptive IMEX instances share a ladder per
 /// (structure, base step): S⁻¹ of levels 1 … [`MAX_LEVEL`] follow their set
 /// ([`ladder_matrices`]).
-pub fn imex_matrices(plan: &EnsemblePlan) -> (Vec<f32>, Vec<u32>) {
+pub(crate) fn imex_matrices(plan: &EnsemblePlan) -> (Vec<f32>, Vec<u32>) {
     if plan.is_adaptive() && plan.method == Method::Imex {
         return ladder_matrices(plan);
     }

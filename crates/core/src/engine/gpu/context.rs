@@ -246,7 +246,7 @@ impl GpuContext {
     /// Build the kernels with wgpu's runtime checks (`on`: bounds checks on every index and
     /// loops bounded by the compiler), or without them (the default, see
     /// `GpuContext::module`). The engine suite runs maps both ways and compares them.
-    pub fn set_runtime_checks(&mut self, on: bool) {
+    pub(crate) fn set_runtime_checks(&mut self, on: bool) {
         self.runtime_checks = on;
     }
 

@@ -48,7 +48,7 @@ pub const SHADER_STAGES: [(&str, &str); 8] = [
 ];
 
 /// The stage files concatenated (assembled at build time).
-pub const SHADER_BODY: &str = concat!(
+pub(crate) const SHADER_BODY: &str = concat!(
     include_str!("../../../shaders/common.wgsl"),
     include_str!("../../../shaders/integrate.wgsl"),
     include_str!("../../../shaders/schedule.wgsl"),
@@ -154,16 +154,16 @@ pub struct KernelKey {
     pub want_early: bool,
     /// Adaptive steps on the ladder ([`crate::engine::adaptive`]), IMEX or RK4 by `method`.
     pub adaptive: bool,
-    /// Built with wgpu's runtime checks ([`crate::engine::GpuContext::set_runtime_checks`]).
+    /// Built with wgpu's runtime checks (`crate::engine::GpuContext::set_runtime_checks`).
     pub runtime_checks: bool,
 }
 
 /// Workgroup size of the integration and R kernels.
-pub const WG: u32 = 64;
+pub(crate) const WG: u32 = 64;
 
 impl KernelKey {
     /// Workgroup size of the K kernel: its sorting rows live in 16 KiB of workgroup memory.
-    pub fn wg_k(&self) -> u32 {
+    pub(crate) fn wg_k(&self) -> u32 {
         ((16384 / (4 * self.n_c)) as u32).clamp(1, 64)
     }
 
@@ -214,7 +214,7 @@ pub struct Kernels {
 
 impl Kernels {
     /// Compile the pipelines of `key` from `module`.
-    pub fn compile(
+    pub(crate) fn compile(
         device: &wgpu::Device,
         layout: &wgpu::PipelineLayout,
         module: &wgpu::ShaderModule,

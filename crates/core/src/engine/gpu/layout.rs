@@ -12,10 +12,10 @@ use crate::schema::{GPU_SLOTS, WgslType, gpu_fields};
 use bytemuck::{Pod, Zeroable};
 
 /// Largest segment count the GPU kernel's per-invocation arrays hold.
-pub const GPU_MAX_SEGMENTS: usize = 64;
+pub(crate) const GPU_MAX_SEGMENTS: usize = 64;
 
 /// Per-instance coefficients and step plan (WGSL `InstanceParams`); the contact levers are
-/// in a buffer of their own ([`levers_of`]).
+/// in a buffer of their own (`levers_of`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct GpuInstanceParams {
@@ -123,7 +123,7 @@ pub struct GpuInstanceParams {
 /// The contact levers λ_i (m) of an instance, `segments` words (zero past the contact
 /// segment): the `levers` buffer holds them sample-major, N words per instance, beside the
 /// parameter block, so that the block has no array sized for the largest N.
-pub fn levers_of(p: &InstancePlan, segments: usize) -> Vec<f32> {
+pub(crate) fn levers_of(p: &InstancePlan, segments: usize) -> Vec<f32> {
     let mut levers = vec![0f32; segments];
     if let Some(c) = &p.params.contact {
         for (dst, &src) in levers.iter_mut().zip(&c.levers_m) {
@@ -137,7 +137,7 @@ impl GpuInstanceParams {
     /// From an instance plan (its `ModelParams` and step plan), its IMEX matrices at
     /// `imex_offset` of the matrix buffer, λ1's twin (when the plan has one) at separation
     /// `twin_d0`.
-    pub fn from_plan(p: &InstancePlan, imex_offset: u32, twin_d0: f64) -> GpuInstanceParams {
+    pub(crate) fn from_plan(p: &InstancePlan, imex_offset: u32, twin_d0: f64) -> GpuInstanceParams {
         let m = &p.params;
         let (n_levers, gap, kc, cc) = match &m.contact {
             Some(c) => (
@@ -225,7 +225,7 @@ impl GpuInstanceParams {
 }
 
 /// Running accumulators and reductions of one instance (WGSL `Accum`, generated from this
-/// definition: [`accum_wgsl`]). Its first words are the result schema's GPU slots
+/// definition: `accum_wgsl`). Its first words are the result schema's GPU slots
 /// ([`crate::schema::gpu_fields`], in the table's order), then the engine's own words
 /// ([`ACCUM_ENGINE_WORDS`], member for member).
 #[repr(C)]
@@ -312,7 +312,7 @@ pub const ACCUM_ENGINE_WORDS: [(&str, &str); 23] = [
 ];
 
 /// The WGSL `Accum` struct: the schema's result words, then [`ACCUM_ENGINE_WORDS`].
-pub fn accum_wgsl() -> String {
+pub(crate) fn accum_wgsl() -> String {
     let mut s = String::from(
         "// Mirrors `GpuAccum`: the result schema's words (src/schema.rs), then the engine's own.\nstruct Accum {\n",
     );
@@ -424,15 +424,15 @@ pub struct GpuControl {
 
 /// Word of the schedule buffer (`sched`) that counts the instances still integrating; words
 /// 0–2 are the next integration dispatch's workgroup count (an indirect dispatch).
-pub const SCHED_LIVE: u32 = 3;
+pub(crate) const SCHED_LIVE: u32 = 3;
 
 /// Words of one tally in the early stop's period ring (hops, impacts, Σ v²/R_L, α min, max).
-pub const EARLY_PERIOD_WORDS: u32 = 5;
+pub(crate) const EARLY_PERIOD_WORDS: u32 = 5;
 
 impl GpuControl {
     /// The early stop's part of the control block for `plan` (zeros without the early stop),
     /// and the words of one instance's rings.
-    pub fn with_early(mut self, plan: &EnsemblePlan) -> (GpuControl, u32) {
+    pub(crate) fn with_early(mut self, plan: &EnsemblePlan) -> (GpuControl, u32) {
         let Some(e) = plan.early_stop else {
             self.e_r_len = 1;
             return (self, 0);

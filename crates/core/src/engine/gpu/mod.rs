@@ -5,7 +5,7 @@
 //! long and a progress bar can move; then the reductions run on the GPU, and only the
 //! per-instance results (plus, when asked, the recorded series) come back.
 //!
-//! Stages of [`GpuEngine::run`]: the kernels of the plan's [`KernelKey`] (compiled once per
+//! Stages of `GpuEngine::run`: the kernels of the plan's [`KernelKey`] (compiled once per
 //! [`GpuContext`]), buffers sized against the adapter and
 //! allocated in error scopes (`buffers`), integration dispatches sized by wall time, the R
 //! and K reductions (one submission each), the read-back through one kept buffer.
@@ -108,7 +108,7 @@ impl GpuTimings {
 
 /// The reduction settings in the form the kernels take.
 #[derive(Debug, Clone)]
-pub struct ReduceSettings {
+pub(crate) struct ReduceSettings {
     /// c values of the 0–1 test (rad).
     pub c_values: Vec<f64>,
     /// R in the paper's convention.
@@ -123,7 +123,7 @@ pub struct ReduceSettings {
 
 impl ReduceSettings {
     /// From the map's reduction options (the same seeded c values as the CPU engine).
-    pub fn from_options(o: &ReduceOptions) -> ReduceSettings {
+    pub(crate) fn from_options(o: &ReduceOptions) -> ReduceSettings {
         ReduceSettings {
             c_values: crate::analysis::draw_c_values(o.zero_one.n_c, o.zero_one.seed),
             paper_convention: o.convention == PhaseConvention::Paper,
@@ -142,7 +142,7 @@ pub struct GpuEngine {
 
 /// How the engine splits its work, where a caller sets it (tests and benches).
 #[derive(Debug, Clone, Copy, Default)]
-pub struct GpuLimits {
+pub(crate) struct GpuLimits {
     /// At most this many instances at a time (`None`: as many as the adapter's limits allow).
     pub max_batch: Option<usize>,
     /// How the reductions are sliced (`None`: above a size, by a timed probe to
@@ -160,19 +160,19 @@ impl GpuEngine {
     }
 
     /// Build the kernels with wgpu's runtime checks, or without ([`GpuContext::set_runtime_checks`]).
-    pub fn set_runtime_checks(&mut self, on: bool) {
+    pub(crate) fn set_runtime_checks(&mut self, on: bool) {
         self.ctx.set_runtime_checks(on);
     }
 
     /// Run at most `max` instances at a time (`None`: as many as the adapter's limits allow),
     /// to bound the device memory a run takes.
-    pub fn set_max_batch(&mut self, max: Option<usize>) {
+    pub(crate) fn set_max_batch(&mut self, max: Option<usize>) {
         self.limits.max_batch = max.map(|m| m.max(1));
     }
 
     /// Slice each reduction pass as `slicing` says (`None`: the default). For tests: the
     /// results do not depend on it.
-    pub fn set_reduce_slice(&mut self, slicing: Option<Slicing>) {
+    pub(crate) fn set_reduce_slice(&mut self, slicing: Option<Slicing>) {
         self.limits.reduce_slice = slicing;
     }
 
@@ -220,7 +220,7 @@ fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings) -> KernelKey {
 /// Integrate and reduce every instance of `plan` on the GPU of `ctx`: in one run when the
 /// plan fits the adapter's limits (and `limits.max_batch`), else in consecutive batches of the
 /// most instances that fit (`buffers::batch_capacity`), their results joined in plan order.
-pub fn run_gpu(
+pub(crate) fn run_gpu(
     ctx: &GpuContext,
     plan: &EnsemblePlan,
     opts: &ReduceOptions,

@@ -3,11 +3,11 @@
 //! `DISPATCH_TARGET` of wall time, as the integration's dispatches do
 //! (a long single dispatch is what a desktop GPU's watchdog kills).
 //!
-//! 1. **Probe.** Up to [`PROBE_INSTANCES`] instances a pass is one dispatch, as small as the
+//! 1. **Probe.** Up to `PROBE_INSTANCES` instances a pass is one dispatch, as small as the
 //!    probe itself, and every pass of a stage goes in one submission. Above, the first pass
-//!    runs alone over the first [`PROBE_INSTANCES`] instances and is timed.
+//!    runs alone over the first `PROBE_INSTANCES` instances and is timed.
 //! 2. **Slices.** The slice is the instances that time says fit in the target (at least
-//!    [`MIN_SLICE`]); the rest of the first pass, then every later pass, slice by slice, go in
+//!    `MIN_SLICE`); the rest of the first pass, then every later pass, slice by slice, go in
 //!    one encoder and one submission. Before each dispatch a copy writes its `(c_index,
 //!    slice_first, slice_end)` into the control block (copies and passes run in encoder order).
 //!
@@ -21,13 +21,13 @@ use crate::engine::gpu::layout::GpuControl;
 use std::time::Instant;
 
 /// Instances of the timed first dispatch; a stage with fewer runs unsliced.
-pub const PROBE_INSTANCES: u32 = 16_384;
+pub(crate) const PROBE_INSTANCES: u32 = 16_384;
 
 /// Fewest instances of a slice.
-pub const MIN_SLICE: u32 = 1024;
+pub(crate) const MIN_SLICE: u32 = 1024;
 
 /// How a stage is sliced, where a caller chooses (tests); by default a stage of more than
-/// [`PROBE_INSTANCES`] instances is probed over that many, a smaller one runs unsliced.
+/// `PROBE_INSTANCES` instances is probed over that many, a smaller one runs unsliced.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Slicing {
     /// Dispatches of exactly this many instances.
@@ -37,7 +37,7 @@ pub enum Slicing {
 }
 
 /// One pass of a stage: its pipeline, workgroup size and the c value it works on.
-pub struct Pass<'a> {
+pub(crate) struct Pass<'a> {
     /// The kernel.
     pub pipeline: &'a wgpu::ComputePipeline,
     /// Its workgroup size.
@@ -47,7 +47,7 @@ pub struct Pass<'a> {
 }
 
 /// Run `passes` in order over every instance, sliced as `slicing` says (`None`: the default).
-pub fn run_passes(
+pub(crate) fn run_passes(
     ctx: &GpuContext,
     bufs: &Buffers,
     control: &GpuControl,
