@@ -13,8 +13,18 @@
 //! A study may keep an earlier study's references ([`kept`]), read back from its
 //! `verdict.json` ([`study_file`]). Across studies: [`planes`] (`pendulum-atlas-lab verdict-fit`) fits the confidence tables
 //! the map ships on several planes' studies and scores each plane held out.
+//!
+//! For the throughput studies the user runs (`pendulum-atlas bench --throughput`,
+//! `--cpu-throughput`):
+//! - [`flops`] (`pendulum-atlas-lab flops`): the flop count of one step, counted on the
+//!   engine's own step, against the table the product ships (`bench::cost`);
+//! - [`peer_case`] (`pendulum-atlas-lab peer-cases`): the cases the peers of `benches/peers/`
+//!   integrate, with the state our f64 engine reaches, so that a peer shows it integrates the
+//!   same model before it is timed.
 
+pub mod flops;
 pub mod kept;
+pub mod peer_case;
 pub mod planes;
 pub mod reference;
 pub mod reliability;

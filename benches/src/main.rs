@@ -64,6 +64,18 @@ enum Study {
         #[command(flatten)]
         out: Out,
     },
+    /// The flop count of one step, counted afresh on the engine's own RK4 and IMEX steps for
+    /// the throughput studies' scenes at every N from 1 to 64, against the table the product
+    /// ships (crates/studies/src/bench/cost.rs): prints the counted table, and fails where it
+    /// differs (seconds).
+    Flops,
+    /// The peers' cases (benches/peers/): `peer_case_N{3,9,17}.json`, 16 instances of the
+    /// default map each, with the state our f64 engine reaches after 256 RK4 steps (seconds).
+    PeerCases {
+        /// Output folder (the peers read docs/bench/cpu).
+        #[arg(long)]
+        out: PathBuf,
+    },
 }
 
 /// Where a study writes.
@@ -125,6 +137,13 @@ fn run(study: Study) -> anyhow::Result<()> {
                 &out.out,
             )
         }),
+        Study::Flops => flops(),
+        Study::PeerCases { out } => {
+            for path in pendulum_atlas_lab::peer_case::write_peer_cases(&out)? {
+                println!("wrote {}", path.display());
+            }
+            Ok(())
+        }
         Study::VerdictFit { dirs, out } => {
             let inputs: Vec<&Path> = dirs.iter().map(PathBuf::as_path).collect();
             in_out(Product::BenchPlanes, &out, &inputs, || {
@@ -162,6 +181,18 @@ fn in_out(
             Err(err)
         }
     }
+}
+
+/// `flops`.
+fn flops() -> anyhow::Result<()> {
+    let (text, same) = pendulum_atlas_lab::flops::table_report()?;
+    print!("{text}");
+    anyhow::ensure!(
+        same,
+        "the counted table differs from crates/studies/src/bench/cost.rs: count it again there"
+    );
+    println!("the shipped table is the count");
+    Ok(())
 }
 
 /// `verdict`.

@@ -35,8 +35,8 @@ pub struct BenchArgs {
     pub stiff_map: bool,
     /// The CPU throughput study instead: scalar and SIMD loop, f32 and f64, one thread and
     /// all, N = 3, 9, 17, against the machine's flop ceiling; the default map on each engine;
-    /// the peers' results from --peers (writes CPU.md, cpu_throughput.json and the peers'
-    /// cases peer_case_N*.json; minutes on 2 cores, `--quick` about one).
+    /// the peers' results from --peers (writes CPU.md and cpu_throughput.json; minutes on 2
+    /// cores, `--quick` about one; the peers' cases come from `pendulum-atlas-lab peer-cases`).
     #[arg(long, conflicts_with_all = ["stiff", "stiff_map"])]
     pub cpu_throughput: bool,
     /// The GPU throughput study instead: the ensemble engine at N = 3, 9, 17 on the default

@@ -4,7 +4,7 @@
 use crate::engine::gpu;
 use pendulum_atlas_core::engine::EngineKind;
 use pendulum_atlas_core::engine::method::Method;
-use pendulum_atlas_studies::bench::flops::{imex_flops, rk4_flops};
+use pendulum_atlas_studies::bench::cost::step_flops;
 use pendulum_atlas_studies::bench::gpu_report::write_throughput;
 use pendulum_atlas_studies::bench::gpu_throughput::{
     ThroughputOptions, ThroughputScene, run_throughput, workload,
@@ -59,13 +59,9 @@ fn the_ladder_measures_or_skips_every_rung_and_the_report_shows_it() {
     // 2 methods × 2 scenes × one rung per engine.
     assert_eq!(r.rows.len(), 4 * engines);
     let plan = workload(ThroughputScene::Default, 3, Method::Rk4, 1).unwrap();
-    let (p, dt) = (&plan.instances[0].params, plan.instances[0].dt_s);
+    let p = &plan.instances[0].params;
     for row in &r.rows {
-        let counted = match row.method {
-            Method::Rk4 => rk4_flops(p, dt),
-            Method::Imex => imex_flops(p, dt),
-        };
-        assert_eq!(row.flop_per_step, counted.flop_per_step);
+        assert_eq!(row.flop_per_step, step_flops(row.method, p).flop_per_step);
         match &row.skipped {
             Some(why) => assert!(why.contains("row budget"), "{why}"),
             None => {

@@ -211,25 +211,6 @@ fn simd_results_do_not_depend_on_the_thread_count() {
 }
 
 #[test]
-fn the_flop_count_is_the_engines_own_step() {
-    use pendulum_atlas_studies::bench::flops::rk4_flops;
-    let plan = EnsemblePlan::new(&spec(3, 2, "rk4", "")).expect("plan");
-    let p = &plan.instances[0];
-    let c = rk4_flops(&p.params, p.dt_s);
-    // Four stages, each one sin/cos per segment and two divisions per segment (the backward
-    // sweep's 1/d and the forward sweep's division by d).
-    assert_eq!((c.sin_cos, c.divisions), (12, 24), "{c:?}");
-    let n9 = EnsemblePlan::new(&spec(9, 2, "rk4", "")).expect("plan");
-    let c9 = rk4_flops(&n9.instances[0].params, n9.instances[0].dt_s);
-    assert_eq!((c9.sin_cos, c9.divisions), (36, 72), "{c9:?}");
-    // Linear in N: the arithmetic per segment stays within 10 % from N = 3 to 9.
-    let per = |c: &pendulum_atlas_studies::bench::flops::FlopCount| {
-        c.arithmetic as f64 / c.segments as f64
-    };
-    assert!((per(&c9) / per(&c) - 1.0).abs() < 0.1, "{c:?} {c9:?}");
-}
-
-#[test]
 fn auto_on_a_software_adapter_measures_both_engines() {
     let Some(gpu) = super::gpu() else { return };
     if !gpu.gpu_context().is_some_and(|c| c.is_software) {

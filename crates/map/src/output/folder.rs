@@ -44,7 +44,7 @@ pub enum Product {
     BenchStiff,
     /// `bench --stiff-map`: `STIFF_MAP.md`, `stiff_map.csv`, `stiff_map.json`.
     BenchStiffMap,
-    /// `bench --cpu-throughput`: `CPU.md`, `cpu_throughput.json`, `peer_case_N*.json`.
+    /// `bench --cpu-throughput`: `CPU.md`, `cpu_throughput.json`.
     BenchCpu,
     /// `bench --throughput`: `GPU.md`, `gpu_throughput.json`.
     BenchGpu,
@@ -156,12 +156,7 @@ impl Product {
             Product::Bench => &["BENCHMARKS.md", "work_precision.png", "map_error.png"],
             Product::BenchStiff => &["STIFF.md", "stiff_work_precision.png"],
             Product::BenchStiffMap => &["STIFF_MAP.md", "stiff_map.csv"],
-            Product::BenchCpu => &[
-                "CPU.md",
-                "peer_case_N3.json",
-                "peer_case_N9.json",
-                "peer_case_N17.json",
-            ],
+            Product::BenchCpu => &["CPU.md"],
             Product::BenchGpu => &["GPU.md"],
             Product::BenchVerdict => &["VERDICT.md"],
             Product::BenchRefine => &["REFINE.md"],

@@ -1,5 +1,4 @@
-//! Files of `bench --cpu-throughput`: `CPU.md`, `cpu_throughput.json` and the peers' cases
-//! `peer_case_N{n}.json`.
+//! Files of `bench --cpu-throughput`: `CPU.md` and `cpu_throughput.json`.
 
 use super::cpu_throughput::{CpuThroughputReport, ThroughputRow};
 use pendulum_atlas_core::engine::{CpuLoop, Precision};
@@ -8,20 +7,14 @@ use pendulum_atlas_map::output::files::{create_dir, write_bytes, write_json};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-/// Write the study's files into `dir`: the peers' cases, `CPU.md`, then the manifest.
+/// Write the study's files into `dir`: `CPU.md`, then the manifest.
 pub fn write_cpu_throughput(
     dir: &Path,
     r: &CpuThroughputReport,
 ) -> Result<Vec<PathBuf>, OutputError> {
     create_dir(dir)?;
-    let mut files = Vec::new();
-    for case in &r.peer_cases {
-        let name = format!("peer_case_N{}.json", case.segments);
-        files.push(write_json(&dir.join(name), case)?);
-    }
-    files.push(write_bytes(&dir.join("CPU.md"), markdown(r).as_bytes())?);
-    files.push(write_json(&dir.join("cpu_throughput.json"), r)?);
-    Ok(files)
+    let md = write_bytes(&dir.join("CPU.md"), markdown(r).as_bytes())?;
+    Ok(vec![md, write_json(&dir.join("cpu_throughput.json"), r)?])
 }
 
 fn row(
@@ -70,11 +63,12 @@ Written by `pendulum-atlas bench --cpu-throughput{}` in {:.0} s.\n",
 fn flop_table(md: &mut String, r: &CpuThroughputReport) {
     let _ = writeln!(
         md,
-        "## Flop per step\n\nCounted by running the engine's RK4 step (`rk4_step`, the function both \
-loops call) once on a number type that counts its operations (`src/bench/flops.rs`), at a state \
-pressing a bumper; a sin/cos pair counts {} flop (the floating-point operations of `wide`'s \
+        "## Flop per step\n\nThe table of `crates/studies/src/bench/cost.rs`, which the lab counted by \
+running the engine's RK4 step (`rk4_step`, the function both loops call) on a number type that \
+counts its operations (`benches/src/flops.rs`, checked at every N to 64), at a state pressing a \
+bumper; a sin/cos pair counts {} flop (the floating-point operations of `wide`'s \
 polynomial), a division 1.\n\n| N | add/sub/mul/neg/max | div | sin/cos | flop per step | flop per segment-step |\n|---|---|---|---|---|---|",
-        super::flops::SIN_COS_FLOP
+        super::cost::SIN_COS_FLOP
     );
     for f in &r.flops {
         let _ = writeln!(

@@ -1,8 +1,8 @@
 //! `bench --cpu-throughput`: the CPU engine against the machine's ceiling.
 //!
 //! Stages of [`run_cpu_throughput`]:
-//! 1. [`flops`]: the flop count of one RK4 step at N = 3, 9, 17, counted by running the
-//!    engine's step on a counting number type;
+//! 1. [`super::cost`]: the flop count of one RK4 step at N = 3, 9, 17, from the table the lab
+//!    counted by running the engine's step on a counting number type;
 //! 2. the ceiling: cores × clock × the AVX2 FMA peak (2 FMA units × 8 `f32` lanes × 2 flop =
 //!    32 flop per cycle and core in `f32`, 16 in `f64`);
 //! 3. the throughput grid: a slice of the default map at each N (RK4, `instances` spread over
@@ -12,9 +12,10 @@
 //!    one is given): wall time, integration, reductions and their share;
 //! 5. the peers' results (`benches/peers/`, JSON), when a folder of them is given.
 
-use super::flops::{self, FlopCount};
-use super::peer_case::{PeerCase, PeerCaseError, default_map_plan, peer_case};
+use super::cost::{FlopCount, step_flops};
+use super::workload::{WorkloadError, default_map_plan};
 use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, map_from_toml};
+use pendulum_atlas_core::engine::method::Method;
 use pendulum_atlas_core::engine::{
     CpuLoop, Engine, EngineError, EnsemblePlan, Precision, Readback, no_progress,
 };
@@ -146,15 +147,9 @@ pub struct CpuThroughputReport {
     pub peers: Vec<PeerRow>,
     /// Segment counts of the grid.
     pub segments: Vec<usize>,
-    /// The peers' cases (written as `peer_case_N{n}.json`).
-    #[serde(skip)]
-    pub peer_cases: Vec<PeerCase>,
     /// Wall time of the study (s).
     pub total_s: f64,
 }
-
-/// Instances of a peer case (the peers tile them).
-const PEER_CASE_INSTANCES: usize = 16;
 
 /// What can stop the study.
 #[derive(Debug, thiserror::Error)]
@@ -164,7 +159,7 @@ pub enum CpuThroughputError {
     Engine(#[from] EngineError),
     /// The default map could not be made.
     #[error(transparent)]
-    Case(#[from] PeerCaseError),
+    Case(#[from] WorkloadError),
     /// A thread pool could not be built.
     #[error("thread pool: {0}")]
     Pool(String),
@@ -197,7 +192,7 @@ pub fn run_cpu_throughput(
     let mut rows = Vec::new();
     for n in SEGMENTS {
         let plan = workload(n, opts.quick)?;
-        let count = flops::rk4_flops(&plan.instances[0].params, plan.instances[0].dt_s);
+        let count = step_flops(Method::Rk4, &plan.instances[0].params);
         rows.extend(grid_rows(&plan, &count, opts.quick, threads, progress)?);
         flops.push(count);
     }
@@ -210,10 +205,6 @@ pub fn run_cpu_throughput(
         default_map,
         peers,
         segments: SEGMENTS.to_vec(),
-        peer_cases: SEGMENTS
-            .iter()
-            .map(|&n| peer_case(n, PEER_CASE_INSTANCES))
-            .collect::<Result<_, _>>()?,
         total_s: t0.elapsed().as_secs_f64(),
     })
 }
@@ -223,7 +214,7 @@ pub fn run_cpu_throughput(
 /// what is timed), over about `steps` steps but at least 0.5 s (two periods at the plane's
 /// lowest 4 Hz: the first is always transient), its instances spread over the forcing plane:
 /// as many as make about `budget` instance-steps, between 32 and 1024.
-pub fn workload(n: usize, quick: bool) -> Result<EnsemblePlan, PeerCaseError> {
+pub fn workload(n: usize, quick: bool) -> Result<EnsemblePlan, WorkloadError> {
     let (budget, steps) = if quick { (1e6, 400.0) } else { (4e6, 2000.0) };
     let only = [
         "integration.transient_s=0.0",
@@ -325,7 +316,7 @@ fn default_map_rows(
         "configs/maps/default.toml",
         &["map.settle=false".into()],
     )
-    .map_err(PeerCaseError::from)?;
+    .map_err(WorkloadError::from)?;
     let engines: Vec<Engine> = [Precision::F64, Precision::F32]
         .iter()
         .flat_map(|&p| [CpuLoop::Scalar, CpuLoop::Simd].map(|l| Engine::cpu_with(p, l)))

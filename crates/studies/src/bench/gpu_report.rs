@@ -57,9 +57,10 @@ pub fn markdown(r: &ThroughputReport) -> String {
 
 fn flops_section(md: &mut String, r: &ThroughputReport) {
     md.push_str(
-        "## Counted work per step\n\nCounted by running the engine's own step (`rk4_step`, \
-`Imex::step_with`) on a number type that counts its operations (crates/studies/src/bench/flops.rs), with a \
-bumper pressed; a sin/cos pair counts as 26 flop, a division as 1.\n\n\
+        "## Counted work per step\n\nThe table of crates/studies/src/bench/cost.rs, which the lab counted \
+by running the engine's own step (`rk4_step`, `Imex::step_with`) on a number type that counts its \
+operations, with a bumper pressed (benches/src/flops.rs, checked at every N to 64); a sin/cos pair \
+counts as 26 flop, a division as 1.\n\n\
 | method | N | flop per step | flop per segment-step | sin/cos pairs | divisions |\n\
 |---|---|---|---|---|---|\n",
     );
@@ -227,8 +228,8 @@ fn peer_section(md: &mut String, r: &ThroughputReport) {
         return;
     }
     md.push_str(
-        "Each peer integrates the peer case of its N (`peer_case_N*.json` of `bench \
---cpu-throughput`, tiled) with RK4 in f32; its check is the largest |Δy| against our f64 \
+        "Each peer integrates the peer case of its N (`peer_case_N*.json` of `pendulum-atlas-lab \
+peer-cases`, tiled) with RK4 in f32; its check is the largest |Δy| against our f64 \
 state after the case's steps. Ours: the best ladder rate of the default scene with RK4 on the \
 same engine at the same N and instance count, where measured.\n\n\
 | peer | variant | device | N | instances | steps | instance-steps/s | check | ours / peer | \

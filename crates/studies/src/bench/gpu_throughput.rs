@@ -14,14 +14,14 @@
 //!    a GPU's rate grows with the instance count until the device is full, so a small run's
 //!    rate says little about a large one's. On an H200 a pilot's rate scaled up would have
 //!    skipped rungs that take seconds.);
-//! 3. flop per step counted by [`flops`] (the engine's own RK4 and IMEX steps on a counting
-//!    number type), FLOP/s against the adapter's FP32 peak ([`peak_flop_per_s`]);
+//! 3. flop per step from [`super::cost`]'s table (counted by the lab on the engine's own RK4
+//!    and IMEX steps), FLOP/s against the adapter's FP32 peak ([`peak_flop_per_s`]);
 //! 4. K only against all metrics (`metric_rows`): a slice of the default map at its real
 //!    horizon per N, with the integration and the reductions timed apart;
 //! 5. the peers' results (`benches/peers/`, JSON) from `--peers`.
 
-use super::flops::{self, FlopCount};
-use super::peer_case::PeerCaseError;
+use super::cost::{FlopCount, step_flops};
+use super::workload::WorkloadError;
 use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, Metric, map_from_toml};
 use pendulum_atlas_core::engine::method::Method;
 use pendulum_atlas_core::engine::{
@@ -242,7 +242,7 @@ pub enum ThroughputError {
     Engine(#[from] EngineError),
     /// A workload could not be made.
     #[error(transparent)]
-    Case(#[from] PeerCaseError),
+    Case(#[from] WorkloadError),
     /// A peer result could not be read.
     #[error("peer result {path}: {reason}")]
     Peer {
@@ -278,11 +278,7 @@ pub fn run_throughput(
     for &n in &opts.segments {
         for method in [Method::Rk4, Method::Imex] {
             let probe = workload(ThroughputScene::Default, n, method, 1)?;
-            let (p, dt) = (&probe.instances[0].params, probe.instances[0].dt_s);
-            let count = match method {
-                Method::Rk4 => flops::rk4_flops(p, dt),
-                Method::Imex => flops::imex_flops(p, dt),
-            };
+            let count = step_flops(method, &probe.instances[0].params);
             for scene in ThroughputScene::ALL {
                 for engine in &engines {
                     let ctx = LadderCtx {
@@ -323,7 +319,7 @@ pub fn workload(
     n: usize,
     method: Method,
     count: usize,
-) -> Result<EnsemblePlan, PeerCaseError> {
+) -> Result<EnsemblePlan, WorkloadError> {
     let [(f0, f1), (a0, a1)] = scene.band();
     let nf = count.clamp(2, 64);
     let na = count.div_ceil(nf).max(2);
@@ -575,7 +571,7 @@ row budget)",
 
 /// [`METRIC_INSTANCES`] instances spread evenly over the default map at N, with the method
 /// auto picks and the overrides `extra`.
-fn metric_plan(n: usize, extra: &[&str]) -> Result<EnsemblePlan, PeerCaseError> {
+fn metric_plan(n: usize, extra: &[&str]) -> Result<EnsemblePlan, WorkloadError> {
     let mut sets = vec![
         format!("beam.segments={n}"),
         "integration.step=\"fixed\"".to_string(),

@@ -11,18 +11,18 @@
 //! Stages of [`run_bench`]: the reference trajectory, the reference map, one
 //! [`ConfigResult`] per configuration (`measure_config`), `scaling`, `k_only`.
 
+pub mod cost;
 pub mod cpu_report;
 pub mod cpu_throughput;
-pub mod flops;
 pub mod gpu_report;
 pub mod gpu_throughput;
-pub(crate) mod peer_case;
 pub mod refine;
 pub mod report;
 pub mod stiff;
 pub mod stiff_map;
 pub mod stiff_map_report;
 pub mod stiff_report;
+pub mod workload;
 
 use pendulum_atlas_core::config::{Metric, Scene, TimeStep};
 use pendulum_atlas_core::engine::{

@@ -2,17 +2,17 @@
 //! N segments, their coefficients and steps, and the state our f64 engine reaches after a few
 //! steps, so that a peer can show it integrates the same model before it is timed.
 //!
-//! Written as JSON (`peer_case_N{n}.json`) by `bench --cpu-throughput`; the peers tile its
-//! instances to the instance count they are timed at.
+//! Written as JSON (`peer_case_N{n}.json`) by `pendulum-atlas-lab peer-cases`; the peers tile
+//! its instances to the instance count they are timed at.
 
-use pendulum_atlas_core::config::{ConfigError, DEFAULT_MAP_TOML, map_from_toml};
 use pendulum_atlas_core::engine::cpu::run_steps_f64;
-use pendulum_atlas_core::engine::{EngineError, EnsemblePlan};
 use pendulum_atlas_core::model::ModelParams;
+use pendulum_atlas_studies::bench::workload::{WorkloadError, default_map_plan};
 use serde::Serialize;
+use std::path::{Path, PathBuf};
 
 /// Steps of the check trajectory (short enough that rounding has not yet separated peers).
-pub(crate) const CHECK_STEPS: u64 = 256;
+pub const CHECK_STEPS: u64 = 256;
 
 /// One instance of the case.
 #[derive(Debug, Clone, Serialize)]
@@ -47,39 +47,8 @@ pub struct PeerCase {
     pub instances: Vec<PeerInstance>,
 }
 
-/// Why a peer case could not be made.
-#[derive(Debug, thiserror::Error)]
-pub enum PeerCaseError {
-    /// The default map with the overrides is not a valid scene.
-    #[error(transparent)]
-    Config(#[from] ConfigError),
-    /// Its plan could not be made.
-    #[error(transparent)]
-    Engine(#[from] EngineError),
-}
-
-/// The default map at N segments with RK4 at fixed steps (and the overrides `extra`), the plan
-/// of its `count` instances spread evenly over the grid.
-pub(crate) fn default_map_plan(
-    n: usize,
-    count: usize,
-    extra: &[&str],
-) -> Result<EnsemblePlan, PeerCaseError> {
-    let mut sets = vec![
-        format!("beam.segments={n}"),
-        "integration.method=\"rk4\"".to_string(),
-        "integration.step=\"fixed\"".to_string(),
-    ];
-    sets.extend(extra.iter().map(|s| s.to_string()));
-    let spec = map_from_toml(DEFAULT_MAP_TOML, "configs/maps/default.toml", &sets)?;
-    let plan = EnsemblePlan::new(&spec)?;
-    let total = plan.instances.len();
-    let members: Vec<usize> = (0..count.min(total)).map(|i| i * total / count).collect();
-    Ok(plan.select(&members))
-}
-
 /// The peer case of the default map at N segments, `count` instances.
-pub(crate) fn peer_case(n: usize, count: usize) -> Result<PeerCase, PeerCaseError> {
+pub fn peer_case(n: usize, count: usize) -> Result<PeerCase, WorkloadError> {
     let plan = default_map_plan(n, count, &[])?;
     let instances = plan
         .instances
@@ -100,4 +69,33 @@ pub(crate) fn peer_case(n: usize, count: usize) -> Result<PeerCase, PeerCaseErro
         check_steps: CHECK_STEPS,
         instances,
     })
+}
+
+/// The segment counts of the peers' cases (those the CPU throughput study times).
+pub const SEGMENTS: [usize; 3] = [3, 9, 17];
+
+/// Instances of a peer case (the peers tile them).
+pub const INSTANCES: usize = 16;
+
+/// Why the peer cases could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum PeerCaseError {
+    /// A case could not be planned.
+    #[error(transparent)]
+    Workload(#[from] WorkloadError),
+    /// A file could not be written.
+    #[error(transparent)]
+    Output(#[from] pendulum_atlas_map::output::OutputError),
+}
+
+/// Write `peer_case_N{n}.json` for every N of [`SEGMENTS`] into `dir`; the paths written.
+pub fn write_peer_cases(dir: &Path) -> Result<Vec<PathBuf>, PeerCaseError> {
+    pendulum_atlas_map::output::files::create_dir(dir)?;
+    let mut written = Vec::new();
+    for n in SEGMENTS {
+        let path = dir.join(format!("peer_case_N{n}.json"));
+        let case = peer_case(n, INSTANCES)?;
+        written.push(pendulum_atlas_map::output::files::write_json(&path, &case)?);
+    }
+    Ok(written)
 }

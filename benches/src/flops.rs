@@ -5,18 +5,17 @@
 //! whose floating-point operations `SIN_COS_FLOP` counts (its integer and blend operations are
 //! not flops and not counted).
 
+use nalgebra::{DMatrix, DVector};
 use pendulum_atlas_core::engine::imex::{Imex, ImexMatrices};
+use pendulum_atlas_core::engine::method::Method;
 use pendulum_atlas_core::engine::rk4::{Rk4Scratch, rk4_step};
 use pendulum_atlas_core::model::{Chain, Lane, ModelParams};
-use serde::Serialize;
+use pendulum_atlas_studies::bench::cost::{FlopCount, Poly, StepOps, step_ops};
+use pendulum_atlas_studies::bench::gpu_throughput::{ThroughputScene, workload};
+use pendulum_atlas_studies::bench::workload::WorkloadError;
 use std::cell::Cell;
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
 use std::sync::Arc;
-
-/// Floating-point operations of one lane of `wide::f32x8::sin_cos` (abs, the quadrant's
-/// multiply and round, three fused reductions (2 each), x², two degree-2 polynomials with
-/// their scaling, and the final sums: 26).
-pub(crate) const SIN_COS_FLOP: u64 = 26;
 
 thread_local! {
     static OPS: Cell<[u64; 3]> = const { Cell::new([0; 3]) };
@@ -107,36 +106,11 @@ impl Lane for Counted {
     }
 }
 
-/// Operations of one step of one instance, and per segment-step.
-#[derive(Debug, Clone, Copy, Serialize)]
-pub struct FlopCount {
-    /// Segments N.
-    pub segments: usize,
-    /// Additions, subtractions, multiplications, negations, max and selects.
-    pub arithmetic: u64,
-    /// Divisions.
-    pub divisions: u64,
-    /// sin/cos pairs.
-    pub sin_cos: u64,
-    /// All of it in flop (a division 1, a sin/cos pair `SIN_COS_FLOP`).
-    pub flop_per_step: u64,
-    /// `flop_per_step / N`.
-    pub flop_per_segment_step: f64,
-}
-
 fn counted(segments: usize, step: impl FnOnce()) -> FlopCount {
     OPS.with(|c| c.set([0; 3]));
     step();
     let [arithmetic, divisions, sin_cos] = OPS.with(Cell::get);
-    let flop_per_step = arithmetic + divisions + sin_cos * SIN_COS_FLOP;
-    FlopCount {
-        segments,
-        arithmetic,
-        divisions,
-        sin_cos,
-        flop_per_step,
-        flop_per_segment_step: flop_per_step as f64 / segments as f64,
-    }
+    FlopCount::new(segments, arithmetic, divisions, sin_cos)
 }
 
 /// The operations of one RK4 step of the engine on the instance `p` (bumper pressed).
@@ -174,4 +148,100 @@ fn start_state(p: &ModelParams) -> Vec<Counted> {
             })
         })
         .collect()
+}
+
+/// The count of one step of `method` on the instance `p`.
+pub fn step_count(method: Method, p: &ModelParams, dt_s: f64) -> FlopCount {
+    match method {
+        Method::Rk4 => rk4_flops(p, dt_s),
+        Method::Imex => imex_flops(p, dt_s),
+    }
+}
+
+/// The largest N the table is checked at.
+pub const CHECK_MAX_N: usize = 64;
+
+/// The contact's levers of `p` (0 without bumpers).
+fn levers(p: &ModelParams) -> usize {
+    p.contact.as_ref().map_or(0, |c| c.levers_m.len())
+}
+
+/// The table's row through `counts` (N, L, count): least squares over every point, rounded to
+/// integers, and `None` unless it gives every count exactly.
+pub fn fit(counts: &[(usize, usize, FlopCount)]) -> Option<StepOps> {
+    let poly = |f: fn(&FlopCount) -> u64| -> Option<Poly> {
+        let rows = counts.len();
+        let a = DMatrix::from_fn(rows, 4, |r, c| {
+            let (n, l, _) = counts[r];
+            [1.0, n as f64, (n * n) as f64, l as f64][c]
+        });
+        let b = DVector::from_fn(rows, |r, _| f(&counts[r].2) as f64);
+        let x = a.svd(true, true).solve(&b, 1e-9).ok()?;
+        let mut p = [0u64; 4];
+        for (k, v) in x.iter().enumerate() {
+            let r = v.round();
+            ((r - v).abs() < 1e-6 && r >= 0.0).then_some(())?;
+            p[k] = r as u64;
+        }
+        Some(p)
+    };
+    let ops = StepOps {
+        arithmetic: poly(|c| c.arithmetic)?,
+        divisions: poly(|c| c.divisions)?,
+        sin_cos: poly(|c| c.sin_cos)?,
+    };
+    let exact = counts.iter().all(|(n, l, c)| ops.at(*n, *l) == *c);
+    exact.then_some(ops)
+}
+
+/// The table counted afresh on `params_at(method, n)`, the instance a study times at N, for
+/// every N from 1 to [`CHECK_MAX_N`]; `None` where no table gives every count.
+pub fn count_table<E>(
+    method: Method,
+    params_at: impl Fn(Method, usize) -> Result<(ModelParams, f64), E>,
+) -> Result<Option<StepOps>, E> {
+    let mut counts = Vec::with_capacity(CHECK_MAX_N);
+    for n in 1..=CHECK_MAX_N {
+        let (p, dt) = params_at(method, n)?;
+        counts.push((n, levers(&p), step_count(method, &p, dt)));
+    }
+    Ok(fit(&counts))
+}
+/// The instance the GPU throughput study times at N for `method` on `scene` (its first).
+pub fn throughput_params(
+    scene: ThroughputScene,
+    method: Method,
+    n: usize,
+) -> Result<(ModelParams, f64), WorkloadError> {
+    let plan = workload(scene, n, method, 1)?;
+    let first = &plan.instances[0];
+    Ok((first.params.clone(), first.dt_s))
+}
+
+/// The table counted afresh on both studies' scenes, as Rust to paste into `cost.rs`, and
+/// whether it is the table the product ships.
+pub fn table_report() -> Result<(String, bool), WorkloadError> {
+    let mut text = String::new();
+    let mut same = true;
+    for method in [Method::Rk4, Method::Imex] {
+        for scene in ThroughputScene::ALL {
+            let counted = count_table(method, |m, n| throughput_params(scene, m, n))?;
+            let line = match counted {
+                Some(ops) => {
+                    same &= ops == step_ops(method);
+                    format!("{} on the {scene:?} scene: {ops:?}", method.name())
+                }
+                None => {
+                    same = false;
+                    format!(
+                        "{} on the {scene:?} scene: no table c0 + c1 N + c2 N² + c3 L gives every count",
+                        method.name()
+                    )
+                }
+            };
+            text.push_str(&line);
+            text.push('\n');
+        }
+    }
+    Ok((text, same))
 }
