@@ -3,7 +3,7 @@
 //! Every section appends to one `String`; writing to a `String` cannot fail, so the
 //! `fmt::Result`s are dropped.
 
-use super::{check_point, mean_hops, periodic_fraction, ratio, short_design, watts};
+use super::summary::{check_point, mean_hops, periodic_fraction, ratio, short_design, watts};
 use crate::harvest::search::{DesignResult, SearchRun};
 use crate::harvest::spec::{Objective, SearchSpec, Threshold};
 use crate::harvest::verify::{Verification, VerifiedPoint};
