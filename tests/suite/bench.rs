@@ -173,6 +173,7 @@ fn every_map_of_the_study_gives_k_enough_samples() {
             r_max_samples: 1024,
             early_stop: None,
             lyapunov: Default::default(),
+            gpu_kernel: Default::default(),
         };
         for s in pendulum_atlas_studies::bench::study_scenes(quick).unwrap() {
             EnsemblePlan::from_scenes(std::slice::from_ref(&s), &opts)

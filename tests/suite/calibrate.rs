@@ -41,6 +41,7 @@ fn truth(clearance: f64) -> Vec<InstanceResult> {
         r_max_samples: 1024,
         early_stop: None,
         lyapunov: Default::default(),
+        gpu_kernel: Default::default(),
     };
     let plan = EnsemblePlan::from_scenes(&scenes, &opts).unwrap();
     let engine = Engine::cpu(Precision::F64);

@@ -586,7 +586,35 @@ fn the_removed_gpu_layout_is_refused_with_its_reason() {
         let m = e.to_string();
         assert!(m.contains("gpu.layout") && m.contains("was removed"), "{m}");
     }
-    let other = map_from_toml(DEFAULT_MAP_TOML, "<test>", &["gpu.kernel=\"x\"".into()]);
+    let other = map_from_toml(DEFAULT_MAP_TOML, "<test>", &["gpu.threads=4".into()]);
     let m = other.unwrap_err().to_string();
-    assert!(m.contains("unknown key `gpu.kernel`"), "{m}");
+    assert!(m.contains("unknown key `gpu.threads`"), "{m}");
+}
+
+/// `gpu.kernel` is one of three words, `auto` by default; anything else names the choices.
+#[test]
+fn gpu_kernel_is_auto_thread_or_workgroup() {
+    use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, GpuKernelChoice, map_from_toml};
+    let read = |v: &str| map_from_toml(DEFAULT_MAP_TOML, "<test>", &[format!("gpu.kernel={v}")]);
+    assert_eq!(
+        map_from_toml(DEFAULT_MAP_TOML, "<test>", &[])
+            .unwrap()
+            .gpu_kernel,
+        GpuKernelChoice::Auto
+    );
+    assert_eq!(
+        read("\"thread\"").unwrap().gpu_kernel,
+        GpuKernelChoice::Thread
+    );
+    assert_eq!(
+        read("\"workgroup\"").unwrap().gpu_kernel,
+        GpuKernelChoice::Workgroup
+    );
+    for bad in ["\"warp\"", "3"] {
+        let m = read(bad).unwrap_err().to_string();
+        assert!(
+            m.contains("gpu.kernel") && m.contains("\"workgroup\""),
+            "{bad}: {m}"
+        );
+    }
 }

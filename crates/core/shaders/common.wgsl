@@ -1,9 +1,9 @@
 // Common definitions of the ensemble kernels of pendulum-atlas: specialisation constants, the
 // data structures shared with Rust, the bindings and the integrator's per-invocation state.
 //
-// The kernels are assembled from eight files (common, integrate, schedule, early, imex,
-// reduce_r, reduce_k, verdict; see src/engine/gpu/kernels.rs) behind a header generated from the Rust
-// definitions: the status and regime codes, the health-check interval CHECK_EVERY, the array
+// The kernels are assembled from nine files (common, integrate, cooperative, schedule, early,
+// imex, reduce_r, reduce_k, verdict; see src/engine/gpu/kernels.rs) behind a header generated
+// from the Rust definitions: the status and regime codes, the health-check interval CHECK_EVERY, the array
 // bound MAX_SEG (the scene's N), the IMEX method's tableaux, the adaptive ladder's rules
 // (src/engine/ladder.rs) and the `Accum` struct, whose first words are the result schema's
 // (src/schema.rs). The physics is docs/model.md, the reductions docs/analysis.md; the CPU
@@ -25,6 +25,7 @@ override METHOD_IMEX: bool = false; // integrate with the IMEX method (else clas
 override WANT_TWIN: bool = false;   // λ1 asked for: a twin trajectory rides along
 override WANT_EARLY: bool = false;  // the early stop of confirmed orbits (shaders/early.wgsl)
 override ADAPTIVE: bool = false;    // adaptive IMEX steps on the ladder (integrate.wgsl's adaptive_step)
+override COOPERATIVE: bool = false; // one workgroup per instance (cooperative.wgsl's integrate_wg)
 
 const TAU: f32 = 6.2831853071795864;
 const PI: f32 = 3.1415926535897932;

@@ -10,7 +10,8 @@ fn cart_acc(phase_steps: u32, frac: f32) -> f32 {
     return -P.acc_amp * sin_turn(ph);
 }
 
-// Bumper forces at the stage state: the horizontal force fl − fr on the beam. On the main
+// Bumper forces at the stage state (its sines and cosines in sn, cs): the horizontal force
+// fl − fr on the beam. On the main
 // state, by the scene's law, recording each bumper's branch; on the twin (`twin_mode`), on
 // the branches the main stage recorded (Chain::rates_on of src/model/chain.rs).
 fn contact_force() -> f32 {
@@ -21,8 +22,8 @@ fn contact_force() -> f32 {
     var xd = 0.0;
     for (var i = 0u; i < P.n_levers; i++) {
         let lam = lev[i];
-        x += lam * sin(sth[i]);
-        xd += lam * cos(sth[i]) * som[i];
+        x += lam * sn[i];
+        xd += lam * cs[i] * som[i];
     }
     let shift = 4u * stage_n;
     stage_n += 1u;
@@ -78,17 +79,34 @@ fn joint_torque(i: u32) -> f32 {
 // The derivative at the stage state (sth, som, svolt): θ̈ into acc_out, v̇ into dvolt_out.
 // The O(N) articulated-body recursion of src/model/chain.rs, with Q_i formed on the fly.
 fn derivative(cart_a: f32) {
+    stage_sincos();
+    chain_rates(cart_a);
+}
+
+// The sines and cosines of the stage's angles sth into sn, cs: once per stage, for the
+// contact and the recursion (the cooperative kernel computes them on the segments' owners).
+fn stage_sincos() {
+    for (var i = 0u; i < N_SEG; i++) {
+        sn[i] = sin(sth[i]);
+        cs[i] = cos(sth[i]);
+    }
+}
+
+// `derivative` with the stage's sines and cosines already in sn, cs.
+fn chain_rates(cart_a: f32) {
     solve_chain(cart_a, false);
 }
 
 // M(θ)⁻¹ (λ_i cos θ_i) at the angles sth into acc_out: the response to a unit horizontal
 // force at the contact point (Chain::lever_response of src/model/chain.rs).
 fn lever_response() {
+    stage_sincos();
     solve_chain(0.0, true);
 }
 
-// The recursion of `derivative`; with `unit`, for the generalised force λ_i cos θ_i alone
-// (no springs, dampers, bumpers, piezo, gravity, rates or cart).
+// The recursion of `derivative`, at the angles whose sines and cosines are in sn, cs; with
+// `unit`, for the generalised force λ_i cos θ_i alone (no springs, dampers, bumpers, piezo,
+// gravity, rates or cart).
 fn solve_chain(cart_a: f32, unit: bool) {
     let l = P.seg_len;
     let m = P.seg_mass;
@@ -112,10 +130,8 @@ fn solve_chain(cart_a: f32, unit: bool) {
     var py = P.tip_mass * g;
     for (var ii = 0u; ii < N_SEG; ii++) {
         let i = N_SEG - 1u - ii;
-        let s = sin(sth[i]);
-        let c = cos(sth[i]);
-        sn[i] = s;
-        cs[i] = c;
+        let s = sn[i];
+        let c = cs[i];
         var q = 0.0;
         if unit {
             if HAS_CONTACT && i < P.n_levers {
@@ -403,6 +419,11 @@ fn touch_flags() -> u32 {
     for (var i = 0u; i < P.n_levers; i++) {
         x += lev[i] * sin(th[i]);
     }
+    return touch_of(x);
+}
+
+// The bumper flags of a contact point at x: bit 0 past the +x bumper, bit 1 past the −x one.
+fn touch_of(x: f32) -> u32 {
     var f = 0u;
     if x - P.gap > 0.0 {
         f |= 1u;
@@ -739,16 +760,27 @@ fn strobe_instant(inst: u32, s: u32, alpha: f32, a: ptr<function, Accum>) {
     }
 }
 
+// α after step `s` into the R series, where the step is on the series' phase (`on_phase`: s
+// ≡ r_start mod r_every) and within it.
+fn record_r(inst: u32, s: u32, on_phase: bool, alpha: f32) {
+    if WANT_RSERIES && on_phase && s >= P.r_start {
+        let j = (s - P.r_start) / P.r_every;
+        if j < P.r_count {
+            rwork[at(inst, j)] = vec2<f32>(alpha, 0.0);
+        }
+    }
+}
+
 // Whether an instance has nothing left to integrate.
 fn finished(a: Accum, total: u32) -> bool {
     return a.status != STATUS_OK || a.step >= total || a.stopped != 0u;
 }
 
-// The events after step `s` at phase `ph` of its period: the stroboscopic instant, and the
-// period's end; true when a closing orbit stops the run there (`period_end`).
-fn period_events(inst: u32, s: u32, ph: u32, a: ptr<function, Accum>) -> bool {
+// The events after step `s` at phase `ph` of its period, α now `alpha`: the stroboscopic
+// instant, and the period's end; true when a closing orbit stops the run there (`period_end`).
+fn period_events(inst: u32, s: u32, ph: u32, alpha: f32, a: ptr<function, Accum>) -> bool {
     if (WANT_EARLY || s >= P.transient_periods * P.spp) && ph == P.strobe_offset {
-        strobe_instant(inst, s, th[0], a);
+        strobe_instant(inst, s, alpha, a);
     }
     return ph == 0u && period_end(inst, s / P.spp - 1u, a);
 }
@@ -866,12 +898,7 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
                 }
             }
             accumulate(alpha, now, onsets, &a);
-            if WANT_RSERIES && rph == r_phase && s >= P.r_start {
-                let j = (s - P.r_start) / P.r_every;
-                if j < P.r_count {
-                    rwork[at(inst, j)] = vec2<f32>(alpha, 0.0);
-                }
-            }
+            record_r(inst, s, rph == r_phase, alpha);
             if WANT_EARLY && WANT_RSERIES && rph == 0u {
                 early[at(inst, ctl.e_r_off + (s / P.r_every) % ctl.e_r_len)] = alpha;
             }
@@ -884,7 +911,7 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
                 }
             }
             let event = ph == P.strobe_offset || ph == 0u;
-            if ADAPTIVE && event && period_events(inst, s, ph, &a) {
+            if ADAPTIVE && event && period_events(inst, s, ph, th[0], &a) {
                 halted = true;
                 break;
             }
@@ -895,7 +922,7 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
         if failed || out_of_passes || halted {
             break;
         }
-        if !ADAPTIVE && period_events(inst, s, ph, &a) {
+        if !ADAPTIVE && period_events(inst, s, ph, th[0], &a) {
             break;
         }
     }

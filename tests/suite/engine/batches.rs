@@ -33,6 +33,7 @@ fn plan_with(metrics: &[Metric]) -> EnsemblePlan {
         r_max_samples: 256,
         early_stop: None,
         lyapunov: Default::default(),
+        gpu_kernel: Default::default(),
     };
     EnsemblePlan::from_scenes(&scenes, &opts).unwrap()
 }

@@ -11,6 +11,7 @@ mod attractors;
 mod batches;
 mod cases;
 mod continuation;
+mod cooperative;
 mod faults;
 mod lanes;
 mod layout;

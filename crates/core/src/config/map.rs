@@ -79,6 +79,8 @@ pub struct MapSpec {
     pub early_stop: bool,
     /// Relative tolerance of the early-stop confirmation (`None`: by the float type).
     pub early_stop_tol: Option<f64>,
+    /// The GPU's integration kernel (`gpu.kernel`).
+    pub gpu_kernel: super::GpuKernelChoice,
     /// `map.settle_max_s`: run the cells whose verdict is not firm on up to this time (s),
     /// with the early stop (`super::settle`); `None`: the map's length is final.
     pub settle_max_s: Option<f64>,
@@ -565,6 +567,7 @@ fn read_map(
     let bifurcation_samples = r.integer("map.bifurcation_samples", 64, 1, 4096)? as u32;
     let early_stop = r.boolean("map.early_stop", true)?;
     let early_stop_tol = read_early_stop_tol(&mut r)?;
+    let gpu_kernel = super::gpu::read_kernel(&mut r)?;
     let lyapunov = read_lyapunov(&mut r)?;
     let accept_huge = r.boolean("map.accept_huge", false)?;
     let refine = read_refine(&mut r, &axes, &metrics, bifurcation)?;
@@ -619,6 +622,7 @@ fn read_map(
         bifurcation_samples,
         early_stop,
         early_stop_tol,
+        gpu_kernel,
         settle_max_s,
         settle_from,
         lyapunov,

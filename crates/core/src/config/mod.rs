@@ -21,6 +21,7 @@ pub use crate::schema::Metric;
 pub use continuation::{ContinuationSpec, Direction, Sweep};
 pub use error::ConfigError;
 pub use field::SceneField;
+pub use gpu::GpuKernelChoice;
 pub use map::{
     DEFAULT_MAP_TOML, LyapunovSettings, MAX_INSTANCES, MapSpec, Perturbation, SEPARATION_MAX,
     c_order_index, grid_point, load_map, map_from_toml, refuse_sets_on_swept, scene_text,

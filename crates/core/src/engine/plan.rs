@@ -10,7 +10,7 @@
 //! need: the stroboscopic α (K, period, bifurcation) and a power-of-two uniform α series at
 //! `samples_per_period` per period (R). Trajectories are never stored.
 
-use crate::config::StepControl;
+use crate::config::{GpuKernelChoice, StepControl};
 use crate::config::{
     LyapunovSettings, MapSpec, MethodChoice, Metric, Perturbation, Scene, TimeStep,
 };
@@ -181,6 +181,8 @@ pub struct EnsemblePlan {
     /// The twins' separation d0, when λ1 is asked for (resolved per float type by the engine:
     /// [`EnsemblePlan::twin_separation`]).
     pub perturbation: Option<Perturbation>,
+    /// The GPU's integration kernel (`gpu.kernel`; the CPU engine has none).
+    pub gpu_kernel: GpuKernelChoice,
 }
 
 /// How the instances of an ensemble are sampled, and what they record.
@@ -201,6 +203,8 @@ pub struct EnsembleOptions {
     pub early_stop: Option<EarlyStop>,
     /// How λ1's twin runs (used when [`Metric::Lyapunov`] is asked for).
     pub lyapunov: LyapunovSettings,
+    /// The GPU's integration kernel (`gpu.kernel`; the CPU engine has none).
+    pub gpu_kernel: GpuKernelChoice,
 }
 
 impl EnsembleOptions {
@@ -220,6 +224,7 @@ impl EnsembleOptions {
                 tol: spec.early_stop_tol,
             }),
             lyapunov: spec.lyapunov,
+            gpu_kernel: spec.gpu_kernel,
         }
     }
 
@@ -406,6 +411,7 @@ impl EnsemblePlan {
             perturbation: opts
                 .records(Source::Twin)
                 .then_some(opts.lyapunov.perturbation),
+            gpu_kernel: opts.gpu_kernel,
             instances,
         }
     }

@@ -175,6 +175,7 @@ pub fn options(spec: &CalibrationSpec) -> (EnsembleOptions, ReduceOptions) {
         r_max_samples: 1024,
         early_stop: Some(pendulum_atlas_core::engine::EarlyStop::DEFAULT),
         lyapunov: Default::default(),
+        gpu_kernel: Default::default(),
     };
     let red = ReduceOptions {
         convention: spec.convention,

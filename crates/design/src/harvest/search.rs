@@ -239,6 +239,7 @@ pub fn ensemble_options(spec: &SearchSpec) -> EnsembleOptions {
         // A confirmed orbit's power is its cycle's (pendulum_atlas_core::engine::early).
         early_stop: Some(pendulum_atlas_core::engine::EarlyStop::DEFAULT),
         lyapunov: Default::default(),
+        gpu_kernel: Default::default(),
     }
 }
 

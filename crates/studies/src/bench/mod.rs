@@ -239,6 +239,7 @@ fn options(metrics: Vec<Metric>) -> EnsembleOptions {
         r_max_samples: 1024,
         early_stop: None,
         lyapunov: Default::default(),
+        gpu_kernel: Default::default(),
     }
 }
 

@@ -4,7 +4,7 @@
 use crate::engine::error::{EngineError, GpuFaultKind};
 use crate::engine::gpu::ReduceSettings;
 use crate::engine::gpu::context::GpuContext;
-use crate::engine::gpu::kernels::{KernelKey, WG};
+use crate::engine::gpu::kernels::{GpuKernel, KernelKey};
 use crate::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams, levers_of};
 use crate::engine::imex::ImexMatrices;
 use crate::engine::ladder::MAX_LEVEL;
@@ -21,6 +21,8 @@ const SOFTWARE_LOOP_BUDGET: usize = 60_000;
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Sizes {
     pub n_inst: usize,
+    /// Instances per workgroup of the integration kernel.
+    pub per_group: u32,
     pub state_len: usize,
     pub strobe_stride: u32,
     pub rwork_stride: u32,
@@ -75,6 +77,7 @@ impl Sizes {
         bytes(f.live)?;
         Ok(Sizes {
             n_inst,
+            per_group: key.kernel.instances_per_group(),
             state_len: f.state_len,
             strobe_stride: f.strobe_stride,
             rwork_stride: f.rwork_stride,
@@ -184,7 +187,8 @@ pub(crate) fn batch_capacity(
 ) -> Result<usize, EngineError> {
     let limit = buffer_limit(ctx);
     let groups = ctx.limits.max_compute_workgroups_per_dimension as usize;
-    let mut cap = groups.saturating_mul(WG.min(key.wg_k()) as usize);
+    let per_group = key.kernel.instances_per_group().min(key.wg_k());
+    let mut cap = groups.saturating_mul(per_group as usize);
     for (what, per) in Footprint::of(plan, key).buffers() {
         if per > limit {
             return Err(EngineError::InstanceTooLarge {
@@ -254,7 +258,7 @@ pub(crate) fn software_step_budget(
         .max()
         .unwrap_or(0);
     Ok(Some(steps_within_loop_budget(
-        (key.method, key.adaptive),
+        (key.method, key.adaptive, key.kernel),
         n_seg,
         max_lever,
         key.want_twin,
@@ -296,24 +300,34 @@ fn early_loops(plan: &EnsemblePlan, key: &KernelKey) -> (f64, f64) {
 /// one limit, and silently ends the loop when it is reached: an undercount here left
 /// instances short of their last step (caught by the GPU results' check). λ1's twin takes
 /// every step again with a swap in and out (`twin_step`: one step and `2 N`), and at most once
-/// per step a saltation (`twin_saltation`: at most `5 N`) and a sample (`twin_sample`: `2 N`);
+/// per step a saltation (`twin_saltation`: at most `6 N`) and a sample (`twin_sample`: `2 N`);
 /// per dispatch it is loaded and stored (`2 N`). The early stop adds `early` (per step,
 /// per dispatch: [`early_loops`]).
 fn steps_within_loop_budget(
-    (method, adaptive): (Method, bool),
+    (method, adaptive, kernel): (Method, bool, GpuKernel),
     n: usize,
     levers: usize,
     twin: bool,
     early: (f64, f64),
 ) -> u64 {
-    let one = (loops_per_step(method, n, levers) + adaptive_loops(n, levers, adaptive)) as f64;
+    let step = match kernel {
+        GpuKernel::Thread => loops_per_step(method, n, levers),
+        GpuKernel::Workgroup => loops_per_step_workgroup(method, n, levers),
+    };
+    let one = (step + adaptive_loops(n, levers, adaptive)) as f64;
     let n = n as f64;
     let (per_step, fixed) = if twin {
-        (2.0 * one + 9.0 * n + early.0, 2.0 * n + early.1)
+        (2.0 * one + 10.0 * n + early.0, 2.0 * n + early.1)
     } else {
         (one + early.0, early.1)
     };
-    let health = 3.0 * n + levers as f64;
+    // (The cooperative kernel's lane 0 copies the state in first: 2N more.)
+    let copy = if kernel == GpuKernel::Workgroup {
+        2.0 * n
+    } else {
+        0.0
+    };
+    let health = 3.0 * n + levers as f64 + copy;
     let spare = SOFTWARE_LOOP_BUDGET as f64 - 2.0 * health - fixed;
     ((spare / (per_step + health / CHECK_EVERY as f64)) as u64).max(1)
 }
@@ -321,16 +335,32 @@ fn steps_within_loop_budget(
 /// Loop iterations of one integration step in the kernel, counted from the WGSL (an upper
 /// bound: loops the compiler unrolls cost nothing), without the health check:
 /// - RK4: the step loop (1), `rk4_step`'s two sweeps (2N), four stages of a derivative
-///   (levers + 2N) and a stage update (N), and `touch_flags` (levers):
-///   `14 N + 5 levers + 1`;
+///   (levers + 3N: the sines and cosines, the two sweeps) and a stage update (N), and
+///   `touch_flags` (levers): `18 N + 5 levers + 1`;
 /// - IMEX: the step loop (1), `imex_step`'s copy (N), stage loop (3) and weighted sums
-///   (5N + 4), four `imex_eval` (levers + 3N each) of which three add the joint couples and
+///   (5N + 4), four `imex_eval` (levers + 4N each) of which three add the joint couples and
 ///   an N × N product (N² + 3N), three `imex_implicit_stage` (2N² + (6 + i) N + i for
-///   i = 1, 2, 3), and `touch_flags`: `9 N² + 51 N + 5 levers + 14`.
+///   i = 1, 2, 3), and `touch_flags`: `9 N² + 55 N + 5 levers + 14`.
 fn loops_per_step(method: Method, n: usize, levers: usize) -> usize {
     match method {
-        Method::Rk4 => 14 * n + 5 * levers + 1,
-        Method::Imex => 9 * n * n + 51 * n + 5 * levers + 14,
+        Method::Rk4 => 18 * n + 5 * levers + 1,
+        Method::Imex => 9 * n * n + 55 * n + 5 * levers + 14,
+    }
+}
+
+/// [`loops_per_step`] of the cooperative kernel (`shaders/cooperative.wgsl`) on its busiest
+/// lane, lane 0, which owns `k = ⌈N / lanes⌉` segments and runs every sweep: four `wg_rates`
+/// (levers + 4N each: the copy in, the two sweeps, the copy out) and `touch_flags` (levers),
+/// plus
+/// - RK4: the step loop (1) and five owner loops (5k): `16 N + 5 levers + 5 k + 1`;
+/// - IMEX: the step loop (1), four `wg_imex_eval` owner loops (4k), three
+///   `wg_imex_implicit` (k (3N + i) + i for i = 1, 2, 3), the finish (4k + 4 + 4):
+///   `16 N + 9 k N + 5 levers + 14 k + 15`.
+fn loops_per_step_workgroup(method: Method, n: usize, levers: usize) -> usize {
+    let k = n.div_ceil(GpuKernel::lanes(n) as usize);
+    match method {
+        Method::Rk4 => 16 * n + 5 * levers + 5 * k + 1,
+        Method::Imex => 16 * n + 9 * k * n + 5 * levers + 14 * k + 15,
     }
 }
 
@@ -401,7 +431,7 @@ impl Buffers {
             .chain(std::iter::repeat_n(0, sizes.n_inst))
             .collect();
         let sched = [
-            (sizes.n_inst as u32).div_ceil(WG),
+            (sizes.n_inst as u32).div_ceil(sizes.per_group),
             1,
             1,
             sizes.n_inst as u32,

@@ -8,24 +8,33 @@
 //! per-invocation arrays, the scene's N (so no private array is larger than the scene needs):
 //! the shader never carries its own copy of a rule or coefficient defined in Rust.
 
+use crate::config::GpuKernelChoice;
+use crate::engine::EngineError;
 use crate::engine::gpu::layout::{SCHED_LIVE, TWIN_BROKEN, TWIN_RUNNING};
 use crate::engine::imex::{AE, AI, B, B_HAT, C, GAMMA};
 use crate::engine::ladder::{self, GROW, MAX_LEVEL};
 use crate::engine::method::Method;
+use crate::engine::plan::EnsemblePlan;
 use crate::model::{CHECK_EVERY, ContactDamping, Status};
 use crate::reduce::Regime;
 use crate::reduce::lyapunov::LYAPUNOV_BLOCKS;
 use crate::reduce::regime::{REGIME_FLAT_PER_PERIOD, REGIME_K_CHAOS, REGIME_Z};
+use crate::schema::{Metric, Source};
 use std::fmt::Write;
 
 /// The stage files of the ensemble kernels, in assembly order: common definitions,
-/// integration (RK4, λ1's twin), its schedule on the device, the early stop, the IMEX method,
-/// the R reduction, the 0–1 test and period, λ1 and the regime.
-pub const SHADER_STAGES: [(&str, &str); 8] = [
+/// integration (RK4, λ1's twin), the cooperative integration (one workgroup per instance), its
+/// schedule on the device, the early stop, the IMEX method, the R reduction, the 0–1 test and
+/// period, λ1 and the regime.
+pub const SHADER_STAGES: [(&str, &str); 9] = [
     ("common.wgsl", include_str!("../../../shaders/common.wgsl")),
     (
         "integrate.wgsl",
         include_str!("../../../shaders/integrate.wgsl"),
+    ),
+    (
+        "cooperative.wgsl",
+        include_str!("../../../shaders/cooperative.wgsl"),
     ),
     (
         "schedule.wgsl",
@@ -51,6 +60,7 @@ pub const SHADER_STAGES: [(&str, &str); 8] = [
 pub(crate) const SHADER_BODY: &str = concat!(
     include_str!("../../../shaders/common.wgsl"),
     include_str!("../../../shaders/integrate.wgsl"),
+    include_str!("../../../shaders/cooperative.wgsl"),
     include_str!("../../../shaders/schedule.wgsl"),
     include_str!("../../../shaders/early.wgsl"),
     include_str!("../../../shaders/imex.wgsl"),
@@ -154,12 +164,99 @@ pub struct KernelKey {
     pub want_early: bool,
     /// Adaptive steps on the ladder ([`crate::engine::adaptive`]), IMEX or RK4 by `method`.
     pub adaptive: bool,
+    /// How the integration spreads over the device: an invocation or a workgroup per instance.
+    pub kernel: GpuKernel,
     /// Built with wgpu's runtime checks (`crate::engine::GpuContext::set_runtime_checks`).
     pub runtime_checks: bool,
 }
 
 /// Workgroup size of the integration and R kernels.
 pub(crate) const WG: u32 = 64;
+
+/// How the integration kernel spreads an ensemble over the device (the map's `gpu.kernel`,
+/// resolved by [`GpuKernel::resolve`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GpuKernel {
+    /// One invocation per instance (`integrate`, `shaders/integrate.wgsl`): for ensembles
+    /// that fill the device.
+    Thread,
+    /// One workgroup per instance (`integrate_wg`, `shaders/cooperative.wgsl`): the
+    /// segments spread over its lanes, the chain's sweep on one of them.
+    Workgroup,
+}
+
+impl GpuKernel {
+    /// The kernel's name, as `gpu.kernel` spells it.
+    pub fn name(self) -> &'static str {
+        match self {
+            GpuKernel::Thread => "thread",
+            GpuKernel::Workgroup => "workgroup",
+        }
+    }
+
+    /// The integration entry point of the kernel.
+    fn entry(self) -> &'static str {
+        match self {
+            GpuKernel::Thread => "integrate",
+            GpuKernel::Workgroup => "integrate_wg",
+        }
+    }
+
+    /// Lanes per workgroup of the cooperative kernel on chains of `segments` segments: N
+    /// rounded up to a power of two (at most 64; a lane then owns several segments).
+    pub(crate) fn lanes(segments: usize) -> u32 {
+        segments.next_power_of_two().clamp(1, 64) as u32
+    }
+
+    /// Instances one workgroup integrates.
+    pub(crate) fn instances_per_group(self) -> u32 {
+        match self {
+            GpuKernel::Thread => WG,
+            GpuKernel::Workgroup => 1,
+        }
+    }
+
+    /// What of `plan` this kernel does not do, and how to leave it out (the thread kernel
+    /// does everything).
+    pub fn refusal(self, plan: &EnsemblePlan) -> Option<(&'static str, &'static str)> {
+        if self == GpuKernel::Thread {
+            return None;
+        }
+        if plan.is_adaptive() {
+            return Some(("adaptive steps", "set integration.step = \"fixed\""));
+        }
+        if Metric::any_from(&plan.metrics, Source::Twin) {
+            return Some((
+                "λ1 and the regime (λ1's twin)",
+                "leave lyapunov and regime out of map.metrics",
+            ));
+        }
+        if plan.early_stop.is_some() {
+            return Some(("the early stop", "set map.early_stop = false"));
+        }
+        None
+    }
+
+    /// The kernel `choice` names for `plan`: `auto` is the thread kernel until the hardware
+    /// lease measures where the workgroup kernel is faster (docs/bench/README.md); on
+    /// lavapipe the thread kernel is faster at every size measured. A kernel that does not do
+    /// what the plan asks is refused by name.
+    pub fn resolve(choice: GpuKernelChoice, plan: &EnsemblePlan) -> Result<GpuKernel, EngineError> {
+        let kernel = match choice {
+            GpuKernelChoice::Auto | GpuKernelChoice::Thread => GpuKernel::Thread,
+            GpuKernelChoice::Workgroup => GpuKernel::Workgroup,
+        };
+        match kernel.refusal(plan) {
+            Some((what, remedy)) => Err(EngineError::KernelRefuses {
+                kernel: kernel.name(),
+                what,
+                remedy,
+            }),
+            None => Ok(kernel),
+        }
+    }
+}
 
 impl KernelKey {
     /// Workgroup size of the K kernel: its sorting rows live in 16 KiB of workgroup memory.
@@ -185,6 +282,8 @@ impl KernelKey {
             ("WANT_TWIN", flag(self.want_twin)),
             ("WANT_EARLY", flag(self.want_early)),
             ("ADAPTIVE", flag(self.adaptive)),
+            ("COOPERATIVE", flag(self.kernel == GpuKernel::Workgroup)),
+            ("WGC", f64::from(GpuKernel::lanes(self.segments))),
         ]
     }
 }
@@ -192,6 +291,8 @@ impl KernelKey {
 /// The compiled pipelines of one [`KernelKey`]; kernels of metrics not asked for are absent.
 #[derive(Debug)]
 pub struct Kernels {
+    /// Which integration kernel `integrate` is.
+    pub kernel: GpuKernel,
     /// The integration kernel.
     pub integrate: wgpu::ComputePipeline,
     /// The device's compaction of the live list after each integration dispatch.
@@ -235,7 +336,8 @@ impl Kernels {
             })
         };
         Kernels {
-            integrate: pipeline("integrate"),
+            kernel: key.kernel,
+            integrate: pipeline(key.kernel.entry()),
             compact: pipeline("compact"),
             schedule: pipeline("schedule"),
             line: key.want_line.then(|| pipeline("line")),

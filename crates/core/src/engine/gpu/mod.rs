@@ -38,7 +38,7 @@ use crate::schema::{Source, field, gpu_fields};
 use buffers::{Buffers, Sizes, batch_capacity, software_step_budget};
 use bytemuck::Zeroable;
 use clock::KernelClock;
-use kernels::{KernelKey, Kernels, WG};
+use kernels::{GpuKernel, KernelKey, Kernels, WG};
 use layout::{GPU_MAX_SEGMENTS, GpuAccum, GpuControl, SCHED_LIVE};
 use serde::Serialize;
 use slices::{Pass, Slicing, run_passes};
@@ -195,7 +195,7 @@ impl EnsembleEngine for GpuEngine {
 }
 
 /// The specialisation a plan needs.
-fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings) -> KernelKey {
+fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings, kernel: GpuKernel) -> KernelKey {
     let want = |m: Metric| plan.metrics.contains(&m);
     KernelKey {
         segments: plan.segments,
@@ -213,6 +213,7 @@ fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings) -> KernelKey {
         want_twin: Metric::any_from(&plan.metrics, Source::Twin),
         want_early: plan.early_stop.is_some(),
         adaptive: plan.is_adaptive(),
+        kernel,
         runtime_checks: false,
     }
 }
@@ -239,9 +240,10 @@ pub(crate) fn run_gpu(
     }
     let twin_d0 = plan.twin_separation(crate::engine::Precision::F32)?;
     let reduce = ReduceSettings::from_options(opts);
+    let kernel = GpuKernel::resolve(plan.gpu_kernel, plan)?;
     let key = KernelKey {
         runtime_checks: ctx.runtime_checks(),
-        ..kernel_key(plan, &reduce)
+        ..kernel_key(plan, &reduce, kernel)
     };
     let n = plan.instances.len();
     let cap = batch_capacity(ctx, plan, &key)?.min(limits.max_batch.unwrap_or(usize::MAX));
@@ -447,7 +449,7 @@ fn integrate(
         ctx.queue
             .write_buffer(&bufs.control, 0, bytemuck::bytes_of(control));
         let started = Instant::now();
-        let submitted = submit_chunk(ctx, kernels, bufs, clock.as_deref());
+        let submitted = submit_chunk(ctx, kernels, bufs, (n as u32, clock.as_deref()));
         if lose {
             ctx.lose();
         }
@@ -688,12 +690,13 @@ const N_ACTIVE_OFFSET: u64 = std::mem::offset_of!(GpuControl, n_active) as u64;
 /// One dispatch of the integration and its schedule, in one submission: the device's count of
 /// the instances still integrating becomes `n_active` and the dispatch's size (indirect), the
 /// integration runs (timed by `clock` where there is one), then the compaction and the next
-/// size (`shaders/schedule.wgsl`).
+/// size (`shaders/schedule.wgsl`). The compaction takes the integration's workgroup count,
+/// or, after the cooperative kernel (a workgroup per instance), all `n_inst` instances'.
 fn submit_chunk(
     ctx: &GpuContext,
     kernels: &Kernels,
     bufs: &Buffers,
-    clock: Option<&KernelClock>,
+    (n_inst, clock): (u32, Option<&KernelClock>),
 ) -> wgpu::SubmissionIndex {
     let live_word = 4 * u64::from(SCHED_LIVE);
     let mut enc = ctx
@@ -712,7 +715,12 @@ fn submit_chunk(
     };
     indirect(&mut enc, &kernels.integrate, clock);
     enc.clear_buffer(&bufs.sched, live_word, Some(4));
-    indirect(&mut enc, &kernels.compact, None);
+    match kernels.kernel {
+        GpuKernel::Thread => indirect(&mut enc, &kernels.compact, None),
+        GpuKernel::Workgroup => {
+            record_pass(&mut enc, &kernels.compact, &bufs.bind, n_inst.div_ceil(WG));
+        }
+    }
     record_pass(&mut enc, &kernels.schedule, &bufs.bind, 1);
     ctx.submit(enc.finish())
 }
