@@ -1,6 +1,7 @@
 //! `pendulum-atlas bench`: the work-precision study and scaling measurements.
 
 use super::engine::BackendArg;
+use pendulum_atlas_core::engine::gpu::kernels::GpuKernel;
 use pendulum_atlas_map::output::folder::Product;
 use pendulum_atlas_studies::bench::cpu_report::write_cpu_throughput;
 use pendulum_atlas_studies::bench::cpu_throughput::{CpuThroughputOptions, run_cpu_throughput};
@@ -67,6 +68,15 @@ pub struct BenchArgs {
     #[arg(long, value_delimiter = ',', requires = "throughput",
           value_parser = clap::value_parser!(u64).range(1..=64))]
     pub segments: Vec<u64>,
+    /// The GPU's integration kernels the --throughput study measures, each with its ladders
+    /// (default: thread; `--kernels thread,workgroup` for both).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        requires = "throughput",
+        default_value = "thread"
+    )]
+    pub kernels: Vec<KernelArg>,
     /// Leave the CPU engine out of the --throughput study.
     #[arg(long, requires = "throughput")]
     pub no_cpu: bool,
@@ -259,6 +269,7 @@ fn throughput(
             peak_flop_per_s: a.peak_tflops.map(|t| t * 1e12),
             peers: a.peers.clone(),
             segments,
+            kernels: a.kernels.iter().map(|&k| k.into()).collect(),
         },
         &|line| tell!("{line}"),
     )?;
@@ -271,4 +282,22 @@ fn throughput(
     );
     say!("wrote {} files to {}", files.len(), a.out.display());
     Ok(())
+}
+
+/// A GPU integration kernel of the --throughput study (`gpu.kernel`'s words).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum KernelArg {
+    /// One invocation per instance.
+    Thread,
+    /// One workgroup per instance (fixed steps only).
+    Workgroup,
+}
+
+impl From<KernelArg> for GpuKernel {
+    fn from(k: KernelArg) -> GpuKernel {
+        match k {
+            KernelArg::Thread => GpuKernel::Thread,
+            KernelArg::Workgroup => GpuKernel::Workgroup,
+        }
+    }
 }

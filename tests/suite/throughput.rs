@@ -3,6 +3,7 @@
 
 use crate::engine::gpu;
 use pendulum_atlas_core::engine::EngineKind;
+use pendulum_atlas_core::engine::gpu::kernels::GpuKernel;
 use pendulum_atlas_core::engine::method::Method;
 use pendulum_atlas_studies::bench::cost::step_flops;
 use pendulum_atlas_studies::bench::gpu_report::write_throughput;
@@ -24,6 +25,7 @@ fn a_rung_over_the_budget_is_stopped_and_the_larger_ones_skipped() {
         peak_flop_per_s: None,
         peers: None,
         segments: vec![3],
+        kernels: vec![GpuKernel::Thread],
     };
     let r = run_throughput(&opts, &|_| {}).unwrap();
     assert_eq!(r.rows.len(), 4 * 3, "2 methods × 2 scenes × 3 rungs");
@@ -53,11 +55,18 @@ fn the_ladder_measures_or_skips_every_rung_and_the_report_shows_it() {
         peak_flop_per_s: None,
         peers: None,
         segments: vec![3],
+        kernels: GpuKernel::ALL.to_vec(),
     };
     let r = run_throughput(&opts, &|_| {}).unwrap();
-    let engines = 1 + usize::from(gpu.is_some());
-    // 2 methods × 2 scenes × one rung per engine.
-    assert_eq!(r.rows.len(), 4 * engines);
+    // The CPU engine, and the GPU's two kernels.
+    let ladders = 1 + 2 * usize::from(gpu.is_some());
+    // 2 methods × 2 scenes × one rung per engine and kernel.
+    assert_eq!(r.rows.len(), 4 * ladders);
+    for k in GpuKernel::ALL {
+        let on_k = r.rows.iter().filter(|x| x.kernel == Some(k)).count();
+        assert_eq!(on_k, if gpu.is_some() { 4 } else { 0 }, "{k:?}");
+    }
+    assert_eq!(r.rows.iter().filter(|x| x.kernel.is_none()).count(), 4);
     let plan = workload(ThroughputScene::Default, 3, Method::Rk4, 1).unwrap();
     let p = &plan.instances[0].params;
     for row in &r.rows {
@@ -74,15 +83,17 @@ fn the_ladder_measures_or_skips_every_rung_and_the_report_shows_it() {
                 // One forcing period at 11-12 Hz (default) or 7.5-8.5 Hz (paper) per instance.
                 assert!(row.steps_per_instance > 50.0, "{}", row.steps_per_instance);
                 if row.kind == EngineKind::Gpu {
-                    // 1000 instances: at least the state (7 f32) and parameters of each.
-                    assert!(row.device_bytes.unwrap() > 1000 * 28);
+                    // 1000 instances: at least the state (7 f32) and parameters of each (a
+                    // run stopped at the budget reports none: the workgroup kernel's here).
+                    let whole = row.stopped_at.is_none();
+                    assert!(!whole || row.device_bytes.unwrap() > 1000 * 28, "{row:?}");
                 } else {
                     assert!(row.device_bytes.is_none() && row.share_of_peak.is_none());
                 }
             }
         }
     }
-    assert_eq!(r.metrics.len(), engines);
+    assert_eq!(r.metrics.len(), 1 + usize::from(gpu.is_some()));
     for m in &r.metrics {
         match (&m.all, &m.k_only, &m.skipped) {
             (Some(a), Some(k), None) => {
@@ -170,7 +181,15 @@ fn the_gpu_lease_script_runs_dry_on_this_adapter() {
         study.contains("| rk4 |") && study.contains("| imex |"),
         "{study}"
     );
-    for d in ["map", "plane17", "parity_gpu", "parity_cpu"] {
+    let maps = [
+        "map",
+        "plane17",
+        "parity_gpu",
+        "parity_cpu",
+        "parity_fixed_thread",
+        "parity_fixed_workgroup",
+    ];
+    for d in maps {
         assert!(
             tmp.join("work").join(d).join("map.json").is_file(),
             "{d}: {log}"
@@ -180,5 +199,11 @@ fn the_gpu_lease_script_runs_dry_on_this_adapter() {
         log.contains("N = 17 plane:") && !log.contains(": rc "),
         "{log}"
     );
+    // The workgroup kernel refuses the plane's adaptive steps by name (exit 2).
+    assert!(
+        log.contains("does not do adaptive steps") && log.contains("workgroup kernel: exit 2"),
+        "{log}"
+    );
+    assert!(study.contains("| workgroup |"), "{study}");
     std::fs::remove_dir_all(&tmp).ok();
 }

@@ -1,6 +1,7 @@
 //! Files of `bench --throughput`: `GPU.md` and `gpu_throughput.json`.
 
 use super::gpu_throughput::{GpuPeerRow, LadderRow, MetricRow, ThroughputReport, ThroughputScene};
+use pendulum_atlas_core::engine::gpu::kernels::GpuKernel;
 use pendulum_atlas_core::engine::method::Method;
 use pendulum_atlas_map::output::OutputError;
 use pendulum_atlas_map::output::files::{create_dir, write_bytes, write_json};
@@ -90,17 +91,18 @@ rungs are skipped. \
 RK4 on the earlier damping reading (ζ1 = 0.0035), IMEX on the library reading. Memory: the \
 per-instance device buffers; a rung they would make larger than the adapter binds runs in \
 consecutive batches, and its memory is that of the largest batch.\n\n\
-| engine | scene | N | method | instances | steps/instance | integration (s) | \
+| engine | kernel | scene | N | method | instances | steps/instance | integration (s) | \
 instance-steps/s | kernel (s) | instance-steps/s of kernel | segment-steps/s | GFLOP/s | \
 of peak | memory (MiB) |\n\
-|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
         if let Some(why) = &r.skipped {
             let _ = writeln!(
                 md,
-                "| {} | {} | {} | {} | {} | {:.0} | skipped: {why} ||||||||",
+                "| {} | {} | {} | {} | {} | {} | {:.0} | skipped: {why} ||||||||",
                 r.engine,
+                kernel_name(r),
                 r.scene.name(),
                 r.segments,
                 r.method.name(),
@@ -111,8 +113,9 @@ of peak | memory (MiB) |\n\
         }
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {} | {:.0} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {:.0} | {} | {} | {} | {} | {} | {} | {} | {} |",
             r.engine,
+            kernel_name(r),
             r.scene.name(),
             r.segments,
             r.method.name(),
@@ -135,12 +138,17 @@ of peak | memory (MiB) |\n\
     best_section(md, rows);
 }
 
-/// The best rate per engine, N and method (default scene).
+/// The GPU kernel of a row (`-` on the CPU engine).
+fn kernel_name(r: &LadderRow) -> &'static str {
+    r.kernel.map_or("-", GpuKernel::name)
+}
+
+/// The best rate per engine, kernel, N and method (default scene).
 fn best_section(md: &mut String, rows: &[LadderRow]) {
-    md.push_str("Best rate of the default scene per engine, N and method:\n\n");
-    let mut seen: Vec<(&str, usize, Method)> = Vec::new();
+    md.push_str("Best rate of the default scene per engine, kernel, N and method:\n\n");
+    let mut seen: Vec<(&str, &str, usize, Method)> = Vec::new();
     for r in rows.iter().filter(|r| r.scene == ThroughputScene::Default) {
-        let key = (r.engine.as_str(), r.segments, r.method);
+        let key = (r.engine.as_str(), kernel_name(r), r.segments, r.method);
         if seen.contains(&key) {
             continue;
         }
@@ -149,7 +157,7 @@ fn best_section(md: &mut String, rows: &[LadderRow]) {
             .iter()
             .filter(|x| {
                 x.scene == ThroughputScene::Default
-                    && (x.engine.as_str(), x.segments, x.method) == key
+                    && (x.engine.as_str(), kernel_name(x), x.segments, x.method) == key
             })
             .filter(|x| x.instance_steps_per_s.is_some())
             .max_by(|a, b| {
@@ -160,8 +168,10 @@ fn best_section(md: &mut String, rows: &[LadderRow]) {
         if let Some(b) = best {
             let _ = writeln!(
                 md,
-                "- {}, N = {}, {}: {} instance-steps/s at {} instances{}",
+                "- {}{}, N = {}, {}: {} instance-steps/s at {} instances{}",
                 b.engine,
+                b.kernel
+                    .map_or(String::new(), |k| format!(" ({} kernel)", k.name())),
                 b.segments,
                 b.method.name(),
                 opt(b.instance_steps_per_s, |v| format!("{v:.3e}")),
@@ -258,7 +268,7 @@ ours by kernel time / peer |\n\
 }
 
 /// Our rate for a peer's row (`rate` of the row: by wall or by kernel time): the GPU ladder's
-/// default scene, RK4, same N and instances.
+/// default scene, RK4, thread kernel, same N and instances.
 fn ours_for(
     r: &ThroughputReport,
     p: &GpuPeerRow,
@@ -269,6 +279,7 @@ fn ours_for(
         .filter(|x| {
             Some(&x.engine) == r.adapter.as_ref()
                 && x.scene == ThroughputScene::Default
+                && x.kernel == Some(GpuKernel::Thread)
                 && x.method == Method::Rk4
                 && x.segments == p.segments
                 && x.instances == p.instances

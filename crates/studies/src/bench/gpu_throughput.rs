@@ -23,6 +23,7 @@
 use super::cost::{FlopCount, step_flops};
 use super::workload::WorkloadError;
 use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, Metric, map_from_toml};
+use pendulum_atlas_core::engine::gpu::kernels::GpuKernel;
 use pendulum_atlas_core::engine::method::Method;
 use pendulum_atlas_core::engine::{
     CpuLoop, Engine, EngineError, EngineKind, EnsemblePlan, Precision, Readback, no_progress,
@@ -58,6 +59,8 @@ pub struct ThroughputOptions<'a> {
     pub peers: Option<PathBuf>,
     /// Segment counts, scenes and methods to measure (the whole grid by default).
     pub segments: Vec<usize>,
+    /// The GPU's integration kernels to measure (each gets its ladders).
+    pub kernels: Vec<GpuKernel>,
 }
 
 /// The scenes of the study.
@@ -110,6 +113,9 @@ pub struct LadderRow {
     pub engine: String,
     /// GPU or CPU.
     pub kind: EngineKind,
+    /// The GPU's integration kernel (`None` on the CPU engine).
+    #[serde(default)]
+    pub kernel: Option<GpuKernel>,
     /// The scene.
     pub scene: ThroughputScene,
     /// Segments N.
@@ -281,15 +287,18 @@ pub fn run_throughput(
             let count = step_flops(method, &probe.instances[0].params);
             for scene in ThroughputScene::ALL {
                 for engine in &engines {
-                    let ctx = LadderCtx {
-                        engine,
-                        scene,
-                        n,
-                        method,
-                        count: &count,
-                        peak: peak.as_ref().map(|p| p.0),
-                    };
-                    rows.extend(ladder(&ctx, opts, progress)?);
+                    for kernel in kernels_of(engine, opts) {
+                        let ctx = LadderCtx {
+                            engine,
+                            kernel,
+                            scene,
+                            n,
+                            method,
+                            count: &count,
+                            peak: peak.as_ref().map(|p| p.0),
+                        };
+                        rows.extend(ladder(&ctx, opts, progress)?);
+                    }
                 }
             }
             flops.push((method, count));
@@ -312,6 +321,14 @@ pub fn run_throughput(
     })
 }
 
+/// The kernels `engine` is measured with: each asked for on the GPU, none on the CPU.
+fn kernels_of(engine: &Engine, opts: &ThroughputOptions) -> Vec<Option<GpuKernel>> {
+    match engine.info().kind {
+        EngineKind::Gpu => opts.kernels.iter().copied().map(Some).collect(),
+        EngineKind::Cpu => vec![None],
+    }
+}
+
 /// The workload of `scene` at N with `method`: `count` instances spread over the scene's band,
 /// one forcing period each from rest, α range only (see the module's stage 1).
 pub fn workload(
@@ -329,6 +346,8 @@ pub fn workload(
         // A study of fixed steps: instance-steps per second at the automatic step.
         "integration.step=\"fixed\"".to_string(),
         "integration.transient_s=0.0".to_string(),
+        // (Nothing could stop early within the run: the early stop's bookkeeping is left out.)
+        "map.early_stop=false".to_string(),
         format!("integration.duration_s={}", 1.5 / f0),
         "map.metrics=[\"alpha_range\"]".to_string(),
         format!(
@@ -349,6 +368,7 @@ pub fn workload(
 /// One workload on one engine.
 struct LadderCtx<'a> {
     engine: &'a Engine,
+    kernel: Option<GpuKernel>,
     scene: ThroughputScene,
     n: usize,
     method: Method,
@@ -363,7 +383,13 @@ fn ladder(
     opts: &ThroughputOptions,
     progress: &dyn Fn(&str),
 ) -> Result<Vec<LadderRow>, ThroughputError> {
-    let pilot = workload(c.scene, c.n, c.method, PILOT)?;
+    let on_kernel = |mut plan: EnsemblePlan| {
+        if let Some(k) = c.kernel {
+            plan.gpu_kernel = k.into();
+        }
+        plan
+    };
+    let pilot = on_kernel(workload(c.scene, c.n, c.method, PILOT)?);
     run_integration(c.engine, &pilot)?; // compiles the kernels' specialisation
     let steps_per_instance = pilot.total_steps as f64 / PILOT as f64;
     let mut rows = Vec::new();
@@ -372,6 +398,7 @@ fn ladder(
         let mut row = LadderRow {
             engine: c.engine.info().device.clone(),
             kind: c.engine.info().kind,
+            kernel: c.kernel,
             scene: c.scene,
             segments: c.n,
             method: c.method,
@@ -398,15 +425,17 @@ fn ladder(
             rows.push(row);
             continue;
         }
-        let plan = workload(c.scene, c.n, c.method, count)?;
+        let plan = on_kernel(workload(c.scene, c.n, c.method, count)?);
         let capped = run_capped(c.engine, &plan, opts.row_budget_s)?;
         fill(&mut row, &plan, &capped, c.peak);
         if capped.stopped_at.is_some() {
             reached = Some(count);
         }
         progress(&format!(
-            "throughput: {} {} N = {} {} {count} instances: {:.3e} instance-steps/s{}",
+            "throughput: {}{} {} N = {} {} {count} instances: {:.3e} instance-steps/s{}",
             row.engine,
+            c.kernel
+                .map_or(String::new(), |k| format!(" ({} kernel)", k.name())),
             c.scene.name(),
             c.n,
             c.method.name(),

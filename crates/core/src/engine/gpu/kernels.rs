@@ -186,7 +186,19 @@ pub enum GpuKernel {
     Workgroup,
 }
 
+impl From<GpuKernel> for GpuKernelChoice {
+    fn from(k: GpuKernel) -> GpuKernelChoice {
+        match k {
+            GpuKernel::Thread => GpuKernelChoice::Thread,
+            GpuKernel::Workgroup => GpuKernelChoice::Workgroup,
+        }
+    }
+}
+
 impl GpuKernel {
+    /// Both kernels.
+    pub const ALL: [GpuKernel; 2] = [GpuKernel::Thread, GpuKernel::Workgroup];
+
     /// The kernel's name, as `gpu.kernel` spells it.
     pub fn name(self) -> &'static str {
         match self {
