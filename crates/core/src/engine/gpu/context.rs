@@ -281,6 +281,9 @@ impl GpuContext {
     /// - the per-invocation arrays are sized by the scene's N (`MAX_SEG`, the generated
     ///   header) and indexed by segment loops `i < N_SEG` (N_SEG = N) or the lever count
     ///   (the contact segment + 1, at most N: `ContactParams::on_chain`);
+    /// - the cooperative kernel's workgroup arrays are sized by `MAX_SEG` too, and indexed by
+    ///   its owners' loops `i = lane; i < N_SEG; i += WGC`, lane 0's loops `i < N_SEG`, and
+    ///   stage indices below 4 (`w_fth[j]`, j a stage of the four);
     /// - each storage buffer is indexed by instance `i < n_inst` (the `live` list holds
     ///   instances of the batch only) and, per instance, by sample `j` below the stride the
     ///   buffer was sized with (`Sizes`: the plan's largest strobe, R and early-stop counts);
