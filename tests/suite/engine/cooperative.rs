@@ -2,9 +2,10 @@
 //! thread kernel: the same instances, the same results; and what it refuses, by name.
 
 use super::gpu;
+use super::runtime_checks::bits;
 use pendulum_atlas_core::config::{GpuKernelChoice, MapSpec, map_from_toml};
 use pendulum_atlas_core::engine::{EngineError, EngineRun, EnsemblePlan, Readback, no_progress};
-use pendulum_atlas_core::reduce::{InstanceResult, ReduceOptions};
+use pendulum_atlas_core::reduce::ReduceOptions;
 
 /// A small fixed-step map at N segments with `extra` TOML and `map` keys (metrics, axes), on
 /// the kernel `kernel`, without the early stop (which the cooperative kernel refuses).
@@ -61,18 +62,6 @@ fn run(spec: &MapSpec) -> Result<EngineRun, EngineError> {
     )
 }
 
-fn numbers(r: &InstanceResult) -> [f64; 7] {
-    [
-        r.k,
-        r.r,
-        r.period,
-        r.line,
-        r.alpha_min_rad,
-        r.alpha_max_rad,
-        r.impacts_per_s,
-    ]
-}
-
 /// With RK4 the cooperative kernel does each segment's arithmetic as the thread kernel does,
 /// in the same order, and runs the same sweep on lane 0: every result, stroboscopic sample and
 /// R sample is the same, bit for bit: at N = 3 on periodic and chaotic cells with every
@@ -93,9 +82,7 @@ fn with_rk4_the_workgroup_kernel_gives_the_thread_kernels_bits() {
         );
         for (i, (x, y)) in thread.results.iter().zip(&group.results).enumerate() {
             assert_eq!((x.status, x.steps), (y.status, y.steps), "{what}, cell {i}");
-            let (a, b) = (numbers(x), numbers(y));
-            let same = a.iter().zip(&b).all(|(p, q)| p.to_bits() == q.to_bits());
-            assert!(same, "{what}, cell {i}: {a:?} vs {b:?}");
+            assert_eq!(bits(x), bits(y), "{what}, cell {i}: {x:?} vs {y:?}");
         }
         assert_eq!(thread.strobe, group.strobe, "{what}: stroboscopic samples");
         assert_eq!(thread.r_series, group.r_series, "{what}: R series");
@@ -186,11 +173,7 @@ fn the_workgroup_kernel_gives_the_same_bits_with_runtime_checks() {
             .run(&plan, &opts, readback, &no_progress)
             .expect("checked");
         for (i, (x, y)) in a.results.iter().zip(&b.results).enumerate() {
-            let same = numbers(x)
-                .iter()
-                .zip(numbers(y))
-                .all(|(p, q)| p.to_bits() == q.to_bits());
-            assert!(same, "{method}, cell {i}: {x:?} vs {y:?}");
+            assert_eq!(bits(x), bits(y), "{method}, cell {i}: {x:?} vs {y:?}");
         }
         assert_eq!(a.strobe, b.strobe, "{method}: stroboscopic samples");
     }

@@ -5,7 +5,8 @@ use super::{gpu, gpu_checked};
 use pendulum_atlas_core::config::map_from_toml;
 use pendulum_atlas_core::engine::{EnsemblePlan, Readback, no_progress};
 use pendulum_atlas_core::reduce::{InstanceResult, ReduceOptions};
-fn bits(r: &InstanceResult) -> Vec<u64> {
+/// Every number of a result as its bits (NaN for a metric not asked for compares equal).
+pub(super) fn bits(r: &InstanceResult) -> Vec<u64> {
     [
         r.k,
         r.r,
