@@ -155,7 +155,7 @@ fn wg_advance(i: u32, th_inc: f32, om_inc: f32) {
 // imex_couples on the owner of segment s: −(K θ + C ω)_s at the stage angles, with the stage
 // rates (`at_r` false) or R_ω (true), the dampers only when `damp` is 1: τ_s − τ_{s+1}.
 fn wg_couple(s: u32, damp: f32, at_r: bool) -> f32 {
-    var q = -P.k0 * w_sth[0] - damp * P.b0 * wg_rate(0u, at_r);
+    var q = root_couple(w_sth[0], wg_rate(0u, at_r), damp);
     if s > 0u {
         q = 0.0 + wg_tau(s, damp, at_r);
     }
@@ -168,7 +168,7 @@ fn wg_couple(s: u32, damp: f32, at_r: bool) -> f32 {
 // The torque of joint (i − 1, i), i ≥ 1, as imex_couples forms it.
 fn wg_tau(i: u32, damp: f32, at_r: bool) -> f32 {
     let dom = wg_rate(i, at_r) - wg_rate(i - 1u, at_r);
-    return -P.k * (w_sth[i] - w_sth[i - 1u]) - damp * P.b * dom;
+    return joint_couple(w_sth[i] - w_sth[i - 1u], dom, damp);
 }
 
 // Segment i's stage rate, or R_ω where `at_r`.

@@ -18,12 +18,12 @@ var<private> imex_level: u32;
 
 // qv = −(K θ + C ω) at the stage state (sth, som); the dampers only when `damp` is 1.
 fn imex_couples(damp: f32) {
-    qv[0] = -P.k0 * sth[0] - damp * P.b0 * som[0];
+    qv[0] = root_couple(sth[0], som[0], damp);
     for (var i = 1u; i < N_SEG; i++) {
         qv[i] = 0.0;
     }
     for (var i = 1u; i < N_SEG; i++) {
-        let tau = -P.k * (sth[i] - sth[i - 1u]) - damp * P.b * (som[i] - som[i - 1u]);
+        let tau = joint_couple(sth[i] - sth[i - 1u], som[i] - som[i - 1u], damp);
         qv[i] += tau;
         qv[i - 1u] -= tau;
     }

@@ -71,9 +71,20 @@ fn branch_force(b: u32, delta: f32, rate: f32) -> f32 {
 // Relative-joint torque on segment i from joint (i−1, i); the root spring for i = 0.
 fn joint_torque(i: u32) -> f32 {
     if i == 0u {
-        return -P.k0 * sth[0] - P.b0 * som[0];
+        return root_couple(sth[0], som[0], 1.0);
     }
-    return -P.k * (sth[i] - sth[i - 1u]) - P.b * (som[i] - som[i - 1u]);
+    return joint_couple(sth[i] - sth[i - 1u], som[i] - som[i - 1u], 1.0);
+}
+
+// The torque of a joint bent by dth at the rate dom: −k Δθ − damp · b Δω, the damper weighted
+// by `damp` (1; 0 for the IMEX method's spring part alone). Every kernel's joints use it.
+fn joint_couple(dth: f32, dom: f32, damp: f32) -> f32 {
+    return -P.k * dth - damp * P.b * dom;
+}
+
+// The root spring's torque at θ0, θ̇0: −k0 θ0 − damp · b0 θ̇0.
+fn root_couple(th0: f32, om0: f32, damp: f32) -> f32 {
+    return -P.k0 * th0 - damp * P.b0 * om0;
 }
 
 // The derivative at the stage state (sth, som, svolt): θ̈ into acc_out, v̇ into dvolt_out.

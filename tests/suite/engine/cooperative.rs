@@ -89,11 +89,12 @@ fn with_rk4_the_workgroup_kernel_gives_the_thread_kernels_bits() {
     }
 }
 
-/// With IMEX the two kernels round differently (lavapipe contracts the stage sums and matrix
-/// rows into fused multiply-adds differently in the two): on periodic cells the period is the
-/// same and α's range within 5e-5 rad (f32's rounding over some 10⁵ steps; α is about
-/// 0.3 rad, where an f32 step is 3e-8 rad), at N = 3 with the piezo and at N = 5. (On chaotic
-/// cells the rounding grows as chaos does: only the class can agree there, which the lease's
+/// With IMEX the two kernels round differently (not pinned down; most likely the driver fuses
+/// the stage sums and matrix rows into multiply-adds differently in the two): on periodic
+/// cells the period is the same and α's range within 2e-5 rad (measured 2026-11-28 on
+/// lavapipe: at most 4.8e-6 rad here, 1.3e-5 rad at N = 9; α is about 0.3 rad, where an f32
+/// step is 3e-8 rad), at N = 3 with the piezo and at N = 5. (On chaotic cells the rounding
+/// grows as chaos does: only the class can agree there, which the lease's
 /// map comparison measures.)
 #[test]
 fn with_imex_the_workgroup_kernel_agrees_with_the_thread_kernel() {
@@ -114,7 +115,7 @@ fn with_imex_the_workgroup_kernel_agrees_with_the_thread_kernel() {
             let gap = (x.alpha_min_rad - y.alpha_min_rad)
                 .abs()
                 .max((x.alpha_max_rad - y.alpha_max_rad).abs());
-            assert!(gap <= 5e-5, "{what}, cell {i}: α's range {gap:e} rad apart");
+            assert!(gap <= 2e-5, "{what}, cell {i}: α's range {gap:e} rad apart");
         }
     }
 }
