@@ -1,14 +1,15 @@
 //! The cooperative kernel (`gpu.kernel = "workgroup"`: one workgroup per instance) against the
-//! thread kernel: the same instances, the same results; and what it refuses, by name.
+//! thread kernel: the same instances, the same results, at fixed and adaptive steps, with
+//! λ1's twin and the early stop.
 
 use super::gpu;
 use super::runtime_checks::bits;
-use pendulum_atlas_core::config::{GpuKernelChoice, MapSpec, map_from_toml};
+use pendulum_atlas_core::config::{MapSpec, map_from_toml};
 use pendulum_atlas_core::engine::{EngineError, EngineRun, EnsemblePlan, Readback, no_progress};
 use pendulum_atlas_core::reduce::ReduceOptions;
 
 /// A small fixed-step map at N segments with `extra` TOML and `map` keys (metrics, axes), on
-/// the kernel `kernel`, without the early stop (which the cooperative kernel refuses).
+/// the kernel `kernel`, without the early stop (`sets` may turn it on).
 fn spec(
     n: usize,
     (method, duration_s): (&str, f64),
@@ -120,30 +121,112 @@ fn with_imex_the_workgroup_kernel_agrees_with_the_thread_kernel() {
     }
 }
 
-/// What the cooperative kernel does not do is refused by name, with the way out; `auto` runs
-/// the same plans on the thread kernel.
+/// Every metric, λ1 and the regime among them, on the cells of [`ALL_METRICS`].
+const TWIN_METRICS: &str = "metrics = [\"K\", \"R\", \"period\", \"hops\", \"alpha_range\", \
+\"lyapunov\", \"regime\"]\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\nvalues = [8.0, 11.0]\n\
+[[map.axes]]\nkey = \"excitation.amplitude_m\"\nvalues = [0.001, 0.012]\n";
+
+/// What the default map does: adaptive steps, λ1's twin and the early stop.
+const DEFAULT_MAP_WAY: [&str; 2] = ["integration.step=\"adaptive\"", "map.early_stop=true"];
+
+/// The default map's plane at a period-3 cell of its subharmonic tongue (8.44 Hz, 23.7 mm, which
+/// settles and stops early) and a chaotic one (11.1 Hz, 23.7 mm), λ1 over the last 12 s.
+const PLANE_CELLS: &str = "metrics = [\"K\", \"R\", \"period\", \"hops\", \"alpha_range\", \
+\"regime\", \"line\"]\nlyapunov_window_s = 12.0\n[[map.axes]]\nkey = \"excitation.frequency_hz\"\n\
+values = [8.444444444444445, 11.11111111111111]\n[[map.axes]]\nkey = \"excitation.amplitude_m\"\n\
+values = [0.023659574468085108]\n";
+
+/// With adaptive steps, λ1's twin and the early stop (the default map's way) and RK4, the
+/// cooperative kernel takes the thread kernel's sub-steps, twin and events: every result,
+/// stroboscopic sample and R sample is the same, bit for bit: at N = 3 on the default plane's
+/// cells (one stops early), and at N = 5 with the piezo on periodic and chaotic cells.
 #[test]
-fn the_workgroup_kernel_refuses_what_it_does_not_do_by_name() {
+fn with_adaptive_steps_lambda1_and_the_early_stop_the_workgroup_kernel_gives_the_same_bits() {
     if gpu().is_none() {
         return;
     }
-    let cases: [(&[&str], &str); 3] = [
-        (&["integration.step=\"adaptive\""], "adaptive steps"),
-        (&["map.metrics=[\"period\", \"lyapunov\"]"], "λ1"),
-        (&["map.early_stop=true"], "the early stop"),
+    let plane: Vec<&str> = ["integration.transient_s=10.0"]
+        .into_iter()
+        .chain(DEFAULT_MAP_WAY)
+        .collect();
+    let piezo = "[piezo]\nenabled = true";
+    let cases = [
+        (3, "", (34.0, PLANE_CELLS), plane.as_slice()),
+        (5, piezo, (16.0, TWIN_METRICS), DEFAULT_MAP_WAY.as_slice()),
     ];
-    for (sets, named) in cases {
-        let refused = spec_with(3, ("rk4", 20.0), ("", PERIODIC), "workgroup", sets);
-        assert_eq!(refused.gpu_kernel, GpuKernelChoice::Workgroup);
-        let e = run(&refused).expect_err("refused");
-        let m = e.to_string();
-        assert!(
-            matches!(e, EngineError::KernelRefuses { .. }) && m.contains(named),
-            "{sets:?}: {m}"
+    for (n, extra, (duration_s, map), sets) in cases {
+        let what = format!("N = {n}, {extra:?}");
+        let on = |kernel| {
+            run(&spec_with(
+                n,
+                ("rk4", duration_s),
+                (extra, map),
+                kernel,
+                sets,
+            ))
+        };
+        let (thread, group) = (
+            on("thread").expect("thread"),
+            on("workgroup").expect("workgroup"),
         );
-        assert!(m.contains("gpu.kernel = \"thread\""), "{m}");
-        let auto = spec_with(3, ("rk4", 20.0), ("", PERIODIC), "auto", sets);
-        assert!(run(&auto).is_ok(), "auto runs {named} on the thread kernel");
+        if n == 3 {
+            assert!(
+                thread.stopped_early > 0,
+                "{what}: the period-3 cell stops early"
+            );
+        }
+        assert_eq!(thread.stopped_early, group.stopped_early, "{what}");
+        assert_eq!(thread.sub_steps, group.sub_steps, "{what}: sub-steps");
+        for (i, (x, y)) in thread.results.iter().zip(&group.results).enumerate() {
+            assert_eq!((x.status, x.steps), (y.status, y.steps), "{what}, cell {i}");
+            assert!(
+                x.lyapunov_per_s.is_finite(),
+                "{what}, cell {i}: λ1 measured"
+            );
+            assert_eq!(bits(x), bits(y), "{what}, cell {i}: {x:?} vs {y:?}");
+        }
+        assert_eq!(thread.strobe, group.strobe, "{what}: stroboscopic samples");
+        assert_eq!(thread.r_series, group.r_series, "{what}: R series");
+    }
+}
+
+/// With IMEX, adaptive steps, λ1's twin and the early stop, the kernels round differently (as
+/// at fixed steps): on periodic cells the period and the regime are the same, λ1 is negative
+/// in both, and α's range agrees within 2e-5 rad.
+#[test]
+fn with_imex_adaptive_steps_and_lambda1_the_workgroup_kernel_agrees() {
+    if gpu().is_none() {
+        return;
+    }
+    let map = PERIODIC.replace(
+        "\"alpha_range\"]",
+        "\"alpha_range\", \"lyapunov\", \"regime\"]",
+    );
+    let on = |kernel| {
+        run(&spec_with(
+            3,
+            ("imex", 18.0),
+            ("", &map),
+            kernel,
+            &DEFAULT_MAP_WAY,
+        ))
+    };
+    let (thread, group) = (
+        on("thread").expect("thread"),
+        on("workgroup").expect("workgroup"),
+    );
+    for (i, (x, y)) in thread.results.iter().zip(&group.results).enumerate() {
+        assert_eq!(x.status, y.status, "cell {i}");
+        assert_eq!((x.period, x.regime), (y.period, y.regime), "cell {i}");
+        assert!(x.period.is_finite(), "cell {i}: periodic");
+        assert!(
+            x.lyapunov_per_s < 0.0 && y.lyapunov_per_s < 0.0,
+            "cell {i}: {x:?} vs {y:?}"
+        );
+        let gap = (x.alpha_min_rad - y.alpha_min_rad)
+            .abs()
+            .max((x.alpha_max_rad - y.alpha_max_rad).abs());
+        assert!(gap <= 2e-5, "cell {i}: α's range {gap:e} rad apart");
     }
 }
 

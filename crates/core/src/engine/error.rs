@@ -129,18 +129,6 @@ pub enum EngineError {
         /// The kernel's limit.
         max: usize,
     },
-    /// The GPU kernel asked for (`gpu.kernel`) does not do what the ensemble needs.
-    #[error(
-        "gpu.kernel = \"{kernel}\" does not do {what}: {remedy}, or set gpu.kernel = \"thread\" (or \"auto\")"
-    )]
-    KernelRefuses {
-        /// The kernel's name.
-        kernel: &'static str,
-        /// What it does not do.
-        what: &'static str,
-        /// How to leave it out.
-        remedy: &'static str,
-    },
     /// Adaptive steps to a tolerance below what f32 resolves.
     #[error(
         "integration.rtol = {rtol:e} is finer than f32 resolves (at least {floor:e}): every sub-step would be forced to the finest level, hundreds of times slower; run in f64 (--precision f64, the CPU engine) or set integration.rtol >= {floor:e}"

@@ -302,7 +302,9 @@ fn early_loops(plan: &EnsemblePlan, key: &KernelKey) -> (f64, f64) {
 /// every step again with a swap in and out (`twin_step`: one step and `2 N`), and at most once
 /// per step a saltation (`twin_saltation`: at most `6 N`) and a sample (`twin_sample`: `2 N`);
 /// per dispatch it is loaded and stored (`2 N`). The early stop adds `early` (per step,
-/// per dispatch: [`early_loops`]).
+/// per dispatch: [`early_loops`]). The cooperative kernel's lane 0 copies the state in for
+/// the health check (`2 N`) and for a step's events (at most `2 N` a step), and with the twin
+/// the twin in and out for the events (`4 N`) and for a saltation (`4 N`).
 fn steps_within_loop_budget(
     (method, adaptive, kernel): (Method, bool, GpuKernel),
     n: usize,
@@ -321,12 +323,12 @@ fn steps_within_loop_budget(
     } else {
         (one + early.0, early.1)
     };
-    // (The cooperative kernel's lane 0 copies the state in first: 2N more.)
-    let copy = if kernel == GpuKernel::Workgroup {
-        2.0 * n
-    } else {
-        0.0
+    let (copy, copy_per_step) = match (kernel, twin) {
+        (GpuKernel::Thread, _) => (0.0, 0.0),
+        (GpuKernel::Workgroup, false) => (2.0 * n, 2.0 * n),
+        (GpuKernel::Workgroup, true) => (2.0 * n, 10.0 * n),
     };
+    let per_step = per_step + copy_per_step;
     let health = 3.0 * n + levers as f64 + copy;
     let spare = SOFTWARE_LOOP_BUDGET as f64 - 2.0 * health - fixed;
     ((spare / (per_step + health / CHECK_EVERY as f64)) as u64).max(1)
@@ -352,14 +354,14 @@ fn loops_per_step(method: Method, n: usize, levers: usize) -> usize {
 /// lane, lane 0, which owns `k = ⌈N / lanes⌉` segments and runs every sweep: four `wg_rates`
 /// (levers + 4N each: the copy in, the two sweeps, the copy out) and `touch_flags` (levers),
 /// plus
-/// - RK4: the step loop (1) and five owner loops (5k): `16 N + 5 levers + 5 k + 1`;
+/// - RK4: the step loop (1) and six owner loops (6k): `16 N + 5 levers + 6 k + 1`;
 /// - IMEX: the step loop (1), four `wg_imex_eval` owner loops (4k), three
 ///   `wg_imex_implicit` (k (3N + i) + i for i = 1, 2, 3), the finish (4k + 4 + 4):
 ///   `16 N + 9 k N + 5 levers + 14 k + 15`.
 fn loops_per_step_workgroup(method: Method, n: usize, levers: usize) -> usize {
     let k = n.div_ceil(GpuKernel::lanes(n) as usize);
     match method {
-        Method::Rk4 => 16 * n + 5 * levers + 5 * k + 1,
+        Method::Rk4 => 16 * n + 5 * levers + 6 * k + 1,
         Method::Imex => 16 * n + 9 * k * n + 5 * levers + 14 * k + 15,
     }
 }
@@ -370,7 +372,10 @@ fn loops_per_step_workgroup(method: Method, n: usize, levers: usize) -> usize {
 /// `touch_flags` (levers): `2 N² + 8 N + levers + 4`. The same count bounds RK4(3)'s
 /// additions: `rk4_error` (two sweeps 2N, a derivative levers + 2N), k₄ kept (2N), k₁ handed
 /// on and kept (2N), `touch_flags` (levers), less the derivative of k₁ it no longer takes
-/// (levers + 2N), and once a dispatch `prime_k1` (4N + levers).
+/// (levers + 2N), and once a dispatch `prime_k1` (4N + levers). It bounds the cooperative
+/// kernel's additions on lane 0 too (k ≤ N segments a lane): RK4's error (`wg_rates`, 4N +
+/// levers, its max over the state, N), k₁ kept (k), `touch_flags` (levers); IMEX's error
+/// (owner loops 2kN + 6k, the max N, the piezo's 4) and `touch_flags`.
 fn adaptive_loops(n: usize, levers: usize, adaptive: bool) -> usize {
     if adaptive {
         2 * n * n + 8 * n + levers + 4

@@ -9,17 +9,14 @@
 //! the shader never carries its own copy of a rule or coefficient defined in Rust.
 
 use crate::config::GpuKernelChoice;
-use crate::engine::EngineError;
 use crate::engine::gpu::layout::{SCHED_LIVE, TWIN_BROKEN, TWIN_RUNNING};
 use crate::engine::imex::{AE, AI, B, B_HAT, C, GAMMA};
 use crate::engine::ladder::{self, GROW, MAX_LEVEL};
 use crate::engine::method::Method;
-use crate::engine::plan::EnsemblePlan;
 use crate::model::{CHECK_EVERY, ContactDamping, Status};
 use crate::reduce::Regime;
 use crate::reduce::lyapunov::LYAPUNOV_BLOCKS;
 use crate::reduce::regime::{REGIME_FLAT_PER_PERIOD, REGIME_K_CHAOS, REGIME_Z};
-use crate::schema::{Metric, Source};
 use std::fmt::Write;
 
 /// The stage files of the ensemble kernels, in assembly order: common definitions,
@@ -229,43 +226,14 @@ impl GpuKernel {
         }
     }
 
-    /// What of `plan` this kernel does not do, and how to leave it out (the thread kernel
-    /// does everything).
-    pub fn refusal(self, plan: &EnsemblePlan) -> Option<(&'static str, &'static str)> {
-        if self == GpuKernel::Thread {
-            return None;
-        }
-        if plan.is_adaptive() {
-            return Some(("adaptive steps", "set integration.step = \"fixed\""));
-        }
-        if Metric::any_from(&plan.metrics, Source::Twin) {
-            return Some((
-                "λ1 and the regime (λ1's twin)",
-                "leave lyapunov and regime out of map.metrics",
-            ));
-        }
-        if plan.early_stop.is_some() {
-            return Some(("the early stop", "set map.early_stop = false"));
-        }
-        None
-    }
-
-    /// The kernel `choice` names for `plan`: `auto` is the thread kernel until the hardware
-    /// lease measures where the workgroup kernel is faster (docs/bench/README.md); on
-    /// lavapipe the thread kernel is faster at every size measured. A kernel that does not do
-    /// what the plan asks is refused by name.
-    pub fn resolve(choice: GpuKernelChoice, plan: &EnsemblePlan) -> Result<GpuKernel, EngineError> {
-        let kernel = match choice {
+    /// The kernel `choice` names: `auto` is the thread kernel until the hardware lease
+    /// measures where the workgroup kernel is faster (docs/bench/README.md); on lavapipe the
+    /// thread kernel is faster at every size measured. Both kernels do everything an ensemble
+    /// asks for (adaptive steps, λ1's twin, the early stop).
+    pub fn resolve(choice: GpuKernelChoice) -> GpuKernel {
+        match choice {
             GpuKernelChoice::Auto | GpuKernelChoice::Thread => GpuKernel::Thread,
             GpuKernelChoice::Workgroup => GpuKernel::Workgroup,
-        };
-        match kernel.refusal(plan) {
-            Some((what, remedy)) => Err(EngineError::KernelRefuses {
-                kernel: kernel.name(),
-                what,
-                remedy,
-            }),
-            None => Ok(kernel),
         }
     }
 }

@@ -240,7 +240,7 @@ pub(crate) fn run_gpu(
     }
     let twin_d0 = plan.twin_separation(crate::engine::Precision::F32)?;
     let reduce = ReduceSettings::from_options(opts);
-    let kernel = GpuKernel::resolve(plan.gpu_kernel, plan)?;
+    let kernel = GpuKernel::resolve(plan.gpu_kernel);
     let key = KernelKey {
         runtime_checks: ctx.runtime_checks(),
         ..kernel_key(plan, &reduce, kernel)
