@@ -289,7 +289,7 @@ fn throughput(
 pub enum KernelArg {
     /// One invocation per instance.
     Thread,
-    /// One workgroup per instance (fixed steps only).
+    /// One workgroup per instance, its segments over the lanes.
     Workgroup,
 }
 

@@ -21,8 +21,8 @@ pub enum GpuKernelChoice {
     Auto,
     /// One invocation per instance: for ensembles that fill the device.
     Thread,
-    /// One workgroup per instance: for ensembles too small to fill it (fixed steps only;
-    /// refused with adaptive steps, λ1 and the early stop).
+    /// One workgroup per instance, its segments over the lanes: for ensembles too small to
+    /// fill it.
     Workgroup,
 }
 
