@@ -24,7 +24,8 @@
 # the same GPU, at most 80 s).
 # Each step is bounded by `timeout` (575 s in all); its log and results go under $OUT as they
 # finish, so a call cut short still brings back what it had: one tarball, gpu_lease.tar.gz,
-# plus GPU.md and the log to read at once.
+# plus GPU.md, AGREEMENT.md (benches/kernels_agree.py: the kernels' maps and GPU against CPU held
+# against each other, where numpy is) and the log to read at once.
 # Budget: one call of under 10 minutes on an H100 (the study's rows are each bounded by
 # --row-budget-s); give the call timeout_s 600.
 #
@@ -116,16 +117,12 @@ run() {
   # the thread kernel (auto's) and on the workgroup kernel.
   echo "== N = 17 default plane"
   local plane=(--set beam.segments=17 --set map.settle=false)
-  # --dry: the plumbing only, at N = 3 (N = 17 on a software adapter takes minutes even on 16
-  # cells), the workgroup kernel on 4 cells (lavapipe runs it far slower).
-  [ -z "$dry" ] || plane=(--set beam.segments=3 --set map.settle=false)
-  local tiny=(--set 'map.axes=[{key="excitation.frequency_hz",start=11.0,end=12.0,count=2},{key="excitation.amplitude_m",start=0.004,end=0.025,count=2}]')
-  local kernel cells
+  # --dry: the plumbing only (N = 17 on a software adapter takes minutes even on 16 cells).
+  [ -z "$dry" ] || plane=(--set beam.segments=3 --set map.settle=false "${small[@]}")
+  local kernel
   for kernel in thread workgroup; do
-    cells=()
-    [ -z "$dry" ] || { [ "$kernel" = thread ] && cells=("${small[@]}") || cells=("${tiny[@]}"); }
     SECONDS=0
-    timeout 90 "$bin" map --backend gpu "${plane[@]}" "${cells[@]}" --set "gpu.kernel=\"$kernel\"" \
+    timeout 90 "$bin" map --backend gpu "${plane[@]}" --set "gpu.kernel=\"$kernel\"" \
       --out "$work/plane17_$kernel" --force || echo "N = 17 plane ($kernel kernel): rc $?"
     echo "N = 17 plane, $kernel kernel: ${SECONDS} s"
   done
@@ -164,6 +161,16 @@ run() {
     rm -f "$work/peers/rk4_chain"
     echo "peers: ${SECONDS} s"
     pack
+  fi
+  # The maps held against each other (the kernels' agreement, GPU against CPU), where numpy
+  # is (JAX's machine has it; otherwise run the script on the unpacked folder).
+  if python3 -c "import numpy" 2>/dev/null; then
+    python3 benches/kernels_agree.py "$work" > "$work/AGREEMENT.md" || echo "agreement: rc $?"
+    cp "$work/AGREEMENT.md" "$out/AGREEMENT.md"
+    cat "$work/AGREEMENT.md"
+    pack
+  else
+    echo "agreement: no numpy here; benches/kernels_agree.py DIR on the unpacked folder"
   fi
   ls -la "$out"
   if [ "$peers_rc" -ne 0 ]; then
@@ -270,8 +277,10 @@ unpack() {
   for d in "$tmp"/gpu*/; do cp -r "$d" "$dest/$(basename "$d")"; done
   [ -d "$tmp/peers" ] && cp -r "$tmp/peers" "$dest/peers"
   [ -d "$tmp/map" ] && cp "$tmp/map/map.json" "$dest/default_map.json"
-  [ -d "$tmp/plane17" ] && cp -r "$tmp/plane17" "$dest/plane17"
-  for d in "$tmp"/parity_*/; do cp -r "$d" "$dest/$(basename "$d")"; done
+  [ -f "$tmp/AGREEMENT.md" ] && cp "$tmp/AGREEMENT.md" "$dest/AGREEMENT.md"
+  for d in "$tmp"/plane17_*/ "$tmp"/parity_*/; do
+    [ -d "$d" ] && cp -r "$d" "$dest/$(basename "$d")"
+  done
   cp "$tmp/adapters.txt" "$dest/adapters.txt"
   find "$dest" -name .pendulum-atlas.lock -delete   # the run's folder locks, not results
   rm -rf "$tmp"
