@@ -232,18 +232,26 @@ fn with_imex_adaptive_steps_and_lambda1_the_workgroup_kernel_agrees() {
 }
 
 /// The cooperative kernel built with wgpu's runtime checks gives the same bits as the trusted
-/// build (every index in range by construction: `GpuContext::module`), with both methods.
+/// build (every index in range by construction: `GpuContext::module`), with both methods, at
+/// fixed steps and with adaptive steps, λ1's twin and the early stop.
 #[test]
 fn the_workgroup_kernel_gives_the_same_bits_with_runtime_checks() {
     let (Some(trusted), Some(checked)) = (gpu(), super::gpu_checked()) else {
         return;
     };
-    for method in ["rk4", "imex"] {
-        let spec = spec(
+    // IMEX at fixed steps; RK4 the default map's way, with λ1.
+    let with_twin = PERIODIC.replace("\"alpha_range\"]", "\"alpha_range\", \"lyapunov\"]");
+    let cases: [(&str, &str, &[&str]); 2] = [
+        ("imex", PERIODIC, &[]),
+        ("rk4", &with_twin, &DEFAULT_MAP_WAY),
+    ];
+    for (method, map, sets) in cases {
+        let spec = spec_with(
             3,
             (method, 8.0),
-            ("[piezo]\nenabled = true", PERIODIC),
+            ("[piezo]\nenabled = true", map),
             "workgroup",
+            sets,
         );
         let plan = EnsemblePlan::new(&spec).expect("plan");
         let opts = ReduceOptions::from_spec(&spec);
@@ -257,8 +265,18 @@ fn the_workgroup_kernel_gives_the_same_bits_with_runtime_checks() {
         let b = checked
             .run(&plan, &opts, readback, &no_progress)
             .expect("checked");
+        assert_eq!(
+            a.sub_steps.is_some(),
+            !sets.is_empty(),
+            "{method}: adaptive"
+        );
         for (i, (x, y)) in a.results.iter().zip(&b.results).enumerate() {
             assert_eq!(bits(x), bits(y), "{method}, cell {i}: {x:?} vs {y:?}");
+            assert_eq!(
+                x.lyapunov_per_s.is_finite(),
+                !sets.is_empty(),
+                "{method}: λ1"
+            );
         }
         assert_eq!(a.strobe, b.strobe, "{method}: stroboscopic samples");
     }
