@@ -109,7 +109,7 @@ run() {
   [ -z "$dry" ] || study=(--no-cpu --segments 3 --max-instances 1000 --row-budget-s 2 --kernels thread,workgroup)
   echo "== bench --throughput ${study[*]}"
   SECONDS=0
-  timeout 170 "$bin" bench --throughput "${study[@]}" --out "$work/gpu" --force || echo "study: rc $?"
+  timeout 200 "$bin" bench --throughput "${study[@]}" --out "$work/gpu" --force || echo "study: rc $?"
   echo "study: ${SECONDS} s"
   [ -f "$work/gpu/GPU.md" ] && cp "$work/gpu/GPU.md" "$out/GPU.md"
   pack
@@ -122,7 +122,7 @@ run() {
   local kernel
   for kernel in thread workgroup; do
     SECONDS=0
-    timeout 90 "$bin" map --backend gpu "${plane[@]}" --set "gpu.kernel=\"$kernel\"" \
+    timeout 80 "$bin" map --backend gpu "${plane[@]}" --set "gpu.kernel=\"$kernel\"" \
       --out "$work/plane17_$kernel" --force || echo "N = 17 plane ($kernel kernel): rc $?"
     echo "N = 17 plane, $kernel kernel: ${SECONDS} s"
   done
@@ -146,7 +146,7 @@ run() {
     --set 'map.metrics=["K","R","period","hops","impacts_per_s","alpha_range"]')
   for kernel in thread workgroup; do
     SECONDS=0
-    timeout 25 "$bin" map --backend gpu "${parity[@]}" "${fixed[@]}" --set "gpu.kernel=\"$kernel\"" \
+    timeout 20 "$bin" map --backend gpu "${parity[@]}" "${fixed[@]}" --set "gpu.kernel=\"$kernel\"" \
       --out "$work/parity_fixed_$kernel" --force || echo "fixed-step map ($kernel kernel): rc $?"
     echo "fixed-step map, $kernel kernel: ${SECONDS} s"
   done
