@@ -165,10 +165,15 @@ run() {
   # The maps held against each other (the kernels' agreement, GPU against CPU), where numpy
   # is (JAX's machine has it; otherwise run the script on the unpacked folder).
   if python3 -c "import numpy" 2>/dev/null; then
-    python3 benches/kernels_agree.py "$work" > "$work/AGREEMENT.md" || echo "agreement: rc $?"
-    cp "$work/AGREEMENT.md" "$out/AGREEMENT.md"
-    cat "$work/AGREEMENT.md"
-    pack
+    # (Into a temporary file first: a report cut short is not left as AGREEMENT.md.)
+    if python3 benches/kernels_agree.py "$work" > "$work/agreement.tmp"; then
+      mv "$work/agreement.tmp" "$work/AGREEMENT.md"
+      cp "$work/AGREEMENT.md" "$out/AGREEMENT.md"
+      cat "$work/AGREEMENT.md"
+      pack
+    else
+      echo "agreement: rc $?"
+    fi
   else
     echo "agreement: no numpy here; benches/kernels_agree.py DIR on the unpacked folder"
   fi

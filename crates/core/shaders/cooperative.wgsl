@@ -597,8 +597,8 @@ fn wg_substep(lane: u32, ph: u32, twin_on: bool, l: ptr<function, Ladder>) -> bo
     return true;
 }
 
-// touch_flags at the step's state, from the sines its owners took, on every lane (cheap, and
-// the same everywhere, but broadcast for uniformity).
+// touch_flags at the step's state, from the sines its owners took, on every lane (after a
+// barrier; adaptive steps broadcast it, since the ladder every lane keeps holds it).
 fn wg_touch_flags() -> u32 {
     if !HAS_CONTACT {
         return 0u;
@@ -763,7 +763,8 @@ fn integrate_wg(
             lad.onsets = 0u;
         } else {
             wg_step(lane, ph, dt);
-            now = wg_share(lane, wg_touch_flags());
+            // (Lane 0's alone counts: accumulate and the saltation's check run there.)
+            now = wg_touch_flags();
             onsets = countOneBits(now & ~a.touch);
             if twin_on {
                 wg_twin_step(lane, ph, 0.0, 1.0, dt);
