@@ -32,8 +32,8 @@ enum Study {
     /// 1000 s and 2000 s at rtol 1e-6, and 1000 s at 1e-7), then the map's settings (duration,
     /// λ1 window, float type, engine, which indicators decide) scored against it, the whole
     /// map's cost with and without the verdict, the reliability of its confidence and settling
-    /// (writes VERDICT.md and verdict.json; about half an hour on 2 cores, `--quick` two
-    /// minutes, `--reference-from` minutes).
+    /// (writes VERDICT.md and verdict.json; about half an hour on 2 cores, `--quick` ten
+    /// seconds, `--reference-from` minutes).
     Verdict {
         /// The plane: `forcing` (the default map), `clearance` (frequency × the bumpers'
         /// clearance at 9 mm) or `piezo` (the forcing plane with the patch harvesting).
@@ -47,8 +47,8 @@ enum Study {
         /// no hardware GPU).
         #[arg(long)]
         gpu: bool,
-        /// A tenth of the reference and a quarter of the grid: a test of the study, not a
-        /// result.
+        /// A twentieth of the reference, a 4 × 3 subgrid, and the map scored and settled at
+        /// every 8th value instead of the whole plane: a test of the study, not a result.
         #[arg(long)]
         quick: bool,
         #[command(flatten)]

@@ -43,17 +43,17 @@ fn the_verdict_study_scores_candidates_on_the_settled_cells_of_its_reference() {
     )
     .expect("study");
     let f = &r.reference;
-    // The default map's 64 x 48 grid at every 8th value.
-    assert_eq!((r.shape, f.cells), ([8, 6], 48));
-    assert_eq!(f.regime.len(), 48);
-    assert_eq!(f.counts.iter().sum::<usize>(), 48);
+    // The default map's 64 x 48 grid at every 16th value.
+    assert_eq!((r.shape, f.cells), ([4, 3], 12));
+    assert_eq!(f.regime.len(), 12);
+    assert_eq!(f.counts.iter().sum::<usize>(), 12);
     assert_eq!(f.settled, f.is_settled.iter().filter(|s| **s).count());
-    assert!(f.settled + f.changed <= 48, "{f:?}");
+    assert!(f.settled + f.changed <= 12, "{f:?}");
     // Subgrid A's reference checks its steps as well as its length; B's its length only.
-    assert!(f.tightened.is_some_and(|n| n <= 48), "{f:?}");
+    assert!(f.tightened.is_some_and(|n| n <= 12), "{f:?}");
     assert_eq!(r.second.tightened, None);
     for s in &r.scores {
-        assert_eq!((s.settled, s.cells), (f.settled, 48));
+        assert_eq!((s.settled, s.cells), (f.settled, 12));
         assert!(
             s.agree <= s.settled && s.period_right <= s.periodic,
             "{s:?}"
@@ -213,7 +213,7 @@ fn the_verdict_study_scores_candidates_on_the_settled_cells_of_its_reference() {
         reference_durations(false),
     )
     .expect_err("another subgrid");
-    assert!(full.to_string().contains("every 8th value"), "{full}");
+    assert!(full.to_string().contains("every 16th value"), "{full}");
     std::fs::remove_dir_all(&dir).ok();
 }
 
