@@ -191,10 +191,10 @@ count = 3
 "#;
     let timing = "[integration]\nduration_s = 28.0\ntransient_s = 4.0";
     let spec = tiny_map(under, timing, axes);
-    let Some(run) = map_on(under, &spec) else {
+    let Some(run) = under.map(&spec) else {
         return;
     };
-    let reference = map_on(under.reference(), &spec).expect("cpu map");
+    let reference = under.reference_map(&spec);
     // Twins of the reference started 1e-3 and 2e-3 deg (1.7e-5, 3.5e-5 rad) off the bumper
     // (a start beyond it is refused): a cell whose K class
     // a twin changes is sensitive to perturbations (chaos near the class boundary, coexisting
@@ -204,7 +204,7 @@ count = 3
     // Before the state updates were compensated sums, f32 drifted systematically over the
     // ~4e5 steps of a 28-s IMEX run and two robust chaotic cells came out regular on both
     // f32 engines. Parity is judged on the cells both twins keep in class.
-    let twins: Vec<MapRun> = ["19.999", "19.998"]
+    let twins: Vec<_> = ["19.999", "19.998"]
         .iter()
         .map(|angle| {
             let spec = tiny_map(
@@ -212,7 +212,7 @@ count = 3
                 &format!("{timing}\n[initial]\nangle_deg = {angle}"),
                 axes,
             );
-            map_on(under.reference(), &spec).expect("cpu map")
+            under.reference_map(&spec)
         })
         .collect();
     let class = |k: f64| k > 0.5;
@@ -256,10 +256,10 @@ pub fn diverging_instances_are_flagged_like_on_the_f64_cpu_engine(under: Under) 
         "[integration]\nduration_s = 13.0\ntransient_s = 1.0\ndt_s = 8e-4",
         &format!("metrics = [\"K\", \"R\", \"hops\"]\n{axes}"),
     );
-    let Some(run) = map_on(under, &spec) else {
+    let Some(run) = under.map(&spec) else {
         return;
     };
-    let reference = map_on(under.reference(), &spec).expect("cpu map");
+    let reference = under.reference_map(&spec);
     let statuses: Vec<Status> = run.results.iter().map(|r| r.status).collect();
     let expected: Vec<Status> = reference.results.iter().map(|r| r.status).collect();
     // The same instances fail; which guard trips first (a non-finite number or the escape

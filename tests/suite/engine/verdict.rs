@@ -263,10 +263,10 @@ fn verdict_map(under: Under) -> MapSpec {
 
 pub fn lyapunov_agrees_with_the_f64_cpu_engine(under: Under) {
     let spec = verdict_map(under);
-    let Some(run) = map_on(under, &spec) else {
+    let Some(run) = under.map(&spec) else {
         return;
     };
-    let reference = map_on(under.reference(), &spec).expect("cpu map");
+    let reference = under.reference_map(&spec);
     for (k, (a, b)) in reference.results.iter().zip(&run.results).enumerate() {
         let (la, lb) = (a.lyapunov_per_s, b.lyapunov_per_s);
         let at = format!(
@@ -322,7 +322,7 @@ pub fn lyapunov_does_not_depend_on_the_separation_across_decades(under: Under) {
 
 pub fn the_verdict_follows_the_rule_on_the_engines_own_numbers(under: Under) {
     let spec = verdict_map(under);
-    let Some(run) = map_on(under, &spec) else {
+    let Some(run) = under.map(&spec) else {
         return;
     };
     for (k, (r, p)) in run.results.iter().zip(&run.plan.instances).enumerate() {
