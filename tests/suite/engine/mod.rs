@@ -86,7 +86,9 @@ impl Under {
     /// reference maps, and several cases read the same map of one engine. A case that asks
     /// for a map another case is running waits for it. The key is the engine and method with
     /// the whole validated spec (its `Debug` text), so two cases share a map only when it is
-    /// the same map on the same engine.
+    /// the same map on the same engine. On the reference engine a parity case therefore
+    /// compares the reference with itself: there it checks only its own conditions (enough
+    /// cells robust to the twins), where before it also met a second run of the scalar loop.
     pub fn map(self, spec: &MapSpec) -> Option<Arc<MapRun>> {
         type Memo = Mutex<HashMap<String, Arc<OnceLock<Arc<MapRun>>>>>;
         static MEMO: OnceLock<Memo> = OnceLock::new();
@@ -165,9 +167,10 @@ macro_rules! engine_method {
 
 /// The same tests as [`engine_suite`] on every engine but the GPU with IMEX, for the cases
 /// whose subject sits above the integration (λ1's run-length and separation checks, the early
-/// stop): on lavapipe the cases took 726 s of test time with
-/// IMEX against 62 s with RK4 (the CPU engine: 264 s against 72 s), and these five took 417 s
-/// of the suite's 1965 s of test time on the GPU with IMEX. The GPU's IMEX numbers are held to
+/// stop): on lavapipe the cases took 726 s of test time with IMEX against 62 s with RK4 (the
+/// CPU engine: 264 s against 72 s), and the five cases this set then held (refinement and
+/// the basin picture with these three) took 417 s of the suite's 1965 s of test time on the
+/// GPU with IMEX. The GPU's IMEX numbers are held to
 /// the f64 CPU engine's by the parity cases that stay on it (`maps_agree_…`,
 /// `lyapunov_agrees_…`, the adaptive suite's early stop and bistable cell), and the subjects
 /// themselves to every other engine by these.
