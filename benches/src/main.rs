@@ -14,7 +14,8 @@ use pendulum_atlas_lab::verdict::{
     Kept, Plane, VerdictOptions, reference_durations, run_verdict, thinning,
 };
 use pendulum_atlas_lab::verdict_report::write_verdict;
-use pendulum_atlas_map::output::folder::{LOCK_FILE, Product};
+use pendulum_atlas_map::output::folder::Product;
+use pendulum_atlas_map::output::process;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -154,29 +155,28 @@ fn run(study: Study) -> anyhow::Result<()> {
 }
 
 /// Run `work` with `out` claimed for `product` (locked; with `--force`, an earlier run's files
-/// set aside, deleted once `work` succeeds and put back when it fails).
+/// set aside, deleted once `work` succeeds and put back when it fails or Ctrl-C stops it, as
+/// the command line does: `output::process`).
 fn in_out(
     product: Product,
     out: &Out,
     inputs: &[&Path],
     work: impl FnOnce() -> anyhow::Result<()>,
 ) -> anyhow::Result<()> {
-    product.refuse_inputs(&out.out, inputs)?;
-    let created = !out.out.exists();
-    let (lock, earlier) = product.claim(&out.out, out.force)?;
-    let result = work();
-    drop(lock);
-    match (result, earlier) {
-        (Ok(()), Some(e)) => e.keep().context("deleting the earlier run's files"),
-        (Ok(()), None) => Ok(()),
-        (Err(err), earlier) => {
-            if let Some(e) = earlier {
-                let _ = e.undo();
-            }
-            if created {
-                // A refused or failed study leaves no folder of its own behind.
-                let _ = std::fs::remove_file(out.out.join(LOCK_FILE));
-                let _ = std::fs::remove_dir(&out.out);
+    let stopped = ctrlc::set_handler(|| {
+        process::abandon();
+        eprintln!("\ninterrupted by Ctrl-C: nothing of this run is kept");
+        std::process::exit(130);
+    });
+    if let Err(e) = stopped {
+        eprintln!("warning: Ctrl-C will end the study without cleaning up: {e}");
+    }
+    process::claim(product, &out.out, out.force, inputs)?;
+    match work() {
+        Ok(()) => process::keep().context("deleting the earlier run's files"),
+        Err(err) => {
+            if let Some(said) = process::abandon() {
+                eprintln!("{said}");
             }
             Err(err)
         }

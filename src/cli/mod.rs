@@ -96,50 +96,19 @@ pub enum Command {
     Explore(explore::ExploreArgs),
 }
 
-/// The output folder this process created when it claimed it (none when it existed before).
-static CREATED_OUT: std::sync::Mutex<Option<std::path::PathBuf>> = std::sync::Mutex::new(None);
-
-/// The earlier run of the command's output folder, set aside by `--force` until the run ends.
-static EARLIER: std::sync::Mutex<Option<pendulum_atlas_map::output::earlier::Replacement>> =
-    std::sync::Mutex::new(None);
-
 /// After a command that completed (exit status 0, or 3 for a run that wrote its files but
 /// failed): delete the earlier run that `--force` set aside.
 pub fn keep_out() {
-    if let Some(earlier) = EARLIER.lock().unwrap_or_else(|e| e.into_inner()).take()
-        && let Err(e) = earlier.keep()
-    {
+    if let Err(e) = pendulum_atlas_map::output::process::keep() {
         tell!("warning: the earlier run's files set aside by --force stay aside: {e}");
     }
 }
 
-/// After a failed command: put back the earlier run that `--force` set aside (the files this
-/// run wrote deleted), and remove the output folder it created, when nothing but its lock
-/// file is in it, so that a failed run leaves no empty folder behind. A folder that existed
-/// before, or that holds anything else, is left as it is.
+/// After a failed command: put back the earlier run that `--force` set aside, or delete what
+/// the run wrote into a folder it created (`output::process::abandon`).
 pub fn abandon_out() {
-    if let Some(earlier) = EARLIER.lock().unwrap_or_else(|e| e.into_inner()).take() {
-        let count = earlier.count();
-        match earlier.undo() {
-            Ok(()) => tell!("the earlier run's {count} file(s) in --out are kept as they were"),
-            Err(e) => tell!("warning: the earlier run's files could not all be put back: {e}"),
-        }
-    }
-    let Some(dir) = CREATED_OUT.lock().unwrap_or_else(|e| e.into_inner()).take() else {
-        return;
-    };
-    let Ok(entries) = std::fs::read_dir(&dir) else {
-        return;
-    };
-    let names: Vec<std::ffi::OsString> = entries
-        .filter_map(|e| e.ok().map(|e| e.file_name()))
-        .collect();
-    if names
-        .iter()
-        .all(|n| n == pendulum_atlas_map::output::folder::LOCK_FILE)
-    {
-        let _ = std::fs::remove_file(dir.join(pendulum_atlas_map::output::folder::LOCK_FILE));
-        let _ = std::fs::remove_dir(&dir);
+    if let Some(said) = pendulum_atlas_map::output::process::abandon() {
+        tell!("{said}");
     }
 }
 
@@ -150,50 +119,75 @@ fn claim_out(product: Product, out: &Path, force: bool) -> anyhow::Result<()> {
 }
 
 /// [`claim_out`] for a command that reads `inputs`, refused when one of them would be
-/// deleted or overwritten as an output.
+/// deleted or overwritten as an output. From here on, Ctrl-C stops the command cleanly
+/// ([`catch_interrupts`]).
 fn claim_out_reading(
     product: Product,
     out: &Path,
     force: bool,
     inputs: &[&Path],
 ) -> anyhow::Result<()> {
-    product.refuse_inputs(out, inputs)?;
-    let created = !out.exists();
-    let (lock, earlier) = product.claim(out, force)?;
-    if created {
-        *CREATED_OUT.lock().unwrap_or_else(|e| e.into_inner()) = Some(out.to_path_buf());
-    }
-    // Held until the process ends: no other run writes into `out` meanwhile.
-    std::mem::forget(lock);
-    if let Some(earlier) = earlier {
+    install_interrupt_handler();
+    let aside = pendulum_atlas_map::output::process::claim(product, out, force, inputs)?;
+    if aside > 0 {
         tell!(
-            "--force: {} file(s) of an earlier `{}` run in {} set aside, deleted once this run is complete",
-            earlier.count(),
+            "--force: {aside} file(s) of an earlier `{}` run in {} set aside, deleted once this run is complete",
             product.command(),
             out.display()
         );
-        *EARLIER.lock().unwrap_or_else(|e| e.into_inner()) = Some(earlier);
     }
     Ok(())
 }
 
-/// Set by the first Ctrl-C: the engines stop at their next progress report and the run fails
-/// as cancelled (an earlier run that `--force` set aside is put back); a second Ctrl-C ends
-/// the process at once (the next run into the folder puts the earlier run back).
+/// Set by the first Ctrl-C. In a command whose engines stop at their next progress report
+/// ([`catch_interrupts`]: map, simulate, calibrate), the run then fails as cancelled; in the
+/// others, and on a second Ctrl-C, the handler abandons the output folder itself and ends the
+/// process. Either way the exit status is 130 and nothing of the run is kept, an earlier run
+/// that `--force` set aside coming back.
 static INTERRUPTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
-/// Catch Ctrl-C for [`INTERRUPTED`]: called by the commands whose engines report progress
-/// (map, simulate, calibrate), before they claim their folder; the others end at once.
+/// Whether the command's engines stop on [`INTERRUPTED`] by themselves.
+static COOPERATIVE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Let Ctrl-C stop this command's engines at their next progress report: called by the
+/// commands whose engines report progress (map, simulate, calibrate), before they claim their
+/// folder.
 fn catch_interrupts() {
-    let caught = ctrlc::set_handler(|| {
-        if INTERRUPTED.swap(true, std::sync::atomic::Ordering::SeqCst) {
-            std::process::exit(130);
+    COOPERATIVE.store(true, std::sync::atomic::Ordering::SeqCst);
+    install_interrupt_handler();
+}
+
+/// The Ctrl-C handler of [`INTERRUPTED`], installed once.
+fn install_interrupt_handler() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        if let Err(e) = ctrlc::set_handler(on_interrupt) {
+            tell!("warning: Ctrl-C will end the process without cleaning up: {e}");
         }
-        eprintln!("\ninterrupted: stopping at the next step (Ctrl-C again quits at once)");
     });
-    if let Err(e) = caught {
-        tell!("warning: Ctrl-C will end the process without cleaning up: {e}");
+}
+
+/// What Ctrl-C does (see [`INTERRUPTED`]).
+fn on_interrupt() {
+    use std::sync::atomic::Ordering::SeqCst;
+    let again = INTERRUPTED.swap(true, SeqCst);
+    if COOPERATIVE.load(SeqCst) && !again {
+        eprintln!("\ninterrupted: stopping at the next step (Ctrl-C again quits at once)");
+        return;
     }
+    abandon_out();
+    eprintln!("\ninterrupted by Ctrl-C: nothing of this run is kept");
+    std::process::exit(130);
+}
+
+/// Fail the command as interrupted once Ctrl-C was pressed: `main` exits 130, and what this
+/// run wrote goes, an earlier run that `--force` set aside coming back ([`abandon_out`]).
+/// Called where a run that an engine stopped early would otherwise be saved as complete.
+fn stop_if_interrupted(what: &str) -> anyhow::Result<()> {
+    if interrupted() {
+        anyhow::bail!("interrupted by Ctrl-C {what}: nothing of this run is kept");
+    }
+    Ok(())
 }
 
 /// Whether Ctrl-C was pressed.

@@ -4,7 +4,8 @@ use super::SceneArgs;
 use indicatif::{ProgressBar, ProgressStyle};
 use pendulum_atlas_core::config::{MapSpec, Scene, StepControl, read_scene_file};
 use pendulum_atlas_core::engine::{
-    Integrator, Outcome, Precision as EnginePrecision, RunLyapunov, SceneRun, StepPlan, run_scene,
+    EnsemblePlan, Integrator, Outcome, Precision as EnginePrecision, RunLyapunov, SceneRun,
+    StepPlan, run_scene,
 };
 use pendulum_atlas_core::model::Status;
 use pendulum_atlas_core::text::num;
@@ -79,6 +80,13 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
         );
     }
     let (scene, cell) = load_cell_scene(&a.scene)?;
+    if let Some(spec) = &cell {
+        // The cell's map is planned before any step, so that a `[cell]` its run cannot serve
+        // (too short for the 0–1 test's samples, say) is refused now, not after the run.
+        EnsemblePlan::new(spec).map_err(|e| {
+            anyhow::anyhow!("the scene's [cell] (its map's values of this cell) cannot run: {e}")
+        })?;
+    }
     let m = scene.modes()?;
     let plan = StepPlan::for_scene(&scene)?;
     let f32 = a.precision == Some(Precision::F32);
@@ -89,6 +97,10 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
     super::claim_out_reading(Product::Simulate, &a.out, a.force, &inputs)?;
     announce(&plan, a.integrator, &size);
     let (rec, run, wall) = integrate_with_progress(&a, &scene, &plan)?;
+    super::stop_if_interrupted(&format!(
+        "at step {} of {}",
+        run.outcome.steps_done, plan.steps
+    ))?;
     let csv_path = a.out.join("trajectory.csv");
     write_trajectory_csv(&csv_path, &rec.rows, piezo.is_some())?;
     let mut warnings = run_warnings(&plan, &run.outcome);
@@ -122,6 +134,7 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<()> {
         say_map_cell(&values);
         report.map_cell = Some(values);
     }
+    super::stop_if_interrupted("while the run's files were written")?;
     // The manifest last: its presence means the folder is complete.
     write_json(&a.out.join("run.json"), &report)?;
     if let RunLyapunov::Measured {

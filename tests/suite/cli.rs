@@ -1299,3 +1299,203 @@ fn a_cell_section_with_a_key_it_does_not_take_is_refused() {
     assert!(e.contains("cell.axes") && e.contains("k_seed"), "{e}");
     assert!(!out.join("sim").exists(), "nothing is written");
 }
+
+/// The packages `cargo run` at the workspace root chooses among (the root's `default-members`)
+/// and the `default-run` each names, read from their manifests as Cargo reads them.
+fn default_runs() -> Vec<(String, Option<String>)> {
+    let read = |p: &str| -> toml::Table {
+        toml::from_str(&std::fs::read_to_string(p).unwrap()).unwrap_or_else(|e| panic!("{p}: {e}"))
+    };
+    let root = read("Cargo.toml");
+    let members = root["workspace"]["default-members"].as_array().unwrap();
+    let mut runs = Vec::new();
+    for m in members {
+        let pattern = m.as_str().unwrap();
+        let dirs: Vec<std::path::PathBuf> = match pattern.strip_suffix("/*") {
+            Some(parent) => std::fs::read_dir(parent)
+                .unwrap()
+                .map(|e| e.unwrap().path())
+                .filter(|p| p.join("Cargo.toml").is_file())
+                .collect(),
+            None => vec![std::path::PathBuf::from(pattern)],
+        };
+        for d in dirs {
+            let manifest = read(d.join("Cargo.toml").to_str().unwrap());
+            let package = manifest["package"].as_table().unwrap();
+            let run = package
+                .get("default-run")
+                .and_then(|v| v.as_str())
+                .map(String::from);
+            runs.push((package["name"].as_str().unwrap().to_string(), run));
+        }
+    }
+    runs
+}
+
+/// The README's main command, `cargo run --release -- map`, names no binary: Cargo takes the
+/// one `default-run` among the default members, and fails on a fresh clone when there is none
+/// and two of them have binaries (the lab's `pendulum-atlas-lab` beside the command line).
+/// `.ci/run` runs the command as written too.
+#[test]
+fn the_readme_main_command_runs_the_command_line_on_a_fresh_clone() {
+    let readme = std::fs::read_to_string("README.md").unwrap();
+    assert!(
+        readme.contains("\ncargo run --release -- map\n"),
+        "the README's main command changed: update this test and .ci/run"
+    );
+    let ci = std::fs::read_to_string(".ci/run").unwrap();
+    assert!(
+        ci.lines().any(|l| l.trim() == "cargo run --release -- map"),
+        ".ci/run does not run the README's main command as written"
+    );
+    let named: Vec<(String, String)> = default_runs()
+        .into_iter()
+        .filter_map(|(p, r)| r.map(|r| (p, r)))
+        .collect();
+    assert_eq!(
+        named,
+        vec![("pendulum-atlas".to_string(), "pendulum-atlas".to_string())],
+        "exactly one default member may name a default-run, the command line's binary"
+    );
+}
+
+/// Every file of `dir` (the lock aside) with its bytes, sorted by name; hidden folders count
+/// as names.
+fn snapshot(dir: &std::path::Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap())
+        .filter(|e| e.file_name() != ".pendulum-atlas.lock")
+        .map(|e| {
+            let name = e.file_name().to_string_lossy().into_owned();
+            (name, std::fs::read(e.path()).unwrap_or_default())
+        })
+        .collect();
+    files.sort();
+    files
+}
+
+/// Start `args`, wait until `ready` holds (the command has claimed its folder), let it work
+/// for `work`, send it SIGINT as Ctrl-C does, and return its exit code and stderr.
+fn interrupt(
+    args: &[&str],
+    out: &std::path::Path,
+    ready: impl Fn() -> bool,
+    work: std::time::Duration,
+) -> (Option<i32>, String) {
+    let child = bin()
+        .args(args)
+        .arg("--out")
+        .arg(out)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    while !ready() {
+        assert!(
+            t0.elapsed().as_secs() < 120,
+            "the command never claimed {out:?}"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    std::thread::sleep(work);
+    let killed = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let o = child.wait_with_output().unwrap();
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// Ctrl-C while `simulate` integrates: exit 130, nothing of the truncated run kept, and the
+/// earlier run that `--force` set aside back as it was (issue 71: the truncated run was saved
+/// as a complete one, status "ok", exit 0).
+#[test]
+fn ctrl_c_on_simulate_keeps_nothing_and_puts_the_earlier_run_back() {
+    let out = out_dir("ctrl-c-simulate");
+    let scene = ["simulate", "configs/paper.toml", "--set", "beam.segments=3"];
+    let earlier = bin()
+        .args(scene)
+        .args(["--set", "integration.duration_s=0.5", "--out"])
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(earlier.success());
+    let before = snapshot(&out);
+    let aside = out.join(".pendulum-atlas.earlier");
+    let long = [
+        &scene[..],
+        &[
+            "--set",
+            "integration.duration_s=5000",
+            "--set",
+            "output.sample_rate_hz=10",
+        ],
+        &["--force"],
+    ]
+    .concat();
+    let (code, e) = interrupt(
+        &long,
+        &out,
+        || aside.exists(),
+        std::time::Duration::from_millis(700),
+    );
+    assert_eq!(code, Some(130), "{e}");
+    assert!(e.contains("nothing of this run is kept"), "{e}");
+    assert_eq!(
+        snapshot(&out),
+        before,
+        "the earlier run, whole, and nothing else"
+    );
+    // In a new folder, nothing at all stays.
+    let fresh = out_dir("ctrl-c-simulate-new");
+    let lock = fresh.join(".pendulum-atlas.lock");
+    let (code, e) = interrupt(
+        &long[..long.len() - 1],
+        &fresh,
+        || lock.exists(),
+        std::time::Duration::from_millis(700),
+    );
+    assert_eq!(code, Some(130), "{e}");
+    assert!(!fresh.exists(), "{:?}", snapshot(&fresh));
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// Ctrl-C in a command whose engines do not poll for it (`reproduce` here; `search`,
+/// `analyze` and `bench` take the same handler when they claim their folder): exit 130, an
+/// earlier run that `--force` set aside put back, and a folder the command made removed
+/// with what it wrote (issue 71: they died by the signal, the earlier run left hidden).
+#[test]
+fn ctrl_c_on_a_command_without_progress_reports_stops_it_cleanly() {
+    let out = out_dir("ctrl-c-reproduce");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("table2.csv"), "case,K\n").unwrap();
+    std::fs::write(out.join("REPORT.md"), "# an earlier report\n").unwrap();
+    std::fs::write(out.join("notes.txt"), "the user's own\n").unwrap();
+    let before = snapshot(&out);
+    let aside = out.join(".pendulum-atlas.earlier");
+    let args = ["reproduce", "--quick", "--force"];
+    let (code, e) = interrupt(
+        &args,
+        &out,
+        || aside.exists(),
+        std::time::Duration::from_millis(500),
+    );
+    assert_eq!(code, Some(130), "{e}");
+    assert_eq!(snapshot(&out), before, "{e}");
+    let fresh = out_dir("ctrl-c-reproduce-new");
+    let lock = fresh.join(".pendulum-atlas.lock");
+    let (code, e) = interrupt(
+        &args[..2],
+        &fresh,
+        || lock.exists(),
+        std::time::Duration::from_millis(500),
+    );
+    assert_eq!(code, Some(130), "{e}");
+    assert!(!fresh.exists(), "{:?}", snapshot(&fresh));
+    let _ = std::fs::remove_dir_all(&out);
+}

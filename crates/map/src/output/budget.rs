@@ -19,7 +19,7 @@ use std::path::Path;
 pub(crate) const MEMORY_SHARE: f64 = 0.8;
 
 /// Bytes per value of `trajectory.csv` (digits, sign, exponent and the separator).
-pub(crate) const CSV_BYTES_PER_VALUE: u64 = 21;
+pub const CSV_BYTES_PER_VALUE: u64 = 21;
 
 /// The largest number of steps of one run.
 pub(crate) const MAX_STEPS: u64 = u32::MAX as u64;
@@ -91,6 +91,68 @@ pub enum TooLarge {
         /// Bytes free, readable.
         available: String,
     },
+    /// A map's files larger than the output's file system can hold.
+    #[error(
+        "the map's files would take up to about {need} and {dir} has {available} free: free some space, choose another --out, or map fewer cells or metrics"
+    )]
+    MapDisk {
+        /// The output folder.
+        dir: String,
+        /// Bytes needed, readable.
+        need: String,
+        /// Bytes free, readable.
+        available: String,
+    },
+}
+
+/// Bytes one picture of a map may take at most (a PNG heat map with its axes and colour bar;
+/// the default map's are 20–60 kB).
+pub const PICTURE_BYTES: u64 = 512 * 1024;
+
+/// The most bytes a map of `spec` writes (or one of `shards` shards of it), estimated before
+/// any work: per run of the grid (cells × starts) and stored field,
+/// 8 bytes of `.npy` and [`CSV_BYTES_PER_VALUE`] of `grid.csv`; the bifurcation's samples
+/// (8 bytes each); and [`PICTURE_BYTES`] per picture, one per metric and slice of a third
+/// axis, three more for the regime's, the confidence's and the bifurcation's.
+pub fn map_bytes(spec: &pendulum_atlas_core::config::MapSpec, shards: u32) -> u64 {
+    let runs = (spec.instances() * spec.starts_per_cell()).div_ceil(shards.max(1) as usize) as u64;
+    let fields = super::map::map_fields().count() as u64 + spec.axes.len() as u64;
+    let strobe = if spec.bifurcation {
+        spec.bifurcation_samples as u64 * 8
+    } else {
+        0
+    };
+    let slices = spec.axes.get(2).map_or(1, |a| a.values.len()) as u64;
+    let pictures = (spec.metrics.len() as u64 * slices + 3) * PICTURE_BYTES;
+    runs * (fields * (8 + CSV_BYTES_PER_VALUE) + strobe) + pictures
+}
+
+/// Refuse a map (or shard) whose files [`map_bytes`] would not fit in `disk_free` bytes
+/// (`None` where it cannot be read: no check) on `out`'s file system.
+pub fn check_map_disk(
+    spec: &pendulum_atlas_core::config::MapSpec,
+    shards: u32,
+    disk_free: Option<u64>,
+    out: &Path,
+) -> Result<(), TooLarge> {
+    let need = map_bytes(spec, shards);
+    match disk_free {
+        Some(free) if need > free => Err(TooLarge::MapDisk {
+            dir: out.display().to_string(),
+            need: bytes(need),
+            available: bytes(free),
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// [`check_map_disk`] against the space free on `out`'s file system now.
+pub fn check_map_fits(
+    spec: &pendulum_atlas_core::config::MapSpec,
+    shards: u32,
+    out: &Path,
+) -> Result<(), TooLarge> {
+    check_map_disk(spec, shards, free_space(out), out)
 }
 
 impl RunSize {
@@ -198,6 +260,22 @@ mod tests {
         let ok = RunSize::new(2.0, 5e-4, 2, 9).unwrap();
         assert_eq!((ok.steps, ok.rows), (4000, 2001));
         assert_eq!(ok.csv_bytes, 2001 * (9 * 21 + 1));
+    }
+
+    /// A map is checked against the disk before any work (issue 71: a map that filled the
+    /// disk ran whole first); the estimate holds the default map's files with room.
+    #[test]
+    fn a_map_larger_than_the_free_disk_is_refused_before_any_work() {
+        let spec = pendulum_atlas_core::config::load_map(None, &[]).unwrap();
+        let need = map_bytes(&spec, 1);
+        // The default map writes 1.46 MB (runs/map, 2026-11-29); the bound is above it.
+        assert!((1_460_000..40_000_000).contains(&need), "{need}");
+        assert!(map_bytes(&spec, 4) < need);
+        let e = check_map_disk(&spec, 1, Some(need - 1), Path::new("/full")).unwrap_err();
+        assert!(matches!(e, TooLarge::MapDisk { .. }), "{e}");
+        assert!(e.to_string().contains("/full has"), "{e}");
+        assert!(check_map_disk(&spec, 1, Some(need), Path::new("/roomy")).is_ok());
+        assert!(check_map_disk(&spec, 1, None, Path::new("/unknown")).is_ok());
     }
 
     #[test]

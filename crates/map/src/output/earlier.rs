@@ -23,7 +23,7 @@ pub(crate) trait RunFiles: std::fmt::Debug + Send + Sync {
 
 /// The folder, inside an output folder, that holds an earlier run's files while a new run
 /// replaces them.
-pub(crate) const EARLIER_DIR: &str = ".pendulum-atlas.earlier";
+pub const EARLIER_DIR: &str = ".pendulum-atlas.earlier";
 
 /// An earlier run set aside for a new one: kept aside until the new run ends.
 #[derive(Debug)]
@@ -86,9 +86,12 @@ impl Replacement {
 /// Before a folder is claimed: an earlier run left aside by a run killed outright is put back
 /// (over the killed run's partial files of the same names, its temporary files deleted), or,
 /// where the killed run wrote `product`'s manifest (it was complete), deleted.
+///
+/// An [`EARLIER_DIR`] this tool did not make is refused before anything moves
+/// ([`refuse_planted`]).
 pub(super) fn recover(dir: &Path, product: &dyn RunFiles) -> Result<(), OutputError> {
     let aside = dir.join(EARLIER_DIR);
-    if !aside.is_dir() {
+    if !refuse_planted(&aside, product)? {
         return Ok(());
     }
     if dir.join(product.manifest()).is_file() {
@@ -101,6 +104,57 @@ pub(super) fn recover(dir: &Path, product: &dyn RunFiles) -> Result<(), OutputEr
         }
     }
     put_back(dir)
+}
+
+/// Whether `aside` (an [`EARLIER_DIR`]) exists, refused where this tool cannot have made it:
+/// a symlink (never followed: its target's files would move into the output folder), not a
+/// folder, or a folder holding anything but regular files of `product`'s names or of the
+/// earlier run's own list (its manifest's `files`, set aside with it). Nothing is touched.
+fn refuse_planted(aside: &Path, product: &dyn RunFiles) -> Result<bool, OutputError> {
+    let planted = |path: &Path, what: &'static str| OutputError::PlantedEarlier {
+        path: path.display().to_string(),
+        what,
+    };
+    let kind = match std::fs::symlink_metadata(aside) {
+        Ok(m) => m.file_type(),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(false),
+        Err(e) => return Err(OutputError::io(aside, e)),
+    };
+    if !kind.is_dir() {
+        return Err(planted(aside, entry_kind(kind)));
+    }
+    let listed = super::folder::listed_files(&aside.join(product.manifest())).unwrap_or_default();
+    let entries = std::fs::read_dir(aside).map_err(|e| OutputError::io(aside, e))?;
+    for entry in entries {
+        let entry = entry.map_err(|e| OutputError::io(aside, e))?;
+        let kind = entry
+            .file_type()
+            .map_err(|e| OutputError::io(&entry.path(), e))?;
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if !kind.is_file() {
+            return Err(planted(&entry.path(), entry_kind(kind)));
+        }
+        if !product.writes(&name) && !listed.contains(&name) {
+            return Err(planted(
+                &entry.path(),
+                "a file no run of this command writes",
+            ));
+        }
+    }
+    Ok(true)
+}
+
+/// What an entry that is not a regular file is, in words.
+fn entry_kind(kind: std::fs::FileType) -> &'static str {
+    if kind.is_symlink() {
+        "a symlink"
+    } else if kind.is_dir() {
+        "a folder"
+    } else if kind.is_file() {
+        "a file"
+    } else {
+        "not a regular file"
+    }
 }
 
 /// Move every file of [`EARLIER_DIR`] back into `dir` and remove the emptied folder.

@@ -45,6 +45,17 @@ pub enum OutputError {
         /// serde_json's reason.
         source: serde_json::Error,
     },
+    /// The folder in which `--force` sets an earlier run aside holds what this tool did not
+    /// put there (a symlink, a folder, another file): refused, and nothing is moved.
+    #[error(
+        "`{path}` is {what}, where pendulum-atlas keeps an earlier run's files while it replaces them; it did not make it: nothing was moved. Remove it (after checking what it holds), or choose another --out"
+    )]
+    PlantedEarlier {
+        /// The entry.
+        path: String,
+        /// What it is.
+        what: &'static str,
+    },
     /// The output folder is a file.
     #[error("--out `{0}` is a file; give a folder (it is created if needed)")]
     NotAFolder(String),

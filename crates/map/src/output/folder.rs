@@ -386,7 +386,7 @@ fn is_map_file(name: &str) -> bool {
 }
 
 /// The files a manifest lists under `files`, if it is readable and has that list.
-fn listed_files(manifest: &Path) -> Option<Vec<String>> {
+pub(super) fn listed_files(manifest: &Path) -> Option<Vec<String>> {
     let text = std::fs::read_to_string(manifest).ok()?;
     let list: super::manifest::FileList = serde_json::from_str(&text).ok()?;
     Some(list.files)

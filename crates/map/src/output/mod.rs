@@ -12,6 +12,7 @@ mod held;
 pub mod manifest;
 pub mod map;
 pub mod npy;
+pub mod process;
 #[cfg(feature = "pictures")]
 pub mod run_analysis;
 mod run_report;
