@@ -483,6 +483,10 @@ fn a_refined_map_marks_its_inferred_cells_in_every_file() {
             "map.refine=true",
             "--set",
             "map.refine_spacing=4",
+            // The raw refined map, whose steps are refinement's alone (settling's runs on
+            // add theirs: `a_refined_map_settles_as_the_plain_map_does`).
+            "--set",
+            "map.settle=false",
         ])
         .output()
         .unwrap();
@@ -1534,7 +1538,7 @@ fn settling_is_refused_where_it_cannot_run() {
         ),
         (
             &["map.settle_max_s=68.0", "map.initial_states=4"],
-            "plain map",
+            "one start per cell",
         ),
     ];
     for (sets, says) in cases {
@@ -1910,4 +1914,99 @@ fn a_cell_rerun_takes_the_step_control_and_step_its_map_took() {
             _ => assert_eq!(scene.integration.dt_s, TimeStep::Seconds(map_cell.dt_s)),
         }
     }
+}
+
+/// A `.pendulum-atlas.earlier` the tool did not make (a symlink to another folder, or a real
+/// folder holding other files) is refused by name before anything moves: neither the
+/// symlink's target nor the planted folder loses a file, and the output folder gains none
+/// (issue 71).
+#[test]
+fn a_planted_earlier_folder_is_refused_and_nothing_moves() {
+    let elsewhere = out_dir("planted-target");
+    std::fs::create_dir_all(&elsewhere).unwrap();
+    std::fs::write(elsewhere.join("id_rsa"), "secret").unwrap();
+    std::fs::write(elsewhere.join("K.npy"), "not a map's").unwrap();
+    let plant_link = |out: &std::path::Path| {
+        std::os::unix::fs::symlink(&elsewhere, out.join(".pendulum-atlas.earlier")).unwrap()
+    };
+    let plant_folder = |out: &std::path::Path| {
+        let d = out.join(".pendulum-atlas.earlier");
+        std::fs::create_dir(&d).unwrap();
+        std::fs::write(d.join("notes.txt"), "mine").unwrap();
+        std::fs::write(d.join("K.npy"), "mine too").unwrap();
+    };
+    type Plant<'a> = &'a dyn Fn(&std::path::Path);
+    let plants: [(&str, Plant); 2] = [("a symlink", &plant_link), ("a file no run", &plant_folder)];
+    for (i, (what, plant)) in plants.into_iter().enumerate() {
+        let out = out_dir(&format!("planted-{i}"));
+        std::fs::create_dir_all(&out).unwrap();
+        plant(&out);
+        let o = bin()
+            .args(["map", "--backend", "cpu", "--quiet", "--out"])
+            .arg(&out)
+            .args(TINY)
+            .output()
+            .unwrap();
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{e}");
+        assert!(
+            e.contains(".pendulum-atlas.earlier") && e.contains(what),
+            "{e}"
+        );
+        assert!(e.contains("nothing was moved"), "{e}");
+        assert_eq!(
+            folder_files(&out),
+            vec![".pendulum-atlas.earlier".to_string()]
+        );
+        assert_eq!(
+            std::fs::read_to_string(elsewhere.join("id_rsa")).unwrap(),
+            "secret"
+        );
+        let _ = std::fs::remove_dir_all(&out);
+    }
+    assert_eq!(folder_files(&elsewhere), vec!["K.npy", "id_rsa"]);
+    let _ = std::fs::remove_dir_all(&elsewhere);
+}
+
+/// A refined map settles as the plain map does (issue 71: `map.refine = true` turned the
+/// default's settling off without a word, so the refined map was less right than the map it
+/// refines): its cells that are not firm run on, a filled cell that ran on is computed, and
+/// the refinement's counts follow.
+#[test]
+fn a_refined_map_settles_as_the_plain_map_does() {
+    let out = out_dir("refined-settled");
+    let o = bin()
+        .args(["map", "--backend", "cpu", "--quiet", "--out"])
+        .arg(&out)
+        .args([
+            "--set",
+            "map.axes=[{key=\"excitation.frequency_hz\",start=4.0,end=12.0,count=17},{key=\"excitation.amplitude_m\",start=0.004,end=0.025,count=9}]",
+            "--set",
+            "map.refine=true",
+            "--set",
+            "map.refine_spacing=4",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let j = map_json(&out);
+    let settled = j["settle"]["cells"].as_u64().unwrap();
+    assert!(settled > 0, "{}", j["settle"]);
+    let read_u8 = |name: &str| -> Vec<u8> {
+        npyz::NpyFile::new(std::fs::File::open(out.join(name)).unwrap())
+            .unwrap()
+            .into_vec()
+            .unwrap()
+    };
+    let (ran_on, inferred) = (read_u8("ran_on.npy"), read_u8("inferred.npy"));
+    assert_eq!(ran_on.iter().filter(|&&r| r == 1).count() as u64, settled);
+    assert!(
+        ran_on
+            .iter()
+            .zip(&inferred)
+            .all(|(&r, &i)| !(r == 1 && i == 1))
+    );
+    let flagged = inferred.iter().filter(|&&i| i == 1).count() as u64;
+    assert_eq!(j["refine"]["inferred"].as_u64(), Some(flagged));
+    assert_eq!(j["refine"]["computed"].as_u64().unwrap() + flagged, 17 * 9);
 }

@@ -512,9 +512,15 @@ fn run_refined(
 ) -> Result<MapRun, EngineError> {
     let t_all = Instant::now();
     let mut totals = StageTotals::default();
+    // A settling map keeps each computed cell's final state, for its run on.
+    let keep = spec.settle_max_s.is_some();
+    let mut final_state = vec![Vec::new(); if keep { plan.instances.len() } else { 0 }];
     let refined = refine::refine(spec, rs, |members| {
-        let run = run_plan(plan.select(members), opts, None, engine, progress)?;
+        let (run, states) = run_engine(plan.select(members), opts, None, keep, engine, progress)?;
         totals.add(&run);
+        for (&k, y) in members.iter().zip(states) {
+            final_state[k] = y;
+        }
         Ok(run.results)
     })?;
     let (timings, counts) = totals.finish(engine, &t_all);
@@ -524,6 +530,7 @@ fn run_refined(
     let mut run = MapRun::new(refined.results, plan, info, timings, counts, Vec::new());
     run.inferred = refined.inferred;
     run.refine = Some(refined.report);
+    run.final_state = final_state;
     Ok(run)
 }
 

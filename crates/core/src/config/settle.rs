@@ -142,9 +142,9 @@ fn why_not(cx: &SettleContext) -> Option<String> {
             "settling stops each cell once its orbit is confirmed: set map.early_stop = true (or map.settle = false)".into(),
         );
     }
-    if !matches!(cx.mode, MapMode::Plain) {
+    if !matches!(cx.mode, MapMode::Plain | MapMode::Refined(_)) {
         return Some(
-            "settling works on a plain map (one start per cell, no continuation, no refinement): set map.settle = false".into(),
+            "settling works on a map of one start per cell (plain or refined, no continuation): set map.settle = false".into(),
         );
     }
     cx.axes

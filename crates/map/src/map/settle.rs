@@ -189,6 +189,14 @@ fn put_in_place(run: &mut MapRun, members: &[usize], rerun: &MapRun, report: &mu
                 && matches!(new.regime, Regime::Periodic | Regime::Regular),
         );
         run.results[k] = new;
+        // A cell of a refined map that ran on is computed, no longer filled from its block.
+        if let Some(inferred) = run.inferred.get_mut(k).filter(|i| **i) {
+            *inferred = false;
+            if let Some(r) = run.refine.as_mut() {
+                r.inferred -= 1;
+                r.computed += 1;
+            }
+        }
         if let Some(t) = rerun.strobe_tail.get(j) {
             run.strobe_tail[k] = t.clone();
         }
