@@ -32,7 +32,11 @@ pub struct CalibrateArgs {
 pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
     super::catch_interrupts();
     let spec = load_calibration(&a.scene, &a.sets)?;
-    let engine = a.engine.open()?;
+    let base = pendulum_atlas_core::config::Scene::from_table(spec.base_table.clone())?;
+    for note in &base.notes {
+        tell!("warning: {note}");
+    }
+    let engine = a.engine.open(&base)?;
     super::claim_out_reading(Product::Calibrate, &a.out, a.force, &[&a.scene])?;
     let bar = super::progress_bar(
         a.quiet,

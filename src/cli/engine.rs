@@ -1,7 +1,8 @@
 //! The engine flags shared by `map`, `search`, `bench`: the CLI's spelling of
 //! [`Backend`] and [`Precision`], and opening the engine once per command.
 
-use pendulum_atlas_core::engine::{Backend, CpuLoop, Engine, EngineError, Precision};
+use pendulum_atlas_core::config::Scene;
+use pendulum_atlas_core::engine::{Backend, CpuLoop, Engine, EngineError, Precision, StepPlan};
 
 /// CLI spelling of [`Backend`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -80,13 +81,14 @@ pub struct EngineArgs {
 }
 
 impl EngineArgs {
-    /// Open the engine once for the whole command.
-    pub fn open(&self) -> anyhow::Result<Engine> {
+    /// Open the engine once for the whole command, whose runs step as `scene` says (`auto`
+    /// takes only an engine that allows its tolerance: `Engine::open_for`).
+    pub fn open(&self, scene: &Scene) -> anyhow::Result<Engine> {
+        let control = StepPlan::for_scene(scene)?.control;
         let mut engine = match self.adapter {
             Some(i) => Self::on_adapter(i, self)?,
-            None => {
-                Engine::open(self.backend.into(), self.precision.map(Into::into)).map_err(hint)?
-            }
+            None => Engine::open_for(self.backend.into(), self.precision.map(Into::into), control)
+                .map_err(hint)?,
         };
         if let Some(l) = self.cpu_loop {
             if engine.info().cpu_loop.is_none() {

@@ -89,8 +89,9 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
     if let Some(d) = &a.devices {
         return run_on_devices(&a, d, &spec);
     }
-    let engine = a.engine.open()?;
-    check_size(&spec, a.shard.map_or(1, |s| s.count), &engine)?;
+    let engine = a.engine.open(&spec.scene)?;
+    let shards = a.shard.map_or(1, |s| s.count);
+    check_size(&spec, shards, &engine)?;
     let hardware = a.scene.is_none() && a.shard.is_none() && engine.is_hardware_gpu();
     if let Some(choice) = hardware
         .then(|| hardware_default(&engine, &sets))
@@ -106,6 +107,7 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
     } else {
         Product::Map
     };
+    pendulum_atlas_map::output::budget::check_map_fits(&spec, shards, &a.out)?;
     let inputs: Vec<&std::path::Path> = a.scene.iter().map(|p| p.as_path()).collect();
     super::claim_out_reading(product, &a.out, a.force, &inputs)?;
     let bar = super::progress_bar(
@@ -149,6 +151,7 @@ fn run_on_devices(a: &MapArgs, devices: &str, spec: &MapSpec) -> anyhow::Result<
         .map(|&i| Engine::gpu_adapter(i).map_err(hint))
         .collect::<Result<_, _>>()?;
     check_size(spec, engines.len() as u32, &engines[0])?;
+    pendulum_atlas_map::output::budget::check_map_fits(spec, 1, &a.out)?;
     let inputs: Vec<&std::path::Path> = a.scene.iter().map(|p| p.as_path()).collect();
     super::claim_out_reading(Product::Map, &a.out, a.force, &inputs)?;
     if !a.quiet {
@@ -245,6 +248,7 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<()> {
     super::catch_interrupts();
     super::claim_out(Product::Map, &a.out, a.force)?;
     let mut merged = merge_shards(&a.shards)?;
+    pendulum_atlas_map::output::budget::check_map_fits(&merged.spec, 1, &a.out)?;
     if a.no_settle {
         merged.spec.settle_max_s = None;
     }

@@ -33,7 +33,10 @@ pub fn run(a: SearchArgs) -> anyhow::Result<()> {
         || "configs/harvest/default.toml (embedded)".to_string(),
         |p| p.display().to_string(),
     );
-    let engine = a.engine.open()?;
+    for note in &spec.scene.notes {
+        tell!("warning: {note}");
+    }
+    let engine = a.engine.open(&spec.scene)?;
     let inputs: Vec<&std::path::Path> = a.scene.iter().map(|p| p.as_path()).collect();
     super::claim_out_reading(Product::Search, &a.out, a.force, &inputs)?;
     let bar = super::progress_bar(

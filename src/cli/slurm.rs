@@ -28,7 +28,8 @@ pub struct SlurmArgs {
     /// Time limit of each task (Slurm format, e.g. 1:00:00).
     #[arg(long)]
     pub time: Option<String>,
-    /// Engine of every shard (`auto`, `gpu` or `cpu`).
+    /// Engine of every shard, pinned in each shard's command with its precision: `gpu` (f32),
+    /// `cpu` (f64), or `auto`: the GPU where --gpus-per-shard > 0, else the CPU engine in f64.
     #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
     pub backend: BackendArg,
     /// Job folder: scripts, logs, shard folders and the merged map (DIR/map).
@@ -119,17 +120,12 @@ pub fn run(mut a: SlurmArgs) -> anyhow::Result<()> {
 fn job(a: &SlurmArgs) -> anyhow::Result<SlurmJob> {
     let dir = std::path::absolute(&a.out)?;
     let binary = std::env::current_exe()?;
-    let backend = match a.backend {
-        BackendArg::Auto => "auto",
-        BackendArg::Gpu => "gpu",
-        BackendArg::Cpu => "cpu",
-    };
     let mut map_args: Vec<String> = a
         .sets
         .iter()
         .flat_map(|s| ["--set".to_string(), s.clone()])
         .collect();
-    map_args.extend(["--backend".to_string(), backend.to_string()]);
+    map_args.extend(shard_engine(a.backend, a.gpus_per_shard));
     Ok(SlurmJob {
         dir,
         binary,
@@ -139,6 +135,19 @@ fn job(a: &SlurmArgs) -> anyhow::Result<SlurmJob> {
         time: a.time.clone(),
         map_args,
     })
+}
+
+/// The engine and precision every shard's command pins, so that each shard computes the same
+/// numbers wherever Slurm places it and the merged map equals the map run whole: `auto` is
+/// the GPU (f32) where the tasks ask for GPUs, else the CPU engine in f64.
+fn shard_engine(backend: BackendArg, gpus_per_shard: u32) -> [String; 4] {
+    let gpu = match backend {
+        BackendArg::Auto => gpus_per_shard > 0,
+        BackendArg::Gpu => true,
+        BackendArg::Cpu => false,
+    };
+    let (engine, precision) = if gpu { ("gpu", "f32") } else { ("cpu", "f64") };
+    ["--backend", engine, "--precision", precision].map(String::from)
 }
 
 /// `sbatch --parsable` on a script, with extra flags; the job id.

@@ -235,3 +235,33 @@ fn slurm_asks_before_huge_shards_and_passes_the_acceptance_to_every_shard() {
     let array = std::fs::read_to_string(job.join("array.sbatch")).unwrap();
     assert!(array.contains("map.accept_huge=true"), "{array}");
 }
+
+/// Every shard's command pins the engine and its precision, so that a shard computes the
+/// same numbers wherever Slurm places it and the merged map equals the map run whole (issue
+/// 71: shards of `auto` ran in f32 lanes while the whole map ran in f64).
+#[test]
+fn every_shard_pins_its_engine_and_precision() {
+    for (backend, gpus, pinned) in [
+        ("auto", "0", "--backend cpu --precision f64"),
+        ("auto", "1", "--backend gpu --precision f32"),
+        ("cpu", "0", "--backend cpu --precision f64"),
+        ("gpu", "1", "--backend gpu --precision f32"),
+    ] {
+        let job = out_dir(&format!("slurm-pin-{backend}-{gpus}"));
+        let o = bin()
+            .args(["slurm", "--backend", backend, "--gpus-per-shard", gpus])
+            .args(["--shards", "2", "--out"])
+            .arg(&job)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let array = std::fs::read_to_string(job.join("array.sbatch")).unwrap();
+        let words: Vec<&str> = array.split_whitespace().collect();
+        let want: Vec<&str> = pinned.split(' ').collect();
+        assert!(
+            words.windows(4).any(|w| w == want.as_slice()),
+            "{backend}, {gpus} GPUs: no `{pinned}` in {array}"
+        );
+        let _ = std::fs::remove_dir_all(&job);
+    }
+}

@@ -17,7 +17,6 @@
 //! [`crate::model`]; the physics is written down in `docs/model.md`.
 
 pub mod adaptive;
-mod auto;
 pub mod cpu;
 pub mod early;
 mod early_rule;
@@ -58,8 +57,10 @@ use std::time::Instant;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Backend {
-    /// A hardware GPU if present; else the faster of the software adapter lavapipe and the
-    /// CPU engine, measured by a probe when the engine is opened; else the CPU engine.
+    /// A hardware GPU if present (in f32, unless f64 is asked for); else the CPU engine, in
+    /// f64 unless f32 is asked for. A rule, never a timing: the same command gives the same
+    /// numbers on the same machine however loaded it is. A software adapter (lavapipe) runs
+    /// only when asked for (`Gpu`).
     Auto,
     /// The GPU engine (wgpu): a hardware adapter, or lavapipe when that is all there is.
     Gpu,
@@ -415,22 +416,40 @@ impl Engine {
         }
     }
 
+    /// [`Engine::open`] for runs whose steps are controlled by `control`: `auto` takes only an
+    /// engine that allows it, the CPU engine in f64 where the tolerance is finer than f32
+    /// resolves ([`adaptive::F32_FINEST_RTOL`]); an engine asked for by name is opened as asked
+    /// (and its runs refused by [`Engine::run`]'s check).
+    pub fn open_for(
+        backend: Backend,
+        precision: Option<Precision>,
+        control: crate::config::StepControl,
+    ) -> Result<Engine, EngineError> {
+        if backend == Backend::Auto
+            && precision.is_none()
+            && adaptive::check_f32_tolerance(control, true).is_err()
+        {
+            let why = format!(
+                "auto: integration.rtol below {:e} needs f64, so the CPU engine",
+                adaptive::F32_FINEST_RTOL
+            );
+            return Ok(Engine::cpu_because(Precision::F64, why));
+        }
+        Engine::open(backend, precision)
+    }
+
+    /// [`Backend::Auto`] without a precision asked for f64: a hardware GPU, else the CPU
+    /// engine (in `precision`, f64 by default).
     fn auto(t0: Instant, precision: Option<Precision>) -> Engine {
-        match GpuContext::new(gpu::AdapterChoice::Any) {
-            Ok(ctx) if ctx.is_software => {
-                let why = format!("auto: software adapter `{}`", ctx.adapter_name);
-                let gpu = Engine::gpu(ctx, why, t0.elapsed().as_secs_f64());
-                let mut chosen = auto::faster_of(gpu, precision);
-                chosen.info.open_s = t0.elapsed().as_secs_f64();
-                chosen
-            }
+        let cpu = |why: String| Engine::cpu_because(precision.unwrap_or(Precision::F64), why);
+        match GpuContext::new(gpu::AdapterChoice::HardwareOnly) {
             Ok(ctx) => {
                 let why = format!("auto: hardware GPU `{}`", ctx.adapter_name);
                 Engine::gpu(ctx, why, t0.elapsed().as_secs_f64())
             }
-            Err(_) => Engine::cpu_because(
-                precision.unwrap_or(Precision::F64),
-                "auto: no GPU adapter at all (not even lavapipe): CPU engine".into(),
+            Err(_) => cpu(
+                "auto: no hardware GPU, so the CPU engine (a software adapter such as lavapipe runs only with --backend gpu)"
+                    .into(),
             ),
         }
     }
