@@ -618,3 +618,65 @@ fn gpu_kernel_is_auto_thread_or_workgroup() {
         );
     }
 }
+
+/// A map key that changes nothing is named before any work, as every switched-off feature's
+/// keys are (issue 71): K's without K or the regime, R's without R, the period test's without
+/// the period, the regime or the early stop, and where settling starts without settling.
+#[test]
+fn keys_of_an_indicator_the_map_does_not_form_are_named() {
+    let notes = |sets: &[&str]| {
+        let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+        pendulum_atlas_core::config::load_map(None, &sets)
+            .unwrap()
+            .notes
+            .join("\n")
+    };
+    let said = notes(&[
+        "map.metrics=[\"hops\"]",
+        "map.early_stop=false",
+        "map.settle=false",
+        "map.k_n_c=50",
+        "map.r_max_samples=1024",
+        "map.phase_convention=\"paper\"",
+        "map.period_max=6",
+        "map.period_window=12",
+        "map.settle_from=\"start\"",
+    ]);
+    for (key, why) in [
+        ("map.k_n_c", "neither K nor the regime"),
+        ("map.r_max_samples", "R is not among map.metrics"),
+        ("map.phase_convention", "R is not among map.metrics"),
+        ("map.period_max", "neither the period nor the regime"),
+        ("map.period_window", "neither the period nor the regime"),
+        ("map.settle_from", "this map does not settle"),
+    ] {
+        let line = format!("{key} is set but not used: {why}");
+        assert!(said.contains(&line), "no `{line}` in:\n{said}");
+    }
+    // The default map forms them all and settles: none is named.
+    let said = notes(&[
+        "map.k_n_c=50",
+        "map.period_max=6",
+        "map.settle_from=\"start\"",
+    ]);
+    assert!(!said.contains("is set but not used"), "{said}");
+}
+
+/// A log-scale axis listed with a value at or below 0 is refused by name (it cannot be drawn
+/// in log space); a ranged one was already (its start must be above 0).
+#[test]
+fn a_log_axis_with_values_at_or_below_zero_is_refused() {
+    let axis = |values: &str| {
+        vec![format!(
+            "map.axes=[{{key=\"excitation.frequency_hz\",values={values},scale=\"log\"}},{{key=\"excitation.amplitude_m\",values=[0.001]}}]"
+        )]
+    };
+    let e = pendulum_atlas_core::config::load_map(None, &axis("[-1.0, 2.0, 4.0]"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("map.axes") && e.contains("log scale needs values above 0"),
+        "{e}"
+    );
+    assert!(pendulum_atlas_core::config::load_map(None, &axis("[1.0, 2.0, 4.0]")).is_ok());
+}

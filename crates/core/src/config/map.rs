@@ -599,6 +599,9 @@ fn read_map(
         },
     )?;
     let settle_from = super::settle::read_settle_from(&mut r)?;
+    if settle_max_s.is_none() {
+        super::scene::note_unused(&mut r, (&["map.settle_from"], "this map does not settle"))?;
+    }
     let mut notes = scene.notes.clone();
     notes.extend(r.take_notes());
     r.finish()?;
@@ -704,6 +707,51 @@ fn note_switched_off(
     }
     if !early_stop {
         note_unused(r, (&["map.early_stop_tol"], "map.early_stop = false"))?;
+    }
+    note_metric_keys(r, mode, metrics, early_stop)
+}
+
+/// The keys of an indicator the map does not form are named as unused: K's (the regime brings
+/// K in), R's, and the period test's (the regime, the early stop and the attractor modes use
+/// it too).
+fn note_metric_keys(
+    r: &mut Reader,
+    mode: &MapMode,
+    metrics: &[Metric],
+    early_stop: bool,
+) -> Result<(), ConfigError> {
+    use super::scene::note_unused;
+    let has = |m: Metric| metrics.contains(&m);
+    if !has(Metric::K) && !has(Metric::Regime) {
+        note_unused(
+            r,
+            (
+                &["map.k_n_c", "map.k_seed"],
+                "neither K nor the regime is among map.metrics",
+            ),
+        )?;
+    }
+    if !has(Metric::R) {
+        note_unused(
+            r,
+            (
+                &["map.r_max_samples", "map.phase_convention"],
+                "R is not among map.metrics",
+            ),
+        )?;
+    }
+    let period_used = has(Metric::Period)
+        || has(Metric::Regime)
+        || early_stop
+        || !matches!(mode, MapMode::Plain | MapMode::Refined(_));
+    if !period_used {
+        note_unused(
+            r,
+            (
+                &["map.period_max", "map.period_window", "map.period_tol_rad"],
+                "neither the period nor the regime is among map.metrics, and map.early_stop = false",
+            ),
+        )?;
     }
     Ok(())
 }

@@ -421,6 +421,17 @@ fn read_sweep(
         }
         None => ranged_values(r, prefix, key, max, scale)?,
     };
+    if scale == AxisScale::Log && values.first().is_some_and(|&v| v <= 0.0) {
+        return Err(sweep_error(
+            prefix,
+            key,
+            "scale",
+            format!(
+                "a log scale needs values above 0, and the first is {}: drop scale = \"log\", or list positive values",
+                crate::text::num(values[0])
+            ),
+        ));
+    }
     Ok((values, scale))
 }
 
