@@ -40,6 +40,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
             key: u.key.clone(),
             label: axis_label(&u.key),
             values: u.values.clone(),
+            scale: u.scale,
         })
         .collect();
     let grid = read_grid(dir, &spec, &axes)?;

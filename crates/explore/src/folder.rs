@@ -13,7 +13,7 @@
 
 use super::error::ExploreError;
 use super::sources::{Calibration, Search};
-use pendulum_atlas_core::config::{MapSpec, c_order_index, grid_point};
+use pendulum_atlas_core::config::{AxisScale, MapSpec, c_order_index, grid_point};
 use pendulum_atlas_design::calibrate::CalibrationSpec;
 use pendulum_atlas_design::harvest::spec::SearchSpec;
 use pendulum_atlas_map::output::folder::Product;
@@ -30,6 +30,8 @@ pub struct Axis {
     pub label: String,
     /// Its values, in grid order.
     pub values: Vec<f64>,
+    /// How the values are spaced: a log axis is drawn in log space.
+    pub scale: AxisScale,
 }
 
 /// One quantity stored per cell, as the page shows it.

@@ -87,6 +87,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
                 key: a.key.clone(),
                 label: a.label(),
                 values: a.values.clone(),
+                scale: a.scale,
             })
             .collect(),
         columns,

@@ -60,6 +60,7 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
             key: v.key.clone(),
             label: axis_label(&v.key),
             values: v.values.clone(),
+            scale: v.scale,
         })
         .collect();
     let (columns, design) = read_designs(dir, &spec, &axes)?;

@@ -20,14 +20,15 @@
 use super::cell::cell_scene;
 use super::error::ExploreError;
 use super::field::{field, page_shape, slice_index, status_name};
-use super::folder::RunFolder;
 use super::folder::Source;
+use super::folder::{Axis, RunFolder};
 use super::jobs::Jobs;
 use axum::Router;
 use axum::extract::{Path, Query, State};
 use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
+use pendulum_atlas_map::render::grid_axis;
 use serde_json::json;
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -113,6 +114,28 @@ async fn unchanged(
     }
 }
 
+/// An axis as the page draws it, with the PNG maps' own cell edges and ticks
+/// ([`grid_axis`]): its `scale` (`linear` or `log`), `edges`, labelled `ticks` (value, label
+/// and `at`, the position in cells from the first edge, in log space on a log axis:
+/// [`GridAxis::at`]) and the positions of its unlabelled `minor` ticks. The page draws equal
+/// cells, so on a log axis of evenly spaced values a tick at `at` is at its place in log.
+///
+/// [`GridAxis::at`]: pendulum_atlas_map::render::GridAxis::at
+fn axis_json(a: &Axis) -> serde_json::Value {
+    let grid = grid_axis(&a.values, a.scale);
+    let ticks: Vec<_> = grid
+        .ticks
+        .iter()
+        .map(|(value, label)| json!({ "value": value, "label": label, "at": grid.at(*value) }))
+        .collect();
+    let minor: Vec<f64> = grid.minor.iter().map(|&v| grid.at(v)).collect();
+    let scale = if grid.log { "log" } else { "linear" };
+    json!({
+        "key": a.key, "label": a.label, "values": a.values, "scale": scale,
+        "edges": grid.edges, "ticks": ticks, "minor": minor,
+    })
+}
+
 fn asset(kind: &'static str, body: &'static str) -> Response {
     ([(header::CONTENT_TYPE, kind)], body).into_response()
 }
@@ -120,23 +143,7 @@ fn asset(kind: &'static str, body: &'static str) -> Response {
 async fn map_info(State(app): Shared) -> Response {
     let f = &app.folder;
     let (nx, ny) = page_shape(f);
-    let axes: Vec<_> = f
-        .axes
-        .iter()
-        .map(|a| {
-            // The PNG maps' own ticks: round values within the cell edges.
-            let grid = pendulum_atlas_map::render::grid_axis(&a.values);
-            let ticks: Vec<_> = grid
-                .ticks
-                .iter()
-                .map(|(value, label)| json!({ "value": value, "label": label }))
-                .collect();
-            json!({
-                "key": a.key, "label": a.label, "values": a.values,
-                "edges": grid.edges, "ticks": ticks,
-            })
-        })
-        .collect();
+    let axes: Vec<_> = f.axes.iter().map(axis_json).collect();
     let metrics: Vec<_> = f
         .columns
         .iter()
@@ -299,4 +306,54 @@ async fn file(State(app): Shared, Path(name): Path<String>) -> Result<Response, 
         .flatten()
         .ok_or(ExploreError::NotServed(name))?;
     Ok(([(header::CONTENT_TYPE, "image/png")], bytes).into_response())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pendulum_atlas_core::config::AxisScale;
+
+    fn axis(values: &[f64], scale: AxisScale) -> serde_json::Value {
+        axis_json(&Axis {
+            key: "excitation.amplitude_m".into(),
+            label: "A (m)".into(),
+            values: values.to_vec(),
+            scale,
+        })
+    }
+
+    #[test]
+    fn a_log_axis_reaches_the_page_with_geometric_edges_and_decade_ticks_at_their_log_place() {
+        let a = axis(&[0.001, 0.01, 0.1, 1.0], AxisScale::Log);
+        assert_eq!(a["scale"], "log");
+        let edges: Vec<f64> = serde_json::from_value(a["edges"].clone()).unwrap();
+        assert!(edges.iter().all(|&e| e > 0.0), "{edges:?}");
+        assert!((edges[1] - (0.001f64 * 0.01).sqrt()).abs() < 1e-15);
+        let ticks = a["ticks"].as_array().unwrap();
+        let labels: Vec<&str> = ticks.iter().map(|t| t["label"].as_str().unwrap()).collect();
+        assert_eq!(labels, ["0.001", "0.01", "0.1", "1"]);
+        // Each decade is the centre of its cell: half a cell past the previous one.
+        for (k, t) in ticks.iter().enumerate() {
+            let at = t["at"].as_f64().unwrap();
+            assert!((at - (k as f64 + 0.5)).abs() < 1e-9, "{t}");
+        }
+        let minor = a["minor"].as_array().unwrap();
+        assert!(
+            !minor.is_empty()
+                && minor
+                    .iter()
+                    .all(|m| (0.0..=4.0).contains(&m.as_f64().unwrap()))
+        );
+    }
+
+    #[test]
+    fn a_linear_axis_reaches_the_page_with_midpoint_edges_and_linear_tick_places() {
+        let a = axis(&[5.0, 6.0, 7.0, 8.0], AxisScale::Linear);
+        assert_eq!(a["scale"], "linear");
+        assert_eq!(a["edges"], json!([4.5, 5.5, 6.5, 7.5, 8.5]));
+        let ticks = a["ticks"].as_array().unwrap();
+        let six = ticks.iter().find(|t| t["value"] == 6.0).unwrap();
+        assert_eq!(six, &json!({ "value": 6.0, "label": "6", "at": 1.5 }));
+        assert_eq!(a["minor"], json!([]));
+    }
 }

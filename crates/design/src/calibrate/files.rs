@@ -12,7 +12,7 @@ use pendulum_atlas_map::output::files::{
     commit_csv, create_csv, csv_error, draw, write_bytes, write_json, write_toml,
 };
 use pendulum_atlas_map::output::manifest::Manifest;
-use pendulum_atlas_map::render::{Axis, CellMarks, Palette, heatmap};
+use pendulum_atlas_map::render::{Axis, CellMarks, Palette, heatmap_scaled};
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -365,11 +365,12 @@ fn draw_pair(
     };
     let title = "share of observations matched (other unknowns at the best)";
     draw(&path, |p| {
-        heatmap(
+        heatmap_scaled(
             p,
             title,
             &x,
             &y,
+            [ux.scale, uy.scale],
             &vals,
             "share matched",
             &CellMarks::default(),

@@ -48,13 +48,9 @@ function cellAt(px, py) {
   return { ix, iy, k: f.cells[iy * f.nx + ix], at: iy * f.nx + ix };
 }
 
-// Where value v lies on an axis of cell edges, in cells from the first edge: within its cell
-// linearly, as the PNG maps place their ticks (the server gives both, from the same code).
-function cellsAt(edges, v) {
-  let i = 0;
-  while (i < edges.length - 2 && v >= edges[i + 1]) i++;
-  return i + (v - edges[i]) / (edges[i + 1] - edges[i]);
-}
+// Ticks come with `at`, where they lie in cells from the first edge (within the cell linearly,
+// or in log space on a log axis), as the PNG maps place them: the server computes it with their
+// code. Minor ticks (a log axis over a few decades) are positions only, marked shorter.
 
 function drawMap() {
   const c = $("map"), g = c.getContext("2d"), f = state.field, m = state.map;
@@ -83,8 +79,9 @@ function drawMap() {
   g.fillStyle = "#222"; g.font = "12px sans-serif";
   const xa = m.axes[0];
   g.textAlign = "center"; g.textBaseline = "top";
+  for (const at of xa.minor) g.fillRect(Math.round(a.x + at / f.nx * a.w), a.y + a.h, 1, 2);
   for (const t of xa.ticks) {
-    const x = a.x + cellsAt(xa.edges, t.value) / f.nx * a.w;
+    const x = a.x + t.at / f.nx * a.w;
     g.fillRect(Math.round(x), a.y + a.h, 1, 3);
     g.fillText(t.label, x, a.y + a.h + 4);
   }
@@ -92,8 +89,9 @@ function drawMap() {
   if (m.axes.length > 1) {
     const ya = m.axes[1];
     g.textAlign = "right"; g.textBaseline = "middle";
+    for (const at of ya.minor) g.fillRect(a.x - 2, Math.round(a.y + a.h - at / f.ny * a.h), 2, 1);
     for (const t of ya.ticks) {
-      const y = a.y + a.h - cellsAt(ya.edges, t.value) / f.ny * a.h;
+      const y = a.y + a.h - t.at / f.ny * a.h;
       g.fillRect(a.x - 3, Math.round(y), 3, 1);
       g.fillText(t.label, a.x - 5, y);
     }

@@ -4,10 +4,12 @@
 use std::path::Path;
 
 use super::error::{Result, bad_input};
+use pendulum_atlas_core::config::AxisScale;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::colormap::{blend, viridis};
+use super::grid::{cell_edges, cell_of, grid_spec};
 use super::palette::{INVALID_COLOR, NODATA_COLOR, Palette};
 use super::{
     Area, Axis, AxisSpec, Chart, LABEL_PX, TICK_PX, build_chart, canvas, finite_min_max, font,
@@ -27,57 +29,6 @@ fn check_axis(name: &str, v: &[f64]) -> Result<()> {
         bad_input!("{name}: values must be non-empty, finite and strictly increasing");
     }
     Ok(())
-}
-
-/// Cell boundaries: midpoints between centres, ends extended by half a step.
-fn cell_edges(c: &[f64]) -> Vec<f64> {
-    if c.len() == 1 {
-        let d = if c[0] == 0.0 { 0.5 } else { 0.1 * c[0].abs() };
-        return vec![c[0] - d, c[0] + d];
-    }
-    let n = c.len();
-    let mut e = Vec::with_capacity(n + 1);
-    e.push(c[0] - 0.5 * (c[1] - c[0]));
-    e.extend(c.windows(2).map(|w| 0.5 * (w[0] + w[1])));
-    e.push(c[n - 1] + 0.5 * (c[n - 1] - c[n - 2]));
-    e
-}
-
-/// A map axis as the heatmaps draw it, for drawing it elsewhere (the explorer): its cell
-/// edges and its labelled ticks, each a value and its label.
-#[derive(Debug, Clone, PartialEq)]
-pub struct GridAxis {
-    /// Cell edges: midpoints between centres, the ends half a step out.
-    pub edges: Vec<f64>,
-    /// Round values within the edges (`nice_ticks`; a single cell: its centre), labelled.
-    pub ticks: Vec<(f64, String)>,
-}
-
-/// The axis of a map over cell centres `values`, as [`heatmap`] draws it.
-pub fn grid_axis(values: &[f64]) -> GridAxis {
-    let (edges, axis) = grid_spec(values);
-    let ticks = axis.ticks.iter().map(|&t| (t, axis.label(t))).collect();
-    GridAxis { edges, ticks }
-}
-
-/// The cell edges of centres `values` and the linear axis over them, with round ticks (a
-/// single cell gets a single tick at its centre).
-fn grid_spec(values: &[f64]) -> (Vec<f64>, AxisSpec) {
-    let edges = cell_edges(values);
-    let n = values.len();
-    let mut axis = AxisSpec::fixed(edges[0], edges[n], false);
-    if n == 1 {
-        axis.ticks = values.to_vec();
-    }
-    (edges, axis)
-}
-
-/// Index of the cell of `v` given the edges (None outside).
-fn cell_of(edges: &[f64], v: f64) -> Option<usize> {
-    if !(v >= edges[0] && v <= edges[edges.len() - 1]) {
-        return None;
-    }
-    Some(edges.partition_point(|&e| e <= v).clamp(1, edges.len() - 1) - 1)
 }
 
 /// Paints every pixel of the chart's plotting area with `color(ix, iy, x, y)`,
@@ -162,6 +113,26 @@ fn colorbar(
         area.draw(&Rectangle::new([(10, y), (28, y + 18)], c.filled()))?;
         area.draw(&Rectangle::new([(10, y), (28, y + 18)], BLACK))?;
         area.draw(&Text::new(name.to_string(), (34, y), font(TICK_PX)))?;
+    }
+    Ok(())
+}
+
+/// Length of a minor tick mark outside the plotting area (px).
+const MINOR_TICK_PX: i32 = 3;
+
+/// Short unlabelled marks outside the chart's plotting area at the minor ticks of its axes
+/// (a log axis over a few decades: 2…9 × 10^k); nothing is drawn for axes without any.
+fn minor_tick_marks(root: &Area, chart: &Chart, xa: &AxisSpec, ya: &AxisSpec) -> Result<()> {
+    let marks = xa.minor.iter().map(|&t| {
+        let (x, y) = chart.backend_coord(&(t, ya.lo));
+        [(x, y + 1), (x, y + MINOR_TICK_PX)]
+    });
+    let marks = marks.chain(ya.minor.iter().map(|&t| {
+        let (x, y) = chart.backend_coord(&(xa.lo, t));
+        [(x - MINOR_TICK_PX, y), (x - 1, y)]
+    }));
+    for m in marks {
+        root.draw(&PathElement::new(m.to_vec(), BLACK))?;
     }
     Ok(())
 }
@@ -419,7 +390,7 @@ fn hatch(c: RGBColor) -> RGBColor {
 /// [`Palette::range`]; values beyond are clamped), a legend of the categories present for a
 /// categorical one. Cells marked invalid are drawn in magenta with a "diverged" legend
 /// entry, inferred ones hatched ([`CellMarks`]); valid cells without a value are grey
-/// ("no data"). 1×N and N×1 grids work.
+/// ("no data"). 1×N and N×1 grids work. Both axes linear: [`heatmap_scaled`] draws log ones.
 #[allow(clippy::too_many_arguments)]
 pub fn heatmap(
     path: &Path,
@@ -431,7 +402,29 @@ pub fn heatmap(
     marks: &CellMarks,
     palette: &Palette,
 ) -> Result<()> {
-    let (invalid, marked) = (marks.invalid, marks.inferred);
+    let linear = [AxisScale::Linear; 2];
+    heatmap_scaled(
+        path,
+        title,
+        x,
+        y,
+        linear,
+        values,
+        colorbar_label,
+        marks,
+        palette,
+    )
+}
+
+/// Refuse axes that are not strictly increasing, values and flags not one per cell, and a
+/// fixed colour range that is not finite and increasing.
+fn check_heatmap_input(
+    x: &Axis,
+    y: &Axis,
+    values: &[f64],
+    invalid: &[bool],
+    palette: &Palette,
+) -> Result<()> {
     check_axis("heatmap x", x.values)?;
     check_axis("heatmap y", y.values)?;
     let (nx, ny) = (x.values.len(), y.values.len());
@@ -451,10 +444,36 @@ pub fn heatmap(
             pendulum_atlas_core::text::num(*b)
         );
     }
+    Ok(())
+}
+
+/// [`heatmap`] with each axis on its scale (`scales`: x, then y). A log axis is drawn in log
+/// space: cells between geometric midpoints `√(c_i·c_{i+1})` of the centres, the outer edges
+/// half a log step out (so > 0), ticks at decades (minor ones at 2…9 × 10^k), at 1, 2 and
+/// 5 × 10^k over one to three decades, or at round values within less than one (the module
+/// `grid`). A log axis reaching 0 or below is drawn linear; a linear axis as [`heatmap`].
+#[allow(clippy::too_many_arguments)]
+pub fn heatmap_scaled(
+    path: &Path,
+    title: &str,
+    x: &Axis,
+    y: &Axis,
+    scales: [AxisScale; 2],
+    values: &[f64],
+    colorbar_label: &str,
+    marks: &CellMarks,
+    palette: &Palette,
+) -> Result<()> {
+    let (invalid, marked) = (marks.invalid, marks.inferred);
+    check_heatmap_input(x, y, values, invalid, palette)?;
+    let nx = x.values.len();
     let bad = |k: usize| invalid.get(k).copied().unwrap_or(false);
     let inferred = |k: usize| marked.get(k).copied().unwrap_or(false);
     let range = palette.range(values, invalid);
-    let ((xe, xa), (ye, ya)) = (grid_spec(x.values), grid_spec(y.values));
+    let ((xe, xa), (ye, ya)) = (
+        grid_spec(x.values, scales[0]),
+        grid_spec(y.values, scales[1]),
+    );
 
     let root = canvas(path, SIZE)?;
     let body = titled(&root, title)?;
@@ -469,6 +488,7 @@ pub fn heatmap(
             c
         }
     })?;
+    minor_tick_marks(&root, &chart, &xa, &ya)?;
     let present = palette.present(values, invalid);
     let mut legend: Vec<(&str, RGBColor)> = present
         .iter()
@@ -509,5 +529,44 @@ mod tests {
             assert!(w <= width || !line.contains(' '), "{line:?} is {w} px wide");
         }
         assert_eq!(lines.join(" "), label);
+    }
+
+    /// A 6 × 4 heat map with a log x axis from 10^-3 to 10^3 and a linear y axis, at `name`
+    /// in the temporary folder (`PENDULUM_ATLAS_KEEP_PNG` keeps it, to look at).
+    fn log_heatmap(name: &str, xs: &[f64]) -> Result<std::path::PathBuf> {
+        let ys = [0.0, 1.0, 2.0, 3.0];
+        let vals: Vec<f64> = (0..xs.len() * ys.len()).map(|k| k as f64).collect();
+        let dir = std::env::temp_dir().join(format!("atlas_render_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join(name);
+        let (x, y) = (
+            Axis {
+                label: "forcing amplitude A (m)",
+                values: xs,
+            },
+            Axis {
+                label: "y (1)",
+                values: &ys,
+            },
+        );
+        let scales = [AxisScale::Log, AxisScale::Linear];
+        let marks = CellMarks::default();
+        let palette = Palette::Sequential(None);
+        heatmap_scaled(&p, "log x", &x, &y, scales, &vals, "k", &marks, &palette)?;
+        Ok(p)
+    }
+
+    #[test]
+    fn a_heat_map_draws_a_log_axis_and_falls_back_to_linear_below_zero() {
+        let xs: Vec<f64> = (0..6).map(|i| 10f64.powf(-3.0 + 1.2 * i as f64)).collect();
+        let p = log_heatmap("log_x.png", &xs).unwrap();
+        assert!(std::fs::metadata(&p).unwrap().len() > 1000);
+        let q = log_heatmap("log_x_from_zero.png", &[0.0, 1.0, 2.0]).unwrap();
+        assert!(q.is_file());
+        let xs: Vec<f64> = (0..6).map(|i| 10f64.powf(0.6 * i as f64)).collect();
+        log_heatmap("three.png", &xs).unwrap();
+        if std::env::var_os("PENDULUM_ATLAS_KEEP_PNG").is_none() {
+            let _ = std::fs::remove_dir_all(p.parent().unwrap());
+        }
     }
 }

@@ -11,6 +11,7 @@
 mod charts;
 mod colormap;
 mod error;
+mod grid;
 mod maps;
 mod palette;
 
@@ -24,8 +25,9 @@ use plotters::style::FontStyle;
 pub use charts::{histogram, line_chart, scatter, scatter_groups, stacked_panels, zero_one_figure};
 pub use colormap::viridis;
 pub use error::RenderError;
+pub use grid::{GridAxis, grid_axis};
 pub use maps::{
-    CellMarks, GridAxis, HATCH_PX, cell_colour, colour_range, grid_axis, heatmap, scalogram,
+    CellMarks, HATCH_PX, cell_colour, colour_range, heatmap, heatmap_scaled, scalogram,
 };
 pub use palette::{Category, INVALID_COLOR, NODATA_COLOR, Palette};
 pub use plotters::style::RGBColor;

@@ -12,7 +12,7 @@ use crate::output::OutputError;
 use crate::output::files::{AtomicFile, create_dir, draw, write_json, write_toml};
 use crate::output::npy::{write_npy_f64, write_npy_i8, write_npy_i32, write_npy_u8};
 use crate::render::{
-    Axis, Category, CellMarks, Palette, RGBColor, Series, heatmap, scatter, scatter_groups,
+    Axis, Category, CellMarks, Palette, RGBColor, Series, heatmap_scaled, scatter, scatter_groups,
 };
 use serde_json::json;
 use std::io::Write;
@@ -534,6 +534,7 @@ fn draw_slice(
             invalid: &invalid,
             inferred: &inferred,
         };
-        heatmap(t, &title, &x, &y, &vals, &label, &marks, &palette)
+        let scales = [spec.axes[0].scale, spec.axes[1].scale];
+        heatmap_scaled(t, &title, &x, &y, scales, &vals, &label, &marks, &palette)
     })
 }
