@@ -9,9 +9,11 @@ as the ``pendulum-atlas`` command, returned as ``xarray`` datasets.
 >>> ds = pa.map(scene)                                      # doctest: +SKIP
 """
 
+import numbers as _numbers
 import os as _os
 import tempfile as _tempfile
 import typing as _t
+import warnings as _warnings
 
 import numpy as _np
 import xarray as _xr
@@ -93,8 +95,10 @@ def map(
     lock is released while the engine runs; Ctrl-C stops the map at its next progress point
     and raises ``KeyboardInterrupt``.
 
-    ``axes``: the map's axes in place of the scene's ``map.axes``, key → values, or key →
-    ``(start, end, count)``, in grid order, e.g.
+    ``axes``: the map's axes in place of the scene's ``map.axes``, key → values (a list or
+    an array), or key → ``(start, end, count)`` (a tuple of three is always a range; its count
+    a whole number of any numeric type, ``13``, ``numpy.int64(13)`` or ``13.0``), in grid
+    order, e.g.
     ``axes={"excitation.frequency_hz": (4.0, 12.0, 33), "excitation.amplitude_m": [0.01, 0.02]}``.
     """
     if not isinstance(scene, Scene):
@@ -114,18 +118,39 @@ def map(
 
 
 def _axes_list(axes: _t.Mapping[str, _t.Any]) -> list[dict[str, _t.Any]]:
-    """``map.axes`` from ``{key: values}`` or ``{key: (start, end, count)}``."""
+    """``map.axes`` from ``{key: values}`` or ``{key: (start, end, count)}``: a tuple of three
+    is always a range, its count a whole number of any numeric type (``13``,
+    ``numpy.int64(13)``, ``13.0``); values are given as a list (or an array)."""
     if not isinstance(axes, _t.Mapping) or not axes:
         raise TypeError("axes takes a dict of one to three keys: key -> values, or key -> (start, end, count)")
     out = []
     for key, spec in axes.items():
-        if isinstance(spec, tuple) and len(spec) == 3 and isinstance(spec[2], int):
+        if isinstance(spec, tuple) and len(spec) == 3:
             start, end, count = spec
-            out.append({"key": key, "start": float(start), "end": float(end), "count": count})
+            out.append({"key": key, "start": float(start), "end": float(end), "count": _count(key, count)})
         else:
             values = [float(v) for v in _np.asarray(spec, dtype=float).ravel()]
             out.append({"key": key, "values": values})
     return out
+
+
+def _count(key: str, count: _t.Any) -> int:
+    """The count of a ``(start, end, count)`` axis as an int: an integral number of any type
+    (a bool is not one); anything else is refused."""
+    if isinstance(count, (bool, _np.bool_)):
+        raise TypeError(
+            _native.printable(f"axes[{key!r}]: the count of (start, end, count) is a whole number, not {count!r}")
+        )
+    if isinstance(count, (_numbers.Integral, _np.integer)):
+        return int(count)
+    if isinstance(count, (_numbers.Real, _np.floating)) and float(count).is_integer():
+        return int(float(count))
+    raise ValueError(
+        _native.printable(
+            f"axes[{key!r}]: the count of (start, end, count) is a whole number of cells, got {count!r}; "
+            "give the axis' values as a list to sweep those values"
+        )
+    )
 
 
 def simulate(
@@ -139,7 +164,12 @@ def simulate(
     Variables are the columns of ``simulate``'s ``trajectory.csv`` (``x0_m``, ``alpha_rad``,
     ..., units in their ``attrs``); λ1 and the paper's indicators of the run (``K``, ``R``,
     ``dominant_hz``, ``line_ratio``, ``period``, ``hops``) are attributes, and
-    ``attrs["run_json"]`` holds the ``run.json`` the command would write.
+    ``attrs["run_json"]`` holds the ``run.json`` the command would write. A cell of a map
+    (:meth:`Scene.cell`) has ``attrs["map_cell"]``: its values as its map computes them.
+    What the command prints as warnings (the scene's notes, the run's warnings) is in
+    ``attrs["warnings"]`` where there are any; the scene's notes are also issued as
+    ``UserWarning``, among them that a settling map's cell made without its run's
+    ``ran_on`` cannot be rerun as its map computed it (it then has no ``map_cell``).
 
     ``integrator``: ``"engine"`` (the maps' stepper: RK4 or IMEX, adaptive or fixed) or ``"reference"``
     (adaptive DOP853, f64). ``precision``: ``None`` (f64), ``"f32"`` or ``"f64"``. Ctrl-C
@@ -151,7 +181,11 @@ def simulate(
         out = _native.run_single_scene(
             scene.text, scene.origin, scene.sets, integrator, precision, bar.update
         )
-    return _run_dataset(out["columns"], out["units"], out["report"])
+    # What the command prints as warnings on reading the scene (keys given but not used, a
+    # settling map's cell without its run's ran_on).
+    for note in out["notes"]:
+        _warnings.warn(note, UserWarning, stacklevel=2)
+    return _run_dataset(out["columns"], out["units"], out["report"], out["notes"])
 
 
 def analyze(

@@ -5,12 +5,16 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
-from typing import Mapping
+from typing import Mapping, Sequence
 
 import numpy as np
 import xarray as xr
 
 from . import _native
+
+#: The folder inside an output folder that holds an earlier run's files while a ``--force``
+#: run replaces them (``EARLIER_DIR`` of ``crates/map/src/output/earlier.rs``).
+EARLIER_DIR = ".pendulum-atlas.earlier"
 
 #: Scalars of ``map.json`` copied into a map dataset's attributes (the whole manifest is in
 #: ``attrs["map_json"]``).
@@ -75,10 +79,13 @@ def map_dataset(manifest: dict, arrays: Mapping[str, np.ndarray]) -> xr.Dataset:
     return xr.Dataset(data_vars, coords, attrs)
 
 
-def run_dataset(columns: Mapping[str, np.ndarray], units: Mapping[str, str], report: dict) -> xr.Dataset:
+def run_dataset(
+    columns: Mapping[str, np.ndarray], units: Mapping[str, str], report: dict, notes: Sequence[str] = ()
+) -> xr.Dataset:
     """A single run's dataset: one variable per trajectory column over ``time`` (s), the
     run's ``run.json`` in ``attrs["run_json"]`` and its indicators as attributes; for a map
-    cell, ``attrs["map_cell"]``: the cell's values as its map computes them."""
+    cell, ``attrs["map_cell"]``: the cell's values as its map computes them; where there are
+    any, ``attrs["warnings"]``: the scene's ``notes`` and the run's warnings."""
     time = columns["t_s"]
     data_vars = {
         name: ("time", values, {"units": units[name]})
@@ -98,6 +105,9 @@ def run_dataset(columns: Mapping[str, np.ndarray], units: Mapping[str, str], rep
     if "map_cell" in report:
         # A map cell: its values as its map computes them (name -> number or code name).
         attrs["map_cell"] = report["map_cell"]["values"]
+    said = [*notes, *report.get("warnings", [])]
+    if said:
+        attrs["warnings"] = said
     attrs["run_json"] = json.dumps(report)
     return xr.Dataset(data_vars, coords, attrs)
 
@@ -130,11 +140,19 @@ def open_run(folder: str | os.PathLike) -> xr.Dataset:
     ``map.json`` lists, with the axes as coordinates."""
     folder = Path(folder)
     manifest_path = folder / "map.json"
+    shown = _native.printable(str(folder))
     if not manifest_path.is_file():
         if (folder / "shard.json").is_file():
-            raise ValueError(f"{folder} holds one shard of a map: merge the shards first (`pendulum-atlas merge`)")
+            raise ValueError(f"{shown} holds one shard of a map: merge the shards first (`pendulum-atlas merge`)")
+        if (folder / EARLIER_DIR / "map.json").is_file():
+            raise FileNotFoundError(
+                f"{shown} has no map.json: a run that replaced the map in it (`--force`) was stopped before it "
+                f"completed, and the earlier complete map is set aside in {shown}/{EARLIER_DIR}; the next "
+                "`pendulum-atlas map` (or `merge`) into the folder puts it back first, or move its files back "
+                "into the folder to open it now"
+            )
         raise FileNotFoundError(
-            f"{folder} has no map.json: open_run reads the output folder of `pendulum-atlas map` or `merge`"
+            f"{shown} has no map.json: open_run reads the output folder of `pendulum-atlas map` or `merge`"
         )
     # Read and checked by the type the command writes it with: a damaged map.json, or one
     # listing a path outside the folder, raises ValueError naming the problem.

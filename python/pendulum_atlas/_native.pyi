@@ -29,6 +29,7 @@ class RunResult(TypedDict):
     columns: dict[str, npt.NDArray[np.float64]]
     units: dict[str, str]
     report: dict[str, Any]
+    notes: list[str]
 
 def set_arg(key: str, value: object) -> str:
     """``key=value`` with the value written as TOML (a ``--set`` argument)."""
@@ -89,9 +90,35 @@ def read_record(
 ) -> RecordResult:
     """A measured CSV record read as ``pendulum-atlas analyze`` reads it, on a uniform grid."""
 
-def cell_pins(text: str, origin: str, sets: list[str], cell_sets: list[str]) -> dict[str, Any]:
-    """The method, step control, step and row rate a map took for one cell (every axis
-    given, each on its grid), as scene keys and values."""
+class CellAt(TypedDict):
+    index: int
+    values: dict[str, float]
+    snapped: list[tuple[str, float, float]]
+    tolerance: float
+    axes: list[tuple[str, list[float]]]
+    settles: bool
+    starts: int
+
+def cell_at(text: str, origin: str, sets: list[str], cell_sets: list[str]) -> CellAt:
+    """The cell of a map that ``key=value`` arguments name (every axis given, each within
+    ``tolerance`` of its grid): its index, its grid values, the values snapped to them."""
+
+def cell_pins(
+    text: str,
+    origin: str,
+    sets: list[str],
+    index: int,
+    others: list[str],
+    method: Optional[str] = None,
+    ran_on: Optional[bool] = None,
+    start: Optional[int] = None,
+) -> dict[str, Any]:
+    """The method, step control, step and row rate a map took for cell ``index``, as scene
+    keys and values, and a plain map's ``[cell]`` section (``cell``), as the explorer's
+    download of the cell has them."""
+
+def printable(s: str) -> str:
+    """``s`` with its control characters and bidirectional overrides written as escapes."""
 
 def read_map_manifest(path: str) -> dict[str, Any]:
     """A map folder's ``map.json``, read and checked (fields, files by name only), as a dict."""

@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import os
 import sys
+import warnings
 from pathlib import Path
 from typing import Any, Iterable, Mapping
+
+import numpy as np
 
 from . import _native
 
@@ -82,30 +85,74 @@ class Scene:
         """An independent copy."""
         return Scene(self._text, self._origin, self._sets)
 
-    def cell(self, **coords: float) -> "Scene":
+    def cell(self, *, run: Any = None, ran_on: bool | None = None, **coords: float) -> "Scene":
         """One cell of a map scene as a plain scene: the map's base scene with each axis key
-        set to the given value, e.g. ``scene.cell(frequency_hz=8.0, amplitude_m=0.02)``
+        set to the cell's value, e.g. ``scene.cell(frequency_hz=8.0, amplitude_m=0.02)``
         (an axis by its full key works too: ``**{"excitation.frequency_hz": 8.0}``).
 
-        Every axis needs a value, and each value must be one of its axis's (a value read back
-        from the dataset's coordinate is): anything else is not a cell the map ran, and raises
-        :class:`pendulum_atlas.SceneError`. The integration method, the step control, the step
-        and the row rate the map took for that cell are pinned (``integration.method``,
-        ``integration.step``, ``integration.dt_s`` at fixed steps or
-        ``integration.base_step_s`` at adaptive ones, ``output.sample_rate_hz``), as the
-        explorer pins them, so that :func:`pendulum_atlas.simulate` runs what the map ran. A
-        cell of a plain map that does not settle (``map.settle = false``, or a map that
-        cannot) also carries the map's settings of a cell's values (a ``[cell]`` section):
-        :func:`pendulum_atlas.simulate` then gives, in ``attrs["map_cell"]``, the cell's
-        values as the map computes them (on the CPU in f64: the map's own numbers, bit for
-        bit, where the map ran there). A settling map's cell has none: whether the map ran it
-        on depends on its run (the explorer's download of the cell carries it)."""
+        Every axis needs a value, and each value must be one of its axis's: a value within
+        ``1e-9`` of a grid value's magnitude (one read back from the dataset's coordinate,
+        or computed as ``start + i * step``) names that grid value, and the cell runs the grid
+        value exactly (a ``UserWarning`` names the key, the value given and the grid value
+        where they differ); anything else is not a cell the map ran, and raises
+        :class:`pendulum_atlas.SceneError` naming the key and the nearest grid values. The
+        integration method, the step control, the step and the row rate the map took for
+        that cell are pinned (``integration.method``, ``integration.step``,
+        ``integration.dt_s`` at fixed steps or ``integration.base_step_s`` at adaptive ones,
+        ``output.sample_rate_hz``), as the explorer pins them, so that
+        :func:`pendulum_atlas.simulate` runs what the map ran.
+
+        A cell of a plain map also carries the map's settings of a cell's values (a
+        ``[cell]`` section): :func:`pendulum_atlas.simulate` then gives, in
+        ``attrs["map_cell"]``, the cell's values as the map computes them (on the CPU in
+        f64: the map's own numbers, bit for bit, where the map ran there). A map that settles
+        (the default) ran some cells on past its length, which only its run knows: give the
+        map's dataset as ``run`` (what :func:`pendulum_atlas.map` returned for this scene, or
+        :func:`pendulum_atlas.open_run` of its folder), and the cell is the one the explorer
+        downloads (its ``ran_on``, the map's method and, with ``map.initial_states``, the
+        start the map kept for it); or say ``ran_on=True`` or ``False`` yourself. Without
+        either, a settling map's cell has no map values: :func:`pendulum_atlas.simulate`
+        and the command's ``simulate`` warn that it cannot be rerun as its map computed it.
+        """
         if not self.is_map:
             raise ValueError("cell() takes a map scene (one with a [map] section)")
-        single = Scene(self._base, f"{self._origin} (a cell of the map)")
+        if run is not None and ran_on is not None:
+            raise TypeError("cell(): give the map's run (run=dataset) or ran_on, not both")
+        if ran_on is not None and not isinstance(ran_on, (bool, np.bool_)):
+            raise TypeError(f"cell(): ran_on is True or False, not {type(ran_on).__name__}")
+        given: dict[str, Any] = {}
         for name, value in coords.items():
-            single.set(_full_key(name, self._resolved), value)
-        pins = _native.cell_pins(self._text, self._origin, list(self._sets), list(single._sets))
+            key = _full_key(name, self._resolved)
+            if key in given:
+                raise ValueError(f"cell(): {_native.printable(key)} is given twice")
+            given[key] = value
+        cell_sets = [_native.set_arg(key, value) for key, value in given.items()]
+        at = _native.cell_at(self._text, self._origin, list(self._sets), cell_sets)
+        for key, value_given, grid in at["snapped"]:
+            warnings.warn(
+                f"cell(): {key} = {value_given!r} is within {at['tolerance']:g} (relative) of the map's grid "
+                f"value {grid!r}: the cell runs {grid!r}",
+                UserWarning,
+                stacklevel=2,
+            )
+        grid_values = at["values"]
+        others = [s for key, s in zip(given, cell_sets) if key not in grid_values]
+        method = start = None
+        if run is not None:
+            ran_on, method, start = _cell_of_run(run, at)
+        pins = _native.cell_pins(
+            self._text,
+            self._origin,
+            list(self._sets),
+            at["index"],
+            others,
+            method,
+            None if ran_on is None else bool(ran_on),
+            start,
+        )
+        single = Scene(self._base, f"{self._origin} (a cell of the map)")
+        for key, value in given.items():
+            single.set(key, grid_values.get(key, value))
         return single.update(pins)
 
     # -- what it is ---------------------------------------------------------------------
@@ -160,7 +207,52 @@ def _full_key(name: str, map_toml: str) -> str:
     found = [k for k in axes if k.rsplit(".", 1)[-1] == name]
     if len(found) != 1:
         raise ValueError(
-            f"cell(): `{name}` is not the short name of one axis of this map (axes: {', '.join(axes)}); "
-            "give other keys in full, e.g. **{'excitation.frequency_hz': 8.0}"
+            _native.printable(
+                f"cell(): `{name}` is not the short name of one axis of this map (axes: {', '.join(axes)}); "
+                "give other keys in full, e.g. **{'excitation.frequency_hz': 8.0}"
+            )
         )
     return found[0]
+
+
+def _cell_of_run(run: Any, at: Mapping[str, Any]) -> tuple[bool | None, str | None, int | None]:
+    """What the map's run ``run`` (its dataset) says of the cell ``at`` (``_native.cell_at``):
+    whether it ran the cell on (``ran_on``; ``None`` where the map does not settle), its
+    integration method, and the start it kept for the cell (with ``map.initial_states``)."""
+    from ._dataset import dim_names
+
+    if not hasattr(run, "data_vars") or not hasattr(run, "attrs"):
+        raise TypeError(
+            f"cell(): run takes the map's dataset (from pendulum_atlas.map or open_run), not {type(run).__name__}"
+        )
+    keys = [key for key, _ in at["axes"]]
+    dims = dim_names(keys)
+    for dim, (key, values) in zip(dims, at["axes"]):
+        if dim not in run.coords or not np.array_equal(np.asarray(run[dim].values, dtype=float), values):
+            raise _native.SceneError(
+                _native.printable(
+                    f"cell(): the run's dataset has not this map's axis {key} ({len(values)} values from "
+                    f"{values[0]!r} to {values[-1]!r}): give the dataset of this scene's map"
+                )
+            )
+    k = at["index"]
+
+    def at_cell(name: str) -> Any:
+        return run[name].transpose(*dims).values.reshape(-1)[k]
+
+    ran_on = None
+    if at["settles"]:
+        if "ran_on" not in run.data_vars:
+            raise _native.SceneError(
+                "cell(): this map settles, and its dataset has no ran_on (which cells the map ran on); "
+                "open the map's folder with open_run, or give ran_on=True or False"
+            )
+        ran_on = bool(at_cell("ran_on") == 1)
+    start = int(at_cell("start")) if at["starts"] > 1 and "start" in run.data_vars else None
+    if start is not None and not 0 <= start < at["starts"]:
+        raise _native.SceneError(
+            f"cell(): the run's start.npy says start {start} for this cell, and the map has {at['starts']} starts "
+            "per cell: the dataset is of another map"
+        )
+    method = run.attrs.get("method")
+    return ran_on, method if isinstance(method, str) else None, start

@@ -12,15 +12,16 @@ use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pendulum_atlas_core::analysis::{RecordOptions, Sampling, analyze_record};
 use pendulum_atlas_core::config::{
     ConfigError, DEFAULT_MAP_TOML, MapSpec, PAPER_SCENE_TOML, Scene, apply_override, lookup_key,
-    map_from_toml, parse_override_value, parse_toml, set_key,
+    map_from_toml, parse_override_value, parse_toml,
 };
 use pendulum_atlas_core::engine::{
-    Backend, Engine, EngineError, EnsembleOptions, EnsemblePlan, Integrator, Precision, StepPlan,
+    Backend, Engine, EngineError, EnsemblePlan, Integrator, Precision, StepPlan,
 };
 use pendulum_atlas_core::model::Status;
 use pendulum_atlas_map::machine::memory_available;
 use pendulum_atlas_map::map::cell::{
-    CELL_SECTION, cell_index, cell_section, map_cell_report, pinned_cell, read_cell_scene,
+    CELL_SECTION, CELL_SNAP_REL, cell_grid_values, cell_index, map_cell_report, map_cell_table,
+    read_cell_scene,
 };
 use pendulum_atlas_map::map::run_map;
 use pendulum_atlas_map::output::budget::RunSize;
@@ -418,7 +419,7 @@ fn check_run_size(scene: &Scene, plan: &StepPlan) -> PyResult<()> {
 }
 
 /// Run a plain scene once: `{"columns": {name: ndarray}, "units": {name: unit}, "report":
-/// run.json as a dict}`.
+/// run.json as a dict, "notes": what reading the scene noted}`.
 #[pyfunction]
 #[pyo3(signature = (text, origin, sets, integrator="engine", precision=None, progress=None))]
 fn run_single_scene<'py>(
@@ -446,6 +447,9 @@ fn run_single_scene<'py>(
     }
     let plan = StepPlan::for_scene(&scene).map_err(|e| scene_error(e.into()))?;
     check_run_size(&scene, &plan)?;
+    // What `simulate` prints as warnings before it runs (keys given but not used, a settling
+    // map's cell that cannot be rerun as its map computed it).
+    let notes: Vec<String> = scene.notes.iter().map(said).collect();
     let out = run_polled(py, progress.as_ref(), move |ticker| {
         simulate_work(
             &scene,
@@ -466,6 +470,7 @@ fn run_single_scene<'py>(
     d.set_item("columns", columns)?;
     d.set_item("units", units)?;
     d.set_item("report", convert::to_python(py, &out.report)?)?;
+    d.set_item("notes", notes)?;
     Ok(d)
 }
 
@@ -585,13 +590,15 @@ fn read_record<'py>(
     Ok(d)
 }
 
-/// The keys that pin one cell of a map to what the map ran: the method, the step control,
-/// its step (`integration.dt_s` at fixed steps, `integration.base_step_s` at adaptive ones)
-/// and the row rate, for the map `text` (with `sets`) at the cell whose axis keys
-/// `cell_sets` set (every axis, each on its grid; `pendulum_atlas_map::map::cell`, as the
-/// explorer's).
+/// The cell of the map `text` (with `sets`) that the axis keys of `cell_sets` (`key=value`,
+/// as `--set` takes them) name: `{"index": its grid index in C order, "values": {axis key:
+/// the grid value the cell runs}, "snapped": [(key, given, grid value)] for each value given
+/// within `CELL_SNAP_REL` of a grid value but not on it, "tolerance": CELL_SNAP_REL, "axes":
+/// [(key, [values])], "settles": whether the map settles, "starts": starts per cell}`. Every
+/// axis is needed, each value on its grid (`pendulum_atlas_map::map::cell::cell_index`); the
+/// keys that are not axes are left out.
 #[pyfunction]
-fn cell_pins<'py>(
+fn cell_at<'py>(
     py: Python<'py>,
     text: &str,
     origin: &str,
@@ -599,10 +606,8 @@ fn cell_pins<'py>(
     cell_sets: Vec<String>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let spec = map_from_toml(text, origin, &sets).map_err(scene_error)?;
-    // The cell by its axis values (every axis, each on the grid); other keys as given.
     let axis_keys: Vec<&str> = spec.axes.iter().map(|a| a.key.as_str()).collect();
     let mut coords = Vec::new();
-    let mut others = Vec::new();
     for s in &cell_sets {
         let (key, raw) = s.split_once('=').unwrap_or((s.as_str(), ""));
         let key = key.trim();
@@ -612,51 +617,116 @@ fn cell_pins<'py>(
                 .as_float()
                 .or(v.as_integer().map(|i| i as f64))
                 .ok_or_else(|| {
-                    SceneError::new_err(format!("cell(): {key} takes a number, got {raw}"))
+                    SceneError::new_err(said(format!("cell(): {key} takes a number, got {raw}")))
                 })?;
             coords.push((key.to_string(), x));
-        } else {
-            others.push(s);
         }
     }
     let k = cell_index(&spec, &coords)
         .map_err(|e| SceneError::new_err(said(format!("cell(): {e}"))))?;
-    let mut table = spec.instance_table(k).map_err(scene_error)?;
-    for s in others {
-        apply_override(&mut table, s).map_err(scene_error)?;
+    let grid = cell_grid_values(&spec, k);
+    let values = PyDict::new(py);
+    let mut snapped = Vec::new();
+    for (key, x) in &grid {
+        values.set_item(key, x)?;
+        if let Some(&(_, given)) = coords.iter().find(|(c, _)| c == key)
+            && given.to_bits() != x.to_bits()
+        {
+            snapped.push((key.clone(), given, *x));
+        }
+    }
+    let axes: Vec<(String, Vec<f64>)> = spec
+        .axes
+        .iter()
+        .map(|a| (a.key.clone(), a.values.clone()))
+        .collect();
+    let d = PyDict::new(py);
+    d.set_item("index", k)?;
+    d.set_item("values", values)?;
+    d.set_item("snapped", snapped)?;
+    d.set_item("tolerance", CELL_SNAP_REL)?;
+    d.set_item("axes", axes)?;
+    d.set_item("settles", spec.settle_max_s.is_some())?;
+    d.set_item("starts", spec.starts_per_cell())?;
+    Ok(d)
+}
+
+/// The keys that pin cell `index` of the map `text` (with `sets`) to what the map ran, as
+/// the explorer's download of the cell has them (`map::cell::map_cell_table`, its one
+/// recipe): the method (`method`, `map.json`'s where the map's run is known, else the one its
+/// plan takes), the step control, its step (`integration.dt_s` at fixed steps,
+/// `integration.base_step_s` at adaptive ones) and the row rate, with the keys `others`
+/// (`key=value`, not axes) set; and, for a plain map, its `[cell]` section (`cell`; with the
+/// cell's `ran_on` where the map settles and its run says). `start`: the start of
+/// `map.initial_states` whose run the map kept for the cell (its `start.npy`), whose initial
+/// state the cell then has.
+// Keyword arguments of one Python function: a struct would only move them.
+#[allow(clippy::too_many_arguments)]
+#[pyfunction]
+#[pyo3(signature = (text, origin, sets, index, others, method=None, ran_on=None, start=None))]
+fn cell_pins<'py>(
+    py: Python<'py>,
+    text: &str,
+    origin: &str,
+    sets: Vec<String>,
+    index: usize,
+    others: Vec<String>,
+    method: Option<String>,
+    ran_on: Option<bool>,
+    start: Option<usize>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let spec = map_from_toml(text, origin, &sets).map_err(scene_error)?;
+    if index >= spec.instances() {
+        return Err(PyValueError::new_err(format!(
+            "cell {index} is not one of this map's {} cells",
+            spec.instances()
+        )));
+    }
+    if let Some(s) = start
+        && s >= spec.starts_per_cell()
+    {
+        return Err(SceneError::new_err(format!(
+            "cell(): start {s} is not one of this map's {} starts per cell: the run is of another map",
+            spec.starts_per_cell()
+        )));
+    }
+    if ran_on == Some(true) && spec.settle_max_s.is_none() {
+        return Err(SceneError::new_err(
+            "cell(): ran_on=True, but this map does not settle (map.settle = false, or a map that cannot): none of its cells ran on",
+        ));
     }
     let (pinned, keys) = py
         .detach(
             || -> Result<(toml::Table, &'static [&'static str]), EngineError> {
-                let method = EnsemblePlan::new(&spec)?.method;
-                set_key(
-                    &mut table,
-                    "integration.method",
-                    toml::Value::String(method.name().into()),
-                )?;
-                pinned_cell(table, &EnsembleOptions::from_spec(&spec))
+                let method = match method {
+                    Some(m) => m,
+                    None => EnsemblePlan::new(&spec)?.method.name().to_string(),
+                };
+                map_cell_table(&spec, index, start, &method, ran_on, &others)
             },
         )
         .map_err(engine_error)?;
     let d = PyDict::new(py);
-    for &key in keys {
-        let value = lookup_key(&pinned, key)
-            .ok_or_else(|| PyRuntimeError::new_err(format!("{key} was not pinned")))?;
+    for &key in keys.iter().chain([&CELL_SECTION]) {
+        let Some(value) = lookup_key(&pinned, key) else {
+            if key == CELL_SECTION {
+                continue;
+            }
+            return Err(PyRuntimeError::new_err(format!("{key} was not pinned")));
+        };
         d.set_item(
             key,
             convert::to_python(py, &serde_json::to_value(value).unwrap_or_default())?,
         )?;
     }
-    // A plain map's cell carries its map's settings of a cell's values (`[cell]`), so that
-    // `simulate` reports the cell's values as the map computes them; not a settling map's,
-    // whose `ran_on` only its run knows.
-    if let Some(section) = cell_section(&spec, None) {
-        d.set_item(
-            CELL_SECTION,
-            convert::to_python(py, &serde_json::to_value(section).unwrap_or_default())?,
-        )?;
-    }
     Ok(d)
+}
+
+/// `s` as a message may quote it: its control characters and bidirectional overrides written
+/// as escapes (`pendulum_atlas_core::text::printable`, as every message of the library).
+#[pyfunction]
+fn printable(s: &str) -> String {
+    pendulum_atlas_core::text::printable(s)
 }
 
 #[pymodule]
@@ -675,6 +745,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(run_single_scene, m)?)?;
     m.add_function(wrap_pyfunction!(analyze_signal, m)?)?;
     m.add_function(wrap_pyfunction!(read_record, m)?)?;
+    m.add_function(wrap_pyfunction!(cell_at, m)?)?;
     m.add_function(wrap_pyfunction!(cell_pins, m)?)?;
+    m.add_function(wrap_pyfunction!(printable, m)?)?;
     Ok(())
 }

@@ -451,7 +451,7 @@ def test_a_cell_of_a_map_runs_with_the_maps_method_and_step(small_map_file):
     manifest = json.loads(ds.attrs["map_json"])
     f = float(ds["frequency_hz"][1])
     a = float(ds["amplitude_m"][0])
-    cell = scene.cell(frequency_hz=f, amplitude_m=a)
+    cell = scene.cell(frequency_hz=f, amplitude_m=a, run=ds)
     run = json.loads(pa.simulate(cell).attrs["run_json"])
     assert run["method"] == manifest["method"]
     # The map's step: a whole number of steps per forcing period, a multiple of its 16 samples.

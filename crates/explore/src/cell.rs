@@ -10,16 +10,14 @@ use super::error::ExploreError;
 use super::folder::{RunFolder, Source};
 use super::search_folder::split_variant;
 use pendulum_atlas_core::analysis::{RecordAnalysis, stroboscopic};
-use pendulum_atlas_core::config::{Scene, set_key};
+use pendulum_atlas_core::config::Scene;
 use pendulum_atlas_core::engine::{
     EnsembleOptions, Instance, Outcome, ProgressUnit, StepPlan, integrate,
 };
 use pendulum_atlas_core::model::Status;
 use pendulum_atlas_core::model::linear::LinearError;
 use pendulum_atlas_core::text::bytes;
-use pendulum_atlas_map::map::cell::{
-    CELL_SECTION, cell_section, cell_values, read_cell_scene, rerun_cell,
-};
+use pendulum_atlas_map::map::cell::{cell_values, map_cell_table, read_cell_scene, rerun_cell};
 use pendulum_atlas_map::output::TrajectoryRecorder;
 use pendulum_atlas_map::output::budget::RunSize;
 use serde::Serialize;
@@ -28,7 +26,7 @@ use std::ops::ControlFlow;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
-use toml::{Table, Value};
+use toml::Table;
 
 /// Most points of a curve sent to the page.
 const MAX_POINTS: usize = 4000;
@@ -53,30 +51,32 @@ pub struct CellScene {
 pub fn cell_scene(folder: &RunFolder, k: usize, v: usize) -> Result<CellScene, ExploreError> {
     let fail = |e: String| ExploreError::Cell(format!("cell {k}: {e}"));
     let values = folder.values_of(k);
-    let (mut table, opts) = match &folder.source {
+    let pinned = |t: Table, opts: &EnsembleOptions| {
+        pendulum_atlas_map::map::cell::pinned_cell(t, opts)
+            .map(|p| p.0)
+            .map_err(|e| fail(e.to_string()))
+    };
+    let table = match &folder.source {
+        // The map's cell as Python's `Scene.cell(..., run=ds)` makes it: one rule.
         Source::Map(spec, manifest) => {
             let start = match v {
                 0 => folder.starts.get(k).copied(),
                 s => Some(s - 1),
             };
-            let mut t = match start {
-                Some(s) => spec.start_table(k, s),
-                None => spec.instance_table(k),
-            }
-            .map_err(|e| fail(e.to_string()))?;
-            set(
-                &mut t,
-                "integration.method",
-                Value::String(manifest.method.clone()),
-            )?;
-            (t, EnsembleOptions::from_spec(spec))
+            let ran_on = folder.ran_on.get(k).copied();
+            map_cell_table(spec, k, start, &manifest.method, ran_on, &[])
+                .map_err(|e| fail(e.to_string()))?
+                .0
         }
         Source::Calibrate(c) => {
             let t = c
                 .spec
                 .scene_table(&c.spec.cases[v], &values, 0.0)
                 .map_err(|e| fail(e.to_string()))?;
-            (t, pendulum_atlas_design::calibrate::run::options(&c.spec).0)
+            pinned(
+                t,
+                &pendulum_atlas_design::calibrate::run::options(&c.spec).0,
+            )?
         }
         Source::Search(s) => {
             let spec = &s.spec;
@@ -92,27 +92,16 @@ pub fn cell_scene(folder: &RunFolder, k: usize, v: usize) -> Result<CellScene, E
                     spec.band.frequencies_hz[j],
                 )
                 .map_err(|e| fail(e.to_string()))?;
-            (
+            pinned(
                 t,
-                pendulum_atlas_design::harvest::search::ensemble_options(spec),
-            )
+                &pendulum_atlas_design::harvest::search::ensemble_options(spec),
+            )?
         }
     };
-    table = pendulum_atlas_map::map::cell::pinned_cell(table, &opts)
-        .map_err(|e| fail(e.to_string()))?
-        .0;
-    let ran_on = folder.ran_on.get(k).copied();
-    if let Some(section) = folder.source.map().and_then(|s| cell_section(s, ran_on)) {
-        table.insert(CELL_SECTION.into(), Value::Table(section));
-    }
     let toml = scene_text(folder, k, v, &table)?;
     let (scene, cell) =
         read_cell_scene(&toml, "<the cell>", &[]).map_err(|e| fail(e.to_string()))?;
     Ok(CellScene { scene, toml, cell })
-}
-
-fn set(table: &mut Table, key: &str, v: Value) -> Result<(), ExploreError> {
-    set_key(table, key, v).map_err(|e| ExploreError::Cell(e.to_string()))
 }
 
 /// The downloadable TOML of cell `k` (variant `v`), with a header saying where it comes from.

@@ -3,6 +3,7 @@
 use super::error::ExploreError;
 use super::folder::RunFolder;
 use super::{calibrate_folder, map_folder, search_folder};
+use pendulum_atlas_map::output::earlier::EARLIER_DIR;
 use pendulum_atlas_map::output::folder::Product;
 use std::path::Path;
 
@@ -31,6 +32,16 @@ impl RunFolder {
                      the folder of a finished `map` (or `merge`), `calibrate` or `search`",
                     p.command(),
                     p.manifest()
+                ),
+            }),
+            None if dir.join(EARLIER_DIR).is_dir() => Err(ExploreError::MissingFile {
+                path: dir.join("map.json").display().to_string(),
+                hint: format!(
+                    "a `--force` run into this folder was stopped before it completed, and the \
+                     earlier complete run it replaced is set aside in `{}`: the next run into \
+                     this folder puts it back first (or move its files back into the folder \
+                     by hand)",
+                    dir.join(EARLIER_DIR).display()
                 ),
             }),
             None => Err(ExploreError::MissingFile {

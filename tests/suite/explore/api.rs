@@ -328,6 +328,17 @@ fn a_folder_that_is_not_a_complete_map_is_refused_at_start() {
         &[],
         "not a finished map folder",
     );
+    // A `--force` run killed outright: the earlier map set aside whole, nothing in its place
+    // yet; explore says where it is and that the next run puts it back (issue 71).
+    let killed = scratch("killed-force");
+    let aside = killed.join(".pendulum-atlas.earlier");
+    std::fs::create_dir_all(&aside).unwrap();
+    for e in std::fs::read_dir(small_map()).unwrap() {
+        let e = e.unwrap();
+        std::fs::copy(e.path(), aside.join(e.file_name())).unwrap();
+    }
+    refused(&killed, &[], "set aside in");
+    refused(&killed, &[], "the next run into this folder puts it back");
     let other = copy_without("other-shape", "");
     let text = std::fs::read_to_string(other.join("map_scene.toml")).unwrap();
     std::fs::write(

@@ -111,10 +111,18 @@ pub fn pinned_cell(
     Ok((table, keys))
 }
 
+/// How far (relative to its magnitude) a value given for a cell may lie from a value of its
+/// axis and still name it: a value read back from a dataset's coordinate, or computed as
+/// `start + i·step`, lands within this of the grid value it means. The cell then runs the grid
+/// value itself ([`cell_index`], [`cell_grid_values`]).
+pub const CELL_SNAP_REL: f64 = 1e-9;
+
 /// The grid index of the cell of `spec` whose axis values are `coords` (key, value): every
-/// axis named, each value one of its axis's values (to within 1e-9 of its magnitude, so that
-/// a value read back from a dataset's coordinate matches). A missing axis or a value between
-/// grid points is refused: the cell would not be one the map ran.
+/// axis named, each value one of its axis's values to within [`CELL_SNAP_REL`] of its
+/// magnitude (a value read back from a dataset's coordinate matches; the cell is the grid
+/// value's, which [`cell_grid_values`] gives). A missing axis or a value between grid points
+/// is refused, naming the key and the grid values nearest the one given: the cell would not
+/// be one the map ran.
 pub fn cell_index(spec: &MapSpec, coords: &[(String, f64)]) -> Result<usize, ConfigError> {
     let mut k = 0;
     for axis in &spec.axes {
@@ -132,14 +140,15 @@ pub fn cell_index(spec: &MapSpec, coords: &[(String, f64)]) -> Result<usize, Con
                 num(hi)
             )));
         };
-        let close = |x: f64| (x - v).abs() <= 1e-9 * x.abs().max(v.abs()).max(1e-300);
+        let close = |x: f64| (x - v).abs() <= CELL_SNAP_REL * x.abs().max(v.abs()).max(1e-300);
         let Some(i) = values.iter().position(|&x| close(x)) else {
             return Err(refuse(format!(
-                "{} is not a value of this map's axis ({} values from {} to {}): a cell runs one of them",
+                "{} is not a value of this map's axis ({} values from {} to {}; the nearest: {}): a cell runs one of them",
                 num(v),
                 values.len(),
                 num(lo),
-                num(hi)
+                num(hi),
+                nearest(values, v)
             )));
         };
         k = k * values.len() + i;
@@ -147,11 +156,35 @@ pub fn cell_index(spec: &MapSpec, coords: &[(String, f64)]) -> Result<usize, Con
     Ok(k)
 }
 
+/// The axis values of cell `k` of `spec`, by key: what a cell named by values within
+/// [`CELL_SNAP_REL`] of them runs.
+pub fn cell_grid_values(spec: &MapSpec, k: usize) -> Vec<(String, f64)> {
+    spec.axes
+        .iter()
+        .map(|a| a.key.clone())
+        .zip(spec.values_of(k))
+        .collect()
+}
+
+/// The (at most three) values of an axis nearest `v`, in the axis's order, as a message
+/// lists them.
+fn nearest(values: &[f64], v: f64) -> String {
+    let mut by_distance: Vec<usize> = (0..values.len()).collect();
+    by_distance.sort_by(|&a, &b| (values[a] - v).abs().total_cmp(&(values[b] - v).abs()));
+    by_distance.truncate(3);
+    by_distance.sort_unstable();
+    let shown: Vec<String> = by_distance.iter().map(|&i| num(values[i])).collect();
+    shown.join(", ")
+}
+
 /// The `[cell]` section of a cell of `spec`: the map's `CELL_MAP_KEYS` (empty where the
 /// map keeps every default), and for a map that settles, its `settle_max_s` and whether the
-/// cell `ran_on` (the cell's result: the map's neighbours decided it). `None` for a map whose
-/// cells are not one plain run each (starts, continuation, refinement), and for a cell of a
-/// settling map whose `ran_on` is not known (a map scene without its run).
+/// cell `ran_on` (the cell's result: the map's neighbours decided it; only the map's run
+/// knows it, `ran_on.npy`). A settling map's cell whose `ran_on` is not known (`None`: a map
+/// scene without its run) gets the settling keys without `ran_on`, which
+/// [`read_cell_scene`] reads as a cell that cannot be rerun as its map computed it, and says
+/// so ([`UNKNOWN_RAN_ON`]). `None` for a map whose cells are not one plain run each (starts,
+/// continuation, refinement).
 pub fn cell_section(spec: &MapSpec, ran_on: Option<bool>) -> Option<Table> {
     if !matches!(spec.mode, MapMode::Plain) {
         return None;
@@ -163,7 +196,9 @@ pub fn cell_section(spec: &MapSpec, ran_on: Option<bool>) -> Option<Table> {
             SETTLE_FROM.into(),
             Value::String(spec.settle_from.name().into()),
         );
-        section.insert(RAN_ON.into(), Value::Boolean(ran_on?));
+        if let Some(ran_on) = ran_on {
+            section.insert(RAN_ON.into(), Value::Boolean(ran_on));
+        }
     }
     if let Some(Value::Table(map)) = spec.source_table.get("map") {
         for key in CELL_MAP_KEYS {
@@ -175,9 +210,50 @@ pub fn cell_section(spec: &MapSpec, ran_on: Option<bool>) -> Option<Table> {
     Some(section)
 }
 
+/// What a cell's scene says (a note of its [`Scene`], which `simulate` prints as a warning and
+/// Python's `pa.simulate` warns of) when it is a settling map's cell without `ran_on`: its
+/// values as its map computes them depend on whether the map ran it on, which only the map's
+/// run knows, so they are not given.
+pub const UNKNOWN_RAN_ON: &str = "this is a cell of a settling map ([cell] has settle_max_s) that does not say whether its map ran it on past the map's length (cell.ran_on, which only the map's run knows: its ran_on.npy): its values as the map computes them are not given, and this run's own analysis can differ from the map's; take the cell from the map's run (the explorer's download, or Scene.cell(..., run=dataset) in Python), or set cell.ran_on = true or false";
+
+/// The scene table of cell `k` of `spec` as its map ran it, the one recipe of the explorer's
+/// download of a cell and Python's `Scene.cell`: the cell's axis values (and start `start` of
+/// `map.initial_states`, the cell's representative one, where the map has starts), the
+/// overrides `sets` (none for the map's own cell), the map's integration method `method`
+/// (`map.json`'s), the method, step control, step and row rate pinned ([`pinned_cell`]), and
+/// the `[cell]` section ([`cell_section`], with the cell's `ran_on` where the map's run gives
+/// it). Also which keys were pinned.
+pub fn map_cell_table(
+    spec: &MapSpec,
+    k: usize,
+    start: Option<usize>,
+    method: &str,
+    ran_on: Option<bool>,
+    sets: &[String],
+) -> Result<(Table, &'static [&'static str]), EngineError> {
+    let mut table = match start {
+        Some(s) => spec.start_table(k, s),
+        None => spec.instance_table(k),
+    }?;
+    for s in sets {
+        apply_override(&mut table, s)?;
+    }
+    set_key(
+        &mut table,
+        "integration.method",
+        Value::String(method.into()),
+    )?;
+    let (mut table, keys) = pinned_cell(table, &EnsembleOptions::from_spec(spec))?;
+    if let Some(section) = cell_section(spec, ran_on) {
+        table.insert(CELL_SECTION.into(), Value::Table(section));
+    }
+    Ok((table, keys))
+}
+
 /// A scene's TOML text with its overrides `sets`: the scene, and, where it has a `[cell]`
 /// section (a map cell, as [`cell_section`] writes it), the map of that cell alone, whose one
-/// run [`rerun_cell`] gives the cell's values as its map computed them.
+/// run [`rerun_cell`] gives the cell's values as its map computed them. A settling map's cell
+/// without `ran_on` has no such map: its scene carries the note [`UNKNOWN_RAN_ON`].
 pub fn read_cell_scene(
     text: &str,
     origin: &str,
@@ -190,7 +266,7 @@ pub fn read_cell_scene(
     let Some(cell) = table.remove(CELL_SECTION) else {
         return Ok((Scene::from_table(table)?, None));
     };
-    let scene = Scene::from_table(table.clone())?;
+    let mut scene = Scene::from_table(table.clone())?;
     let ExcitationKind::Harmonic { frequency_hz, .. } = scene.excitation.kind else {
         return Err(ConfigError::Inconsistent {
             key: CELL_SECTION.into(),
@@ -203,18 +279,17 @@ pub fn read_cell_scene(
             reason: "[cell] holds the map's settings of a cell's values, as a table".into(),
         });
     };
+    check_cell_keys(&map)?;
+    if map.contains_key(SETTLE_MAX_S) && !map.contains_key(RAN_ON) {
+        scene.notes.push(UNKNOWN_RAN_ON.into());
+        return Ok((scene, None));
+    }
     let spec = one_cell_map(table, map, frequency_hz, origin)?;
     Ok((scene, Some(spec)))
 }
 
-/// The map of one cell: the scene `table`, the `[cell]` keys `map` and an axis of the scene's
-/// own frequency `frequency_hz` (so that its one run is the scene itself).
-fn one_cell_map(
-    mut table: Table,
-    mut map: Table,
-    frequency_hz: f64,
-    origin: &str,
-) -> Result<MapSpec, ConfigError> {
+/// `[cell]` takes the map keys that shape a cell's values and the settling keys, nothing else.
+fn check_cell_keys(map: &Table) -> Result<(), ConfigError> {
     let taken =
         |k: &str| CELL_MAP_KEYS.contains(&k) || [SETTLE_MAX_S, SETTLE_FROM, RAN_ON].contains(&k);
     if let Some(key) = map.keys().find(|k| !taken(k)) {
@@ -226,6 +301,17 @@ fn one_cell_map(
             ),
         });
     }
+    Ok(())
+}
+
+/// The map of one cell: the scene `table`, the `[cell]` keys `map` and an axis of the scene's
+/// own frequency `frequency_hz` (so that its one run is the scene itself).
+fn one_cell_map(
+    mut table: Table,
+    mut map: Table,
+    frequency_hz: f64,
+    origin: &str,
+) -> Result<MapSpec, ConfigError> {
     settle_keys(&mut map)?;
     let mut axis = Table::new();
     axis.insert(
@@ -329,4 +415,55 @@ pub fn map_cell_report(
         "values": cell_values(spec, &r),
         "note": "this cell's values as its map computes them (a map of this cell alone): bit for bit those of a map run on the CPU engine in f64; a map run in f32 (the GPU) can differ where the orbit is sensitive; the verdict's confidence needs the cell's neighbours and is not given",
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pendulum_atlas_core::config::DEFAULT_MAP_TOML;
+
+    fn default_map() -> MapSpec {
+        map_from_toml(DEFAULT_MAP_TOML, "<default map>", &[]).unwrap()
+    }
+
+    fn at(f: f64, a: f64) -> Vec<(String, f64)> {
+        vec![
+            ("excitation.frequency_hz".into(), f),
+            ("excitation.amplitude_m".into(), a),
+        ]
+    }
+
+    #[test]
+    fn a_value_within_the_tolerance_names_its_grid_value_and_others_are_refused() {
+        let spec = default_map();
+        let (f, a) = (spec.axes[0].values[5], spec.axes[1].values[7]);
+        let k = cell_index(&spec, &at(f * (1.0 + 1e-12), a)).unwrap();
+        assert_eq!(k, 5 * spec.axes[1].values.len() + 7);
+        let grid = cell_grid_values(&spec, k);
+        assert_eq!(grid[0].1.to_bits(), f.to_bits());
+        assert_eq!(grid[1].1.to_bits(), a.to_bits());
+        let refused = cell_index(&spec, &at(f * (1.0 + 1e-6), a))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            refused.contains("excitation.frequency_hz") && refused.contains("the nearest: "),
+            "{refused}"
+        );
+        assert!(refused.contains(&num(f)), "{refused}");
+    }
+
+    #[test]
+    fn a_settling_maps_cell_without_ran_on_reads_as_one_that_cannot_be_rerun() {
+        let spec = default_map();
+        assert!(spec.settle_max_s.is_some(), "the default map settles");
+        let method = EnsemblePlan::new(&spec).unwrap().method.name();
+        for (ran_on, rerun) in [(None, false), (Some(false), true), (Some(true), true)] {
+            let (table, _) = map_cell_table(&spec, 3, None, method, ran_on, &[]).unwrap();
+            let text = toml::to_string(&table).unwrap();
+            let (scene, cell) = read_cell_scene(&text, "<cell>", &[]).unwrap();
+            assert_eq!(cell.is_some(), rerun, "{ran_on:?}");
+            let noted = scene.notes.iter().any(|n| n == UNKNOWN_RAN_ON);
+            assert_eq!(noted, !rerun, "{ran_on:?}: {:?}", scene.notes);
+        }
+    }
 }
