@@ -1499,3 +1499,47 @@ fn ctrl_c_on_a_command_without_progress_reports_stops_it_cleanly() {
     assert!(!fresh.exists(), "{:?}", snapshot(&fresh));
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// A cell scene whose `[cell]` its run cannot serve (here a run shortened to 15 s, too short
+/// for the 0–1 test's 95 stroboscopic samples) is refused before any step, writing nothing
+/// (issue 71: it integrated, wrote 18 files, then exited 2).
+#[test]
+fn a_cell_scene_whose_cell_cannot_run_is_refused_before_any_step() {
+    let dir = out_dir("cell-scene-short");
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("cell.toml");
+    let paper = std::fs::read_to_string("configs/paper.toml").unwrap();
+    std::fs::write(&scene, format!("{paper}\n[cell]\nmetrics = [\"K\"]\n")).unwrap();
+    let out = dir.join("run");
+    let o = bin()
+        .arg("simulate")
+        .arg(&scene)
+        .args([
+            "--set",
+            "beam.segments=3",
+            "--set",
+            "integration.duration_s=15",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("[cell]") && e.contains("cannot run"), "{e}");
+    // Refused before the run was planned and announced (`run: N steps, ...`).
+    assert!(!e.lines().any(|l| l.starts_with("run: ")), "it ran: {e}");
+    assert!(!out.exists(), "{out:?} was written");
+    // The same cell at the paper's 30 s runs, with the map's values of it.
+    let o = bin()
+        .arg("simulate")
+        .arg(&scene)
+        .args(["--set", "beam.segments=3", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{e}");
+    assert!(e.contains("as its map computes this cell"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
