@@ -1929,6 +1929,22 @@ fn a_planted_earlier_folder_is_refused_and_nothing_moves() {
     let plant_link = |out: &std::path::Path| {
         std::os::unix::fs::symlink(&elsewhere, out.join(".pendulum-atlas.earlier")).unwrap()
     };
+    // A symlink where the earlier run's manifest would be, to a FIFO: refused, never read
+    // (a read would wait on the FIFO for ever).
+    let plant_fifo = |out: &std::path::Path| {
+        let d = out.join(".pendulum-atlas.earlier");
+        std::fs::create_dir(&d).unwrap();
+        let fifo = out.join("..").join(format!("fifo-{}", std::process::id()));
+        let _ = std::fs::remove_file(&fifo);
+        assert!(
+            Command::new("mkfifo")
+                .arg(&fifo)
+                .status()
+                .unwrap()
+                .success()
+        );
+        std::os::unix::fs::symlink(&fifo, d.join("map.json")).unwrap();
+    };
     let plant_folder = |out: &std::path::Path| {
         let d = out.join(".pendulum-atlas.earlier");
         std::fs::create_dir(&d).unwrap();
@@ -1936,7 +1952,11 @@ fn a_planted_earlier_folder_is_refused_and_nothing_moves() {
         std::fs::write(d.join("K.npy"), "mine too").unwrap();
     };
     type Plant<'a> = &'a dyn Fn(&std::path::Path);
-    let plants: [(&str, Plant); 2] = [("a symlink", &plant_link), ("a file no run", &plant_folder)];
+    let plants: [(&str, Plant); 3] = [
+        ("a symlink", &plant_link),
+        ("a file no run", &plant_folder),
+        ("a symlink", &plant_fifo),
+    ];
     for (i, (what, plant)) in plants.into_iter().enumerate() {
         let out = out_dir(&format!("planted-{i}"));
         std::fs::create_dir_all(&out).unwrap();

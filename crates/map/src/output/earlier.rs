@@ -123,23 +123,29 @@ fn refuse_planted(aside: &Path, product: &dyn RunFiles) -> Result<bool, OutputEr
     if !kind.is_dir() {
         return Err(planted(aside, entry_kind(kind)));
     }
-    let listed = super::folder::listed_files(&aside.join(product.manifest())).unwrap_or_default();
+    // Every entry a regular file first: only then is the manifest read (a symlink to a FIFO
+    // in its place would block the read).
+    let mut names = Vec::new();
     let entries = std::fs::read_dir(aside).map_err(|e| OutputError::io(aside, e))?;
     for entry in entries {
         let entry = entry.map_err(|e| OutputError::io(aside, e))?;
         let kind = entry
             .file_type()
             .map_err(|e| OutputError::io(&entry.path(), e))?;
-        let name = entry.file_name().to_string_lossy().into_owned();
         if !kind.is_file() {
             return Err(planted(&entry.path(), entry_kind(kind)));
         }
-        if !product.writes(&name) && !listed.contains(&name) {
-            return Err(planted(
-                &entry.path(),
-                "a file no run of this command writes",
-            ));
-        }
+        names.push(entry.file_name().to_string_lossy().into_owned());
+    }
+    let listed = super::folder::listed_files(&aside.join(product.manifest())).unwrap_or_default();
+    if let Some(name) = names
+        .iter()
+        .find(|n| !product.writes(n) && !listed.contains(n))
+    {
+        return Err(planted(
+            &aside.join(name),
+            "a file no run of this command writes",
+        ));
     }
     Ok(true)
 }
