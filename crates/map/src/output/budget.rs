@@ -106,7 +106,7 @@ pub enum TooLarge {
 }
 
 /// Bytes one picture of a map may take at most (a PNG heat map with its axes and colour bar;
-/// the default map's are 20–60 kB).
+/// the default map's are 60–73 kB).
 pub const PICTURE_BYTES: u64 = 512 * 1024;
 
 /// The most bytes a map of `spec` writes (or one of `shards` shards of it), estimated before
