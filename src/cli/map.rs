@@ -263,6 +263,7 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<()> {
         settle(&merged.spec, &mut merged.run, &engine, &progress).map_err(hint)?;
         bar.finish_and_clear();
     }
+    pendulum_atlas_map::map::orbits::find_orbits(&merged.spec, &mut merged.run);
     let files = write_map(&a.out, &merged.spec, &merged.run)?;
     say!(
         "merged {} shards of {} instances",

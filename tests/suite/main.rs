@@ -16,6 +16,7 @@ mod imex;
 mod map;
 mod messages;
 mod model;
+mod orbits;
 mod render;
 mod reproduce;
 mod schema;

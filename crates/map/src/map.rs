@@ -5,6 +5,7 @@ pub mod cell;
 pub mod confidence;
 pub mod continuation;
 pub mod hardware_default;
+pub mod orbits;
 pub mod refine;
 pub mod settle;
 pub mod shard;
@@ -39,6 +40,9 @@ pub struct MapTimings {
     /// after the reductions.
     #[serde(default)]
     pub attractors_s: f64,
+    /// The orbit stage (shooting, continuation, bifurcation curves), after settling.
+    #[serde(default)]
+    pub orbits_s: f64,
     /// Everything.
     pub total_s: f64,
     /// The GPU's own stages.
@@ -116,9 +120,13 @@ pub struct MapRun {
     /// What the settling stage did, when `map.settle_max_s` is set.
     pub settle: Option<settle::SettleReport>,
     /// Each instance's state at the end of its run, kept for the settling stage where the
-    /// map settles (empty otherwise, and after that stage).
+    /// map settles and for the orbit stage (empty otherwise, and after those stages).
     #[serde(skip)]
     pub final_state: Vec<Vec<f64>>,
+    /// The exact periodic orbits, their multipliers and bifurcation curves, when
+    /// `map.orbits` is on.
+    #[serde(skip)]
+    pub orbits: Option<pendulum_atlas_core::reduce::orbits::OrbitMap>,
 }
 
 /// The size of a map's ensemble when cells ran several starts: what was integrated in all.
@@ -178,6 +186,7 @@ impl MapRun {
             continuation: None,
             settle: None,
             final_state: Vec::new(),
+            orbits: None,
         }
     }
 
@@ -257,6 +266,7 @@ fn run_map_settling(
     let mut run = run_map_part(spec, Cow::Owned(plan), None, engine, progress, t0)?;
     confidence::fill_run(&spec.shape(), &mut run);
     settle::settle_cells(spec, &mut run, which, engine, progress)?;
+    orbits::find_orbits(spec, &mut run);
     Ok(run)
 }
 
@@ -319,7 +329,7 @@ fn run_map_part(
     let tail = spec
         .bifurcation
         .then_some(spec.bifurcation_samples as usize);
-    let keep = spec.settle_max_s.is_some();
+    let keep = spec.keeps_final_state();
     let (mut run, final_state) = run_engine(plan, &opts, tail, keep, engine, progress)?;
     run.final_state = final_state;
     run.timings.plan_s = plan_s;
@@ -576,6 +586,7 @@ fn run_engine(
         integrate_s: run.timings.integrate_s,
         reduce_s: run.timings.reduce_s,
         attractors_s: 0.0,
+        orbits_s: 0.0,
         total_s: t_all.elapsed().as_secs_f64(),
         gpu: run.timings.gpu,
     };
@@ -728,6 +739,7 @@ pub fn run_map_on_devices(
     let mut run = assemble(plan, parts);
     confidence::fill_run(&spec.shape(), &mut run);
     settle::settle(spec, &mut run, &engines[0], progress)?;
+    orbits::find_orbits(spec, &mut run);
     run.timings.plan_s += plan_s;
     run.timings.total_s = t0.elapsed().as_secs_f64();
     Ok(run)

@@ -86,6 +86,8 @@ pub struct MapSpec {
     pub settle_max_s: Option<f64>,
     /// `map.settle_from`: where a cell run on starts again.
     pub settle_from: SettleFrom,
+    /// `map.orbits`: the orbit stage (`super::orbits`); `None`: no orbits.
+    pub orbits: Option<super::OrbitSpec>,
     /// How λ1's twin runs (used when `lyapunov` is among the metrics).
     pub lyapunov: LyapunovSettings,
     /// `map.accept_huge`: run a map above the size at which `map` asks first (`--yes`).
@@ -356,6 +358,22 @@ impl MapSpec {
         Ok(spec)
     }
 
+    /// Whether the map keeps each cell's end state for a stage after the reductions (settling,
+    /// the orbits).
+    pub fn keeps_final_state(&self) -> bool {
+        self.settle_max_s.is_some() || self.orbits.is_some()
+    }
+
+    /// The validated scene at axis values `values` (one per axis), on the grid or between its
+    /// points: the base table with the axis keys set.
+    pub fn scene_at(&self, values: &[f64]) -> Result<Scene, ConfigError> {
+        let mut table = self.base_table.clone();
+        for (axis, &v) in self.axes.iter().zip(values) {
+            set_number(&mut table, &axis.key, v)?;
+        }
+        Scene::from_table(table)
+    }
+
     /// The validated scene of instance `k`: the base scene with the axis keys set.
     pub fn instance_scene(&self, k: usize) -> Result<Scene, ConfigError> {
         Scene::from_table(self.instance_table(k)?).map_err(|e| ConfigError::Inconsistent {
@@ -602,6 +620,7 @@ fn read_map(
     if settle_max_s.is_none() {
         super::scene::note_unused(&mut r, (&["map.settle_from"], "this map does not settle"))?;
     }
+    let orbits = super::orbits::read_orbits(&mut r, &metrics, &mode)?;
     let mut notes = scene.notes.clone();
     notes.extend(r.take_notes());
     r.finish()?;
@@ -628,6 +647,7 @@ fn read_map(
         gpu_kernel,
         settle_max_s,
         settle_from,
+        orbits,
         lyapunov,
         accept_huge,
         mode,

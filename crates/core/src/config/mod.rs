@@ -10,6 +10,7 @@ mod field;
 mod gpu;
 mod map;
 mod mode;
+mod orbits;
 mod physics;
 mod reader;
 mod scene;
@@ -28,6 +29,7 @@ pub use map::{
     split_section,
 };
 pub use mode::{MapMode, ModeKeys, RefineFollow, RefineSpec};
+pub use orbits::{OrbitSpec, REACH_MAX};
 pub use physics::DampingReport;
 pub use reader::{
     MAX_SCENE_BYTES, Range, Reader, apply_override, parse_override_value, parse_toml,

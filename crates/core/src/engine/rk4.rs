@@ -45,7 +45,22 @@ pub fn rk4_step<T: Lane>(
     dt: T,
     cart_acc: [T; 3],
 ) {
-    rk4_stages(chain, ws, y, s, dt, cart_acc, None);
+    rk4_stages(chain, ws, y, s, dt, cart_acc, ContactLaw::Exact, None);
+}
+
+/// [`rk4_step`] with the bumpers on the force law `law` (frozen branches between located
+/// contact events: the stroboscopic map of `crate::reduce::orbits`).
+#[inline]
+pub(crate) fn rk4_step_on<T: Lane>(
+    chain: &Chain<T>,
+    ws: &mut Workspace<T>,
+    y: &mut [T],
+    s: &mut Rk4Scratch<T>,
+    dt: T,
+    cart_acc: [T; 3],
+    law: ContactLaw,
+) {
+    rk4_stages(chain, ws, y, s, dt, cart_acc, law, None);
 }
 
 /// One RK4 step of `y` and of λ1's twin beside it: every stage of the twin evaluated with the
@@ -60,12 +75,13 @@ pub(crate) fn rk4_step_twin<T: Lane>(
     cart_acc: [T; 3],
     twin: (&mut [T], &mut Rk4Scratch<T>),
 ) {
-    rk4_stages(chain, ws, y, s, dt, cart_acc, Some(twin));
+    rk4_stages(chain, ws, y, s, dt, cart_acc, ContactLaw::Exact, Some(twin));
 }
 
 /// The stage times of RK4 as fractions of the step, and the stage each state is formed from.
 const STAGES: [(usize, f64); 4] = [(0, 0.0), (1, 0.5), (1, 0.5), (2, 1.0)];
 
+#[allow(clippy::too_many_arguments)]
 fn rk4_stages<T: Lane>(
     chain: &Chain<T>,
     ws: &mut Workspace<T>,
@@ -73,22 +89,15 @@ fn rk4_stages<T: Lane>(
     s: &mut Rk4Scratch<T>,
     dt: T,
     cart_acc: [T; 3],
+    law: ContactLaw,
     mut twin: Option<(&mut [T], &mut Rk4Scratch<T>)>,
 ) {
     for (j, &(a, frac)) in STAGES.iter().enumerate() {
-        let load = stage_rates(chain, ws, y, s, j, cart_acc[a], dt * T::splat(frac), None);
+        let h = dt * T::splat(frac);
+        let load = stage_rates(chain, ws, y, s, j, cart_acc[a], h, Stage::Law(law));
         if let Some((ty, ts)) = &mut twin {
             let branches = load.map_or_else(Branches::free, |l| l.branches);
-            stage_rates(
-                chain,
-                ws,
-                ty,
-                ts,
-                j,
-                cart_acc[a],
-                dt * T::splat(frac),
-                Some(branches),
-            );
+            stage_rates(chain, ws, ty, ts, j, cart_acc[a], h, Stage::On(branches));
         }
     }
     rk4_finish(y, s, dt);
@@ -112,8 +121,16 @@ fn rk4_increment<T: Lane>(k: &[Vec<T>; 4], i: usize, dt: T) -> T {
     dt * T::splat(1.0 / 6.0) * (k[0][i] + T::splat(2.0) * (k[1][i] + k[2][i]) + k[3][i])
 }
 
-/// Stage `j` of RK4: `k_j` at `y + h k_{j−1}` (at `y` for the first), by the exact law or on
-/// the given branches; the bumpers' load there.
+/// How a stage evaluates the bumpers: by a law (the exact one, or frozen branches), or on the
+/// branches of the main trajectory's stage (λ1's twin).
+#[derive(Clone, Copy)]
+enum Stage<T> {
+    Law(ContactLaw),
+    On(Branches<T>),
+}
+
+/// Stage `j` of RK4: `k_j` at `y + h k_{j−1}` (at `y` for the first), by the stage's law or
+/// on the given branches; the bumpers' load there.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn stage_rates<T: Lane>(
@@ -124,7 +141,7 @@ fn stage_rates<T: Lane>(
     j: usize,
     acc: T,
     h: T,
-    branches: Option<Branches<T>>,
+    how: Stage<T>,
 ) -> Option<BumperLoad<T>> {
     let (k, tmp) = (&mut s.k, &mut s.tmp);
     let (before, after) = k.split_at_mut(j);
@@ -134,9 +151,9 @@ fn stage_rates<T: Lane>(
         stage(tmp, y, &before[j - 1], h);
         tmp
     };
-    match branches {
-        None => chain.rates(ws, acc, at, &mut after[0], ContactLaw::Exact),
-        Some(b) => chain.rates_on(ws, acc, at, &mut after[0], b),
+    match how {
+        Stage::Law(law) => chain.rates(ws, acc, at, &mut after[0], law),
+        Stage::On(b) => chain.rates_on(ws, acc, at, &mut after[0], b),
     }
 }
 
@@ -312,9 +329,9 @@ impl<T: Lane> Rk4Pair<T> {
         let handed = on.is_none() && self.k1_ready;
         let mut branches = [self.k1_branches; 4];
         for (j, &(a, frac)) in STAGES.iter().enumerate().skip(usize::from(handed)) {
-            let b = on.map(|b| b[j]);
+            let how = on.map_or(Stage::Law(ContactLaw::Exact), |b| Stage::On(b[j]));
             let s = &mut self.scratch;
-            let load = stage_rates(chain, ws, y, s, j, cart_acc[a], h * T::splat(frac), b);
+            let load = stage_rates(chain, ws, y, s, j, cart_acc[a], h * T::splat(frac), how);
             branches[j] = load.map_or_else(Branches::free, |l| l.branches);
         }
         if on.is_none() && !handed {

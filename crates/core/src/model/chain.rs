@@ -576,6 +576,38 @@ impl<T: Real> Chain<T> {
         (x - c.gap > T::zero(), -x - c.gap > T::zero())
     }
 
+    /// How far the chain's contact point is from the nearer bumper at this state (m):
+    /// `min(gap − x, gap + x)`, negative while a bumper is penetrated; `None` without bumpers.
+    /// An orbit whose least margin crosses zero between two scenes grazes a bumper there.
+    pub fn bumper_margin(&self, y: &[T]) -> Option<T> {
+        let c = self.contact.as_ref()?;
+        let mut x = T::zero();
+        for (i, &lam) in c.levers.iter().enumerate() {
+            x += lam * y[i].sin();
+        }
+        Some((c.gap - x).min(c.gap + x))
+    }
+
+    /// Each bumper's switching values at this state, for the +x and the −x bumper:
+    /// `[δ, δ̇, k_c δ + c_c δ̇]`, where the law changes branch as one of them changes sign
+    /// (`crate::reduce::orbits` locates those instants); `None` without bumpers.
+    pub(crate) fn bumper_switches(&self, ws: &mut Workspace<T>, y: &[T]) -> Option<[[T; 3]; 2]> {
+        let c = self.contact.as_ref()?;
+        let n = self.n;
+        let k = c.levers.len();
+        for ((th, s), co) in y[..k].iter().zip(&mut ws.sin).zip(&mut ws.cos) {
+            (*s, *co) = th.sin_cos();
+        }
+        let (x, xd) = self.contact_kinematics(c, ws, &y[n..2 * n]);
+        let values = |d: T, r: T| [d, r, c.kc * d + c.cc * r];
+        Some([values(x - c.gap, xd), values(-x - c.gap, -xd)])
+    }
+
+    /// The bumpers' damping law, when the chain has bumpers.
+    pub(crate) fn damping_law(&self) -> Option<ContactDamping> {
+        self.contact.as_ref().map(|c| c.law)
+    }
+
     /// The branch of the exact law each bumper (+x, −x) is on at this state.
     pub(crate) fn bumper_modes(&self, ws: &mut Workspace<T>, y: &[T]) -> (BumperMode, BumperMode) {
         let Some(c) = &self.contact else {

@@ -402,7 +402,8 @@ fn link_neighbours(shape: &[usize], locals: &[Vec<Local>], rule: AttractorRule) 
         .collect()
 }
 
-fn find(parent: &mut [usize], mut x: usize) -> usize {
+/// The root of `x` in the union-find forest `parent` (paths halved on the way).
+pub(crate) fn find(parent: &mut [usize], mut x: usize) -> usize {
     while parent[x] != x {
         parent[x] = parent[parent[x]];
         x = parent[x];
@@ -410,7 +411,8 @@ fn find(parent: &mut [usize], mut x: usize) -> usize {
     x
 }
 
-fn union(parent: &mut [usize], a: usize, b: usize) {
+/// Join the trees of `a` and `b` under the smaller root.
+pub(crate) fn union(parent: &mut [usize], a: usize, b: usize) {
     let (ra, rb) = (find(parent, a), find(parent, b));
     if ra != rb {
         parent[ra.max(rb)] = ra.min(rb);

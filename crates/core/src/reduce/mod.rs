@@ -12,7 +12,10 @@
 //!    confidence ([`verdict`]);
 //! 5. attractors ([`attractors`]), for maps run from several starts per cell: each run's
 //!    fingerprint, the runs of a cell grouped into attractors, families labelled across
-//!    neighbouring cells, basin fractions ([`attractor_map`]).
+//!    neighbouring cells, basin fractions ([`attractor_map`]);
+//! 6. periodic orbits ([`orbits`]), for the cells whose verdict is periodic: shooting from
+//!    the cell's end state, Floquet multipliers, continuation into the neighbouring cells,
+//!    bifurcation curves.
 //!
 //! The CPU engine runs every stage here; the GPU engine reduces on the device with the same
 //! definitions (`shaders/reduce_*.wgsl`, the twin in `shaders/integrate.wgsl`) and converts
@@ -20,6 +23,7 @@
 
 pub mod attractors;
 pub mod lyapunov;
+pub mod orbits;
 pub mod regime;
 mod series;
 mod tally;

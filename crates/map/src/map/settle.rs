@@ -80,7 +80,8 @@ pub fn unsettled(results: &[InstanceResult]) -> Vec<usize> {
 
 /// Run `spec`'s unsettled cells of `run` on (when `map.settle_max_s` is set) on `engine`,
 /// and put their results in place. `run.final_state` must hold every cell's final state
-/// (the map keeps them when it settles); it is emptied here.
+/// (the map keeps them when it settles); it is emptied here, unless the orbit stage follows
+/// (`map.orbits`): then the cells run on hold their new end states.
 pub fn settle(
     spec: &MapSpec,
     run: &mut MapRun,
@@ -134,7 +135,11 @@ pub(crate) fn settle_cells(
         *inst = inst.continued_after(done).expect("split kept it");
         inst.y0 = std::mem::take(&mut run.final_state[k]);
     }
-    run.final_state = Vec::new();
+    // The orbit stage shoots from the end states of the runs on too.
+    let keep = spec.orbits.is_some();
+    if !keep {
+        run.final_state = Vec::new();
+    }
     let groups = [
         (continued.clone(), shifted.select(&continued)),
         (rerun.clone(), long_plan.select(&rerun)),
@@ -147,7 +152,10 @@ pub(crate) fn settle_cells(
         if cells.is_empty() {
             continue;
         }
-        let (part, _) = run_engine(plan, &opts, tail, false, engine, progress)?;
+        let (part, states) = run_engine(plan, &opts, tail, keep, engine, progress)?;
+        for (&k, y) in cells.iter().zip(states) {
+            run.final_state[k] = y;
+        }
         report.stopped_early += part.stopped_early;
         run.sub_steps = add_counts(run.sub_steps, part.sub_steps);
         put_in_place(run, &cells, &part, &mut report);

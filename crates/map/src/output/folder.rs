@@ -354,11 +354,11 @@ const ANALYSIS_FILES: [&str; 16] = [
 
 /// A map's files: its arrays (`K.npy`, `regime.npy`, `basin_fraction.npy`, `axis0.npy`,
 /// `K_down.npy`, ...), its pictures (`K.png`, `K_slice003.png`, `hysteresis.png`, ...) and
-/// `attractors.json`, by the stems the map's writer names them with
+/// `attractors.json`, `orbits.json`, `bifurcations.json`, by the stems the map's writer names them with
 /// ([`super::map::stem`], [`super::map::map_fields`]).
 fn is_map_file(name: &str) -> bool {
-    use super::map::{ATTRACTORS_JSON, map_fields, stem};
-    if name == ATTRACTORS_JSON {
+    use super::map::{MAP_JSONS, map_fields, stem};
+    if MAP_JSONS.contains(&name) {
         return true;
     }
     let Some((stem_of, ext)) = name.rsplit_once('.') else {

@@ -126,6 +126,8 @@ pub struct MapManifest {
     /// The continuation (null without it).
     #[serde(default)]
     pub continuation: Value,
+    /// The orbit stage: what it did and how to read its files (null without it).
+    pub orbits: Value,
     /// Warnings of the plan.
     #[serde(default)]
     pub warnings: Vec<String>,

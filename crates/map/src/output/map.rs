@@ -15,6 +15,7 @@ use serde_json::{Value, json};
 // Python extension leaves out (it returns arrays and the manifest, never a folder).
 #[cfg(feature = "pictures")]
 mod folder;
+mod orbits;
 #[cfg(feature = "pictures")]
 pub use folder::{
     Style, attractor_style, family_words, metric_style, regime_shade, shown_label, shown_value,
@@ -77,8 +78,28 @@ pub mod stem {
     pub(crate) const BASIN_FRACTION: &str = "basin_fraction";
     /// Where up and down ended on different attractors.
     pub(crate) const HYSTERESIS: &str = "hysteresis";
+    /// What shooting from the cell's end state gave.
+    pub(crate) const ORBIT_STATUS: &str = "orbit_status";
+    /// The cell's orbit's least period.
+    pub(crate) const ORBIT_PERIOD: &str = "orbit_period";
+    /// Its residual.
+    pub(crate) const ORBIT_RESIDUAL: &str = "orbit_residual";
+    /// Its largest multiplier modulus.
+    pub(crate) const FLOQUET_MAX: &str = "floquet_max";
+    /// Its real multiplier nearest −1.
+    pub(crate) const FLOQUET_MINUS1: &str = "floquet_minus1";
+    /// Its real multiplier nearest +1.
+    pub(crate) const FLOQUET_PLUS1: &str = "floquet_plus1";
+    /// Its holder-angle range.
+    pub(crate) const ORBIT_EXTENT: &str = "orbit_extent_rad";
+    /// Its family.
+    pub(crate) const ORBIT_FAMILY: &str = "orbit_family";
+    /// Orbits known at the cell.
+    pub(crate) const ORBITS_KNOWN: &str = "orbits_known";
+    /// Of those, the stable ones.
+    pub(crate) const ORBITS_STABLE: &str = "orbits_stable";
     /// Every one of them.
-    pub const ALL: [&str; 8] = [
+    pub const ALL: [&str; 18] = [
         INFERRED,
         ATTRACTORS,
         ATTRACTOR,
@@ -87,11 +108,27 @@ pub mod stem {
         ATTRACTOR_START,
         BASIN_FRACTION,
         HYSTERESIS,
+        ORBIT_STATUS,
+        ORBIT_PERIOD,
+        ORBIT_RESIDUAL,
+        FLOQUET_MAX,
+        FLOQUET_MINUS1,
+        FLOQUET_PLUS1,
+        ORBIT_EXTENT,
+        ORBIT_FAMILY,
+        ORBITS_KNOWN,
+        ORBITS_STABLE,
     ];
 }
 
 /// The file of a map's attractor table.
 pub(crate) const ATTRACTORS_JSON: &str = "attractors.json";
+/// The file of a map's orbits at every cell.
+pub(crate) const ORBITS_JSON: &str = "orbits.json";
+/// The file of a map's bifurcation curves.
+pub(crate) const BIFURCATIONS_JSON: &str = "bifurcations.json";
+/// The JSON files a map may write besides `map.json`.
+pub(crate) const MAP_JSONS: [&str; 3] = [ATTRACTORS_JSON, ORBITS_JSON, BIFURCATIONS_JSON];
 
 /// One array of a map: its name (the `.npy` file's stem), shape and values (C order).
 #[derive(Debug, Clone, PartialEq)]
@@ -151,6 +188,9 @@ pub fn map_arrays(spec: &MapSpec, run: &MapRun) -> Vec<MapArray> {
     }
     if let Some(c) = &run.continuation {
         arrays.extend(continuation_arrays(spec, c));
+    }
+    if let Some(o) = &run.orbits {
+        arrays.extend(orbits::orbit_arrays(spec, o));
     }
     for (i, a) in spec.axes.iter().enumerate() {
         arrays.push(MapArray {
@@ -276,6 +316,10 @@ pub fn map_manifest(spec: &MapSpec, run: &MapRun, files: &[String]) -> MapManife
             .continuation
             .as_ref()
             .map_or(Value::Null, |c| continuation_json(spec, c)),
+        orbits: run
+            .orbits
+            .as_ref()
+            .map_or(Value::Null, |o| orbits::orbits_summary(o, run.timings.orbits_s)),
         warnings: spec
             .notes
             .iter()

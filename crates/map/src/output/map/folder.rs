@@ -59,6 +59,17 @@ pub fn write_map(dir: &Path, spec: &MapSpec, run: &MapRun) -> Result<Vec<PathBuf
         )?);
         written.extend(draw_attractors(dir, spec, run, a)?);
     }
+    if let Some(o) = &run.orbits {
+        use super::orbits::{bifurcations_json, orbits_json};
+        written.push(write_json(
+            &dir.join(super::ORBITS_JSON),
+            &orbits_json(spec, o),
+        )?);
+        written.push(write_json(
+            &dir.join(super::BIFURCATIONS_JSON),
+            &bifurcations_json(spec, o),
+        )?);
+    }
     let files: Vec<String> = written
         .iter()
         .filter_map(|p| p.file_name().map(|f| f.to_string_lossy().into_owned()))
