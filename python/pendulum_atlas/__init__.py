@@ -114,7 +114,7 @@ def map(
         out = _native.run_map_scene(
             scene.text, scene.origin, scene.sets, backend, precision, bar.update
         )
-    return _map_dataset(out["manifest"], out["arrays"])
+    return _map_dataset(out["manifest"], out["arrays"], out.get("bifurcations"))
 
 
 def _axes_list(axes: _t.Mapping[str, _t.Any]) -> list[dict[str, _t.Any]]:

@@ -37,8 +37,12 @@ def _codes_attrs(codes: Mapping[str, int]) -> dict:
     }
 
 
-def map_dataset(manifest: dict, arrays: Mapping[str, np.ndarray]) -> xr.Dataset:
-    """A map's dataset from its ``map.json`` content and its arrays (``.npy`` stems)."""
+def map_dataset(
+    manifest: dict, arrays: Mapping[str, np.ndarray], bifurcations: dict | None = None
+) -> xr.Dataset:
+    """A map's dataset from its ``map.json`` content and its arrays (``.npy`` stems); with the
+    orbit stage, ``bifurcations.json``'s content (its curves in ``attrs["bifurcations_json"]``,
+    a list per curve of ``kind``, ``families``, ``period``, ``points`` in axis values, ``tol``)."""
     axes = manifest["axes"]
     dims = dim_names([a["key"] for a in axes])
     coords = {}
@@ -67,6 +71,8 @@ def map_dataset(manifest: dict, arrays: Mapping[str, np.ndarray]) -> xr.Dataset:
             attrs.update(_codes_attrs(manifest["regime"]["codes"]))
         elif base == "status" and "status_codes" in manifest:
             attrs.update(_codes_attrs(manifest["status_codes"]))
+        elif name == "orbit_status" and manifest.get("orbits"):
+            attrs.update(_codes_attrs(manifest["orbits"]["status_codes"]))
         elif name == "inferred":
             attrs.update({"flag_values": [0, 1], "flag_meanings": "computed filled_from_its_block"})
         elif name == "hysteresis":
@@ -76,6 +82,8 @@ def map_dataset(manifest: dict, arrays: Mapping[str, np.ndarray]) -> xr.Dataset:
         data_vars[name] = (var_dims, values, attrs)
     attrs = {k: manifest[k] for k in MAP_ATTRS if manifest.get(k) is not None}
     attrs["map_json"] = json.dumps(manifest)
+    if bifurcations is not None:
+        attrs["bifurcations_json"] = json.dumps(bifurcations)
     return xr.Dataset(data_vars, coords, attrs)
 
 
@@ -162,7 +170,10 @@ def open_run(folder: str | os.PathLike) -> xr.Dataset:
         if name.endswith(".npy"):
             arrays[name[: -len(".npy")]] = np.load(folder / name, allow_pickle=False)
     _check_shapes(folder, manifest, arrays)
-    return map_dataset(manifest, arrays)
+    bifurcations = None
+    if "bifurcations.json" in manifest.get("files", []):
+        bifurcations = json.loads((folder / "bifurcations.json").read_text(encoding="utf-8"))
+    return map_dataset(manifest, arrays, bifurcations)
 
 
 def _check_shapes(folder: Path, manifest: dict, arrays: Mapping[str, np.ndarray]) -> None:

@@ -24,6 +24,7 @@ Progress = Callable[[int, int, str], None]
 class MapResult(TypedDict):
     arrays: dict[str, npt.NDArray[np.generic]]
     manifest: dict[str, Any]
+    bifurcations: Optional[dict[str, Any]]
 
 class RunResult(TypedDict):
     columns: dict[str, npt.NDArray[np.float64]]
@@ -45,7 +46,8 @@ def run_map_scene(
     precision: Optional[Literal["f32", "f64"]] = None,
     progress: Optional[Progress] = None,
 ) -> MapResult:
-    """Run a map scene: its arrays by name and ``map.json`` (without its file list) as text."""
+    """Run a map scene: its arrays by name, ``map.json`` (without its file list) and, with the
+    orbit stage, ``bifurcations.json``."""
 
 def run_single_scene(
     text: str,

@@ -26,7 +26,9 @@ use pendulum_atlas_map::map::cell::{
 use pendulum_atlas_map::map::run_map;
 use pendulum_atlas_map::output::budget::RunSize;
 use pendulum_atlas_map::output::manifest::{Manifest, MapManifest};
-use pendulum_atlas_map::output::map::{ArrayData, MapArray, map_arrays, map_manifest};
+use pendulum_atlas_map::output::map::{
+    ArrayData, MapArray, bifurcations_json, map_arrays, map_manifest,
+};
 use pendulum_atlas_map::output::{
     RunFacts, RunReport, TrajectoryRecorder, record_analysis, row_columns, run_warnings,
 };
@@ -254,6 +256,8 @@ static ENGINES: Mutex<BTreeMap<(Backend, Option<Precision>), Engine>> = Mutex::n
 struct MapOut {
     arrays: Vec<MapArray>,
     manifest: MapManifest,
+    /// `bifurcations.json`'s content, when the map found orbits.
+    bifurcations: Option<serde_json::Value>,
 }
 
 fn map_work(
@@ -280,6 +284,7 @@ fn map_work(
     Ok(MapOut {
         arrays: map_arrays(spec, &run),
         manifest: map_manifest(spec, &run, &[]),
+        bifurcations: run.orbits.as_ref().map(|o| bifurcations_json(spec, o)),
     })
 }
 
@@ -294,7 +299,8 @@ fn to_numpy<'py>(py: Python<'py>, a: MapArray) -> PyResult<Bound<'py, PyAny>> {
     })
 }
 
-/// Run a map scene: `{"arrays": {name: ndarray}, "manifest": map.json text}`.
+/// Run a map scene: `{"arrays": {name: ndarray}, "manifest": map.json's content,
+/// "bifurcations": bifurcations.json's content or None}`.
 #[pyfunction]
 #[pyo3(signature = (text, origin, sets, backend="auto", precision=None, progress=None))]
 fn run_map_scene<'py>(
@@ -321,6 +327,10 @@ fn run_map_scene<'py>(
     let d = PyDict::new(py);
     d.set_item("arrays", arrays)?;
     d.set_item("manifest", serialised(py, &out.manifest)?)?;
+    match &out.bifurcations {
+        Some(b) => d.set_item("bifurcations", serialised(py, b)?)?,
+        None => d.set_item("bifurcations", py.None())?,
+    }
     Ok(d)
 }
 

@@ -122,6 +122,25 @@ def test_open_run_on_a_cli_folder_equals_the_package_map(tmp_path, small_map_fil
     assert "K.npy" in json.loads(opened.attrs["map_json"])["files"]
 
 
+def test_the_dataset_carries_the_orbit_stage_arrays_and_its_curves(tmp_path, small_map_file):
+    out = cli_map(tmp_path, small_map_file, "cpu")
+    opened = pa.open_run(out)
+    ours = pa.map(pa.Scene.from_toml(small_map_file).update(SETS), backend="cpu", progress=False)
+    for ds in (opened, ours):
+        for name in ("orbit_status", "orbit_period", "floquet_max", "orbits_known", "orbits_stable"):
+            assert name in ds, name
+        meanings = ds["orbit_status"].attrs["flag_meanings"].split()
+        assert meanings[:2] == ["not_periodic", "converged"]
+        periodic = ds["regime"].values == 1
+        assert periodic.any()
+        # Every cell the map calls periodic was shot; the rest were not.
+        assert (ds["orbit_status"].values[periodic] >= 0).all()
+        assert (ds["orbit_status"].values[~periodic] == -1).all()
+        curves = json.loads(ds.attrs["bifurcations_json"])
+        assert set(curves) >= {"axes", "curves", "tolerance"}
+    assert json.loads(opened.attrs["bifurcations_json"]) == json.loads(ours.attrs["bifurcations_json"])
+
+
 def test_open_run_of_a_merged_map_equals_the_whole_map(tmp_path, small_map_file):
     shards = []
     for i in range(2):

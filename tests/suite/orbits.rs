@@ -1,4 +1,4 @@
-//! The orbit stage (`docs/analysis.md`, §11): shooting, Floquet multipliers, continuation and
+//! The orbit stage (`docs/analysis.md`, §15): shooting, Floquet multipliers, continuation and
 //! bifurcation curves, held against the linearisation, the reference integrator, λ1 and the
 //! map's own periods.
 
@@ -229,4 +229,35 @@ fn the_orbit_stage_is_refused_by_name_where_it_cannot_serve() {
     assert!(spec.orbits.is_none());
     let e = map_from_toml(&text("orbits_reach = 65"), "<test>", &[]).expect_err("refused");
     assert!(e.to_string().contains("map.orbits_reach"), "{e}");
+}
+
+/// Every engine gives the same orbits: the stage shoots in f64 from whatever end state the
+/// map's engine left, so a map run in f32 finds the f64 map's orbits to Newton's tolerance.
+/// The stroboscopic map itself in f32 holds an f64 orbit to f32's precision (stated here).
+#[test]
+fn every_engine_gives_the_same_orbits_within_its_precision() {
+    let spec = cells_map(&[4.254, 6.0], &[0.004], "");
+    let f64_run = cpu_map(&spec);
+    let f32_run = run_map(&spec, &Engine::cpu(Precision::F32), &no_progress).expect("map");
+    let (a, b) = (f64_run.orbits.unwrap(), f32_run.orbits.unwrap());
+    for k in 0..2 {
+        let (oa, ob) = (
+            &a.own_orbit(k).expect("f64").orbit,
+            &b.own_orbit(k).expect("f32").orbit,
+        );
+        let inst = &f64_run.plan.instances[k];
+        let s = scales(&Strobe::<f64>::new(inst));
+        let d = oa.nearest_point(ob.x(), &s).1;
+        let dmu = (oa.multipliers.max_abs - ob.multipliers.max_abs).abs();
+        eprintln!("cell {k}: the f32 map's orbit {d:e} from the f64 map's, max |mu| {dmu:e} apart");
+        assert!(
+            oa.period == ob.period && d <= 1e-7 && dmu <= 1e-6,
+            "cell {k}: {d:e}, {dmu:e}"
+        );
+        let strobe32 = Strobe::<f32>::new(inst);
+        let back = strobe32.advance(oa.x(), oa.period).expect("ok");
+        let drift = distance(&back, oa.x(), &s);
+        eprintln!("cell {k}: one period of the f32 stroboscopic map moves the orbit by {drift:e}");
+        assert!(drift <= 1e-4, "cell {k}: {drift:e}");
+    }
 }

@@ -322,7 +322,7 @@ fn heatmap_invalid_cells_and_shapes() {
         "λ (1/s)",
         &CellMarks {
             invalid: &inv,
-            inferred: &[],
+            ..CellMarks::default()
         },
         &Palette::Sequential(None),
     )
@@ -339,12 +339,28 @@ fn heatmap_invalid_cells_and_shapes() {
         "λ (1/s)",
         &CellMarks {
             invalid: &vec![false; vals.len()],
-            inferred: &[],
+            ..CellMarks::default()
         },
         &Palette::Sequential(Some((-1.0, 1.0))),
     )
     .unwrap();
     assert!(!assert_not_blank(&p, 1000, 700, 30).contains(&MAGENTA));
+
+    // A curve drawn over the cells (the orbit stage's bifurcation curves) shows in its colour.
+    let p = out("heatmap_curve.png");
+    let colour = pendulum_atlas_map::render::RGBColor(3, 200, 7);
+    let lines = [pendulum_atlas_map::render::Overlay {
+        points: vec![(xs[2], ys[2]), (xs[10], ys[8]), (xs[15], ys[12])],
+        colour,
+        label: "a curve".into(),
+    }];
+    let marks = CellMarks {
+        lines: &lines,
+        ..CellMarks::default()
+    };
+    let palette = Palette::Sequential(Some((-1.0, 1.0)));
+    heatmap(&p, "With a curve", &x, &y, &vals, "v", &marks, &palette).unwrap();
+    assert!(assert_not_blank(&p, 1000, 700, 30).contains(&[3, 200, 7]));
 
     // 1×N, N×1, 1×1, constant / NaN values, empty flag slice.
     let one = [1.0];
@@ -724,8 +740,8 @@ fn inferred_cells_are_hatched_and_named_in_the_legend() {
             &vals,
             "v",
             &CellMarks {
-                invalid: &[],
                 inferred,
+                ..CellMarks::default()
             },
             &Palette::Sequential(None),
         )

@@ -81,6 +81,10 @@ fn manifest(dir: &Path) -> serde_json::Value {
     if let Some(settle) = m["settle"].as_object_mut() {
         settle.remove("wall_s");
     }
+    if let Some(orbits) = m["orbits"].as_object_mut() {
+        orbits.remove("wall_s");
+        orbits.remove("timings_s");
+    }
     v
 }
 

@@ -185,6 +185,7 @@ async fn map_info(State(app): Shared) -> Response {
             Source::Calibrate(_) | Source::Search(_) => serde_json::Value::Null,
         },
         "bifurcation": pictures.iter().any(|n| n.as_str() == "bifurcation.png"),
+        "curves": curves_json(f),
         "pictures": pictures,
         "scalogram_bar": sequential_bar(),
         "cell_limits": {
@@ -193,6 +194,46 @@ async fn map_info(State(app): Shared) -> Response {
         },
     }))
     .into_response()
+}
+
+/// The orbit stage's bifurcation curves of a plane (`bifurcations.json`), as the page draws
+/// them: each point at its place in cells from the first edges ([`GridAxis::at`], as the
+/// ticks), with the PNGs' colour and legend entry; empty for other maps, or where the file
+/// cannot be read.
+///
+/// [`GridAxis::at`]: pendulum_atlas_map::render::GridAxis::at
+fn curves_json(f: &RunFolder) -> Vec<serde_json::Value> {
+    use pendulum_atlas_core::reduce::orbits::BifurcationKind;
+    use pendulum_atlas_map::render::curve_style;
+    if f.axes.len() != 2 || !f.files.iter().any(|n| n == "bifurcations.json") {
+        return Vec::new();
+    }
+    let Some(file) = std::fs::read_to_string(f.dir.join("bifurcations.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+    else {
+        return Vec::new();
+    };
+    let (gx, gy) = (
+        grid_axis(&f.axes[0].values, f.axes[0].scale),
+        grid_axis(&f.axes[1].values, f.axes[1].scale),
+    );
+    let curves = file["curves"].as_array().cloned().unwrap_or_default();
+    curves
+        .iter()
+        .filter_map(|c| {
+            let kind = BifurcationKind::ALL
+                .into_iter()
+                .find(|k| c["kind"].as_str() == Some(k.name()))?;
+            let (colour, label) = curve_style(kind);
+            let points: Vec<[f64; 2]> = c["points"]
+                .as_array()?
+                .iter()
+                .filter_map(|p| Some([gx.at(p[0].as_f64()?), gy.at(p[1].as_f64()?)]))
+                .collect();
+            Some(json!({ "kind": label, "colour": super::field::hex(colour), "points": points }))
+        })
+        .collect()
 }
 
 /// The colour stops of a cell's scalogram (viridis, as its PNG), whatever the map shows.

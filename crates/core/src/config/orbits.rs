@@ -1,5 +1,5 @@
 //! `map.orbits` and `map.orbits_reach`: whether a map finds the exact periodic orbits of its
-//! periodic cells, and how far it continues them (`docs/analysis.md`, §11).
+//! periodic cells, and how far it continues them (`docs/analysis.md`, §15).
 //!
 //! ```text
 //! default:   on for a plain map with the verdict ("regime" among the metrics), off otherwise

@@ -64,6 +64,7 @@ function drawMap() {
       g.fillRect(r.x, r.y, r.w, r.h);
     }
   }
+  drawCurves(g, a);
   if (state.selected !== null) {
     const at = f.cells.indexOf(state.selected);
     if (at >= 0) {
@@ -107,6 +108,26 @@ function drawMap() {
   drawLegend();
 }
 
+// The orbit stage's bifurcation curves (period doubling, folds, grazing) over the regime and
+// period pictures, as the PNGs draw them; the server places each point in cells.
+function drawCurves(g, a) {
+  const f = state.field, curves = state.map.curves || [];
+  if (!["regime", "period"].includes(f.metric) || !curves.length) return;
+  g.lineWidth = 3;
+  for (const c of curves) {
+    const pts = c.points.map(([x, y]) => [a.x + x / f.nx * a.w, a.y + a.h - y / f.ny * a.h]);
+    g.strokeStyle = c.colour; g.fillStyle = c.colour;
+    if (pts.length === 1) {
+      g.beginPath(); g.arc(pts[0][0], pts[0][1], 3, 0, 2 * Math.PI); g.fill();
+      continue;
+    }
+    g.beginPath(); g.moveTo(pts[0][0], pts[0][1]);
+    for (const [x, y] of pts.slice(1)) g.lineTo(x, y);
+    g.stroke();
+  }
+  g.lineWidth = 1;
+}
+
 function drawBar(g, a) {
   const f = state.field, x = a.x + a.w + 16, w = 18;
   const n = f.bar.length;
@@ -133,6 +154,12 @@ function drawLegend() {
     el.append(s, text);
   };
   for (const [colour, name] of f.categories) add(colour, name);
+  if (["regime", "period"].includes(f.metric)) {
+    const seen = new Set();
+    for (const c of state.map.curves || []) {
+      if (!seen.has(c.kind)) { seen.add(c.kind); add(c.colour, `${c.kind} (orbit stage)`); }
+    }
+  }
   if (f.status.some((s) => s !== "ok")) add(f.invalid_colour, "failed (diverged, non-finite or escaped)");
   if (f.values.some((v, i) => v === null && f.status[i] === "ok")) {
     add(f.nodata_colour, f.metric === "period" ? "no period found" : "no data");

@@ -1,5 +1,5 @@
 //! The map's orbit stage (`map.orbits`, on by default on a plain map; `docs/analysis.md`,
-//! §11): after settling, every cell whose verdict is periodic is shot from its end state, the
+//! §15): after settling, every cell whose verdict is periodic is shot from its end state, the
 //! orbits are continued into the neighbouring cells and the bifurcation curves located
 //! ([`pendulum_atlas_core::reduce::orbits`]).
 //!
@@ -8,6 +8,10 @@
 //!           forcing period (every run ends on one: the early stop closes at a period's end)
 //! plans:    the map's own instances; a bisection between two cells plans its point as the
 //!           map plans a cell (same options, its own step)
+//! period:   a cell whose own orbit converged, is stable, and has a least period other
+//!           than its verdict's takes the orbit's period: the detector saw a slowly
+//!           converging orbit (a multiplier near −1) alternate within its tolerance, or the
+//!           map's error-controlled steps kept it from settling (docs/bench/ORBITS.md)
 //! after:    the end states are dropped; the stage's wall time is `timings_s.orbits_s`
 //! ```
 
@@ -15,7 +19,7 @@ use super::MapRun;
 use pendulum_atlas_core::config::MapSpec;
 use pendulum_atlas_core::engine::{EnsembleOptions, EnsemblePlan, InstancePlan};
 use pendulum_atlas_core::reduce::Regime;
-use pendulum_atlas_core::reduce::orbits::{OrbitStatus, Seed, curves, orbit_map};
+use pendulum_atlas_core::reduce::orbits::{OrbitMap, OrbitStatus, Seed, curves, orbit_map};
 use std::time::Instant;
 
 /// Find the orbits of `run`'s periodic cells when `spec` asks for them; `run.final_state` is
@@ -42,10 +46,28 @@ pub fn find_orbits(spec: &MapSpec, run: &mut MapRun) {
     let t1 = Instant::now();
     map.curves = curves(&map, plans, &values, &plan_at);
     map.timings.curves_s = t1.elapsed().as_secs_f64();
+    map.periods_corrected = confirm_periods(run, &map);
     run.orbits = Some(map);
     let wall = t0.elapsed().as_secs_f64();
     run.timings.orbits_s = wall;
     run.timings.total_s += wall;
+}
+
+/// Give each cell whose own orbit converged stable the orbit's least period; the cells
+/// changed.
+fn confirm_periods(run: &mut MapRun, map: &OrbitMap) -> usize {
+    let mut changed = 0;
+    for (k, r) in run.results.iter_mut().enumerate() {
+        let Some(own) = map.own_orbit(k).filter(|o| o.orbit.stable()) else {
+            continue;
+        };
+        let p = f64::from(own.orbit.period);
+        if r.period != p {
+            r.period = p;
+            changed += 1;
+        }
+    }
+    changed
 }
 
 /// Each cell's seed, and the status of a cell without one.

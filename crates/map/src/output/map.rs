@@ -21,6 +21,7 @@ pub use folder::{
     Style, attractor_style, family_words, metric_style, regime_shade, shown_label, shown_value,
     write_map,
 };
+pub use orbits::bifurcations_json;
 
 /// The results a map folder stores (the result schema's rows with `in_map`), in `grid.csv`
 /// order: the values, then the codes (`regime`, `status`).

@@ -370,6 +370,20 @@ pub struct CellMarks<'a> {
     pub invalid: &'a [bool],
     /// Filled from its block by refinement: a diagonal hatch every [`HATCH_PX`] pixels.
     pub inferred: &'a [bool],
+    /// Curves drawn over the cells (bifurcation curves), in data coordinates.
+    pub lines: &'a [Overlay],
+}
+
+/// A curve drawn over a heat map: points `(x, y)` in data coordinates, a colour and its
+/// legend entry (one entry per label).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Overlay {
+    /// The points.
+    pub points: Vec<(f64, f64)>,
+    /// Its colour.
+    pub colour: RGBColor,
+    /// Its legend entry.
+    pub label: String,
 }
 
 /// Pixels between the hatch lines of inferred cells.
@@ -488,12 +502,18 @@ pub fn heatmap_scaled(
             c
         }
     })?;
+    draw_overlays(&chart, (&xa, &ya), marks.lines)?;
     minor_tick_marks(&root, &chart, &xa, &ya)?;
     let present = palette.present(values, invalid);
     let mut legend: Vec<(&str, RGBColor)> = present
         .iter()
         .map(|c| (c.label.as_str(), c.colour))
         .collect();
+    for o in marks.lines {
+        if !legend.iter().any(|(l, _)| *l == o.label) {
+            legend.push((o.label.as_str(), o.colour));
+        }
+    }
     if (0..values.len()).any(bad) {
         legend.push(("diverged", INVALID_COLOR));
     }
@@ -509,6 +529,28 @@ pub fn heatmap_scaled(
         _ => colorbar(&bar, range, &palette.bar(256), colorbar_label, &legend)?,
     }
     root.present()?;
+    Ok(())
+}
+
+/// The overlays drawn on `chart` (points mapped to its plotting space: log10 on a log axis),
+/// 3 px wide; a curve of one point is a dot.
+fn draw_overlays(chart: &Chart, (xa, ya): (&AxisSpec, &AxisSpec), lines: &[Overlay]) -> Result<()> {
+    let to = |a: &AxisSpec, v: f64| if a.base.is_some() { v.log10() } else { v };
+    for o in lines {
+        let pts: Vec<(f64, f64)> = o
+            .points
+            .iter()
+            .map(|&(x, y)| (to(xa, x), to(ya, y)))
+            .collect();
+        let style = ShapeStyle::from(&o.colour).stroke_width(3);
+        if pts.len() == 1 {
+            chart
+                .plotting_area()
+                .draw(&Circle::new(pts[0], 3, style.filled()))?;
+        } else {
+            chart.plotting_area().draw(&PathElement::new(pts, style))?;
+        }
+    }
     Ok(())
 }
 

@@ -11,6 +11,19 @@ pub const INVALID_COLOR: RGBColor = RGBColor(255, 0, 255);
 /// Colour of non-finite but valid cells ("no data").
 pub const NODATA_COLOR: RGBColor = RGBColor(190, 190, 190);
 
+/// How a bifurcation curve of the orbit stage is drawn over a map (its PNGs and the page):
+/// its colour and legend entry. Period doubling black, folds white, grazing grey.
+pub fn curve_style(
+    kind: pendulum_atlas_core::reduce::orbits::BifurcationKind,
+) -> (RGBColor, &'static str) {
+    use pendulum_atlas_core::reduce::orbits::BifurcationKind as K;
+    match kind {
+        K::PeriodDoubling => (RGBColor(0, 0, 0), "period doubling"),
+        K::Fold => (RGBColor(255, 255, 255), "fold"),
+        K::Grazing => (RGBColor(110, 110, 110), "grazing"),
+    }
+}
+
 /// ColorBrewer's RdBu reversed (matplotlib `RdBu_r`), 11 stops: blue below the centre, white
 /// at it, red above.
 const RDBU_R: [(u8, u8, u8); 11] = [

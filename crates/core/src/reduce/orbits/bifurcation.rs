@@ -8,9 +8,9 @@
 //! located:        bisection along the segment between the cells' parameters, the orbit
 //!                 corrected at each midpoint from the bracket's ends (LOCATE_STEPS halvings:
 //!                 to 1/2^(LOCATE_STEPS+1) of the cell step, or less where shooting failed)
-//! curves:         on a plane, the crossings of one (kind, family) on the four edges of a grid
-//!                 square joined two by two, segments chained into polylines; elsewhere each
-//!                 crossing is a curve of one point
+//! curves:         on a plane, the crossings of one kind and period on the four edges of a
+//!                 grid square joined two by two, segments chained into polylines; elsewhere
+//!                 each crossing is a curve of one point
 //! ```
 
 use super::{Orbit, OrbitMap, Strobe, find_orbit, scales};
@@ -80,14 +80,15 @@ pub struct Crossing {
     pub tol: f64,
 }
 
-/// A bifurcation curve: crossings of one kind and family, joined.
+/// A bifurcation curve: crossings of one kind and period, joined.
 #[derive(Debug, Clone, Serialize)]
 pub struct Curve {
     /// What crosses.
     pub kind: BifurcationKind,
-    /// The orbit family.
-    pub family: usize,
-    /// Its period.
+    /// The orbit families it was found on (one, unless continuation left one branch in
+    /// several families).
+    pub families: Vec<usize>,
+    /// The orbits' period.
     pub period: u32,
     /// Points in axis values (one value per axis).
     pub points: Vec<Vec<f64>>,
@@ -239,9 +240,12 @@ fn join(map: &OrbitMap, crossings: &[Crossing], values: ValuesOf) -> Vec<Curve> 
             at = next;
         }
         let c0 = &crossings[s];
+        let mut families: Vec<usize> = chain.iter().map(|&i| crossings[i].family).collect();
+        families.sort_unstable();
+        families.dedup();
         curves.push(Curve {
             kind: c0.kind,
-            family: c0.family,
+            families,
             period: c0.period,
             points: chain.iter().map(|&i| point(&crossings[i])).collect(),
             tol: chain.iter().map(|&i| crossings[i].tol).fold(0.0, f64::max),
@@ -251,15 +255,15 @@ fn join(map: &OrbitMap, crossings: &[Crossing], values: ValuesOf) -> Vec<Curve> 
 }
 
 /// On a plane: for each crossing, the crossings it is joined to (the other crossing of its
-/// (kind, family) on a grid square both edges bound; of four, paired in the order found).
+/// kind and period on a grid square both edges bound; of four, paired in the order found).
+/// Not by family: where continuation did not reach across, one branch carries several
+/// family labels, and its curve would break at each.
 fn square_links(shape: &[usize], crossings: &[Crossing]) -> Vec<Vec<usize>> {
     let mut links = vec![Vec::new(); crossings.len()];
     // The squares an edge bounds: an edge from (i, j) along axis 0 bounds the squares with
     // lower corners (i, j−1) and (i, j); along axis 1, (i−1, j) and (i, j).
-    let mut by_square: std::collections::HashMap<
-        (usize, usize, BifurcationKind, usize),
-        Vec<usize>,
-    > = Default::default();
+    let mut by_square: std::collections::HashMap<(usize, usize, BifurcationKind, u32), Vec<usize>> =
+        Default::default();
     for (n, c) in crossings.iter().enumerate() {
         let idx = c_order_index(shape, c.cells.0);
         let (i, j) = (idx[0], idx[1]);
@@ -271,7 +275,7 @@ fn square_links(shape: &[usize], crossings: &[Crossing]) -> Vec<Vec<usize>> {
         for (si, sj) in squares {
             if si + 1 < shape[0] && sj + 1 < shape[1] {
                 by_square
-                    .entry((si, sj, c.kind, c.family))
+                    .entry((si, sj, c.kind, c.period))
                     .or_default()
                     .push(n);
             }

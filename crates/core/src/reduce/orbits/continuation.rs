@@ -2,7 +2,9 @@
 //! the neighbouring cells (one step along any axis), families joined.
 //!
 //! ```text
-//! own:       a periodic cell's end state x_k and period p → its orbit (stage `shooting`)
+//! own:       a periodic cell's end state x_k and period p → its orbit (stage `shooting`);
+//!            the cell's own only where x_k lies within NEAR (scaled) of one of its points
+//!            (Newton may converge to an orbit elsewhere: kept as known there, `distant`)
 //! continue:  wave by wave, an orbit at cell c (depth d < reach) is predicted at each
 //!            neighbour n by its own x* and corrected there by Newton; depth of the result
 //!            d + 1 (a cell's own orbit has depth 0)
@@ -69,6 +71,9 @@ pub struct OrbitMap {
     pub continued_tries: usize,
     /// Of those, the orbits found (new at their cell).
     pub continued_found: usize,
+    /// Cells whose verdict's period the map's stage replaced by their own stable orbit's
+    /// least period (`crates/map/src/map/orbits.rs`).
+    pub periods_corrected: usize,
     /// Wall time of each step (s).
     pub timings: OrbitTimings,
     /// The bifurcation curves (filled by the bifurcation step).
@@ -119,24 +124,32 @@ pub fn orbit_map(
         families: 0,
         continued_tries: 0,
         continued_found: 0,
+        periods_corrected: 0,
         timings: OrbitTimings::default(),
         curves: Vec::new(),
     };
     let mut parent = Vec::new();
     let mut frontier = Vec::new();
+    let s = plans.first().map(|p| scales(&Strobe::<f64>::new(p)));
     for (k, res) in own.into_iter().enumerate() {
         let status = match (&seeds[k], res) {
             (None, _) => status_of_unseeded[k],
-            (Some(_), Ok(orbit)) => {
+            (Some(seed), Ok(orbit)) => {
+                let s = s.as_deref().unwrap_or_default();
+                let own = orbit.nearest_point(&seed.x, s).1 <= NEAR;
                 parent.push(parent.len());
                 map.known[k].push(KnownOrbit {
                     orbit,
                     family: parent.len() - 1,
                     depth: 0,
                 });
-                map.own[k] = Some(0);
                 frontier.push((k, 0));
-                OrbitStatus::Converged
+                if own {
+                    map.own[k] = Some(0);
+                    OrbitStatus::Converged
+                } else {
+                    OrbitStatus::Distant
+                }
             }
             (Some(_), Err(e)) => OrbitStatus::of_error(&e),
         };

@@ -1,4 +1,4 @@
-//! The orbit stage, after the reductions (`docs/analysis.md`, §11 "Periodic orbits"): the
+//! The orbit stage, after the reductions (`docs/analysis.md`, §15 "Periodic orbits"): the
 //! exact periodic orbits of a map's periodic cells, their Floquet multipliers, the orbits
 //! continued into the neighbouring cells, and the bifurcation curves between cells.
 //!
@@ -121,21 +121,26 @@ pub enum OrbitStatus {
     Singular,
     /// The cell kept no end state at a whole forcing period to start from.
     NoStart,
+    /// Shooting converged to an orbit away from the cell's end state (beyond the continuation's
+    /// `NEAR`): an orbit of the cell, kept among its known orbits, but not the one its
+    /// trajectory is on.
+    Distant,
 }
 
 impl OrbitStatus {
     /// Every status, in code order.
-    pub const ALL: [OrbitStatus; 6] = [
+    pub const ALL: [OrbitStatus; 7] = [
         OrbitStatus::NotPeriodic,
         OrbitStatus::Converged,
         OrbitStatus::NoConvergence,
         OrbitStatus::Failed,
         OrbitStatus::Singular,
         OrbitStatus::NoStart,
+        OrbitStatus::Distant,
     ];
 
     /// The code stored in `orbit_status.npy`: −1 not periodic, 0 converged, 1 no convergence,
-    /// 2 failed, 3 singular, 4 no start.
+    /// 2 failed, 3 singular, 4 no start, 5 distant.
     pub fn code(self) -> i8 {
         match self {
             OrbitStatus::NotPeriodic => -1,
@@ -144,6 +149,7 @@ impl OrbitStatus {
             OrbitStatus::Failed => 2,
             OrbitStatus::Singular => 3,
             OrbitStatus::NoStart => 4,
+            OrbitStatus::Distant => 5,
         }
     }
 
@@ -156,6 +162,7 @@ impl OrbitStatus {
             OrbitStatus::Failed => "failed",
             OrbitStatus::Singular => "singular",
             OrbitStatus::NoStart => "no_start",
+            OrbitStatus::Distant => "distant",
         }
     }
 

@@ -12,7 +12,8 @@ use crate::output::OutputError;
 use crate::output::files::{AtomicFile, create_dir, draw, write_json, write_toml};
 use crate::output::npy::{write_npy_f64, write_npy_i8, write_npy_i32, write_npy_u8};
 use crate::render::{
-    Axis, Category, CellMarks, Palette, RGBColor, Series, heatmap_scaled, scatter, scatter_groups,
+    Axis, Category, CellMarks, Overlay, Palette, RGBColor, Series, heatmap_scaled, scatter,
+    scatter_groups,
 };
 use serde_json::json;
 use std::io::Write;
@@ -357,6 +358,25 @@ fn draw_values(
         .collect()
 }
 
+/// The bifurcation curves of a plane drawn over its regime and period pictures
+/// ([`crate::render::curve_style`]).
+fn curve_overlays(run: &MapRun) -> Vec<Overlay> {
+    let Some(o) = &run.orbits else {
+        return Vec::new();
+    };
+    o.curves
+        .iter()
+        .map(|c| {
+            let (colour, label) = crate::render::curve_style(c.kind);
+            Overlay {
+                points: c.points.iter().map(|p| (p[0], p[1])).collect(),
+                colour,
+                label: label.into(),
+            }
+        })
+        .collect()
+}
+
 /// `attractors.png` (distinct attractors per cell, with several starts) and `attractor.png`
 /// (the most likely attractor's label, a colour per family named in the legend; in a basin
 /// picture, the attractor each start reached).
@@ -540,10 +560,16 @@ fn draw_slice(
         label: &yl,
         values: &spec.axes[1].values,
     };
+    let lines = if nz == 1 && [Metric::Regime.name(), Metric::Period.name()].contains(&stem) {
+        curve_overlays(run)
+    } else {
+        Vec::new()
+    };
     draw(&p, |t| {
         let marks = CellMarks {
             invalid: &invalid,
             inferred: &inferred,
+            lines: &lines,
         };
         let scales = [spec.axes[0].scale, spec.axes[1].scale];
         heatmap_scaled(t, &title, &x, &y, scales, &vals, &label, &marks, &palette)

@@ -1,11 +1,11 @@
-//! The orbit stage's files (`docs/analysis.md`, §11): per-cell arrays of each cell's own
+//! The orbit stage's files (`docs/analysis.md`, §15): per-cell arrays of each cell's own
 //! orbit, `orbits.json` (every orbit known at each cell) and `bifurcations.json` (the
 //! curves), and `map.json`'s `orbits` summary.
 
 use super::{ArrayData, MapArray, stem};
 use pendulum_atlas_core::config::MapSpec;
 use pendulum_atlas_core::reduce::orbits::{
-    BifurcationKind, KnownOrbit, LOCATE_STEPS, OrbitMap, OrbitStatus, SUBSTEPS, TOL,
+    BifurcationKind, KnownOrbit, LOCATE_STEPS, OrbitMap, OrbitStatus, TOL,
 };
 use serde_json::{Value, json};
 
@@ -101,7 +101,7 @@ pub(super) fn orbits_json(spec: &MapSpec, o: &OrbitMap) -> Value {
 }
 
 /// `bifurcations.json`: the curves, in axis values.
-pub(super) fn bifurcations_json(spec: &MapSpec, o: &OrbitMap) -> Value {
+pub fn bifurcations_json(spec: &MapSpec, o: &OrbitMap) -> Value {
     json!({
         "axes": spec.axes.iter().map(|a| a.key.as_str()).collect::<Vec<_>>(),
         "kinds": BifurcationKind::ALL.iter().map(|k| k.name()).collect::<Vec<_>>(),
@@ -129,15 +129,16 @@ pub(super) fn orbits_summary(o: &OrbitMap, wall_s: f64) -> Value {
         "orbits_known": known,
         "continued_tries": o.continued_tries,
         "continued_found": o.continued_found,
+        "periods_corrected": o.periods_corrected,
         "timings_s": o.timings,
         "curves": BifurcationKind::ALL.iter().map(|&k| (k.name(), kind_count(k))).collect::<std::collections::BTreeMap<_, _>>(),
         "wall_s": wall_s,
         "method": format!(
-            "Newton shooting on the stroboscopic map (fixed steps of the cell's method at 1/{SUBSTEPS} of its step, f64, CPU) from the cell's end state; converged at a scaled residual of {TOL:e} (rad, rates over 2 pi f); multipliers from the monodromy matrix by central differences"
+            "Newton shooting on the stroboscopic map (RK4 at the cell's step, or RK4's stable step in an IMEX cell, contact events located; f64, CPU) from the cell's end state; converged at a scaled residual of {TOL:e} (rad, rates over 2 pi f); multipliers from the monodromy matrix by forward differences"
         ),
         "arrays": {
             "orbit_status": "what shooting from the cell's own end state gave (status_codes)",
-            "orbit_period": "the converged orbit's least period (forcing periods; 0: none)",
+            "orbit_period": "the converged orbit's least period (forcing periods; 0: none); where the orbit is stable, period.npy holds it too (periods_corrected: the cells where it differed from the detector's)",
             "orbit_residual": "its scaled residual",
             "floquet_max": "its largest Floquet multiplier modulus (< 1: stable)",
             "floquet_minus1": "its real multiplier nearest -1 (NaN: none real)",
