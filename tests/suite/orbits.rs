@@ -232,27 +232,43 @@ fn the_orbit_stage_is_refused_by_name_where_it_cannot_serve() {
 }
 
 /// Every engine gives the same orbits: the stage shoots in f64 from whatever end state the
-/// map's engine left, so a map run in f32 finds the f64 map's orbits to Newton's tolerance.
-/// The stroboscopic map itself in f32 holds an f64 orbit to f32's precision (stated here).
+/// map's engine left, so a map run in f32 (the CPU's, and the GPU's where an adapter answers)
+/// finds the f64 map's orbits to Newton's tolerance. The stroboscopic map itself in f32 holds
+/// an f64 orbit to f32's precision (stated here).
 #[test]
 fn every_engine_gives_the_same_orbits_within_its_precision() {
     let spec = cells_map(&[4.254, 6.0], &[0.004], "");
     let f64_run = cpu_map(&spec);
-    let f32_run = run_map(&spec, &Engine::cpu(Precision::F32), &no_progress).expect("map");
-    let (a, b) = (f64_run.orbits.unwrap(), f32_run.orbits.unwrap());
+    let cpu32 = Engine::cpu(Precision::F32);
+    let mut engines = vec![("cpu f32", &cpu32)];
+    engines.extend(super::engine::gpu().map(|g| ("gpu f32", g)));
+    for (name, engine) in engines {
+        let run = run_map(&spec, engine, &no_progress).expect("map");
+        same_orbits(&f64_run, &run, name);
+    }
+}
+
+/// The own orbits of `run`'s two cells are those of `f64_run`.
+fn same_orbits(f64_run: &MapRun, run: &MapRun, name: &str) {
+    let (a, b) = (
+        f64_run.orbits.as_ref().unwrap(),
+        run.orbits.as_ref().unwrap(),
+    );
     for k in 0..2 {
         let (oa, ob) = (
             &a.own_orbit(k).expect("f64").orbit,
-            &b.own_orbit(k).expect("f32").orbit,
+            &b.own_orbit(k).expect(name).orbit,
         );
         let inst = &f64_run.plan.instances[k];
         let s = scales(&Strobe::<f64>::new(inst));
         let d = oa.nearest_point(ob.x(), &s).1;
         let dmu = (oa.multipliers.max_abs - ob.multipliers.max_abs).abs();
-        eprintln!("cell {k}: the f32 map's orbit {d:e} from the f64 map's, max |mu| {dmu:e} apart");
+        eprintln!(
+            "{name}, cell {k}: the map's orbit {d:e} from the f64 map's, max |mu| {dmu:e} apart"
+        );
         assert!(
             oa.period == ob.period && d <= 1e-7 && dmu <= 1e-6,
-            "cell {k}: {d:e}, {dmu:e}"
+            "{name}, cell {k}: {d:e}, {dmu:e}"
         );
         let strobe32 = Strobe::<f32>::new(inst);
         let back = strobe32.advance(oa.x(), oa.period).expect("ok");

@@ -203,20 +203,23 @@ async fn map_info(State(app): Shared) -> Response {
 ///
 /// [`GridAxis::at`]: pendulum_atlas_map::render::GridAxis::at
 fn curves_json(f: &RunFolder) -> Vec<serde_json::Value> {
-    use pendulum_atlas_core::reduce::orbits::BifurcationKind;
-    use pendulum_atlas_map::render::curve_style;
     if f.axes.len() != 2 || !f.files.iter().any(|n| n == "bifurcations.json") {
         return Vec::new();
     }
-    let Some(file) = std::fs::read_to_string(f.dir.join("bifurcations.json"))
+    std::fs::read_to_string(f.dir.join("bifurcations.json"))
         .ok()
         .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-    else {
-        return Vec::new();
-    };
+        .map_or_else(Vec::new, |file| curves_on_page(&file, &f.axes))
+}
+
+/// The curves of a `bifurcations.json` over a plane of `axes`, placed in cells (a curve of
+/// a kind the stage does not name is left out).
+fn curves_on_page(file: &serde_json::Value, axes: &[Axis]) -> Vec<serde_json::Value> {
+    use pendulum_atlas_core::reduce::orbits::BifurcationKind;
+    use pendulum_atlas_map::render::curve_style;
     let (gx, gy) = (
-        grid_axis(&f.axes[0].values, f.axes[0].scale),
-        grid_axis(&f.axes[1].values, f.axes[1].scale),
+        grid_axis(&axes[0].values, axes[0].scale),
+        grid_axis(&axes[1].values, axes[1].scale),
     );
     let curves = file["curves"].as_array().cloned().unwrap_or_default();
     curves
@@ -361,6 +364,39 @@ mod tests {
             values: values.to_vec(),
             scale,
         })
+    }
+
+    #[test]
+    fn a_bifurcation_curve_reaches_the_page_in_cells_with_the_pictures_colour() {
+        let axes = [
+            Axis {
+                key: "excitation.frequency_hz".into(),
+                label: "f (Hz)".into(),
+                values: vec![4.0, 5.0, 6.0],
+                scale: AxisScale::Linear,
+            },
+            Axis {
+                key: "excitation.amplitude_m".into(),
+                label: "A (m)".into(),
+                values: vec![0.001, 0.002],
+                scale: AxisScale::Linear,
+            },
+        ];
+        let file = json!({ "curves": [
+            { "kind": "period_doubling", "points": [[4.5, 0.0015], [5.0, 0.002]] },
+            { "kind": "no_such_kind", "points": [[4.5, 0.0015]] },
+        ]});
+        let curves = curves_on_page(&file, &axes);
+        assert_eq!(curves.len(), 1, "{curves:?}");
+        assert_eq!(curves[0]["kind"], "period doubling");
+        assert_eq!(curves[0]["colour"], "#000000");
+        let points: Vec<[f64; 2]> = serde_json::from_value(curves[0]["points"].clone()).unwrap();
+        let close =
+            |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-12 && (a[1] - b[1]).abs() < 1e-12;
+        assert!(
+            close(points[0], [1.0, 1.0]) && close(points[1], [1.5, 1.5]),
+            "{points:?}"
+        );
     }
 
     #[test]

@@ -522,8 +522,9 @@ fn run_refined(
 ) -> Result<MapRun, EngineError> {
     let t_all = Instant::now();
     let mut totals = StageTotals::default();
-    // A settling map keeps each computed cell's final state, for its run on.
-    let keep = spec.settle_max_s.is_some();
+    // A settling map keeps each computed cell's final state, for its run on, and so does a
+    // map that finds its orbits.
+    let keep = spec.keeps_final_state();
     let mut final_state = vec![Vec::new(); if keep { plan.instances.len() } else { 0 }];
     let refined = refine::refine(spec, rs, |members| {
         let (run, states) = run_engine(plan.select(members), opts, None, keep, engine, progress)?;

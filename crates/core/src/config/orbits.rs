@@ -2,7 +2,8 @@
 //! periodic cells, and how far it continues them (`docs/analysis.md`, §15).
 //!
 //! ```text
-//! default:   on for a plain map with the verdict ("regime" among the metrics), off otherwise
+//! default:   on for a plain or refined map with the verdict ("regime" among the metrics), off
+//!            otherwise (a refined map's inferred cells kept no end state: `no_start`)
 //! asked:     map.orbits = true on a map that cannot serve it is refused with the reason
 //! reach:     map.orbits_reach = 1 cell beyond the cells that found an orbit, 0..=64
 //! ```
@@ -59,12 +60,11 @@ fn why_not(metrics: &[Metric], mode: &MapMode) -> Option<String> {
         );
     }
     let name = match mode {
-        MapMode::Plain => return None,
+        MapMode::Plain | MapMode::Refined(_) => return None,
         MapMode::Attractors { .. } => "a map of several starts per cell or a basin picture",
         MapMode::Continuation(_) => "a continuation map",
-        MapMode::Refined(_) => "a refined map",
     };
     Some(format!(
-        "the orbit stage cannot serve {name} yet: it shoots from one end state per cell of a plain map (set map.orbits = false)"
+        "the orbit stage cannot serve {name} yet: it shoots from one end state per cell of a plain or refined map (set map.orbits = false)"
     ))
 }

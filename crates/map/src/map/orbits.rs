@@ -1,4 +1,4 @@
-//! The map's orbit stage (`map.orbits`, on by default on a plain map; `docs/analysis.md`,
+//! The map's orbit stage (`map.orbits`, on by default on a plain or refined map; `docs/analysis.md`,
 //! §15): after settling, every cell whose verdict is periodic is shot from its end state, the
 //! orbits are continued into the neighbouring cells and the bifurcation curves located
 //! ([`pendulum_atlas_core::reduce::orbits`]).
