@@ -125,6 +125,8 @@ pub fn run(a: MapArgs) -> anyhow::Result<()> {
         None => {
             bar.set_message(format!("map of {} instances", spec.instances()));
             let run = run_map(&spec, &engine, &progress).map_err(hint)?;
+            // The orbit stage runs no engine steps: a Ctrl-C during it is seen here.
+            super::stop_if_interrupted("during the map's last stage")?;
             let files = write_map(&a.out, &spec, &run)?;
             (run, files)
         }
@@ -167,6 +169,7 @@ fn run_on_devices(a: &MapArgs, devices: &str, spec: &MapSpec) -> anyhow::Result<
         );
     }
     let run = run_map_on_devices(spec, &engines, &super::until_interrupted).map_err(hint)?;
+    super::stop_if_interrupted("during the map's last stage")?;
     let files = write_map(&a.out, spec, &run)?;
     report(&run, files.len(), &a.out)
 }
@@ -264,6 +267,7 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<()> {
         bar.finish_and_clear();
     }
     pendulum_atlas_map::map::orbits::find_orbits(&merged.spec, &mut merged.run);
+    super::stop_if_interrupted("during the merged map's orbit stage")?;
     let files = write_map(&a.out, &merged.spec, &merged.run)?;
     say!(
         "merged {} shards of {} instances",

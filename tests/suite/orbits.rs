@@ -3,12 +3,8 @@
 //! map's own periods.
 
 use pendulum_atlas_core::config::{MapSpec, Scene, map_from_toml};
-use pendulum_atlas_core::engine::{
-    Engine, EnsemblePlan, Instance, InstancePlan, Observer, Precision, ReferenceOptions, StepPlan,
-    integrate_reference, no_progress,
-};
+use pendulum_atlas_core::engine::{Engine, EnsemblePlan, InstancePlan, Precision, no_progress};
 use pendulum_atlas_core::model::linear::jacobian_eigenvalues;
-use pendulum_atlas_core::model::{CartState, Chain, Workspace};
 use pendulum_atlas_core::reduce::Regime;
 use pendulum_atlas_core::reduce::orbits::{
     BifurcationKind, Multipliers, OrbitStatus, Strobe, distance, find_orbit, scales,
@@ -102,7 +98,8 @@ fn a_periodic_cells_orbit_is_exact_stable_and_agrees_with_the_reference() {
             let d = distance(&x, o.x(), &s);
             assert!(d <= 1e-6, "cell {k}: drifted {d:e} from its orbit");
         }
-        let reference = reference_multipliers(inst, o.x(), o.period);
+        let scene = spec.instance_scene(k).expect("scene");
+        let reference = reference_multipliers(&scene, inst, o.x(), o.period);
         let (mu, mu_ref) = (o.multipliers.max_abs, reference.max_abs);
         assert!(
             (mu - mu_ref).abs() <= 1e-3 * mu_ref,
@@ -123,18 +120,9 @@ fn a_periodic_cells_orbit_is_exact_stable_and_agrees_with_the_reference() {
 }
 
 /// The reference integrator's monodromy of `P^p` at `x` (forward differences, DOP853 with
-/// located events), and its multipliers.
-fn reference_multipliers(inst: &InstancePlan, x: &[f64], p: u32) -> Multipliers {
-    let scene = Scene::from_toml("[beam]\nsegments = 3\n", "<reference>", &[]).expect("scene");
-    let mut plan = StepPlan::for_scene(&scene).expect("plan");
-    let steps = u64::from(p) * u64::from(inst.spp);
-    (plan.dt_s, plan.steps, plan.sample_every) = (inst.dt_s, steps, steps);
-    let end = |y0: Vec<f64>| -> Vec<f64> {
-        let run = Instance::new(&inst.params, y0);
-        let mut last = LastRow(Vec::new());
-        integrate_reference(&run, &plan, &ReferenceOptions::default(), &mut last).expect("run");
-        last.0
-    };
+/// located events, `engine::verdict::reference_after`), and its multipliers.
+fn reference_multipliers(scene: &Scene, inst: &InstancePlan, x: &[f64], p: u32) -> Multipliers {
+    let end = |y0: Vec<f64>| super::engine::verdict::reference_after(scene, &y0, p);
     let s = scales(&Strobe::<f64>::new(inst));
     let base = end(x.to_vec());
     let d = s.len();
@@ -151,22 +139,6 @@ fn reference_multipliers(inst: &InstancePlan, x: &[f64], p: u32) -> Multipliers 
         })
         .collect();
     Multipliers::of(nalgebra::DMatrix::from_fn(d, d, |r, c| cols[c][r])).expect("eigenvalues")
-}
-
-struct LastRow(Vec<f64>);
-
-impl Observer<f64> for LastRow {
-    fn sample(
-        &mut self,
-        _: u64,
-        _: f64,
-        _: &CartState,
-        y: &[f64],
-        _: &Chain<f64>,
-        _: &mut Workspace<f64>,
-    ) {
-        self.0 = y.to_vec();
-    }
 }
 
 /// Along A = 4 mm the default map's period-1 orbit doubles between 4.64 and 4.76 Hz: the

@@ -17,7 +17,7 @@ mod lanes;
 mod layout;
 mod runtime_checks;
 mod skip;
-mod verdict;
+pub(crate) mod verdict;
 
 use pendulum_atlas_core::config::MapSpec;
 use pendulum_atlas_core::engine::gpu::REQUIRE_GPU_ENV;

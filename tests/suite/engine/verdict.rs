@@ -139,7 +139,7 @@ impl Observer<f64> for LastRow {
 
 /// The state of `scene` started from `y0` after `periods` forcing periods, by the DOP853
 /// reference integrator (contacts located as events).
-fn reference_after(scene: &Scene, y0: &[f64], periods: u32) -> Vec<f64> {
+pub(crate) fn reference_after(scene: &Scene, y0: &[f64], periods: u32) -> Vec<f64> {
     let mut s = scene.clone();
     let f = s.excitation.reference_frequency_hz();
     s.integration.duration_s = f64::from(periods) / f;

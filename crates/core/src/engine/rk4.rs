@@ -45,7 +45,7 @@ pub fn rk4_step<T: Lane>(
     dt: T,
     cart_acc: [T; 3],
 ) {
-    rk4_stages(chain, ws, y, s, dt, cart_acc, ContactLaw::Exact, None);
+    rk4_step_on(chain, ws, y, s, dt, cart_acc, ContactLaw::Exact);
 }
 
 /// [`rk4_step`] with the bumpers on the force law `law` (frozen branches between located

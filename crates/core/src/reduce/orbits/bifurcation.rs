@@ -23,7 +23,7 @@ use serde::Serialize;
 pub const LOCATE_STEPS: u32 = 4;
 
 /// What changes at a crossing.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum BifurcationKind {
     /// A real multiplier crosses −1.
@@ -262,8 +262,11 @@ fn square_links(shape: &[usize], crossings: &[Crossing]) -> Vec<Vec<usize>> {
     let mut links = vec![Vec::new(); crossings.len()];
     // The squares an edge bounds: an edge from (i, j) along axis 0 bounds the squares with
     // lower corners (i, j−1) and (i, j); along axis 1, (i−1, j) and (i, j).
-    let mut by_square: std::collections::HashMap<(usize, usize, BifurcationKind, u32), Vec<usize>> =
-        Default::default();
+    // Ordered, so that the curves come out the same in every run.
+    let mut by_square: std::collections::BTreeMap<
+        (usize, usize, BifurcationKind, u32),
+        Vec<usize>,
+    > = Default::default();
     for (n, c) in crossings.iter().enumerate() {
         let idx = c_order_index(shape, c.cells.0);
         let (i, j) = (idx[0], idx[1]);

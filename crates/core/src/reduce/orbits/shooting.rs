@@ -9,7 +9,7 @@
 //!                longer than MAX_STEP (scaled) is shortened to it, and a fresh one halved (up
 //!                to 4 times) while it does not lower r
 //! converged:     r ≤ TOL
-//! monodromy:     M = DP^p(x*) by forward differences of step MONODROMY_STEP · s_j
+//! monodromy:     M = DP^p(x*) by forward differences of step FD_STEP · s_j
 //! least period:  the least divisor d of p with ‖(P^d(x*) − x*)/s‖∞ ≤ SAME_POINT, shot again
 //! ```
 
@@ -22,10 +22,8 @@ use rayon::prelude::*;
 pub const TOL: f64 = 1e-9;
 /// Newton iterations at most.
 pub const MAX_ITERATIONS: u32 = 16;
-/// Forward-difference step of Newton's Jacobian (scaled).
+/// Forward-difference step of Newton's Jacobian and of the monodromy matrix (scaled).
 const FD_STEP: f64 = 1e-7;
-/// Forward-difference step of the monodromy matrix (scaled).
-const MONODROMY_STEP: f64 = 1e-7;
 /// The longest Newton step (scaled).
 const MAX_STEP: f64 = 0.3;
 /// Two states closer than this (scaled) are one point of an orbit.
@@ -130,7 +128,7 @@ fn newton<T: Real>(strobe: &Strobe<T>, x0: &[f64], p: u32) -> Result<Fixed, Shoo
         let fresh = lu.is_none();
         let j = match lu.take() {
             Some(j) => j,
-            None => jacobian(strobe, &x, &fx, p, &s)?.lu(),
+            None => jacobian(strobe, &x, &fx, p)?.lu(),
         };
         let Some(step) = solve(&j, &x, &fx) else {
             if fresh {
@@ -205,22 +203,9 @@ fn jacobian<T: Real>(
     x: &[f64],
     fx: &[f64],
     p: u32,
-    s: &[f64],
 ) -> Result<DMatrix<f64>, ShootError> {
-    let d = s.len();
-    let cols: Vec<Vec<f64>> = (0..d)
-        .into_par_iter()
-        .map(|j| {
-            let h = FD_STEP * s[j];
-            let mut xp = x.to_vec();
-            xp[j] += h;
-            let f = strobe.advance(&xp, p)?;
-            Ok(f.iter().zip(fx).map(|(a, b)| (a - b) / h).collect())
-        })
-        .collect::<Result<_, Status>>()
-        .map_err(ShootError::Failed)?;
-    let mut j = DMatrix::from_fn(d, d, |r, c| cols[c][r]);
-    for i in 0..d {
+    let mut j = monodromy(strobe, x, fx, p).map_err(ShootError::Failed)?;
+    for i in 0..j.nrows() {
         j[(i, i)] -= 1.0;
     }
     Ok(j)
@@ -268,8 +253,8 @@ fn line_search<T: Real>(
     }
 }
 
-/// The monodromy matrix `DP^p(x*)` by forward differences of step [`MONODROMY_STEP`] from
-/// `fx = P^p(x*)`.
+/// The monodromy matrix `DP^p(x)` by forward differences of step [`FD_STEP`] (scaled) from
+/// `fx = P^p(x)`: Newton's Jacobian plus I, and at `x*` the orbit's monodromy.
 pub fn monodromy<T: Real>(
     strobe: &Strobe<T>,
     x: &[f64],
@@ -281,7 +266,7 @@ pub fn monodromy<T: Real>(
     let cols: Vec<Vec<f64>> = (0..d)
         .into_par_iter()
         .map(|j| {
-            let h = MONODROMY_STEP * s[j];
+            let h = FD_STEP * s[j];
             let mut xp = x.to_vec();
             xp[j] += h;
             let f = strobe.advance(&xp, p)?;
