@@ -246,6 +246,6 @@ fn same_orbits(f64_run: &MapRun, run: &MapRun, name: &str) {
         let back = strobe32.advance(oa.x(), oa.period).expect("ok");
         let drift = distance(&back, oa.x(), &s);
         eprintln!("cell {k}: one period of the f32 stroboscopic map moves the orbit by {drift:e}");
-        assert!(drift <= 1e-4, "cell {k}: {drift:e}");
+        assert!(drift <= 1e-6, "cell {k}: {drift:e}");
     }
 }

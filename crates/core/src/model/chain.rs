@@ -539,6 +539,16 @@ impl<T: Real> ContactReport<T> {
     }
 }
 
+/// The contact point's sideways position x = Σ λ_i sin θ_i (m), which the bumpers at ±gap
+/// meet.
+fn contact_x<T: Real>(c: &ChainContact<T>, y: &[T]) -> T {
+    let mut x = T::zero();
+    for (i, &lam) in c.levers.iter().enumerate() {
+        x += lam * y[i].sin();
+    }
+    x
+}
+
 impl<T: Real> Chain<T> {
     /// Time derivative of the state `y = [θ; θ̇; v]` of one instance given the cart
     /// acceleration (m/s²), with the contact report at this state ([`Chain::rates`]).
@@ -569,10 +579,7 @@ impl<T: Real> Chain<T> {
         let Some(c) = &self.contact else {
             return (false, false);
         };
-        let mut x = T::zero();
-        for (i, &lam) in c.levers.iter().enumerate() {
-            x += lam * y[i].sin();
-        }
+        let x = contact_x(c, y);
         (x - c.gap > T::zero(), -x - c.gap > T::zero())
     }
 
@@ -581,10 +588,7 @@ impl<T: Real> Chain<T> {
     /// An orbit whose least margin crosses zero between two scenes grazes a bumper there.
     pub fn bumper_margin(&self, y: &[T]) -> Option<T> {
         let c = self.contact.as_ref()?;
-        let mut x = T::zero();
-        for (i, &lam) in c.levers.iter().enumerate() {
-            x += lam * y[i].sin();
-        }
+        let x = contact_x(c, y);
         Some((c.gap - x).min(c.gap + x))
     }
 
@@ -610,19 +614,11 @@ impl<T: Real> Chain<T> {
 
     /// The branch of the exact law each bumper (+x, −x) is on at this state.
     pub(crate) fn bumper_modes(&self, ws: &mut Workspace<T>, y: &[T]) -> (BumperMode, BumperMode) {
-        let Some(c) = &self.contact else {
+        let (Some(c), Some(v)) = (&self.contact, self.bumper_switches(ws, y)) else {
             return (BumperMode::Free, BumperMode::Free);
         };
-        let n = self.n;
-        let k = c.levers.len();
-        for ((th, s), co) in y[..k].iter().zip(&mut ws.sin).zip(&mut ws.cos) {
-            (*s, *co) = th.sin_cos();
-        }
-        let (x, xd) = self.contact_kinematics(c, ws, &y[n..2 * n]);
-        (
-            bumper_mode(c.law, c.kc, c.cc, x - c.gap, xd),
-            bumper_mode(c.law, c.kc, c.cc, -x - c.gap, -xd),
-        )
+        let mode = |[delta, rate, _]: [T; 3]| bumper_mode(c.law, c.kc, c.cc, delta, rate);
+        (mode(v[0]), mode(v[1]))
     }
 
     /// Stored energy in the inertial frame, given the cart velocity (m/s); it does not depend
