@@ -253,7 +253,7 @@ fn line_search<T: Real>(
     }
 }
 
-/// The monodromy matrix `DP^p(x)` by forward differences of step [`FD_STEP`] (scaled) from
+/// The monodromy matrix `DP^p(x)` by forward differences of step `FD_STEP` = 1e-7 (scaled) from
 /// `fx = P^p(x)`: Newton's Jacobian plus I, and at `x*` the orbit's monodromy.
 pub fn monodromy<T: Real>(
     strobe: &Strobe<T>,
