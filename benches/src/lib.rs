@@ -10,6 +10,9 @@
 //! 3. [`settling`]: transient chaos, and settling's accuracy against its cost;
 //! 4. [`verdict_report`]: `VERDICT.md` and `verdict.json`.
 //!
+//! [`nudged`] (`pendulum-atlas-lab nudged`) runs a plane's reference again from a start
+//! nudged by 1e-6 deg/s, which splits its cells into predictable and sensitive ones.
+//!
 //! A study may keep an earlier study's references ([`kept`]), read back from its
 //! `verdict.json` ([`study_file`]). Across studies: [`planes`] (`pendulum-atlas-lab verdict-fit`) fits the confidence tables
 //! the map ships on several planes' studies and scores each plane held out.
@@ -24,6 +27,7 @@
 
 pub mod flops;
 pub mod kept;
+pub mod nudged;
 pub mod peer_case;
 pub mod planes;
 pub mod reference;

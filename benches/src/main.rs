@@ -9,6 +9,7 @@ use anyhow::Context;
 use clap::{Parser, Subcommand, ValueEnum};
 use pendulum_atlas_core::engine::{Backend, Engine};
 use pendulum_atlas_lab::kept::{kept_references, recover_settled};
+use pendulum_atlas_lab::nudged::run_nudged;
 use pendulum_atlas_lab::planes::{fit_planes, read_plane, write_planes};
 use pendulum_atlas_lab::verdict::{
     Kept, Plane, VerdictOptions, reference_durations, run_verdict, thinning,
@@ -50,6 +51,20 @@ enum Study {
         gpu: bool,
         /// A twentieth of the reference, a 4 × 3 subgrid, and the map scored and settled at
         /// every 8th value instead of the whole plane: a test of the study, not a result.
+        #[arg(long)]
+        quick: bool,
+        #[command(flatten)]
+        out: Out,
+    },
+    /// The nudged reference of a plane: the verdict study's 2000-s reference run again on both
+    /// subgrids, every segment's initial rate raised by 1e-6 deg/s (writes nudged.json; about
+    /// ten minutes per plane on 2 cores, `--quick` seconds). Where it agrees with the reference
+    /// a cell is predictable (`benches/transients_study.py` scores a map on both kinds).
+    Nudged {
+        /// The plane, as for `verdict`.
+        #[arg(long, value_enum, default_value_t = PlaneArg::Forcing)]
+        plane: PlaneArg,
+        /// A twentieth of the run on a 4 × 3 subgrid: a test of the study, not a result.
         #[arg(long)]
         quick: bool,
         #[command(flatten)]
@@ -145,6 +160,13 @@ fn run(study: Study) -> anyhow::Result<()> {
             }
             Ok(())
         }
+        Study::Nudged { plane, quick, out } => in_out(Product::BenchNudged, &out, &[], || {
+            let report = run_nudged(plane.into(), quick, &|line| eprintln!("{line}"))?;
+            let path = out.out.join("nudged.json");
+            pendulum_atlas_map::output::files::write_json(&path, &report)?;
+            eprintln!("nudged: wrote {}", path.display());
+            Ok(())
+        }),
         Study::VerdictFit { dirs, out } => {
             let inputs: Vec<&Path> = dirs.iter().map(PathBuf::as_path).collect();
             in_out(Product::BenchPlanes, &out, &inputs, || {

@@ -73,6 +73,9 @@ def map_dataset(
             attrs.update(_codes_attrs(manifest["status_codes"]))
         elif name == "orbit_status" and manifest.get("orbits"):
             attrs.update(_codes_attrs(manifest["orbits"]["status_codes"]))
+        elif name in ("transient_s", "transient_se_s", "start_sensitivity") and manifest.get("transients"):
+            attrs["long_name"] = manifest["transients"]["arrays"][name]
+            attrs["units"] = "1" if name == "start_sensitivity" else "s"
         elif name == "inferred":
             attrs.update({"flag_values": [0, 1], "flag_meanings": "computed filled_from_its_block"})
         elif name == "hysteresis":

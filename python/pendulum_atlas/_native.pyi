@@ -114,6 +114,7 @@ def cell_pins(
     method: Optional[str] = None,
     ran_on: Optional[bool] = None,
     start: Optional[int] = None,
+    copies: Optional[bool] = None,
 ) -> dict[str, Any]:
     """The method, step control, step and row rate a map took for cell ``index``, as scene
     keys and values, and a plain map's ``[cell]`` section (``cell``), as the explorer's

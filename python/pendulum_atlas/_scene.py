@@ -137,9 +137,9 @@ class Scene:
             )
         grid_values = at["values"]
         others = [s for key, s in zip(given, cell_sets) if key not in grid_values]
-        method = start = None
+        method = start = copies = None
         if run is not None:
-            ran_on, method, start = _cell_of_run(run, at)
+            ran_on, method, start, copies = _cell_of_run(run, at)
         pins = _native.cell_pins(
             self._text,
             self._origin,
@@ -149,6 +149,7 @@ class Scene:
             method,
             None if ran_on is None else bool(ran_on),
             start,
+            copies,
         )
         single = Scene(self._base, f"{self._origin} (a cell of the map)")
         for key, value in given.items():
@@ -215,10 +216,13 @@ def _full_key(name: str, map_toml: str) -> str:
     return found[0]
 
 
-def _cell_of_run(run: Any, at: Mapping[str, Any]) -> tuple[bool | None, str | None, int | None]:
+def _cell_of_run(
+    run: Any, at: Mapping[str, Any]
+) -> tuple[bool | None, str | None, int | None, bool | None]:
     """What the map's run ``run`` (its dataset) says of the cell ``at`` (``_native.cell_at``):
     whether it ran the cell on (``ran_on``; ``None`` where the map does not settle), its
-    integration method, and the start it kept for the cell (with ``map.initial_states``)."""
+    integration method, the start it kept for the cell (with ``map.initial_states``), and
+    whether it ran the cell's nudged copies (``None`` where it runs none)."""
     from ._dataset import dim_names
 
     if not hasattr(run, "data_vars") or not hasattr(run, "attrs"):
@@ -255,4 +259,8 @@ def _cell_of_run(run: Any, at: Mapping[str, Any]) -> tuple[bool | None, str | No
             "per cell: the dataset is of another map"
         )
     method = run.attrs.get("method")
-    return ran_on, method if isinstance(method, str) else None, start
+    # The map ran the cell's nudged copies where its start sensitivity is known.
+    copies = None
+    if "start_sensitivity" in run.data_vars:
+        copies = bool(np.isfinite(at_cell("start_sensitivity")))
+    return ran_on, method if isinstance(method, str) else None, start, copies

@@ -20,8 +20,8 @@ use pendulum_atlas_core::engine::{
 use pendulum_atlas_core::model::Status;
 use pendulum_atlas_map::machine::memory_available;
 use pendulum_atlas_map::map::cell::{
-    CELL_SECTION, CELL_SNAP_REL, cell_grid_values, cell_index, map_cell_report, map_cell_table,
-    read_cell_scene,
+    CELL_SECTION, CELL_SNAP_REL, CellStages, cell_grid_values, cell_index, map_cell_report,
+    map_cell_table, read_cell_scene,
 };
 use pendulum_atlas_map::map::run_map;
 use pendulum_atlas_map::output::budget::RunSize;
@@ -667,13 +667,14 @@ fn cell_at<'py>(
 /// plan takes), the step control, its step (`integration.dt_s` at fixed steps,
 /// `integration.base_step_s` at adaptive ones) and the row rate, with the keys `others`
 /// (`key=value`, not axes) set; and, for a plain map, its `[cell]` section (`cell`; with the
-/// cell's `ran_on` where the map settles and its run says). `start`: the start of
+/// cell's `ran_on` where the map settles and its run says, and `copies`: whether the map ran
+/// the cell's nudged copies, its `start_sensitivity` finite). `start`: the start of
 /// `map.initial_states` whose run the map kept for the cell (its `start.npy`), whose initial
 /// state the cell then has.
 // Keyword arguments of one Python function: a struct would only move them.
 #[allow(clippy::too_many_arguments)]
 #[pyfunction]
-#[pyo3(signature = (text, origin, sets, index, others, method=None, ran_on=None, start=None))]
+#[pyo3(signature = (text, origin, sets, index, others, method=None, ran_on=None, start=None, copies=None))]
 fn cell_pins<'py>(
     py: Python<'py>,
     text: &str,
@@ -684,6 +685,7 @@ fn cell_pins<'py>(
     method: Option<String>,
     ran_on: Option<bool>,
     start: Option<usize>,
+    copies: Option<bool>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let spec = map_from_toml(text, origin, &sets).map_err(scene_error)?;
     if index >= spec.instances() {
@@ -712,7 +714,8 @@ fn cell_pins<'py>(
                     Some(m) => m,
                     None => EnsemblePlan::new(&spec)?.method.name().to_string(),
                 };
-                map_cell_table(&spec, index, start, &method, ran_on, &others)
+                let ran = CellStages { ran_on, copies };
+                map_cell_table(&spec, index, start, &method, ran, &others)
             },
         )
         .map_err(engine_error)?;

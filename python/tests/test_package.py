@@ -144,6 +144,26 @@ def test_the_dataset_carries_the_orbit_stage_arrays_and_its_curves(tmp_path, sma
     assert json.loads(opened.attrs["bifurcations_json"]) == json.loads(ours.attrs["bifurcations_json"])
 
 
+def test_the_dataset_carries_the_copies_sensitivity_and_lifetime(tmp_path, small_map_file):
+    # A map that settles (the early stop on) runs nudged copies of the cells it leaves not firm.
+    sets = {"beam.segments": 2, "map.transient_copies": 2}
+    out = cli_map(tmp_path, small_map_file, "cpu", sets)
+    opened = pa.open_run(out)
+    ours = pa.map(pa.Scene.from_toml(small_map_file).update(sets), backend="cpu", progress=False)
+    xr.testing.assert_equal(opened, ours)
+    manifest = json.loads(opened.attrs["map_json"])
+    assert manifest["transients"]["copies"] == 2
+    s = opened["start_sensitivity"]
+    assert s.attrs["units"] == "1" and "nudged copies" in s.attrs["long_name"]
+    assert opened["transient_s"].attrs["units"] == "s"
+    values = s.values[np.isfinite(s.values)]
+    assert ((values >= 0) & (values <= 1)).all()
+    # Where the start decides, the verdict is never firm.
+    assert (opened["verdict_confidence"].values[s.values > 0] < 0.9).all()
+    # Cells that ran no copies were firm after settling: no sensitivity, no lifetime.
+    assert np.isnan(opened["transient_s"].values[np.isnan(s.values)]).all()
+
+
 def test_open_run_of_a_merged_map_equals_the_whole_map(tmp_path, small_map_file):
     shards = []
     for i in range(2):

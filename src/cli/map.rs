@@ -254,6 +254,7 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<()> {
     pendulum_atlas_map::output::budget::check_map_fits(&merged.spec, 1, &a.out)?;
     if a.no_settle {
         merged.spec.settle_max_s = None;
+        merged.spec.transients = None;
     }
     if merged.spec.settle_max_s.is_some() {
         let engine = shards_engine(&merged.run.engine)?;
@@ -400,6 +401,16 @@ fn report(run: &MapRun, files: usize, out: &std::path::Path) -> anyhow::Result<(
             s.changed,
             s.chaos_settled,
             s.wall_s
+        );
+    }
+    if let Some(t) = &run.transients {
+        say!(
+            "copies: {} cells still not firm ran {} nudged copies each from their end; {} took the copies' orbit (a chaotic transient, transient_s.npy), the start decides {} (start_sensitivity.npy), in {:.1} s",
+            t.cells,
+            t.copies,
+            t.took_orbit,
+            t.start_decides,
+            t.wall_s
         );
     }
     say!("wrote {files} files to {}", out.display());

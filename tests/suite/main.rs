@@ -24,6 +24,7 @@ mod shard;
 mod single_run;
 mod slurm;
 mod throughput;
+mod transients;
 
 use pendulum_atlas_core::config::{PAPER_SCENE_TOML, Scene};
 

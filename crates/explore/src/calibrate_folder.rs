@@ -57,6 +57,8 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         status: vec![0; cells],
         inferred: Vec::new(),
         ran_on: Vec::new(),
+        marks: Vec::new(),
+        copies: Vec::new(),
         variants: spec.cases.iter().map(|c| c.name.clone()).collect(),
         segments: Scene::from_table(spec.base_table.clone())
             .map_err(|e| bad(&path, e.to_string()))?

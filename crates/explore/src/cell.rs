@@ -17,7 +17,9 @@ use pendulum_atlas_core::engine::{
 use pendulum_atlas_core::model::Status;
 use pendulum_atlas_core::model::linear::LinearError;
 use pendulum_atlas_core::text::bytes;
-use pendulum_atlas_map::map::cell::{cell_values, map_cell_table, read_cell_scene, rerun_cell};
+use pendulum_atlas_map::map::cell::{
+    CellStages, cell_values, map_cell_table, read_cell_scene, rerun_cell,
+};
 use pendulum_atlas_map::output::TrajectoryRecorder;
 use pendulum_atlas_map::output::budget::RunSize;
 use serde::Serialize;
@@ -63,8 +65,11 @@ pub fn cell_scene(folder: &RunFolder, k: usize, v: usize) -> Result<CellScene, E
                 0 => folder.starts.get(k).copied(),
                 s => Some(s - 1),
             };
-            let ran_on = folder.ran_on.get(k).copied();
-            map_cell_table(spec, k, start, &manifest.method, ran_on, &[])
+            let ran = CellStages {
+                ran_on: folder.ran_on.get(k).copied(),
+                copies: folder.copies.get(k).copied(),
+            };
+            map_cell_table(spec, k, start, &manifest.method, ran, &[])
                 .map_err(|e| fail(e.to_string()))?
                 .0
         }

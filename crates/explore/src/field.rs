@@ -49,6 +49,9 @@ pub struct Field {
     pub invalid_colour: String,
     /// Colour of cells without a value.
     pub nodata_colour: String,
+    /// Each page cell's marks on the verdict's pictures (`folder::MARK_*` bits; empty where
+    /// the quantity is not the regime or the period, or the map ran no copies).
+    pub marks: Vec<u8>,
 }
 
 /// Cells along x and y of the page: `(n0, n1 or 1)`.
@@ -105,6 +108,11 @@ pub fn field(folder: &RunFolder, name: &str, slice: &[usize]) -> Result<Field, E
         .collect();
     let palette = &col.palette;
     let range = palette.range(&shown, &invalid);
+    let verdict = ["regime", "period"].contains(&col.name.as_str());
+    let marks = match folder.marks.is_empty() || !verdict {
+        true => Vec::new(),
+        false => cells.iter().map(|&k| folder.marks[k]).collect(),
+    };
     Ok(Field {
         metric: col.name.clone(),
         label: col.label.clone(),
@@ -131,6 +139,7 @@ pub fn field(folder: &RunFolder, name: &str, slice: &[usize]) -> Result<Field, E
             .collect(),
         invalid_colour: hex(INVALID_COLOR),
         nodata_colour: hex(NODATA_COLOR),
+        marks,
     })
 }
 

@@ -58,6 +58,12 @@ pub enum Source {
     Search(Box<Search>),
 }
 
+/// A cell's mark: its nudged copies disagree with it (`start_sensitivity` > 0).
+pub const MARK_START_DECIDES: u8 = 1;
+/// A cell's mark: its verdict is a periodic orbit after a chaotic transient (`transient_s`
+/// finite, verdict periodic).
+pub const MARK_AFTER_TRANSIENT: u8 = 2;
+
 /// A complete run folder as a grid.
 #[derive(Debug)]
 pub struct RunFolder {
@@ -76,6 +82,12 @@ pub struct RunFolder {
     /// Per cell of a settling map, whether the settling stage ran it on (`ran_on.npy`;
     /// empty for other runs).
     pub ran_on: Vec<bool>,
+    /// Per cell of a map whose cells ran nudged copies, its marks on the verdict's pictures
+    /// ([`MARK_START_DECIDES`], [`MARK_AFTER_TRANSIENT`]; empty for other runs).
+    pub marks: Vec<u8>,
+    /// Per cell of a map whose cells ran nudged copies, whether it ran them
+    /// (`start_sensitivity.npy` finite; empty for other runs).
+    pub copies: Vec<bool>,
     /// The files the manifest lists.
     pub files: Vec<String>,
     /// The ways a cell can be run (cases, or frequency and initial state); none for a map.

@@ -3,7 +3,8 @@
 
 use super::error::ExploreError;
 use super::folder::{
-    Axis, CellAttractor, Column, RunFolder, Source, bad, read_json, read_manifest, read_text,
+    Axis, CellAttractor, Column, MARK_AFTER_TRANSIENT, MARK_START_DECIDES, RunFolder, Source, bad,
+    read_json, read_manifest, read_text,
 };
 use pendulum_atlas_core::config::{MapSpec, Metric, map_from_toml};
 use pendulum_atlas_core::reduce::attractors::Family;
@@ -49,6 +50,8 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
     };
     let inferred = flags("inferred.npy")?;
     let ran_on = flags("ran_on.npy")?;
+    let (marks, copies, copy_columns) = transient_marks(dir, &spec, &manifest)?;
+    columns.extend(copy_columns);
     let starts = if manifest.files.iter().any(|f| f == "start.npy") {
         read_array::<i32>(dir, "start.npy", &spec)?
             .into_iter()
@@ -94,10 +97,59 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         status,
         inferred,
         ran_on,
+        marks,
+        copies,
         variants,
         segments: spec.scene.beam.segments,
         source: Source::Map(Box::new(spec), Box::new(manifest)),
     })
+}
+
+/// The marks of a map whose cells ran nudged copies (`start_sensitivity.npy`,
+/// `transient_s.npy`), which cells ran them, and both arrays as columns; nothing for other
+/// maps.
+fn transient_marks(
+    dir: &Path,
+    spec: &MapSpec,
+    manifest: &MapManifest,
+) -> Result<(Vec<u8>, Vec<bool>, Vec<Column>), ExploreError> {
+    let listed = |name: &str| manifest.files.iter().any(|f| f == name);
+    if !listed("start_sensitivity.npy") || !listed("transient_s.npy") {
+        return Ok((Vec::new(), Vec::new(), Vec::new()));
+    }
+    let s = read_array::<f64>(dir, "start_sensitivity.npy", spec)?;
+    let tau = read_array::<f64>(dir, "transient_s.npy", spec)?;
+    let regime = read_array::<i8>(dir, "regime.npy", spec)?;
+    let periodic = pendulum_atlas_core::reduce::Regime::Periodic.code();
+    let marks = (0..s.len())
+        .map(|k| {
+            let decides = if s[k] > 0.0 { MARK_START_DECIDES } else { 0 };
+            let after = tau[k].is_finite() && regime[k] == periodic;
+            decides | if after { MARK_AFTER_TRANSIENT } else { 0 }
+        })
+        .collect();
+    let copies = s.iter().map(|v| v.is_finite()).collect();
+    let column = |name: &str, label: &str, values: Vec<f64>, range| Column {
+        name: name.into(),
+        label: label.into(),
+        palette: Palette::Sequential(range),
+        values,
+    };
+    let columns = vec![
+        column(
+            "start_sensitivity",
+            "share of nudged copies that disagree with the cell (0–1; grey: firm, none ran)",
+            s,
+            Some((0.0, 1.0)),
+        ),
+        column(
+            "transient_s",
+            "chaotic transient's mean lifetime (s; grey: no escape seen)",
+            tau,
+            None,
+        ),
+    ];
+    Ok((marks, copies, columns))
 }
 
 /// Every metric of the map as stored in `NAME{suffix}.npy` (`suffix` "_down" for the down

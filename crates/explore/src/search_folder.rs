@@ -87,6 +87,8 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
         status: vec![0; cells],
         inferred: Vec::new(),
         ran_on: Vec::new(),
+        marks: Vec::new(),
+        copies: Vec::new(),
         variants,
         segments: spec.scene.beam.segments,
         source: Source::Search(Box::new(Search {

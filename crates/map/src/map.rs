@@ -10,6 +10,7 @@ pub mod refine;
 pub mod settle;
 pub mod shard;
 pub mod size;
+pub mod transients;
 
 use pendulum_atlas_core::config::{MapMode, MapSpec};
 use pendulum_atlas_core::engine::gpu::GpuTimings;
@@ -123,6 +124,9 @@ pub struct MapRun {
     /// map settles and for the orbit stage (empty otherwise, and after those stages).
     #[serde(skip)]
     pub final_state: Vec<Vec<f64>>,
+    /// What the nudged copies of the cells settling left not firm found, when
+    /// `map.transient_copies` is set (`transients`).
+    pub transients: Option<transients::TransientMap>,
     /// The exact periodic orbits, their multipliers and bifurcation curves, when
     /// `map.orbits` is on.
     #[serde(skip)]
@@ -186,6 +190,7 @@ impl MapRun {
             continuation: None,
             settle: None,
             final_state: Vec::new(),
+            transients: None,
             orbits: None,
         }
     }

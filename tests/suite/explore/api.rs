@@ -31,7 +31,9 @@ fn the_map_and_its_fields_are_the_files_of_the_folder() {
             "hops",
             "impacts_per_s",
             "alpha_range",
-            "lyapunov"
+            "lyapunov",
+            "start_sensitivity",
+            "transient_s"
         ]
     );
     // The verdict first, with its confidence as stored (NaN where undecided, shown as null).
@@ -50,6 +52,28 @@ fn the_map_and_its_fields_are_the_files_of_the_folder() {
     let (_, codes) =
         pendulum_atlas_map::output::npy::read_npy::<i8>(&dir.join("regime.npy")).unwrap();
     crate::map::check_verdict_confidence(dir, &codes, (6, 4));
+    // The transient stage's marks on the regime: a hatch bit where the start decides, a dot
+    // bit where a periodic verdict follows a chaotic transient, as the files say.
+    let (s_, tau) = (npy(dir, "start_sensitivity"), npy(dir, "transient_s"));
+    let r = json(&s, "GET", "/api/field?metric=regime", 200);
+    let cells: Vec<usize> = serde_json::from_value(r["cells"].clone()).unwrap();
+    let marks: Vec<u8> = serde_json::from_value(r["marks"].clone()).unwrap();
+    assert_eq!(marks.len(), cells.len());
+    for (at, &cell) in cells.iter().enumerate() {
+        let decides = s_[cell] > 0.0;
+        let after = tau[cell].is_finite() && codes[cell] == 1;
+        assert_eq!(
+            marks[at],
+            u8::from(decides) | (u8::from(after) << 1),
+            "cell {cell}"
+        );
+    }
+    let k_field = json(&s, "GET", "/api/field?metric=K", 200);
+    assert_eq!(
+        k_field["marks"],
+        serde_json::json!([]),
+        "marks on the verdict only"
+    );
 
     let k = npy(dir, "K");
     let f = json(&s, "GET", "/api/field?metric=K", 200);

@@ -88,6 +88,9 @@ pub struct MapSpec {
     pub settle_from: SettleFrom,
     /// `map.orbits`: the orbit stage (`super::orbits`); `None`: no orbits.
     pub orbits: Option<super::OrbitSpec>,
+    /// `map.transient_copies`: the nudged copies of the cells settling leaves not firm
+    /// (`super::transients`); `None`: none run.
+    pub transients: Option<super::TransientSpec>,
     /// How λ1's twin runs (used when `lyapunov` is among the metrics).
     pub lyapunov: LyapunovSettings,
     /// `map.accept_huge`: run a map above the size at which `map` asks first (`--yes`).
@@ -361,7 +364,7 @@ impl MapSpec {
     /// Whether the map keeps each cell's end state for a stage after the reductions (settling,
     /// the orbits).
     pub fn keeps_final_state(&self) -> bool {
-        self.settle_max_s.is_some() || self.orbits.is_some()
+        self.settle_max_s.is_some() || self.orbits.is_some() || self.transients.is_some()
     }
 
     /// The validated scene at axis values `values` (one per axis), on the grid or between its
@@ -621,6 +624,7 @@ fn read_map(
         super::scene::note_unused(&mut r, (&["map.settle_from"], "this map does not settle"))?;
     }
     let orbits = super::orbits::read_orbits(&mut r, &metrics, &mode)?;
+    let transients = super::transients::read_transients(&mut r, settle_max_s.is_some())?;
     let mut notes = scene.notes.clone();
     notes.extend(r.take_notes());
     r.finish()?;
@@ -647,6 +651,7 @@ fn read_map(
         gpu_kernel,
         settle_max_s,
         settle_from,
+        transients,
         orbits,
         lyapunov,
         accept_huge,

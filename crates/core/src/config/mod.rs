@@ -17,6 +17,7 @@ mod scene;
 mod settle;
 mod starts;
 mod sweep;
+mod transients;
 
 pub use crate::schema::Metric;
 pub use continuation::{ContinuationSpec, Direction, Sweep};
@@ -47,3 +48,4 @@ pub use sweep::{
     AxisScale, MapAxis, SweepList, SweptKey, axis_label, entry_tables, key_unit, lookup_key,
     neighbours, point_key,
 };
+pub use transients::{COPIES_MAX, TransientSpec};

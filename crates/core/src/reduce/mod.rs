@@ -13,7 +13,10 @@
 //! 5. attractors ([`attractors`]), for maps run from several starts per cell: each run's
 //!    fingerprint, the runs of a cell grouped into attractors, families labelled across
 //!    neighbouring cells, basin fractions ([`attractor_map`]);
-//! 6. periodic orbits ([`orbits`]), for the cells whose verdict is periodic: shooting from
+//! 6. escapes ([`escape`]), for the cells of a map settling leaves not firm: the nudged copies'
+//!    eventual verdicts, the cell's verdict after them, the share of copies that disagree (its
+//!    start sensitivity) and the chaotic transient's lifetime;
+//! 7. periodic orbits ([`orbits`]), for the cells whose verdict is periodic: shooting from
 //!    the cell's end state, Floquet multipliers, continuation into the neighbouring cells,
 //!    bifurcation curves.
 //!
@@ -22,6 +25,7 @@
 //! its accumulators with [`Tally::result`] like the CPU engine does.
 
 pub mod attractors;
+pub mod escape;
 pub mod lyapunov;
 pub mod orbits;
 pub mod regime;

@@ -64,6 +64,7 @@ function drawMap() {
       g.fillRect(r.x, r.y, r.w, r.h);
     }
   }
+  drawMarks(g);
   drawCurves(g, a);
   if (state.selected !== null) {
     const at = f.cells.indexOf(state.selected);
@@ -106,6 +107,29 @@ function drawMap() {
   g.fillText(title, a.x, 8);
   drawBar(g, a);
   drawLegend();
+}
+
+// The transient stage's marks over the regime and period pictures, as the PNGs draw them:
+// a back-hatch where the start decides (nudged copies disagree), a dot where the verdict is
+// the orbit after a chaotic transient. Bits as in the server's folder::MARK_*.
+const MARK_START_DECIDES = 1, MARK_AFTER_TRANSIENT = 2;
+function drawMarks(g) {
+  const f = state.field, marks = f.marks || [];
+  g.save();
+  g.strokeStyle = "rgba(255,255,255,0.8)"; g.fillStyle = "rgba(255,255,255,0.9)"; g.lineWidth = 1;
+  marks.forEach((m, at) => {
+    if (!m) return;
+    const r = cellRect(at % f.nx, Math.floor(at / f.nx));
+    if (m & MARK_START_DECIDES) {
+      g.save(); g.beginPath(); g.rect(r.x, r.y, r.w, r.h); g.clip(); g.beginPath();
+      for (let d = -r.h; d < r.w; d += 5) { g.moveTo(r.x + d, r.y); g.lineTo(r.x + d + r.h, r.y + r.h); }
+      g.stroke(); g.restore();
+    }
+    if (m & MARK_AFTER_TRANSIENT) {
+      g.beginPath(); g.arc(r.x + r.w / 2, r.y + r.h / 2, Math.max(1.5, Math.min(r.w, r.h) / 5), 0, 2 * Math.PI); g.fill();
+    }
+  });
+  g.restore();
 }
 
 // The orbit stage's bifurcation curves (period doubling, folds, grazing) over the regime and
@@ -160,6 +184,9 @@ function drawLegend() {
       if (!seen.has(c.kind)) { seen.add(c.kind); add(c.colour, `${c.kind} (orbit stage)`); }
     }
   }
+  const marks = f.marks || [];
+  if (marks.some((m) => m & MARK_START_DECIDES)) add("#bbbbbb", "hatched: the start decides (nudged copies disagree)");
+  if (marks.some((m) => m & MARK_AFTER_TRANSIENT)) add("#bbbbbb", "dot: periodic after a chaotic transient");
   if (f.status.some((s) => s !== "ok")) add(f.invalid_colour, "failed (diverged, non-finite or escaped)");
   if (f.values.some((v, i) => v === null && f.status[i] === "ok")) {
     add(f.nodata_colour, f.metric === "period" ? "no period found" : "no data");

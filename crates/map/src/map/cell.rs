@@ -32,7 +32,7 @@ pub const CELL_SECTION: &str = "cell";
 /// c values, the period test, the early stop, λ1's twin). The others are the grid's (its
 /// axes, starts, continuation, refinement, the bifurcation picture) and are left out; a
 /// settling map's cell carries its settling time and whether it ran on ([`cell_section`]).
-pub(crate) const CELL_MAP_KEYS: [&str; 15] = [
+pub(crate) const CELL_MAP_KEYS: [&str; 17] = [
     "metrics",
     "samples_per_period",
     "strobe_phase",
@@ -48,6 +48,8 @@ pub(crate) const CELL_MAP_KEYS: [&str; 15] = [
     "lyapunov_window_s",
     "lyapunov_align_periods",
     "lyapunov_perturbation",
+    "transient_copies",
+    "transient_nudge_deg_s",
 ];
 
 /// `[cell]`'s settling time of a cell of a settling map (its map's `map.settle_max_s`).
@@ -58,6 +60,21 @@ const SETTLE_FROM: &str = "settle_from";
 
 /// `[cell]`'s flag of a cell of a settling map that its map ran on.
 const RAN_ON: &str = "ran_on";
+
+/// `[cell]`'s flag of a cell run on whose map ran its nudged copies (`map.transient_copies`;
+/// absent: it did not).
+const COPIES: &str = "copies";
+
+/// What only a map's run knows of one of its cells (`None`: not known): whether settling ran
+/// it on (`ran_on.npy`), and whether the transient stage ran its nudged copies
+/// (`start_sensitivity.npy` finite).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct CellStages {
+    /// Settling ran it on past the map's length.
+    pub ran_on: Option<bool>,
+    /// Its nudged copies ran.
+    pub copies: Option<bool>,
+}
 
 /// The keys [`pinned_cell`] sets: the method, the step control and its step, the row rate.
 pub const PINNED_KEYS: [&str; 4] = [
@@ -180,12 +197,13 @@ fn nearest(values: &[f64], v: f64) -> String {
 /// The `[cell]` section of a cell of `spec`: the map's `CELL_MAP_KEYS` (empty where the
 /// map keeps every default), and for a map that settles, its `settle_max_s` and whether the
 /// cell `ran_on` (the cell's result: the map's neighbours decided it; only the map's run
-/// knows it, `ran_on.npy`). A settling map's cell whose `ran_on` is not known (`None`: a map
+/// knows it, `ran_on.npy`) and whether its nudged `copies` ran (`start_sensitivity.npy`
+/// finite; absent: they did not). A settling map's cell whose `ran_on` is not known (`None`: a map
 /// scene without its run) gets the settling keys without `ran_on`, which
 /// [`read_cell_scene`] reads as a cell that cannot be rerun as its map computed it, and says
 /// so ([`UNKNOWN_RAN_ON`]). `None` for a map whose cells are not one plain run each (starts,
 /// continuation, refinement).
-pub fn cell_section(spec: &MapSpec, ran_on: Option<bool>) -> Option<Table> {
+pub fn cell_section(spec: &MapSpec, ran: CellStages) -> Option<Table> {
     if !matches!(spec.mode, MapMode::Plain) {
         return None;
     }
@@ -196,8 +214,11 @@ pub fn cell_section(spec: &MapSpec, ran_on: Option<bool>) -> Option<Table> {
             SETTLE_FROM.into(),
             Value::String(spec.settle_from.name().into()),
         );
-        if let Some(ran_on) = ran_on {
+        if let Some(ran_on) = ran.ran_on {
             section.insert(RAN_ON.into(), Value::Boolean(ran_on));
+        }
+        if let (Some(copies), Some(_)) = (ran.copies, spec.transients) {
+            section.insert(COPIES.into(), Value::Boolean(copies));
         }
     }
     if let Some(Value::Table(map)) = spec.source_table.get("map") {
@@ -221,14 +242,14 @@ pub const UNKNOWN_RAN_ON: &str = "this is a cell of a settling map ([cell] has s
 /// `map.initial_states`, the cell's representative one, where the map has starts), the
 /// overrides `sets` (none for the map's own cell), the map's integration method `method`
 /// (`map.json`'s), the method, step control, step and row rate pinned ([`pinned_cell`]), and
-/// the `[cell]` section ([`cell_section`], with the cell's `ran_on` where the map's run gives
-/// it). Also which keys were pinned.
+/// the `[cell]` section ([`cell_section`], with the cell's `ran_on` and `copies` where the
+/// map's run gives them). Also which keys were pinned.
 pub fn map_cell_table(
     spec: &MapSpec,
     k: usize,
     start: Option<usize>,
     method: &str,
-    ran_on: Option<bool>,
+    ran: CellStages,
     sets: &[String],
 ) -> Result<(Table, &'static [&'static str]), EngineError> {
     let mut table = match start {
@@ -244,7 +265,7 @@ pub fn map_cell_table(
         Value::String(method.into()),
     )?;
     let (mut table, keys) = pinned_cell(table, &EnsembleOptions::from_spec(spec))?;
-    if let Some(section) = cell_section(spec, ran_on) {
+    if let Some(section) = cell_section(spec, ran) {
         table.insert(CELL_SECTION.into(), Value::Table(section));
     }
     Ok((table, keys))
@@ -290,13 +311,14 @@ pub fn read_cell_scene(
 
 /// `[cell]` takes the map keys that shape a cell's values and the settling keys, nothing else.
 fn check_cell_keys(map: &Table) -> Result<(), ConfigError> {
-    let taken =
-        |k: &str| CELL_MAP_KEYS.contains(&k) || [SETTLE_MAX_S, SETTLE_FROM, RAN_ON].contains(&k);
+    let taken = |k: &str| {
+        CELL_MAP_KEYS.contains(&k) || [SETTLE_MAX_S, SETTLE_FROM, RAN_ON, COPIES].contains(&k)
+    };
     if let Some(key) = map.keys().find(|k| !taken(k)) {
         return Err(ConfigError::Inconsistent {
             key: format!("{CELL_SECTION}.{key}"),
             reason: format!(
-                "[cell] takes the map keys that shape a cell's values ({}), and a settling map's {SETTLE_MAX_S}, {SETTLE_FROM} and {RAN_ON}",
+                "[cell] takes the map keys that shape a cell's values ({}), and a settling map's {SETTLE_MAX_S}, {SETTLE_FROM}, {RAN_ON} and {COPIES}",
                 CELL_MAP_KEYS.join(", ")
             ),
         });
@@ -332,19 +354,25 @@ fn one_cell_map(
 }
 
 /// `[cell]`'s settling keys as the map of one cell takes them: a cell its map ran on settles
-/// (it runs on whatever its own confidence), any other does not (`map.settle = false`).
+/// (it runs on whatever its own confidence), any other does not (`map.settle = false`); its
+/// nudged copies run where its map ran them (`copies`), whatever its own confidence.
 fn settle_keys(map: &mut Table) -> Result<(), ConfigError> {
-    let ran_on = match map.remove(RAN_ON) {
-        None => false,
-        Some(Value::Boolean(b)) => b,
-        Some(_) => {
-            return Err(ConfigError::Inconsistent {
-                key: format!("{CELL_SECTION}.{RAN_ON}"),
-                reason: "true or false: whether the cell's map ran it on".into(),
-            });
-        }
-    };
+    let ran_on = flag(
+        map.remove(RAN_ON),
+        RAN_ON,
+        "whether the cell's map ran it on",
+    )?;
+    let copies = flag(
+        map.remove(COPIES),
+        COPIES,
+        "whether its map ran the cell's nudged copies",
+    )?;
     let max_s = map.remove(SETTLE_MAX_S);
+    // The copies run where the map ran them: never on a cell not run on.
+    if !(ran_on && copies) {
+        map.insert("transient_copies".into(), Value::Integer(0));
+        map.remove("transient_nudge_deg_s");
+    }
     match (ran_on, max_s) {
         (true, Some(v)) => {
             map.insert(SETTLE_MAX_S.into(), v);
@@ -361,6 +389,18 @@ fn settle_keys(map: &mut Table) -> Result<(), ConfigError> {
         }
     }
     Ok(())
+}
+
+/// A `[cell]` flag `key` (false where absent).
+fn flag(v: Option<Value>, key: &str, what: &str) -> Result<bool, ConfigError> {
+    match v {
+        None => Ok(false),
+        Some(Value::Boolean(b)) => Ok(b),
+        Some(_) => Err(ConfigError::Inconsistent {
+            key: format!("{CELL_SECTION}.{key}"),
+            reason: format!("true or false: {what}"),
+        }),
+    }
 }
 
 /// The values of the one cell of `spec` (a map of one cell and one start, as
@@ -458,7 +498,11 @@ mod tests {
         assert!(spec.settle_max_s.is_some(), "the default map settles");
         let method = EnsemblePlan::new(&spec).unwrap().method.name();
         for (ran_on, rerun) in [(None, false), (Some(false), true), (Some(true), true)] {
-            let (table, _) = map_cell_table(&spec, 3, None, method, ran_on, &[]).unwrap();
+            let ran = CellStages {
+                ran_on,
+                copies: None,
+            };
+            let (table, _) = map_cell_table(&spec, 3, None, method, ran, &[]).unwrap();
             let text = toml::to_string(&table).unwrap();
             let (scene, cell) = read_cell_scene(&text, "<cell>", &[]).unwrap();
             assert_eq!(cell.is_some(), rerun, "{ran_on:?}");

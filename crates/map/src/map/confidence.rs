@@ -19,6 +19,10 @@
 //! regular:  every a    0.4                 0.4
 //! no neighbour (a one-cell map): the class's mean, chaotic 0.901 / 0.938, periodic 0.996 / 0.997
 //! verdict_confidence = min(that, regime_confidence); NaN where undecided or failed
+//! start decides (the cell's nudged copies disagree in a share s > 0, `map::transients`):
+//!                     at most FIRM·(1 − s), never firm
+//! own orbit unstable (a periodic cell whose orbit the orbit stage found unstable):
+//!                     at most 0.5
 //! ```
 //!
 //! Each table is fitted on three planes at N = 3 and 34 s, each scored against its own
@@ -231,6 +235,13 @@ pub struct Summary {
     pub expected_right: f64,
     /// The same over the firm cells.
     pub expected_right_firm: f64,
+    /// Decided cells whose nudged copies disagree with them: the start decides there
+    /// (`start_sensitivity` > 0; `None` where the map ran no copies).
+    pub start_decides: Option<usize>,
+    /// `start_decides / decided`.
+    pub start_decides_share: Option<f64>,
+    /// The share of the other decided cells the table expects right: their mean confidence.
+    pub expected_right_elsewhere: Option<f64>,
     /// What the figures hold for.
     pub note: &'static str,
 }
@@ -247,6 +258,19 @@ pub fn summary(run: &crate::map::MapRun) -> Option<Summary> {
     let firm: Vec<f64> = all.iter().copied().filter(|&c| c >= firm_at).collect();
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
     let table = table_of(run).0;
+    let sensitive = run.transients.as_ref().map(|t| {
+        let (mut decides, mut elsewhere) = (0usize, Vec::new());
+        for (k, r) in run.results.iter().enumerate() {
+            if !r.verdict_confidence.is_finite() {
+                continue;
+            }
+            match t.start_decides_at(k) {
+                true => decides += 1,
+                false => elsewhere.push(r.verdict_confidence),
+            }
+        }
+        (decides, mean(&elsewhere))
+    });
     (!all.is_empty()).then(|| Summary {
         table,
         fitted_on: FITTED_ON,
@@ -255,6 +279,9 @@ pub fn summary(run: &crate::map::MapRun) -> Option<Summary> {
         firm_share: firm.len() as f64 / all.len() as f64,
         expected_right: mean(&all),
         expected_right_firm: mean(&firm),
+        start_decides: sensitive.map(|s| s.0),
+        start_decides_share: sensitive.map(|s| s.0 as f64 / all.len() as f64),
+        expected_right_elsewhere: sensitive.map(|s| s.1),
         note: "expected from the table, measured on the planes it was fitted on and on each of them held out of the fit; on other keys, N or run lengths it is a guide, not a measurement (docs/bench/PLANES.md)",
     })
 }
@@ -265,10 +292,48 @@ pub fn summary(run: &crate::map::MapRun) -> Option<Summary> {
 pub(crate) fn fill_run(shape: &[usize], run: &mut crate::map::MapRun) {
     let table = table_of(run).1;
     fill(shape, &mut run.results, table);
+    if let Some(t) = &run.transients {
+        for (r, &s) in run.results.iter_mut().zip(&t.sensitivity) {
+            r.verdict_confidence = held_by_sensitivity(r.verdict_confidence, s);
+        }
+    }
+    if let Some(o) = &run.orbits {
+        for (k, r) in run.results.iter_mut().enumerate() {
+            if own_orbit_unstable(r, o, k) {
+                r.verdict_confidence = r.verdict_confidence.min(UNSTABLE_OWN_ORBIT);
+            }
+        }
+    }
     if let Some(c) = &mut run.continuation {
         for leg in &mut c.legs {
             fill(shape, &mut leg.results, table);
         }
+    }
+}
+
+/// The most a periodic verdict whose own orbit converged unstable is trusted: the cell's
+/// trajectory cannot stay on that orbit, so the detector's period names a passage near it
+/// (on the default map the converged reference gave period 6 where such a cell said 3).
+pub const UNSTABLE_OWN_ORBIT: f64 = 0.5;
+
+/// Whether cell `k` with result `r` is periodic and its own orbit (the orbit stage's `o`)
+/// converged unstable.
+pub(crate) fn own_orbit_unstable(
+    r: &InstanceResult,
+    o: &pendulum_atlas_core::reduce::orbits::OrbitMap,
+    k: usize,
+) -> bool {
+    r.regime == Regime::Periodic && o.own_orbit(k).is_some_and(|x| !x.orbit.stable())
+}
+
+/// A confidence `c` of a cell whose nudged copies disagree with it in a share `s` (NaN: it
+/// ran none): at most `FIRM·(1 − s)` where `s > 0`, so that a cell where the start decides is
+/// never firm; unchanged otherwise.
+pub fn held_by_sensitivity(c: f64, s: f64) -> f64 {
+    if s > 0.0 {
+        c.min(pendulum_atlas_core::config::FIRM * (1.0 - s))
+    } else {
+        c
     }
 }
 

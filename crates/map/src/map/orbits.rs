@@ -15,7 +15,7 @@
 //! after:    the end states are dropped; the stage's wall time is `timings_s.orbits_s`
 //! ```
 
-use super::MapRun;
+use super::{MapRun, confidence};
 use pendulum_atlas_core::config::MapSpec;
 use pendulum_atlas_core::engine::{EnsembleOptions, EnsemblePlan, InstancePlan};
 use pendulum_atlas_core::reduce::Regime;
@@ -47,7 +47,9 @@ pub fn find_orbits(spec: &MapSpec, run: &mut MapRun) {
     map.curves = curves(&map, plans, &values, &plan_at);
     map.timings.curves_s = t1.elapsed().as_secs_f64();
     map.periods_corrected = confirm_periods(run, &map);
+    map.unstable_own = unstable_own(run, &map);
     run.orbits = Some(map);
+    confidence::fill_run(&spec.shape(), run);
     let wall = t0.elapsed().as_secs_f64();
     run.timings.orbits_s = wall;
     run.timings.total_s += wall;
@@ -68,6 +70,14 @@ fn confirm_periods(run: &mut MapRun, map: &OrbitMap) -> usize {
         }
     }
     changed
+}
+
+/// The periodic cells whose own orbit converged unstable (`confidence` holds them below
+/// firm).
+fn unstable_own(run: &MapRun, map: &OrbitMap) -> usize {
+    (0..run.results.len())
+        .filter(|&k| confidence::own_orbit_unstable(&run.results[k], map, k))
+        .count()
 }
 
 /// Each cell's seed, and the status of a cell without one.

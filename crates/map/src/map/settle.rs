@@ -17,6 +17,8 @@
 //! result:    the run-on's indicators replace the cell's; steps add up; verdict_confidence is
 //!            computed again over the whole grid (the neighbours' new verdicts included),
 //!            from the table measured on settled maps (`confidence::SETTLED`)
+//! copies:    the cells still not firm then run nudged copies (`map.transient_copies`,
+//!            [`super::transients`])
 //! ```
 //!
 //! One pass: a firm cell whose neighbour changes its verdict is not run on. The stage needs
@@ -81,7 +83,8 @@ pub fn unsettled(results: &[InstanceResult]) -> Vec<usize> {
 /// Run `spec`'s unsettled cells of `run` on (when `map.settle_max_s` is set) on `engine`,
 /// and put their results in place. `run.final_state` must hold every cell's final state
 /// (the map keeps them when it settles); it is emptied here, unless the orbit stage follows
-/// (`map.orbits`): then the cells run on hold their new end states.
+/// (`map.orbits`): then the cells run on hold their new end states. The cells still not
+/// firm then run their nudged copies ([`super::transients`]).
 pub fn settle(
     spec: &MapSpec,
     run: &mut MapRun,
@@ -135,8 +138,8 @@ pub(crate) fn settle_cells(
         *inst = inst.continued_after(done).expect("split kept it");
         inst.y0 = std::mem::take(&mut run.final_state[k]);
     }
-    // The orbit stage shoots from the end states of the runs on too.
-    let keep = spec.orbits.is_some();
+    // The copies and the orbit stage start from the end states of the runs on too.
+    let keep = spec.orbits.is_some() || spec.transients.is_some();
     if !keep {
         run.final_state = Vec::new();
     }
@@ -165,6 +168,10 @@ pub(crate) fn settle_cells(
     run.timings.total_s += report.wall_s;
     run.settle = Some(report);
     confidence::fill_run(&spec.shape(), run);
+    super::transients::see_through(spec, run, (&long_plan, which), engine, progress)?;
+    if spec.orbits.is_none() {
+        run.final_state = Vec::new();
+    }
     Ok(())
 }
 
@@ -212,7 +219,7 @@ fn put_in_place(run: &mut MapRun, members: &[usize], rerun: &MapRun, report: &mu
 }
 
 /// The run on's stage times added to the map's (its total is the stage's own wall time).
-fn add_times(run: &mut MapRun, rerun: &MapRun) {
+pub(super) fn add_times(run: &mut MapRun, rerun: &MapRun) {
     let (t, r) = (&mut run.timings, &rerun.timings);
     t.plan_s += r.plan_s;
     t.integrate_s += r.integrate_s;

@@ -54,11 +54,13 @@ pub enum Product {
     BenchRefine,
     /// `pendulum-atlas-lab verdict-fit`: `PLANES.md`, `planes.json`.
     BenchPlanes,
+    /// `pendulum-atlas-lab nudged`: `nudged.json`.
+    BenchNudged,
 }
 
 impl Product {
     /// Every product, for finding whose manifest a folder holds.
-    pub const ALL: [Product; 16] = [
+    pub const ALL: [Product; 17] = [
         Product::Simulate,
         Product::Map,
         Product::Shard,
@@ -75,6 +77,7 @@ impl Product {
         Product::BenchVerdict,
         Product::BenchRefine,
         Product::BenchPlanes,
+        Product::BenchNudged,
     ];
 
     /// The command that writes it (the bench studies, the lab's among them, share one and
@@ -96,7 +99,8 @@ impl Product {
             | Product::BenchGpu
             | Product::BenchVerdict
             | Product::BenchRefine
-            | Product::BenchPlanes => "bench",
+            | Product::BenchPlanes
+            | Product::BenchNudged => "bench",
         }
     }
 
@@ -119,6 +123,7 @@ impl Product {
             Product::BenchVerdict => "verdict.json",
             Product::BenchRefine => "refine.json",
             Product::BenchPlanes => "planes.json",
+            Product::BenchNudged => "nudged.json",
         }
     }
 
@@ -161,6 +166,7 @@ impl Product {
             Product::BenchVerdict => &["VERDICT.md"],
             Product::BenchRefine => &["REFINE.md"],
             Product::BenchPlanes => &["PLANES.md"],
+            Product::BenchNudged => &[],
         }
     }
 

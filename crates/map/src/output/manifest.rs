@@ -126,6 +126,10 @@ pub struct MapManifest {
     /// The continuation (null without it).
     #[serde(default)]
     pub continuation: Value,
+    /// The transient stage: what the nudged copies found and how to read its arrays (null
+    /// without it).
+    #[serde(default)]
+    pub transients: Value,
     /// The orbit stage: what it did and how to read its files (null without it).
     pub orbits: Value,
     /// Warnings of the plan.

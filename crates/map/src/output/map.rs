@@ -16,6 +16,7 @@ use serde_json::{Value, json};
 #[cfg(feature = "pictures")]
 mod folder;
 mod orbits;
+mod transients;
 #[cfg(feature = "pictures")]
 pub use folder::{
     Style, attractor_style, family_words, metric_style, regime_shade, shown_label, shown_value,
@@ -99,8 +100,14 @@ pub mod stem {
     pub(crate) const ORBITS_KNOWN: &str = "orbits_known";
     /// Of those, the stable ones.
     pub(crate) const ORBITS_STABLE: &str = "orbits_stable";
+    /// The chaotic transient's mean lifetime from the nudged copies.
+    pub(crate) const TRANSIENT_S: &str = "transient_s";
+    /// Its standard error.
+    pub(crate) const TRANSIENT_SE_S: &str = "transient_se_s";
+    /// The share of nudged copies that disagree with the cell.
+    pub(crate) const START_SENSITIVITY: &str = "start_sensitivity";
     /// Every one of them.
-    pub const ALL: [&str; 18] = [
+    pub const ALL: [&str; 21] = [
         INFERRED,
         ATTRACTORS,
         ATTRACTOR,
@@ -119,6 +126,9 @@ pub mod stem {
         ORBIT_FAMILY,
         ORBITS_KNOWN,
         ORBITS_STABLE,
+        TRANSIENT_S,
+        TRANSIENT_SE_S,
+        START_SENSITIVITY,
     ];
 }
 
@@ -189,6 +199,9 @@ pub fn map_arrays(spec: &MapSpec, run: &MapRun) -> Vec<MapArray> {
     }
     if let Some(c) = &run.continuation {
         arrays.extend(continuation_arrays(spec, c));
+    }
+    if let Some(t) = &run.transients {
+        arrays.extend(transients::transient_arrays(spec, t));
     }
     if let Some(o) = &run.orbits {
         arrays.extend(orbits::orbit_arrays(spec, o));
@@ -317,6 +330,10 @@ pub fn map_manifest(spec: &MapSpec, run: &MapRun, files: &[String]) -> MapManife
             .continuation
             .as_ref()
             .map_or(Value::Null, |c| continuation_json(spec, c)),
+        transients: run
+            .transients
+            .as_ref()
+            .map_or(Value::Null, transients::transients_summary),
         orbits: run
             .orbits
             .as_ref()

@@ -372,6 +372,23 @@ pub struct CellMarks<'a> {
     pub inferred: &'a [bool],
     /// Curves drawn over the cells (bifurcation curves), in data coordinates.
     pub lines: &'a [Overlay],
+    /// The start decides (nudged copies disagree): an anti-diagonal hatch, "start decides" in
+    /// the legend.
+    pub sensitive: &'a [bool],
+    /// The verdict is the orbit after a chaotic transient: dots every [`DOT_PX`] pixels,
+    /// "after transient" in the legend.
+    pub transient: &'a [bool],
+}
+
+/// Pixels between the dots of a cell whose verdict follows a chaotic transient.
+pub const DOT_PX: i32 = 6;
+
+/// How a marked cell's pixel at `(i, j)` is drawn: in the hatch colour where one of its marks
+/// (`[inferred, sensitive, transient]`) puts a line or dot there.
+fn marked_pixel([inferred, sensitive, transient]: [bool; 3], (i, j): (i32, i32)) -> bool {
+    (inferred && (i + j).rem_euclid(HATCH_PX) == 0)
+        || (sensitive && (i - j).rem_euclid(HATCH_PX) == 0)
+        || (transient && i.rem_euclid(DOT_PX) < 2 && j.rem_euclid(DOT_PX) < 2)
 }
 
 /// A curve drawn over a heat map: points `(x, y)` in data coordinates, a colour and its
@@ -478,11 +495,14 @@ pub fn heatmap_scaled(
     marks: &CellMarks,
     palette: &Palette,
 ) -> Result<()> {
-    let (invalid, marked) = (marks.invalid, marks.inferred);
+    let invalid = marks.invalid;
     check_heatmap_input(x, y, values, invalid, palette)?;
     let nx = x.values.len();
     let bad = |k: usize| invalid.get(k).copied().unwrap_or(false);
-    let inferred = |k: usize| marked.get(k).copied().unwrap_or(false);
+    let flag = |f: &[bool], k: usize| f.get(k).copied().unwrap_or(false);
+    let inferred = |k: usize| flag(marks.inferred, k);
+    let sensitive = |k: usize| flag(marks.sensitive, k);
+    let transient = |k: usize| flag(marks.transient, k);
     let range = palette.range(values, invalid);
     let ((xe, xa), (ye, ya)) = (
         grid_spec(x.values, scales[0]),
@@ -496,7 +516,8 @@ pub fn heatmap_scaled(
     paint_cells(&chart, &xe, &ye, |ix, iy, _, _, (i, j)| {
         let k = iy * nx + ix;
         let c = palette.colour(values[k], bad(k), range);
-        if inferred(k) && (i + j).rem_euclid(HATCH_PX) == 0 {
+        let on = [inferred(k), sensitive(k), transient(k)];
+        if marked_pixel(on, (i, j)) {
             hatch(c)
         } else {
             c
@@ -519,6 +540,12 @@ pub fn heatmap_scaled(
     }
     if (0..values.len()).any(inferred) {
         legend.push(("hatched: inferred", hatch(NODATA_COLOR)));
+    }
+    if (0..values.len()).any(sensitive) {
+        legend.push(("start decides", hatch(NODATA_COLOR)));
+    }
+    if (0..values.len()).any(transient) {
+        legend.push(("after transient", hatch(NODATA_COLOR)));
     }
     if (0..values.len()).any(|k| !bad(k) && palette.colour(values[k], false, range) == NODATA_COLOR)
     {

@@ -74,6 +74,9 @@ pub struct OrbitMap {
     /// Cells whose verdict's period the map's stage replaced by their own stable orbit's
     /// least period (`crates/map/src/map/orbits.rs`).
     pub periods_corrected: usize,
+    /// Periodic cells whose own orbit converged unstable: their verdict held below firm
+    /// (`crates/map/src/map/orbits.rs`).
+    pub unstable_own: usize,
     /// Wall time of each step (s).
     pub timings: OrbitTimings,
     /// The bifurcation curves (filled by the bifurcation step).
@@ -125,6 +128,7 @@ pub fn orbit_map(
         continued_tries: 0,
         continued_found: 0,
         periods_corrected: 0,
+        unstable_own: 0,
         timings: OrbitTimings::default(),
         curves: Vec::new(),
     };

@@ -540,8 +540,21 @@ fn draw_slice(
         .map(|k| run.results[k].status != Status::Ok)
         .collect();
     let inferred: Vec<bool> = cells
+        .clone()
         .map(|k| run.inferred.get(k).copied().unwrap_or(false))
         .collect();
+    let verdict_picture = [Metric::Regime.name(), Metric::Period.name()].contains(&stem);
+    let (sensitive, transient) = match (&run.transients, verdict_picture) {
+        (Some(t), true) => cells
+            .map(|k| {
+                (
+                    t.start_decides_at(k),
+                    t.after_transient.get(k).copied().unwrap_or(false),
+                )
+            })
+            .unzip(),
+        _ => (Vec::new(), Vec::new()),
+    };
     let (p, title) = if nz == 1 {
         (dir.join(format!("{stem}.png")), label.clone())
     } else {
@@ -560,7 +573,7 @@ fn draw_slice(
         label: &yl,
         values: &spec.axes[1].values,
     };
-    let lines = if nz == 1 && [Metric::Regime.name(), Metric::Period.name()].contains(&stem) {
+    let lines = if nz == 1 && verdict_picture {
         curve_overlays(run)
     } else {
         Vec::new()
@@ -570,6 +583,8 @@ fn draw_slice(
             invalid: &invalid,
             inferred: &inferred,
             lines: &lines,
+            sensitive: &sensitive,
+            transient: &transient,
         };
         let scales = [spec.axes[0].scale, spec.axes[1].scale];
         heatmap_scaled(t, &title, &x, &y, scales, &vals, &label, &marks, &palette)

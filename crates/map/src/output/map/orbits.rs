@@ -130,6 +130,7 @@ pub(super) fn orbits_summary(o: &OrbitMap, wall_s: f64) -> Value {
         "continued_tries": o.continued_tries,
         "continued_found": o.continued_found,
         "periods_corrected": o.periods_corrected,
+        "unstable_own": o.unstable_own,
         "timings_s": o.timings,
         "curves": BifurcationKind::ALL.iter().map(|&k| (k.name(), kind_count(k))).collect::<std::collections::BTreeMap<_, _>>(),
         "wall_s": wall_s,
