@@ -85,7 +85,14 @@ class Scene:
         """An independent copy."""
         return Scene(self._text, self._origin, self._sets)
 
-    def cell(self, *, run: Any = None, ran_on: bool | None = None, **coords: float) -> "Scene":
+    def cell(
+        self,
+        *,
+        run: Any = None,
+        ran_on: bool | None = None,
+        copies: bool | None = None,
+        **coords: float,
+    ) -> "Scene":
         """One cell of a map scene as a plain scene: the map's base scene with each axis key
         set to the cell's value, e.g. ``scene.cell(frequency_hz=8.0, amplitude_m=0.02)``
         (an axis by its full key works too: ``**{"excitation.frequency_hz": 8.0}``).
@@ -110,16 +117,19 @@ class Scene:
         map's dataset as ``run`` (what :func:`pendulum_atlas.map` returned for this scene, or
         :func:`pendulum_atlas.open_run` of its folder), and the cell is the one the explorer
         downloads (its ``ran_on``, the map's method and, with ``map.initial_states``, the
-        start the map kept for it); or say ``ran_on=True`` or ``False`` yourself. Without
+        start the map kept for it, and whether it ran the cell's nudged copies); or say
+        ``ran_on=True`` or ``False`` yourself (and ``copies=True`` where the map's
+        ``start_sensitivity`` of the cell is a number: it ran the cell's copies). Without
         either, a settling map's cell has no map values: :func:`pendulum_atlas.simulate`
         and the command's ``simulate`` warn that it cannot be rerun as its map computed it.
         """
         if not self.is_map:
             raise ValueError("cell() takes a map scene (one with a [map] section)")
-        if run is not None and ran_on is not None:
-            raise TypeError("cell(): give the map's run (run=dataset) or ran_on, not both")
-        if ran_on is not None and not isinstance(ran_on, (bool, np.bool_)):
-            raise TypeError(f"cell(): ran_on is True or False, not {type(ran_on).__name__}")
+        if run is not None and (ran_on is not None or copies is not None):
+            raise TypeError("cell(): give the map's run (run=dataset) or ran_on and copies, not both")
+        for name, flag in (("ran_on", ran_on), ("copies", copies)):
+            if flag is not None and not isinstance(flag, (bool, np.bool_)):
+                raise TypeError(f"cell(): {name} is True or False, not {type(flag).__name__}")
         given: dict[str, Any] = {}
         for name, value in coords.items():
             key = _full_key(name, self._resolved)
@@ -137,7 +147,7 @@ class Scene:
             )
         grid_values = at["values"]
         others = [s for key, s in zip(given, cell_sets) if key not in grid_values]
-        method = start = copies = None
+        method = start = None
         if run is not None:
             ran_on, method, start, copies = _cell_of_run(run, at)
         pins = _native.cell_pins(
@@ -149,7 +159,7 @@ class Scene:
             method,
             None if ran_on is None else bool(ran_on),
             start,
-            copies,
+            None if copies is None else bool(copies),
         )
         single = Scene(self._base, f"{self._origin} (a cell of the map)")
         for key, value in given.items():

@@ -60,8 +60,11 @@ def test_every_cell_of_a_settling_map_reruns_with_the_maps_numbers_given_its_run
             assert f"ran_on = {str(ran_on).lower()}" in cell.to_toml()
             run = simulate_quietly(cell)
             assert_map_cell_is_the_maps(run.attrs["map_cell"], ds, float(f), float(a))
-            # ran_on given by hand makes the same scene.
-            by_hand = scene.cell(frequency_hz=float(f), amplitude_m=float(a), ran_on=ran_on)
+            # ran_on (and copies, where the map ran the cell's nudged copies) given by hand
+            # make the same scene.
+            copies = bool(np.isfinite(ds["start_sensitivity"].sel(frequency_hz=f, amplitude_m=a)))
+            assert ("copies = true" in cell.to_toml()) == copies
+            by_hand = scene.cell(frequency_hz=float(f), amplitude_m=float(a), ran_on=ran_on, copies=copies)
             assert by_hand.to_toml() == cell.to_toml()
 
 

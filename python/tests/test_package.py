@@ -90,8 +90,9 @@ def test_the_dataset_holds_every_result_of_the_schema_the_map_formed(small_map_f
         if f["dtype"] == "float64":
             assert var.attrs["units"] == f["unit"], f["name"]
     schema = {f["name"] for f in fields}
-    # Besides the schema's results, the orbit stage's arrays, which map.json names.
-    stage = set(json.loads(ds.attrs["map_json"])["orbits"]["arrays"])
+    # Besides the schema's results, the orbit and transient stages' arrays, which map.json names.
+    manifest = json.loads(ds.attrs["map_json"])
+    stage = set(manifest["orbits"]["arrays"]) | set((manifest["transients"] or {}).get("arrays", {}))
     assert stage and not stage & schema
     assert set(ds.data_vars) <= schema | stage, "no variable outside the schema and the stage's arrays"
 

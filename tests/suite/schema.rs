@@ -110,13 +110,14 @@ fn every_output_of_a_map_lists_the_results_of_the_schema() {
             );
         }
         // The explorer: a column per metric asked (and the verdict's confidence), each a
-        // metric's or a schema row's name.
+        // metric's or a schema row's name, or an array of a stage after the reductions.
         let folder = pendulum_atlas_explore::RunFolder::open(&out).unwrap();
         let columns: Vec<&str> = folder.columns.iter().map(|c| c.name.as_str()).collect();
+        let stage = pendulum_atlas_map::output::map::stem::ALL;
         for c in &columns {
             assert!(
-                Metric::parse(c).is_some() || field(c).is_some(),
-                "{c} is neither a metric nor a result"
+                Metric::parse(c).is_some() || field(c).is_some() || stage.contains(c),
+                "{c} is neither a metric nor a result nor a stage's array"
             );
         }
         for m in &asked {

@@ -85,6 +85,9 @@ fn manifest(dir: &Path) -> serde_json::Value {
         orbits.remove("wall_s");
         orbits.remove("timings_s");
     }
+    if let Some(transients) = m["transients"].as_object_mut() {
+        transients.remove("wall_s");
+    }
     v
 }
 

@@ -83,7 +83,7 @@ pub struct RunFolder {
     /// empty for other runs).
     pub ran_on: Vec<bool>,
     /// Per cell of a map whose cells ran nudged copies, its marks on the verdict's pictures
-    /// ([`MARK_START_DECIDES`], [`MARK_AFTER_TRANSIENT`]; empty for other runs).
+    /// (`MARK_START_DECIDES`, `MARK_AFTER_TRANSIENT`; empty for other runs).
     pub marks: Vec<u8>,
     /// Per cell of a map whose cells ran nudged copies, whether it ran them
     /// (`start_sensitivity.npy` finite; empty for other runs).

@@ -105,6 +105,9 @@ pub fn open(dir: &Path) -> Result<RunFolder, ExploreError> {
     })
 }
 
+/// Per cell, its marks and whether it ran copies; and the copies' arrays as columns.
+type CopyMarks = (Vec<u8>, Vec<bool>, Vec<Column>);
+
 /// The marks of a map whose cells ran nudged copies (`start_sensitivity.npy`,
 /// `transient_s.npy`), which cells ran them, and both arrays as columns; nothing for other
 /// maps.
@@ -112,7 +115,7 @@ fn transient_marks(
     dir: &Path,
     spec: &MapSpec,
     manifest: &MapManifest,
-) -> Result<(Vec<u8>, Vec<bool>, Vec<Column>), ExploreError> {
+) -> Result<CopyMarks, ExploreError> {
     let listed = |name: &str| manifest.files.iter().any(|f| f == name);
     if !listed("start_sensitivity.npy") || !listed("transient_s.npy") {
         return Ok((Vec::new(), Vec::new(), Vec::new()));

@@ -217,8 +217,9 @@ pub fn cell_section(spec: &MapSpec, ran: CellStages) -> Option<Table> {
         if let Some(ran_on) = ran.ran_on {
             section.insert(RAN_ON.into(), Value::Boolean(ran_on));
         }
-        if let (Some(copies), Some(_)) = (ran.copies, spec.transients) {
-            section.insert(COPIES.into(), Value::Boolean(copies));
+        // Absent reads as false: written only where the copies ran.
+        if ran.copies == Some(true) && spec.transients.is_some() {
+            section.insert(COPIES.into(), Value::Boolean(true));
         }
     }
     if let Some(Value::Table(map)) = spec.source_table.get("map") {

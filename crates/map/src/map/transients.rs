@@ -46,7 +46,8 @@ pub struct TransientMap {
     pub escapes: usize,
     /// Cells with at least one escape.
     pub cells_escaping: usize,
-    /// Cells whose verdict became the copies' orbit (chaos seen as a transient).
+    /// Cells whose verdict became the copies' orbit: chaos seen as a transient, or a regular
+    /// cell's orbit confirmed.
     pub took_orbit: usize,
     /// Undecided cells that took the copies' decided verdict.
     pub decided: usize,
@@ -67,7 +68,8 @@ pub struct TransientMap {
     #[serde(skip)]
     pub sensitivity: Vec<f64>,
     /// Per cell: whether its verdict is the copies' periodic orbit after a chaotic transient
-    /// (it was chaotic or undecided; `transient_s` is finite there).
+    /// (it was chaotic or undecided: `transient_s` is finite there, and only there among the
+    /// periodic cells).
     #[serde(skip)]
     pub after_transient: Vec<bool>,
 }
@@ -253,13 +255,14 @@ fn apply(
     run.results[k] = new;
     map.sensitivity[k] = d.sensitivity;
     map.start_decides += usize::from(d.sensitivity > 0.0);
+    // Copies of an orbit that return to it do not escape from chaos: a transient, and its
+    // lifetime, only where the cell was chaotic or undecided.
+    let chaotic = matches!(own.regime, Regime::Chaotic | Regime::Undecided);
     let orbit = d.take.is_some() && d.verdict.periodic();
-    map.after_transient[k] = orbit;
+    map.after_transient[k] = orbit && chaotic;
     map.took_orbit += usize::from(orbit);
     map.decided += usize::from(d.take.is_some() && !orbit);
-    // Copies of an orbit that return to it do not escape from chaos: a lifetime only where
-    // the cell was chaotic or undecided.
-    if matches!(own.regime, Regime::Chaotic | Regime::Undecided) {
+    if chaotic {
         let escapes = outcomes.iter().filter(|o| o.escape_s().is_some()).count();
         map.escapes += escapes;
         map.cells_escaping += usize::from(escapes > 0);

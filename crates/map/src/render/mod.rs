@@ -27,7 +27,8 @@ pub use colormap::viridis;
 pub use error::RenderError;
 pub use grid::{GridAxis, grid_axis};
 pub use maps::{
-    CellMarks, HATCH_PX, Overlay, cell_colour, colour_range, heatmap, heatmap_scaled, scalogram,
+    CellMarks, DOT_PX, HATCH_PX, Overlay, cell_colour, colour_range, heatmap, heatmap_scaled,
+    scalogram,
 };
 pub use palette::{Category, INVALID_COLOR, NODATA_COLOR, Palette, curve_style};
 pub use plotters::style::RGBColor;
