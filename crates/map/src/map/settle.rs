@@ -160,9 +160,8 @@ pub(crate) fn settle_cells(
             run.final_state[k] = y;
         }
         report.stopped_early += part.stopped_early;
-        run.sub_steps = add_counts(run.sub_steps, part.sub_steps);
         put_in_place(run, &cells, &part, &mut report);
-        add_times(run, &part);
+        absorb(run, &part);
     }
     report.wall_s = t0.elapsed().as_secs_f64();
     run.timings.total_s += report.wall_s;
@@ -218,8 +217,15 @@ fn put_in_place(run: &mut MapRun, members: &[usize], rerun: &MapRun, report: &mu
     }
 }
 
+/// A stage's run `part` counted in the map's: its sub-steps and stage times (its early stops
+/// are the stage's own, in its report).
+pub(super) fn absorb(run: &mut MapRun, part: &MapRun) {
+    run.sub_steps = add_counts(run.sub_steps, part.sub_steps);
+    add_times(run, part);
+}
+
 /// The run on's stage times added to the map's (its total is the stage's own wall time).
-pub(super) fn add_times(run: &mut MapRun, rerun: &MapRun) {
+fn add_times(run: &mut MapRun, rerun: &MapRun) {
     let (t, r) = (&mut run.timings, &rerun.timings);
     t.plan_s += r.plan_s;
     t.integrate_s += r.integrate_s;

@@ -116,8 +116,11 @@ pub(crate) fn see_through(
     let t0 = Instant::now();
     let mut map = TransientMap::empty(ts, run.results.len());
     let cells = examined(run, long, which);
-    if !cells.is_empty() {
-        run_copies(spec, run, (long, &cells), (engine, progress), &mut map)?;
+    // At most as many copies at once as the map has instances: the map's memory check
+    // (`check_host_memory`) then bounds the stage's too, whatever map.transient_copies.
+    let per_batch = (spec.instances() / ts.copies as usize).max(1);
+    for batch in cells.chunks(per_batch) {
+        run_copies(spec, run, (long, batch), (engine, progress), &mut map)?;
     }
     map.wall_s = t0.elapsed().as_secs_f64();
     run.timings.total_s += map.wall_s;
@@ -127,7 +130,8 @@ pub(crate) fn see_through(
 }
 
 /// Run the copies of `cells` (planned from `long`) on `engine` and apply each cell's
-/// decision; the copies' counts and times join the map's.
+/// decision; the copies' sub-steps and times join the map's (their early stops are not the
+/// map's instances').
 fn run_copies(
     spec: &MapSpec,
     run: &mut MapRun,
@@ -154,11 +158,9 @@ fn run_copies(
             }
         }
     }
-    map.cells = cells.len();
-    map.steps = part.results.iter().map(|r| r.steps).sum();
-    run.stopped_early += part.stopped_early;
-    run.sub_steps = pendulum_atlas_core::engine::add_counts(run.sub_steps, part.sub_steps);
-    settle::add_times(run, &part);
+    map.cells += cells.len();
+    map.steps += part.results.iter().map(|r| r.steps).sum::<u64>();
+    settle::absorb(run, &part);
     Ok(())
 }
 
