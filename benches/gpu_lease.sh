@@ -13,19 +13,16 @@
 #
 # `run` checks that a hardware adapter is listed (not only llvmpipe), runs the default map as
 # the README runs it (auto backend: what the hardware probe picks), then `bench --throughput`
-# at N = 3, 9 and 17, RK4 and IMEX, 10^3 to 10^6 instances, on both integration kernels
-# (gpu.kernel thread and workgroup; GPU rows only, each within 6 s; kernel time from the
-# device's clock beside wall time), the N = 17 default plane (34 s, adaptive steps, lambda1 and
-# the regime, raw as issue 58's target reads it) on the thread kernel (auto's choice) and on
-# the workgroup kernel (the kernels' agreement on the default map's way), the map as written
-# (N = 3, 64 x 48) on the GPU and on the CPU engine for parity, the same map at fixed steps
-# without lambda1 and the early stop on each kernel (the kernels' agreement: K class and
-# period), and last the GPU peers (benches/peers/run_gpu_peers.sh: the CUDA kernel and JAX on
+# at N = 3, 9 and 17, RK4 and IMEX, 10^3 to 10^6 instances (GPU rows only, each within 6 s;
+# kernel time from the device's clock beside wall time), the N = 17 default plane (34 s,
+# adaptive steps, lambda1 and the regime, raw as issue 58's target reads it), the map as
+# written (N = 3, 64 x 48) on the GPU and on the CPU engine for parity, the same map at fixed
+# steps without lambda1 and the early stop, and last the GPU peers (benches/peers/run_gpu_peers.sh: the CUDA kernel and JAX on
 # the same GPU, at most 80 s).
 # Each step is bounded by `timeout` (575 s in all); its log and results go under $OUT as they
 # finish, so a call cut short still brings back what it had: one tarball, gpu_lease.tar.gz,
-# plus GPU.md, AGREEMENT.md (benches/kernels_agree.py: the kernels' maps and GPU against CPU held
-# against each other, where numpy is) and the log to read at once.
+# plus GPU.md, AGREEMENT.md (benches/kernels_agree.py: GPU against CPU held against each other,
+# where numpy is) and the log to read at once.
 # Budget: one call of under 10 minutes on an H100 (the study's rows are each bounded by
 # --row-budget-s); give the call timeout_s 600.
 #
@@ -104,28 +101,24 @@ run() {
   echo "default map: ${SECONDS} s"
   rm -f "$work/map"/*.npy "$work/map"/*.csv
   pack
-  # The occupancy sweep: 10^3 to 10^6 instances at N = 3, 9, 17, RK4 and IMEX, both kernels.
-  local study=(--no-cpu --segments 3,9,17 --row-budget-s 6 --kernels thread,workgroup)
-  [ -z "$dry" ] || study=(--no-cpu --segments 3 --max-instances 1000 --row-budget-s 2 --kernels thread,workgroup)
+  # The occupancy sweep: 10^3 to 10^6 instances at N = 3, 9, 17, RK4 and IMEX.
+  local study=(--no-cpu --segments 3,9,17 --row-budget-s 6)
+  [ -z "$dry" ] || study=(--no-cpu --segments 3 --max-instances 1000 --row-budget-s 2)
   echo "== bench --throughput ${study[*]}"
   SECONDS=0
   timeout 200 "$bin" bench --throughput "${study[@]}" --out "$work/gpu" --force || echo "study: rc $?"
   echo "study: ${SECONDS} s"
   [ -f "$work/gpu/GPU.md" ] && cp "$work/gpu/GPU.md" "$out/GPU.md"
   pack
-  # The N = 17 default plane: 64 x 48 cells, 34 s, adaptive steps, lambda1 and the regime, on
-  # the thread kernel (auto's) and on the workgroup kernel.
+  # The N = 17 default plane: 64 x 48 cells, 34 s, adaptive steps, lambda1 and the regime.
   echo "== N = 17 default plane"
   local plane=(--set beam.segments=17 --set map.settle=false)
   # --dry: the plumbing only (N = 17 on a software adapter takes minutes even on 16 cells).
   [ -z "$dry" ] || plane=(--set beam.segments=3 --set map.settle=false "${small[@]}")
-  local kernel
-  for kernel in thread workgroup; do
-    SECONDS=0
-    timeout 80 "$bin" map --backend gpu "${plane[@]}" --set "gpu.kernel=\"$kernel\"" \
-      --out "$work/plane17_$kernel" --force || echo "N = 17 plane ($kernel kernel): rc $?"
-    echo "N = 17 plane, $kernel kernel: ${SECONDS} s"
-  done
+  SECONDS=0
+  timeout 80 "$bin" map --backend gpu "${plane[@]}" --out "$work/plane17_thread" --force \
+    || echo "N = 17 plane: rc $?"
+  echo "N = 17 plane: ${SECONDS} s"
   rm -f "$work"/plane17_*/*.png "$work"/plane17_*/*.csv
   pack
   # Parity on this hardware: the map as written (N = 3, 64 x 48) on the GPU and on the CPU
@@ -141,15 +134,13 @@ run() {
   timeout 30 "$bin" map --backend cpu "${parity[@]}" --out "$work/parity_cpu" --force \
     || echo "parity map (CPU): rc $?"
   echo "parity map, CPU f64: ${SECONDS} s"
-  # The two kernels on what both do: fixed steps, no lambda1, no early stop.
+  # Fixed steps, no lambda1, no early stop: the integration alone.
   local fixed=(--set 'integration.step="fixed"' --set map.early_stop=false
     --set 'map.metrics=["K","R","period","hops","impacts_per_s","alpha_range"]')
-  for kernel in thread workgroup; do
-    SECONDS=0
-    timeout 20 "$bin" map --backend gpu "${parity[@]}" "${fixed[@]}" --set "gpu.kernel=\"$kernel\"" \
-      --out "$work/parity_fixed_$kernel" --force || echo "fixed-step map ($kernel kernel): rc $?"
-    echo "fixed-step map, $kernel kernel: ${SECONDS} s"
-  done
+  SECONDS=0
+  timeout 20 "$bin" map --backend gpu "${parity[@]}" "${fixed[@]}" \
+    --out "$work/parity_fixed_thread" --force || echo "fixed-step map: rc $?"
+  echo "fixed-step map: ${SECONDS} s"
   rm -f "$work"/parity_*/*.png "$work"/parity_*/*.csv
   pack
   local peers_rc=0
@@ -162,7 +153,7 @@ run() {
     echo "peers: ${SECONDS} s"
     pack
   fi
-  # The maps held against each other (the kernels' agreement, GPU against CPU), where numpy
+  # The maps held against each other (GPU against CPU), where numpy
   # is (JAX's machine has it; otherwise run the script on the unpacked folder).
   if python3 -c "import numpy" 2>/dev/null; then
     # (Into a temporary file first: a report cut short is not left as AGREEMENT.md.)

@@ -4,10 +4,9 @@ agreement targets), from the folder its tarball unpacks into (or `unpack`'s docs
 Usage: python benches/kernels_agree.py DIR > DIR/AGREEMENT.md   (needs numpy)
 
 Pairs, where both maps came back (a map cut by its time limit has no map.json):
-- plane17_thread / plane17_workgroup: the two kernels on the N = 17 default plane (adaptive steps,
-  λ1 and the regime, the early stop);
-- parity_fixed_thread / parity_fixed_workgroup: the two kernels at fixed steps (N = 3);
-- parity_gpu / parity_cpu: the GPU engine (f32) against the CPU engine (f64), N = 3.
+- parity_gpu / parity_cpu: the GPU engine (f32) against the CPU engine (f64), N = 3;
+- OLD / NEW, given as `kernels_agree.py DIR OLD NEW`: two maps of the same scene by two builds
+  (issue 73: the hand-written kernels against the generated ones).
 For each: the cells; the same K class (K > 0.5 chaotic) on how many; the same period on how many
 of the cells periodic in both (period > 0); the same regime, where both have one; each map's wall
 time (map.json's timings_s.total_s). The kernels' targets: K class >= 99 %, period >= 98 %.
@@ -18,11 +17,7 @@ import sys
 
 import numpy as np
 
-PAIRS = (
-    ("plane17_thread", "plane17_workgroup", "the kernels, N = 17 default plane"),
-    ("parity_fixed_thread", "parity_fixed_workgroup", "the kernels, fixed steps, N = 3"),
-    ("parity_gpu", "parity_cpu", "GPU f32 against CPU f64, N = 3"),
-)
+PAIRS = (("parity_gpu", "parity_cpu", "GPU f32 against CPU f64, N = 3"),)
 
 
 def load(folder):
@@ -61,7 +56,7 @@ def row(a, b):
     return [str(ma["instances"]), share(k), share(p), share(r), walls]
 
 
-def report(root):
+def report(root, pairs=PAIRS):
     """The report's lines for the lease folder `root`."""
     lines = [
         "# The lease's maps held against each other",
@@ -71,7 +66,7 @@ def report(root):
         "| pair | cells | same K class | same period (periodic in both) | same regime | wall (s) |",
         "|---|---:|---:|---:|---:|---:|",
     ]
-    for left, right, label in PAIRS:
+    for left, right, label in pairs:
         a, b = load(os.path.join(root, left)), load(os.path.join(root, right))
         if a is None or b is None:
             missing = ", ".join(n for n, m in ((left, a), (right, b)) if m is None)
@@ -86,6 +81,10 @@ def report(root):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 2 or not os.path.isdir(sys.argv[1]):
-        sys.exit("usage: python benches/kernels_agree.py DIR (the folder a lease call unpacks into)")
-    print("\n".join(report(sys.argv[1])))
+    if len(sys.argv) not in (2, 4) or not os.path.isdir(sys.argv[1]):
+        sys.exit(
+            "usage: python benches/kernels_agree.py DIR [OLD NEW] (the folder a lease call "
+            "unpacks into; OLD and NEW: two map folders under it to hold against each other)"
+        )
+    pairs = PAIRS if len(sys.argv) == 2 else ((sys.argv[2], sys.argv[3], f"{sys.argv[2]} / {sys.argv[3]}"),)
+    print("\n".join(report(sys.argv[1], pairs)))

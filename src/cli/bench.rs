@@ -69,7 +69,7 @@ pub struct BenchArgs {
           value_parser = clap::value_parser!(u64).range(1..=64))]
     pub segments: Vec<u64>,
     /// The GPU's integration kernels the --throughput study measures, each with its ladders
-    /// (default: thread; `--kernels thread,workgroup` for both).
+    /// (default and only one: thread).
     #[arg(
         long,
         value_delimiter = ',',
@@ -287,17 +287,14 @@ fn throughput(
 /// A GPU integration kernel of the --throughput study (`gpu.kernel`'s words).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum KernelArg {
-    /// One invocation per instance.
+    /// One invocation per instance (the only kernel since issue 73).
     Thread,
-    /// One workgroup per instance, its segments over the lanes.
-    Workgroup,
 }
 
 impl From<KernelArg> for GpuKernel {
     fn from(k: KernelArg) -> GpuKernel {
         match k {
             KernelArg::Thread => GpuKernel::Thread,
-            KernelArg::Workgroup => GpuKernel::Workgroup,
         }
     }
 }

@@ -591,9 +591,10 @@ fn the_removed_gpu_layout_is_refused_with_its_reason() {
     assert!(m.contains("unknown key `gpu.threads`"), "{m}");
 }
 
-/// `gpu.kernel` is one of three words, `auto` by default; anything else names the choices.
+/// `gpu.kernel` is `auto` (the default) or `thread`; `workgroup` is refused with the reason it
+/// was removed; anything else names the choices.
 #[test]
-fn gpu_kernel_is_auto_thread_or_workgroup() {
+fn gpu_kernel_is_auto_or_thread() {
     use pendulum_atlas_core::config::{DEFAULT_MAP_TOML, GpuKernelChoice, map_from_toml};
     let read = |v: &str| map_from_toml(DEFAULT_MAP_TOML, "<test>", &[format!("gpu.kernel={v}")]);
     assert_eq!(
@@ -606,9 +607,10 @@ fn gpu_kernel_is_auto_thread_or_workgroup() {
         read("\"thread\"").unwrap().gpu_kernel,
         GpuKernelChoice::Thread
     );
-    assert_eq!(
-        read("\"workgroup\"").unwrap().gpu_kernel,
-        GpuKernelChoice::Workgroup
+    let removed = read("\"workgroup\"").unwrap_err().to_string();
+    assert!(
+        removed.contains("gpu.kernel") && removed.contains("was removed"),
+        "{removed}"
     );
     for bad in ["\"warp\"", "3"] {
         let m = read(bad).unwrap_err().to_string();

@@ -58,8 +58,8 @@ fn the_ladder_measures_or_skips_every_rung_and_the_report_shows_it() {
         kernels: GpuKernel::ALL.to_vec(),
     };
     let r = run_throughput(&opts, &|_| {}).unwrap();
-    // The CPU engine, and the GPU's two kernels.
-    let ladders = 1 + 2 * usize::from(gpu.is_some());
+    // The CPU engine, and the GPU's kernel.
+    let ladders = 1 + usize::from(gpu.is_some());
     // 2 methods × 2 scenes × one rung per engine and kernel.
     assert_eq!(r.rows.len(), 4 * ladders);
     for k in GpuKernel::ALL {
@@ -84,7 +84,7 @@ fn the_ladder_measures_or_skips_every_rung_and_the_report_shows_it() {
                 assert!(row.steps_per_instance > 50.0, "{}", row.steps_per_instance);
                 if row.kind == EngineKind::Gpu {
                     // 1000 instances: at least the state (7 f32) and parameters of each (a
-                    // run stopped at the budget reports none: the workgroup kernel's here).
+                    // run stopped at the budget reports none).
                     let whole = row.stopped_at.is_none();
                     assert!(!whole || row.device_bytes.unwrap() > 1000 * 28, "{row:?}");
                 } else {
@@ -184,11 +184,9 @@ fn the_gpu_lease_script_runs_dry_on_this_adapter() {
     let maps = [
         "map",
         "plane17_thread",
-        "plane17_workgroup",
         "parity_gpu",
         "parity_cpu",
         "parity_fixed_thread",
-        "parity_fixed_workgroup",
     ];
     for d in maps {
         assert!(
@@ -197,9 +195,9 @@ fn the_gpu_lease_script_runs_dry_on_this_adapter() {
         );
     }
     assert!(
-        log.contains("N = 17 plane, workgroup kernel:") && !log.contains(": rc "),
+        log.contains("N = 17 plane:") && !log.contains(": rc "),
         "{log}"
     );
-    assert!(study.contains("| workgroup |"), "{study}");
+    assert!(study.contains("| thread |"), "{study}");
     std::fs::remove_dir_all(&tmp).ok();
 }

@@ -1,14 +1,15 @@
 // Common definitions of the ensemble kernels of pendulum-atlas: specialisation constants, the
 // data structures shared with Rust, the bindings and the integrator's per-invocation state.
 //
-// The kernels are assembled from nine files (common, integrate, cooperative, schedule, early,
-// imex, reduce_r, reduce_k, verdict; see src/engine/gpu/kernels.rs) behind a header generated
-// from the Rust definitions: the status and regime codes, the health-check interval CHECK_EVERY, the array
+// The kernels are assembled from eight files (common, integrate, schedule, early, imex,
+// reduce_r, reduce_k, verdict; see src/engine/gpu/kernels.rs) behind the chain's functions,
+// generated from src/model/chain.rs (src/engine/gpu/codegen), and a header generated from the
+// Rust definitions: the status and regime codes, the health-check interval CHECK_EVERY, the array
 // bound MAX_SEG (the scene's N), the IMEX method's tableaux, the adaptive ladder's rules
-// (src/engine/ladder.rs) and the `Accum` struct, whose first words are the result schema's
-// (src/schema.rs). The physics is docs/model.md, the reductions docs/analysis.md; the CPU
-// twin of every function is named where it is defined, and the engine test suite holds the
-// two against each other.
+// (src/engine/ladder.rs) and the structs shared with Rust (`InstanceParams`, `Control`, and
+// `Accum`, whose first words are the result schema's, src/schema.rs). The physics is
+// docs/model.md, the reductions docs/analysis.md; the CPU twin of every function is named where
+// it is defined, and the engine test suite holds the two against each other.
 
 // ---- specialisation --------------------------------------------------------------------
 override N_SEG: u32 = 3u;           // rigid segments N (<= MAX_SEG)
@@ -25,7 +26,6 @@ override METHOD_IMEX: bool = false; // integrate with the IMEX method (else clas
 override WANT_TWIN: bool = false;   // λ1 asked for: a twin trajectory rides along
 override WANT_EARLY: bool = false;  // the early stop of confirmed orbits (shaders/early.wgsl)
 override ADAPTIVE: bool = false;    // adaptive IMEX steps on the ladder (integrate.wgsl's adaptive_step)
-override COOPERATIVE: bool = false; // one workgroup per instance (cooperative.wgsl's integrate_wg)
 
 const TAU: f32 = 6.2831853071795864;
 const PI: f32 = 3.1415926535897932;
@@ -47,87 +47,8 @@ fn not_finite(x: f32) -> bool {
 }
 
 // ---- data ------------------------------------------------------------------------------
-// Mirrors `GpuInstanceParams` in src/engine/gpu/layout.rs (a test compares the layouts).
-struct InstanceParams {
-    seg_len: f32,
-    seg_mass: f32,
-    seg_inertia: f32,
-    tip_mass: f32,
-    holder_inertia: f32,
-    g: f32,
-    k: f32,
-    k0: f32,
-    b: f32,
-    b0: f32,
-    gap: f32,
-    kc: f32,
-    cc: f32,
-    piezo_inv_c: f32,
-    piezo_inv_r: f32,
-    piezo_theta: f32,
-    pos_amp: f32,
-    vel_amp: f32,
-    acc_amp: f32,
-    dt: f32,
-    guard_energy: f32,
-    guard_bend: f32,
-    theta0: f32,
-    omega0: f32,
-    volt0: f32,
-    half_clearance: f32,
-    guard_holder: f32,
-    phase0: f32,
-    n_levers: u32,
-    piezo_last: u32,
-    spp: u32,
-    transient_periods: u32,
-    total_periods: u32,
-    strobe_offset: u32,
-    strobe_count: u32,
-    r_every: u32,
-    r_count: u32,
-    r_start: u32,
-    imex_offset: u32,
-    contact_law: u32,
-    twin_start: u32,
-    twin_align: u32,
-    twin_window: u32,
-    twin_d0: f32,
-    twin_rigid_w: f32,
-    twin_scale: f32,
-    period_s: f32,
-    rtol: f32,
-    atol: f32,
-}
-
-// `Accum` (mirrors `GpuAccum`: the result schema's words, then the engine's own) is in the
-// generated header, made from src/schema.rs and src/engine/gpu/layout.rs.
-
-// Mirrors `GpuControl`.
-struct Control {
-    n_inst: u32,
-    steps_per_dispatch: u32,
-    strobe_stride: u32,
-    rwork_stride: u32,
-    period_max: u32,
-    period_window: u32,
-    period_tol: f32,
-    c_index: u32,
-    // The instances [slice_first, slice_end) a reduction dispatch covers.
-    slice_first: u32,
-    slice_end: u32,
-    n_active: u32,
-    e_p_max: u32,
-    e_window: u32,
-    e_tol: f32,
-    e_alpha_off: u32,
-    e_period_off: u32,
-    e_r_off: u32,
-    e_r_len: u32,
-    pass_budget: u32,
-    // The half of `live` this dispatch reads (0 or n_inst); `compact` writes the other.
-    live_from: u32,
-}
+// `InstanceParams`, `Control` and `Accum` are generated into the header from their Rust
+// definitions (`GpuInstanceParams`, `GpuControl`, `GpuAccum` in src/engine/gpu/layout.rs).
 
 @group(0) @binding(0) var<storage, read> params: array<InstanceParams>;
 // State, structure of arrays: component j of instance i at [j * n_inst + i], j < 2N + 1.
@@ -188,12 +109,6 @@ var<private> k1_v: f32;                   // adaptive RK4: v̇ of the next try's
 var<private> k1_branch: u32;              // adaptive RK4: k₁'s bumper branches
 var<private> sth: array<f32, MAX_SEG>;    // stage state θ
 var<private> som: array<f32, MAX_SEG>;    // stage state θ̇
-var<private> sn: array<f32, MAX_SEG>;
-var<private> cs: array<f32, MAX_SEG>;
-var<private> hx: array<f32, MAX_SEG>;
-var<private> hy: array<f32, MAX_SEG>;
-var<private> dinv: array<f32, MAX_SEG>;
-var<private> beta: array<f32, MAX_SEG>;
 var<private> acc_out: array<f32, MAX_SEG>; // θ̈ of the last derivative
 var<private> dvolt_out: f32;              // v̇ of the last derivative
 var<private> volt: f32;

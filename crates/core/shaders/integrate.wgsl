@@ -10,74 +10,8 @@ fn cart_acc(phase_steps: u32, frac: f32) -> f32 {
     return -P.acc_amp * sin_turn(ph);
 }
 
-// Bumper forces at the stage state (its sines and cosines in sn, cs): the horizontal force
-// fl − fr on the beam. On the main
-// state, by the scene's law, recording each bumper's branch; on the twin (`twin_mode`), on
-// the branches the main stage recorded (Chain::rates_on of src/model/chain.rs).
-fn contact_force() -> f32 {
-    if !HAS_CONTACT {
-        return 0.0;
-    }
-    var x = 0.0;
-    var xd = 0.0;
-    for (var i = 0u; i < P.n_levers; i++) {
-        let lam = lev[i];
-        x += lam * sn[i];
-        xd += lam * cs[i] * som[i];
-    }
-    let shift = 4u * stage_n;
-    stage_n += 1u;
-    if twin_mode {
-        let b = branch_bits >> shift;
-        return branch_force(b >> 2u, -x - P.gap, -xd) - branch_force(b, x - P.gap, xd);
-    }
-    if WANT_TWIN {
-        branch_bits |= (branch_of(x - P.gap, xd) | (branch_of(-x - P.gap, -xd) << 2u)) << shift;
-    }
-    return bumper_force(-x - P.gap, -xd) - bumper_force(x - P.gap, xd);
-}
-
-// The force of one bumper with penetration `delta` and rate `rate`, by the scene's law
-// (bumper_mode and bumper_force of src/model/chain.rs).
-fn bumper_force(delta: f32, rate: f32) -> f32 {
-    if delta <= 0.0 {
-        return 0.0;
-    }
-    if P.contact_law == CONTACT_LOADING {
-        return P.kc * delta + P.cc * max(rate, 0.0);
-    }
-    return max(P.kc * delta + P.cc * rate, 0.0);
-}
-
-// The branch of the scene's law a bumper is on (branch_of of src/model/chain.rs): bit 0 it
-// pushes, bit 1 its damper takes part.
-fn branch_of(delta: f32, rate: f32) -> u32 {
-    if not_finite(delta) || delta <= 0.0 {
-        return 0u;
-    }
-    if P.contact_law == CONTACT_LOADING {
-        return select(1u, 3u, rate > 0.0);
-    }
-    return select(0u, 3u, P.kc * delta + P.cc * rate > 0.0);
-}
-
-// The force of a bumper on branch `b` (its low two bits): on · (k_c δ + damped · c_c δ̇).
-fn branch_force(b: u32, delta: f32, rate: f32) -> f32 {
-    let on = f32(b & 1u);
-    let damped = f32((b >> 1u) & 1u);
-    return on * (P.kc * delta + damped * (P.cc * rate));
-}
-
-// Relative-joint torque on segment i from joint (i−1, i); the root spring for i = 0.
-fn joint_torque(i: u32) -> f32 {
-    if i == 0u {
-        return root_couple(sth[0], som[0], 1.0);
-    }
-    return joint_couple(sth[i] - sth[i - 1u], som[i] - som[i - 1u], 1.0);
-}
-
 // The torque of a joint bent by dth at the rate dom: −k Δθ − damp · b Δω, the damper weighted
-// by `damp` (1; 0 for the IMEX method's spring part alone). Every kernel's joints use it.
+// by `damp` (1; 0 for the IMEX method's spring part alone).
 fn joint_couple(dth: f32, dom: f32, damp: f32) -> f32 {
     return -P.k * dth - damp * P.b * dom;
 }
@@ -87,123 +21,24 @@ fn root_couple(th0: f32, om0: f32, damp: f32) -> f32 {
     return -P.k0 * th0 - damp * P.b0 * om0;
 }
 
-// The derivative at the stage state (sth, som, svolt): θ̈ into acc_out, v̇ into dvolt_out.
-// The O(N) articulated-body recursion of src/model/chain.rs, with Q_i formed on the fly.
+// The derivative at the stage state (sth, som, svolt): θ̈ into acc_out, v̇ into dvolt_out, by
+// the generated chain_rates (Chain::rates of src/model/chain.rs). On the main state each
+// stage's bumper branches are recorded in branch_bits for λ1's twin; on the twin
+// (`twin_mode`) the stage takes the branches its main stage recorded (chain_rates_on).
 fn derivative(cart_a: f32) {
-    stage_sincos();
-    chain_rates(cart_a);
-}
-
-// The sines and cosines of the stage's angles sth into sn, cs: once per stage, for the
-// contact and the recursion (the cooperative kernel computes them on the segments' owners).
-fn stage_sincos() {
-    for (var i = 0u; i < N_SEG; i++) {
-        sn[i] = sin(sth[i]);
-        cs[i] = cos(sth[i]);
+    if !HAS_CONTACT {
+        chain_rates(cart_a);
+        return;
     }
-}
-
-// `derivative` with the stage's sines and cosines already in sn, cs.
-fn chain_rates(cart_a: f32) {
-    solve_chain(cart_a, false);
-}
-
-// M(θ)⁻¹ (λ_i cos θ_i) at the angles sth into acc_out: the response to a unit horizontal
-// force at the contact point (Chain::lever_response of src/model/chain.rs).
-fn lever_response() {
-    stage_sincos();
-    solve_chain(0.0, true);
-}
-
-// The recursion of `derivative`, at the angles whose sines and cosines are in sn, cs; with
-// `unit`, for the generalised force λ_i cos θ_i alone (no springs, dampers, bumpers, piezo,
-// gravity, rates or cart).
-fn solve_chain(cart_a: f32, unit: bool) {
-    let l = P.seg_len;
-    let m = P.seg_mass;
-    let hml = 0.5 * m * l;
-    let base_d = P.seg_inertia + m * l * l * 0.25;
-    let g = select(P.g, 0.0, unit);
-    var fx = 0.0;
-    if !unit {
-        fx = contact_force();
+    let shift = 4u * stage_n;
+    stage_n += 1u;
+    if twin_mode {
+        chain_rates_on(cart_a, (branch_bits >> shift) & 15u);
+        return;
     }
-    var couple = 0.0;
-    dvolt_out = 0.0;
-    if HAS_PIEZO {
-        dvolt_out = (P.piezo_theta * (som[P.piezo_last] - som[0]) - svolt * P.piezo_inv_r) * P.piezo_inv_c;
-        couple = P.piezo_theta * svolt;
-    }
-    var kxx = P.tip_mass;
-    var kxy = 0.0;
-    var kyy = P.tip_mass;
-    var px = 0.0;
-    var py = P.tip_mass * g;
-    for (var ii = 0u; ii < N_SEG; ii++) {
-        let i = N_SEG - 1u - ii;
-        let s = sn[i];
-        let c = cs[i];
-        var q = 0.0;
-        if unit {
-            if HAS_CONTACT && i < P.n_levers {
-                q = lev[i] * c;
-            }
-        } else {
-            q = joint_torque(i);
-            if i + 1u < N_SEG {
-                q -= joint_torque(i + 1u);
-            }
-            if HAS_CONTACT && i < P.n_levers {
-                q += fx * lev[i] * c;
-            }
-            if HAS_PIEZO {
-                if i == 0u {
-                    q += couple;
-                }
-                if i == P.piezo_last {
-                    q -= couple;
-                }
-            }
-        }
-        let nx = c;
-        let ny = -s;
-        let w2 = select(som[i] * som[i], 0.0, unit);
-        let knx = kxx * nx + kxy * ny;
-        let kny = kxy * nx + kyy * ny;
-        let kux = kxx * s + kxy * c;
-        let kuy = kxy * s + kyy * c;
-        let h_x = hml * nx + l * knx;
-        let h_y = hml * ny + l * kny;
-        var d = base_d + l * l * (nx * knx + ny * kny);
-        if i == 0u {
-            d += P.holder_inertia;
-        }
-        let ex = -(hml * s + l * kux) * w2 + px;
-        let ey = -(hml * c + l * kuy) * w2 + py + m * g;
-        let b2x = -(hml * s + 2.0 * l * kux) * w2 + 2.0 * px;
-        let b2y = -(hml * c + 2.0 * l * kuy) * w2 + 2.0 * py + m * g;
-        let bt = -0.5 * l * (nx * b2x + ny * b2y) + q;
-        let inv_d = 1.0 / d;
-        kxx = m + kxx - h_x * h_x * inv_d;
-        kxy -= h_x * h_y * inv_d;
-        kyy = m + kyy - h_y * h_y * inv_d;
-        px = ex + h_x * bt * inv_d;
-        py = ey + h_y * bt * inv_d;
-        hx[i] = h_x;
-        hy[i] = h_y;
-        dinv[i] = inv_d;
-        beta[i] = bt;
-    }
-    var ax = cart_a;
-    var ay = 0.0;
-    for (var i = 0u; i < N_SEG; i++) {
-        let accel = (beta[i] - hx[i] * ax - hy[i] * ay) * dinv[i];
-        let s = sn[i];
-        let c = cs[i];
-        let w2 = select(som[i] * som[i], 0.0, unit);
-        ax += l * (c * accel - s * w2);
-        ay += l * (-s * accel - c * w2);
-        acc_out[i] = accel;
+    let b = chain_rates(cart_a);
+    if WANT_TWIN {
+        branch_bits |= b << shift;
     }
 }
 
@@ -349,48 +184,6 @@ fn rk4_error(a_end: f32, h: f32) -> f32 {
     return e;
 }
 
-// Stored energy (inertial frame) at the step's state, as Chain::energy computes it.
-fn energy(cart_v: f32) -> f32 {
-    let l = P.seg_len;
-    let m = P.seg_mass;
-    var vx = cart_v;
-    var vy = 0.0;
-    var height = 0.0;
-    var e = 0.0;
-    for (var i = 0u; i < N_SEG; i++) {
-        let s = sin(th[i]);
-        let c = cos(th[i]);
-        let w = om[i];
-        let gvx = vx + 0.5 * l * c * w;
-        let gvy = vy - 0.5 * l * s * w;
-        e += 0.5 * m * (gvx * gvx + gvy * gvy) + 0.5 * P.seg_inertia * w * w;
-        e += m * P.g * (height + 0.5 * l * c);
-        vx += l * c * w;
-        vy -= l * s * w;
-        height += l * c;
-        if i > 0u {
-            let rel = th[i] - th[i - 1u];
-            e += 0.5 * P.k * rel * rel;
-        }
-    }
-    e += 0.5 * P.tip_mass * (vx * vx + vy * vy) + 0.5 * P.holder_inertia * om[0] * om[0];
-    e += P.tip_mass * P.g * height;
-    e += 0.5 * P.k0 * th[0] * th[0];
-    if HAS_CONTACT {
-        var x = 0.0;
-        for (var i = 0u; i < P.n_levers; i++) {
-            x += lev[i] * sin(th[i]);
-        }
-        let delta = abs(x) - P.gap;
-        if delta > 0.0 {
-            e += 0.5 * P.kc * delta * delta;
-        }
-    }
-    if HAS_PIEZO {
-        e += 0.5 * volt * volt / P.piezo_inv_c;
-    }
-    return e;
-}
 
 // Guard::check of src/model/health.rs: non-finite state, holder escaped over a bumper, folded
 // chain, or runaway energy.

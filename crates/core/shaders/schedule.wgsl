@@ -47,12 +47,11 @@ fn compact(
     }
 }
 
-// The next dispatch's workgroup count, from the instances `compact` kept: one per WG instances,
-// or one per instance for the cooperative kernel.
+// The next dispatch's workgroup count, from the instances `compact` kept: one per WG instances.
 @compute @workgroup_size(1)
 fn schedule() {
     let live_n = atomicLoad(&sched[SCHED_LIVE]);
-    atomicStore(&sched[0], select((live_n + WG - 1u) / WG, live_n, COOPERATIVE));
+    atomicStore(&sched[0], (live_n + WG - 1u) / WG);
     atomicStore(&sched[1], 1u);
     atomicStore(&sched[2], 1u);
 }

@@ -2,26 +2,35 @@
 //! both languages, the assembled shader validates, its generated header carries the Rust
 //! definitions; and, with an adapter, one device compiles each kernel set once.
 
-use pendulum_atlas_core::engine::gpu::kernels::{SHADER_STAGES, shader_header, shader_source};
-use pendulum_atlas_core::engine::gpu::layout::{
-    ACCUM_ENGINE_WORDS, GpuAccum, GpuControl, GpuInstanceParams,
+use pendulum_atlas_core::engine::gpu::codegen::{GENERATED, GENERATED_LINE, generated_wgsl};
+use pendulum_atlas_core::engine::gpu::gpu_struct::{GpuStruct, Member};
+use pendulum_atlas_core::engine::gpu::kernels::{
+    SHADER_STAGES, shader_header, shader_source, written_kernels,
 };
+use pendulum_atlas_core::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams};
 use pendulum_atlas_core::model::{CHECK_EVERY, Status};
+use pendulum_atlas_core::model::{ChainShape, ContactDamping};
 use pendulum_atlas_core::schema::{GPU_SLOTS, gpu_fields};
-
-/// Member offsets of a Rust struct, by name.
-macro_rules! offsets {
-    ($t:ty; $($f:ident),* $(,)?) => {
-        vec![$((stringify!($f), std::mem::offset_of!($t, $f))),*]
-    };
-}
 
 fn module() -> naga::Module {
     module_for(3)
 }
 
+/// The default map's shape at N segments: bumpers on every lever, the loading-only law.
+fn shape(segments: usize) -> ChainShape {
+    ChainShape {
+        segments,
+        contact: Some((segments, ContactDamping::Loading)),
+        piezo_last: None,
+    }
+}
+
 fn module_for(segments: usize) -> naga::Module {
-    let src = shader_source(segments);
+    module_of(shape(segments))
+}
+
+fn module_of(shape: ChainShape) -> naga::Module {
+    let src = shader_source(shape);
     naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{}", e.emit_to_string(&src)))
 }
 
@@ -41,61 +50,28 @@ fn wgsl_layout(module: &naga::Module, name: &str) -> (Vec<(String, usize)>, usiz
     panic!("struct {name} not found in the shader");
 }
 
-fn assert_same_layout(
-    module: &naga::Module,
-    wgsl: &str,
-    rust: Vec<(&str, usize)>,
-    rust_size: usize,
-) {
-    let (members, span) = wgsl_layout(module, wgsl);
-    let names: Vec<&str> = members.iter().map(|(n, _)| n.as_str()).collect();
-    let rust_names: Vec<&str> = rust.iter().map(|(n, _)| *n).collect();
-    assert_eq!(names, rust_names, "{wgsl}: member names and order");
-    for ((n, wo), (_, ro)) in members.iter().zip(&rust) {
-        assert_eq!(wo, ro, "{wgsl}.{n}: WGSL offset {wo}, Rust offset {ro}");
-    }
-    assert_eq!(span, rust_size, "{wgsl}: size");
+/// The WGSL member names, offsets and size that naga gives each struct generated from Rust are
+/// the Rust struct's (`gpu_struct!`): one definition, one check.
+fn assert_generated_layout<T: GpuStruct>(module: &naga::Module, members: Vec<(String, usize)>) {
+    let (wgsl, span) = wgsl_layout(module, T::WGSL_NAME);
+    assert_eq!(wgsl, members, "{}: member names and offsets", T::WGSL_NAME);
+    assert_eq!(span, size_of::<T>(), "{}: size", T::WGSL_NAME);
 }
 
 #[test]
 fn parameter_structs_have_the_same_layout_in_rust_and_wgsl() {
     let m = module();
-    assert_same_layout(
-        &m,
-        "InstanceParams",
-        offsets!(GpuInstanceParams; seg_len, seg_mass, seg_inertia, tip_mass, holder_inertia, g,
-            k, k0, b, b0, gap, kc, cc, piezo_inv_c, piezo_inv_r, piezo_theta, pos_amp, vel_amp,
-            acc_amp, dt, guard_energy, guard_bend, theta0, omega0, volt0, half_clearance,
-            guard_holder, phase0, n_levers, piezo_last, spp, transient_periods, total_periods, strobe_offset,
-            strobe_count, r_every, r_count, r_start, imex_offset, contact_law, twin_start,
-            twin_align, twin_window, twin_d0, twin_rigid_w, twin_scale, period_s, rtol, atol),
-        size_of::<GpuInstanceParams>(),
-    );
-    // Accum: the result schema's GPU words first, one word each, then the engine's own.
-    let mut accum: Vec<(&str, usize)> = gpu_fields()
+    let plain = |members: Vec<Member>| members.into_iter().map(|x| (x.name.to_string(), x.offset));
+    assert_generated_layout::<GpuInstanceParams>(&m, plain(GpuInstanceParams::members()).collect());
+    assert_generated_layout::<GpuControl>(&m, plain(GpuControl::members()).collect());
+    // Accum: its `slots` are the result schema's GPU words, one named member each.
+    let mut accum: Vec<(String, usize)> = gpu_fields()
         .enumerate()
-        .map(|(i, (_, g))| (g.member, 4 * i))
+        .map(|(i, (_, g))| (g.member.to_string(), 4 * i))
         .collect();
-    accum.extend(
-        offsets!(GpuAccum; touch, well, sub_pos, power_comp, sub_steps, lyap_sums,
-        lyap_n, twin_flags, tw_start, tw_window, p_hops, p_impacts, p_power, p_amin, p_amax,
-        e_phase, e_p, e_until, e_seen, e_last, stopped, level, sub_onsets),
-    );
-    assert_eq!(std::mem::offset_of!(GpuAccum, slots), 0);
-    let engine: Vec<&str> = ACCUM_ENGINE_WORDS.iter().map(|w| w.0).collect();
-    assert_eq!(
-        engine,
-        accum[GPU_SLOTS..].iter().map(|a| a.0).collect::<Vec<_>>()
-    );
-    assert_same_layout(&m, "Accum", accum, size_of::<GpuAccum>());
-    assert_same_layout(
-        &m,
-        "Control",
-        offsets!(GpuControl; n_inst, steps_per_dispatch, strobe_stride, rwork_stride,
-            period_max, period_window, period_tol, c_index, slice_first, slice_end, n_active,
-            e_p_max, e_window, e_tol, e_alpha_off, e_period_off, e_r_off, e_r_len, pass_budget, live_from),
-        size_of::<GpuControl>(),
-    );
+    assert_eq!(accum.len(), GPU_SLOTS);
+    accum.extend(plain(GpuAccum::members()).filter(|(name, _)| name != "slots"));
+    assert_generated_layout::<GpuAccum>(&m, accum);
 }
 
 #[test]
@@ -106,6 +82,25 @@ fn the_assembled_shader_validates_without_an_adapter() {
     )
     .validate(&module())
     .unwrap_or_else(|e| panic!("{e:?}"));
+    // Each kind of chain: without bumpers, with the Kelvin–Voigt law, with the piezo.
+    for shape in [
+        ChainShape {
+            contact: None,
+            ..shape(4)
+        },
+        ChainShape {
+            contact: Some((4, ContactDamping::KelvinVoigt)),
+            piezo_last: Some(2),
+            ..shape(4)
+        },
+    ] {
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::default(),
+        )
+        .validate(&module_of(shape))
+        .unwrap_or_else(|e| panic!("{shape:?}: {e:?}"));
+    }
     // At the smallest and the largest N too: the arrays are sized by N (MAX_SEG).
     for n in [1, 64] {
         naga::valid::Validator::new(
@@ -260,4 +255,73 @@ fn one_gpu_device_compiles_each_kernel_set_once() {
         pendulum_atlas_map::map::run_map(spec, &engine, &no_progress).expect("map");
     }
     assert_eq!(ctx.compiled_kernel_sets(), 2);
+}
+
+/// The top-level `shaders/` holds the kernels of the main shapes as the GPU compiles them
+/// (the "sourcegen" pattern): a change of the Rust model or of a stage file that is not written
+/// out fails here. `PENDULUM_ATLAS_UPDATE_SHADERS=1` writes them anew.
+#[test]
+fn the_kernels_in_the_top_level_shaders_folder_are_current() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+    let update = std::env::var_os("PENDULUM_ATLAS_UPDATE_SHADERS").is_some();
+    let mut names = vec!["README.md".to_string()];
+    for (file, text) in written_kernels() {
+        let path = dir.join(&file);
+        assert!(text.starts_with(GENERATED_LINE), "{file}");
+        if update {
+            std::fs::write(&path, &text).expect("write shaders/");
+        }
+        let on_disk = std::fs::read_to_string(&path).unwrap_or_default();
+        assert!(
+            on_disk == text,
+            "shaders/{file} is stale: run `PENDULUM_ATLAS_UPDATE_SHADERS=1 cargo test --release \
+             --test suite kernels_in_the_top_level` and commit it"
+        );
+        names.push(file);
+    }
+    let mut on_disk: Vec<String> = std::fs::read_dir(&dir)
+        .expect("shaders/")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    on_disk.sort();
+    names.sort();
+    assert_eq!(
+        on_disk, names,
+        "shaders/ holds the written kernels and its README only"
+    );
+}
+
+/// What is generated from Rust is listed (`GENERATED`), each function is in the generated part
+/// of every shape's kernels, and no hand-written stage file defines one of them.
+#[test]
+fn the_generated_functions_are_listed_and_written_nowhere_else() {
+    for shape in [
+        shape(3),
+        ChainShape {
+            contact: None,
+            ..shape(2)
+        },
+    ] {
+        let text = generated_wgsl(shape);
+        assert!(text.starts_with(GENERATED_LINE));
+        for (name, from) in GENERATED {
+            assert!(
+                text.contains(&format!("fn {name}(")),
+                "{name} ({from}) in {shape:?}"
+            );
+        }
+        // Unrolled: no loop and no array of its own.
+        assert!(
+            !text.contains("for (") && !text.contains("array<"),
+            "{text}"
+        );
+    }
+    for (file, text) in SHADER_STAGES {
+        for (name, _) in GENERATED {
+            assert!(
+                !text.contains(&format!("fn {name}(")),
+                "{file} defines {name}"
+            );
+        }
+    }
 }

@@ -11,7 +11,6 @@ mod attractors;
 mod batches;
 mod cases;
 mod continuation;
-mod cooperative;
 mod faults;
 mod lanes;
 mod layout;

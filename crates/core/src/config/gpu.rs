@@ -1,6 +1,7 @@
 //! The map's `[gpu]` section: settings of the GPU engine that do not change the physics.
 //!
-//! `gpu.kernel` chooses how the integration spreads over the device ([`GpuKernelChoice`]).
+//! `gpu.kernel` chooses how the integration spreads over the device ([`GpuKernelChoice`]); its
+//! `workgroup` kernel was removed (issue 73) and is refused with the reason.
 //! `gpu.layout` chose where an invocation kept its working
 //! arrays: `private` (`var<private>`) or `global` (a storage buffer, structure of arrays). The
 //! global layout was slower on every adapter measured (lavapipe 16.5×; an NVIDIA H100 in 29 of
@@ -19,24 +20,27 @@ pub enum GpuKernelChoice {
     /// The engine's rule (the thread kernel until hardware measures otherwise).
     #[default]
     Auto,
-    /// One invocation per instance: for ensembles that fill the device.
+    /// One invocation per instance.
     Thread,
-    /// One workgroup per instance, its segments over the lanes: for ensembles too small to
-    /// fill it.
-    Workgroup,
 }
 
 /// Read `gpu.kernel`.
 pub(crate) fn read_kernel(r: &mut Reader) -> Result<GpuKernelChoice, ConfigError> {
-    let kernel = match r
+    match r
         .choice("gpu.kernel", "auto", &["auto", "thread", "workgroup"])?
         .as_str()
     {
-        "thread" => GpuKernelChoice::Thread,
-        "workgroup" => GpuKernelChoice::Workgroup,
-        _ => GpuKernelChoice::Auto,
-    };
-    Ok(kernel)
+        "thread" => Ok(GpuKernelChoice::Thread),
+        "workgroup" => Err(ConfigError::Inconsistent {
+            key: "gpu.kernel".into(),
+            reason: "\"workgroup\" was removed: the cooperative kernel was a hand-written copy \
+                     of the physics that ran 17-49x slower on lavapipe and that \"auto\" never \
+                     picked; the kernels are now generated from the Rust model (docs/model.md \
+                     §14). Use \"auto\" or \"thread\""
+                .into(),
+        }),
+        _ => Ok(GpuKernelChoice::Auto),
+    }
 }
 
 /// Refuse the removed keys of a map's `[gpu]` section `gpu`, each with its reason.

@@ -76,6 +76,14 @@ pub enum EngineError {
         /// The first instance that differs.
         index: usize,
     },
+    /// The GPU's kernels are generated for one chain shape, and an instance has another.
+    #[error(
+        "the GPU kernels are generated for one chain shape: every instance of a GPU ensemble must share limiter.damping_law and piezo.segments (instance {index} differs from the first); run it with --backend cpu, or as separate maps"
+    )]
+    MixedKernelShape {
+        /// The first instance that differs.
+        index: usize,
+    },
     /// The run is too short for what it must measure.
     #[error("{at}: {reason}")]
     TooShort {

@@ -21,7 +21,7 @@ use crate::engine::method::{Method, MethodSteps};
 use crate::engine::step_plan::given_step_warning;
 use crate::engine::{Precision, Progress, ProgressUnit, no_progress};
 use crate::model::linear::LinearError;
-use crate::model::{CartState, ExcitationKind, Guard, ModelParams};
+use crate::model::{CartState, ChainShape, ExcitationKind, Guard, ModelParams};
 use crate::reduce::TwinPlan;
 use crate::reduce::lyapunov::LYAPUNOV_MIN_WINDOW;
 use crate::reduce::lyapunov::TwinNorm;
@@ -330,6 +330,30 @@ impl EnsemblePlan {
         self.instances
             .first()
             .is_some_and(|p| p.control != StepControl::Fixed)
+    }
+
+    /// The chain's shape the GPU kernels are generated for: every instance must share the
+    /// bumpers' law and the piezo's span; contact heights may differ, and the kernel takes the
+    /// most levers any instance has (the `levers` buffer holds zeros past each instance's
+    /// contact segment, which add exact zeros).
+    pub fn kernel_shape(&self) -> Result<ChainShape, EngineError> {
+        let shapes: Vec<ChainShape> = self
+            .instances
+            .iter()
+            .map(|p| ChainShape::of(&p.params))
+            .collect();
+        let first = *shapes.first().ok_or(EngineError::Empty)?;
+        if let Some(index) = shapes
+            .iter()
+            .position(|s| s.every_lever() != first.every_lever())
+        {
+            return Err(EngineError::MixedKernelShape { index });
+        }
+        let levers = shapes.iter().filter_map(|s| s.contact).map(|c| c.0).max();
+        Ok(ChainShape {
+            contact: first.contact.zip(levers).map(|((_, law), n)| (n, law)),
+            ..first
+        })
     }
 
     /// The twins' separation d0 for an engine in `precision` (`None` without λ1): the given

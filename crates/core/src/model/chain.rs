@@ -225,6 +225,111 @@ impl Energy {
     }
 }
 
+/// What the chain's equations depend on beyond its coefficients: the segments, how many
+/// levers reach the contact point and the bumpers' law, the piezo's span. A [`Chain`] is
+/// built for one shape; the GPU's kernels are generated for one (`crate::engine::gpu::codegen`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct ChainShape {
+    /// Segments N.
+    pub segments: usize,
+    /// The bumpers: levers reaching the contact point, and the damping law.
+    pub contact: Option<(usize, ContactDamping)>,
+    /// The piezo: the last segment its patch spans.
+    pub piezo_last: Option<usize>,
+}
+
+impl ChainShape {
+    /// The shape of a built pendulum.
+    pub fn of(p: &ModelParams) -> ChainShape {
+        ChainShape {
+            segments: p.segments,
+            contact: p.contact.as_ref().map(|c| (c.levers_m.len(), c.law)),
+            piezo_last: p.piezo.as_ref().map(|z| z.last_segment),
+        }
+    }
+
+    /// The same shape with a lever on every segment (zero past the contact segment, which
+    /// adds exact zeros): one shape for every contact height, the GPU kernels' shape.
+    pub fn every_lever(self) -> ChainShape {
+        ChainShape {
+            contact: self.contact.map(|(_, law)| (self.segments, law)),
+            ..self
+        }
+    }
+}
+
+/// One coefficient of the chain's equations, by name: what [`Chain::from_coefficients`]
+/// asks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Coefficient {
+    /// Segment length ℓ (m).
+    SegLength,
+    /// Segment mass m (kg).
+    SegMass,
+    /// Segment centroidal inertia J (kg m²).
+    SegInertia,
+    /// Tip mass M (kg).
+    TipMass,
+    /// Holder inertia J_h (kg m²).
+    HolderInertia,
+    /// Gravity g (m/s²).
+    Gravity,
+    /// Joint spring k (N m/rad).
+    JointStiffness,
+    /// Root spring k0 (N m/rad).
+    RootStiffness,
+    /// Joint damper b (N m s/rad).
+    JointDamping,
+    /// Root damper b0 (N m s/rad).
+    RootDamping,
+    /// Lever λ_i of segment i at the contact point (m).
+    Lever(usize),
+    /// Bumper offset g_c (m).
+    BumperGap,
+    /// Bumper stiffness k_c (N/m).
+    BumperStiffness,
+    /// Bumper damping c_c (N s/m).
+    BumperDamping,
+    /// 1/C_p of the piezo (1/F).
+    PiezoInvCapacitance,
+    /// 1/R_L of the load (1/Ω).
+    PiezoInvLoad,
+    /// Coupling Θ (N m/V).
+    PiezoCoupling,
+}
+
+impl Coefficient {
+    /// Its value for a built pendulum (a lever past the contact segment is 0; the bumper's and
+    /// the piezo's are 0 without them).
+    pub fn of(self, p: &ModelParams) -> f64 {
+        let bumper = |f: fn(&ContactParams) -> f64| p.contact.as_ref().map_or(0.0, f);
+        let piezo = |f: fn(&PiezoParams) -> f64| p.piezo.as_ref().map_or(0.0, f);
+        match self {
+            Coefficient::SegLength => p.seg_length_m,
+            Coefficient::SegMass => p.seg_mass_kg,
+            Coefficient::SegInertia => p.seg_inertia_kgm2,
+            Coefficient::TipMass => p.tip_mass_kg,
+            Coefficient::HolderInertia => p.holder_inertia_kgm2,
+            Coefficient::Gravity => p.g_m_s2,
+            Coefficient::JointStiffness => p.joint_stiffness_nm,
+            Coefficient::RootStiffness => p.root_stiffness_nm,
+            Coefficient::JointDamping => p.joint_damping_nms,
+            Coefficient::RootDamping => p.root_damping_nms,
+            Coefficient::Lever(i) => p
+                .contact
+                .as_ref()
+                .and_then(|c| c.levers_m.get(i).copied())
+                .unwrap_or(0.0),
+            Coefficient::BumperGap => bumper(|c| c.gap_m),
+            Coefficient::BumperStiffness => bumper(|c| c.stiffness_n_per_m),
+            Coefficient::BumperDamping => bumper(|c| c.damping_ns_per_m),
+            Coefficient::PiezoInvCapacitance => piezo(|z| 1.0 / z.capacitance_f),
+            Coefficient::PiezoInvLoad => piezo(|z| 1.0 / z.load_ohm),
+            Coefficient::PiezoCoupling => piezo(|z| z.coupling_nm_per_v),
+        }
+    }
+}
+
 impl<T: Lane> Chain<T> {
     /// Convert the parameter struct to this number type (every lane the same instance).
     pub fn new(p: &ModelParams) -> Self {
@@ -234,41 +339,39 @@ impl<T: Lane> Chain<T> {
     /// One instance per lane: lane i holds `ps[i % ps.len()]`. The instances must share the
     /// structure (segments, bumper lever count and law, piezo span): `Chain::same_structure`.
     pub fn from_lanes(ps: &[ModelParams]) -> Self {
-        let p = &ps[0];
-        debug_assert!(ps.iter().all(|q| Self::same_structure(p, q)));
-        let t = |f: &dyn Fn(&ModelParams) -> f64| T::gather(|i| f(&ps[i % ps.len()]));
-        let bumper = |f: &dyn Fn(&ContactParams) -> f64| {
-            t(&|q: &ModelParams| f(q.contact.as_ref().expect("same structure")))
-        };
-        let piezo = |f: &dyn Fn(&PiezoParams) -> f64| {
-            t(&|q: &ModelParams| f(q.piezo.as_ref().expect("same structure")))
-        };
+        debug_assert!(ps.iter().all(|q| Self::same_structure(&ps[0], q)));
+        Chain::from_coefficients(ChainShape::of(&ps[0]), |c| {
+            T::gather(|i| c.of(&ps[i % ps.len()]))
+        })
+    }
+
+    /// A chain of `shape` whose every coefficient is `value(name)`: numbers gathered from
+    /// instances ([`Chain::from_lanes`]), or the symbols a generated kernel reads them from.
+    pub fn from_coefficients(shape: ChainShape, mut v: impl FnMut(Coefficient) -> T) -> Self {
         Chain {
-            n: p.segments,
-            l: t(&|q| q.seg_length_m),
-            m: t(&|q| q.seg_mass_kg),
-            j: t(&|q| q.seg_inertia_kgm2),
-            tip: t(&|q| q.tip_mass_kg),
-            jh: t(&|q| q.holder_inertia_kgm2),
-            g: t(&|q| q.g_m_s2),
-            k: t(&|q| q.joint_stiffness_nm),
-            k0: t(&|q| q.root_stiffness_nm),
-            b: t(&|q| q.joint_damping_nms),
-            b0: t(&|q| q.root_damping_nms),
-            contact: p.contact.as_ref().map(|c| ChainContact {
-                levers: (0..c.levers_m.len())
-                    .map(|i| bumper(&|b| b.levers_m[i]))
-                    .collect(),
-                gap: bumper(&|b| b.gap_m),
-                kc: bumper(&|b| b.stiffness_n_per_m),
-                cc: bumper(&|b| b.damping_ns_per_m),
-                law: c.law,
+            n: shape.segments,
+            l: v(Coefficient::SegLength),
+            m: v(Coefficient::SegMass),
+            j: v(Coefficient::SegInertia),
+            tip: v(Coefficient::TipMass),
+            jh: v(Coefficient::HolderInertia),
+            g: v(Coefficient::Gravity),
+            k: v(Coefficient::JointStiffness),
+            k0: v(Coefficient::RootStiffness),
+            b: v(Coefficient::JointDamping),
+            b0: v(Coefficient::RootDamping),
+            contact: shape.contact.map(|(levers, law)| ChainContact {
+                levers: (0..levers).map(|i| v(Coefficient::Lever(i))).collect(),
+                gap: v(Coefficient::BumperGap),
+                kc: v(Coefficient::BumperStiffness),
+                cc: v(Coefficient::BumperDamping),
+                law,
             }),
-            piezo: p.piezo.as_ref().map(|z| ChainPiezo {
-                last: z.last_segment,
-                inv_c: piezo(&|z| 1.0 / z.capacitance_f),
-                inv_r: piezo(&|z| 1.0 / z.load_ohm),
-                theta: piezo(&|z| z.coupling_nm_per_v),
+            piezo: shape.piezo_last.map(|last| ChainPiezo {
+                last,
+                inv_c: v(Coefficient::PiezoInvCapacitance),
+                inv_r: v(Coefficient::PiezoInvLoad),
+                theta: v(Coefficient::PiezoCoupling),
             }),
         }
     }
@@ -276,9 +379,7 @@ impl<T: Lane> Chain<T> {
     /// Whether two instances can share a vector: the same segments, bumper levers and law,
     /// and piezo span.
     pub(crate) fn same_structure(a: &ModelParams, b: &ModelParams) -> bool {
-        let bumpers = |p: &ModelParams| p.contact.as_ref().map(|c| (c.levers_m.len(), c.law));
-        let piezo = |p: &ModelParams| p.piezo.as_ref().map(|z| z.last_segment);
-        a.segments == b.segments && bumpers(a) == bumpers(b) && piezo(a) == piezo(b)
+        ChainShape::of(a) == ChainShape::of(b)
     }
 
     /// Number of segments.
@@ -523,6 +624,60 @@ impl<T: Lane> Chain<T> {
         true
     }
 
+    /// The stored energy's parts `[kinetic, gravity, springs, contact, electric]` (J, inertial
+    /// frame) at the state whose component j is `y(j)`, the cart at velocity `cart_v` (m/s),
+    /// computed in the number type `U` with each coefficient converted by `w`: f64 from any
+    /// chain on the CPU ([`Chain::energy`]), the kernel's f32 on the GPU (whose health check is
+    /// generated from this function, `crate::engine::gpu::codegen`).
+    ///
+    /// Segment i's centre moves at the node's velocity plus ½ℓθ̇_i n_i and sits ½ℓ cos θ_i above
+    /// its node; the tip mass rides on the last node; a penetrated bumper stores ½k_c δ², the
+    /// patch ½C_p v².
+    pub fn energy_in<U: Lane>(
+        &self,
+        y: impl Fn(usize) -> U,
+        cart_v: U,
+        w: impl Fn(T) -> U,
+    ) -> [U; 5] {
+        let n = self.n;
+        let (zero, half) = (U::splat(0.0), U::splat(0.5));
+        let (l, m, g) = (w(self.l), w(self.m), w(self.g));
+        let (mut vx, mut vy) = (cart_v, zero);
+        let mut height = zero;
+        let [mut kinetic, mut gravity, mut springs] = [zero; 3];
+        for i in 0..n {
+            let (th, om) = (y(i), y(n + i));
+            let (s, c) = th.v_sin_cos();
+            let (gvx, gvy) = (vx + half * l * c * om, vy - half * l * s * om);
+            kinetic += half * m * (gvx * gvx + gvy * gvy) + half * w(self.j) * om * om;
+            gravity += m * g * (height + half * l * c);
+            vx += l * c * om;
+            vy -= l * s * om;
+            height += l * c;
+            if i > 0 {
+                let rel = th - y(i - 1);
+                springs += half * w(self.k) * rel * rel;
+            }
+        }
+        let (th0, om0) = (y(0), y(n));
+        kinetic += half * w(self.tip) * (vx * vx + vy * vy) + half * w(self.jh) * om0 * om0;
+        gravity += w(self.tip) * g * height;
+        springs += half * w(self.k0) * th0 * th0;
+        let contact = self.contact.as_ref().map_or(zero, |c| {
+            let mut x = zero;
+            for (i, &lam) in c.levers.iter().enumerate() {
+                x += w(lam) * y(i).v_sin_cos().0;
+            }
+            let delta = x.v_max(-x) - w(c.gap);
+            U::if_positive(delta, half * w(c.kc) * delta * delta, zero)
+        });
+        let electric = self.piezo.as_ref().map_or(zero, |z| {
+            let v = y(2 * n);
+            half * v * v / w(z.inv_c)
+        });
+        [kinetic, gravity, springs, contact, electric]
+    }
+
     /// The bumpers' damping c_c (N s/m), `None` without bumpers.
     pub(crate) fn contact_damping(&self) -> Option<T> {
         self.contact.as_ref().map(|c| c.cc)
@@ -622,53 +777,18 @@ impl<T: Real> Chain<T> {
     }
 
     /// Stored energy in the inertial frame, given the cart velocity (m/s); it does not depend
-    /// on the cart position.
+    /// on the cart position. Computed in f64 from the widened coefficients and state
+    /// ([`Chain::energy_in`]).
     pub fn energy(&self, y: &[T], cart_v: f64) -> Energy {
-        let n = self.n;
-        let w = |x: T| x.wide();
-        let (l, m, g) = (w(self.l), w(self.m), w(self.g));
-        let (mut vx, mut vy) = (cart_v, 0.0);
-        let mut height = 0.0;
-        let mut e = Energy::default();
-        for i in 0..n {
-            let th = w(y[i]);
-            let om = w(y[n + i]);
-            let (s, c) = th.sin_cos();
-            let (gvx, gvy) = (vx + 0.5 * l * c * om, vy - 0.5 * l * s * om);
-            e.kinetic_j += 0.5 * m * (gvx * gvx + gvy * gvy) + 0.5 * w(self.j) * om * om;
-            e.gravity_j += m * g * (height + 0.5 * l * c);
-            vx += l * c * om;
-            vy -= l * s * om;
-            height += l * c;
-            if i > 0 {
-                let rel = th - w(y[i - 1]);
-                e.springs_j += 0.5 * w(self.k) * rel * rel;
-            }
+        let e = self.energy_in(|i| y[i].wide(), cart_v, |x| x.wide());
+        Energy {
+            kinetic_j: e[0],
+            gravity_j: e[1],
+            springs_j: e[2],
+            contact_j: e[3],
+            electric_j: e[4],
         }
-        let th0 = w(y[0]);
-        let om0 = w(y[n]);
-        e.kinetic_j += 0.5 * w(self.tip) * (vx * vx + vy * vy) + 0.5 * w(self.jh) * om0 * om0;
-        e.gravity_j += w(self.tip) * g * height;
-        e.springs_j += 0.5 * w(self.k0) * th0 * th0;
-        if let Some(c) = &self.contact {
-            let x: f64 = c
-                .levers
-                .iter()
-                .enumerate()
-                .map(|(i, &lam)| w(lam) * w(y[i]).sin())
-                .sum();
-            let delta = x.abs() - w(c.gap);
-            if delta > 0.0 {
-                e.contact_j = 0.5 * w(c.kc) * delta * delta;
-            }
-        }
-        if let Some(z) = &self.piezo {
-            let v = w(y[2 * n]);
-            e.electric_j = 0.5 * v * v / w(z.inv_c);
-        }
-        e
     }
-
     /// Power dissipated by the joint, root and contact dampers and the load resistor (W).
     pub fn dissipated_power_w(&self, y: &[T]) -> f64 {
         let n = self.n;

@@ -19,8 +19,8 @@ pub mod linear;
 mod params;
 
 pub use chain::{
-    Branches, BumperLoad, BumperMode, Chain, ContactLaw, ContactReport, Energy, Workspace,
-    bumper_force, bumper_mode, exact_bumper_force,
+    Branches, BumperLoad, BumperMode, Chain, ChainShape, Coefficient, ContactLaw, ContactReport,
+    Energy, Workspace, bumper_force, bumper_mode, exact_bumper_force,
 };
 pub use excitation::{CartMotion, CartState, ExcitationKind, HarmonicAmplitudes};
 pub use health::{CHECK_EVERY, Guard, Status, health_due};

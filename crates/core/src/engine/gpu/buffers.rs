@@ -4,7 +4,7 @@
 use crate::engine::error::{EngineError, GpuFaultKind};
 use crate::engine::gpu::ReduceSettings;
 use crate::engine::gpu::context::GpuContext;
-use crate::engine::gpu::kernels::{GpuKernel, KernelKey};
+use crate::engine::gpu::kernels::{KernelKey, WG};
 use crate::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams, levers_of};
 use crate::engine::imex::ImexMatrices;
 use crate::engine::ladder::MAX_LEVEL;
@@ -77,7 +77,7 @@ impl Sizes {
         bytes(f.live)?;
         Ok(Sizes {
             n_inst,
-            per_group: key.kernel.instances_per_group(),
+            per_group: WG,
             state_len: f.state_len,
             strobe_stride: f.strobe_stride,
             rwork_stride: f.rwork_stride,
@@ -187,7 +187,7 @@ pub(crate) fn batch_capacity(
 ) -> Result<usize, EngineError> {
     let limit = buffer_limit(ctx);
     let groups = ctx.limits.max_compute_workgroups_per_dimension as usize;
-    let per_group = key.kernel.instances_per_group().min(key.wg_k());
+    let per_group = WG.min(key.wg_k());
     let mut cap = groups.saturating_mul(per_group as usize);
     for (what, per) in Footprint::of(plan, key).buffers() {
         if per > limit {
@@ -251,14 +251,9 @@ pub(crate) fn software_step_budget(
             "use fewer c values, or the CPU engine",
         ));
     }
-    let max_lever = plan
-        .instances
-        .iter()
-        .map(|p| p.params.contact.as_ref().map_or(0, |c| c.levers_m.len()))
-        .max()
-        .unwrap_or(0);
+    let max_lever = key.chain.contact.map_or(0, |(levers, _)| levers);
     Ok(Some(steps_within_loop_budget(
-        (key.method, key.adaptive, key.kernel),
+        (key.method, key.adaptive),
         n_seg,
         max_lever,
         key.want_twin,
@@ -302,67 +297,39 @@ fn early_loops(plan: &EnsemblePlan, key: &KernelKey) -> (f64, f64) {
 /// every step again with a swap in and out (`twin_step`: one step and `2 N`), and at most once
 /// per step a saltation (`twin_saltation`: at most `6 N`) and a sample (`twin_sample`: `2 N`);
 /// per dispatch it is loaded and stored (`2 N`). The early stop adds `early` (per step,
-/// per dispatch: [`early_loops`]). The cooperative kernel's lane 0 copies the state in for
-/// the health check (`2 N`) and for a step's events (at most `2 N` a step), and with the twin
-/// the twin in and out for the events (`4 N`) and for a saltation (`4 N`).
+/// per dispatch: [`early_loops`]).
 fn steps_within_loop_budget(
-    (method, adaptive, kernel): (Method, bool, GpuKernel),
+    (method, adaptive): (Method, bool),
     n: usize,
     levers: usize,
     twin: bool,
     early: (f64, f64),
 ) -> u64 {
-    let step = match kernel {
-        GpuKernel::Thread => loops_per_step(method, n, levers),
-        GpuKernel::Workgroup => loops_per_step_workgroup(method, n, levers),
-    };
-    let one = (step + adaptive_loops(n, levers, adaptive)) as f64;
+    let one = (loops_per_step(method, n, levers) + adaptive_loops(n, levers, adaptive)) as f64;
     let n = n as f64;
     let (per_step, fixed) = if twin {
         (2.0 * one + 10.0 * n + early.0, 2.0 * n + early.1)
     } else {
         (one + early.0, early.1)
     };
-    let (copy, copy_per_step) = match (kernel, twin) {
-        (GpuKernel::Thread, _) => (0.0, 0.0),
-        (GpuKernel::Workgroup, false) => (2.0 * n, 2.0 * n),
-        (GpuKernel::Workgroup, true) => (2.0 * n, 10.0 * n),
-    };
-    let per_step = per_step + copy_per_step;
-    let health = 3.0 * n + levers as f64 + copy;
+    let health = 3.0 * n + levers as f64;
     let spare = SOFTWARE_LOOP_BUDGET as f64 - 2.0 * health - fixed;
     ((spare / (per_step + health / CHECK_EVERY as f64)) as u64).max(1)
 }
 
 /// Loop iterations of one integration step in the kernel, counted from the WGSL (an upper
-/// bound: loops the compiler unrolls cost nothing), without the health check:
-/// - RK4: the step loop (1), `rk4_step`'s two sweeps (2N), four stages of a derivative
-///   (levers + 3N: the sines and cosines, the two sweeps) and a stage update (N), and
-///   `touch_flags` (levers): `18 N + 5 levers + 1`;
+/// bound: loops the compiler unrolls cost nothing), without the health check. The derivative
+/// is generated unrolled (`super::codegen`) and has no loop:
+/// - RK4: the step loop (1), `rk4_step`'s two sweeps (2N), four stage updates (N), and
+///   `touch_flags` (levers): `6 N + levers + 1`;
 /// - IMEX: the step loop (1), `imex_step`'s copy (N), stage loop (3) and weighted sums
-///   (5N + 4), four `imex_eval` (levers + 4N each) of which three add the joint couples and
-///   an N × N product (N² + 3N), three `imex_implicit_stage` (2N² + (6 + i) N + i for
-///   i = 1, 2, 3), and `touch_flags`: `9 N² + 55 N + 5 levers + 14`.
+///   (5N + 4), four `imex_eval` (N each: the copy out) of which three add the joint couples
+///   and an N × N product (N² + 3N), three `imex_implicit_stage` (2N² + (6 + i) N + i for
+///   i = 1, 2, 3), and `touch_flags`: `9 N² + 43 N + levers + 14`.
 fn loops_per_step(method: Method, n: usize, levers: usize) -> usize {
     match method {
-        Method::Rk4 => 18 * n + 5 * levers + 1,
-        Method::Imex => 9 * n * n + 55 * n + 5 * levers + 14,
-    }
-}
-
-/// [`loops_per_step`] of the cooperative kernel (`shaders/cooperative.wgsl`) on its busiest
-/// lane, lane 0, which owns `k = ⌈N / lanes⌉` segments and runs every sweep: four `wg_rates`
-/// (levers + 4N each: the copy in, the two sweeps, the copy out) and `touch_flags` (levers),
-/// plus
-/// - RK4: the step loop (1) and six owner loops (6k): `16 N + 5 levers + 6 k + 1`;
-/// - IMEX: the step loop (1), four `wg_imex_eval` owner loops (4k), three
-///   `wg_imex_implicit` (k (3N + i) + i for i = 1, 2, 3), the finish (4k + 4 + 4):
-///   `16 N + 9 k N + 5 levers + 14 k + 15`.
-fn loops_per_step_workgroup(method: Method, n: usize, levers: usize) -> usize {
-    let k = n.div_ceil(GpuKernel::lanes(n) as usize);
-    match method {
-        Method::Rk4 => 16 * n + 5 * levers + 6 * k + 1,
-        Method::Imex => 16 * n + 9 * k * n + 5 * levers + 14 * k + 15,
+        Method::Rk4 => 6 * n + levers + 1,
+        Method::Imex => 9 * n * n + 43 * n + levers + 14,
     }
 }
 
@@ -372,10 +339,7 @@ fn loops_per_step_workgroup(method: Method, n: usize, levers: usize) -> usize {
 /// `touch_flags` (levers): `2 N² + 8 N + levers + 4`. The same count bounds RK4(3)'s
 /// additions: `rk4_error` (two sweeps 2N, a derivative levers + 2N), k₄ kept (2N), k₁ handed
 /// on and kept (2N), `touch_flags` (levers), less the derivative of k₁ it no longer takes
-/// (levers + 2N), and once a dispatch `prime_k1` (4N + levers). It bounds the cooperative
-/// kernel's additions on lane 0 too (k ≤ N segments a lane): RK4's error (`wg_rates`, 4N +
-/// levers, its max over the state, N), k₁ kept (k), `touch_flags` (levers); IMEX's error
-/// (owner loops 2kN + 6k, the max N, the piezo's 4) and `touch_flags`.
+/// (levers + 2N), and once a dispatch `prime_k1` (4N + levers).
 fn adaptive_loops(n: usize, levers: usize, adaptive: bool) -> usize {
     if adaptive {
         2 * n * n + 8 * n + levers + 4

@@ -3,6 +3,7 @@
 
 use crate::engine::error::{EngineError, GpuFaultKind};
 use crate::engine::gpu::kernels::{KernelKey, Kernels, shader_source};
+use crate::model::ChainShape;
 use std::cell::Cell;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -85,7 +86,7 @@ pub struct GpuContext {
     /// Whether the kernels are built with wgpu's runtime checks ([`GpuContext::set_runtime_checks`]).
     runtime_checks: bool,
     /// One shader module per segment count (its arrays are sized by N) and runtime checks.
-    modules: Mutex<HashMap<(usize, bool), Arc<wgpu::ShaderModule>>>,
+    modules: Mutex<HashMap<(ChainShape, bool), Arc<wgpu::ShaderModule>>>,
     kernels: Mutex<HashMap<KernelKey, Arc<Kernels>>>,
     health: Arc<Mutex<Health>>,
     /// The read-back buffer, kept across dispatches and runs and grown when too small.
@@ -261,7 +262,7 @@ impl GpuContext {
         cache
             .entry(*key)
             .or_insert_with(|| {
-                let module = self.module(key.segments, key.runtime_checks);
+                let module = self.module(key.chain, key.runtime_checks);
                 Arc::new(Kernels::compile(
                     &self.device,
                     &self.pipeline_layout,
@@ -293,14 +294,14 @@ impl GpuContext {
     ///   constant, and the insertion sort of `k_final` moves down to index 0 at most.
     ///
     /// The engine suite runs maps with the checks on and off and requires the same bits.
-    fn module(&self, segments: usize, checked: bool) -> Arc<wgpu::ShaderModule> {
+    fn module(&self, shape: ChainShape, checked: bool) -> Arc<wgpu::ShaderModule> {
         let mut modules = self.modules.lock().unwrap_or_else(|e| e.into_inner());
         modules
-            .entry((segments, checked))
+            .entry((shape, checked))
             .or_insert_with(|| {
                 let desc = wgpu::ShaderModuleDescriptor {
                     label: Some("ensemble kernels"),
-                    source: wgpu::ShaderSource::Wgsl(shader_source(segments).into()),
+                    source: wgpu::ShaderSource::Wgsl(shader_source(shape).into()),
                 };
                 Arc::new(if checked {
                     self.device.create_shader_module(desc)

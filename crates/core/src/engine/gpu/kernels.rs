@@ -3,35 +3,35 @@
 //!
 //! The header holds the status codes ([`Status::code`]), the health-check interval
 //! ([`CHECK_EVERY`]), the IMEX method's tableaux ([`crate::engine::imex`]) and the adaptive
-//! ladder's depth and growth bound ([`crate::engine::adaptive`]), the regime codes and
+//! ladder's depth and growth bound ([`crate::engine::adaptive`]), the structs shared with Rust
+//! (`InstanceParams`, `Control`, `Accum`, from [`crate::engine::gpu::layout`]), the regime codes and
 //! thresholds ([`crate::reduce::regime`]), λ1's block count and twin flags, and the bound of the
 //! per-invocation arrays, the scene's N (so no private array is larger than the scene needs):
 //! the shader never carries its own copy of a rule or coefficient defined in Rust.
 
 use crate::config::GpuKernelChoice;
-use crate::engine::gpu::layout::{SCHED_LIVE, TWIN_BROKEN, TWIN_RUNNING};
+use crate::engine::gpu::codegen;
+use crate::engine::gpu::gpu_struct::GpuStruct;
+use crate::engine::gpu::layout::{
+    GpuControl, GpuInstanceParams, SCHED_LIVE, TWIN_BROKEN, TWIN_RUNNING,
+};
 use crate::engine::imex::{AE, AI, B, B_HAT, C, GAMMA};
 use crate::engine::ladder::{self, GROW, MAX_LEVEL};
 use crate::engine::method::Method;
-use crate::model::{CHECK_EVERY, ContactDamping, Status};
+use crate::model::{CHECK_EVERY, ChainShape, ContactDamping, Status};
 use crate::reduce::Regime;
 use crate::reduce::lyapunov::LYAPUNOV_BLOCKS;
 use crate::reduce::regime::{REGIME_FLAT_PER_PERIOD, REGIME_K_CHAOS, REGIME_Z};
 use std::fmt::Write;
 
 /// The stage files of the ensemble kernels, in assembly order: common definitions,
-/// integration (RK4, λ1's twin), the cooperative integration (one workgroup per instance), its
-/// schedule on the device, the early stop, the IMEX method, the R reduction, the 0–1 test and
+/// integration (RK4, λ1's twin), its schedule on the device, the early stop, the IMEX method, the R reduction, the 0–1 test and
 /// period, λ1 and the regime.
-pub const SHADER_STAGES: [(&str, &str); 9] = [
+pub const SHADER_STAGES: [(&str, &str); 8] = [
     ("common.wgsl", include_str!("../../../shaders/common.wgsl")),
     (
         "integrate.wgsl",
         include_str!("../../../shaders/integrate.wgsl"),
-    ),
-    (
-        "cooperative.wgsl",
-        include_str!("../../../shaders/cooperative.wgsl"),
     ),
     (
         "schedule.wgsl",
@@ -57,7 +57,6 @@ pub const SHADER_STAGES: [(&str, &str); 9] = [
 pub(crate) const SHADER_BODY: &str = concat!(
     include_str!("../../../shaders/common.wgsl"),
     include_str!("../../../shaders/integrate.wgsl"),
-    include_str!("../../../shaders/cooperative.wgsl"),
     include_str!("../../../shaders/schedule.wgsl"),
     include_str!("../../../shaders/early.wgsl"),
     include_str!("../../../shaders/imex.wgsl"),
@@ -117,26 +116,50 @@ pub fn shader_header(segments: usize) -> String {
     h.push_str(ladder::WGSL);
     h.push_str(&wgsl_array("IMEX_AE", AE.as_flattened()));
     h.push_str(&wgsl_array("IMEX_AI", AI.as_flattened()));
+    h.push_str(&GpuInstanceParams::wgsl());
+    h.push_str(&GpuControl::wgsl());
     h.push_str(&crate::engine::gpu::layout::accum_wgsl());
     h.push('\n');
     h
 }
 
-/// The complete WGSL source of the ensemble kernels for chains of `segments` segments.
-pub fn shader_source(segments: usize) -> String {
-    shader_header(segments) + SHADER_BODY
+/// The complete WGSL source of the ensemble kernels for chains of `shape`: the header, the
+/// chain's functions generated from the Rust model ([`codegen`]), the stage files.
+pub fn shader_source(shape: ChainShape) -> String {
+    shader_header(shape.segments) + &codegen::generated_wgsl(shape) + SHADER_BODY
+}
+
+/// The kernels written out under the top-level `shaders/` for reading, as (file name, text):
+/// the default scene's shape (its bumpers' levers and law, no piezo) at N = 3 and 17.
+/// One module serves RK4 and IMEX alike (the method is an override constant); each file is
+/// exactly what [`crate::engine::GpuContext`] compiles for its shape, behind two comment lines.
+/// A test fails when a file differs from this.
+pub fn written_kernels() -> Vec<(String, String)> {
+    [3, 17]
+        .map(|n| {
+            let scene = crate::config::load_scene(None, &[format!("beam.segments={n}")])
+                .expect("the embedded default scene loads");
+            let params = scene
+                .model_params()
+                .expect("the embedded default scene builds");
+            let shape = ChainShape::of(&params);
+            let text = format!(
+                "{}\n// The ensemble kernels of the default scene at N = {n} (RK4 and IMEX: the \
+                 method is an override constant).\n{}",
+                codegen::GENERATED_LINE,
+                shader_source(shape)
+            );
+            (format!("ensemble_n{n}.wgsl"), text)
+        })
+        .into()
 }
 
 /// Everything the kernels are specialised on (their override constants): one compiled set of
 /// pipelines per distinct key, cached by [`crate::engine::GpuContext`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct KernelKey {
-    /// Segments N.
-    pub segments: usize,
-    /// Bumpers present.
-    pub has_contact: bool,
-    /// Piezo present.
-    pub has_piezo: bool,
+    /// The chain's shape (N, the bumpers' law, the piezo's span): one module per shape.
+    pub chain: ChainShape,
     /// Stroboscopic samples recorded.
     pub want_strobe: bool,
     /// R series recorded (for R or the dominant line).
@@ -172,68 +195,41 @@ pub(crate) const WG: u32 = 64;
 
 /// How the integration kernel spreads an ensemble over the device (the map's `gpu.kernel`,
 /// resolved by [`GpuKernel::resolve`]).
+///
+/// One invocation per instance is the only kernel since issue 73: the cooperative kernel (a
+/// workgroup per instance) was a hand-written copy of the physics that `auto` never picked and
+/// that ran 17–49× slower on lavapipe; it returns once it is generated from the Rust model and
+/// hardware has measured it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum GpuKernel {
-    /// One invocation per instance (`integrate`, `shaders/integrate.wgsl`): for ensembles
-    /// that fill the device.
+    /// One invocation per instance (`integrate`, `shaders/integrate.wgsl`).
     Thread,
-    /// One workgroup per instance (`integrate_wg`, `shaders/cooperative.wgsl`): the
-    /// segments spread over its lanes, the chain's sweep on one of them.
-    Workgroup,
 }
 
 impl From<GpuKernel> for GpuKernelChoice {
     fn from(k: GpuKernel) -> GpuKernelChoice {
         match k {
             GpuKernel::Thread => GpuKernelChoice::Thread,
-            GpuKernel::Workgroup => GpuKernelChoice::Workgroup,
         }
     }
 }
 
 impl GpuKernel {
-    /// Both kernels.
-    pub const ALL: [GpuKernel; 2] = [GpuKernel::Thread, GpuKernel::Workgroup];
+    /// Every kernel.
+    pub const ALL: [GpuKernel; 1] = [GpuKernel::Thread];
 
     /// The kernel's name, as `gpu.kernel` spells it.
     pub fn name(self) -> &'static str {
         match self {
             GpuKernel::Thread => "thread",
-            GpuKernel::Workgroup => "workgroup",
         }
     }
 
-    /// The integration entry point of the kernel.
-    fn entry(self) -> &'static str {
-        match self {
-            GpuKernel::Thread => "integrate",
-            GpuKernel::Workgroup => "integrate_wg",
-        }
-    }
-
-    /// Lanes per workgroup of the cooperative kernel on chains of `segments` segments: N
-    /// rounded up to a power of two (at most 64; a lane then owns several segments).
-    pub(crate) fn lanes(segments: usize) -> u32 {
-        segments.next_power_of_two().clamp(1, 64) as u32
-    }
-
-    /// Instances one workgroup integrates.
-    pub(crate) fn instances_per_group(self) -> u32 {
-        match self {
-            GpuKernel::Thread => WG,
-            GpuKernel::Workgroup => 1,
-        }
-    }
-
-    /// The kernel `choice` names: `auto` is the thread kernel until the hardware lease
-    /// measures where the workgroup kernel is faster (docs/bench/README.md); on lavapipe the
-    /// thread kernel is faster at every size measured. Both kernels do everything an ensemble
-    /// asks for (adaptive steps, λ1's twin, the early stop).
+    /// The kernel `choice` names.
     pub fn resolve(choice: GpuKernelChoice) -> GpuKernel {
         match choice {
             GpuKernelChoice::Auto | GpuKernelChoice::Thread => GpuKernel::Thread,
-            GpuKernelChoice::Workgroup => GpuKernel::Workgroup,
         }
     }
 }
@@ -248,9 +244,9 @@ impl KernelKey {
     pub fn constants(&self) -> Vec<(&'static str, f64)> {
         let flag = |b: bool| if b { 1.0 } else { 0.0 };
         vec![
-            ("N_SEG", self.segments as f64),
-            ("HAS_CONTACT", flag(self.has_contact)),
-            ("HAS_PIEZO", flag(self.has_piezo)),
+            ("N_SEG", self.chain.segments as f64),
+            ("HAS_CONTACT", flag(self.chain.contact.is_some())),
+            ("HAS_PIEZO", flag(self.chain.piezo_last.is_some())),
             ("WANT_STROBE", flag(self.want_strobe)),
             ("WANT_RSERIES", flag(self.want_rseries)),
             ("WANT_K", flag(self.want_k)),
@@ -262,8 +258,6 @@ impl KernelKey {
             ("WANT_TWIN", flag(self.want_twin)),
             ("WANT_EARLY", flag(self.want_early)),
             ("ADAPTIVE", flag(self.adaptive)),
-            ("COOPERATIVE", flag(self.kernel == GpuKernel::Workgroup)),
-            ("WGC", f64::from(GpuKernel::lanes(self.segments))),
         ]
     }
 }
@@ -317,7 +311,7 @@ impl Kernels {
         };
         Kernels {
             kernel: key.kernel,
-            integrate: pipeline(key.kernel.entry()),
+            integrate: pipeline("integrate"),
             compact: pipeline("compact"),
             schedule: pipeline("schedule"),
             line: key.want_line.then(|| pipeline("line")),

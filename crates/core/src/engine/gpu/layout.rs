@@ -1,123 +1,125 @@
-//! The structs the GPU kernels read and write, `#[repr(C)]` and [`bytemuck::Pod`], mirrored
-//! member for member in `shaders/common.wgsl` (a test compares both layouts with naga).
+//! The structs the GPU kernels read and write, `#[repr(C)]` and [`bytemuck::Pod`], each
+//! defined once here: their WGSL twins are generated from these definitions into the kernels'
+//! header (`gpu_struct!`; a test compares both layouts with naga).
 //!
 //! [`GpuInstanceParams`] is filled from the one parameter struct, `ModelParams`, and the
 //! instance's step plan: no physical coefficient is derived anywhere else.
 
 use crate::config::StepControl;
+use crate::engine::gpu::gpu_struct::{GpuStruct, gpu_struct};
 use crate::engine::plan::{EnsemblePlan, InstancePlan};
 use crate::reduce::TwinPlan;
 use crate::reduce::lyapunov::{LYAPUNOV_BLOCKS, TwinNorm};
 use crate::schema::{GPU_SLOTS, WgslType, gpu_fields};
-use bytemuck::{Pod, Zeroable};
+use bytemuck::Zeroable;
 
 /// Largest segment count the GPU kernel's per-invocation arrays hold.
 pub(crate) const GPU_MAX_SEGMENTS: usize = 64;
 
-/// Per-instance coefficients and step plan (WGSL `InstanceParams`); the contact levers are
-/// in a buffer of their own (`levers_of`).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct GpuInstanceParams {
-    /// ℓ (m).
-    pub seg_len: f32,
-    /// m (kg).
-    pub seg_mass: f32,
-    /// J (kg m²).
-    pub seg_inertia: f32,
-    /// M (kg).
-    pub tip_mass: f32,
-    /// J_h (kg m²).
-    pub holder_inertia: f32,
-    /// g (m/s²).
-    pub g: f32,
-    /// k (N m/rad).
-    pub k: f32,
-    /// k0 (N m/rad).
-    pub k0: f32,
-    /// b (N m s/rad).
-    pub b: f32,
-    /// b0 (N m s/rad).
-    pub b0: f32,
-    /// g_c (m).
-    pub gap: f32,
-    /// k_c (N/m).
-    pub kc: f32,
-    /// c_c (N s/m).
-    pub cc: f32,
-    /// 1/C_p (1/F).
-    pub piezo_inv_c: f32,
-    /// 1/R_L (1/Ω).
-    pub piezo_inv_r: f32,
-    /// Θ (N m/V).
-    pub piezo_theta: f32,
-    /// A (m).
-    pub pos_amp: f32,
-    /// A ω (m/s).
-    pub vel_amp: f32,
-    /// A ω² (m/s²).
-    pub acc_amp: f32,
-    /// dt (s).
-    pub dt: f32,
-    /// Energy bound of the guard (J).
-    pub guard_energy: f32,
-    /// Joint bend bound of the guard (rad).
-    pub guard_bend: f32,
-    /// Initial angle (rad).
-    pub theta0: f32,
-    /// Initial rate (rad/s).
-    pub omega0: f32,
-    /// Initial voltage (V).
-    pub volt0: f32,
-    /// θc/2 (rad), the well threshold of hop counting.
-    pub half_clearance: f32,
-    /// |α| beyond which the holder has escaped over a bumper (rad; huge without bumpers).
-    pub guard_holder: f32,
-    /// Forcing phase at t = 0 (cycles, [`CartMotion::phase_cycles`](crate::model::CartMotion)).
-    pub phase0: f32,
-    /// Number of contact levers.
-    pub n_levers: u32,
-    /// Last segment of the piezo patch (0-based).
-    pub piezo_last: u32,
-    /// Steps per forcing period.
-    pub spp: u32,
-    /// Transient periods.
-    pub transient_periods: u32,
-    /// Total periods.
-    pub total_periods: u32,
-    /// Step within the period of the stroboscopic samples.
-    pub strobe_offset: u32,
-    /// Stroboscopic samples after the transient.
-    pub strobe_count: u32,
-    /// Steps between R samples.
-    pub r_every: u32,
-    /// R series length.
-    pub r_count: u32,
-    /// Step of the first R sample.
-    pub r_start: u32,
-    /// Index (in f32) of this instance's IMEX matrices in the matrix buffer (0 for RK4).
-    pub imex_offset: u32,
-    /// The contact damping law ([`crate::model::ContactDamping::gpu_code`]).
-    pub contact_law: u32,
-    /// λ1's twin: the stroboscopic sample it starts at ([`TwinPlan::start_sample`]).
-    pub twin_start: u32,
-    /// Renormalisations that align the twin.
-    pub twin_align: u32,
-    /// Renormalisations averaged into λ1 (0: no twin).
-    pub twin_window: u32,
-    /// The twin's separation d0.
-    pub twin_d0: f32,
-    /// The rigid rotation's weight in the twin's norm, [`TwinNorm::rigid_weight`].
-    pub twin_rigid_w: f32,
-    /// The scale of the twin's norm, [`TwinNorm::scale`] (the chain's inertias, springs and
-    /// the patch's capacitance are the instance's own).
-    pub twin_scale: f32,
-    /// The forcing period T = 1/f (s).
-    pub period_s: f32,
-    /// Adaptive steps: the relative tolerance (0 for fixed steps).
-    pub rtol: f32,
-    /// Adaptive steps: the absolute tolerance (0 for fixed steps).
-    pub atol: f32,
+gpu_struct! {
+    /// Per-instance coefficients and step plan (WGSL `InstanceParams`); the contact levers are
+    /// in a buffer of their own (`levers_of`).
+    pub struct GpuInstanceParams as "InstanceParams" {
+        /// ℓ (m).
+        pub seg_len: f32,
+        /// m (kg).
+        pub seg_mass: f32,
+        /// J (kg m²).
+        pub seg_inertia: f32,
+        /// M (kg).
+        pub tip_mass: f32,
+        /// J_h (kg m²).
+        pub holder_inertia: f32,
+        /// g (m/s²).
+        pub g: f32,
+        /// k (N m/rad).
+        pub k: f32,
+        /// k0 (N m/rad).
+        pub k0: f32,
+        /// b (N m s/rad).
+        pub b: f32,
+        /// b0 (N m s/rad).
+        pub b0: f32,
+        /// g_c (m).
+        pub gap: f32,
+        /// k_c (N/m).
+        pub kc: f32,
+        /// c_c (N s/m).
+        pub cc: f32,
+        /// 1/C_p (1/F).
+        pub piezo_inv_c: f32,
+        /// 1/R_L (1/Ω).
+        pub piezo_inv_r: f32,
+        /// Θ (N m/V).
+        pub piezo_theta: f32,
+        /// A (m).
+        pub pos_amp: f32,
+        /// A ω (m/s).
+        pub vel_amp: f32,
+        /// A ω² (m/s²).
+        pub acc_amp: f32,
+        /// dt (s).
+        pub dt: f32,
+        /// Energy bound of the guard (J).
+        pub guard_energy: f32,
+        /// Joint bend bound of the guard (rad).
+        pub guard_bend: f32,
+        /// Initial angle (rad).
+        pub theta0: f32,
+        /// Initial rate (rad/s).
+        pub omega0: f32,
+        /// Initial voltage (V).
+        pub volt0: f32,
+        /// θc/2 (rad), the well threshold of hop counting.
+        pub half_clearance: f32,
+        /// |α| beyond which the holder has escaped over a bumper (rad; huge without bumpers).
+        pub guard_holder: f32,
+        /// Forcing phase at t = 0 (cycles, [`CartMotion::phase_cycles`](crate::model::CartMotion)).
+        pub phase0: f32,
+        /// Number of contact levers.
+        pub n_levers: u32,
+        /// Last segment of the piezo patch (0-based).
+        pub piezo_last: u32,
+        /// Steps per forcing period.
+        pub spp: u32,
+        /// Transient periods.
+        pub transient_periods: u32,
+        /// Total periods.
+        pub total_periods: u32,
+        /// Step within the period of the stroboscopic samples.
+        pub strobe_offset: u32,
+        /// Stroboscopic samples after the transient.
+        pub strobe_count: u32,
+        /// Steps between R samples.
+        pub r_every: u32,
+        /// R series length.
+        pub r_count: u32,
+        /// Step of the first R sample.
+        pub r_start: u32,
+        /// Index (in f32) of this instance's IMEX matrices in the matrix buffer (0 for RK4).
+        pub imex_offset: u32,
+        /// The contact damping law ([`crate::model::ContactDamping::gpu_code`]).
+        pub contact_law: u32,
+        /// λ1's twin: the stroboscopic sample it starts at ([`TwinPlan::start_sample`]).
+        pub twin_start: u32,
+        /// Renormalisations that align the twin.
+        pub twin_align: u32,
+        /// Renormalisations averaged into λ1 (0: no twin).
+        pub twin_window: u32,
+        /// The twin's separation d0.
+        pub twin_d0: f32,
+        /// The rigid rotation's weight in the twin's norm, [`TwinNorm::rigid_weight`].
+        pub twin_rigid_w: f32,
+        /// The scale of the twin's norm, [`TwinNorm::scale`] (the chain's inertias, springs and
+        /// the patch's capacitance are the instance's own).
+        pub twin_scale: f32,
+        /// The forcing period T = 1/f (s).
+        pub period_s: f32,
+        /// Adaptive steps: the relative tolerance (0 for fixed steps).
+        pub rtol: f32,
+        /// Adaptive steps: the absolute tolerance (0 for fixed steps).
+        pub atol: f32,
+    }
 }
 
 /// The contact levers λ_i (m) of an instance, `segments` words (zero past the contact
@@ -224,103 +226,80 @@ impl GpuInstanceParams {
     }
 }
 
-/// Running accumulators and reductions of one instance (WGSL `Accum`, generated from this
-/// definition: `accum_wgsl`). Its first words are the result schema's GPU slots
-/// ([`crate::schema::gpu_fields`], in the table's order), then the engine's own words
-/// ([`ACCUM_ENGINE_WORDS`], member for member).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct GpuAccum {
-    /// The result schema's words (K, the period, the tallies, λ1, the regime, the status, the
-    /// steps taken...), as bits; read with [`GpuAccum::read`].
-    pub slots: [u32; GPU_SLOTS],
-    /// Bumper penetration flags after the last step.
-    pub touch: u32,
-    /// Current well (+1, −1, 0 = none yet).
-    pub well: i32,
-    /// Adaptive steps: the position within the base step where the last dispatch stopped
-    /// (in units of the finest step; 0 at a base step's start).
-    pub sub_pos: u32,
-    /// Kahan compensation of the power sum.
-    pub power_comp: f32,
-    /// Adaptive steps: the sub-steps tried, accepted and rejected.
-    pub sub_steps: u32,
-    /// λ1's twin: Σ ln(d/d0) per block of the window.
-    pub lyap_sums: [f32; LYAPUNOV_BLOCKS],
-    /// Growths summed so far.
-    pub lyap_n: u32,
-    /// The twin's state: [`TWIN_RUNNING`], [`TWIN_BROKEN`] bits.
-    pub twin_flags: u32,
-    /// λ1's twin: its first stroboscopic instant (absolute, the transient included).
-    pub tw_start: u32,
-    /// Its window (renormalisations averaged).
-    pub tw_window: u32,
-    /// The current period's hops.
-    pub p_hops: u32,
-    /// The current period's contact onsets.
-    pub p_impacts: u32,
-    /// The current period's Σ v²/R_L.
-    pub p_power: f32,
-    /// The current period's smallest α (rad).
-    pub p_amin: f32,
-    /// The current period's largest α (rad).
-    pub p_amax: f32,
-    /// The early stop's phase (watching, measuring, closing, off: `shaders/early.wgsl`).
-    pub e_phase: u32,
-    /// The confirmed orbit's period (forcing periods).
-    pub e_p: u32,
-    /// The instant λ1's measurement of the confirmed orbit ends.
-    pub e_until: u32,
-    /// Stroboscopic instants kept so far.
-    pub e_seen: u32,
-    /// The last one.
-    pub e_last: u32,
-    /// The period of the orbit the instance stopped on (0: it ran to its end).
-    pub stopped: u32,
-    /// Adaptive steps: the ladder level k of the next sub-step (h = dt / 2^k).
-    pub level: u32,
-    /// Adaptive steps: contact onsets within the base step so far.
-    pub sub_onsets: u32,
+gpu_struct! {
+    /// Running accumulators and reductions of one instance (WGSL `Accum`, generated from this
+    /// definition: `accum_wgsl`). Its first words are the result schema's GPU slots
+    /// ([`crate::schema::gpu_fields`], in the table's order), then the engine's own words
+    /// (member for member).
+    pub struct GpuAccum as "Accum" {
+        /// The result schema's words (K, the period, the tallies, λ1, the regime, the status, the
+        /// steps taken...), as bits; read with [`GpuAccum::read`].
+        pub slots: [u32; GPU_SLOTS],
+        /// Bumper penetration flags after the last step.
+        pub touch: u32,
+        /// Current well (+1, −1, 0 = none yet).
+        pub well: i32,
+        /// Adaptive steps: the position within the base step where the last dispatch stopped
+        /// (in units of the finest step; 0 at a base step's start).
+        pub sub_pos: u32,
+        /// Kahan compensation of the power sum.
+        pub power_comp: f32,
+        /// Adaptive steps: the sub-steps tried, accepted and rejected.
+        pub sub_steps: u32,
+        /// λ1's twin: Σ ln(d/d0) per block of the window.
+        pub lyap_sums: [f32; LYAPUNOV_BLOCKS],
+        /// Growths summed so far.
+        pub lyap_n: u32,
+        /// The twin's state: [`TWIN_RUNNING`], [`TWIN_BROKEN`] bits.
+        pub twin_flags: u32,
+        /// λ1's twin: its first stroboscopic instant (absolute, the transient included).
+        pub tw_start: u32,
+        /// Its window (renormalisations averaged).
+        pub tw_window: u32,
+        /// The current period's hops.
+        pub p_hops: u32,
+        /// The current period's contact onsets.
+        pub p_impacts: u32,
+        /// The current period's Σ v²/R_L.
+        pub p_power: f32,
+        /// The current period's smallest α (rad).
+        pub p_amin: f32,
+        /// The current period's largest α (rad).
+        pub p_amax: f32,
+        /// The early stop's phase (watching, measuring, closing, off: `shaders/early.wgsl`).
+        pub e_phase: u32,
+        /// The confirmed orbit's period (forcing periods).
+        pub e_p: u32,
+        /// The instant λ1's measurement of the confirmed orbit ends.
+        pub e_until: u32,
+        /// Stroboscopic instants kept so far.
+        pub e_seen: u32,
+        /// The last one.
+        pub e_last: u32,
+        /// The period of the orbit the instance stopped on (0: it ran to its end).
+        pub stopped: u32,
+        /// Adaptive steps: the ladder level k of the next sub-step (h = dt / 2^k).
+        pub level: u32,
+        /// Adaptive steps: contact onsets within the base step so far.
+        pub sub_onsets: u32,
+    }
 }
 
-/// The engine's own words of `Accum` after the result slots, as WGSL members, in
-/// [`GpuAccum`]'s order (the layout test holds the two together).
-pub const ACCUM_ENGINE_WORDS: [(&str, &str); 23] = [
-    ("touch", "u32"),
-    ("well", "i32"),
-    ("sub_pos", "u32"),
-    ("power_comp", "f32"),
-    ("sub_steps", "u32"),
-    ("lyap_sums", "array<f32, LYAPUNOV_BLOCKS>"),
-    ("lyap_n", "u32"),
-    ("twin_flags", "u32"),
-    ("tw_start", "u32"),
-    ("tw_window", "u32"),
-    ("p_hops", "u32"),
-    ("p_impacts", "u32"),
-    ("p_power", "f32"),
-    ("p_amin", "f32"),
-    ("p_amax", "f32"),
-    ("e_phase", "u32"),
-    ("e_p", "u32"),
-    ("e_until", "u32"),
-    ("e_seen", "u32"),
-    ("e_last", "u32"),
-    ("stopped", "u32"),
-    ("level", "u32"),
-    ("sub_onsets", "u32"),
-];
-
-/// The WGSL `Accum` struct: the schema's result words, then [`ACCUM_ENGINE_WORDS`].
+/// The WGSL `Accum` struct, generated from [`GpuAccum`]: its `slots` written out as the result
+/// schema's words (one named member each, in the schema's order), then the engine's own.
 pub(crate) fn accum_wgsl() -> String {
     let mut s = String::from(
-        "// Mirrors `GpuAccum`: the result schema's words (src/schema.rs), then the engine's own.\nstruct Accum {\n",
+        "// Generated from `GpuAccum` (src/engine/gpu/layout.rs): the result schema's words \
+         (src/schema.rs), then the engine's own.\nstruct Accum {\n",
     );
-    for (_, g) in gpu_fields() {
-        s += &format!("    {}: {},\n", g.member, g.ty.name());
-    }
-    for (name, ty) in ACCUM_ENGINE_WORDS {
-        s += &format!("    {name}: {ty},\n");
+    for m in GpuAccum::members() {
+        if m.name == "slots" {
+            for (f, g) in gpu_fields() {
+                s += &format!("    {}: {}, // {}\n", g.member, g.ty.name(), f.name);
+            }
+        } else {
+            s += &format!("    {}: {}, // {}\n", m.name, m.wgsl, m.doc.trim());
+        }
     }
     s + "}\n"
 }
@@ -372,54 +351,54 @@ impl GpuAccum {
     }
 }
 
-/// Settings shared by every instance of a dispatch (WGSL `Control`, a uniform).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct GpuControl {
-    /// Instances.
-    pub n_inst: u32,
-    /// Steps each instance advances per dispatch (fixed steps; `u32::MAX` with adaptive
-    /// steps, whose dispatches are bounded by `pass_budget`).
-    pub steps_per_dispatch: u32,
-    /// Stroboscopic samples per instance in the strobe buffer (its capacity; the buffer is
-    /// sample-major, `n_inst` words per sample).
-    pub strobe_stride: u32,
-    /// Work-space entries (vec2) per instance (sample-major like the strobe buffer).
-    pub rwork_stride: u32,
-    /// Longest period searched.
-    pub period_max: u32,
-    /// Trailing samples that must repeat.
-    pub period_window: u32,
-    /// Period tolerance (rad).
-    pub period_tol: f32,
-    /// The c value the `k_pass` kernel works on.
-    pub c_index: u32,
-    /// The first instance a reduction dispatch covers (its slice, `slices.rs`).
-    pub slice_first: u32,
-    /// One past the last instance a reduction dispatch covers (`n_inst` when unsliced).
-    pub slice_end: u32,
-    /// Instances in the `active` list (the integration kernel's range).
-    pub n_active: u32,
-    /// The early stop: longest period tried (0 without the early stop).
-    pub e_p_max: u32,
-    /// Trailing stroboscopic instants that must repeat.
-    pub e_window: u32,
-    /// Relative tolerance of the repetition.
-    pub e_tol: f32,
-    /// Offset (words) of the α ring in an instance's early-stop rings.
-    pub e_alpha_off: u32,
-    /// Offset of the period tallies.
-    pub e_period_off: u32,
-    /// Offset of the R instants' α.
-    pub e_r_off: u32,
-    /// Length of that ring (1 when unused).
-    pub e_r_len: u32,
-    /// Adaptive steps: sub-steps an invocation tries per dispatch, the dispatch's size (within
-    /// a software adapter's loop budget). A dispatch may end within a base step.
-    pub pass_budget: u32,
-    /// The half of the `live` list the integration dispatch reads (0 or `n_inst`); the
-    /// device's compaction writes the other (`shaders/schedule.wgsl`).
-    pub live_from: u32,
+gpu_struct! {
+    /// Settings shared by every instance of a dispatch (WGSL `Control`, a uniform).
+    pub struct GpuControl as "Control" {
+        /// Instances.
+        pub n_inst: u32,
+        /// Steps each instance advances per dispatch (fixed steps; `u32::MAX` with adaptive
+        /// steps, whose dispatches are bounded by `pass_budget`).
+        pub steps_per_dispatch: u32,
+        /// Stroboscopic samples per instance in the strobe buffer (its capacity; the buffer is
+        /// sample-major, `n_inst` words per sample).
+        pub strobe_stride: u32,
+        /// Work-space entries (vec2) per instance (sample-major like the strobe buffer).
+        pub rwork_stride: u32,
+        /// Longest period searched.
+        pub period_max: u32,
+        /// Trailing samples that must repeat.
+        pub period_window: u32,
+        /// Period tolerance (rad).
+        pub period_tol: f32,
+        /// The c value the `k_pass` kernel works on.
+        pub c_index: u32,
+        /// The first instance a reduction dispatch covers (its slice, `slices.rs`).
+        pub slice_first: u32,
+        /// One past the last instance a reduction dispatch covers (`n_inst` when unsliced).
+        pub slice_end: u32,
+        /// Instances in the `active` list (the integration kernel's range).
+        pub n_active: u32,
+        /// The early stop: longest period tried (0 without the early stop).
+        pub e_p_max: u32,
+        /// Trailing stroboscopic instants that must repeat.
+        pub e_window: u32,
+        /// Relative tolerance of the repetition.
+        pub e_tol: f32,
+        /// Offset (words) of the α ring in an instance's early-stop rings.
+        pub e_alpha_off: u32,
+        /// Offset of the period tallies.
+        pub e_period_off: u32,
+        /// Offset of the R instants' α.
+        pub e_r_off: u32,
+        /// Length of that ring (1 when unused).
+        pub e_r_len: u32,
+        /// Adaptive steps: sub-steps an invocation tries per dispatch, the dispatch's size (within
+        /// a software adapter's loop budget). A dispatch may end within a base step.
+        pub pass_budget: u32,
+        /// The half of the `live` list the integration dispatch reads (0 or `n_inst`); the
+        /// device's compaction writes the other (`shaders/schedule.wgsl`).
+        pub live_from: u32,
+    }
 }
 
 /// Word of the schedule buffer (`sched`) that counts the instances still integrating; words

@@ -16,8 +16,10 @@
 
 mod buffers;
 mod clock;
+pub mod codegen;
 mod context;
 pub mod fault;
+pub mod gpu_struct;
 pub mod kernels;
 #[cfg(test)]
 mod ladder_check;
@@ -31,7 +33,7 @@ use crate::config::Metric;
 use crate::engine::error::{EngineError, GpuFaultKind};
 use crate::engine::plan::EnsemblePlan;
 use crate::engine::{EngineRun, EngineTimings, EnsembleEngine, Progress, ProgressUnit, Readback};
-use crate::model::Status;
+use crate::model::{ChainShape, Status};
 use crate::reduce::regime::confidence;
 use crate::reduce::{InstanceResult, ReduceOptions, Span, Tally};
 use crate::schema::{Source, field, gpu_fields};
@@ -195,12 +197,15 @@ impl EnsembleEngine for GpuEngine {
 }
 
 /// The specialisation a plan needs.
-fn kernel_key(plan: &EnsemblePlan, reduce: &ReduceSettings, kernel: GpuKernel) -> KernelKey {
+fn kernel_key(
+    plan: &EnsemblePlan,
+    chain: ChainShape,
+    reduce: &ReduceSettings,
+    kernel: GpuKernel,
+) -> KernelKey {
     let want = |m: Metric| plan.metrics.contains(&m);
     KernelKey {
-        segments: plan.segments,
-        has_contact: plan.has_contact,
-        has_piezo: plan.has_piezo,
+        chain,
         want_strobe: plan.want_strobe,
         want_rseries: plan.want_rseries,
         want_r: want(Metric::R),
@@ -238,12 +243,13 @@ pub(crate) fn run_gpu(
     if plan.instances.is_empty() {
         return Err(EngineError::Empty);
     }
+    let chain = plan.kernel_shape()?;
     let twin_d0 = plan.twin_separation(crate::engine::Precision::F32)?;
     let reduce = ReduceSettings::from_options(opts);
     let kernel = GpuKernel::resolve(plan.gpu_kernel);
     let key = KernelKey {
         runtime_checks: ctx.runtime_checks(),
-        ..kernel_key(plan, &reduce, kernel)
+        ..kernel_key(plan, chain, &reduce, kernel)
     };
     let n = plan.instances.len();
     let cap = batch_capacity(ctx, plan, &key)?.min(limits.max_batch.unwrap_or(usize::MAX));
@@ -449,7 +455,7 @@ fn integrate(
         ctx.queue
             .write_buffer(&bufs.control, 0, bytemuck::bytes_of(control));
         let started = Instant::now();
-        let submitted = submit_chunk(ctx, kernels, bufs, (n as u32, clock.as_deref()));
+        let submitted = submit_chunk(ctx, kernels, bufs, clock.as_deref());
         if lose {
             ctx.lose();
         }
@@ -690,13 +696,12 @@ const N_ACTIVE_OFFSET: u64 = std::mem::offset_of!(GpuControl, n_active) as u64;
 /// One dispatch of the integration and its schedule, in one submission: the device's count of
 /// the instances still integrating becomes `n_active` and the dispatch's size (indirect), the
 /// integration runs (timed by `clock` where there is one), then the compaction and the next
-/// size (`shaders/schedule.wgsl`). The compaction takes the integration's workgroup count,
-/// or, after the cooperative kernel (a workgroup per instance), all `n_inst` instances'.
+/// size (`shaders/schedule.wgsl`). The compaction takes the integration's workgroup count.
 fn submit_chunk(
     ctx: &GpuContext,
     kernels: &Kernels,
     bufs: &Buffers,
-    (n_inst, clock): (u32, Option<&KernelClock>),
+    clock: Option<&KernelClock>,
 ) -> wgpu::SubmissionIndex {
     let live_word = 4 * u64::from(SCHED_LIVE);
     let mut enc = ctx
@@ -715,12 +720,7 @@ fn submit_chunk(
     };
     indirect(&mut enc, &kernels.integrate, clock);
     enc.clear_buffer(&bufs.sched, live_word, Some(4));
-    match kernels.kernel {
-        GpuKernel::Thread => indirect(&mut enc, &kernels.compact, None),
-        GpuKernel::Workgroup => {
-            record_pass(&mut enc, &kernels.compact, &bufs.bind, n_inst.div_ceil(WG));
-        }
-    }
+    indirect(&mut enc, &kernels.compact, None);
     record_pass(&mut enc, &kernels.schedule, &bufs.bind, 1);
     ctx.submit(enc.finish())
 }

@@ -1,0 +1,355 @@
+//! The chain as WGSL: [`Chain::rates`], [`Chain::rates_on`], [`Chain::energy_in`] and
+//! [`Chain::lever_response`] of `crate::model::chain`, recorded on [`Sym`] for one
+//! [`ChainShape`] and written out unrolled (no loop, no array of its own).
+//!
+//! The shape's levers are the kernel's `lev[i]` (zero past an instance's contact segment), so
+//! one shape serves every contact height up to its lever count. The derivatives read and write
+//! the thread kernel's stage state (`shaders/common.wgsl`): the angles `sth`, rates `som` and
+//! voltage `svolt`, the instance's coefficients `P` and levers `lev`; θ̈ into `acc_out`, v̇ into
+//! `dvolt_out`. The energy reads the step's state `th`, `om`, `volt`.
+
+use super::sym::{Sym, input, record};
+use super::wgsl::{Function, emit};
+use crate::model::{Branches, Chain, ChainShape, Coefficient, ContactLaw, Lane};
+
+/// Where the kernel reads coefficient `c` (`GpuInstanceParams` and the `levers` buffer).
+fn read(c: Coefficient) -> String {
+    let field = match c {
+        Coefficient::Lever(i) => return format!("lev[{i}]"),
+        Coefficient::SegLength => "seg_len",
+        Coefficient::SegMass => "seg_mass",
+        Coefficient::SegInertia => "seg_inertia",
+        Coefficient::TipMass => "tip_mass",
+        Coefficient::HolderInertia => "holder_inertia",
+        Coefficient::Gravity => "g",
+        Coefficient::JointStiffness => "k",
+        Coefficient::RootStiffness => "k0",
+        Coefficient::JointDamping => "b",
+        Coefficient::RootDamping => "b0",
+        Coefficient::BumperGap => "gap",
+        Coefficient::BumperStiffness => "kc",
+        Coefficient::BumperDamping => "cc",
+        Coefficient::PiezoInvCapacitance => "piezo_inv_c",
+        Coefficient::PiezoInvLoad => "piezo_inv_r",
+        Coefficient::PiezoCoupling => "piezo_theta",
+    };
+    format!("P.{field}")
+}
+
+/// The chain whose coefficients are kernel inputs (inside a recording).
+fn coefficients(shape: ChainShape) -> Chain<Sym> {
+    Chain::from_coefficients(shape, |c| input(read(c)))
+}
+
+/// The chain and the stage state `[θ; θ̇; v]` as kernel inputs (inside a recording).
+fn symbolic(shape: ChainShape) -> (Chain<Sym>, Vec<Sym>) {
+    let chain = coefficients(shape);
+    let n = shape.segments;
+    let mut y: Vec<Sym> = (0..n).map(|i| input(format!("sth[{i}]"))).collect();
+    y.extend((0..n).map(|i| input(format!("som[{i}]"))));
+    y.push(input("svolt"));
+    (chain, y)
+}
+
+/// θ̈ into `acc_out`, v̇ into `dvolt_out`.
+fn rate_stores(n: usize, dy: &[Sym]) -> Vec<(String, Sym)> {
+    let mut stores: Vec<(String, Sym)> = (0..n)
+        .map(|i| (format!("acc_out[{i}]"), dy[n + i]))
+        .collect();
+    stores.push(("dvolt_out".into(), dy[2 * n]));
+    stores
+}
+
+/// The derivative by the scene's law, returning the bumpers' branches as 4 bits (+x on,
+/// +x damped, −x on, −x damped): `chain_rates`.
+fn rates(shape: ChainShape) -> String {
+    let n = shape.segments;
+    let (tape, (dy, load)) = record(|| {
+        let (chain, y) = symbolic(shape);
+        let mut ws = chain.workspace();
+        let mut dy = vec![Sym::splat(0.0); y.len()];
+        let load = chain.rates(&mut ws, input("cart_a"), &y, &mut dy, ContactLaw::Exact);
+        (dy, load)
+    });
+    let mut stores = rate_stores(n, &dy);
+    let tail = match load {
+        Some(b) => {
+            let bits = [b.branches.right.0, b.branches.right.1];
+            let bits = bits
+                .into_iter()
+                .chain([b.branches.left.0, b.branches.left.1]);
+            stores.extend(bits.enumerate().map(|(k, s)| (format!("let b{k}"), s)));
+            "    return u32(b0) | (u32(b1) << 1u) | (u32(b2) << 2u) | (u32(b3) << 3u);\n"
+        }
+        None => "    return 0u;\n",
+    };
+    emit(
+        &tape,
+        &Function {
+            doc: &[
+                "Chain::rates (the scene's law) at the stage state: θ̈ into acc_out, v̇ into",
+                "dvolt_out; returns the bumpers' branches (bits: +x on, +x damped, −x on, −x damped).",
+            ],
+            signature: "fn chain_rates(cart_a: f32) -> u32",
+            stores,
+            tail,
+        },
+    )
+}
+
+/// The derivative with each bumper on the branches of `b` (bits as [`rates`] returns them):
+/// `chain_rates_on`, the twin of λ1 on its main trajectory's branches.
+fn rates_on(shape: ChainShape) -> String {
+    let n = shape.segments;
+    let (tape, dy) = record(|| {
+        let (chain, y) = symbolic(shape);
+        let mut ws = chain.workspace();
+        let mut dy = vec![Sym::splat(0.0); y.len()];
+        let bit = |k: u32| input(format!("f32((b >> {k}u) & 1u)"));
+        let branches = Branches {
+            right: (bit(0), bit(1)),
+            left: (bit(2), bit(3)),
+        };
+        chain.rates_on(&mut ws, input("cart_a"), &y, &mut dy, branches);
+        dy
+    });
+    emit(
+        &tape,
+        &Function {
+            doc: &[
+                "Chain::rates_on: the bumpers on the branches of `b` (bits as chain_rates returns).",
+            ],
+            signature: "fn chain_rates_on(cart_a: f32, b: u32)",
+            stores: rate_stores(n, &dy),
+            tail: "",
+        },
+    )
+}
+
+/// M(θ)⁻¹ (λ_i cos θ_i) at the angles `sth` into `acc_out`: `lever_response` (nothing
+/// without bumpers, where it is never called).
+fn lever_response(shape: ChainShape) -> String {
+    let n = shape.segments;
+    let (tape, out) = record(|| {
+        let (chain, y) = symbolic(shape);
+        let mut ws = chain.workspace();
+        let mut out = vec![Sym::splat(0.0); n];
+        let has = chain.lever_response(&mut ws, &y, &mut out);
+        has.then_some(out)
+    });
+    let stores = out.map_or_else(Vec::new, |out| {
+        out.iter()
+            .enumerate()
+            .map(|(i, &s)| (format!("acc_out[{i}]"), s))
+            .collect()
+    });
+    emit(
+        &tape,
+        &Function {
+            doc: &[
+                "Chain::lever_response at the angles sth: the response to a unit force at the contact point.",
+            ],
+            signature: "fn lever_response()",
+            stores,
+            tail: "",
+        },
+    )
+}
+
+/// The state `[θ; θ̇; v]` at the start of the step, as the kernel reads it (`th`, `om`,
+/// `volt`): component j of it.
+fn step_state(n: usize, j: usize) -> Sym {
+    match j {
+        j if j < n => input(format!("th[{j}]")),
+        j if j < 2 * n => input(format!("om[{}]", j - n)),
+        _ => input("volt"),
+    }
+}
+
+/// The stored energy at the step's state (`th`, `om`, `volt`) with the cart at velocity
+/// `cart_v`: `Energy::total_j` of [`Chain::energy_in`], in f32, for the health check.
+fn energy(shape: ChainShape) -> String {
+    let n = shape.segments;
+    let (tape, total) = record(|| {
+        let chain = coefficients(shape);
+        let [kinetic, gravity, springs, contact, electric] =
+            chain.energy_in(|j| step_state(n, j), input("cart_v"), |x| x);
+        kinetic + gravity + springs + contact + electric
+    });
+    emit(
+        &tape,
+        &Function {
+            doc: &[
+                "Chain::energy_in at the step's state (th, om, volt): the stored energy (J), Energy::total_j's sum.",
+            ],
+            signature: "fn energy(cart_v: f32) -> f32",
+            stores: vec![("let e".into(), total)],
+            tail: "    return e;\n",
+        },
+    )
+}
+
+/// The chain's functions for `shape`.
+pub(crate) fn chain_wgsl(shape: ChainShape) -> String {
+    [
+        rates(shape),
+        rates_on(shape),
+        lever_response(shape),
+        energy(shape),
+    ]
+    .join("\n")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::load_scene;
+    use crate::model::{ContactDamping, ModelParams, Workspace};
+
+    /// The default scene at N segments, with the piezo on and the given bumper law.
+    fn params(n: usize, law: &str) -> ModelParams {
+        let sets = [
+            format!("beam.segments={n}"),
+            "piezo.enabled=true".to_string(),
+            format!("limiter.damping_law=\"{law}\""),
+        ];
+        load_scene(None, &sets).unwrap().model_params().unwrap()
+    }
+
+    /// A state with both bumpers' branches visited over the seeds: a lean of up to ±0.45 rad
+    /// (the default clearance is 20°) bent a little, rates of a few rad/s, a voltage.
+    fn state(n: usize, seed: u32) -> Vec<f32> {
+        let r = |k: u32| ((seed * 7919 + k * 104_729) % 2000) as f32 / 1000.0 - 1.0;
+        let lean = 0.45 * r(1000);
+        let mut y: Vec<f32> = (0..n as u32).map(|i| lean + 0.05 * r(i)).collect();
+        let swing = 3.0 * r(2000);
+        y.extend((0..n as u32).map(|i| swing + 0.5 * r(100 + i)));
+        y.push(3.0 * r(999));
+        y
+    }
+
+    /// The recorded program, run on numbers, gives the CPU engine's f32 derivative bit for
+    /// bit: the kernel computes what `Chain::rates` computes, in its order (the GPU's own
+    /// `sin`, `cos` and rounding aside, which the parity suite bounds).
+    #[test]
+    fn the_recording_computes_what_the_chain_computes_bit_for_bit() {
+        for (n, law) in [(3, "loading"), (17, "loading"), (5, "kelvin_voigt")] {
+            let p = params(n, law);
+            let shape = ChainShape::of(&p).every_lever();
+            let (tape, (dy, load)) = record(|| {
+                let (chain, y) = symbolic(shape);
+                let mut ws = chain.workspace();
+                let mut dy = vec![Sym::splat(0.0); y.len()];
+                let load = chain.rates(&mut ws, input("cart_a"), &y, &mut dy, ContactLaw::Exact);
+                (dy, load.map(|b| b.branches))
+            });
+            let chain = Chain::<f32>::new(&p);
+            let mut ws: Workspace<f32> = chain.workspace();
+            let (mut switched, mut pushing) = (0, 0);
+            for seed in 0..64 {
+                let y = state(n, seed);
+                let cart_a = 5.0 * (seed as f32 - 20.0);
+                let value = |expr: &str| -> f32 {
+                    let index = |s: &str| s.trim_end_matches(']').parse::<usize>().unwrap();
+                    if let Some(i) = expr.strip_prefix("sth[") {
+                        y[index(i)]
+                    } else if let Some(i) = expr.strip_prefix("som[") {
+                        y[n + index(i)]
+                    } else if let Some(i) = expr.strip_prefix("lev[") {
+                        Coefficient::Lever(index(i)).of(&p) as f32
+                    } else if expr == "svolt" {
+                        y[2 * n]
+                    } else if expr == "cart_a" {
+                        cart_a
+                    } else {
+                        let c = ALL_COEFFICIENTS.iter().find(|&&c| read(c) == expr).unwrap();
+                        c.of(&p) as f32
+                    }
+                };
+                let v = tape.eval(value);
+                let mut want = vec![0f32; y.len()];
+                let rep = chain.rates(&mut ws, cart_a, &y, &mut want, ContactLaw::Exact);
+                for i in n..y.len() {
+                    assert_eq!(
+                        v[dy[i].index()].to_bits(),
+                        want[i].to_bits(),
+                        "N {n} seed {seed} [{i}]"
+                    );
+                }
+                let (br, want_br) = (load.unwrap().right, rep.unwrap().branches.right);
+                assert_eq!((v[br.0.index()], v[br.1.index()]), want_br);
+                pushing += usize::from(want_br.0 > 0.0);
+                switched += usize::from(want_br.0 > 0.0 && want_br.1 == 0.0);
+            }
+            assert!(pushing > 0, "N {n}: no state pressed the +x bumper");
+            if p.contact.as_ref().unwrap().law == ContactDamping::Loading {
+                assert!(switched > 0, "N {n}: no state on the undamped branch");
+            }
+        }
+    }
+
+    /// The recorded energy, run on numbers, is `Chain::energy_in` in f32 bit for bit, and that
+    /// is `Chain::energy` (in f64) to f32's precision.
+    #[test]
+    fn the_recorded_energy_is_the_chains() {
+        for (n, law) in [(3, "loading"), (17, "kelvin_voigt")] {
+            let p = params(n, law);
+            let shape = ChainShape::of(&p).every_lever();
+            let (tape, total) = record(|| {
+                let chain = coefficients(shape);
+                let e = chain.energy_in(|j| step_state(n, j), input("cart_v"), |x| x);
+                e[0] + e[1] + e[2] + e[3] + e[4]
+            });
+            let chain = Chain::<f32>::new(&p);
+            for seed in 0..16 {
+                let y = state(n, seed);
+                let cart_v = 0.1 * (seed as f32 - 8.0);
+                let value = |expr: &str| -> f32 {
+                    let index = |s: &str| s.trim_end_matches(']').parse::<usize>().unwrap();
+                    if let Some(i) = expr.strip_prefix("th[") {
+                        y[index(i)]
+                    } else if let Some(i) = expr.strip_prefix("om[") {
+                        y[n + index(i)]
+                    } else if let Some(i) = expr.strip_prefix("lev[") {
+                        Coefficient::Lever(index(i)).of(&p) as f32
+                    } else if expr == "volt" {
+                        y[2 * n]
+                    } else if expr == "cart_v" {
+                        cart_v
+                    } else {
+                        let c = ALL_COEFFICIENTS.iter().find(|&&c| read(c) == expr).unwrap();
+                        c.of(&p) as f32
+                    }
+                };
+                let got = tape.eval(value)[total.index()];
+                let e = chain.energy_in(|j| y[j], cart_v, |x| x);
+                let want = e[0] + e[1] + e[2] + e[3] + e[4];
+                assert_eq!(got.to_bits(), want.to_bits(), "N {n} seed {seed}");
+                let wide = chain.energy(&y, f64::from(cart_v)).total_j();
+                assert!(
+                    (f64::from(got) - wide).abs() <= 1e-5 * wide.abs().max(1.0),
+                    "{got} {wide}"
+                );
+            }
+        }
+    }
+
+    const ALL_COEFFICIENTS: [Coefficient; 16] = [
+        Coefficient::SegLength,
+        Coefficient::SegMass,
+        Coefficient::SegInertia,
+        Coefficient::TipMass,
+        Coefficient::HolderInertia,
+        Coefficient::Gravity,
+        Coefficient::JointStiffness,
+        Coefficient::RootStiffness,
+        Coefficient::JointDamping,
+        Coefficient::RootDamping,
+        Coefficient::BumperGap,
+        Coefficient::BumperStiffness,
+        Coefficient::BumperDamping,
+        Coefficient::PiezoInvCapacitance,
+        Coefficient::PiezoInvLoad,
+        Coefficient::PiezoCoupling,
+    ];
+}
