@@ -740,243 +740,6 @@ fn chain_rates_on(cart_a: f32, b: u32) {
     dvolt_out = 0.0f;
 }
 
-// Chain::lever_response at the angles sth: the response to a unit force at the contact point.
-fn lever_response() {
-    let v22 = sin(sth[0]);
-    let v23 = cos(sth[0]);
-    let v24 = sin(sth[1]);
-    let v25 = cos(sth[1]);
-    let v26 = sin(sth[2]);
-    let v27 = cos(sth[2]);
-    let v28 = lev[0] * v23;
-    let v31 = 0.5f * P.seg_mass;
-    let v32 = v31 * P.seg_len;
-    let v33 = P.seg_mass * P.seg_len;
-    let v34 = v33 * P.seg_len;
-    let v36 = v34 * 0.25f;
-    let v37 = P.seg_inertia + v36;
-    let v38 = P.tip_mass * 0.0f;
-    let v39 = -v26;
-    let v40 = P.tip_mass * v27;
-    let v41 = 0.0f * v39;
-    let v42 = v40 + v41;
-    let v43 = 0.0f * v27;
-    let v44 = P.tip_mass * v39;
-    let v45 = v43 + v44;
-    let v46 = P.tip_mass * v26;
-    let v47 = v46 + v43;
-    let v48 = 0.0f * v26;
-    let v49 = v48 + v40;
-    let v50 = v32 * v27;
-    let v51 = P.seg_len * v42;
-    let v52 = v50 + v51;
-    let v53 = v32 * v39;
-    let v54 = P.seg_len * v45;
-    let v55 = v53 + v54;
-    let v56 = P.seg_len * P.seg_len;
-    let v57 = v27 * v42;
-    let v58 = v39 * v45;
-    let v59 = v57 + v58;
-    let v60 = v56 * v59;
-    let v61 = v37 + v60;
-    let v62 = v32 * v26;
-    let v63 = P.seg_len * v47;
-    let v64 = v62 + v63;
-    let v65 = -v64;
-    let v66 = v65 * 0.0f;
-    let v67 = P.seg_len * v49;
-    let v68 = v50 + v67;
-    let v69 = -v68;
-    let v70 = v69 * 0.0f;
-    let v71 = v70 + v38;
-    let v72 = P.seg_mass * 0.0f;
-    let v73 = v71 + v72;
-    let v74 = 2.0f * P.seg_len;
-    let v75 = v74 * v47;
-    let v76 = v62 + v75;
-    let v77 = -v76;
-    let v78 = v77 * 0.0f;
-    let v79 = v74 * v49;
-    let v80 = v50 + v79;
-    let v81 = -v80;
-    let v82 = v81 * 0.0f;
-    let v83 = 2.0f * v38;
-    let v84 = v82 + v83;
-    let v85 = v84 + v72;
-    let v86 = -0.5f;
-    let v87 = v86 * P.seg_len;
-    let v88 = v27 * v78;
-    let v89 = v39 * v85;
-    let v90 = v88 + v89;
-    let v91 = v87 * v90;
-    let v93 = 1.0f / v61;
-    let v94 = P.seg_mass + P.tip_mass;
-    let v95 = v52 * v52;
-    let v96 = v95 * v93;
-    let v97 = v94 - v96;
-    let v98 = v52 * v55;
-    let v99 = v98 * v93;
-    let v100 = 0.0f - v99;
-    let v101 = v55 * v55;
-    let v102 = v101 * v93;
-    let v103 = v94 - v102;
-    let v104 = v52 * v91;
-    let v105 = v104 * v93;
-    let v106 = v66 + v105;
-    let v107 = v55 * v91;
-    let v108 = v107 * v93;
-    let v109 = v73 + v108;
-    let v110 = -v24;
-    let v111 = v97 * v25;
-    let v112 = v100 * v110;
-    let v113 = v111 + v112;
-    let v114 = v100 * v25;
-    let v115 = v103 * v110;
-    let v116 = v114 + v115;
-    let v117 = v97 * v24;
-    let v118 = v117 + v114;
-    let v119 = v100 * v24;
-    let v120 = v103 * v25;
-    let v121 = v119 + v120;
-    let v122 = v32 * v25;
-    let v123 = P.seg_len * v113;
-    let v124 = v122 + v123;
-    let v125 = v32 * v110;
-    let v126 = P.seg_len * v116;
-    let v127 = v125 + v126;
-    let v128 = v25 * v113;
-    let v129 = v110 * v116;
-    let v130 = v128 + v129;
-    let v131 = v56 * v130;
-    let v132 = v37 + v131;
-    let v133 = v32 * v24;
-    let v134 = P.seg_len * v118;
-    let v135 = v133 + v134;
-    let v136 = -v135;
-    let v137 = v136 * 0.0f;
-    let v138 = v137 + v106;
-    let v139 = P.seg_len * v121;
-    let v140 = v122 + v139;
-    let v141 = -v140;
-    let v142 = v141 * 0.0f;
-    let v143 = v142 + v109;
-    let v144 = v143 + v72;
-    let v145 = v74 * v118;
-    let v146 = v133 + v145;
-    let v147 = -v146;
-    let v148 = v147 * 0.0f;
-    let v149 = 2.0f * v106;
-    let v150 = v148 + v149;
-    let v151 = v74 * v121;
-    let v152 = v122 + v151;
-    let v153 = -v152;
-    let v154 = v153 * 0.0f;
-    let v155 = 2.0f * v109;
-    let v156 = v154 + v155;
-    let v157 = v156 + v72;
-    let v158 = v25 * v150;
-    let v159 = v110 * v157;
-    let v160 = v158 + v159;
-    let v161 = v87 * v160;
-    let v162 = 1.0f / v132;
-    let v163 = P.seg_mass + v97;
-    let v164 = v124 * v124;
-    let v165 = v164 * v162;
-    let v166 = v163 - v165;
-    let v167 = v124 * v127;
-    let v168 = v167 * v162;
-    let v169 = v100 - v168;
-    let v170 = P.seg_mass + v103;
-    let v171 = v127 * v127;
-    let v172 = v171 * v162;
-    let v173 = v170 - v172;
-    let v174 = v124 * v161;
-    let v175 = v174 * v162;
-    let v176 = v138 + v175;
-    let v177 = v127 * v161;
-    let v178 = v177 * v162;
-    let v179 = v144 + v178;
-    let v180 = -v22;
-    let v181 = v166 * v23;
-    let v182 = v169 * v180;
-    let v183 = v181 + v182;
-    let v184 = v169 * v23;
-    let v185 = v173 * v180;
-    let v186 = v184 + v185;
-    let v187 = v166 * v22;
-    let v188 = v187 + v184;
-    let v189 = v169 * v22;
-    let v190 = v173 * v23;
-    let v191 = v189 + v190;
-    let v192 = v32 * v23;
-    let v193 = P.seg_len * v183;
-    let v194 = v192 + v193;
-    let v195 = v32 * v180;
-    let v196 = P.seg_len * v186;
-    let v197 = v195 + v196;
-    let v198 = v23 * v183;
-    let v199 = v180 * v186;
-    let v200 = v198 + v199;
-    let v201 = v56 * v200;
-    let v202 = v37 + v201;
-    let v203 = v202 + P.holder_inertia;
-    let v204 = v32 * v22;
-    let v216 = v74 * v188;
-    let v217 = v204 + v216;
-    let v218 = -v217;
-    let v219 = v218 * 0.0f;
-    let v220 = 2.0f * v176;
-    let v221 = v219 + v220;
-    let v222 = v74 * v191;
-    let v223 = v192 + v222;
-    let v224 = -v223;
-    let v225 = v224 * 0.0f;
-    let v226 = 2.0f * v179;
-    let v227 = v225 + v226;
-    let v228 = v227 + v72;
-    let v229 = v23 * v221;
-    let v230 = v180 * v228;
-    let v231 = v229 + v230;
-    let v232 = v87 * v231;
-    let v233 = v232 + v28;
-    let v252 = v194 * 0.0f;
-    let v253 = v233 - v252;
-    let v254 = v197 * 0.0f;
-    let v255 = v253 - v254;
-    let v256 = v255 / v203;
-    let v257 = v23 * v256;
-    let v258 = v22 * 0.0f;
-    let v259 = v257 - v258;
-    let v260 = P.seg_len * v259;
-    let v261 = v180 * v256;
-    let v262 = v23 * 0.0f;
-    let v263 = v261 - v262;
-    let v264 = P.seg_len * v263;
-    let v265 = v124 * v260;
-    let v266 = v161 - v265;
-    let v267 = v127 * v264;
-    let v268 = v266 - v267;
-    let v269 = v268 / v132;
-    let v270 = v25 * v269;
-    let v271 = v24 * 0.0f;
-    let v272 = v270 - v271;
-    let v273 = P.seg_len * v272;
-    let v274 = v260 + v273;
-    let v275 = v110 * v269;
-    let v276 = v25 * 0.0f;
-    let v277 = v275 - v276;
-    let v278 = P.seg_len * v277;
-    let v279 = v264 + v278;
-    let v280 = v52 * v274;
-    let v281 = v91 - v280;
-    let v282 = v55 * v279;
-    let v283 = v281 - v282;
-    let v284 = v283 / v61;
-    acc_out[0] = v256;
-    acc_out[1] = v269;
-    acc_out[2] = v284;
-}
-
 // Chain::energy_in at the step's state (th, om, volt): the stored energy (J), Energy::total_j's sum.
 fn energy(cart_v: f32) -> f32 {
     let v19 = sin(th[0]);
@@ -1095,6 +858,278 @@ fn energy(cart_v: f32) -> f32 {
     let v136 = v135 + v133;
     let e = v136;
     return e;
+}
+
+// Chain::penetrations at the step's state th: bit 0 the +x bumper penetrated, bit 1 the −x one.
+fn touch_flags() -> u32 {
+    let v22 = sin(th[0]);
+    let v24 = lev[0] * v22;
+    let v25 = v24 - P.gap;
+    let v26 = -v24;
+    let v27 = v26 - P.gap;
+    let right = v25;
+    let left = v27;
+    return select(0u, 1u, right > 0.0f) | select(0u, 2u, left > 0.0f);
+}
+
+// saltation_lanes (src/engine/twin.rs): the twin's rates at a contact onset of the main state (onsets: bit 0 +x, bit 1 −x).
+fn twin_saltation(onsets: u32) {
+    let v31 = sin(th[0]);
+    let v32 = cos(th[0]);
+    let v33 = lev[0] * v31;
+    let v34 = v33 - P.gap;
+    let v35 = -v33;
+    let v36 = v35 - P.gap;
+    let v37 = sin(tw_th[0]);
+    let v39 = lev[0] * v37;
+    let v40 = v39 - P.gap;
+    let v41 = -v39;
+    let v42 = v41 - P.gap;
+    let v43 = sin(th[1]);
+    let v44 = cos(th[1]);
+    let v45 = sin(th[2]);
+    let v46 = cos(th[2]);
+    let v47 = lev[0] * v32;
+    let v50 = 0.5f * P.seg_mass;
+    let v51 = v50 * P.seg_len;
+    let v52 = P.seg_mass * P.seg_len;
+    let v53 = v52 * P.seg_len;
+    let v55 = v53 * 0.25f;
+    let v56 = P.seg_inertia + v55;
+    let v57 = P.tip_mass * 0.0f;
+    let v58 = -v45;
+    let v59 = P.tip_mass * v46;
+    let v60 = 0.0f * v58;
+    let v61 = v59 + v60;
+    let v62 = 0.0f * v46;
+    let v63 = P.tip_mass * v58;
+    let v64 = v62 + v63;
+    let v65 = P.tip_mass * v45;
+    let v66 = v65 + v62;
+    let v67 = 0.0f * v45;
+    let v68 = v67 + v59;
+    let v69 = v51 * v46;
+    let v70 = P.seg_len * v61;
+    let v71 = v69 + v70;
+    let v72 = v51 * v58;
+    let v73 = P.seg_len * v64;
+    let v74 = v72 + v73;
+    let v75 = P.seg_len * P.seg_len;
+    let v76 = v46 * v61;
+    let v77 = v58 * v64;
+    let v78 = v76 + v77;
+    let v79 = v75 * v78;
+    let v80 = v56 + v79;
+    let v81 = v51 * v45;
+    let v82 = P.seg_len * v66;
+    let v83 = v81 + v82;
+    let v84 = -v83;
+    let v85 = v84 * 0.0f;
+    let v86 = P.seg_len * v68;
+    let v87 = v69 + v86;
+    let v88 = -v87;
+    let v89 = v88 * 0.0f;
+    let v90 = v89 + v57;
+    let v91 = P.seg_mass * 0.0f;
+    let v92 = v90 + v91;
+    let v93 = 2.0f * P.seg_len;
+    let v94 = v93 * v66;
+    let v95 = v81 + v94;
+    let v96 = -v95;
+    let v97 = v96 * 0.0f;
+    let v98 = v93 * v68;
+    let v99 = v69 + v98;
+    let v100 = -v99;
+    let v101 = v100 * 0.0f;
+    let v102 = 2.0f * v57;
+    let v103 = v101 + v102;
+    let v104 = v103 + v91;
+    let v105 = -0.5f;
+    let v106 = v105 * P.seg_len;
+    let v107 = v46 * v97;
+    let v108 = v58 * v104;
+    let v109 = v107 + v108;
+    let v110 = v106 * v109;
+    let v112 = 1.0f / v80;
+    let v113 = P.seg_mass + P.tip_mass;
+    let v114 = v71 * v71;
+    let v115 = v114 * v112;
+    let v116 = v113 - v115;
+    let v117 = v71 * v74;
+    let v118 = v117 * v112;
+    let v119 = 0.0f - v118;
+    let v120 = v74 * v74;
+    let v121 = v120 * v112;
+    let v122 = v113 - v121;
+    let v123 = v71 * v110;
+    let v124 = v123 * v112;
+    let v125 = v85 + v124;
+    let v126 = v74 * v110;
+    let v127 = v126 * v112;
+    let v128 = v92 + v127;
+    let v129 = -v43;
+    let v130 = v116 * v44;
+    let v131 = v119 * v129;
+    let v132 = v130 + v131;
+    let v133 = v119 * v44;
+    let v134 = v122 * v129;
+    let v135 = v133 + v134;
+    let v136 = v116 * v43;
+    let v137 = v136 + v133;
+    let v138 = v119 * v43;
+    let v139 = v122 * v44;
+    let v140 = v138 + v139;
+    let v141 = v51 * v44;
+    let v142 = P.seg_len * v132;
+    let v143 = v141 + v142;
+    let v144 = v51 * v129;
+    let v145 = P.seg_len * v135;
+    let v146 = v144 + v145;
+    let v147 = v44 * v132;
+    let v148 = v129 * v135;
+    let v149 = v147 + v148;
+    let v150 = v75 * v149;
+    let v151 = v56 + v150;
+    let v152 = v51 * v43;
+    let v153 = P.seg_len * v137;
+    let v154 = v152 + v153;
+    let v155 = -v154;
+    let v156 = v155 * 0.0f;
+    let v157 = v156 + v125;
+    let v158 = P.seg_len * v140;
+    let v159 = v141 + v158;
+    let v160 = -v159;
+    let v161 = v160 * 0.0f;
+    let v162 = v161 + v128;
+    let v163 = v162 + v91;
+    let v164 = v93 * v137;
+    let v165 = v152 + v164;
+    let v166 = -v165;
+    let v167 = v166 * 0.0f;
+    let v168 = 2.0f * v125;
+    let v169 = v167 + v168;
+    let v170 = v93 * v140;
+    let v171 = v141 + v170;
+    let v172 = -v171;
+    let v173 = v172 * 0.0f;
+    let v174 = 2.0f * v128;
+    let v175 = v173 + v174;
+    let v176 = v175 + v91;
+    let v177 = v44 * v169;
+    let v178 = v129 * v176;
+    let v179 = v177 + v178;
+    let v180 = v106 * v179;
+    let v181 = 1.0f / v151;
+    let v182 = P.seg_mass + v116;
+    let v183 = v143 * v143;
+    let v184 = v183 * v181;
+    let v185 = v182 - v184;
+    let v186 = v143 * v146;
+    let v187 = v186 * v181;
+    let v188 = v119 - v187;
+    let v189 = P.seg_mass + v122;
+    let v190 = v146 * v146;
+    let v191 = v190 * v181;
+    let v192 = v189 - v191;
+    let v193 = v143 * v180;
+    let v194 = v193 * v181;
+    let v195 = v157 + v194;
+    let v196 = v146 * v180;
+    let v197 = v196 * v181;
+    let v198 = v163 + v197;
+    let v199 = -v31;
+    let v200 = v185 * v32;
+    let v201 = v188 * v199;
+    let v202 = v200 + v201;
+    let v203 = v188 * v32;
+    let v204 = v192 * v199;
+    let v205 = v203 + v204;
+    let v206 = v185 * v31;
+    let v207 = v206 + v203;
+    let v208 = v188 * v31;
+    let v209 = v192 * v32;
+    let v210 = v208 + v209;
+    let v211 = v51 * v32;
+    let v212 = P.seg_len * v202;
+    let v213 = v211 + v212;
+    let v214 = v51 * v199;
+    let v215 = P.seg_len * v205;
+    let v216 = v214 + v215;
+    let v217 = v32 * v202;
+    let v218 = v199 * v205;
+    let v219 = v217 + v218;
+    let v220 = v75 * v219;
+    let v221 = v56 + v220;
+    let v222 = v221 + P.holder_inertia;
+    let v223 = v51 * v31;
+    let v235 = v93 * v207;
+    let v236 = v223 + v235;
+    let v237 = -v236;
+    let v238 = v237 * 0.0f;
+    let v239 = 2.0f * v195;
+    let v240 = v238 + v239;
+    let v241 = v93 * v210;
+    let v242 = v211 + v241;
+    let v243 = -v242;
+    let v244 = v243 * 0.0f;
+    let v245 = 2.0f * v198;
+    let v246 = v244 + v245;
+    let v247 = v246 + v91;
+    let v248 = v32 * v240;
+    let v249 = v199 * v247;
+    let v250 = v248 + v249;
+    let v251 = v106 * v250;
+    let v252 = v251 + v47;
+    let v271 = v213 * 0.0f;
+    let v272 = v252 - v271;
+    let v273 = v216 * 0.0f;
+    let v274 = v272 - v273;
+    let v275 = v274 / v222;
+    let v276 = v32 * v275;
+    let v277 = v31 * 0.0f;
+    let v278 = v276 - v277;
+    let v279 = P.seg_len * v278;
+    let v280 = v199 * v275;
+    let v281 = v32 * 0.0f;
+    let v282 = v280 - v281;
+    let v283 = P.seg_len * v282;
+    let v284 = v143 * v279;
+    let v285 = v180 - v284;
+    let v286 = v146 * v283;
+    let v287 = v285 - v286;
+    let v288 = v287 / v151;
+    let v289 = v44 * v288;
+    let v290 = v43 * 0.0f;
+    let v291 = v289 - v290;
+    let v292 = P.seg_len * v291;
+    let v293 = v279 + v292;
+    let v294 = v129 * v288;
+    let v295 = v44 * 0.0f;
+    let v296 = v294 - v295;
+    let v297 = P.seg_len * v296;
+    let v298 = v283 + v297;
+    let v299 = v71 * v293;
+    let v300 = v110 - v299;
+    let v301 = v74 * v298;
+    let v302 = v300 - v301;
+    let v303 = v302 / v80;
+    let v314 = v40 - v34;
+    let v315 = P.cc * v314;
+    let v316 = 0.0f - v315;
+    let v317 = select(0.0f, v316, f32((onsets >> 0u) & 1u) > 0.0f);
+    let v318 = v42 - v36;
+    let v319 = P.cc * v318;
+    let v320 = v317 + v319;
+    let v321 = select(v317, v320, f32((onsets >> 1u) & 1u) > 0.0f);
+    let v322 = v321 * v275;
+    let v323 = tw_om[0] + v322;
+    let v324 = v321 * v288;
+    let v325 = tw_om[1] + v324;
+    let v326 = v321 * v303;
+    let v327 = tw_om[2] + v326;
+    tw_om[0] = v323;
+    tw_om[1] = v325;
+    tw_om[2] = v327;
 }
 // Common definitions of the ensemble kernels of pendulum-atlas: specialisation constants, the
 // data structures shared with Rust, the bindings and the integrator's per-invocation state.
@@ -1453,30 +1488,6 @@ fn health(ph: u32) -> u32 {
     return STATUS_OK;
 }
 
-// Bumper penetration flags at the step's state: bit 0 the +x bumper, bit 1 the −x one.
-fn touch_flags() -> u32 {
-    if !HAS_CONTACT {
-        return 0u;
-    }
-    var x = 0.0;
-    for (var i = 0u; i < P.n_levers; i++) {
-        x += lev[i] * sin(th[i]);
-    }
-    return touch_of(x);
-}
-
-// The bumper flags of a contact point at x: bit 0 past the +x bumper, bit 1 past the −x one.
-fn touch_of(x: f32) -> u32 {
-    var f = 0u;
-    if x - P.gap > 0.0 {
-        f |= 1u;
-    }
-    if -x - P.gap > 0.0 {
-        f |= 2u;
-    }
-    return f;
-}
-
 // One step of whichever state is in (th, om, volt): the main one (recording its stages'
 // bumper branches), or the twin's when swapped in (on those branches).
 fn step_state(ph: u32, dt: f32) {
@@ -1608,34 +1619,6 @@ fn twin_step(ph: u32, dt: f32) {
     step_state(ph, dt);
     twin_mode = false;
     swap_twin();
-}
-
-// onset_saltation of src/engine/twin.rs: after a step in which the main state began touching
-// a bumper (`onsets`: bit 0 the +x one, bit 1 the −x one), the twin's rates take the impulse
-// ∓c_c (δ_twin − δ_main) M(θ)⁻¹(λ_i cos θ_i) that the fixed step cannot place.
-fn twin_saltation(onsets: u32) {
-    var x = 0.0;
-    var xt = 0.0;
-    for (var i = 0u; i < P.n_levers; i++) {
-        x += lev[i] * sin(th[i]);
-        xt += lev[i] * sin(tw_th[i]);
-    }
-    // δ_twin − δ_main is xt − x at the +x bumper, x − xt at the −x one.
-    var k = 0.0;
-    if (onsets & 1u) != 0u {
-        k -= P.cc * (xt - x);
-    }
-    if (onsets & 2u) != 0u {
-        k += P.cc * (x - xt);
-    }
-    for (var i = 0u; i < N_SEG; i++) {
-        sth[i] = th[i];
-        som[i] = 0.0;
-    }
-    lever_response();
-    for (var i = 0u; i < N_SEG; i++) {
-        tw_om[i] += k * acc_out[i];
-    }
 }
 
 // TwinNorm::distance² of src/reduce/lyapunov.rs, the energy norm of the separation twin −

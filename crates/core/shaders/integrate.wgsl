@@ -214,30 +214,6 @@ fn health(ph: u32) -> u32 {
     return STATUS_OK;
 }
 
-// Bumper penetration flags at the step's state: bit 0 the +x bumper, bit 1 the −x one.
-fn touch_flags() -> u32 {
-    if !HAS_CONTACT {
-        return 0u;
-    }
-    var x = 0.0;
-    for (var i = 0u; i < P.n_levers; i++) {
-        x += lev[i] * sin(th[i]);
-    }
-    return touch_of(x);
-}
-
-// The bumper flags of a contact point at x: bit 0 past the +x bumper, bit 1 past the −x one.
-fn touch_of(x: f32) -> u32 {
-    var f = 0u;
-    if x - P.gap > 0.0 {
-        f |= 1u;
-    }
-    if -x - P.gap > 0.0 {
-        f |= 2u;
-    }
-    return f;
-}
-
 // One step of whichever state is in (th, om, volt): the main one (recording its stages'
 // bumper branches), or the twin's when swapped in (on those branches).
 fn step_state(ph: u32, dt: f32) {
@@ -369,34 +345,6 @@ fn twin_step(ph: u32, dt: f32) {
     step_state(ph, dt);
     twin_mode = false;
     swap_twin();
-}
-
-// onset_saltation of src/engine/twin.rs: after a step in which the main state began touching
-// a bumper (`onsets`: bit 0 the +x one, bit 1 the −x one), the twin's rates take the impulse
-// ∓c_c (δ_twin − δ_main) M(θ)⁻¹(λ_i cos θ_i) that the fixed step cannot place.
-fn twin_saltation(onsets: u32) {
-    var x = 0.0;
-    var xt = 0.0;
-    for (var i = 0u; i < P.n_levers; i++) {
-        x += lev[i] * sin(th[i]);
-        xt += lev[i] * sin(tw_th[i]);
-    }
-    // δ_twin − δ_main is xt − x at the +x bumper, x − xt at the −x one.
-    var k = 0.0;
-    if (onsets & 1u) != 0u {
-        k -= P.cc * (xt - x);
-    }
-    if (onsets & 2u) != 0u {
-        k += P.cc * (x - xt);
-    }
-    for (var i = 0u; i < N_SEG; i++) {
-        sth[i] = th[i];
-        som[i] = 0.0;
-    }
-    lever_response();
-    for (var i = 0u; i < N_SEG; i++) {
-        tw_om[i] += k * acc_out[i];
-    }
 }
 
 // TwinNorm::distance² of src/reduce/lyapunov.rs, the energy norm of the separation twin −

@@ -31,7 +31,7 @@
 //! its Floquet exponent −3.30 1/s from the event-locating DOP853 integrator.
 
 use crate::engine::state_view::{StateView, StateViewMut};
-use crate::model::{Chain, Real, Workspace};
+use crate::model::{Chain, Lane, Real, Workspace};
 use crate::reduce::{LyapunovSums, TwinPlan};
 
 /// Add the saltation of a contact onset to the twin's separation (see the module doc):
@@ -47,6 +47,21 @@ pub(crate) fn onset_saltation<T: Real>(
     if !(onsets.0 || onsets.1) {
         return;
     }
+    let flag = |on: bool| T::splat(if on { 1.0 } else { 0.0 });
+    saltation_lanes(chain, ws, y, twin, (flag(onsets.0), flag(onsets.1)));
+}
+
+/// [`onset_saltation`] in every lane, the onsets as lane flags (1 where the contact began, 0
+/// elsewhere): the twin's rates take ∓c_c (δ_twin − δ_main) M(θ)⁻¹(λ_i cos θ_i) at the main
+/// state's angles. Written once for the CPU and the GPU, whose `twin_saltation` is generated
+/// from it (`crate::engine::gpu::codegen`).
+pub(crate) fn saltation_lanes<T: Lane>(
+    chain: &Chain<T>,
+    ws: &mut Workspace<T>,
+    y: &[T],
+    twin: &mut [T],
+    (right, left): (T, T),
+) {
     let (Some(c), Some((rm, lm)), Some((rt, lt))) = (
         chain.contact_damping(),
         chain.penetrations(y),
@@ -55,15 +70,11 @@ pub(crate) fn onset_saltation<T: Real>(
         return;
     };
     let n = chain.segments();
-    let mut response = vec![T::zero(); n];
+    let mut response = vec![T::splat(0.0); n];
     chain.lever_response(ws, y, &mut response);
-    let mut k = T::zero();
-    if onsets.0 {
-        k -= c * (rt - rm);
-    }
-    if onsets.1 {
-        k += c * (lt - lm);
-    }
+    let mut k = T::splat(0.0);
+    k = T::if_positive(right, k - c * (rt - rm), k);
+    k = T::if_positive(left, k + c * (lt - lm), k);
     for (w, r) in twin[n..2 * n].iter_mut().zip(&response) {
         *w += k * *r;
     }

@@ -1,12 +1,14 @@
 //! The chain as WGSL: [`Chain::rates`], [`Chain::rates_on`], [`Chain::energy_in`] and
-//! [`Chain::lever_response`] of `crate::model::chain`, recorded on [`Sym`] for one
-//! [`ChainShape`] and written out unrolled (no loop, no array of its own).
+//! [`Chain::penetrations`] of `crate::model::chain`, and the twin's saltation
+//! (`crate::engine::twin::saltation_lanes`), recorded on [`Sym`] for one [`ChainShape`] and
+//! written out unrolled (no loop, no array of its own).
 //!
 //! The shape's levers are the kernel's `lev[i]` (zero past an instance's contact segment), so
 //! one shape serves every contact height up to its lever count. The derivatives read and write
 //! the thread kernel's stage state (`shaders/common.wgsl`): the angles `sth`, rates `som` and
 //! voltage `svolt`, the instance's coefficients `P` and levers `lev`; θ̈ into `acc_out`, v̇ into
-//! `dvolt_out`. The energy reads the step's state `th`, `om`, `volt`.
+//! `dvolt_out`. The energy, the bumper flags and the saltation read the step's state `th`, `om`,
+//! `volt` (and the twin's `tw_th`, `tw_om`).
 
 use super::sym::{Sym, input, record};
 use super::wgsl::{Function, emit};
@@ -126,32 +128,67 @@ fn rates_on(shape: ChainShape) -> String {
     )
 }
 
-/// M(θ)⁻¹ (λ_i cos θ_i) at the angles `sth` into `acc_out`: `lever_response` (nothing
-/// without bumpers, where it is never called).
-fn lever_response(shape: ChainShape) -> String {
+/// λ1's twin's saltation at a contact onset (`onsets`: bit 0 the +x bumper, bit 1 the −x
+/// one) after a step of the main state (`th`, `om`, `volt`): the twin's rates `tw_om` take
+/// the impulse of [`crate::engine::twin::saltation_lanes`] (nothing without bumpers, where
+/// no contact begins).
+fn twin_saltation(shape: ChainShape) -> String {
     let n = shape.segments;
-    let (tape, out) = record(|| {
-        let (chain, y) = symbolic(shape);
+    let (tape, rates) = record(|| {
+        let chain = coefficients(shape);
         let mut ws = chain.workspace();
-        let mut out = vec![Sym::splat(0.0); n];
-        let has = chain.lever_response(&mut ws, &y, &mut out);
-        has.then_some(out)
+        let y: Vec<Sym> = (0..2 * n + 1).map(|j| step_state(n, j)).collect();
+        let mut twin: Vec<Sym> = (0..n).map(|i| input(format!("tw_th[{i}]"))).collect();
+        twin.extend((0..n).map(|i| input(format!("tw_om[{i}]"))));
+        twin.push(input("tw_volt"));
+        let bit = |k: u32| input(format!("f32((onsets >> {k}u) & 1u)"));
+        crate::engine::twin::saltation_lanes(&chain, &mut ws, &y, &mut twin, (bit(0), bit(1)));
+        shape.contact.map(|_| twin[n..2 * n].to_vec())
     });
-    let stores = out.map_or_else(Vec::new, |out| {
-        out.iter()
+    let stores = rates.map_or_else(Vec::new, |r| {
+        r.iter()
             .enumerate()
-            .map(|(i, &s)| (format!("acc_out[{i}]"), s))
+            .map(|(i, &s)| (format!("tw_om[{i}]"), s))
             .collect()
     });
     emit(
         &tape,
         &Function {
             doc: &[
-                "Chain::lever_response at the angles sth: the response to a unit force at the contact point.",
+                "saltation_lanes (src/engine/twin.rs): the twin's rates at a contact onset of the main state (onsets: bit 0 +x, bit 1 −x).",
             ],
-            signature: "fn lever_response()",
+            signature: "fn twin_saltation(onsets: u32)",
             stores,
             tail: "",
+        },
+    )
+}
+
+/// The bumper flags at the step's state `th`: bit 0 the +x bumper penetrated, bit 1 the −x
+/// one ([`Chain::penetrations`]; 0 without bumpers).
+fn touch_flags(shape: ChainShape) -> String {
+    let n = shape.segments;
+    let (tape, pen) = record(|| {
+        let chain = coefficients(shape);
+        let y: Vec<Sym> = (0..2 * n + 1).map(|j| step_state(n, j)).collect();
+        chain.penetrations(&y)
+    });
+    let (stores, tail) = match pen {
+        Some((right, left)) => (
+            vec![("let right".into(), right), ("let left".into(), left)],
+            "    return select(0u, 1u, right > 0.0f) | select(0u, 2u, left > 0.0f);\n",
+        ),
+        None => (Vec::new(), "    return 0u;\n"),
+    };
+    emit(
+        &tape,
+        &Function {
+            doc: &[
+                "Chain::penetrations at the step's state th: bit 0 the +x bumper penetrated, bit 1 the −x one.",
+            ],
+            signature: "fn touch_flags() -> u32",
+            stores,
+            tail,
         },
     )
 }
@@ -194,8 +231,9 @@ pub(crate) fn chain_wgsl(shape: ChainShape) -> String {
     [
         rates(shape),
         rates_on(shape),
-        lever_response(shape),
         energy(shape),
+        touch_flags(shape),
+        twin_saltation(shape),
     ]
     .join("\n")
 }
@@ -329,6 +367,57 @@ mod tests {
                 assert!(
                     (f64::from(got) - wide).abs() <= 1e-5 * wide.abs().max(1.0),
                     "{got} {wide}"
+                );
+            }
+        }
+    }
+
+    /// The recorded saltation, run on numbers, is `saltation_lanes` in f32 bit for bit.
+    #[test]
+    fn the_recorded_saltation_is_the_twins() {
+        let (n, p) = (5, params(5, "loading"));
+        let shape = ChainShape::of(&p).every_lever();
+        let (tape, rates) = record(|| {
+            let chain = coefficients(shape);
+            let mut ws = chain.workspace();
+            let y: Vec<Sym> = (0..2 * n + 1).map(|j| step_state(n, j)).collect();
+            let mut twin: Vec<Sym> = (0..n).map(|i| input(format!("tw_th[{i}]"))).collect();
+            twin.extend((0..n).map(|i| input(format!("tw_om[{i}]"))));
+            twin.push(input("tw_volt"));
+            let flags = (input("right"), input("left"));
+            crate::engine::twin::saltation_lanes(&chain, &mut ws, &y, &mut twin, flags);
+            twin
+        });
+        let chain = Chain::<f32>::new(&p);
+        let mut ws = chain.workspace();
+        for seed in 0..8 {
+            let (y, mut twin) = (state(n, seed), state(n, seed + 100));
+            let flags = ((seed % 2) as f32, (seed / 2 % 2) as f32);
+            let value = |expr: &str| -> f32 {
+                let index = |s: &str| s.trim_end_matches(']').parse::<usize>().unwrap();
+                match expr {
+                    "right" => flags.0,
+                    "left" => flags.1,
+                    "volt" => y[2 * n],
+                    "tw_volt" => twin[2 * n],
+                    e if e.starts_with("tw_th[") => twin[index(&e[6..])],
+                    e if e.starts_with("tw_om[") => twin[n + index(&e[6..])],
+                    e if e.starts_with("th[") => y[index(&e[3..])],
+                    e if e.starts_with("om[") => y[n + index(&e[3..])],
+                    e if e.starts_with("lev[") => Coefficient::Lever(index(&e[4..])).of(&p) as f32,
+                    e => {
+                        let c = ALL_COEFFICIENTS.iter().find(|&&c| read(c) == e).unwrap();
+                        c.of(&p) as f32
+                    }
+                }
+            };
+            let v = tape.eval(value);
+            crate::engine::twin::saltation_lanes(&chain, &mut ws, &y, &mut twin, flags);
+            for i in n..2 * n {
+                assert_eq!(
+                    v[rates[i].index()].to_bits(),
+                    twin[i].to_bits(),
+                    "seed {seed} [{i}]"
                 );
             }
         }
