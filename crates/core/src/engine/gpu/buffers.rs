@@ -251,11 +251,9 @@ pub(crate) fn software_step_budget(
             "use fewer c values, or the CPU engine",
         ));
     }
-    let max_lever = key.chain.contact.map_or(0, |(levers, _)| levers);
     Ok(Some(steps_within_loop_budget(
         (key.method, key.adaptive),
         n_seg,
-        max_lever,
         key.want_twin,
         early_loops(plan, key),
     )))
@@ -290,62 +288,57 @@ fn early_loops(plan: &EnsemblePlan, key: &KernelKey) -> (f64, f64) {
 }
 
 /// Steps per dispatch whose loop iterations, health checks included (one every
-/// [`CHECK_EVERY`] steps, one at the end and one at a dispatch's start at most), stay within
+/// [`CHECK_EVERY`] steps, one at the end and one at a dispatch's start at most; `2 N`: the
+/// state's finiteness and the bends, the energy being generated without a loop), stay within
 /// [`SOFTWARE_LOOP_BUDGET`]. lavapipe counts every loop iteration of an invocation against
 /// one limit, and silently ends the loop when it is reached: an undercount here left
 /// instances short of their last step (caught by the GPU results' check). λ1's twin takes
 /// every step again with a swap in and out (`twin_step`: one step and `2 N`), and at most once
-/// per step a saltation (`twin_saltation`: at most `6 N`) and a sample (`twin_sample`: `2 N`);
+/// per step a sample (`twin_sample`: `2 N`; its saltation is generated without a loop, and the
+/// `6 N` it once took is still counted, an upper bound);
 /// per dispatch it is loaded and stored (`2 N`). The early stop adds `early` (per step,
 /// per dispatch: [`early_loops`]).
 fn steps_within_loop_budget(
     (method, adaptive): (Method, bool),
     n: usize,
-    levers: usize,
     twin: bool,
     early: (f64, f64),
 ) -> u64 {
-    let one = (loops_per_step(method, n, levers) + adaptive_loops(n, levers, adaptive)) as f64;
+    let one = (loops_per_step(method, n) + adaptive_loops(n, adaptive)) as f64;
     let n = n as f64;
     let (per_step, fixed) = if twin {
         (2.0 * one + 10.0 * n + early.0, 2.0 * n + early.1)
     } else {
         (one + early.0, early.1)
     };
-    let health = 3.0 * n + levers as f64;
+    let health = 2.0 * n;
     let spare = SOFTWARE_LOOP_BUDGET as f64 - 2.0 * health - fixed;
     ((spare / (per_step + health / CHECK_EVERY as f64)) as u64).max(1)
 }
 
 /// Loop iterations of one integration step in the kernel, counted from the WGSL (an upper
 /// bound: loops the compiler unrolls cost nothing), without the health check. The derivative
-/// is generated unrolled (`super::codegen`) and has no loop:
-/// - RK4: the step loop (1), `rk4_step`'s two sweeps (2N), four stage updates (N), and
-///   `touch_flags` (levers): `6 N + levers + 1`;
+/// and the bumper flags are generated unrolled (`super::codegen`) and have no loop:
+/// - RK4: the step loop (1), `rk4_step`'s two sweeps (2N), four stage updates (N):
+///   `6 N + 1`;
 /// - IMEX: the step loop (1), `imex_step`'s copy (N), stage loop (3) and weighted sums
 ///   (5N + 4), four `imex_eval` (N each: the copy out) of which three add the joint couples
 ///   and an N × N product (N² + 3N), three `imex_implicit_stage` (2N² + (6 + i) N + i for
-///   i = 1, 2, 3), and `touch_flags`: `9 N² + 43 N + levers + 14`.
-fn loops_per_step(method: Method, n: usize, levers: usize) -> usize {
+///   i = 1, 2, 3): `9 N² + 43 N + 14`.
+fn loops_per_step(method: Method, n: usize) -> usize {
     match method {
-        Method::Rk4 => 6 * n + levers + 1,
-        Method::Imex => 9 * n * n + 43 * n + levers + 14,
+        Method::Rk4 => 6 * n + 1,
+        Method::Imex => 9 * n * n + 43 * n + 14,
     }
 }
 
 /// Loop iterations a sub-step of adaptive steps adds to an IMEX step (with adaptive steps the
 /// budget counts sub-steps tried, each a pass of the kernel's loop): `imex_error` (its sums
-/// 5N, the couples N, two N × N products N² + N each, the piezo's 4) and the pass's own
-/// `touch_flags` (levers): `2 N² + 8 N + levers + 4`. The same count bounds RK4(3)'s
-/// additions: `rk4_error` (two sweeps 2N, a derivative levers + 2N), k₄ kept (2N), k₁ handed
-/// on and kept (2N), `touch_flags` (levers), less the derivative of k₁ it no longer takes
-/// (levers + 2N), and once a dispatch `prime_k1` (4N + levers).
-fn adaptive_loops(n: usize, levers: usize, adaptive: bool) -> usize {
-    if adaptive {
-        2 * n * n + 8 * n + levers + 4
-    } else {
-        0
-    }
+/// 5N, the couples N, two N × N products N² + N each, the piezo's 4): `2 N² + 8 N + 4`. The
+/// same count bounds RK4(3)'s additions: `rk4_error` (two sweeps 2N), k₄ kept (2N), k₁ handed
+/// on and kept (2N), and once a dispatch `prime_k1` (2N).
+fn adaptive_loops(n: usize, adaptive: bool) -> usize {
+    if adaptive { 2 * n * n + 8 * n + 4 } else { 0 }
 }
 
 /// The buffers of a run and their bind group (which keeps the others alive).
