@@ -1,4 +1,4 @@
-//! One definition of each struct the GPU reads or writes. [`gpu_struct!`] declares the Rust
+//! One definition of each struct the GPU reads or writes. `gpu_struct!` declares the Rust
 //! struct (`#[repr(C)]`, [`bytemuck::Pod`]) and lists its members with their WGSL types and
 //! byte offsets ([`GpuStruct::members`]), so the WGSL struct is written from it
 //! ([`GpuStruct::wgsl`], into the kernels' generated header) rather than by hand. One test
@@ -41,7 +41,7 @@ pub struct Member {
     pub doc: &'static str,
 }
 
-/// A struct shared with the kernels, declared by [`gpu_struct!`].
+/// A struct shared with the kernels, declared by `gpu_struct!`.
 pub trait GpuStruct: Sized {
     /// Its WGSL name.
     const WGSL_NAME: &'static str;
