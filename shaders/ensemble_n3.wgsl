@@ -97,6 +97,7 @@ struct InstanceParams {
     twin_d0: f32, // The twin's separation d0.
     twin_rigid_w: f32, // The rigid rotation's weight in the twin's norm, [`TwinNorm::rigid_weight`].
     twin_scale: f32, // The scale of the twin's norm, [`TwinNorm::scale`] (the chain's inertias, springs and
+    twin_volt_w: f32, // The voltage's weight in the twin's norm, [`TwinNorm::volt_weight`] (C_p of a coupled
     period_s: f32, // The forcing period T = 1/f (s).
     rtol: f32, // Adaptive steps: the relative tolerance (0 for fixed steps).
     atol: f32, // Adaptive steps: the absolute tolerance (0 for fixed steps).
@@ -1131,6 +1132,169 @@ fn twin_saltation(onsets: u32) {
     tw_om[1] = v325;
     tw_om[2] = v327;
 }
+
+// distance2_in of λ1's separation: the twin (tw_th, tw_om, tw_volt) less the main state (th, om, volt).
+fn twin_norm2() -> f32 {
+    let v7 = tw_om[0] - om[0];
+    let v8 = 0.5f * P.seg_len;
+    let v9 = v8 * v7;
+    let v10 = P.seg_mass * v9;
+    let v11 = v10 * v9;
+    let v12 = P.seg_inertia * v7;
+    let v13 = v12 * v7;
+    let v14 = v11 + v13;
+    let v15 = P.seg_len * v7;
+    let v18 = tw_om[1] - om[1];
+    let v19 = v8 * v18;
+    let v20 = v15 + v19;
+    let v21 = P.seg_mass * v20;
+    let v22 = v21 * v20;
+    let v23 = P.seg_inertia * v18;
+    let v24 = v23 * v18;
+    let v25 = v22 + v24;
+    let v26 = v14 + v25;
+    let v27 = P.seg_len * v18;
+    let v28 = v15 + v27;
+    let v31 = tw_om[2] - om[2];
+    let v32 = v8 * v31;
+    let v33 = v28 + v32;
+    let v34 = P.seg_mass * v33;
+    let v35 = v34 * v33;
+    let v36 = P.seg_inertia * v31;
+    let v37 = v36 * v31;
+    let v38 = v35 + v37;
+    let v39 = v26 + v38;
+    let v40 = P.seg_len * v31;
+    let v41 = v28 + v40;
+    let v44 = P.tip_mass * v41;
+    let v45 = v44 * v41;
+    let v46 = v39 + v45;
+    let v47 = P.holder_inertia * v7;
+    let v48 = v47 * v7;
+    let v49 = v46 + v48;
+    let v53 = tw_th[0] - th[0];
+    let v54 = P.k0 * v53;
+    let v55 = v54 * v53;
+    let v58 = tw_th[1] - th[1];
+    let v59 = v58 - v53;
+    let v61 = P.k * v59;
+    let v62 = v61 * v59;
+    let v63 = v55 + v62;
+    let v66 = tw_th[2] - th[2];
+    let v67 = v66 - v58;
+    let v68 = P.k * v67;
+    let v69 = v68 * v67;
+    let v70 = v63 + v69;
+    let v73 = v8 * v53;
+    let v74 = P.seg_mass * v8;
+    let v75 = v74 * v73;
+    let v76 = P.seg_inertia * v53;
+    let v77 = v75 + v76;
+    let v78 = P.seg_len * v53;
+    let v79 = P.seg_len + v8;
+    let v80 = v8 * v58;
+    let v81 = v78 + v80;
+    let v82 = P.seg_mass * v79;
+    let v83 = v82 * v81;
+    let v84 = P.seg_inertia * v58;
+    let v85 = v83 + v84;
+    let v86 = v77 + v85;
+    let v87 = P.seg_len + P.seg_len;
+    let v88 = P.seg_len * v58;
+    let v89 = v78 + v88;
+    let v90 = v87 + v8;
+    let v91 = v8 * v66;
+    let v92 = v89 + v91;
+    let v93 = P.seg_mass * v90;
+    let v94 = v93 * v92;
+    let v95 = P.seg_inertia * v66;
+    let v96 = v94 + v95;
+    let v97 = v86 + v96;
+    let v98 = v87 + P.seg_len;
+    let v99 = P.seg_len * v66;
+    let v100 = v89 + v99;
+    let v101 = P.tip_mass * v98;
+    let v102 = v101 * v100;
+    let v103 = v97 + v102;
+    let v104 = P.holder_inertia * v53;
+    let v105 = v103 + v104;
+    let v106 = P.twin_rigid_w * v105;
+    let v107 = v106 * v105;
+    let v108 = select(0.0f, v107, P.twin_rigid_w > 0.0f);
+    let v112 = tw_volt - volt;
+    let v113 = P.twin_volt_w * v112;
+    let v114 = v113 * v112;
+    let v116 = v49 + v70;
+    let v117 = v116 + v108;
+    let v118 = v117 + v114;
+    let v119 = P.twin_scale * v118;
+    let d2 = v119;
+    return d2;
+}
+
+// distance2_in of λ1's initial direction (every angle 1, every rate Ω, the voltage 1/√(C_p s)), before its normalisation.
+fn twin_norm2_init() -> f32 {
+    let v6 = 0.5f * P.seg_len;
+    let v7 = v6 * (TAU / P.period_s);
+    let v8 = P.seg_mass * v7;
+    let v9 = v8 * v7;
+    let v10 = P.seg_inertia * (TAU / P.period_s);
+    let v11 = v10 * (TAU / P.period_s);
+    let v12 = v9 + v11;
+    let v13 = P.seg_len * (TAU / P.period_s);
+    let v14 = v13 + v7;
+    let v15 = P.seg_mass * v14;
+    let v16 = v15 * v14;
+    let v17 = v16 + v11;
+    let v18 = v12 + v17;
+    let v19 = v13 + v13;
+    let v20 = v19 + v7;
+    let v21 = P.seg_mass * v20;
+    let v22 = v21 * v20;
+    let v23 = v22 + v11;
+    let v24 = v18 + v23;
+    let v25 = v19 + v13;
+    let v28 = P.tip_mass * v25;
+    let v29 = v28 * v25;
+    let v30 = v24 + v29;
+    let v31 = P.holder_inertia * (TAU / P.period_s);
+    let v32 = v31 * (TAU / P.period_s);
+    let v33 = v30 + v32;
+    let v37 = P.k * 0.0f;
+    let v38 = v37 * 0.0f;
+    let v39 = P.k0 + v38;
+    let v40 = v39 + v38;
+    let v42 = P.seg_mass * v6;
+    let v43 = v42 * v6;
+    let v44 = v43 + P.seg_inertia;
+    let v45 = P.seg_len + v6;
+    let v46 = P.seg_mass * v45;
+    let v47 = v46 * v45;
+    let v48 = v47 + P.seg_inertia;
+    let v49 = v44 + v48;
+    let v50 = P.seg_len + P.seg_len;
+    let v51 = v50 + v6;
+    let v52 = P.seg_mass * v51;
+    let v53 = v52 * v51;
+    let v54 = v53 + P.seg_inertia;
+    let v55 = v49 + v54;
+    let v56 = v50 + P.seg_len;
+    let v57 = P.tip_mass * v56;
+    let v58 = v57 * v56;
+    let v59 = v55 + v58;
+    let v60 = v59 + P.holder_inertia;
+    let v61 = P.twin_rigid_w * v60;
+    let v62 = v61 * v60;
+    let v63 = select(0.0f, v62, P.twin_rigid_w > 0.0f);
+    let v66 = P.twin_volt_w * select(0.0f, 1.0f / sqrt(P.twin_volt_w * P.twin_scale), P.twin_volt_w > 0.0f);
+    let v67 = v66 * select(0.0f, 1.0f / sqrt(P.twin_volt_w * P.twin_scale), P.twin_volt_w > 0.0f);
+    let v69 = v33 + v40;
+    let v70 = v69 + v63;
+    let v71 = v70 + v67;
+    let v72 = P.twin_scale * v71;
+    let d2 = v72;
+    return d2;
+}
 // Common definitions of the ensemble kernels of pendulum-atlas: specialisation constants, the
 // data structures shared with Rust, the bindings and the integrator's per-invocation state.
 //
@@ -1621,55 +1785,6 @@ fn twin_step(ph: u32, dt: f32) {
     swap_twin();
 }
 
-// TwinNorm::distance² of src/reduce/lyapunov.rs, the energy norm of the separation twin −
-// main (`init`: of the initial direction instead, every angle 1 and every rate Ω): the kinetic
-// form at θ = 0 (segment centres' and tip's horizontal velocities, rotations, the holder), the
-// springs, the rigid rotation's weight on a hinged root, the voltage of a coupled patch.
-fn twin_norm2(init: bool) -> f32 {
-    let l = P.seg_len;
-    let omega = TAU / P.period_s;
-    var v_om = 0.0;   // horizontal velocity of the separation's rates
-    var v_th = 0.0;   // the same of its angles, for the rigid rotation's form
-    var kinetic = 0.0;
-    var rigid = 0.0;
-    var springs = 0.0;
-    var prev = 0.0;
-    for (var i = 0u; i < N_SEG; i++) {
-        var dth = tw_th[i] - th[i];
-        var dom = tw_om[i] - om[i];
-        if init {
-            dth = 1.0;
-            dom = omega;
-        }
-        let c_om = v_om + 0.5 * l * dom;
-        let c_th = v_th + 0.5 * l * dth;
-        kinetic += P.seg_mass * c_om * c_om + P.seg_inertia * dom * dom;
-        rigid += P.seg_mass * l * (f32(i) + 0.5) * c_th + P.seg_inertia * dth;
-        v_om += l * dom;
-        v_th += l * dth;
-        if i == 0u {
-            springs += P.k0 * dth * dth;
-            kinetic += P.holder_inertia * dom * dom;
-            rigid += P.holder_inertia * dth;
-        } else {
-            springs += P.k * (dth - prev) * (dth - prev);
-        }
-        prev = dth;
-    }
-    kinetic += P.tip_mass * v_om * v_om;
-    rigid += P.tip_mass * l * f32(N_SEG) * v_th;
-    var electric = 0.0;
-    if P.piezo_theta != 0.0 {
-        // C_p Δv²; the initial direction's voltage is 1/√(C_p s)
-        var dv = tw_volt - volt;
-        if init {
-            dv = sqrt(P.piezo_inv_c / P.twin_scale);
-        }
-        electric = dv * dv / P.piezo_inv_c;
-    }
-    return P.twin_scale * (kinetic + springs + P.twin_rigid_w * rigid * rigid + electric);
-}
-
 // TwinTracker::at_sample of src/engine/twin.rs at stroboscopic instant `j` (absolute, the
 // transient included): start the twin at y + d0·u, or add g = ln(d/d0) to its block and pull
 // it back to distance d0. Its first instant and window are the accumulators' (the early stop
@@ -1679,15 +1794,16 @@ fn twin_sample(j: u32, a: ptr<function, Accum>) {
     let window = (*a).tw_window;
     if j == start {
         // TwinNorm::direction: (1, …, 1; Ω, …, Ω; 1/√(C_p s)) of unit norm, times d0
-        let u = P.twin_d0 / sqrt(twin_norm2(true));
+        let u = P.twin_d0 / sqrt(twin_norm2_init());
         let omega = TAU / P.period_s;
         for (var i = 0u; i < N_SEG; i++) {
             tw_th[i] = th[i] + u;
             tw_om[i] = om[i] + u * omega;
         }
+        // (The voltage's component as the generated twin_norm2_init takes it.)
         tw_volt = volt;
-        if P.piezo_theta != 0.0 {
-            tw_volt = volt + u * sqrt(P.piezo_inv_c / P.twin_scale);
+        if P.twin_volt_w > 0.0 {
+            tw_volt = volt + u * (1.0 / sqrt(P.twin_volt_w * P.twin_scale));
         }
         (*a).twin_flags = TWIN_RUNNING;
         return;
@@ -1695,7 +1811,7 @@ fn twin_sample(j: u32, a: ptr<function, Accum>) {
     if ((*a).twin_flags & TWIN_RUNNING) == 0u || j <= start {
         return;
     }
-    let d = sqrt(twin_norm2(false));
+    let d = sqrt(twin_norm2());
     if not_finite(d) || d <= 0.0 {
         (*a).twin_flags = TWIN_BROKEN;
         return;

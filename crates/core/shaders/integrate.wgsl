@@ -347,55 +347,6 @@ fn twin_step(ph: u32, dt: f32) {
     swap_twin();
 }
 
-// TwinNorm::distance² of src/reduce/lyapunov.rs, the energy norm of the separation twin −
-// main (`init`: of the initial direction instead, every angle 1 and every rate Ω): the kinetic
-// form at θ = 0 (segment centres' and tip's horizontal velocities, rotations, the holder), the
-// springs, the rigid rotation's weight on a hinged root, the voltage of a coupled patch.
-fn twin_norm2(init: bool) -> f32 {
-    let l = P.seg_len;
-    let omega = TAU / P.period_s;
-    var v_om = 0.0;   // horizontal velocity of the separation's rates
-    var v_th = 0.0;   // the same of its angles, for the rigid rotation's form
-    var kinetic = 0.0;
-    var rigid = 0.0;
-    var springs = 0.0;
-    var prev = 0.0;
-    for (var i = 0u; i < N_SEG; i++) {
-        var dth = tw_th[i] - th[i];
-        var dom = tw_om[i] - om[i];
-        if init {
-            dth = 1.0;
-            dom = omega;
-        }
-        let c_om = v_om + 0.5 * l * dom;
-        let c_th = v_th + 0.5 * l * dth;
-        kinetic += P.seg_mass * c_om * c_om + P.seg_inertia * dom * dom;
-        rigid += P.seg_mass * l * (f32(i) + 0.5) * c_th + P.seg_inertia * dth;
-        v_om += l * dom;
-        v_th += l * dth;
-        if i == 0u {
-            springs += P.k0 * dth * dth;
-            kinetic += P.holder_inertia * dom * dom;
-            rigid += P.holder_inertia * dth;
-        } else {
-            springs += P.k * (dth - prev) * (dth - prev);
-        }
-        prev = dth;
-    }
-    kinetic += P.tip_mass * v_om * v_om;
-    rigid += P.tip_mass * l * f32(N_SEG) * v_th;
-    var electric = 0.0;
-    if P.piezo_theta != 0.0 {
-        // C_p Δv²; the initial direction's voltage is 1/√(C_p s)
-        var dv = tw_volt - volt;
-        if init {
-            dv = sqrt(P.piezo_inv_c / P.twin_scale);
-        }
-        electric = dv * dv / P.piezo_inv_c;
-    }
-    return P.twin_scale * (kinetic + springs + P.twin_rigid_w * rigid * rigid + electric);
-}
-
 // TwinTracker::at_sample of src/engine/twin.rs at stroboscopic instant `j` (absolute, the
 // transient included): start the twin at y + d0·u, or add g = ln(d/d0) to its block and pull
 // it back to distance d0. Its first instant and window are the accumulators' (the early stop
@@ -405,15 +356,16 @@ fn twin_sample(j: u32, a: ptr<function, Accum>) {
     let window = (*a).tw_window;
     if j == start {
         // TwinNorm::direction: (1, …, 1; Ω, …, Ω; 1/√(C_p s)) of unit norm, times d0
-        let u = P.twin_d0 / sqrt(twin_norm2(true));
+        let u = P.twin_d0 / sqrt(twin_norm2_init());
         let omega = TAU / P.period_s;
         for (var i = 0u; i < N_SEG; i++) {
             tw_th[i] = th[i] + u;
             tw_om[i] = om[i] + u * omega;
         }
+        // (The voltage's component as the generated twin_norm2_init takes it.)
         tw_volt = volt;
-        if P.piezo_theta != 0.0 {
-            tw_volt = volt + u * sqrt(P.piezo_inv_c / P.twin_scale);
+        if P.twin_volt_w > 0.0 {
+            tw_volt = volt + u * (1.0 / sqrt(P.twin_volt_w * P.twin_scale));
         }
         (*a).twin_flags = TWIN_RUNNING;
         return;
@@ -421,7 +373,7 @@ fn twin_sample(j: u32, a: ptr<function, Accum>) {
     if ((*a).twin_flags & TWIN_RUNNING) == 0u || j <= start {
         return;
     }
-    let d = sqrt(twin_norm2(false));
+    let d = sqrt(twin_norm2());
     if not_finite(d) || d <= 0.0 {
         (*a).twin_flags = TWIN_BROKEN;
         return;

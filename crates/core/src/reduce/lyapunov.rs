@@ -61,7 +61,7 @@
 //! holds λ1 of an impacting periodic orbit against its Floquet multiplier computed without a
 //! twin, and λ1 against changes of `d0` over decades.
 
-use crate::model::ModelParams;
+use crate::model::{Lane, ModelParams};
 use serde::Serialize;
 
 /// Blocks of consecutive growths over which the standard error of λ1 is formed.
@@ -171,42 +171,31 @@ impl TwinNorm {
         self.inertia_form(n, |_| 1.0, |_| 1.0)
     }
 
-    /// `aᵀ M₀ b` in O(N), the kinetic energy's form at θ = 0 (as `Chain::energy` sums it):
-    /// horizontal velocities of the segment centres and the tip, plus the rotations.
+    /// `aᵀ M₀ b` in O(N) ([`inertia_form_in`] in f64).
     fn inertia_form(&self, n: usize, a: impl Fn(usize) -> f64, b: impl Fn(usize) -> f64) -> f64 {
-        let l = self.seg_len_m;
-        let (mut va, mut vb, mut sum) = (0.0, 0.0, 0.0);
-        for i in 0..n {
-            let (ai, bi) = (a(i), b(i));
-            let (ca, cb) = (va + 0.5 * l * ai, vb + 0.5 * l * bi);
-            sum += self.seg_mass_kg * ca * cb + self.seg_inertia_kgm2 * ai * bi;
-            va += l * ai;
-            vb += l * bi;
+        inertia_form_in(n, |c| self.coefficient(c), a, b)
+    }
+
+    /// The norm's coefficient `c`.
+    pub fn coefficient(&self, c: NormCoefficient) -> f64 {
+        match c {
+            NormCoefficient::SegLength => self.seg_len_m,
+            NormCoefficient::SegMass => self.seg_mass_kg,
+            NormCoefficient::SegInertia => self.seg_inertia_kgm2,
+            NormCoefficient::TipMass => self.tip_mass_kg,
+            NormCoefficient::HolderInertia => self.holder_inertia_kgm2,
+            NormCoefficient::JointStiffness => self.joint_stiffness_nm,
+            NormCoefficient::RootStiffness => self.root_stiffness_nm,
+            NormCoefficient::RigidWeight => self.rigid_weight,
+            NormCoefficient::VoltWeight => self.volt_weight,
+            NormCoefficient::Scale => self.scale,
         }
-        sum + self.tip_mass_kg * va * vb + self.holder_inertia_kgm2 * a(0) * b(0)
     }
 
     /// `‖Δy‖` of a chain of `n` segments from the component differences `diff(k)`, `k < dim`
-    /// (state `[θ; θ̇; v]`).
+    /// (state `[θ; θ̇; v]`): the root of [`distance2_in`] in f64.
     pub fn distance(&self, n: usize, dim: usize, diff: impl Fn(usize) -> f64) -> f64 {
-        let kinetic = self.inertia_form(n, |i| diff(n + i), |i| diff(n + i));
-        let mut springs = self.root_stiffness_nm * diff(0) * diff(0);
-        for i in 1..n {
-            let bend = diff(i) - diff(i - 1);
-            springs += self.joint_stiffness_nm * bend * bend;
-        }
-        let rigid = if self.rigid_weight > 0.0 {
-            let p = self.inertia_form(n, |_| 1.0, &diff);
-            self.rigid_weight * p * p
-        } else {
-            0.0
-        };
-        let volt = if dim > 2 * n {
-            self.volt_weight * diff(2 * n) * diff(2 * n)
-        } else {
-            0.0
-        };
-        (self.scale * (kinetic + springs + rigid + volt)).sqrt()
+        distance2_in(n, dim > 2 * n, |c| self.coefficient(c), diff).sqrt()
     }
 
     /// The initial separation of unit norm: every angle 1, every rate Ω, the voltage (of a
@@ -223,6 +212,87 @@ impl TwinNorm {
         let d = self.distance(n, dim, |k| e[k]);
         e.into_iter().map(|x| x / d).collect()
     }
+}
+
+/// One coefficient of the twin's norm, by name ([`TwinNorm::coefficient`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NormCoefficient {
+    /// Segment length ℓ (m).
+    SegLength,
+    /// Segment mass (kg).
+    SegMass,
+    /// Segment moment of inertia about its centre (kg m²).
+    SegInertia,
+    /// Tip mass (kg).
+    TipMass,
+    /// Holder inertia (kg m²).
+    HolderInertia,
+    /// Joint stiffness (N m/rad).
+    JointStiffness,
+    /// Root stiffness (N m/rad).
+    RootStiffness,
+    /// The rigid rotation's weight `w_r`.
+    RigidWeight,
+    /// The capacitance of a coupled patch (F), else 0.
+    VoltWeight,
+    /// The scale `s` (1/J).
+    Scale,
+}
+
+/// `aᵀ M₀ b` in O(N) in the number type `U`, the kinetic energy's form at θ = 0 (as
+/// `Chain::energy_in` sums it): horizontal velocities of the segment centres and the tip, plus
+/// the rotations.
+pub fn inertia_form_in<U: Lane>(
+    n: usize,
+    c: impl Fn(NormCoefficient) -> U,
+    a: impl Fn(usize) -> U,
+    b: impl Fn(usize) -> U,
+) -> U {
+    let (l, half) = (c(NormCoefficient::SegLength), U::splat(0.5));
+    let (m, j) = (c(NormCoefficient::SegMass), c(NormCoefficient::SegInertia));
+    let zero = U::splat(0.0);
+    let (mut va, mut vb, mut sum) = (zero, zero, zero);
+    for i in 0..n {
+        let (ai, bi) = (a(i), b(i));
+        let (ca, cb) = (va + half * l * ai, vb + half * l * bi);
+        sum += m * ca * cb + j * ai * bi;
+        va += l * ai;
+        vb += l * bi;
+    }
+    let (tip, holder) = (
+        c(NormCoefficient::TipMass),
+        c(NormCoefficient::HolderInertia),
+    );
+    sum + tip * va * vb + holder * a(0) * b(0)
+}
+
+/// `‖Δy‖²` of a chain of `n` segments from the component differences `diff(k)` in the number
+/// type `U`, the voltage's term where `volt` (a state of `2n + 1` components): the scale times
+/// the kinetic form of the rates, the springs' form of the angles, the rigid rotation's
+/// weighted square and the patch's `C_p Δv²`. Written once for the CPU ([`TwinNorm::distance`])
+/// and the GPU (its `twin_norm2`, generated from this function).
+pub fn distance2_in<U: Lane>(
+    n: usize,
+    volt: bool,
+    c: impl Fn(NormCoefficient) -> U,
+    diff: impl Fn(usize) -> U,
+) -> U {
+    let zero = U::splat(0.0);
+    let kinetic = inertia_form_in(n, &c, |i| diff(n + i), |i| diff(n + i));
+    let mut springs = c(NormCoefficient::RootStiffness) * diff(0) * diff(0);
+    for i in 1..n {
+        let bend = diff(i) - diff(i - 1);
+        springs += c(NormCoefficient::JointStiffness) * bend * bend;
+    }
+    let weight = c(NormCoefficient::RigidWeight);
+    let p = inertia_form_in(n, &c, |_| U::splat(1.0), &diff);
+    let rigid = U::if_positive(weight, weight * p * p, zero);
+    let volt = if volt {
+        c(NormCoefficient::VoltWeight) * diff(2 * n) * diff(2 * n)
+    } else {
+        zero
+    };
+    c(NormCoefficient::Scale) * (kinetic + springs + rigid + volt)
 }
 
 /// The log-growths of one twin, summed per block.

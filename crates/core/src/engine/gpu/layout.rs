@@ -113,6 +113,9 @@ gpu_struct! {
         /// The scale of the twin's norm, [`TwinNorm::scale`] (the chain's inertias, springs and
         /// the patch's capacitance are the instance's own).
         pub twin_scale: f32,
+        /// The voltage's weight in the twin's norm, [`TwinNorm::volt_weight`] (C_p of a coupled
+        /// patch, else 0).
+        pub twin_volt_w: f32,
         /// The forcing period T = 1/f (s).
         pub period_s: f32,
         /// Adaptive steps: the relative tolerance (0 for fixed steps).
@@ -219,6 +222,7 @@ impl GpuInstanceParams {
             twin_d0: twin_d0 as f32,
             twin_rigid_w: twin.norm.rigid_weight as f32,
             twin_scale: twin.norm.scale as f32,
+            twin_volt_w: twin.norm.volt_weight as f32,
             period_s: (1.0 / p.frequency_hz) as f32,
             rtol: rtol as f32,
             atol: atol as f32,

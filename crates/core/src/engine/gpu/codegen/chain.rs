@@ -13,6 +13,7 @@
 use super::sym::{Sym, input, record};
 use super::wgsl::{Function, emit};
 use crate::model::{Branches, Chain, ChainShape, Coefficient, ContactLaw, Lane};
+use crate::reduce::lyapunov::{NormCoefficient, distance2_in};
 
 /// Where the kernel reads coefficient `c` (`GpuInstanceParams` and the `levers` buffer).
 fn read(c: Coefficient) -> String {
@@ -226,6 +227,66 @@ fn energy(shape: ChainShape) -> String {
     )
 }
 
+/// Where the kernel reads the twin norm's coefficient `c` (the chain's own, and the norm's
+/// weights and scale in `GpuInstanceParams`).
+fn read_norm(c: NormCoefficient) -> &'static str {
+    match c {
+        NormCoefficient::SegLength => "P.seg_len",
+        NormCoefficient::SegMass => "P.seg_mass",
+        NormCoefficient::SegInertia => "P.seg_inertia",
+        NormCoefficient::TipMass => "P.tip_mass",
+        NormCoefficient::HolderInertia => "P.holder_inertia",
+        NormCoefficient::JointStiffness => "P.k",
+        NormCoefficient::RootStiffness => "P.k0",
+        NormCoefficient::RigidWeight => "P.twin_rigid_w",
+        NormCoefficient::VoltWeight => "P.twin_volt_w",
+        NormCoefficient::Scale => "P.twin_scale",
+    }
+}
+
+/// The squared norm of λ1's separation ([`distance2_in`]): of the twin from the main state
+/// (`twin_norm2`), or of the initial direction before its normalisation (`twin_norm2_init`:
+/// every angle 1, every rate Ω = 2π/T, the voltage 1/√(C_p s) of a coupled patch, as
+/// `TwinNorm::direction` makes it).
+fn twin_norm2(shape: ChainShape, init: bool) -> String {
+    let n = shape.segments;
+    let (tape, d2) = record(|| {
+        let diff = |k: usize| match (init, k) {
+            (false, k) if k < n => input(format!("tw_th[{k}]")) - input(format!("th[{k}]")),
+            (false, k) if k < 2 * n => {
+                input(format!("tw_om[{}]", k - n)) - input(format!("om[{}]", k - n))
+            }
+            (false, _) => input("tw_volt") - input("volt"),
+            (true, k) if k < n => Sym::splat(1.0),
+            (true, k) if k < 2 * n => input("(TAU / P.period_s)"),
+            (true, _) => input(
+                "select(0.0f, 1.0f / sqrt(P.twin_volt_w * P.twin_scale), P.twin_volt_w > 0.0f)",
+            ),
+        };
+        distance2_in(n, true, |c| input(read_norm(c)), diff)
+    });
+    let (name, doc) = if init {
+        (
+            "twin_norm2_init",
+            "distance2_in of λ1's initial direction (every angle 1, every rate Ω, the voltage 1/√(C_p s)), before its normalisation.",
+        )
+    } else {
+        (
+            "twin_norm2",
+            "distance2_in of λ1's separation: the twin (tw_th, tw_om, tw_volt) less the main state (th, om, volt).",
+        )
+    };
+    emit(
+        &tape,
+        &Function {
+            doc: &[doc],
+            signature: &format!("fn {name}() -> f32"),
+            stores: vec![("let d2".into(), d2)],
+            tail: "    return d2;\n",
+        },
+    )
+}
+
 /// The chain's functions for `shape`.
 pub(crate) fn chain_wgsl(shape: ChainShape) -> String {
     [
@@ -234,6 +295,8 @@ pub(crate) fn chain_wgsl(shape: ChainShape) -> String {
         energy(shape),
         touch_flags(shape),
         twin_saltation(shape),
+        twin_norm2(shape, false),
+        twin_norm2(shape, true),
     ]
     .join("\n")
 }
@@ -422,6 +485,65 @@ mod tests {
             }
         }
     }
+
+    /// The recorded norm of λ1's separation, run on numbers, is `distance2_in` in f32 bit for
+    /// bit, and its root is `TwinNorm::distance` (in f64) to f32's precision.
+    #[test]
+    fn the_recorded_twin_norm_is_the_lyapunov_stages() {
+        use crate::reduce::lyapunov::TwinNorm;
+        let (n, p) = (4, params(4, "loading"));
+        let norm = TwinNorm::of(&p, 60.0);
+        let (tape, d2) = record(|| {
+            let diff = |k: usize| match k {
+                k if k < n => input(format!("tw_th[{k}]")) - input(format!("th[{k}]")),
+                k if k < 2 * n => {
+                    input(format!("tw_om[{}]", k - n)) - input(format!("om[{}]", k - n))
+                }
+                _ => input("tw_volt") - input("volt"),
+            };
+            distance2_in(n, true, |c| input(read_norm(c)), diff)
+        });
+        for seed in 0..8 {
+            let (y, twin) = (state(n, seed), state(n, seed + 50));
+            let field = |e: &str| -> f32 {
+                let c = ALL_NORM.iter().find(|&&c| read_norm(c) == e).unwrap();
+                norm.coefficient(*c) as f32
+            };
+            let value = |expr: &str| -> f32 {
+                let index = |s: &str| s.trim_end_matches(']').parse::<usize>().unwrap();
+                match expr {
+                    "volt" => y[2 * n],
+                    "tw_volt" => twin[2 * n],
+                    e if e.starts_with("tw_th[") => twin[index(&e[6..])],
+                    e if e.starts_with("tw_om[") => twin[n + index(&e[6..])],
+                    e if e.starts_with("th[") => y[index(&e[3..])],
+                    e if e.starts_with("om[") => y[n + index(&e[3..])],
+                    e => field(e),
+                }
+            };
+            let got = tape.eval(value)[d2.index()];
+            let want = distance2_in(n, true, |c| norm.coefficient(c) as f32, |k| twin[k] - y[k]);
+            assert_eq!(got.to_bits(), want.to_bits(), "seed {seed}");
+            let wide = norm.distance(n, 2 * n + 1, |k| f64::from(twin[k]) - f64::from(y[k]));
+            assert!(
+                (f64::from(got).sqrt() - wide).abs() <= 1e-5 * wide,
+                "{got} {wide}"
+            );
+        }
+    }
+
+    const ALL_NORM: [NormCoefficient; 10] = [
+        NormCoefficient::SegLength,
+        NormCoefficient::SegMass,
+        NormCoefficient::SegInertia,
+        NormCoefficient::TipMass,
+        NormCoefficient::HolderInertia,
+        NormCoefficient::JointStiffness,
+        NormCoefficient::RootStiffness,
+        NormCoefficient::RigidWeight,
+        NormCoefficient::VoltWeight,
+        NormCoefficient::Scale,
+    ];
 
     const ALL_COEFFICIENTS: [Coefficient; 16] = [
         Coefficient::SegLength,
