@@ -6790,8 +6790,9 @@ fn twin_sample(j: u32, a: ptr<function, Accum>) {
 }
 
 // The accumulators of the current period after a step to angle `alpha` with bumper flags
-// `now` and `onsets` contacts begun within it: onsets, α range, hops (the well last visited is
-// kept through the transient), power.
+// `now` and `onsets` contacts begun within it: onsets, α range, hops (hop_step of
+// src/analysis/periodicity.rs, the wells as +1/−1 and 0 for none yet; the well last visited
+// is kept through the transient), power.
 fn accumulate(alpha: f32, now: u32, onsets: u32, a: ptr<function, Accum>) {
     (*a).p_impacts += onsets;
     (*a).p_amin = min((*a).p_amin, alpha);

@@ -27,7 +27,7 @@ mod zero_one;
 
 pub use checks::FLAT_SIGNAL_REL_RANGE;
 pub use error::AnalysisError;
-pub use periodicity::{detect_period, hops, range, rms};
+pub use periodicity::{Well, detect_period, hop_step, hops, range, rms, well_of};
 pub use phase::{
     PHASE_MIN_SAMPLES, PhaseConvention, PhaseHistogram, PhaseSyncResult, analytic_signal,
     instantaneous_phase, phase_histogram, phase_sync,

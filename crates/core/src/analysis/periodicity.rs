@@ -6,11 +6,35 @@ use serde::Serialize;
 use super::checks::{ensure_finite, ensure_min_len};
 use super::error::AnalysisError;
 
-/// Which side of the upright position the holder currently leans to, for hop counting.
+/// Which side of the upright position the holder leans to, for hop counting.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-enum Well {
+pub enum Well {
+    /// α above `+θc/2`.
     Positive,
+    /// α below `−θc/2`.
     Negative,
+}
+
+/// The well a sample `alpha` (rad) is in, with the hysteresis band `±half` (θc/2): `None`
+/// inside the band (and for a NaN), where the current well is kept.
+pub fn well_of(alpha: f64, half: f64) -> Option<Well> {
+    if alpha > half {
+        Some(Well::Positive)
+    } else if alpha < -half {
+        Some(Well::Negative)
+    } else {
+        None
+    }
+}
+
+/// One sample of the hop count: the well after `alpha` from `current`, and whether the sample
+/// hopped (entered the other well; the first well entered is not a hop). The one rule of
+/// [`hops`] and of the engines' running count.
+pub fn hop_step(current: Option<Well>, alpha: f64, half: f64) -> (Option<Well>, bool) {
+    match well_of(alpha, half) {
+        None => (current, false),
+        Some(w) => (Some(w), current.is_some_and(|c| c != w)),
+    }
 }
 
 /// Smallest period `p ∈ 1…p_max` of the stroboscopic samples, or 0 when none fits (aperiodic,
@@ -53,17 +77,9 @@ pub fn hops(alpha: &[f64], theta_c: f64) -> usize {
     let mut current: Option<Well> = None;
     let mut count = 0;
     for &a in alpha {
-        let well = if a > half {
-            Well::Positive
-        } else if a < -half {
-            Well::Negative
-        } else {
-            continue;
-        };
-        if current.is_some_and(|c| c != well) {
-            count += 1;
-        }
-        current = Some(well);
+        let hopped;
+        (current, hopped) = hop_step(current, a, half);
+        count += usize::from(hopped);
     }
     count
 }

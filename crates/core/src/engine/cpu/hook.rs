@@ -3,6 +3,7 @@
 //! power), the stroboscopic and R samples, λ1's twin, and the early stop on a confirmed
 //! periodic orbit ([`crate::engine::early`]).
 
+use crate::analysis::{Well, hop_step};
 use crate::engine::early::{
     EarlyStop, EarlyTracker, PeriodTally, early_lyapunov_stops, early_twin_window,
 };
@@ -118,7 +119,7 @@ pub(super) struct EnsembleHook<'a, T> {
     /// The accumulators of the current forcing period, and the well last visited (kept
     /// through the transient).
     period: PeriodTally,
-    well: i32,
+    well: Option<Well>,
     early: Option<EarlyTracker<T>>,
     phase: EarlyPhase,
     /// The next stroboscopic instant (from the first step when the early stop watches, else
@@ -171,7 +172,7 @@ impl<'a, T: Real> EnsembleHook<'a, T> {
                 sub_steps: 0,
             },
             period: PeriodTally::default(),
-            well: 0,
+            well: None,
             phase: if early.is_some() {
                 EarlyPhase::Watching
             } else {
@@ -213,20 +214,9 @@ impl<'a, T: Real> EnsembleHook<'a, T> {
         t.impacts += onsets;
         t.alpha_min = t.alpha_min.min(alpha);
         t.alpha_max = t.alpha_max.max(alpha);
-        let h = self.plan.half_clearance_rad;
-        let w = if alpha > h {
-            1
-        } else if alpha < -h {
-            -1
-        } else {
-            0
-        };
-        if w != 0 {
-            if self.well != 0 && self.well != w {
-                t.hops += 1;
-            }
-            self.well = w;
-        }
+        let hopped;
+        (self.well, hopped) = hop_step(self.well, alpha, self.plan.half_clearance_rad);
+        t.hops += u32::from(hopped);
         if let Some(z) = &self.plan.params.piezo {
             let v = y.at(2 * self.plan.params.segments).wide();
             t.power_sum_w += v * v * (1.0 / z.load_ohm);
