@@ -8,6 +8,7 @@
 use crate::config::StepControl;
 use crate::engine::gpu::gpu_struct::{GpuStruct, gpu_struct};
 use crate::engine::plan::{EnsemblePlan, InstancePlan};
+use crate::model::Coefficient;
 use crate::reduce::TwinPlan;
 use crate::reduce::lyapunov::{LYAPUNOV_BLOCKS, TwinNorm};
 use crate::schema::{GPU_SLOTS, WgslType, gpu_fields};
@@ -129,13 +130,9 @@ gpu_struct! {
 /// segment): the `levers` buffer holds them sample-major, N words per instance, beside the
 /// parameter block, so that the block has no array sized for the largest N.
 pub(crate) fn levers_of(p: &InstancePlan, segments: usize) -> Vec<f32> {
-    let mut levers = vec![0f32; segments];
-    if let Some(c) = &p.params.contact {
-        for (dst, &src) in levers.iter_mut().zip(&c.levers_m) {
-            *dst = src as f32;
-        }
-    }
-    levers
+    (0..segments)
+        .map(|i| Coefficient::Lever(i).of(&p.params) as f32)
+        .collect()
 }
 
 impl GpuInstanceParams {
@@ -144,24 +141,10 @@ impl GpuInstanceParams {
     /// `twin_d0`.
     pub(crate) fn from_plan(p: &InstancePlan, imex_offset: u32, twin_d0: f64) -> GpuInstanceParams {
         let m = &p.params;
-        let (n_levers, gap, kc, cc) = match &m.contact {
-            Some(c) => (
-                c.levers_m.len() as u32,
-                c.gap_m,
-                c.stiffness_n_per_m,
-                c.damping_ns_per_m,
-            ),
-            None => (0, 0.0, 0.0, 0.0),
-        };
-        let (inv_c, inv_r, theta, last) = match &m.piezo {
-            Some(z) => (
-                1.0 / z.capacitance_f,
-                1.0 / z.load_ohm,
-                z.coupling_nm_per_v,
-                z.last_segment as u32,
-            ),
-            None => (1.0, 0.0, 0.0, 0),
-        };
+        // The chain's coefficients as the CPU engine's `Chain` takes them (one definition).
+        let c = |k: Coefficient| k.of(m) as f32;
+        let n_levers = m.contact.as_ref().map_or(0, |c| c.levers_m.len() as u32);
+        let last = m.piezo.as_ref().map_or(0, |z| z.last_segment as u32);
         let n = m.segments;
         let w = std::f64::consts::TAU * p.frequency_hz;
         let (rtol, atol) = match p.control {
@@ -176,22 +159,22 @@ impl GpuInstanceParams {
             period_s: 1.0 / p.frequency_hz,
         });
         GpuInstanceParams {
-            seg_len: m.seg_length_m as f32,
-            seg_mass: m.seg_mass_kg as f32,
-            seg_inertia: m.seg_inertia_kgm2 as f32,
-            tip_mass: m.tip_mass_kg as f32,
-            holder_inertia: m.holder_inertia_kgm2 as f32,
-            g: m.g_m_s2 as f32,
-            k: m.joint_stiffness_nm as f32,
-            k0: m.root_stiffness_nm as f32,
-            b: m.joint_damping_nms as f32,
-            b0: m.root_damping_nms as f32,
-            gap: gap as f32,
-            kc: kc as f32,
-            cc: cc as f32,
-            piezo_inv_c: inv_c as f32,
-            piezo_inv_r: inv_r as f32,
-            piezo_theta: theta as f32,
+            seg_len: c(Coefficient::SegLength),
+            seg_mass: c(Coefficient::SegMass),
+            seg_inertia: c(Coefficient::SegInertia),
+            tip_mass: c(Coefficient::TipMass),
+            holder_inertia: c(Coefficient::HolderInertia),
+            g: c(Coefficient::Gravity),
+            k: c(Coefficient::JointStiffness),
+            k0: c(Coefficient::RootStiffness),
+            b: c(Coefficient::JointDamping),
+            b0: c(Coefficient::RootDamping),
+            gap: c(Coefficient::BumperGap),
+            kc: c(Coefficient::BumperStiffness),
+            cc: c(Coefficient::BumperDamping),
+            piezo_inv_c: c(Coefficient::PiezoInvCapacitance),
+            piezo_inv_r: c(Coefficient::PiezoInvLoad),
+            piezo_theta: c(Coefficient::PiezoCoupling),
             pos_amp: p.amplitude_m as f32,
             vel_amp: (p.amplitude_m * w) as f32,
             acc_amp: (p.amplitude_m * w * w) as f32,

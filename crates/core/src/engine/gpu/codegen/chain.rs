@@ -329,6 +329,36 @@ mod tests {
         y
     }
 
+    /// The value of the kernel input `expr` for instance `p`: a named scalar of `extra`, the
+    /// main state `y` (read as the stage state `sth`/`som`/`svolt` or the step's
+    /// `th`/`om`/`volt`), the twin's `twin`, a lever, or a coefficient of `P`.
+    fn bind(
+        expr: &str,
+        p: &ModelParams,
+        (y, twin): (&[f32], &[f32]),
+        extra: &[(&str, f32)],
+    ) -> f32 {
+        if let Some(&(_, v)) = extra.iter().find(|(k, _)| *k == expr) {
+            return v;
+        }
+        let n = p.segments;
+        let (base, rest) = expr.split_once('[').unwrap_or((expr, ""));
+        let at = || rest.trim_end_matches(']').parse::<usize>().unwrap();
+        match base {
+            "sth" | "th" => y[at()],
+            "som" | "om" => y[n + at()],
+            "svolt" | "volt" => y[2 * n],
+            "tw_th" => twin[at()],
+            "tw_om" => twin[n + at()],
+            "tw_volt" => twin[2 * n],
+            "lev" => Coefficient::Lever(at()).of(p) as f32,
+            _ => {
+                let c = ALL_COEFFICIENTS.iter().find(|&&c| read(c) == expr);
+                c.unwrap_or_else(|| panic!("no input {expr}")).of(p) as f32
+            }
+        }
+    }
+
     /// The recorded program, run on numbers, gives the CPU engine's f32 derivative bit for
     /// bit: the kernel computes what `Chain::rates` computes, in its order (the GPU's own
     /// `sin`, `cos` and rounding aside, which the parity suite bounds).
@@ -350,23 +380,7 @@ mod tests {
             for seed in 0..64 {
                 let y = state(n, seed);
                 let cart_a = 5.0 * (seed as f32 - 20.0);
-                let value = |expr: &str| -> f32 {
-                    let index = |s: &str| s.trim_end_matches(']').parse::<usize>().unwrap();
-                    if let Some(i) = expr.strip_prefix("sth[") {
-                        y[index(i)]
-                    } else if let Some(i) = expr.strip_prefix("som[") {
-                        y[n + index(i)]
-                    } else if let Some(i) = expr.strip_prefix("lev[") {
-                        Coefficient::Lever(index(i)).of(&p) as f32
-                    } else if expr == "svolt" {
-                        y[2 * n]
-                    } else if expr == "cart_a" {
-                        cart_a
-                    } else {
-                        let c = ALL_COEFFICIENTS.iter().find(|&&c| read(c) == expr).unwrap();
-                        c.of(&p) as f32
-                    }
-                };
+                let value = |e: &str| bind(e, &p, (&y, &[]), &[("cart_a", cart_a)]);
                 let v = tape.eval(value);
                 let mut want = vec![0f32; y.len()];
                 let rep = chain.rates(&mut ws, cart_a, &y, &mut want, ContactLaw::Exact);
@@ -405,23 +419,7 @@ mod tests {
             for seed in 0..16 {
                 let y = state(n, seed);
                 let cart_v = 0.1 * (seed as f32 - 8.0);
-                let value = |expr: &str| -> f32 {
-                    let index = |s: &str| s.trim_end_matches(']').parse::<usize>().unwrap();
-                    if let Some(i) = expr.strip_prefix("th[") {
-                        y[index(i)]
-                    } else if let Some(i) = expr.strip_prefix("om[") {
-                        y[n + index(i)]
-                    } else if let Some(i) = expr.strip_prefix("lev[") {
-                        Coefficient::Lever(index(i)).of(&p) as f32
-                    } else if expr == "volt" {
-                        y[2 * n]
-                    } else if expr == "cart_v" {
-                        cart_v
-                    } else {
-                        let c = ALL_COEFFICIENTS.iter().find(|&&c| read(c) == expr).unwrap();
-                        c.of(&p) as f32
-                    }
-                };
+                let value = |e: &str| bind(e, &p, (&y, &[]), &[("cart_v", cart_v)]);
                 let got = tape.eval(value)[total.index()];
                 let e = chain.energy_in(|j| y[j], cart_v, |x| x);
                 let want = e[0] + e[1] + e[2] + e[3] + e[4];
@@ -456,24 +454,8 @@ mod tests {
         for seed in 0..8 {
             let (y, mut twin) = (state(n, seed), state(n, seed + 100));
             let flags = ((seed % 2) as f32, (seed / 2 % 2) as f32);
-            let value = |expr: &str| -> f32 {
-                let index = |s: &str| s.trim_end_matches(']').parse::<usize>().unwrap();
-                match expr {
-                    "right" => flags.0,
-                    "left" => flags.1,
-                    "volt" => y[2 * n],
-                    "tw_volt" => twin[2 * n],
-                    e if e.starts_with("tw_th[") => twin[index(&e[6..])],
-                    e if e.starts_with("tw_om[") => twin[n + index(&e[6..])],
-                    e if e.starts_with("th[") => y[index(&e[3..])],
-                    e if e.starts_with("om[") => y[n + index(&e[3..])],
-                    e if e.starts_with("lev[") => Coefficient::Lever(index(&e[4..])).of(&p) as f32,
-                    e => {
-                        let c = ALL_COEFFICIENTS.iter().find(|&&c| read(c) == e).unwrap();
-                        c.of(&p) as f32
-                    }
-                }
-            };
+            let extra = [("right", flags.0), ("left", flags.1)];
+            let value = |e: &str| bind(e, &p, (&y, &twin), &extra);
             let v = tape.eval(value);
             crate::engine::twin::saltation_lanes(&chain, &mut ws, &y, &mut twin, flags);
             for i in n..2 * n {
@@ -505,22 +487,14 @@ mod tests {
         });
         for seed in 0..8 {
             let (y, twin) = (state(n, seed), state(n, seed + 50));
-            let field = |e: &str| -> f32 {
-                let c = ALL_NORM.iter().find(|&&c| read_norm(c) == e).unwrap();
-                norm.coefficient(*c) as f32
-            };
-            let value = |expr: &str| -> f32 {
-                let index = |s: &str| s.trim_end_matches(']').parse::<usize>().unwrap();
-                match expr {
-                    "volt" => y[2 * n],
-                    "tw_volt" => twin[2 * n],
-                    e if e.starts_with("tw_th[") => twin[index(&e[6..])],
-                    e if e.starts_with("tw_om[") => twin[n + index(&e[6..])],
-                    e if e.starts_with("th[") => y[index(&e[3..])],
-                    e if e.starts_with("om[") => y[n + index(&e[3..])],
-                    e => field(e),
-                }
-            };
+            // The norm's own words of `P`; the chain's coefficients are the instance's.
+            let extra = [
+                NormCoefficient::RigidWeight,
+                NormCoefficient::VoltWeight,
+                NormCoefficient::Scale,
+            ]
+            .map(|c| (read_norm(c), norm.coefficient(c) as f32));
+            let value = |e: &str| bind(e, &p, (&y, &twin), &extra);
             let got = tape.eval(value)[d2.index()];
             let want = distance2_in(n, true, |c| norm.coefficient(c) as f32, |k| twin[k] - y[k]);
             assert_eq!(got.to_bits(), want.to_bits(), "seed {seed}");
@@ -531,19 +505,6 @@ mod tests {
             );
         }
     }
-
-    const ALL_NORM: [NormCoefficient; 10] = [
-        NormCoefficient::SegLength,
-        NormCoefficient::SegMass,
-        NormCoefficient::SegInertia,
-        NormCoefficient::TipMass,
-        NormCoefficient::HolderInertia,
-        NormCoefficient::JointStiffness,
-        NormCoefficient::RootStiffness,
-        NormCoefficient::RigidWeight,
-        NormCoefficient::VoltWeight,
-        NormCoefficient::Scale,
-    ];
 
     const ALL_COEFFICIENTS: [Coefficient; 16] = [
         Coefficient::SegLength,
