@@ -16,7 +16,6 @@
 
 mod buffers;
 mod clock;
-pub mod codegen;
 mod context;
 pub mod fault;
 pub mod gpu_struct;
@@ -89,6 +88,14 @@ pub struct GpuTimings {
 }
 
 impl GpuTimings {
+    /// Two runs' GPU times added, either of which may have none (a CPU run).
+    pub fn join(a: Option<GpuTimings>, b: Option<GpuTimings>) -> Option<GpuTimings> {
+        match (a, b) {
+            (Some(a), Some(b)) => Some(a.joined(&b)),
+            (a, b) => a.or(b),
+        }
+    }
+
     /// The stages of two consecutive batches: times added, the larger device memory.
     pub fn joined(&self, next: &GpuTimings) -> GpuTimings {
         GpuTimings {
