@@ -413,10 +413,7 @@ impl StageTotals {
         let t = &mut self.timings;
         t.integrate_s += run.timings.integrate_s;
         t.reduce_s += run.timings.reduce_s;
-        t.gpu = match (t.gpu.take(), run.timings.gpu.clone()) {
-            (Some(a), Some(b)) => Some(a.joined(&b)),
-            (a, b) => a.or(b),
-        };
+        t.gpu = GpuTimings::join(t.gpu.take(), run.timings.gpu.clone());
         self.dispatches += run.dispatches;
         self.stopped_early += run.stopped_early;
         self.sub_steps = add_counts(self.sub_steps, run.sub_steps);

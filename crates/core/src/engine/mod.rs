@@ -242,10 +242,7 @@ impl EngineRun {
         self.final_state.extend(next.final_state);
         self.timings.integrate_s += next.timings.integrate_s;
         self.timings.reduce_s += next.timings.reduce_s;
-        self.timings.gpu = match (self.timings.gpu, next.timings.gpu) {
-            (Some(a), Some(b)) => Some(a.joined(&b)),
-            (a, b) => a.or(b),
-        };
+        self.timings.gpu = gpu::GpuTimings::join(self.timings.gpu, next.timings.gpu);
         self.dispatches += next.dispatches;
         self.stopped_early += next.stopped_early;
         self.sub_steps = add_counts(self.sub_steps, next.sub_steps);

@@ -27,6 +27,7 @@
 
 use super::{MapRun, confidence, run_engine};
 use pendulum_atlas_core::config::{FIRM, MapSpec, SettleFrom};
+use pendulum_atlas_core::engine::gpu::GpuTimings;
 use pendulum_atlas_core::engine::{Engine, EngineError, EnsemblePlan, Progress, add_counts};
 use pendulum_atlas_core::reduce::{InstanceResult, ReduceOptions, Regime};
 use serde::Serialize;
@@ -224,10 +225,13 @@ pub(super) fn absorb(run: &mut MapRun, part: &MapRun) {
     add_times(run, part);
 }
 
-/// The run on's stage times added to the map's (its total is the stage's own wall time).
+/// The run on's stage times added to the map's, the GPU's own among them, so that the map's
+/// throughput divides every step it counts by the time of all of them (its total is the
+/// stage's own wall time).
 fn add_times(run: &mut MapRun, rerun: &MapRun) {
     let (t, r) = (&mut run.timings, &rerun.timings);
     t.plan_s += r.plan_s;
     t.integrate_s += r.integrate_s;
     t.reduce_s += r.reduce_s;
+    t.gpu = GpuTimings::join(t.gpu.take(), r.gpu.clone());
 }
