@@ -71,7 +71,7 @@ fn colorbar(
     (lo, hi): (f64, f64),
     stops: &[RGBColor],
     label: &str,
-    legend: &[(&str, RGBColor)],
+    legend: &[LegendEntry],
 ) -> Result<()> {
     let xa = AxisSpec::fixed(0.0, 1.0, false);
     let mut ya = AxisSpec::fixed(lo, hi, false);
@@ -108,12 +108,28 @@ fn colorbar(
         .transform(FontTransform::Rotate270)
         .pos(Pos::new(HPos::Center, VPos::Top));
     area.draw_text(label, &style, (w as i32 - 34, (15 + h as i32 - 75) / 2))?;
-    for (k, (name, c)) in legend.iter().enumerate() {
-        let y = h as i32 - 60 + 26 * k as i32;
-        area.draw(&Rectangle::new([(10, y), (28, y + 18)], c.filled()))?;
-        area.draw(&Rectangle::new([(10, y), (28, y + 18)], BLACK))?;
-        area.draw(&Text::new(name.to_string(), (34, y), font(TICK_PX)))?;
+    for (k, entry) in legend.iter().enumerate() {
+        legend_entry(area, (10, h as i32 - 60 + 26 * k as i32), entry)?;
     }
+    Ok(())
+}
+
+/// A legend entry: its name, its colour, and the cell marks drawn over that colour
+/// (`[inferred, sensitive, transient]`, as [`marked_pixel`] takes them; none for a plain
+/// swatch).
+type LegendEntry<'a> = (&'a str, RGBColor, [bool; 3]);
+
+/// A legend entry's 18-px swatch at `(x, y)`, patterned as its marks draw a cell, and its name
+/// beside it.
+fn legend_entry(area: &Area, (x, y): (i32, i32), &(name, c, marks): &LegendEntry) -> Result<()> {
+    area.draw(&Rectangle::new([(x, y), (x + 18, y + 18)], c.filled()))?;
+    for (i, j) in (0..18).flat_map(|i| (0..18).map(move |j| (i, j))) {
+        if marked_pixel(marks, (i, j)) {
+            area.draw_pixel((x + i, y + j), &hatch(c))?;
+        }
+    }
+    area.draw(&Rectangle::new([(x, y), (x + 18, y + 18)], BLACK))?;
+    area.draw(&Text::new(name.to_string(), (x + 24, y), font(TICK_PX)))?;
     Ok(())
 }
 
@@ -342,7 +358,7 @@ pub(crate) fn wrap_text(text: &str, px: u32, width: u32) -> Result<Vec<String>> 
 
 /// A categorical legend in `area`: a swatch and a name per entry, the label above them,
 /// wrapped to the column's width.
-fn legend_box(area: &Area, label: &str, entries: &[(&str, RGBColor)]) -> Result<()> {
+fn legend_box(area: &Area, label: &str, entries: &[LegendEntry]) -> Result<()> {
     let width = area.dim_in_pixel().0.saturating_sub(20);
     let lines = wrap_text(label, LABEL_PX, width)?;
     let line_px = LABEL_PX as i32 + 4;
@@ -354,11 +370,8 @@ fn legend_box(area: &Area, label: &str, entries: &[(&str, RGBColor)]) -> Result<
         ))?;
     }
     let top = 16 + line_px * lines.len() as i32 + 14;
-    for (k, (name, c)) in entries.iter().enumerate() {
-        let y = top + 26 * k as i32;
-        area.draw(&Rectangle::new([(10, y), (28, y + 18)], c.filled()))?;
-        area.draw(&Rectangle::new([(10, y), (28, y + 18)], BLACK))?;
-        area.draw(&Text::new(name.to_string(), (34, y), font(TICK_PX)))?;
+    for (k, entry) in entries.iter().enumerate() {
+        legend_entry(area, (10, top + 26 * k as i32), entry)?;
     }
     Ok(())
 }
@@ -526,30 +539,43 @@ pub fn heatmap_scaled(
     draw_overlays(&chart, (&xa, &ya), marks.lines)?;
     minor_tick_marks(&root, &chart, &xa, &ya)?;
     let present = palette.present(values, invalid);
-    let mut legend: Vec<(&str, RGBColor)> = present
+    const PLAIN: [bool; 3] = [false; 3];
+    let mut legend: Vec<LegendEntry> = present
         .iter()
-        .map(|c| (c.label.as_str(), c.colour))
+        .map(|c| (c.label.as_str(), c.colour, PLAIN))
         .collect();
     for o in marks.lines {
-        if !legend.iter().any(|(l, _)| *l == o.label) {
-            legend.push((o.label.as_str(), o.colour));
+        if !legend.iter().any(|(l, ..)| *l == o.label) {
+            legend.push((o.label.as_str(), o.colour, PLAIN));
         }
     }
     if (0..values.len()).any(bad) {
-        legend.push(("diverged", INVALID_COLOR));
+        legend.push(("diverged", INVALID_COLOR, PLAIN));
     }
-    if (0..values.len()).any(inferred) {
-        legend.push(("hatched: inferred", hatch(NODATA_COLOR)));
-    }
-    if (0..values.len()).any(sensitive) {
-        legend.push(("start decides", hatch(NODATA_COLOR)));
-    }
-    if (0..values.len()).any(transient) {
-        legend.push(("after transient", hatch(NODATA_COLOR)));
+    for (name, any, mark) in [
+        (
+            "hatched: inferred",
+            (0..values.len()).any(inferred),
+            [true, false, false],
+        ),
+        (
+            "start decides",
+            (0..values.len()).any(sensitive),
+            [false, true, false],
+        ),
+        (
+            "after transient",
+            (0..values.len()).any(transient),
+            [false, false, true],
+        ),
+    ] {
+        if any {
+            legend.push((name, NODATA_COLOR, mark));
+        }
     }
     if (0..values.len()).any(|k| !bad(k) && palette.colour(values[k], false, range) == NODATA_COLOR)
     {
-        legend.push(("no data", NODATA_COLOR));
+        legend.push(("no data", NODATA_COLOR, PLAIN));
     }
     match palette {
         Palette::Categorical(_) => legend_box(&bar, colorbar_label, &legend)?,
@@ -585,6 +611,40 @@ fn draw_overlays(chart: &Chart, (xa, ya): (&AxisSpec, &AxisSpec), lines: &[Overl
 mod tests {
     use super::super::ensure_font;
     use super::*;
+
+    /// The colours inside a legend swatch of `marks`, drawn on a bitmap of its own.
+    fn swatch_colours(marks: [bool; 3]) -> std::collections::BTreeSet<(u8, u8, u8)> {
+        ensure_font().unwrap();
+        let (w, h) = (120u32, 30u32);
+        let mut buf = vec![255u8; (w * h * 3) as usize];
+        {
+            let area = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+            legend_entry(&area, (4, 4), &("mark", NODATA_COLOR, marks)).unwrap();
+            area.present().unwrap();
+        }
+        let at = |x: u32, y: u32| {
+            let k = ((y * w + x) * 3) as usize;
+            (buf[k], buf[k + 1], buf[k + 2])
+        };
+        (5..22)
+            .flat_map(|x| (5..22).map(move |y| (x, y)))
+            .map(|(x, y)| at(x, y))
+            .collect()
+    }
+
+    #[test]
+    fn a_marked_cells_legend_swatch_carries_its_pattern() {
+        let c = |c: RGBColor| (c.0, c.1, c.2);
+        assert_eq!(swatch_colours([false; 3]), [c(NODATA_COLOR)].into());
+        for marks in [
+            [true, false, false],
+            [false, true, false],
+            [false, false, true],
+        ] {
+            let want = [c(NODATA_COLOR), c(hatch(NODATA_COLOR))].into();
+            assert_eq!(swatch_colours(marks), want, "{marks:?}");
+        }
+    }
 
     #[test]
     fn a_legend_label_is_wrapped_to_the_colour_bar_column() {
