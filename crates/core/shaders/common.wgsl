@@ -3,7 +3,7 @@
 //
 // The kernels are assembled from eight files (common, integrate, schedule, early, imex,
 // reduce_r, reduce_k, verdict; see src/engine/gpu/kernels.rs) behind the chain's functions,
-// generated from src/model/chain.rs (src/codegen), and a header generated from the
+// generated from src/model/chain.rs (src/engine/gpu/codegen), and a header generated from the
 // Rust definitions: the status and regime codes, the health-check interval CHECK_EVERY, the array
 // bound MAX_SEG (the scene's N), the IMEX method's tableaux, the adaptive ladder's rules
 // (src/engine/ladder.rs) and the structs shared with Rust (`InstanceParams`, `Control`, and

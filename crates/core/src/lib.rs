@@ -23,15 +23,10 @@
 //!    spectra, wavelets, periodicity) for simulated and measured signals alike
 //!    (`docs/analysis.md`).
 //!
-//! 6. [`codegen`]: the physics written once: the Rust of [`model`], [`engine`] and [`reduce`]
-//!    run on a recording number type and written out as the GPU's WGSL functions and as the
-//!    CPU engine's straight-line chain solve for the common shapes.
-//!
 //! [`text`] holds the number and shape formatting every message uses.
 #![warn(missing_docs)]
 
 pub mod analysis;
-pub mod codegen;
 pub mod config;
 pub mod engine;
 pub mod model;

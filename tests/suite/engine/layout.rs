@@ -2,7 +2,7 @@
 //! both languages, the assembled shader validates, its generated header carries the Rust
 //! definitions; and, with an adapter, one device compiles each kernel set once.
 
-use pendulum_atlas_core::codegen::{GENERATED, GENERATED_LINE, generated_wgsl};
+use pendulum_atlas_core::engine::gpu::codegen::{GENERATED, GENERATED_LINE, generated_wgsl};
 use pendulum_atlas_core::engine::gpu::gpu_struct::{GpuStruct, Member};
 use pendulum_atlas_core::engine::gpu::kernels::{
     SHADER_STAGES, shader_header, shader_source, written_kernels,

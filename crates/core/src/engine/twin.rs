@@ -54,7 +54,7 @@ pub(crate) fn onset_saltation<T: Real>(
 /// [`onset_saltation`] in every lane, the onsets as lane flags (1 where the contact began, 0
 /// elsewhere): the twin's rates take ∓c_c (δ_twin − δ_main) M(θ)⁻¹(λ_i cos θ_i) at the main
 /// state's angles. Written once for the CPU and the GPU, whose `twin_saltation` is generated
-/// from it (`crate::codegen`).
+/// from it (`crate::engine::gpu::codegen`).
 pub(crate) fn saltation_lanes<T: Lane>(
     chain: &Chain<T>,
     ws: &mut Workspace<T>,

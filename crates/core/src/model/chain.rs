@@ -162,23 +162,7 @@ pub struct Chain<T: Lane> {
     b0: T,
     contact: Option<ChainContact<T>>,
     piezo: Option<ChainPiezo<T>>,
-    /// The derivative unrolled for this shape, where one is generated.
-    unrolled: Option<Unrolled<T>>,
 }
-
-/// The chain's derivative unrolled for one shape: straight-line code recorded from
-/// [`Chain::rates`] and [`Chain::rates_on`] by `crate::codegen` (`chain_unrolled.rs`), the
-/// same operations in the same order as the generic solve.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Unrolled<T: Lane> {
-    pub(crate) rates: RatesFn<T>,
-    pub(crate) rates_on: RatesOnFn<T>,
-}
-
-/// An unrolled [`Chain::rates`] (the exact law).
-type RatesFn<T> = fn(&Chain<T>, T, &[T], &mut [T]) -> Option<BumperLoad<T>>;
-/// An unrolled [`Chain::rates_on`].
-type RatesOnFn<T> = fn(&Chain<T>, T, &[T], &mut [T], Branches<T>) -> Option<BumperLoad<T>>;
 
 #[derive(Debug, Clone)]
 struct ChainContact<T> {
@@ -243,7 +227,7 @@ impl Energy {
 
 /// What the chain's equations depend on beyond its coefficients: the segments, how many
 /// levers reach the contact point and the bumpers' law, the piezo's span. A [`Chain`] is
-/// built for one shape; the GPU's kernels are generated for one (`crate::codegen`).
+/// built for one shape; the GPU's kernels are generated for one (`crate::engine::gpu::codegen`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct ChainShape {
     /// Segments N.
@@ -315,26 +299,6 @@ pub enum Coefficient {
 }
 
 impl Coefficient {
-    /// Every coefficient but the levers (one per segment reaching the contact point).
-    pub const NAMED: [Coefficient; 16] = [
-        Coefficient::SegLength,
-        Coefficient::SegMass,
-        Coefficient::SegInertia,
-        Coefficient::TipMass,
-        Coefficient::HolderInertia,
-        Coefficient::Gravity,
-        Coefficient::JointStiffness,
-        Coefficient::RootStiffness,
-        Coefficient::JointDamping,
-        Coefficient::RootDamping,
-        Coefficient::BumperGap,
-        Coefficient::BumperStiffness,
-        Coefficient::BumperDamping,
-        Coefficient::PiezoInvCapacitance,
-        Coefficient::PiezoInvLoad,
-        Coefficient::PiezoCoupling,
-    ];
-
     /// Its value for a built pendulum (a lever past the contact segment is 0; the bumper's and
     /// the piezo's are 0 without them).
     pub fn of(self, p: &ModelParams) -> f64 {
@@ -376,60 +340,9 @@ impl<T: Lane> Chain<T> {
     /// structure (segments, bumper lever count and law, piezo span): `Chain::same_structure`.
     pub fn from_lanes(ps: &[ModelParams]) -> Self {
         debug_assert!(ps.iter().all(|q| Self::same_structure(&ps[0], q)));
-        let shape = ChainShape::of(&ps[0]);
-        let chain = Chain::from_coefficients(shape, |c| T::gather(|i| c.of(&ps[i % ps.len()])));
-        Chain {
-            unrolled: super::chain_unrolled::for_shape(shape),
-            ..chain
-        }
-    }
-
-    /// The same chain solved by the generic loops, never the unrolled code: what the unrolled
-    /// code is held against.
-    #[cfg(test)]
-    pub(crate) fn generic(self) -> Self {
-        Chain {
-            unrolled: None,
-            ..self
-        }
-    }
-
-    /// Whether this chain's derivative runs unrolled.
-    pub fn is_unrolled(&self) -> bool {
-        self.unrolled.is_some()
-    }
-
-    /// Coefficient `c` as this chain holds it (the inverse of [`Chain::from_coefficients`];
-    /// a lever past the contact segment, and a bumper's or piezo's coefficient without them,
-    /// is 0): what the unrolled code reads.
-    #[inline(always)]
-    pub(crate) fn coefficient(&self, c: Coefficient) -> T {
-        let zero = T::splat(0.0);
-        let bumper = |f: fn(&ChainContact<T>) -> T| self.contact.as_ref().map_or(zero, f);
-        let piezo = |f: fn(&ChainPiezo<T>) -> T| self.piezo.as_ref().map_or(zero, f);
-        match c {
-            Coefficient::SegLength => self.l,
-            Coefficient::SegMass => self.m,
-            Coefficient::SegInertia => self.j,
-            Coefficient::TipMass => self.tip,
-            Coefficient::HolderInertia => self.jh,
-            Coefficient::Gravity => self.g,
-            Coefficient::JointStiffness => self.k,
-            Coefficient::RootStiffness => self.k0,
-            Coefficient::JointDamping => self.b,
-            Coefficient::RootDamping => self.b0,
-            Coefficient::Lever(i) => self
-                .contact
-                .as_ref()
-                .and_then(|k| k.levers.get(i).copied())
-                .unwrap_or(zero),
-            Coefficient::BumperGap => bumper(|k| k.gap),
-            Coefficient::BumperStiffness => bumper(|k| k.kc),
-            Coefficient::BumperDamping => bumper(|k| k.cc),
-            Coefficient::PiezoInvCapacitance => piezo(|z| z.inv_c),
-            Coefficient::PiezoInvLoad => piezo(|z| z.inv_r),
-            Coefficient::PiezoCoupling => piezo(|z| z.theta),
-        }
+        Chain::from_coefficients(ChainShape::of(&ps[0]), |c| {
+            T::gather(|i| c.of(&ps[i % ps.len()]))
+        })
     }
 
     /// A chain of `shape` whose every coefficient is `value(name)`: numbers gathered from
@@ -460,7 +373,6 @@ impl<T: Lane> Chain<T> {
                 inv_r: v(Coefficient::PiezoInvLoad),
                 theta: v(Coefficient::PiezoCoupling),
             }),
-            unrolled: None,
         }
     }
 
@@ -605,13 +517,6 @@ impl<T: Lane> Chain<T> {
         dy: &mut [T],
         law: BumperLaw<T>,
     ) -> Option<BumperLoad<T>> {
-        match (self.unrolled, law) {
-            (Some(u), BumperLaw::Law(ContactLaw::Exact)) => {
-                return (u.rates)(self, cart_acc, y, dy);
-            }
-            (Some(u), BumperLaw::On(b)) => return (u.rates_on)(self, cart_acc, y, dy, b),
-            _ => {}
-        }
         let n = self.n;
         let (theta, rest) = y.split_at(n);
         let (omega, volt) = rest.split_at(n);
@@ -723,7 +628,7 @@ impl<T: Lane> Chain<T> {
     /// frame) at the state whose component j is `y(j)`, the cart at velocity `cart_v` (m/s),
     /// computed in the number type `U` with each coefficient converted by `w`: f64 from any
     /// chain on the CPU ([`Chain::energy`]), the kernel's f32 on the GPU (whose health check is
-    /// generated from this function, `crate::codegen`).
+    /// generated from this function, `crate::engine::gpu::codegen`).
     ///
     /// Segment i's centre moves at the node's velocity plus ½ℓθ̇_i n_i and sits ½ℓ cos θ_i above
     /// its node; the tip mass rides on the last node; a penetrated bumper stores ½k_c δ², the

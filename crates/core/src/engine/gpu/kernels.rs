@@ -9,8 +9,8 @@
 //! per-invocation arrays, the scene's N (so no private array is larger than the scene needs):
 //! the shader never carries its own copy of a rule or coefficient defined in Rust.
 
-use crate::codegen;
 use crate::config::GpuKernelChoice;
+use crate::engine::gpu::codegen;
 use crate::engine::gpu::gpu_struct::GpuStruct;
 use crate::engine::gpu::layout::{
     GpuControl, GpuInstanceParams, SCHED_LIVE, TWIN_BROKEN, TWIN_RUNNING,

@@ -16,6 +16,7 @@
 
 mod buffers;
 mod clock;
+pub mod codegen;
 mod context;
 pub mod fault;
 pub mod gpu_struct;

@@ -35,7 +35,7 @@ fn literal(x: f32) -> String {
 }
 
 /// The nodes the stores need, marked.
-pub(crate) fn needed(tape: &Tape, stores: &[(String, Sym)]) -> Vec<bool> {
+fn needed(tape: &Tape, stores: &[(String, Sym)]) -> Vec<bool> {
     let mut need = vec![false; tape.nodes.len()];
     let mut stack: Vec<Sym> = stores.iter().map(|(_, s)| *s).collect();
     while let Some(s) = stack.pop() {
@@ -55,7 +55,7 @@ pub(crate) fn needed(tape: &Tape, stores: &[(String, Sym)]) -> Vec<bool> {
 /// How an operand reads: a literal, an input's expression or a `let`'s name.
 fn operand(tape: &Tape, s: Sym) -> String {
     match &tape.nodes[s.index()] {
-        Node::Const(bits) => literal(f64::from_bits(*bits) as f32),
+        Node::Const(bits) => literal(f32::from_bits(*bits)),
         Node::Input(expr) => expr.clone(),
         _ => format!("v{}", s.index()),
     }
@@ -108,7 +108,7 @@ pub(crate) fn emit(tape: &Tape, f: &Function) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::codegen::sym::{input, record};
+    use crate::engine::gpu::codegen::sym::{input, record};
     use crate::model::Lane;
 
     #[test]

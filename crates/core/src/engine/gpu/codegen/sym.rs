@@ -2,16 +2,13 @@
 //!
 //! The chain's Rust code, run on `Sym` inside [`record`], leaves a [`Tape`]: one node per
 //! IEEE operation, in the order the code does them, with the inputs it read and the constants
-//! it made (as the `f64` the code gave `splat`). The tape is what the emitters write out: as
-//! WGSL (`super::wgsl`), so the kernel does the CPU engine's `f32` operations in the CPU
-//! engine's order, and as Rust generic over the lane type (`super::rust`), so the CPU engine
-//! runs the same operations unrolled for its common shapes.
+//! it made. The tape is what the WGSL emitter (`super::wgsl`) writes out, so the kernel does
+//! the CPU engine's `f32` operations in the CPU engine's order.
 //!
 //! Identical nodes are recorded once (the same operation on the same operands gives the same
 //! value), and the only rewrites are exact ones: `x + 0`, `0 + x`, `x − 0` and `x · 1`, `1 · x`
 //! are `x` (up to the sign of a zero sum, which nothing downstream reads), and an operation on
-//! two constants is the constant it gives where `f32` and `f64` give the same number (so the
-//! fold is exact in either precision).
+//! two constants is the constant it gives in `f32`.
 
 use crate::model::Lane;
 use std::cell::RefCell;
@@ -50,8 +47,8 @@ pub(crate) enum Un {
 /// One recorded operation.
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
 pub(crate) enum Node {
-    /// A constant: the `f64` its code gave [`Lane::splat`] (its bits); a lane type rounds it.
-    Const(u64),
+    /// An `f32` constant (its bits).
+    Const(u32),
     /// An input, by its expression in the kernel (`P.seg_len`, `sth[3]`).
     Input(String),
     Un(Un, Sym),
@@ -85,7 +82,7 @@ impl Tape {
         let mut v: Vec<f32> = Vec::with_capacity(self.nodes.len());
         for node in &self.nodes {
             let x = match node {
-                Node::Const(bits) => f64::from_bits(*bits) as f32,
+                Node::Const(bits) => f32::from_bits(*bits),
                 Node::Input(expr) => input(expr),
                 Node::Un(Un::Neg, a) => -v[a.index()],
                 Node::Un(Un::Sin, a) => v[a.index()].sin(),
@@ -104,9 +101,9 @@ impl Tape {
         v
     }
 
-    fn constant(&self, s: Sym) -> Option<f64> {
+    fn constant(&self, s: Sym) -> Option<f32> {
         match self.nodes[s.index()] {
-            Node::Const(bits) => Some(f64::from_bits(bits)),
+            Node::Const(bits) => Some(f32::from_bits(bits)),
             _ => None,
         }
     }
@@ -143,17 +140,15 @@ pub fn input(expr: impl Into<String>) -> Sym {
     with_tape(|t| t.push(Node::Input(expr.into())))
 }
 
-fn constant(x: f64) -> Sym {
+fn constant(x: f32) -> Sym {
     with_tape(|t| t.push(Node::Const(x.to_bits())))
 }
 
 fn binary(op: Bin, a: Sym, b: Sym) -> Sym {
     with_tape(|t| {
         let (ca, cb) = (t.constant(a), t.constant(b));
-        if let (Some(x), Some(y)) = (ca, cb)
-            && let Some(z) = exact_fold(op, x, y)
-        {
-            return t.push(Node::Const(z.to_bits()));
+        if let (Some(x), Some(y)) = (ca, cb) {
+            return t.push(Node::Const(fold(op, x, y).to_bits()));
         }
         match (op, ca, cb) {
             (Bin::Add | Bin::Sub, _, Some(0.0)) | (Bin::Mul, _, Some(1.0)) => a,
@@ -163,17 +158,8 @@ fn binary(op: Bin, a: Sym, b: Sym) -> Sym {
     })
 }
 
-/// `x op y` of two constants where `f32` and `f64` lanes compute the same number from them
-/// (each constant rounded to the lane type first, as [`Lane::splat`] does); `None` elsewhere,
-/// and the operation stays for the lane type to do.
-fn exact_fold(op: Bin, x: f64, y: f64) -> Option<f64> {
-    let wide = fold(op, x, y);
-    let narrow = fold(op, x as f32, y as f32);
-    (x as f32 as f64 == x && y as f32 as f64 == y && f64::from(narrow) == wide).then_some(wide)
-}
-
-/// `x op y` in the float type of the operands, as the kernel (or a lane) would compute it.
-fn fold<F: num_traits::Float>(op: Bin, x: F, y: F) -> F {
+/// `x op y` in `f32`, as the kernel would compute it.
+fn fold(op: Bin, x: f32, y: f32) -> f32 {
     match op {
         Bin::Add => x + y,
         Bin::Sub => x - y,
@@ -226,10 +212,10 @@ impl Lane for Sym {
     type Scalar = f32;
     const LANES: usize = 1;
     fn splat(x: f64) -> Self {
-        constant(x)
+        constant(x as f32)
     }
     fn gather(mut f: impl FnMut(usize) -> f64) -> Self {
-        constant(f(0))
+        constant(f(0) as f32)
     }
     fn lane(self, _: usize) -> f32 {
         unreachable!("a symbolic value has no number until the kernel runs")
