@@ -42,8 +42,8 @@ pub(super) fn read_transients(
     let nudge_deg_s = r.number(
         "map.transient_nudge_deg_s",
         1e-3,
-        Range::Closed(f64::MIN_POSITIVE, 1.0),
-        "deg/s (above 0, at most 1)",
+        Range::OpenClosed(0.0, 1.0),
+        "deg/s",
     )?;
     if copies == 0 {
         let why = "map.transient_copies = 0";
