@@ -98,6 +98,9 @@ struct InstanceParams {
     twin_rigid_w: f32, // The rigid rotation's weight in the twin's norm, [`TwinNorm::rigid_weight`].
     twin_scale: f32, // The scale of the twin's norm, [`TwinNorm::scale`] (the chain's inertias, springs and
     twin_volt_w: f32, // The voltage's weight in the twin's norm, [`TwinNorm::volt_weight`] (C_p of a coupled
+    twin_start_th: f32, // The twin's start offset `d0·u` of every angle ([`TwinNorm::direction`] times d0,
+    twin_start_om: f32, // The twin's start offset of every rate.
+    twin_start_v: f32, // The twin's start offset of the voltage (0 without a coupled patch).
     period_s: f32, // The forcing period T = 1/f (s).
     rtol: f32, // Adaptive steps: the relative tolerance (0 for fixed steps).
     atol: f32, // Adaptive steps: the absolute tolerance (0 for fixed steps).
@@ -6005,252 +6008,6 @@ fn twin_norm2() -> f32 {
     let d2 = v553;
     return d2;
 }
-
-// distance2_in of λ1's initial direction (every angle 1, every rate Ω, the voltage 1/√(C_p s)), before its normalisation.
-fn twin_norm2_init() -> f32 {
-    let v6 = 0.5f * P.seg_len;
-    let v7 = v6 * (TAU / P.period_s);
-    let v8 = P.seg_mass * v7;
-    let v9 = v8 * v7;
-    let v10 = P.seg_inertia * (TAU / P.period_s);
-    let v11 = v10 * (TAU / P.period_s);
-    let v12 = v9 + v11;
-    let v13 = P.seg_len * (TAU / P.period_s);
-    let v14 = v13 + v7;
-    let v15 = P.seg_mass * v14;
-    let v16 = v15 * v14;
-    let v17 = v16 + v11;
-    let v18 = v12 + v17;
-    let v19 = v13 + v13;
-    let v20 = v19 + v7;
-    let v21 = P.seg_mass * v20;
-    let v22 = v21 * v20;
-    let v23 = v22 + v11;
-    let v24 = v18 + v23;
-    let v25 = v19 + v13;
-    let v26 = v25 + v7;
-    let v27 = P.seg_mass * v26;
-    let v28 = v27 * v26;
-    let v29 = v28 + v11;
-    let v30 = v24 + v29;
-    let v31 = v25 + v13;
-    let v32 = v31 + v7;
-    let v33 = P.seg_mass * v32;
-    let v34 = v33 * v32;
-    let v35 = v34 + v11;
-    let v36 = v30 + v35;
-    let v37 = v31 + v13;
-    let v38 = v37 + v7;
-    let v39 = P.seg_mass * v38;
-    let v40 = v39 * v38;
-    let v41 = v40 + v11;
-    let v42 = v36 + v41;
-    let v43 = v37 + v13;
-    let v44 = v43 + v7;
-    let v45 = P.seg_mass * v44;
-    let v46 = v45 * v44;
-    let v47 = v46 + v11;
-    let v48 = v42 + v47;
-    let v49 = v43 + v13;
-    let v50 = v49 + v7;
-    let v51 = P.seg_mass * v50;
-    let v52 = v51 * v50;
-    let v53 = v52 + v11;
-    let v54 = v48 + v53;
-    let v55 = v49 + v13;
-    let v56 = v55 + v7;
-    let v57 = P.seg_mass * v56;
-    let v58 = v57 * v56;
-    let v59 = v58 + v11;
-    let v60 = v54 + v59;
-    let v61 = v55 + v13;
-    let v62 = v61 + v7;
-    let v63 = P.seg_mass * v62;
-    let v64 = v63 * v62;
-    let v65 = v64 + v11;
-    let v66 = v60 + v65;
-    let v67 = v61 + v13;
-    let v68 = v67 + v7;
-    let v69 = P.seg_mass * v68;
-    let v70 = v69 * v68;
-    let v71 = v70 + v11;
-    let v72 = v66 + v71;
-    let v73 = v67 + v13;
-    let v74 = v73 + v7;
-    let v75 = P.seg_mass * v74;
-    let v76 = v75 * v74;
-    let v77 = v76 + v11;
-    let v78 = v72 + v77;
-    let v79 = v73 + v13;
-    let v80 = v79 + v7;
-    let v81 = P.seg_mass * v80;
-    let v82 = v81 * v80;
-    let v83 = v82 + v11;
-    let v84 = v78 + v83;
-    let v85 = v79 + v13;
-    let v86 = v85 + v7;
-    let v87 = P.seg_mass * v86;
-    let v88 = v87 * v86;
-    let v89 = v88 + v11;
-    let v90 = v84 + v89;
-    let v91 = v85 + v13;
-    let v92 = v91 + v7;
-    let v93 = P.seg_mass * v92;
-    let v94 = v93 * v92;
-    let v95 = v94 + v11;
-    let v96 = v90 + v95;
-    let v97 = v91 + v13;
-    let v98 = v97 + v7;
-    let v99 = P.seg_mass * v98;
-    let v100 = v99 * v98;
-    let v101 = v100 + v11;
-    let v102 = v96 + v101;
-    let v103 = v97 + v13;
-    let v104 = v103 + v7;
-    let v105 = P.seg_mass * v104;
-    let v106 = v105 * v104;
-    let v107 = v106 + v11;
-    let v108 = v102 + v107;
-    let v109 = v103 + v13;
-    let v112 = P.tip_mass * v109;
-    let v113 = v112 * v109;
-    let v114 = v108 + v113;
-    let v115 = P.holder_inertia * (TAU / P.period_s);
-    let v116 = v115 * (TAU / P.period_s);
-    let v117 = v114 + v116;
-    let v121 = P.k * 0.0f;
-    let v122 = v121 * 0.0f;
-    let v123 = P.k0 + v122;
-    let v124 = v123 + v122;
-    let v125 = v124 + v122;
-    let v126 = v125 + v122;
-    let v127 = v126 + v122;
-    let v128 = v127 + v122;
-    let v129 = v128 + v122;
-    let v130 = v129 + v122;
-    let v131 = v130 + v122;
-    let v132 = v131 + v122;
-    let v133 = v132 + v122;
-    let v134 = v133 + v122;
-    let v135 = v134 + v122;
-    let v136 = v135 + v122;
-    let v137 = v136 + v122;
-    let v138 = v137 + v122;
-    let v140 = P.seg_mass * v6;
-    let v141 = v140 * v6;
-    let v142 = v141 + P.seg_inertia;
-    let v143 = P.seg_len + v6;
-    let v144 = P.seg_mass * v143;
-    let v145 = v144 * v143;
-    let v146 = v145 + P.seg_inertia;
-    let v147 = v142 + v146;
-    let v148 = P.seg_len + P.seg_len;
-    let v149 = v148 + v6;
-    let v150 = P.seg_mass * v149;
-    let v151 = v150 * v149;
-    let v152 = v151 + P.seg_inertia;
-    let v153 = v147 + v152;
-    let v154 = v148 + P.seg_len;
-    let v155 = v154 + v6;
-    let v156 = P.seg_mass * v155;
-    let v157 = v156 * v155;
-    let v158 = v157 + P.seg_inertia;
-    let v159 = v153 + v158;
-    let v160 = v154 + P.seg_len;
-    let v161 = v160 + v6;
-    let v162 = P.seg_mass * v161;
-    let v163 = v162 * v161;
-    let v164 = v163 + P.seg_inertia;
-    let v165 = v159 + v164;
-    let v166 = v160 + P.seg_len;
-    let v167 = v166 + v6;
-    let v168 = P.seg_mass * v167;
-    let v169 = v168 * v167;
-    let v170 = v169 + P.seg_inertia;
-    let v171 = v165 + v170;
-    let v172 = v166 + P.seg_len;
-    let v173 = v172 + v6;
-    let v174 = P.seg_mass * v173;
-    let v175 = v174 * v173;
-    let v176 = v175 + P.seg_inertia;
-    let v177 = v171 + v176;
-    let v178 = v172 + P.seg_len;
-    let v179 = v178 + v6;
-    let v180 = P.seg_mass * v179;
-    let v181 = v180 * v179;
-    let v182 = v181 + P.seg_inertia;
-    let v183 = v177 + v182;
-    let v184 = v178 + P.seg_len;
-    let v185 = v184 + v6;
-    let v186 = P.seg_mass * v185;
-    let v187 = v186 * v185;
-    let v188 = v187 + P.seg_inertia;
-    let v189 = v183 + v188;
-    let v190 = v184 + P.seg_len;
-    let v191 = v190 + v6;
-    let v192 = P.seg_mass * v191;
-    let v193 = v192 * v191;
-    let v194 = v193 + P.seg_inertia;
-    let v195 = v189 + v194;
-    let v196 = v190 + P.seg_len;
-    let v197 = v196 + v6;
-    let v198 = P.seg_mass * v197;
-    let v199 = v198 * v197;
-    let v200 = v199 + P.seg_inertia;
-    let v201 = v195 + v200;
-    let v202 = v196 + P.seg_len;
-    let v203 = v202 + v6;
-    let v204 = P.seg_mass * v203;
-    let v205 = v204 * v203;
-    let v206 = v205 + P.seg_inertia;
-    let v207 = v201 + v206;
-    let v208 = v202 + P.seg_len;
-    let v209 = v208 + v6;
-    let v210 = P.seg_mass * v209;
-    let v211 = v210 * v209;
-    let v212 = v211 + P.seg_inertia;
-    let v213 = v207 + v212;
-    let v214 = v208 + P.seg_len;
-    let v215 = v214 + v6;
-    let v216 = P.seg_mass * v215;
-    let v217 = v216 * v215;
-    let v218 = v217 + P.seg_inertia;
-    let v219 = v213 + v218;
-    let v220 = v214 + P.seg_len;
-    let v221 = v220 + v6;
-    let v222 = P.seg_mass * v221;
-    let v223 = v222 * v221;
-    let v224 = v223 + P.seg_inertia;
-    let v225 = v219 + v224;
-    let v226 = v220 + P.seg_len;
-    let v227 = v226 + v6;
-    let v228 = P.seg_mass * v227;
-    let v229 = v228 * v227;
-    let v230 = v229 + P.seg_inertia;
-    let v231 = v225 + v230;
-    let v232 = v226 + P.seg_len;
-    let v233 = v232 + v6;
-    let v234 = P.seg_mass * v233;
-    let v235 = v234 * v233;
-    let v236 = v235 + P.seg_inertia;
-    let v237 = v231 + v236;
-    let v238 = v232 + P.seg_len;
-    let v239 = P.tip_mass * v238;
-    let v240 = v239 * v238;
-    let v241 = v237 + v240;
-    let v242 = v241 + P.holder_inertia;
-    let v243 = P.twin_rigid_w * v242;
-    let v244 = v243 * v242;
-    let v245 = select(0.0f, v244, P.twin_rigid_w > 0.0f);
-    let v248 = P.twin_volt_w * select(0.0f, 1.0f / sqrt(P.twin_volt_w * P.twin_scale), P.twin_volt_w > 0.0f);
-    let v249 = v248 * select(0.0f, 1.0f / sqrt(P.twin_volt_w * P.twin_scale), P.twin_volt_w > 0.0f);
-    let v251 = v117 + v138;
-    let v252 = v251 + v245;
-    let v253 = v252 + v249;
-    let v254 = P.twin_scale * v253;
-    let d2 = v254;
-    return d2;
-}
 // Common definitions of the ensemble kernels of pendulum-atlas: specialisation constants, the
 // data structures shared with Rust, the bindings and the integrator's per-invocation state.
 //
@@ -6742,25 +6499,19 @@ fn twin_step(ph: u32, dt: f32) {
 }
 
 // TwinTracker::at_sample of src/engine/twin.rs at stroboscopic instant `j` (absolute, the
-// transient included): start the twin at y + d0·u, or add g = ln(d/d0) to its block and pull
-// it back to distance d0. Its first instant and window are the accumulators' (the early stop
+// transient included): start the twin at y + d0·u (d0·u of TwinNorm::direction, formed on the
+// host as the CPU forms it: P.twin_start_*), or add g = ln(d/d0) to its block and pull it back
+// to distance d0. Its first instant and window are the accumulators' (the early stop
 // may restart it on a confirmed orbit).
 fn twin_sample(j: u32, a: ptr<function, Accum>) {
     let start = (*a).tw_start;
     let window = (*a).tw_window;
     if j == start {
-        // TwinNorm::direction: (1, …, 1; Ω, …, Ω; 1/√(C_p s)) of unit norm, times d0
-        let u = P.twin_d0 / sqrt(twin_norm2_init());
-        let omega = TAU / P.period_s;
         for (var i = 0u; i < N_SEG; i++) {
-            tw_th[i] = th[i] + u;
-            tw_om[i] = om[i] + u * omega;
+            tw_th[i] = th[i] + P.twin_start_th;
+            tw_om[i] = om[i] + P.twin_start_om;
         }
-        // (The voltage's component as the generated twin_norm2_init takes it.)
-        tw_volt = volt;
-        if P.twin_volt_w > 0.0 {
-            tw_volt = volt + u * (1.0 / sqrt(P.twin_volt_w * P.twin_scale));
-        }
+        tw_volt = volt + P.twin_start_v;
         (*a).twin_flags = TWIN_RUNNING;
         return;
     }

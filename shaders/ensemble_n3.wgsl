@@ -98,6 +98,9 @@ struct InstanceParams {
     twin_rigid_w: f32, // The rigid rotation's weight in the twin's norm, [`TwinNorm::rigid_weight`].
     twin_scale: f32, // The scale of the twin's norm, [`TwinNorm::scale`] (the chain's inertias, springs and
     twin_volt_w: f32, // The voltage's weight in the twin's norm, [`TwinNorm::volt_weight`] (C_p of a coupled
+    twin_start_th: f32, // The twin's start offset `d0·u` of every angle ([`TwinNorm::direction`] times d0,
+    twin_start_om: f32, // The twin's start offset of every rate.
+    twin_start_v: f32, // The twin's start offset of the voltage (0 without a coupled patch).
     period_s: f32, // The forcing period T = 1/f (s).
     rtol: f32, // Adaptive steps: the relative tolerance (0 for fixed steps).
     atol: f32, // Adaptive steps: the absolute tolerance (0 for fixed steps).
@@ -1231,70 +1234,6 @@ fn twin_norm2() -> f32 {
     let d2 = v119;
     return d2;
 }
-
-// distance2_in of λ1's initial direction (every angle 1, every rate Ω, the voltage 1/√(C_p s)), before its normalisation.
-fn twin_norm2_init() -> f32 {
-    let v6 = 0.5f * P.seg_len;
-    let v7 = v6 * (TAU / P.period_s);
-    let v8 = P.seg_mass * v7;
-    let v9 = v8 * v7;
-    let v10 = P.seg_inertia * (TAU / P.period_s);
-    let v11 = v10 * (TAU / P.period_s);
-    let v12 = v9 + v11;
-    let v13 = P.seg_len * (TAU / P.period_s);
-    let v14 = v13 + v7;
-    let v15 = P.seg_mass * v14;
-    let v16 = v15 * v14;
-    let v17 = v16 + v11;
-    let v18 = v12 + v17;
-    let v19 = v13 + v13;
-    let v20 = v19 + v7;
-    let v21 = P.seg_mass * v20;
-    let v22 = v21 * v20;
-    let v23 = v22 + v11;
-    let v24 = v18 + v23;
-    let v25 = v19 + v13;
-    let v28 = P.tip_mass * v25;
-    let v29 = v28 * v25;
-    let v30 = v24 + v29;
-    let v31 = P.holder_inertia * (TAU / P.period_s);
-    let v32 = v31 * (TAU / P.period_s);
-    let v33 = v30 + v32;
-    let v37 = P.k * 0.0f;
-    let v38 = v37 * 0.0f;
-    let v39 = P.k0 + v38;
-    let v40 = v39 + v38;
-    let v42 = P.seg_mass * v6;
-    let v43 = v42 * v6;
-    let v44 = v43 + P.seg_inertia;
-    let v45 = P.seg_len + v6;
-    let v46 = P.seg_mass * v45;
-    let v47 = v46 * v45;
-    let v48 = v47 + P.seg_inertia;
-    let v49 = v44 + v48;
-    let v50 = P.seg_len + P.seg_len;
-    let v51 = v50 + v6;
-    let v52 = P.seg_mass * v51;
-    let v53 = v52 * v51;
-    let v54 = v53 + P.seg_inertia;
-    let v55 = v49 + v54;
-    let v56 = v50 + P.seg_len;
-    let v57 = P.tip_mass * v56;
-    let v58 = v57 * v56;
-    let v59 = v55 + v58;
-    let v60 = v59 + P.holder_inertia;
-    let v61 = P.twin_rigid_w * v60;
-    let v62 = v61 * v60;
-    let v63 = select(0.0f, v62, P.twin_rigid_w > 0.0f);
-    let v66 = P.twin_volt_w * select(0.0f, 1.0f / sqrt(P.twin_volt_w * P.twin_scale), P.twin_volt_w > 0.0f);
-    let v67 = v66 * select(0.0f, 1.0f / sqrt(P.twin_volt_w * P.twin_scale), P.twin_volt_w > 0.0f);
-    let v69 = v33 + v40;
-    let v70 = v69 + v63;
-    let v71 = v70 + v67;
-    let v72 = P.twin_scale * v71;
-    let d2 = v72;
-    return d2;
-}
 // Common definitions of the ensemble kernels of pendulum-atlas: specialisation constants, the
 // data structures shared with Rust, the bindings and the integrator's per-invocation state.
 //
@@ -1786,25 +1725,19 @@ fn twin_step(ph: u32, dt: f32) {
 }
 
 // TwinTracker::at_sample of src/engine/twin.rs at stroboscopic instant `j` (absolute, the
-// transient included): start the twin at y + d0·u, or add g = ln(d/d0) to its block and pull
-// it back to distance d0. Its first instant and window are the accumulators' (the early stop
+// transient included): start the twin at y + d0·u (d0·u of TwinNorm::direction, formed on the
+// host as the CPU forms it: P.twin_start_*), or add g = ln(d/d0) to its block and pull it back
+// to distance d0. Its first instant and window are the accumulators' (the early stop
 // may restart it on a confirmed orbit).
 fn twin_sample(j: u32, a: ptr<function, Accum>) {
     let start = (*a).tw_start;
     let window = (*a).tw_window;
     if j == start {
-        // TwinNorm::direction: (1, …, 1; Ω, …, Ω; 1/√(C_p s)) of unit norm, times d0
-        let u = P.twin_d0 / sqrt(twin_norm2_init());
-        let omega = TAU / P.period_s;
         for (var i = 0u; i < N_SEG; i++) {
-            tw_th[i] = th[i] + u;
-            tw_om[i] = om[i] + u * omega;
+            tw_th[i] = th[i] + P.twin_start_th;
+            tw_om[i] = om[i] + P.twin_start_om;
         }
-        // (The voltage's component as the generated twin_norm2_init takes it.)
-        tw_volt = volt;
-        if P.twin_volt_w > 0.0 {
-            tw_volt = volt + u * (1.0 / sqrt(P.twin_volt_w * P.twin_scale));
-        }
+        tw_volt = volt + P.twin_start_v;
         (*a).twin_flags = TWIN_RUNNING;
         return;
     }

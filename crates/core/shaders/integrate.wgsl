@@ -348,25 +348,19 @@ fn twin_step(ph: u32, dt: f32) {
 }
 
 // TwinTracker::at_sample of src/engine/twin.rs at stroboscopic instant `j` (absolute, the
-// transient included): start the twin at y + d0·u, or add g = ln(d/d0) to its block and pull
-// it back to distance d0. Its first instant and window are the accumulators' (the early stop
+// transient included): start the twin at y + d0·u (d0·u of TwinNorm::direction, formed on the
+// host as the CPU forms it: P.twin_start_*), or add g = ln(d/d0) to its block and pull it back
+// to distance d0. Its first instant and window are the accumulators' (the early stop
 // may restart it on a confirmed orbit).
 fn twin_sample(j: u32, a: ptr<function, Accum>) {
     let start = (*a).tw_start;
     let window = (*a).tw_window;
     if j == start {
-        // TwinNorm::direction: (1, …, 1; Ω, …, Ω; 1/√(C_p s)) of unit norm, times d0
-        let u = P.twin_d0 / sqrt(twin_norm2_init());
-        let omega = TAU / P.period_s;
         for (var i = 0u; i < N_SEG; i++) {
-            tw_th[i] = th[i] + u;
-            tw_om[i] = om[i] + u * omega;
+            tw_th[i] = th[i] + P.twin_start_th;
+            tw_om[i] = om[i] + P.twin_start_om;
         }
-        // (The voltage's component as the generated twin_norm2_init takes it.)
-        tw_volt = volt;
-        if P.twin_volt_w > 0.0 {
-            tw_volt = volt + u * (1.0 / sqrt(P.twin_volt_w * P.twin_scale));
-        }
+        tw_volt = volt + P.twin_start_v;
         (*a).twin_flags = TWIN_RUNNING;
         return;
     }

@@ -117,6 +117,13 @@ gpu_struct! {
         /// The voltage's weight in the twin's norm, [`TwinNorm::volt_weight`] (C_p of a coupled
         /// patch, else 0).
         pub twin_volt_w: f32,
+        /// The twin's start offset `d0·u` of every angle ([`TwinNorm::direction`] times d0,
+        /// formed in f64 as the CPU's `TwinTracker` forms it).
+        pub twin_start_th: f32,
+        /// The twin's start offset of every rate.
+        pub twin_start_om: f32,
+        /// The twin's start offset of the voltage (0 without a coupled patch).
+        pub twin_start_v: f32,
         /// The forcing period T = 1/f (s).
         pub period_s: f32,
         /// Adaptive steps: the relative tolerance (0 for fixed steps).
@@ -158,6 +165,8 @@ impl GpuInstanceParams {
             norm: TwinNorm::of(m, w),
             period_s: 1.0 / p.frequency_hz,
         });
+        let dir = twin.norm.direction(n, 2 * n + 1);
+        let start = |k: usize| (twin_d0 * dir[k]) as f32;
         GpuInstanceParams {
             seg_len: c(Coefficient::SegLength),
             seg_mass: c(Coefficient::SegMass),
@@ -206,6 +215,9 @@ impl GpuInstanceParams {
             twin_rigid_w: twin.norm.rigid_weight as f32,
             twin_scale: twin.norm.scale as f32,
             twin_volt_w: twin.norm.volt_weight as f32,
+            twin_start_th: start(0),
+            twin_start_om: start(n),
+            twin_start_v: start(2 * n),
             period_s: (1.0 / p.frequency_hz) as f32,
             rtol: rtol as f32,
             atol: atol as f32,

@@ -244,43 +244,26 @@ fn read_norm(c: NormCoefficient) -> &'static str {
     }
 }
 
-/// The squared norm of λ1's separation ([`distance2_in`]): of the twin from the main state
-/// (`twin_norm2`), or of the initial direction before its normalisation (`twin_norm2_init`:
-/// every angle 1, every rate Ω = 2π/T, the voltage 1/√(C_p s) of a coupled patch, as
-/// `TwinNorm::direction` makes it).
-fn twin_norm2(shape: ChainShape, init: bool) -> String {
+/// The squared norm of λ1's separation ([`distance2_in`]) of the twin from the main state:
+/// `twin_norm2`. (Its initial direction, `TwinNorm::direction`, is formed on the host in f64
+/// as the CPU forms it, and reaches the kernel as `P.twin_start_*`.)
+fn twin_norm2(shape: ChainShape) -> String {
     let n = shape.segments;
     let (tape, d2) = record(|| {
-        let diff = |k: usize| match (init, k) {
-            (false, k) if k < n => input(format!("tw_th[{k}]")) - input(format!("th[{k}]")),
-            (false, k) if k < 2 * n => {
-                input(format!("tw_om[{}]", k - n)) - input(format!("om[{}]", k - n))
-            }
-            (false, _) => input("tw_volt") - input("volt"),
-            (true, k) if k < n => Sym::splat(1.0),
-            (true, k) if k < 2 * n => input("(TAU / P.period_s)"),
-            (true, _) => input(
-                "select(0.0f, 1.0f / sqrt(P.twin_volt_w * P.twin_scale), P.twin_volt_w > 0.0f)",
-            ),
+        let diff = |k: usize| match k {
+            k if k < n => input(format!("tw_th[{k}]")) - input(format!("th[{k}]")),
+            k if k < 2 * n => input(format!("tw_om[{}]", k - n)) - input(format!("om[{}]", k - n)),
+            _ => input("tw_volt") - input("volt"),
         };
         distance2_in(n, true, |c| input(read_norm(c)), diff)
     });
-    let (name, doc) = if init {
-        (
-            "twin_norm2_init",
-            "distance2_in of λ1's initial direction (every angle 1, every rate Ω, the voltage 1/√(C_p s)), before its normalisation.",
-        )
-    } else {
-        (
-            "twin_norm2",
-            "distance2_in of λ1's separation: the twin (tw_th, tw_om, tw_volt) less the main state (th, om, volt).",
-        )
-    };
     emit(
         &tape,
         &Function {
-            doc: &[doc],
-            signature: &format!("fn {name}() -> f32"),
+            doc: &[
+                "distance2_in of λ1's separation: the twin (tw_th, tw_om, tw_volt) less the main state (th, om, volt).",
+            ],
+            signature: "fn twin_norm2() -> f32",
             stores: vec![("let d2".into(), d2)],
             tail: "    return d2;\n",
         },
@@ -295,8 +278,7 @@ pub(crate) fn chain_wgsl(shape: ChainShape) -> String {
         energy(shape),
         touch_flags(shape),
         twin_saltation(shape),
-        twin_norm2(shape, false),
-        twin_norm2(shape, true),
+        twin_norm2(shape),
     ]
     .join("\n")
 }
