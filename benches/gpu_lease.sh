@@ -6,7 +6,10 @@
 #
 #   benches/gpu_lease.sh prepare          # here: a portable release binary (x86-64-v3, not
 #                                         # this CPU's `native`) and the Vulkan loader's .deb,
-#                                         # into .gpu-kit/ (git-ignored, about 17 MB)
+#                                         # into .gpu-kit/ (git-ignored, about 40 MB); and the
+#                                         # same binary of BASE_REV (default 1a7506a, the last
+#                                         # hand-written kernels; BASE_REV= for none), whose
+#                                         # study `run` repeats last, side by side (issue 73)
 #   device run, carry [".gpu-kit"]:       # there, from the repository root:
 #       benches/gpu_lease.sh run
 #   benches/gpu_lease.sh unpack FILE      # here: the results into docs/bench/gpu/<adapter>/
@@ -19,7 +22,9 @@
 # written (N = 3, 64 x 48) on the GPU and on the CPU engine for parity, the same map at fixed
 # steps without lambda1 and the early stop, and last the GPU peers (benches/peers/run_gpu_peers.sh: the CUDA kernel and JAX on
 # the same GPU, at most 80 s).
-# Each step is bounded by `timeout` (575 s in all); its log and results go under $OUT as they
+# Last, where the kit has the base build, its own throughput study at N = 3 and 17 (GPU_base.md,
+# 60 s at most), so the kernels before and after a change are measured on the same device.
+# Each step is bounded by `timeout` (575 s in all, 635 s with the base study); its log and results go under $OUT as they
 # finish, so a call cut short still brings back what it had: one tarball, gpu_lease.tar.gz,
 # plus GPU.md, AGREEMENT.md (benches/kernels_agree.py: GPU against CPU held against each other,
 # where numpy is) and the log to read at once.
@@ -35,6 +40,20 @@ kit=.gpu-kit
 prepare() {
   grep -qx '/.gpu-kit/' .gitignore || { echo "add /.gpu-kit/ to .gitignore first" >&2; exit 2; }
   mkdir -p "$kit/gl"
+  # The base build first, so that target/portable is left with this checkout's.
+  local base_rev=${BASE_REV-1a7506a}
+  if [ -n "$base_rev" ]; then
+    local tree
+    tree=$(mktemp -d)
+    git worktree add -q --detach "$tree/base" "$base_rev"
+    RUSTFLAGS="-C target-cpu=x86-64-v3" CARGO_TARGET_DIR=target/portable \
+      cargo build --release --bin pendulum-atlas --manifest-path "$tree/base/Cargo.toml"
+    cp target/portable/release/pendulum-atlas "$kit/pendulum-atlas-base"
+    git worktree remove --force "$tree/base"
+    echo "$base_rev" > "$kit/base_rev.txt"
+  else
+    rm -f "$kit/pendulum-atlas-base" "$kit/base_rev.txt"
+  fi
   # RUSTFLAGS replaces .cargo/config.toml's target-cpu=native: the device's CPU may differ.
   RUSTFLAGS="-C target-cpu=x86-64-v3" CARGO_TARGET_DIR=target/portable \
     cargo build --release --bin pendulum-atlas
@@ -73,6 +92,8 @@ setup() {
   work=${GPU_LEASE_WORK:-/tmp/gpu_lease}
   # PENDULUM_ATLAS_KIT_BIN: another binary (the test of `run --dry` passes the one cargo built).
   bin=${PENDULUM_ATLAS_KIT_BIN:-$kit/pendulum-atlas}
+  # PENDULUM_ATLAS_KIT_BASE: the base build (`prepare` makes one; the dry test passes its own).
+  base_bin=${PENDULUM_ATLAS_KIT_BASE:-$kit/pendulum-atlas-base}
   [ -x "$bin" ] || { echo "no $bin: run 'benches/gpu_lease.sh prepare' here and carry .gpu-kit" >&2; exit 2; }
   rm -rf "$work"; mkdir -p "$work" "$out"
   exec > >(tee "$out/log.txt") 2>&1
@@ -168,11 +189,31 @@ run() {
   else
     echo "agreement: no numpy here; benches/kernels_agree.py DIR on the unpacked folder"
   fi
+  base_study "$dry"
   ls -la "$out"
   if [ "$peers_rc" -ne 0 ]; then
     echo "the peers failed (rc $peers_rc); everything else was written" >&2
     exit 4
   fi
+}
+
+# The base build's throughput at N = 3 and 17 (GPU_base.md beside GPU.md), where the kit has
+# one: the same rows on the same device before and after a change of the kernels.
+base_study() {
+  local dry=${1:-}
+  if [ ! -x "$base_bin" ]; then
+    echo "== no base build in the kit ($base_bin): only this build was measured"
+    return
+  fi
+  local study=(--no-cpu --segments 3,17 --row-budget-s 2)
+  [ -z "$dry" ] || study=(--no-cpu --segments 3 --max-instances 1000 --row-budget-s 1)
+  echo "== base build $(cat "$kit/base_rev.txt" 2>/dev/null || echo "$base_bin"): bench --throughput ${study[*]}"
+  SECONDS=0
+  timeout 60 "$base_bin" bench --throughput "${study[@]}" --out "$work/gpu_base" --force \
+    || echo "base study: rc $?"
+  echo "base study: ${SECONDS} s"
+  [ -f "$work/gpu_base/GPU.md" ] && cp "$work/gpu_base/GPU.md" "$out/GPU_base.md"
+  pack
 }
 
 # A short second call: the default map as the README runs it (auto backend, the hardware

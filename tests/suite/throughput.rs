@@ -169,11 +169,16 @@ fn the_gpu_lease_script_runs_dry_on_this_adapter() {
             "PENDULUM_ATLAS_KIT_BIN",
             env!("CARGO_BIN_EXE_pendulum-atlas"),
         )
+        // The base build's study runs last; this build stands in for it.
+        .env(
+            "PENDULUM_ATLAS_KIT_BASE",
+            env!("CARGO_BIN_EXE_pendulum-atlas"),
+        )
         .output()
         .unwrap();
     let log = String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{log}");
-    for f in ["log.txt", "gpu_lease.tar.gz", "GPU.md"] {
+    for f in ["log.txt", "gpu_lease.tar.gz", "GPU.md", "GPU_base.md"] {
         assert!(out.join(f).is_file(), "{f} missing: {log}");
     }
     let study = std::fs::read_to_string(out.join("GPU.md")).unwrap();
