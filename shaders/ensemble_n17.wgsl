@@ -98,7 +98,7 @@ struct InstanceParams {
     twin_rigid_w: f32, // The rigid rotation's weight in the twin's norm, [`TwinNorm::rigid_weight`].
     twin_scale: f32, // The scale of the twin's norm, [`TwinNorm::scale`] (the chain's inertias, springs and
     twin_volt_w: f32, // The voltage's weight in the twin's norm, [`TwinNorm::volt_weight`] (C_p of a coupled
-    twin_start_th: f32, // The twin's start offset `d0·u` of every angle ([`TwinNorm::direction`] times d0,
+    twin_start_th: f32, // The twin's start offset `d0·u` of every angle ([`TwinNorm::start_offset`], the
     twin_start_om: f32, // The twin's start offset of every rate.
     twin_start_v: f32, // The twin's start offset of the voltage (0 without a coupled patch).
     period_s: f32, // The forcing period T = 1/f (s).

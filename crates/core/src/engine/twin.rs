@@ -90,8 +90,8 @@ pub(crate) fn onsets_of(before: (bool, bool), now: (bool, bool)) -> (bool, bool)
 pub(crate) struct TwinTracker {
     plan: TwinPlan,
     d0: f64,
-    /// The initial separation, of unit norm ([`TwinPlan::direction`]).
-    dir: Vec<f64>,
+    /// The twin's start offset `d0·u` ([`crate::reduce::lyapunov::TwinNorm::start_offset`]).
+    offset: Vec<f64>,
     segments: usize,
     running: bool,
     /// The stroboscopic instant (absolute index, transient included) at which it starts.
@@ -113,7 +113,7 @@ impl TwinTracker {
         transient_periods: u32,
     ) -> TwinTracker {
         TwinTracker {
-            dir: plan.norm.direction(segments, dim),
+            offset: plan.norm.start_offset(segments, dim, d0),
             start_abs: plan.start_sample + transient_periods,
             original: (plan.start_sample + transient_periods, plan.window),
             plan,
@@ -186,8 +186,8 @@ impl TwinTracker {
     ) {
         let (p, start) = (self.plan, self.start_abs);
         if j == start {
-            for (k, &u) in self.dir.iter().enumerate() {
-                twin.set(k, y.at(k) + T::of(self.d0 * u));
+            for (k, &du) in self.offset.iter().enumerate() {
+                twin.set(k, y.at(k) + T::of(du));
             }
             self.running = true;
             return;
@@ -195,7 +195,7 @@ impl TwinTracker {
         if !self.running || j <= start {
             return;
         }
-        let dim = self.dir.len();
+        let dim = self.offset.len();
         let d = p
             .norm
             .distance(self.segments, dim, |k| (twin.at(k) - y.at(k)).wide());

@@ -212,6 +212,13 @@ impl TwinNorm {
         let d = self.distance(n, dim, |k| e[k]);
         e.into_iter().map(|x| x / d).collect()
     }
+
+    /// The twin's start offset `d0·u` from the main state, `u` the [`TwinNorm::direction`]:
+    /// formed here in f64 for every engine (the CPU's tracker adds it in its number type, the
+    /// GPU's kernel takes it in `InstanceParams`).
+    pub fn start_offset(&self, n: usize, dim: usize, d0: f64) -> Vec<f64> {
+        self.direction(n, dim).into_iter().map(|u| d0 * u).collect()
+    }
 }
 
 /// One coefficient of the twin's norm, by name ([`TwinNorm::coefficient`]).

@@ -117,8 +117,8 @@ gpu_struct! {
         /// The voltage's weight in the twin's norm, [`TwinNorm::volt_weight`] (C_p of a coupled
         /// patch, else 0).
         pub twin_volt_w: f32,
-        /// The twin's start offset `d0·u` of every angle ([`TwinNorm::direction`] times d0,
-        /// formed in f64 as the CPU's `TwinTracker` forms it).
+        /// The twin's start offset `d0·u` of every angle ([`TwinNorm::start_offset`], the
+        /// CPU's too).
         pub twin_start_th: f32,
         /// The twin's start offset of every rate.
         pub twin_start_om: f32,
@@ -165,8 +165,8 @@ impl GpuInstanceParams {
             norm: TwinNorm::of(m, w),
             period_s: 1.0 / p.frequency_hz,
         });
-        let dir = twin.norm.direction(n, 2 * n + 1);
-        let start = |k: usize| (twin_d0 * dir[k]) as f32;
+        let offset = twin.norm.start_offset(n, 2 * n + 1, twin_d0);
+        let start = |k: usize| offset[k] as f32;
         GpuInstanceParams {
             seg_len: c(Coefficient::SegLength),
             seg_mass: c(Coefficient::SegMass),

@@ -139,9 +139,7 @@ fn twin_saltation(shape: ChainShape) -> String {
         let chain = coefficients(shape);
         let mut ws = chain.workspace();
         let y: Vec<Sym> = (0..2 * n + 1).map(|j| step_state(n, j)).collect();
-        let mut twin: Vec<Sym> = (0..n).map(|i| input(format!("tw_th[{i}]"))).collect();
-        twin.extend((0..n).map(|i| input(format!("tw_om[{i}]"))));
-        twin.push(input("tw_volt"));
+        let mut twin = twin_state(n);
         let bit = |k: u32| input(format!("f32((onsets >> {k}u) & 1u)"));
         crate::engine::twin::saltation_lanes(&chain, &mut ws, &y, &mut twin, (bit(0), bit(1)));
         shape.contact.map(|_| twin[n..2 * n].to_vec())
@@ -202,6 +200,14 @@ fn step_state(n: usize, j: usize) -> Sym {
         j if j < 2 * n => input(format!("om[{}]", j - n)),
         _ => input("volt"),
     }
+}
+
+/// λ1's twin `[θ; θ̇; v]` as the kernel's inputs `tw_th`, `tw_om`, `tw_volt`.
+fn twin_state(n: usize) -> Vec<Sym> {
+    let mut twin: Vec<Sym> = (0..n).map(|i| input(format!("tw_th[{i}]"))).collect();
+    twin.extend((0..n).map(|i| input(format!("tw_om[{i}]"))));
+    twin.push(input("tw_volt"));
+    twin
 }
 
 /// The stored energy at the step's state (`th`, `om`, `volt`) with the cart at velocity
@@ -424,9 +430,7 @@ mod tests {
             let chain = coefficients(shape);
             let mut ws = chain.workspace();
             let y: Vec<Sym> = (0..2 * n + 1).map(|j| step_state(n, j)).collect();
-            let mut twin: Vec<Sym> = (0..n).map(|i| input(format!("tw_th[{i}]"))).collect();
-            twin.extend((0..n).map(|i| input(format!("tw_om[{i}]"))));
-            twin.push(input("tw_volt"));
+            let mut twin = twin_state(n);
             let flags = (input("right"), input("left"));
             crate::engine::twin::saltation_lanes(&chain, &mut ws, &y, &mut twin, flags);
             twin
