@@ -213,10 +213,9 @@ pub struct Imex<T> {
     l: [Vec<T>; 4],
     /// Stage state.
     u: Vec<T>,
-    /// Scratch of length N: couples, implicit right-hand side, and a copy of R_θ.
+    /// Scratch of length N: couples and the implicit right-hand side.
     q: Vec<T>,
     r: Vec<T>,
-    r_theta: Vec<T>,
     /// The state's summation compensation, carried from step to step ([`compensated_add`]).
     comp: Vec<T>,
 }
@@ -244,8 +243,7 @@ impl<T: Lane> Imex<T> {
             u: zd.clone(),
             comp: zd,
             q: zn.clone(),
-            r: zn.clone(),
-            r_theta: zn,
+            r: zn,
         }
     }
 
@@ -284,17 +282,26 @@ impl<T: Lane> Imex<T> {
                 self.u[s] += h * ae * self.f[j][s];
             }
         }
-        // S U_ω = M0 R_ω − hγ K R_θ; U_θ = R_θ + hγ U_ω.
+        let mut u = std::mem::take(&mut self.u);
+        self.solve(&mut u);
+        self.u = u;
+    }
+
+    /// The implicit solve `(I − hγL) x ← x` on the chain's part of `x` (its voltage, if any,
+    /// left as it is): `S x_ω = M0 x_ω − hγ K x_θ`, then `x_θ += hγ x_ω`. A stage solves for
+    /// its state U from its right-hand side R; the error filter solves the same system for the
+    /// embedded error.
+    fn solve(&mut self, x: &mut [T]) {
+        let n = self.n;
         let j = self.joints();
-        j.couples(&self.u[..n], None, &mut self.q);
-        mat_vec(&self.m0, &self.u[n..2 * n], &mut self.r);
+        j.couples(&x[..n], None, &mut self.q);
+        mat_vec(&self.m0, &x[n..2 * n], &mut self.r);
         for s in 0..n {
             self.r[s] += self.hg * self.q[s];
         }
-        self.r_theta.copy_from_slice(&self.u[..n]);
-        mat_vec(&self.s_inv, &self.r, &mut self.u[n..2 * n]);
+        mat_vec(&self.s_inv, &self.r, &mut x[n..2 * n]);
         for s in 0..n {
-            self.u[s] = self.r_theta[s] + self.hg * self.u[n + s];
+            x[s] += self.hg * x[n + s];
         }
     }
 }
@@ -397,20 +404,10 @@ impl<T: Lane> Imex<T> {
     /// theirs. The same solve as a stage's: `S x_ω = M0 e_ω − hγ K e_θ`, `x_θ = e_θ + hγ x_ω`;
     /// the voltage is left as it is.
     pub(crate) fn filtered_error(&mut self, out: &mut [T]) {
-        let n = self.n;
         for (s, o) in out.iter_mut().enumerate() {
             *o = self.error_of(s);
         }
-        let j = self.joints();
-        j.couples(&out[..n], None, &mut self.q);
-        mat_vec(&self.m0, &out[n..2 * n], &mut self.r);
-        for s in 0..n {
-            self.r[s] += self.hg * self.q[s];
-        }
-        mat_vec(&self.s_inv, &self.r, &mut out[n..2 * n]);
-        for s in 0..n {
-            out[s] += self.hg * out[n + s];
-        }
+        self.solve(out);
     }
 
     /// `y += h Σ b_i f_i` with the state's compensation in the lanes where `mask` is positive;
