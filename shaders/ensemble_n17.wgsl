@@ -6008,6 +6008,1120 @@ fn twin_norm2() -> f32 {
     let d2 = v553;
     return d2;
 }
+
+// stage and stage_step (src/engine/rk4.rs): stage j's state y + h c_j k_{j−1} into (sth, som, svolt).
+fn rk4_stage_state_1(h: f32) {
+    let v72 = h * 0.5f;
+    let v73 = v72 * f_th[0][0];
+    let v74 = th[0] + v73;
+    let v75 = v72 * f_th[0][1];
+    let v76 = th[1] + v75;
+    let v77 = v72 * f_th[0][2];
+    let v78 = th[2] + v77;
+    let v79 = v72 * f_th[0][3];
+    let v80 = th[3] + v79;
+    let v81 = v72 * f_th[0][4];
+    let v82 = th[4] + v81;
+    let v83 = v72 * f_th[0][5];
+    let v84 = th[5] + v83;
+    let v85 = v72 * f_th[0][6];
+    let v86 = th[6] + v85;
+    let v87 = v72 * f_th[0][7];
+    let v88 = th[7] + v87;
+    let v89 = v72 * f_th[0][8];
+    let v90 = th[8] + v89;
+    let v91 = v72 * f_th[0][9];
+    let v92 = th[9] + v91;
+    let v93 = v72 * f_th[0][10];
+    let v94 = th[10] + v93;
+    let v95 = v72 * f_th[0][11];
+    let v96 = th[11] + v95;
+    let v97 = v72 * f_th[0][12];
+    let v98 = th[12] + v97;
+    let v99 = v72 * f_th[0][13];
+    let v100 = th[13] + v99;
+    let v101 = v72 * f_th[0][14];
+    let v102 = th[14] + v101;
+    let v103 = v72 * f_th[0][15];
+    let v104 = th[15] + v103;
+    let v105 = v72 * f_th[0][16];
+    let v106 = th[16] + v105;
+    let v107 = v72 * f_om[0][0];
+    let v108 = om[0] + v107;
+    let v109 = v72 * f_om[0][1];
+    let v110 = om[1] + v109;
+    let v111 = v72 * f_om[0][2];
+    let v112 = om[2] + v111;
+    let v113 = v72 * f_om[0][3];
+    let v114 = om[3] + v113;
+    let v115 = v72 * f_om[0][4];
+    let v116 = om[4] + v115;
+    let v117 = v72 * f_om[0][5];
+    let v118 = om[5] + v117;
+    let v119 = v72 * f_om[0][6];
+    let v120 = om[6] + v119;
+    let v121 = v72 * f_om[0][7];
+    let v122 = om[7] + v121;
+    let v123 = v72 * f_om[0][8];
+    let v124 = om[8] + v123;
+    let v125 = v72 * f_om[0][9];
+    let v126 = om[9] + v125;
+    let v127 = v72 * f_om[0][10];
+    let v128 = om[10] + v127;
+    let v129 = v72 * f_om[0][11];
+    let v130 = om[11] + v129;
+    let v131 = v72 * f_om[0][12];
+    let v132 = om[12] + v131;
+    let v133 = v72 * f_om[0][13];
+    let v134 = om[13] + v133;
+    let v135 = v72 * f_om[0][14];
+    let v136 = om[14] + v135;
+    let v137 = v72 * f_om[0][15];
+    let v138 = om[15] + v137;
+    let v139 = v72 * f_om[0][16];
+    let v140 = om[16] + v139;
+    let v141 = v72 * f_v[0];
+    let v142 = volt + v141;
+    sth[0] = v74;
+    sth[1] = v76;
+    sth[2] = v78;
+    sth[3] = v80;
+    sth[4] = v82;
+    sth[5] = v84;
+    sth[6] = v86;
+    sth[7] = v88;
+    sth[8] = v90;
+    sth[9] = v92;
+    sth[10] = v94;
+    sth[11] = v96;
+    sth[12] = v98;
+    sth[13] = v100;
+    sth[14] = v102;
+    sth[15] = v104;
+    sth[16] = v106;
+    som[0] = v108;
+    som[1] = v110;
+    som[2] = v112;
+    som[3] = v114;
+    som[4] = v116;
+    som[5] = v118;
+    som[6] = v120;
+    som[7] = v122;
+    som[8] = v124;
+    som[9] = v126;
+    som[10] = v128;
+    som[11] = v130;
+    som[12] = v132;
+    som[13] = v134;
+    som[14] = v136;
+    som[15] = v138;
+    som[16] = v140;
+    svolt = v142;
+}
+
+// stage and stage_step (src/engine/rk4.rs): stage j's state y + h c_j k_{j−1} into (sth, som, svolt).
+fn rk4_stage_state_2(h: f32) {
+    let v72 = h * 0.5f;
+    let v73 = v72 * f_th[1][0];
+    let v74 = th[0] + v73;
+    let v75 = v72 * f_th[1][1];
+    let v76 = th[1] + v75;
+    let v77 = v72 * f_th[1][2];
+    let v78 = th[2] + v77;
+    let v79 = v72 * f_th[1][3];
+    let v80 = th[3] + v79;
+    let v81 = v72 * f_th[1][4];
+    let v82 = th[4] + v81;
+    let v83 = v72 * f_th[1][5];
+    let v84 = th[5] + v83;
+    let v85 = v72 * f_th[1][6];
+    let v86 = th[6] + v85;
+    let v87 = v72 * f_th[1][7];
+    let v88 = th[7] + v87;
+    let v89 = v72 * f_th[1][8];
+    let v90 = th[8] + v89;
+    let v91 = v72 * f_th[1][9];
+    let v92 = th[9] + v91;
+    let v93 = v72 * f_th[1][10];
+    let v94 = th[10] + v93;
+    let v95 = v72 * f_th[1][11];
+    let v96 = th[11] + v95;
+    let v97 = v72 * f_th[1][12];
+    let v98 = th[12] + v97;
+    let v99 = v72 * f_th[1][13];
+    let v100 = th[13] + v99;
+    let v101 = v72 * f_th[1][14];
+    let v102 = th[14] + v101;
+    let v103 = v72 * f_th[1][15];
+    let v104 = th[15] + v103;
+    let v105 = v72 * f_th[1][16];
+    let v106 = th[16] + v105;
+    let v107 = v72 * f_om[1][0];
+    let v108 = om[0] + v107;
+    let v109 = v72 * f_om[1][1];
+    let v110 = om[1] + v109;
+    let v111 = v72 * f_om[1][2];
+    let v112 = om[2] + v111;
+    let v113 = v72 * f_om[1][3];
+    let v114 = om[3] + v113;
+    let v115 = v72 * f_om[1][4];
+    let v116 = om[4] + v115;
+    let v117 = v72 * f_om[1][5];
+    let v118 = om[5] + v117;
+    let v119 = v72 * f_om[1][6];
+    let v120 = om[6] + v119;
+    let v121 = v72 * f_om[1][7];
+    let v122 = om[7] + v121;
+    let v123 = v72 * f_om[1][8];
+    let v124 = om[8] + v123;
+    let v125 = v72 * f_om[1][9];
+    let v126 = om[9] + v125;
+    let v127 = v72 * f_om[1][10];
+    let v128 = om[10] + v127;
+    let v129 = v72 * f_om[1][11];
+    let v130 = om[11] + v129;
+    let v131 = v72 * f_om[1][12];
+    let v132 = om[12] + v131;
+    let v133 = v72 * f_om[1][13];
+    let v134 = om[13] + v133;
+    let v135 = v72 * f_om[1][14];
+    let v136 = om[14] + v135;
+    let v137 = v72 * f_om[1][15];
+    let v138 = om[15] + v137;
+    let v139 = v72 * f_om[1][16];
+    let v140 = om[16] + v139;
+    let v141 = v72 * f_v[1];
+    let v142 = volt + v141;
+    sth[0] = v74;
+    sth[1] = v76;
+    sth[2] = v78;
+    sth[3] = v80;
+    sth[4] = v82;
+    sth[5] = v84;
+    sth[6] = v86;
+    sth[7] = v88;
+    sth[8] = v90;
+    sth[9] = v92;
+    sth[10] = v94;
+    sth[11] = v96;
+    sth[12] = v98;
+    sth[13] = v100;
+    sth[14] = v102;
+    sth[15] = v104;
+    sth[16] = v106;
+    som[0] = v108;
+    som[1] = v110;
+    som[2] = v112;
+    som[3] = v114;
+    som[4] = v116;
+    som[5] = v118;
+    som[6] = v120;
+    som[7] = v122;
+    som[8] = v124;
+    som[9] = v126;
+    som[10] = v128;
+    som[11] = v130;
+    som[12] = v132;
+    som[13] = v134;
+    som[14] = v136;
+    som[15] = v138;
+    som[16] = v140;
+    svolt = v142;
+}
+
+// stage and stage_step (src/engine/rk4.rs): stage j's state y + h c_j k_{j−1} into (sth, som, svolt).
+fn rk4_stage_state_3(h: f32) {
+    let v72 = h * f_th[2][0];
+    let v73 = th[0] + v72;
+    let v74 = h * f_th[2][1];
+    let v75 = th[1] + v74;
+    let v76 = h * f_th[2][2];
+    let v77 = th[2] + v76;
+    let v78 = h * f_th[2][3];
+    let v79 = th[3] + v78;
+    let v80 = h * f_th[2][4];
+    let v81 = th[4] + v80;
+    let v82 = h * f_th[2][5];
+    let v83 = th[5] + v82;
+    let v84 = h * f_th[2][6];
+    let v85 = th[6] + v84;
+    let v86 = h * f_th[2][7];
+    let v87 = th[7] + v86;
+    let v88 = h * f_th[2][8];
+    let v89 = th[8] + v88;
+    let v90 = h * f_th[2][9];
+    let v91 = th[9] + v90;
+    let v92 = h * f_th[2][10];
+    let v93 = th[10] + v92;
+    let v94 = h * f_th[2][11];
+    let v95 = th[11] + v94;
+    let v96 = h * f_th[2][12];
+    let v97 = th[12] + v96;
+    let v98 = h * f_th[2][13];
+    let v99 = th[13] + v98;
+    let v100 = h * f_th[2][14];
+    let v101 = th[14] + v100;
+    let v102 = h * f_th[2][15];
+    let v103 = th[15] + v102;
+    let v104 = h * f_th[2][16];
+    let v105 = th[16] + v104;
+    let v106 = h * f_om[2][0];
+    let v107 = om[0] + v106;
+    let v108 = h * f_om[2][1];
+    let v109 = om[1] + v108;
+    let v110 = h * f_om[2][2];
+    let v111 = om[2] + v110;
+    let v112 = h * f_om[2][3];
+    let v113 = om[3] + v112;
+    let v114 = h * f_om[2][4];
+    let v115 = om[4] + v114;
+    let v116 = h * f_om[2][5];
+    let v117 = om[5] + v116;
+    let v118 = h * f_om[2][6];
+    let v119 = om[6] + v118;
+    let v120 = h * f_om[2][7];
+    let v121 = om[7] + v120;
+    let v122 = h * f_om[2][8];
+    let v123 = om[8] + v122;
+    let v124 = h * f_om[2][9];
+    let v125 = om[9] + v124;
+    let v126 = h * f_om[2][10];
+    let v127 = om[10] + v126;
+    let v128 = h * f_om[2][11];
+    let v129 = om[11] + v128;
+    let v130 = h * f_om[2][12];
+    let v131 = om[12] + v130;
+    let v132 = h * f_om[2][13];
+    let v133 = om[13] + v132;
+    let v134 = h * f_om[2][14];
+    let v135 = om[14] + v134;
+    let v136 = h * f_om[2][15];
+    let v137 = om[15] + v136;
+    let v138 = h * f_om[2][16];
+    let v139 = om[16] + v138;
+    let v140 = h * f_v[2];
+    let v141 = volt + v140;
+    sth[0] = v73;
+    sth[1] = v75;
+    sth[2] = v77;
+    sth[3] = v79;
+    sth[4] = v81;
+    sth[5] = v83;
+    sth[6] = v85;
+    sth[7] = v87;
+    sth[8] = v89;
+    sth[9] = v91;
+    sth[10] = v93;
+    sth[11] = v95;
+    sth[12] = v97;
+    sth[13] = v99;
+    sth[14] = v101;
+    sth[15] = v103;
+    sth[16] = v105;
+    som[0] = v107;
+    som[1] = v109;
+    som[2] = v111;
+    som[3] = v113;
+    som[4] = v115;
+    som[5] = v117;
+    som[6] = v119;
+    som[7] = v121;
+    som[8] = v123;
+    som[9] = v125;
+    som[10] = v127;
+    som[11] = v129;
+    som[12] = v131;
+    som[13] = v133;
+    som[14] = v135;
+    som[15] = v137;
+    som[16] = v139;
+    svolt = v141;
+}
+
+// finish_in (src/engine/rk4.rs): the state advanced by the stages kept, y += h (k₁ + 2k₂ + 2k₃ + k₄)/6 with compensation.
+fn rk4_finish(h: f32) {
+    let v212 = h * 0.16666667f;
+    let v214 = f_th[1][0] + f_th[2][0];
+    let v215 = 2.0f * v214;
+    let v216 = f_th[0][0] + v215;
+    let v217 = v216 + f_th[3][0];
+    let v218 = v212 * v217;
+    let v219 = v218 - th_c[0];
+    let v220 = th[0] + v219;
+    let v221 = v220 - th[0];
+    let v222 = v221 - v219;
+    let v223 = f_th[1][1] + f_th[2][1];
+    let v224 = 2.0f * v223;
+    let v225 = f_th[0][1] + v224;
+    let v226 = v225 + f_th[3][1];
+    let v227 = v212 * v226;
+    let v228 = v227 - th_c[1];
+    let v229 = th[1] + v228;
+    let v230 = v229 - th[1];
+    let v231 = v230 - v228;
+    let v232 = f_th[1][2] + f_th[2][2];
+    let v233 = 2.0f * v232;
+    let v234 = f_th[0][2] + v233;
+    let v235 = v234 + f_th[3][2];
+    let v236 = v212 * v235;
+    let v237 = v236 - th_c[2];
+    let v238 = th[2] + v237;
+    let v239 = v238 - th[2];
+    let v240 = v239 - v237;
+    let v241 = f_th[1][3] + f_th[2][3];
+    let v242 = 2.0f * v241;
+    let v243 = f_th[0][3] + v242;
+    let v244 = v243 + f_th[3][3];
+    let v245 = v212 * v244;
+    let v246 = v245 - th_c[3];
+    let v247 = th[3] + v246;
+    let v248 = v247 - th[3];
+    let v249 = v248 - v246;
+    let v250 = f_th[1][4] + f_th[2][4];
+    let v251 = 2.0f * v250;
+    let v252 = f_th[0][4] + v251;
+    let v253 = v252 + f_th[3][4];
+    let v254 = v212 * v253;
+    let v255 = v254 - th_c[4];
+    let v256 = th[4] + v255;
+    let v257 = v256 - th[4];
+    let v258 = v257 - v255;
+    let v259 = f_th[1][5] + f_th[2][5];
+    let v260 = 2.0f * v259;
+    let v261 = f_th[0][5] + v260;
+    let v262 = v261 + f_th[3][5];
+    let v263 = v212 * v262;
+    let v264 = v263 - th_c[5];
+    let v265 = th[5] + v264;
+    let v266 = v265 - th[5];
+    let v267 = v266 - v264;
+    let v268 = f_th[1][6] + f_th[2][6];
+    let v269 = 2.0f * v268;
+    let v270 = f_th[0][6] + v269;
+    let v271 = v270 + f_th[3][6];
+    let v272 = v212 * v271;
+    let v273 = v272 - th_c[6];
+    let v274 = th[6] + v273;
+    let v275 = v274 - th[6];
+    let v276 = v275 - v273;
+    let v277 = f_th[1][7] + f_th[2][7];
+    let v278 = 2.0f * v277;
+    let v279 = f_th[0][7] + v278;
+    let v280 = v279 + f_th[3][7];
+    let v281 = v212 * v280;
+    let v282 = v281 - th_c[7];
+    let v283 = th[7] + v282;
+    let v284 = v283 - th[7];
+    let v285 = v284 - v282;
+    let v286 = f_th[1][8] + f_th[2][8];
+    let v287 = 2.0f * v286;
+    let v288 = f_th[0][8] + v287;
+    let v289 = v288 + f_th[3][8];
+    let v290 = v212 * v289;
+    let v291 = v290 - th_c[8];
+    let v292 = th[8] + v291;
+    let v293 = v292 - th[8];
+    let v294 = v293 - v291;
+    let v295 = f_th[1][9] + f_th[2][9];
+    let v296 = 2.0f * v295;
+    let v297 = f_th[0][9] + v296;
+    let v298 = v297 + f_th[3][9];
+    let v299 = v212 * v298;
+    let v300 = v299 - th_c[9];
+    let v301 = th[9] + v300;
+    let v302 = v301 - th[9];
+    let v303 = v302 - v300;
+    let v304 = f_th[1][10] + f_th[2][10];
+    let v305 = 2.0f * v304;
+    let v306 = f_th[0][10] + v305;
+    let v307 = v306 + f_th[3][10];
+    let v308 = v212 * v307;
+    let v309 = v308 - th_c[10];
+    let v310 = th[10] + v309;
+    let v311 = v310 - th[10];
+    let v312 = v311 - v309;
+    let v313 = f_th[1][11] + f_th[2][11];
+    let v314 = 2.0f * v313;
+    let v315 = f_th[0][11] + v314;
+    let v316 = v315 + f_th[3][11];
+    let v317 = v212 * v316;
+    let v318 = v317 - th_c[11];
+    let v319 = th[11] + v318;
+    let v320 = v319 - th[11];
+    let v321 = v320 - v318;
+    let v322 = f_th[1][12] + f_th[2][12];
+    let v323 = 2.0f * v322;
+    let v324 = f_th[0][12] + v323;
+    let v325 = v324 + f_th[3][12];
+    let v326 = v212 * v325;
+    let v327 = v326 - th_c[12];
+    let v328 = th[12] + v327;
+    let v329 = v328 - th[12];
+    let v330 = v329 - v327;
+    let v331 = f_th[1][13] + f_th[2][13];
+    let v332 = 2.0f * v331;
+    let v333 = f_th[0][13] + v332;
+    let v334 = v333 + f_th[3][13];
+    let v335 = v212 * v334;
+    let v336 = v335 - th_c[13];
+    let v337 = th[13] + v336;
+    let v338 = v337 - th[13];
+    let v339 = v338 - v336;
+    let v340 = f_th[1][14] + f_th[2][14];
+    let v341 = 2.0f * v340;
+    let v342 = f_th[0][14] + v341;
+    let v343 = v342 + f_th[3][14];
+    let v344 = v212 * v343;
+    let v345 = v344 - th_c[14];
+    let v346 = th[14] + v345;
+    let v347 = v346 - th[14];
+    let v348 = v347 - v345;
+    let v349 = f_th[1][15] + f_th[2][15];
+    let v350 = 2.0f * v349;
+    let v351 = f_th[0][15] + v350;
+    let v352 = v351 + f_th[3][15];
+    let v353 = v212 * v352;
+    let v354 = v353 - th_c[15];
+    let v355 = th[15] + v354;
+    let v356 = v355 - th[15];
+    let v357 = v356 - v354;
+    let v358 = f_th[1][16] + f_th[2][16];
+    let v359 = 2.0f * v358;
+    let v360 = f_th[0][16] + v359;
+    let v361 = v360 + f_th[3][16];
+    let v362 = v212 * v361;
+    let v363 = v362 - th_c[16];
+    let v364 = th[16] + v363;
+    let v365 = v364 - th[16];
+    let v366 = v365 - v363;
+    let v367 = f_om[1][0] + f_om[2][0];
+    let v368 = 2.0f * v367;
+    let v369 = f_om[0][0] + v368;
+    let v370 = v369 + f_om[3][0];
+    let v371 = v212 * v370;
+    let v372 = v371 - om_c[0];
+    let v373 = om[0] + v372;
+    let v374 = v373 - om[0];
+    let v375 = v374 - v372;
+    let v376 = f_om[1][1] + f_om[2][1];
+    let v377 = 2.0f * v376;
+    let v378 = f_om[0][1] + v377;
+    let v379 = v378 + f_om[3][1];
+    let v380 = v212 * v379;
+    let v381 = v380 - om_c[1];
+    let v382 = om[1] + v381;
+    let v383 = v382 - om[1];
+    let v384 = v383 - v381;
+    let v385 = f_om[1][2] + f_om[2][2];
+    let v386 = 2.0f * v385;
+    let v387 = f_om[0][2] + v386;
+    let v388 = v387 + f_om[3][2];
+    let v389 = v212 * v388;
+    let v390 = v389 - om_c[2];
+    let v391 = om[2] + v390;
+    let v392 = v391 - om[2];
+    let v393 = v392 - v390;
+    let v394 = f_om[1][3] + f_om[2][3];
+    let v395 = 2.0f * v394;
+    let v396 = f_om[0][3] + v395;
+    let v397 = v396 + f_om[3][3];
+    let v398 = v212 * v397;
+    let v399 = v398 - om_c[3];
+    let v400 = om[3] + v399;
+    let v401 = v400 - om[3];
+    let v402 = v401 - v399;
+    let v403 = f_om[1][4] + f_om[2][4];
+    let v404 = 2.0f * v403;
+    let v405 = f_om[0][4] + v404;
+    let v406 = v405 + f_om[3][4];
+    let v407 = v212 * v406;
+    let v408 = v407 - om_c[4];
+    let v409 = om[4] + v408;
+    let v410 = v409 - om[4];
+    let v411 = v410 - v408;
+    let v412 = f_om[1][5] + f_om[2][5];
+    let v413 = 2.0f * v412;
+    let v414 = f_om[0][5] + v413;
+    let v415 = v414 + f_om[3][5];
+    let v416 = v212 * v415;
+    let v417 = v416 - om_c[5];
+    let v418 = om[5] + v417;
+    let v419 = v418 - om[5];
+    let v420 = v419 - v417;
+    let v421 = f_om[1][6] + f_om[2][6];
+    let v422 = 2.0f * v421;
+    let v423 = f_om[0][6] + v422;
+    let v424 = v423 + f_om[3][6];
+    let v425 = v212 * v424;
+    let v426 = v425 - om_c[6];
+    let v427 = om[6] + v426;
+    let v428 = v427 - om[6];
+    let v429 = v428 - v426;
+    let v430 = f_om[1][7] + f_om[2][7];
+    let v431 = 2.0f * v430;
+    let v432 = f_om[0][7] + v431;
+    let v433 = v432 + f_om[3][7];
+    let v434 = v212 * v433;
+    let v435 = v434 - om_c[7];
+    let v436 = om[7] + v435;
+    let v437 = v436 - om[7];
+    let v438 = v437 - v435;
+    let v439 = f_om[1][8] + f_om[2][8];
+    let v440 = 2.0f * v439;
+    let v441 = f_om[0][8] + v440;
+    let v442 = v441 + f_om[3][8];
+    let v443 = v212 * v442;
+    let v444 = v443 - om_c[8];
+    let v445 = om[8] + v444;
+    let v446 = v445 - om[8];
+    let v447 = v446 - v444;
+    let v448 = f_om[1][9] + f_om[2][9];
+    let v449 = 2.0f * v448;
+    let v450 = f_om[0][9] + v449;
+    let v451 = v450 + f_om[3][9];
+    let v452 = v212 * v451;
+    let v453 = v452 - om_c[9];
+    let v454 = om[9] + v453;
+    let v455 = v454 - om[9];
+    let v456 = v455 - v453;
+    let v457 = f_om[1][10] + f_om[2][10];
+    let v458 = 2.0f * v457;
+    let v459 = f_om[0][10] + v458;
+    let v460 = v459 + f_om[3][10];
+    let v461 = v212 * v460;
+    let v462 = v461 - om_c[10];
+    let v463 = om[10] + v462;
+    let v464 = v463 - om[10];
+    let v465 = v464 - v462;
+    let v466 = f_om[1][11] + f_om[2][11];
+    let v467 = 2.0f * v466;
+    let v468 = f_om[0][11] + v467;
+    let v469 = v468 + f_om[3][11];
+    let v470 = v212 * v469;
+    let v471 = v470 - om_c[11];
+    let v472 = om[11] + v471;
+    let v473 = v472 - om[11];
+    let v474 = v473 - v471;
+    let v475 = f_om[1][12] + f_om[2][12];
+    let v476 = 2.0f * v475;
+    let v477 = f_om[0][12] + v476;
+    let v478 = v477 + f_om[3][12];
+    let v479 = v212 * v478;
+    let v480 = v479 - om_c[12];
+    let v481 = om[12] + v480;
+    let v482 = v481 - om[12];
+    let v483 = v482 - v480;
+    let v484 = f_om[1][13] + f_om[2][13];
+    let v485 = 2.0f * v484;
+    let v486 = f_om[0][13] + v485;
+    let v487 = v486 + f_om[3][13];
+    let v488 = v212 * v487;
+    let v489 = v488 - om_c[13];
+    let v490 = om[13] + v489;
+    let v491 = v490 - om[13];
+    let v492 = v491 - v489;
+    let v493 = f_om[1][14] + f_om[2][14];
+    let v494 = 2.0f * v493;
+    let v495 = f_om[0][14] + v494;
+    let v496 = v495 + f_om[3][14];
+    let v497 = v212 * v496;
+    let v498 = v497 - om_c[14];
+    let v499 = om[14] + v498;
+    let v500 = v499 - om[14];
+    let v501 = v500 - v498;
+    let v502 = f_om[1][15] + f_om[2][15];
+    let v503 = 2.0f * v502;
+    let v504 = f_om[0][15] + v503;
+    let v505 = v504 + f_om[3][15];
+    let v506 = v212 * v505;
+    let v507 = v506 - om_c[15];
+    let v508 = om[15] + v507;
+    let v509 = v508 - om[15];
+    let v510 = v509 - v507;
+    let v511 = f_om[1][16] + f_om[2][16];
+    let v512 = 2.0f * v511;
+    let v513 = f_om[0][16] + v512;
+    let v514 = v513 + f_om[3][16];
+    let v515 = v212 * v514;
+    let v516 = v515 - om_c[16];
+    let v517 = om[16] + v516;
+    let v518 = v517 - om[16];
+    let v519 = v518 - v516;
+    let v520 = f_v[1] + f_v[2];
+    let v521 = 2.0f * v520;
+    let v522 = f_v[0] + v521;
+    let v523 = v522 + f_v[3];
+    let v524 = v212 * v523;
+    let v525 = v524 - volt_c;
+    let v526 = volt + v525;
+    let v527 = v526 - volt;
+    let v528 = v527 - v525;
+    th[0] = v220;
+    th[1] = v229;
+    th[2] = v238;
+    th[3] = v247;
+    th[4] = v256;
+    th[5] = v265;
+    th[6] = v274;
+    th[7] = v283;
+    th[8] = v292;
+    th[9] = v301;
+    th[10] = v310;
+    th[11] = v319;
+    th[12] = v328;
+    th[13] = v337;
+    th[14] = v346;
+    th[15] = v355;
+    th[16] = v364;
+    om[0] = v373;
+    om[1] = v382;
+    om[2] = v391;
+    om[3] = v400;
+    om[4] = v409;
+    om[5] = v418;
+    om[6] = v427;
+    om[7] = v436;
+    om[8] = v445;
+    om[9] = v454;
+    om[10] = v463;
+    om[11] = v472;
+    om[12] = v481;
+    om[13] = v490;
+    om[14] = v499;
+    om[15] = v508;
+    om[16] = v517;
+    volt = v526;
+    th_c[0] = v222;
+    th_c[1] = v231;
+    th_c[2] = v240;
+    th_c[3] = v249;
+    th_c[4] = v258;
+    th_c[5] = v267;
+    th_c[6] = v276;
+    th_c[7] = v285;
+    th_c[8] = v294;
+    th_c[9] = v303;
+    th_c[10] = v312;
+    th_c[11] = v321;
+    th_c[12] = v330;
+    th_c[13] = v339;
+    th_c[14] = v348;
+    th_c[15] = v357;
+    th_c[16] = v366;
+    om_c[0] = v375;
+    om_c[1] = v384;
+    om_c[2] = v393;
+    om_c[3] = v402;
+    om_c[4] = v411;
+    om_c[5] = v420;
+    om_c[6] = v429;
+    om_c[7] = v438;
+    om_c[8] = v447;
+    om_c[9] = v456;
+    om_c[10] = v465;
+    om_c[11] = v474;
+    om_c[12] = v483;
+    om_c[13] = v492;
+    om_c[14] = v501;
+    om_c[15] = v510;
+    om_c[16] = v519;
+    volt_c = v528;
+}
+
+// candidate_in (src/engine/rk4.rs): the state rk4_finish would leave, y + (Δ − c), into (sth, som, svolt).
+fn rk4_candidate(h: f32) {
+    let v212 = h * 0.16666667f;
+    let v214 = f_th[1][0] + f_th[2][0];
+    let v215 = 2.0f * v214;
+    let v216 = f_th[0][0] + v215;
+    let v217 = v216 + f_th[3][0];
+    let v218 = v212 * v217;
+    let v219 = v218 - th_c[0];
+    let v220 = th[0] + v219;
+    let v221 = f_th[1][1] + f_th[2][1];
+    let v222 = 2.0f * v221;
+    let v223 = f_th[0][1] + v222;
+    let v224 = v223 + f_th[3][1];
+    let v225 = v212 * v224;
+    let v226 = v225 - th_c[1];
+    let v227 = th[1] + v226;
+    let v228 = f_th[1][2] + f_th[2][2];
+    let v229 = 2.0f * v228;
+    let v230 = f_th[0][2] + v229;
+    let v231 = v230 + f_th[3][2];
+    let v232 = v212 * v231;
+    let v233 = v232 - th_c[2];
+    let v234 = th[2] + v233;
+    let v235 = f_th[1][3] + f_th[2][3];
+    let v236 = 2.0f * v235;
+    let v237 = f_th[0][3] + v236;
+    let v238 = v237 + f_th[3][3];
+    let v239 = v212 * v238;
+    let v240 = v239 - th_c[3];
+    let v241 = th[3] + v240;
+    let v242 = f_th[1][4] + f_th[2][4];
+    let v243 = 2.0f * v242;
+    let v244 = f_th[0][4] + v243;
+    let v245 = v244 + f_th[3][4];
+    let v246 = v212 * v245;
+    let v247 = v246 - th_c[4];
+    let v248 = th[4] + v247;
+    let v249 = f_th[1][5] + f_th[2][5];
+    let v250 = 2.0f * v249;
+    let v251 = f_th[0][5] + v250;
+    let v252 = v251 + f_th[3][5];
+    let v253 = v212 * v252;
+    let v254 = v253 - th_c[5];
+    let v255 = th[5] + v254;
+    let v256 = f_th[1][6] + f_th[2][6];
+    let v257 = 2.0f * v256;
+    let v258 = f_th[0][6] + v257;
+    let v259 = v258 + f_th[3][6];
+    let v260 = v212 * v259;
+    let v261 = v260 - th_c[6];
+    let v262 = th[6] + v261;
+    let v263 = f_th[1][7] + f_th[2][7];
+    let v264 = 2.0f * v263;
+    let v265 = f_th[0][7] + v264;
+    let v266 = v265 + f_th[3][7];
+    let v267 = v212 * v266;
+    let v268 = v267 - th_c[7];
+    let v269 = th[7] + v268;
+    let v270 = f_th[1][8] + f_th[2][8];
+    let v271 = 2.0f * v270;
+    let v272 = f_th[0][8] + v271;
+    let v273 = v272 + f_th[3][8];
+    let v274 = v212 * v273;
+    let v275 = v274 - th_c[8];
+    let v276 = th[8] + v275;
+    let v277 = f_th[1][9] + f_th[2][9];
+    let v278 = 2.0f * v277;
+    let v279 = f_th[0][9] + v278;
+    let v280 = v279 + f_th[3][9];
+    let v281 = v212 * v280;
+    let v282 = v281 - th_c[9];
+    let v283 = th[9] + v282;
+    let v284 = f_th[1][10] + f_th[2][10];
+    let v285 = 2.0f * v284;
+    let v286 = f_th[0][10] + v285;
+    let v287 = v286 + f_th[3][10];
+    let v288 = v212 * v287;
+    let v289 = v288 - th_c[10];
+    let v290 = th[10] + v289;
+    let v291 = f_th[1][11] + f_th[2][11];
+    let v292 = 2.0f * v291;
+    let v293 = f_th[0][11] + v292;
+    let v294 = v293 + f_th[3][11];
+    let v295 = v212 * v294;
+    let v296 = v295 - th_c[11];
+    let v297 = th[11] + v296;
+    let v298 = f_th[1][12] + f_th[2][12];
+    let v299 = 2.0f * v298;
+    let v300 = f_th[0][12] + v299;
+    let v301 = v300 + f_th[3][12];
+    let v302 = v212 * v301;
+    let v303 = v302 - th_c[12];
+    let v304 = th[12] + v303;
+    let v305 = f_th[1][13] + f_th[2][13];
+    let v306 = 2.0f * v305;
+    let v307 = f_th[0][13] + v306;
+    let v308 = v307 + f_th[3][13];
+    let v309 = v212 * v308;
+    let v310 = v309 - th_c[13];
+    let v311 = th[13] + v310;
+    let v312 = f_th[1][14] + f_th[2][14];
+    let v313 = 2.0f * v312;
+    let v314 = f_th[0][14] + v313;
+    let v315 = v314 + f_th[3][14];
+    let v316 = v212 * v315;
+    let v317 = v316 - th_c[14];
+    let v318 = th[14] + v317;
+    let v319 = f_th[1][15] + f_th[2][15];
+    let v320 = 2.0f * v319;
+    let v321 = f_th[0][15] + v320;
+    let v322 = v321 + f_th[3][15];
+    let v323 = v212 * v322;
+    let v324 = v323 - th_c[15];
+    let v325 = th[15] + v324;
+    let v326 = f_th[1][16] + f_th[2][16];
+    let v327 = 2.0f * v326;
+    let v328 = f_th[0][16] + v327;
+    let v329 = v328 + f_th[3][16];
+    let v330 = v212 * v329;
+    let v331 = v330 - th_c[16];
+    let v332 = th[16] + v331;
+    let v333 = f_om[1][0] + f_om[2][0];
+    let v334 = 2.0f * v333;
+    let v335 = f_om[0][0] + v334;
+    let v336 = v335 + f_om[3][0];
+    let v337 = v212 * v336;
+    let v338 = v337 - om_c[0];
+    let v339 = om[0] + v338;
+    let v340 = f_om[1][1] + f_om[2][1];
+    let v341 = 2.0f * v340;
+    let v342 = f_om[0][1] + v341;
+    let v343 = v342 + f_om[3][1];
+    let v344 = v212 * v343;
+    let v345 = v344 - om_c[1];
+    let v346 = om[1] + v345;
+    let v347 = f_om[1][2] + f_om[2][2];
+    let v348 = 2.0f * v347;
+    let v349 = f_om[0][2] + v348;
+    let v350 = v349 + f_om[3][2];
+    let v351 = v212 * v350;
+    let v352 = v351 - om_c[2];
+    let v353 = om[2] + v352;
+    let v354 = f_om[1][3] + f_om[2][3];
+    let v355 = 2.0f * v354;
+    let v356 = f_om[0][3] + v355;
+    let v357 = v356 + f_om[3][3];
+    let v358 = v212 * v357;
+    let v359 = v358 - om_c[3];
+    let v360 = om[3] + v359;
+    let v361 = f_om[1][4] + f_om[2][4];
+    let v362 = 2.0f * v361;
+    let v363 = f_om[0][4] + v362;
+    let v364 = v363 + f_om[3][4];
+    let v365 = v212 * v364;
+    let v366 = v365 - om_c[4];
+    let v367 = om[4] + v366;
+    let v368 = f_om[1][5] + f_om[2][5];
+    let v369 = 2.0f * v368;
+    let v370 = f_om[0][5] + v369;
+    let v371 = v370 + f_om[3][5];
+    let v372 = v212 * v371;
+    let v373 = v372 - om_c[5];
+    let v374 = om[5] + v373;
+    let v375 = f_om[1][6] + f_om[2][6];
+    let v376 = 2.0f * v375;
+    let v377 = f_om[0][6] + v376;
+    let v378 = v377 + f_om[3][6];
+    let v379 = v212 * v378;
+    let v380 = v379 - om_c[6];
+    let v381 = om[6] + v380;
+    let v382 = f_om[1][7] + f_om[2][7];
+    let v383 = 2.0f * v382;
+    let v384 = f_om[0][7] + v383;
+    let v385 = v384 + f_om[3][7];
+    let v386 = v212 * v385;
+    let v387 = v386 - om_c[7];
+    let v388 = om[7] + v387;
+    let v389 = f_om[1][8] + f_om[2][8];
+    let v390 = 2.0f * v389;
+    let v391 = f_om[0][8] + v390;
+    let v392 = v391 + f_om[3][8];
+    let v393 = v212 * v392;
+    let v394 = v393 - om_c[8];
+    let v395 = om[8] + v394;
+    let v396 = f_om[1][9] + f_om[2][9];
+    let v397 = 2.0f * v396;
+    let v398 = f_om[0][9] + v397;
+    let v399 = v398 + f_om[3][9];
+    let v400 = v212 * v399;
+    let v401 = v400 - om_c[9];
+    let v402 = om[9] + v401;
+    let v403 = f_om[1][10] + f_om[2][10];
+    let v404 = 2.0f * v403;
+    let v405 = f_om[0][10] + v404;
+    let v406 = v405 + f_om[3][10];
+    let v407 = v212 * v406;
+    let v408 = v407 - om_c[10];
+    let v409 = om[10] + v408;
+    let v410 = f_om[1][11] + f_om[2][11];
+    let v411 = 2.0f * v410;
+    let v412 = f_om[0][11] + v411;
+    let v413 = v412 + f_om[3][11];
+    let v414 = v212 * v413;
+    let v415 = v414 - om_c[11];
+    let v416 = om[11] + v415;
+    let v417 = f_om[1][12] + f_om[2][12];
+    let v418 = 2.0f * v417;
+    let v419 = f_om[0][12] + v418;
+    let v420 = v419 + f_om[3][12];
+    let v421 = v212 * v420;
+    let v422 = v421 - om_c[12];
+    let v423 = om[12] + v422;
+    let v424 = f_om[1][13] + f_om[2][13];
+    let v425 = 2.0f * v424;
+    let v426 = f_om[0][13] + v425;
+    let v427 = v426 + f_om[3][13];
+    let v428 = v212 * v427;
+    let v429 = v428 - om_c[13];
+    let v430 = om[13] + v429;
+    let v431 = f_om[1][14] + f_om[2][14];
+    let v432 = 2.0f * v431;
+    let v433 = f_om[0][14] + v432;
+    let v434 = v433 + f_om[3][14];
+    let v435 = v212 * v434;
+    let v436 = v435 - om_c[14];
+    let v437 = om[14] + v436;
+    let v438 = f_om[1][15] + f_om[2][15];
+    let v439 = 2.0f * v438;
+    let v440 = f_om[0][15] + v439;
+    let v441 = v440 + f_om[3][15];
+    let v442 = v212 * v441;
+    let v443 = v442 - om_c[15];
+    let v444 = om[15] + v443;
+    let v445 = f_om[1][16] + f_om[2][16];
+    let v446 = 2.0f * v445;
+    let v447 = f_om[0][16] + v446;
+    let v448 = v447 + f_om[3][16];
+    let v449 = v212 * v448;
+    let v450 = v449 - om_c[16];
+    let v451 = om[16] + v450;
+    let v452 = f_v[1] + f_v[2];
+    let v453 = 2.0f * v452;
+    let v454 = f_v[0] + v453;
+    let v455 = v454 + f_v[3];
+    let v456 = v212 * v455;
+    let v457 = v456 - volt_c;
+    let v458 = volt + v457;
+    sth[0] = v220;
+    sth[1] = v227;
+    sth[2] = v234;
+    sth[3] = v241;
+    sth[4] = v248;
+    sth[5] = v255;
+    sth[6] = v262;
+    sth[7] = v269;
+    sth[8] = v276;
+    sth[9] = v283;
+    sth[10] = v290;
+    sth[11] = v297;
+    sth[12] = v304;
+    sth[13] = v311;
+    sth[14] = v318;
+    sth[15] = v325;
+    sth[16] = v332;
+    som[0] = v339;
+    som[1] = v346;
+    som[2] = v353;
+    som[3] = v360;
+    som[4] = v367;
+    som[5] = v374;
+    som[6] = v381;
+    som[7] = v388;
+    som[8] = v395;
+    som[9] = v402;
+    som[10] = v409;
+    som[11] = v416;
+    som[12] = v423;
+    som[13] = v430;
+    som[14] = v437;
+    som[15] = v444;
+    som[16] = v451;
+    svolt = v458;
+}
+
+// estimate_in (src/engine/rk4.rs): h (k₄ − k₅)/6, k₅ the last derivative, into (sth, som, svolt).
+fn rk4_estimate(h: f32) {
+    let v72 = h * 0.16666667f;
+    let v73 = f_th[3][0] - som[0];
+    let v74 = v72 * v73;
+    let v75 = f_th[3][1] - som[1];
+    let v76 = v72 * v75;
+    let v77 = f_th[3][2] - som[2];
+    let v78 = v72 * v77;
+    let v79 = f_th[3][3] - som[3];
+    let v80 = v72 * v79;
+    let v81 = f_th[3][4] - som[4];
+    let v82 = v72 * v81;
+    let v83 = f_th[3][5] - som[5];
+    let v84 = v72 * v83;
+    let v85 = f_th[3][6] - som[6];
+    let v86 = v72 * v85;
+    let v87 = f_th[3][7] - som[7];
+    let v88 = v72 * v87;
+    let v89 = f_th[3][8] - som[8];
+    let v90 = v72 * v89;
+    let v91 = f_th[3][9] - som[9];
+    let v92 = v72 * v91;
+    let v93 = f_th[3][10] - som[10];
+    let v94 = v72 * v93;
+    let v95 = f_th[3][11] - som[11];
+    let v96 = v72 * v95;
+    let v97 = f_th[3][12] - som[12];
+    let v98 = v72 * v97;
+    let v99 = f_th[3][13] - som[13];
+    let v100 = v72 * v99;
+    let v101 = f_th[3][14] - som[14];
+    let v102 = v72 * v101;
+    let v103 = f_th[3][15] - som[15];
+    let v104 = v72 * v103;
+    let v105 = f_th[3][16] - som[16];
+    let v106 = v72 * v105;
+    let v107 = f_om[3][0] - acc_out[0];
+    let v108 = v72 * v107;
+    let v109 = f_om[3][1] - acc_out[1];
+    let v110 = v72 * v109;
+    let v111 = f_om[3][2] - acc_out[2];
+    let v112 = v72 * v111;
+    let v113 = f_om[3][3] - acc_out[3];
+    let v114 = v72 * v113;
+    let v115 = f_om[3][4] - acc_out[4];
+    let v116 = v72 * v115;
+    let v117 = f_om[3][5] - acc_out[5];
+    let v118 = v72 * v117;
+    let v119 = f_om[3][6] - acc_out[6];
+    let v120 = v72 * v119;
+    let v121 = f_om[3][7] - acc_out[7];
+    let v122 = v72 * v121;
+    let v123 = f_om[3][8] - acc_out[8];
+    let v124 = v72 * v123;
+    let v125 = f_om[3][9] - acc_out[9];
+    let v126 = v72 * v125;
+    let v127 = f_om[3][10] - acc_out[10];
+    let v128 = v72 * v127;
+    let v129 = f_om[3][11] - acc_out[11];
+    let v130 = v72 * v129;
+    let v131 = f_om[3][12] - acc_out[12];
+    let v132 = v72 * v131;
+    let v133 = f_om[3][13] - acc_out[13];
+    let v134 = v72 * v133;
+    let v135 = f_om[3][14] - acc_out[14];
+    let v136 = v72 * v135;
+    let v137 = f_om[3][15] - acc_out[15];
+    let v138 = v72 * v137;
+    let v139 = f_om[3][16] - acc_out[16];
+    let v140 = v72 * v139;
+    let v141 = f_v[3] - dvolt_out;
+    let v142 = v72 * v141;
+    sth[0] = v74;
+    sth[1] = v76;
+    sth[2] = v78;
+    sth[3] = v80;
+    sth[4] = v82;
+    sth[5] = v84;
+    sth[6] = v86;
+    sth[7] = v88;
+    sth[8] = v90;
+    sth[9] = v92;
+    sth[10] = v94;
+    sth[11] = v96;
+    sth[12] = v98;
+    sth[13] = v100;
+    sth[14] = v102;
+    sth[15] = v104;
+    sth[16] = v106;
+    som[0] = v108;
+    som[1] = v110;
+    som[2] = v112;
+    som[3] = v114;
+    som[4] = v116;
+    som[5] = v118;
+    som[6] = v120;
+    som[7] = v122;
+    som[8] = v124;
+    som[9] = v126;
+    som[10] = v128;
+    som[11] = v130;
+    som[12] = v132;
+    som[13] = v134;
+    som[14] = v136;
+    som[15] = v138;
+    som[16] = v140;
+    svolt = v142;
+}
 // Common definitions of the ensemble kernels of pendulum-atlas: specialisation constants, the
 // data structures shared with Rust, the bindings and the integrator's per-invocation state.
 //
@@ -6109,11 +7223,10 @@ var<private> P: InstanceParams;
 var<private> lev: array<f32, MAX_SEG>;
 var<private> th: array<f32, MAX_SEG>;     // θ at the start of the step
 var<private> om: array<f32, MAX_SEG>;     // θ̇ at the start of the step
-var<private> th_acc: array<f32, MAX_SEG>; // Σ w_s k_s for θ
-var<private> om_acc: array<f32, MAX_SEG>; // Σ w_s k_s for θ̇
-var<private> k4_th: array<f32, MAX_SEG>;  // RK4's k₄ for θ (adaptive steps: the error)
-var<private> k4_om: array<f32, MAX_SEG>;  // RK4's k₄ for θ̇
-var<private> k4_v: f32;                   // RK4's k₄ for v
+// The stage derivatives of either method (`keep_stage`): θ̇, θ̈ and v̇ of stage j.
+var<private> f_th: array<array<f32, MAX_SEG>, 4>;
+var<private> f_om: array<array<f32, MAX_SEG>, 4>;
+var<private> f_v: array<f32, 4>;
 var<private> k1_om: array<f32, MAX_SEG>;  // adaptive RK4: θ̈ of the next try's k₁
 var<private> k1_v: f32;                   // adaptive RK4: v̇ of the next try's k₁
 var<private> k1_branch: u32;              // adaptive RK4: k₁'s bumper branches
@@ -6122,7 +7235,6 @@ var<private> som: array<f32, MAX_SEG>;    // stage state θ̇
 var<private> acc_out: array<f32, MAX_SEG>; // θ̈ of the last derivative
 var<private> dvolt_out: f32;              // v̇ of the last derivative
 var<private> volt: f32;
-var<private> volt_acc: f32;
 var<private> svolt: f32;
 // Summation compensation of the state (compensated_add of src/engine/stepper.rs), zero at the
 // start of each dispatch: at most one rounding per dispatch is not carried over.
@@ -6193,83 +7305,59 @@ fn derivative(cart_a: f32) {
     }
 }
 
-// One RK4 stage: the derivative at the stage state, `w · dt · k` added to the accumulators,
-// and the next stage state y + a_next · dt · k (src/engine/rk4.rs).
-fn stage(cart_a: f32, w: f32, a_next: f32, dt: f32) {
-    derivative(cart_a);
-    stage_add(w, a_next, dt);
-}
-
-// The stage's rates (som, acc_out, dvolt_out) into the accumulators and the next stage state.
-fn stage_add(w: f32, a_next: f32, dt: f32) {
-    let wdt = w * dt;
-    let adt = a_next * dt;
+// The derivative just taken (θ̇ = som, θ̈ = acc_out, v̇ = dvolt_out) kept as stage j's.
+fn keep_stage(j: u32) {
     for (var i = 0u; i < N_SEG; i++) {
-        let rate = som[i];
-        let accel = acc_out[i];
-        th_acc[i] += wdt * rate;
-        om_acc[i] += wdt * accel;
-        sth[i] = th[i] + adt * rate;
-        som[i] = om[i] + adt * accel;
+        f_th[j][i] = som[i];
+        f_om[j][i] = acc_out[i];
     }
-    if HAS_PIEZO {
-        volt_acc += wdt * dvolt_out;
-        svolt = volt + adt * dvolt_out;
-    }
+    f_v[j] = dvolt_out;
 }
 
 // One classical RK4 step from phase `ph` within the forcing period.
 fn rk4_step(ph: u32, dt: f32) {
     rk4_stages(ph, 0.0, 1.0, dt, false);
-    rk4_finish();
+    rk4_finish(dt);
 }
 
 // The four RK4 stages of a step of length h that starts at fraction `start` of the base step
-// from phase `ph` and spans `width` of it (0 and 1 for a whole step): the increment h Σ b_j k_j
-// in (th_acc, om_acc, volt_acc), the state not advanced. With adaptive steps k₄ is kept in
-// (k4_th, k4_om, k4_v) for the error (Rk4Rungs of src/engine/rk4.rs). With `handed` (the
-// main state's adaptive sub-steps) k₁ is not evaluated but taken from (k1_om, k1_v, k1_branch):
-// first same as last (Rk4Pair of src/engine/rk4.rs), four evaluations a try. `handed` is a
-// constant at every call, so no branch is left for a SIMD adapter to take both sides of
-// (lavapipe, with a flag per invocation here, took as long as with five evaluations).
+// from phase `ph` and spans `width` of it (0 and 1 for a whole step), kept in (f_th, f_om,
+// f_v); the state not advanced. The stage states and the finish are generated from
+// src/engine/rk4.rs (rk4_stage_state_j, rk4_finish). With `handed` (the main state's adaptive
+// sub-steps) k₁ is not evaluated but taken from (k1_om, k1_v, k1_branch): first same as last
+// (Rk4Pair of src/engine/rk4.rs), four evaluations a try. `handed` is a constant at every
+// call, so no branch is left for a SIMD adapter to take both sides of (lavapipe, with a flag
+// per invocation here, took as long as with five evaluations).
 fn rk4_stages(ph: u32, start: f32, width: f32, h: f32, handed: bool) {
-    for (var i = 0u; i < N_SEG; i++) {
-        th_acc[i] = 0.0;
-        om_acc[i] = 0.0;
-        sth[i] = th[i];
-        som[i] = om[i];
-    }
-    volt_acc = 0.0;
-    svolt = volt;
     let a0 = cart_acc(ph, start);
     let am = cart_acc(ph, start + 0.5 * width);
     let a1 = cart_acc(ph, start + width);
     if handed {
         for (var i = 0u; i < N_SEG; i++) {
-            acc_out[i] = k1_om[i];
+            f_th[0][i] = om[i];
+            f_om[0][i] = k1_om[i];
         }
-        dvolt_out = k1_v;
+        f_v[0] = k1_v;
         branch_bits = k1_branch;
         stage_n = 1u;
-        stage_add(1.0 / 6.0, 0.5, h);
     } else {
-        stage(a0, 1.0 / 6.0, 0.5, h);
-    }
-    stage(am, 1.0 / 3.0, 0.5, h);
-    stage(am, 1.0 / 3.0, 1.0, h);
-    if ADAPTIVE {
-        // k₄'s θ part is the rate at the last stage's state, about to be evaluated.
         for (var i = 0u; i < N_SEG; i++) {
-            k4_th[i] = som[i];
+            sth[i] = th[i];
+            som[i] = om[i];
         }
+        svolt = volt;
+        derivative(a0);
+        keep_stage(0u);
     }
-    stage(a1, 1.0 / 6.0, 0.0, h);
-    if ADAPTIVE {
-        for (var i = 0u; i < N_SEG; i++) {
-            k4_om[i] = acc_out[i];
-        }
-        k4_v = dvolt_out;
-    }
+    rk4_stage_state_1(h);
+    derivative(am);
+    keep_stage(1u);
+    rk4_stage_state_2(h);
+    derivative(am);
+    keep_stage(2u);
+    rk4_stage_state_3(h);
+    derivative(a1);
+    keep_stage(3u);
 }
 
 // k₁ of the main state at fraction `start` of the base step from phase `ph`, kept for its
@@ -6295,42 +7383,22 @@ fn keep_k1(j: u32) {
     k1_branch = (branch_bits >> (4u * j)) & 15u;
 }
 
-// The state advanced by the stages just computed: y += h Σ b_j k_j (compensated).
-fn rk4_finish() {
-    for (var i = 0u; i < N_SEG; i++) {
-        let t = comp_add(th[i], th_c[i], th_acc[i]);
-        th[i] = t.x;
-        th_c[i] = t.y;
-        let o = comp_add(om[i], om_c[i], om_acc[i]);
-        om[i] = o.x;
-        om_c[i] = o.y;
-    }
-    if HAS_PIEZO {
-        let v = comp_add(volt, volt_c, volt_acc);
-        volt = v.x;
-        volt_c = v.y;
-    }
-}
-
 // The scaled error of the RK4 stages just computed (Rk4Rungs::error of src/engine/rk4.rs):
-// k₅ at y₄ = y + h Σ b_j k_j with the cart at the step's end `a_end`, then max over the state
-// of |h (k₄ − k₅) / 6| / (atol + rtol |y|), y the state before the step. y₄ is the
-// compensated sum `rk4_finish` leaves, so an accepted sub-step hands k₅ on as the next k₁.
+// k₅ at the candidate y₄ (rk4_candidate: the compensated sum rk4_finish leaves, so an
+// accepted sub-step hands k₅ on as the next k₁) with the cart at the step's end `a_end`, the
+// estimate h (k₄ − k₅)/6 (rk4_estimate), then its max over the state of
+// |e| / (atol + rtol |y|), y the state before the step.
 fn rk4_error(a_end: f32, h: f32) -> f32 {
-    for (var i = 0u; i < N_SEG; i++) {
-        sth[i] = comp_add(th[i], th_c[i], th_acc[i]).x;
-        som[i] = comp_add(om[i], om_c[i], om_acc[i]).x;
-    }
-    svolt = comp_add(volt, volt_c, volt_acc).x;
+    rk4_candidate(h);
     derivative(a_end);
-    let w = h / 6.0;
+    rk4_estimate(h);
     var e = 0.0;
     for (var i = 0u; i < N_SEG; i++) {
-        e = scaled_max(e, w * (k4_th[i] - som[i]), th[i]);
-        e = scaled_max(e, w * (k4_om[i] - acc_out[i]), om[i]);
+        e = scaled_max(e, sth[i], th[i]);
+        e = scaled_max(e, som[i], om[i]);
     }
     if HAS_PIEZO {
-        e = scaled_max(e, w * (k4_v - dvolt_out), volt);
+        e = scaled_max(e, svolt, volt);
     }
     return e;
 }
@@ -6384,7 +7452,7 @@ fn method_finish(h: f32) {
     if METHOD_IMEX {
         imex_finish(h);
     } else {
-        rk4_finish();
+        rk4_finish(h);
     }
 }
 
@@ -7074,10 +8142,7 @@ fn early_finish(@builtin(global_invocation_id) gid: vec3<u32>) {
 // steps, S⁻¹ of the ladder's levels 1 … MAX_LEVEL follow (block 2 + k), and `imex_level`
 // picks the one of the step being taken (src/engine/adaptive.rs).
 
-// Stage derivatives: θ̇ (= U_ω), ω̇ and v̇ of each stage, and the ω-part of L U_j.
-var<private> f_th: array<array<f32, MAX_SEG>, 4>;
-var<private> f_om: array<array<f32, MAX_SEG>, 4>;
-var<private> f_v: array<f32, 4>;
+// The ω-part of L U_j of each stage (the stage derivatives are common.wgsl's f_th, f_om, f_v).
 var<private> l_om: array<array<f32, MAX_SEG>, 4>;
 // Scratch: joint couples, the implicit right-hand side, R_θ.
 var<private> qv: array<f32, MAX_SEG>;
@@ -7129,11 +8194,7 @@ fn mat_row_r(which: u32, i: u32) -> f32 {
 // The derivative of stage j at the stage state, stored; and L's ω-part when later stages need it.
 fn imex_eval(j: u32, cart_a: f32) {
     derivative(cart_a);
-    for (var i = 0u; i < N_SEG; i++) {
-        f_th[j][i] = som[i];
-        f_om[j][i] = acc_out[i];
-    }
-    f_v[j] = dvolt_out;
+    keep_stage(j);
     if j < 3u {
         imex_couples(1.0);
         for (var i = 0u; i < N_SEG; i++) {

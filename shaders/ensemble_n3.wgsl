@@ -1234,6 +1234,252 @@ fn twin_norm2() -> f32 {
     let d2 = v119;
     return d2;
 }
+
+// stage and stage_step (src/engine/rk4.rs): stage j's state y + h c_j k_{j−1} into (sth, som, svolt).
+fn rk4_stage_state_1(h: f32) {
+    let v16 = h * 0.5f;
+    let v17 = v16 * f_th[0][0];
+    let v18 = th[0] + v17;
+    let v19 = v16 * f_th[0][1];
+    let v20 = th[1] + v19;
+    let v21 = v16 * f_th[0][2];
+    let v22 = th[2] + v21;
+    let v23 = v16 * f_om[0][0];
+    let v24 = om[0] + v23;
+    let v25 = v16 * f_om[0][1];
+    let v26 = om[1] + v25;
+    let v27 = v16 * f_om[0][2];
+    let v28 = om[2] + v27;
+    let v29 = v16 * f_v[0];
+    let v30 = volt + v29;
+    sth[0] = v18;
+    sth[1] = v20;
+    sth[2] = v22;
+    som[0] = v24;
+    som[1] = v26;
+    som[2] = v28;
+    svolt = v30;
+}
+
+// stage and stage_step (src/engine/rk4.rs): stage j's state y + h c_j k_{j−1} into (sth, som, svolt).
+fn rk4_stage_state_2(h: f32) {
+    let v16 = h * 0.5f;
+    let v17 = v16 * f_th[1][0];
+    let v18 = th[0] + v17;
+    let v19 = v16 * f_th[1][1];
+    let v20 = th[1] + v19;
+    let v21 = v16 * f_th[1][2];
+    let v22 = th[2] + v21;
+    let v23 = v16 * f_om[1][0];
+    let v24 = om[0] + v23;
+    let v25 = v16 * f_om[1][1];
+    let v26 = om[1] + v25;
+    let v27 = v16 * f_om[1][2];
+    let v28 = om[2] + v27;
+    let v29 = v16 * f_v[1];
+    let v30 = volt + v29;
+    sth[0] = v18;
+    sth[1] = v20;
+    sth[2] = v22;
+    som[0] = v24;
+    som[1] = v26;
+    som[2] = v28;
+    svolt = v30;
+}
+
+// stage and stage_step (src/engine/rk4.rs): stage j's state y + h c_j k_{j−1} into (sth, som, svolt).
+fn rk4_stage_state_3(h: f32) {
+    let v16 = h * f_th[2][0];
+    let v17 = th[0] + v16;
+    let v18 = h * f_th[2][1];
+    let v19 = th[1] + v18;
+    let v20 = h * f_th[2][2];
+    let v21 = th[2] + v20;
+    let v22 = h * f_om[2][0];
+    let v23 = om[0] + v22;
+    let v24 = h * f_om[2][1];
+    let v25 = om[1] + v24;
+    let v26 = h * f_om[2][2];
+    let v27 = om[2] + v26;
+    let v28 = h * f_v[2];
+    let v29 = volt + v28;
+    sth[0] = v17;
+    sth[1] = v19;
+    sth[2] = v21;
+    som[0] = v23;
+    som[1] = v25;
+    som[2] = v27;
+    svolt = v29;
+}
+
+// finish_in (src/engine/rk4.rs): the state advanced by the stages kept, y += h (k₁ + 2k₂ + 2k₃ + k₄)/6 with compensation.
+fn rk4_finish(h: f32) {
+    let v44 = h * 0.16666667f;
+    let v46 = f_th[1][0] + f_th[2][0];
+    let v47 = 2.0f * v46;
+    let v48 = f_th[0][0] + v47;
+    let v49 = v48 + f_th[3][0];
+    let v50 = v44 * v49;
+    let v51 = v50 - th_c[0];
+    let v52 = th[0] + v51;
+    let v53 = v52 - th[0];
+    let v54 = v53 - v51;
+    let v55 = f_th[1][1] + f_th[2][1];
+    let v56 = 2.0f * v55;
+    let v57 = f_th[0][1] + v56;
+    let v58 = v57 + f_th[3][1];
+    let v59 = v44 * v58;
+    let v60 = v59 - th_c[1];
+    let v61 = th[1] + v60;
+    let v62 = v61 - th[1];
+    let v63 = v62 - v60;
+    let v64 = f_th[1][2] + f_th[2][2];
+    let v65 = 2.0f * v64;
+    let v66 = f_th[0][2] + v65;
+    let v67 = v66 + f_th[3][2];
+    let v68 = v44 * v67;
+    let v69 = v68 - th_c[2];
+    let v70 = th[2] + v69;
+    let v71 = v70 - th[2];
+    let v72 = v71 - v69;
+    let v73 = f_om[1][0] + f_om[2][0];
+    let v74 = 2.0f * v73;
+    let v75 = f_om[0][0] + v74;
+    let v76 = v75 + f_om[3][0];
+    let v77 = v44 * v76;
+    let v78 = v77 - om_c[0];
+    let v79 = om[0] + v78;
+    let v80 = v79 - om[0];
+    let v81 = v80 - v78;
+    let v82 = f_om[1][1] + f_om[2][1];
+    let v83 = 2.0f * v82;
+    let v84 = f_om[0][1] + v83;
+    let v85 = v84 + f_om[3][1];
+    let v86 = v44 * v85;
+    let v87 = v86 - om_c[1];
+    let v88 = om[1] + v87;
+    let v89 = v88 - om[1];
+    let v90 = v89 - v87;
+    let v91 = f_om[1][2] + f_om[2][2];
+    let v92 = 2.0f * v91;
+    let v93 = f_om[0][2] + v92;
+    let v94 = v93 + f_om[3][2];
+    let v95 = v44 * v94;
+    let v96 = v95 - om_c[2];
+    let v97 = om[2] + v96;
+    let v98 = v97 - om[2];
+    let v99 = v98 - v96;
+    let v100 = f_v[1] + f_v[2];
+    let v101 = 2.0f * v100;
+    let v102 = f_v[0] + v101;
+    let v103 = v102 + f_v[3];
+    let v104 = v44 * v103;
+    let v105 = v104 - volt_c;
+    let v106 = volt + v105;
+    let v107 = v106 - volt;
+    let v108 = v107 - v105;
+    th[0] = v52;
+    th[1] = v61;
+    th[2] = v70;
+    om[0] = v79;
+    om[1] = v88;
+    om[2] = v97;
+    volt = v106;
+    th_c[0] = v54;
+    th_c[1] = v63;
+    th_c[2] = v72;
+    om_c[0] = v81;
+    om_c[1] = v90;
+    om_c[2] = v99;
+    volt_c = v108;
+}
+
+// candidate_in (src/engine/rk4.rs): the state rk4_finish would leave, y + (Δ − c), into (sth, som, svolt).
+fn rk4_candidate(h: f32) {
+    let v44 = h * 0.16666667f;
+    let v46 = f_th[1][0] + f_th[2][0];
+    let v47 = 2.0f * v46;
+    let v48 = f_th[0][0] + v47;
+    let v49 = v48 + f_th[3][0];
+    let v50 = v44 * v49;
+    let v51 = v50 - th_c[0];
+    let v52 = th[0] + v51;
+    let v53 = f_th[1][1] + f_th[2][1];
+    let v54 = 2.0f * v53;
+    let v55 = f_th[0][1] + v54;
+    let v56 = v55 + f_th[3][1];
+    let v57 = v44 * v56;
+    let v58 = v57 - th_c[1];
+    let v59 = th[1] + v58;
+    let v60 = f_th[1][2] + f_th[2][2];
+    let v61 = 2.0f * v60;
+    let v62 = f_th[0][2] + v61;
+    let v63 = v62 + f_th[3][2];
+    let v64 = v44 * v63;
+    let v65 = v64 - th_c[2];
+    let v66 = th[2] + v65;
+    let v67 = f_om[1][0] + f_om[2][0];
+    let v68 = 2.0f * v67;
+    let v69 = f_om[0][0] + v68;
+    let v70 = v69 + f_om[3][0];
+    let v71 = v44 * v70;
+    let v72 = v71 - om_c[0];
+    let v73 = om[0] + v72;
+    let v74 = f_om[1][1] + f_om[2][1];
+    let v75 = 2.0f * v74;
+    let v76 = f_om[0][1] + v75;
+    let v77 = v76 + f_om[3][1];
+    let v78 = v44 * v77;
+    let v79 = v78 - om_c[1];
+    let v80 = om[1] + v79;
+    let v81 = f_om[1][2] + f_om[2][2];
+    let v82 = 2.0f * v81;
+    let v83 = f_om[0][2] + v82;
+    let v84 = v83 + f_om[3][2];
+    let v85 = v44 * v84;
+    let v86 = v85 - om_c[2];
+    let v87 = om[2] + v86;
+    let v88 = f_v[1] + f_v[2];
+    let v89 = 2.0f * v88;
+    let v90 = f_v[0] + v89;
+    let v91 = v90 + f_v[3];
+    let v92 = v44 * v91;
+    let v93 = v92 - volt_c;
+    let v94 = volt + v93;
+    sth[0] = v52;
+    sth[1] = v59;
+    sth[2] = v66;
+    som[0] = v73;
+    som[1] = v80;
+    som[2] = v87;
+    svolt = v94;
+}
+
+// estimate_in (src/engine/rk4.rs): h (k₄ − k₅)/6, k₅ the last derivative, into (sth, som, svolt).
+fn rk4_estimate(h: f32) {
+    let v16 = h * 0.16666667f;
+    let v17 = f_th[3][0] - som[0];
+    let v18 = v16 * v17;
+    let v19 = f_th[3][1] - som[1];
+    let v20 = v16 * v19;
+    let v21 = f_th[3][2] - som[2];
+    let v22 = v16 * v21;
+    let v23 = f_om[3][0] - acc_out[0];
+    let v24 = v16 * v23;
+    let v25 = f_om[3][1] - acc_out[1];
+    let v26 = v16 * v25;
+    let v27 = f_om[3][2] - acc_out[2];
+    let v28 = v16 * v27;
+    let v29 = f_v[3] - dvolt_out;
+    let v30 = v16 * v29;
+    sth[0] = v18;
+    sth[1] = v20;
+    sth[2] = v22;
+    som[0] = v24;
+    som[1] = v26;
+    som[2] = v28;
+    svolt = v30;
+}
 // Common definitions of the ensemble kernels of pendulum-atlas: specialisation constants, the
 // data structures shared with Rust, the bindings and the integrator's per-invocation state.
 //
@@ -1335,11 +1581,10 @@ var<private> P: InstanceParams;
 var<private> lev: array<f32, MAX_SEG>;
 var<private> th: array<f32, MAX_SEG>;     // θ at the start of the step
 var<private> om: array<f32, MAX_SEG>;     // θ̇ at the start of the step
-var<private> th_acc: array<f32, MAX_SEG>; // Σ w_s k_s for θ
-var<private> om_acc: array<f32, MAX_SEG>; // Σ w_s k_s for θ̇
-var<private> k4_th: array<f32, MAX_SEG>;  // RK4's k₄ for θ (adaptive steps: the error)
-var<private> k4_om: array<f32, MAX_SEG>;  // RK4's k₄ for θ̇
-var<private> k4_v: f32;                   // RK4's k₄ for v
+// The stage derivatives of either method (`keep_stage`): θ̇, θ̈ and v̇ of stage j.
+var<private> f_th: array<array<f32, MAX_SEG>, 4>;
+var<private> f_om: array<array<f32, MAX_SEG>, 4>;
+var<private> f_v: array<f32, 4>;
 var<private> k1_om: array<f32, MAX_SEG>;  // adaptive RK4: θ̈ of the next try's k₁
 var<private> k1_v: f32;                   // adaptive RK4: v̇ of the next try's k₁
 var<private> k1_branch: u32;              // adaptive RK4: k₁'s bumper branches
@@ -1348,7 +1593,6 @@ var<private> som: array<f32, MAX_SEG>;    // stage state θ̇
 var<private> acc_out: array<f32, MAX_SEG>; // θ̈ of the last derivative
 var<private> dvolt_out: f32;              // v̇ of the last derivative
 var<private> volt: f32;
-var<private> volt_acc: f32;
 var<private> svolt: f32;
 // Summation compensation of the state (compensated_add of src/engine/stepper.rs), zero at the
 // start of each dispatch: at most one rounding per dispatch is not carried over.
@@ -1419,83 +1663,59 @@ fn derivative(cart_a: f32) {
     }
 }
 
-// One RK4 stage: the derivative at the stage state, `w · dt · k` added to the accumulators,
-// and the next stage state y + a_next · dt · k (src/engine/rk4.rs).
-fn stage(cart_a: f32, w: f32, a_next: f32, dt: f32) {
-    derivative(cart_a);
-    stage_add(w, a_next, dt);
-}
-
-// The stage's rates (som, acc_out, dvolt_out) into the accumulators and the next stage state.
-fn stage_add(w: f32, a_next: f32, dt: f32) {
-    let wdt = w * dt;
-    let adt = a_next * dt;
+// The derivative just taken (θ̇ = som, θ̈ = acc_out, v̇ = dvolt_out) kept as stage j's.
+fn keep_stage(j: u32) {
     for (var i = 0u; i < N_SEG; i++) {
-        let rate = som[i];
-        let accel = acc_out[i];
-        th_acc[i] += wdt * rate;
-        om_acc[i] += wdt * accel;
-        sth[i] = th[i] + adt * rate;
-        som[i] = om[i] + adt * accel;
+        f_th[j][i] = som[i];
+        f_om[j][i] = acc_out[i];
     }
-    if HAS_PIEZO {
-        volt_acc += wdt * dvolt_out;
-        svolt = volt + adt * dvolt_out;
-    }
+    f_v[j] = dvolt_out;
 }
 
 // One classical RK4 step from phase `ph` within the forcing period.
 fn rk4_step(ph: u32, dt: f32) {
     rk4_stages(ph, 0.0, 1.0, dt, false);
-    rk4_finish();
+    rk4_finish(dt);
 }
 
 // The four RK4 stages of a step of length h that starts at fraction `start` of the base step
-// from phase `ph` and spans `width` of it (0 and 1 for a whole step): the increment h Σ b_j k_j
-// in (th_acc, om_acc, volt_acc), the state not advanced. With adaptive steps k₄ is kept in
-// (k4_th, k4_om, k4_v) for the error (Rk4Rungs of src/engine/rk4.rs). With `handed` (the
-// main state's adaptive sub-steps) k₁ is not evaluated but taken from (k1_om, k1_v, k1_branch):
-// first same as last (Rk4Pair of src/engine/rk4.rs), four evaluations a try. `handed` is a
-// constant at every call, so no branch is left for a SIMD adapter to take both sides of
-// (lavapipe, with a flag per invocation here, took as long as with five evaluations).
+// from phase `ph` and spans `width` of it (0 and 1 for a whole step), kept in (f_th, f_om,
+// f_v); the state not advanced. The stage states and the finish are generated from
+// src/engine/rk4.rs (rk4_stage_state_j, rk4_finish). With `handed` (the main state's adaptive
+// sub-steps) k₁ is not evaluated but taken from (k1_om, k1_v, k1_branch): first same as last
+// (Rk4Pair of src/engine/rk4.rs), four evaluations a try. `handed` is a constant at every
+// call, so no branch is left for a SIMD adapter to take both sides of (lavapipe, with a flag
+// per invocation here, took as long as with five evaluations).
 fn rk4_stages(ph: u32, start: f32, width: f32, h: f32, handed: bool) {
-    for (var i = 0u; i < N_SEG; i++) {
-        th_acc[i] = 0.0;
-        om_acc[i] = 0.0;
-        sth[i] = th[i];
-        som[i] = om[i];
-    }
-    volt_acc = 0.0;
-    svolt = volt;
     let a0 = cart_acc(ph, start);
     let am = cart_acc(ph, start + 0.5 * width);
     let a1 = cart_acc(ph, start + width);
     if handed {
         for (var i = 0u; i < N_SEG; i++) {
-            acc_out[i] = k1_om[i];
+            f_th[0][i] = om[i];
+            f_om[0][i] = k1_om[i];
         }
-        dvolt_out = k1_v;
+        f_v[0] = k1_v;
         branch_bits = k1_branch;
         stage_n = 1u;
-        stage_add(1.0 / 6.0, 0.5, h);
     } else {
-        stage(a0, 1.0 / 6.0, 0.5, h);
-    }
-    stage(am, 1.0 / 3.0, 0.5, h);
-    stage(am, 1.0 / 3.0, 1.0, h);
-    if ADAPTIVE {
-        // k₄'s θ part is the rate at the last stage's state, about to be evaluated.
         for (var i = 0u; i < N_SEG; i++) {
-            k4_th[i] = som[i];
+            sth[i] = th[i];
+            som[i] = om[i];
         }
+        svolt = volt;
+        derivative(a0);
+        keep_stage(0u);
     }
-    stage(a1, 1.0 / 6.0, 0.0, h);
-    if ADAPTIVE {
-        for (var i = 0u; i < N_SEG; i++) {
-            k4_om[i] = acc_out[i];
-        }
-        k4_v = dvolt_out;
-    }
+    rk4_stage_state_1(h);
+    derivative(am);
+    keep_stage(1u);
+    rk4_stage_state_2(h);
+    derivative(am);
+    keep_stage(2u);
+    rk4_stage_state_3(h);
+    derivative(a1);
+    keep_stage(3u);
 }
 
 // k₁ of the main state at fraction `start` of the base step from phase `ph`, kept for its
@@ -1521,42 +1741,22 @@ fn keep_k1(j: u32) {
     k1_branch = (branch_bits >> (4u * j)) & 15u;
 }
 
-// The state advanced by the stages just computed: y += h Σ b_j k_j (compensated).
-fn rk4_finish() {
-    for (var i = 0u; i < N_SEG; i++) {
-        let t = comp_add(th[i], th_c[i], th_acc[i]);
-        th[i] = t.x;
-        th_c[i] = t.y;
-        let o = comp_add(om[i], om_c[i], om_acc[i]);
-        om[i] = o.x;
-        om_c[i] = o.y;
-    }
-    if HAS_PIEZO {
-        let v = comp_add(volt, volt_c, volt_acc);
-        volt = v.x;
-        volt_c = v.y;
-    }
-}
-
 // The scaled error of the RK4 stages just computed (Rk4Rungs::error of src/engine/rk4.rs):
-// k₅ at y₄ = y + h Σ b_j k_j with the cart at the step's end `a_end`, then max over the state
-// of |h (k₄ − k₅) / 6| / (atol + rtol |y|), y the state before the step. y₄ is the
-// compensated sum `rk4_finish` leaves, so an accepted sub-step hands k₅ on as the next k₁.
+// k₅ at the candidate y₄ (rk4_candidate: the compensated sum rk4_finish leaves, so an
+// accepted sub-step hands k₅ on as the next k₁) with the cart at the step's end `a_end`, the
+// estimate h (k₄ − k₅)/6 (rk4_estimate), then its max over the state of
+// |e| / (atol + rtol |y|), y the state before the step.
 fn rk4_error(a_end: f32, h: f32) -> f32 {
-    for (var i = 0u; i < N_SEG; i++) {
-        sth[i] = comp_add(th[i], th_c[i], th_acc[i]).x;
-        som[i] = comp_add(om[i], om_c[i], om_acc[i]).x;
-    }
-    svolt = comp_add(volt, volt_c, volt_acc).x;
+    rk4_candidate(h);
     derivative(a_end);
-    let w = h / 6.0;
+    rk4_estimate(h);
     var e = 0.0;
     for (var i = 0u; i < N_SEG; i++) {
-        e = scaled_max(e, w * (k4_th[i] - som[i]), th[i]);
-        e = scaled_max(e, w * (k4_om[i] - acc_out[i]), om[i]);
+        e = scaled_max(e, sth[i], th[i]);
+        e = scaled_max(e, som[i], om[i]);
     }
     if HAS_PIEZO {
-        e = scaled_max(e, w * (k4_v - dvolt_out), volt);
+        e = scaled_max(e, svolt, volt);
     }
     return e;
 }
@@ -1610,7 +1810,7 @@ fn method_finish(h: f32) {
     if METHOD_IMEX {
         imex_finish(h);
     } else {
-        rk4_finish();
+        rk4_finish(h);
     }
 }
 
@@ -2300,10 +2500,7 @@ fn early_finish(@builtin(global_invocation_id) gid: vec3<u32>) {
 // steps, S⁻¹ of the ladder's levels 1 … MAX_LEVEL follow (block 2 + k), and `imex_level`
 // picks the one of the step being taken (src/engine/adaptive.rs).
 
-// Stage derivatives: θ̇ (= U_ω), ω̇ and v̇ of each stage, and the ω-part of L U_j.
-var<private> f_th: array<array<f32, MAX_SEG>, 4>;
-var<private> f_om: array<array<f32, MAX_SEG>, 4>;
-var<private> f_v: array<f32, 4>;
+// The ω-part of L U_j of each stage (the stage derivatives are common.wgsl's f_th, f_om, f_v).
 var<private> l_om: array<array<f32, MAX_SEG>, 4>;
 // Scratch: joint couples, the implicit right-hand side, R_θ.
 var<private> qv: array<f32, MAX_SEG>;
@@ -2355,11 +2552,7 @@ fn mat_row_r(which: u32, i: u32) -> f32 {
 // The derivative of stage j at the stage state, stored; and L's ω-part when later stages need it.
 fn imex_eval(j: u32, cart_a: f32) {
     derivative(cart_a);
-    for (var i = 0u; i < N_SEG; i++) {
-        f_th[j][i] = som[i];
-        f_om[j][i] = acc_out[i];
-    }
-    f_v[j] = dvolt_out;
+    keep_stage(j);
     if j < 3u {
         imex_couples(1.0);
         for (var i = 0u; i < N_SEG; i++) {

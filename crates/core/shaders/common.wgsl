@@ -99,11 +99,10 @@ var<private> P: InstanceParams;
 var<private> lev: array<f32, MAX_SEG>;
 var<private> th: array<f32, MAX_SEG>;     // θ at the start of the step
 var<private> om: array<f32, MAX_SEG>;     // θ̇ at the start of the step
-var<private> th_acc: array<f32, MAX_SEG>; // Σ w_s k_s for θ
-var<private> om_acc: array<f32, MAX_SEG>; // Σ w_s k_s for θ̇
-var<private> k4_th: array<f32, MAX_SEG>;  // RK4's k₄ for θ (adaptive steps: the error)
-var<private> k4_om: array<f32, MAX_SEG>;  // RK4's k₄ for θ̇
-var<private> k4_v: f32;                   // RK4's k₄ for v
+// The stage derivatives of either method (`keep_stage`): θ̇, θ̈ and v̇ of stage j.
+var<private> f_th: array<array<f32, MAX_SEG>, 4>;
+var<private> f_om: array<array<f32, MAX_SEG>, 4>;
+var<private> f_v: array<f32, 4>;
 var<private> k1_om: array<f32, MAX_SEG>;  // adaptive RK4: θ̈ of the next try's k₁
 var<private> k1_v: f32;                   // adaptive RK4: v̇ of the next try's k₁
 var<private> k1_branch: u32;              // adaptive RK4: k₁'s bumper branches
@@ -112,7 +111,6 @@ var<private> som: array<f32, MAX_SEG>;    // stage state θ̇
 var<private> acc_out: array<f32, MAX_SEG>; // θ̈ of the last derivative
 var<private> dvolt_out: f32;              // v̇ of the last derivative
 var<private> volt: f32;
-var<private> volt_acc: f32;
 var<private> svolt: f32;
 // Summation compensation of the state (compensated_add of src/engine/stepper.rs), zero at the
 // start of each dispatch: at most one rounding per dispatch is not carried over.

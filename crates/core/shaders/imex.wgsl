@@ -5,10 +5,7 @@
 // steps, S⁻¹ of the ladder's levels 1 … MAX_LEVEL follow (block 2 + k), and `imex_level`
 // picks the one of the step being taken (src/engine/adaptive.rs).
 
-// Stage derivatives: θ̇ (= U_ω), ω̇ and v̇ of each stage, and the ω-part of L U_j.
-var<private> f_th: array<array<f32, MAX_SEG>, 4>;
-var<private> f_om: array<array<f32, MAX_SEG>, 4>;
-var<private> f_v: array<f32, 4>;
+// The ω-part of L U_j of each stage (the stage derivatives are common.wgsl's f_th, f_om, f_v).
 var<private> l_om: array<array<f32, MAX_SEG>, 4>;
 // Scratch: joint couples, the implicit right-hand side, R_θ.
 var<private> qv: array<f32, MAX_SEG>;
@@ -60,11 +57,7 @@ fn mat_row_r(which: u32, i: u32) -> f32 {
 // The derivative of stage j at the stage state, stored; and L's ω-part when later stages need it.
 fn imex_eval(j: u32, cart_a: f32) {
     derivative(cart_a);
-    for (var i = 0u; i < N_SEG; i++) {
-        f_th[j][i] = som[i];
-        f_om[j][i] = acc_out[i];
-    }
-    f_v[j] = dvolt_out;
+    keep_stage(j);
     if j < 3u {
         imex_couples(1.0);
         for (var i = 0u; i < N_SEG; i++) {

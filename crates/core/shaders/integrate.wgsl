@@ -42,83 +42,59 @@ fn derivative(cart_a: f32) {
     }
 }
 
-// One RK4 stage: the derivative at the stage state, `w · dt · k` added to the accumulators,
-// and the next stage state y + a_next · dt · k (src/engine/rk4.rs).
-fn stage(cart_a: f32, w: f32, a_next: f32, dt: f32) {
-    derivative(cart_a);
-    stage_add(w, a_next, dt);
-}
-
-// The stage's rates (som, acc_out, dvolt_out) into the accumulators and the next stage state.
-fn stage_add(w: f32, a_next: f32, dt: f32) {
-    let wdt = w * dt;
-    let adt = a_next * dt;
+// The derivative just taken (θ̇ = som, θ̈ = acc_out, v̇ = dvolt_out) kept as stage j's.
+fn keep_stage(j: u32) {
     for (var i = 0u; i < N_SEG; i++) {
-        let rate = som[i];
-        let accel = acc_out[i];
-        th_acc[i] += wdt * rate;
-        om_acc[i] += wdt * accel;
-        sth[i] = th[i] + adt * rate;
-        som[i] = om[i] + adt * accel;
+        f_th[j][i] = som[i];
+        f_om[j][i] = acc_out[i];
     }
-    if HAS_PIEZO {
-        volt_acc += wdt * dvolt_out;
-        svolt = volt + adt * dvolt_out;
-    }
+    f_v[j] = dvolt_out;
 }
 
 // One classical RK4 step from phase `ph` within the forcing period.
 fn rk4_step(ph: u32, dt: f32) {
     rk4_stages(ph, 0.0, 1.0, dt, false);
-    rk4_finish();
+    rk4_finish(dt);
 }
 
 // The four RK4 stages of a step of length h that starts at fraction `start` of the base step
-// from phase `ph` and spans `width` of it (0 and 1 for a whole step): the increment h Σ b_j k_j
-// in (th_acc, om_acc, volt_acc), the state not advanced. With adaptive steps k₄ is kept in
-// (k4_th, k4_om, k4_v) for the error (Rk4Rungs of src/engine/rk4.rs). With `handed` (the
-// main state's adaptive sub-steps) k₁ is not evaluated but taken from (k1_om, k1_v, k1_branch):
-// first same as last (Rk4Pair of src/engine/rk4.rs), four evaluations a try. `handed` is a
-// constant at every call, so no branch is left for a SIMD adapter to take both sides of
-// (lavapipe, with a flag per invocation here, took as long as with five evaluations).
+// from phase `ph` and spans `width` of it (0 and 1 for a whole step), kept in (f_th, f_om,
+// f_v); the state not advanced. The stage states and the finish are generated from
+// src/engine/rk4.rs (rk4_stage_state_j, rk4_finish). With `handed` (the main state's adaptive
+// sub-steps) k₁ is not evaluated but taken from (k1_om, k1_v, k1_branch): first same as last
+// (Rk4Pair of src/engine/rk4.rs), four evaluations a try. `handed` is a constant at every
+// call, so no branch is left for a SIMD adapter to take both sides of (lavapipe, with a flag
+// per invocation here, took as long as with five evaluations).
 fn rk4_stages(ph: u32, start: f32, width: f32, h: f32, handed: bool) {
-    for (var i = 0u; i < N_SEG; i++) {
-        th_acc[i] = 0.0;
-        om_acc[i] = 0.0;
-        sth[i] = th[i];
-        som[i] = om[i];
-    }
-    volt_acc = 0.0;
-    svolt = volt;
     let a0 = cart_acc(ph, start);
     let am = cart_acc(ph, start + 0.5 * width);
     let a1 = cart_acc(ph, start + width);
     if handed {
         for (var i = 0u; i < N_SEG; i++) {
-            acc_out[i] = k1_om[i];
+            f_th[0][i] = om[i];
+            f_om[0][i] = k1_om[i];
         }
-        dvolt_out = k1_v;
+        f_v[0] = k1_v;
         branch_bits = k1_branch;
         stage_n = 1u;
-        stage_add(1.0 / 6.0, 0.5, h);
     } else {
-        stage(a0, 1.0 / 6.0, 0.5, h);
-    }
-    stage(am, 1.0 / 3.0, 0.5, h);
-    stage(am, 1.0 / 3.0, 1.0, h);
-    if ADAPTIVE {
-        // k₄'s θ part is the rate at the last stage's state, about to be evaluated.
         for (var i = 0u; i < N_SEG; i++) {
-            k4_th[i] = som[i];
+            sth[i] = th[i];
+            som[i] = om[i];
         }
+        svolt = volt;
+        derivative(a0);
+        keep_stage(0u);
     }
-    stage(a1, 1.0 / 6.0, 0.0, h);
-    if ADAPTIVE {
-        for (var i = 0u; i < N_SEG; i++) {
-            k4_om[i] = acc_out[i];
-        }
-        k4_v = dvolt_out;
-    }
+    rk4_stage_state_1(h);
+    derivative(am);
+    keep_stage(1u);
+    rk4_stage_state_2(h);
+    derivative(am);
+    keep_stage(2u);
+    rk4_stage_state_3(h);
+    derivative(a1);
+    keep_stage(3u);
 }
 
 // k₁ of the main state at fraction `start` of the base step from phase `ph`, kept for its
@@ -144,42 +120,22 @@ fn keep_k1(j: u32) {
     k1_branch = (branch_bits >> (4u * j)) & 15u;
 }
 
-// The state advanced by the stages just computed: y += h Σ b_j k_j (compensated).
-fn rk4_finish() {
-    for (var i = 0u; i < N_SEG; i++) {
-        let t = comp_add(th[i], th_c[i], th_acc[i]);
-        th[i] = t.x;
-        th_c[i] = t.y;
-        let o = comp_add(om[i], om_c[i], om_acc[i]);
-        om[i] = o.x;
-        om_c[i] = o.y;
-    }
-    if HAS_PIEZO {
-        let v = comp_add(volt, volt_c, volt_acc);
-        volt = v.x;
-        volt_c = v.y;
-    }
-}
-
 // The scaled error of the RK4 stages just computed (Rk4Rungs::error of src/engine/rk4.rs):
-// k₅ at y₄ = y + h Σ b_j k_j with the cart at the step's end `a_end`, then max over the state
-// of |h (k₄ − k₅) / 6| / (atol + rtol |y|), y the state before the step. y₄ is the
-// compensated sum `rk4_finish` leaves, so an accepted sub-step hands k₅ on as the next k₁.
+// k₅ at the candidate y₄ (rk4_candidate: the compensated sum rk4_finish leaves, so an
+// accepted sub-step hands k₅ on as the next k₁) with the cart at the step's end `a_end`, the
+// estimate h (k₄ − k₅)/6 (rk4_estimate), then its max over the state of
+// |e| / (atol + rtol |y|), y the state before the step.
 fn rk4_error(a_end: f32, h: f32) -> f32 {
-    for (var i = 0u; i < N_SEG; i++) {
-        sth[i] = comp_add(th[i], th_c[i], th_acc[i]).x;
-        som[i] = comp_add(om[i], om_c[i], om_acc[i]).x;
-    }
-    svolt = comp_add(volt, volt_c, volt_acc).x;
+    rk4_candidate(h);
     derivative(a_end);
-    let w = h / 6.0;
+    rk4_estimate(h);
     var e = 0.0;
     for (var i = 0u; i < N_SEG; i++) {
-        e = scaled_max(e, w * (k4_th[i] - som[i]), th[i]);
-        e = scaled_max(e, w * (k4_om[i] - acc_out[i]), om[i]);
+        e = scaled_max(e, sth[i], th[i]);
+        e = scaled_max(e, som[i], om[i]);
     }
     if HAS_PIEZO {
-        e = scaled_max(e, w * (k4_v - dvolt_out), volt);
+        e = scaled_max(e, svolt, volt);
     }
     return e;
 }
@@ -233,7 +189,7 @@ fn method_finish(h: f32) {
     if METHOD_IMEX {
         imex_finish(h);
     } else {
-        rk4_finish();
+        rk4_finish(h);
     }
 }
 

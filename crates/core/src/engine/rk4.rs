@@ -81,6 +81,13 @@ pub(crate) fn rk4_step_twin<T: Lane>(
 /// The stage times of RK4 as fractions of the step, and the stage each state is formed from.
 const STAGES: [(usize, f64); 4] = [(0, 0.0), (1, 0.5), (1, 0.5), (2, 1.0)];
 
+/// Stage `j`'s offset `h c_j` for a step of `h` (`c = 0, ½, ½, 1`), which stage `j`'s state
+/// `y + h c_j k_{j−1}` is formed with.
+#[inline]
+pub(crate) fn stage_step<T: Lane>(h: T, j: usize) -> T {
+    h * T::splat(STAGES[j].1)
+}
+
 #[allow(clippy::too_many_arguments)]
 fn rk4_stages<T: Lane>(
     chain: &Chain<T>,
@@ -92,12 +99,11 @@ fn rk4_stages<T: Lane>(
     law: ContactLaw,
     mut twin: Option<(&mut [T], &mut Rk4Scratch<T>)>,
 ) {
-    for (j, &(a, frac)) in STAGES.iter().enumerate() {
-        let h = dt * T::splat(frac);
-        let load = stage_rates(chain, ws, y, s, j, cart_acc[a], h, Stage::Law(law));
+    for (j, &(a, _)) in STAGES.iter().enumerate() {
+        let load = stage_rates(chain, ws, y, s, j, cart_acc[a], dt, Stage::Law(law));
         if let Some((ty, ts)) = &mut twin {
             let branches = load.map_or_else(Branches::free, |l| l.branches);
-            stage_rates(chain, ws, ty, ts, j, cart_acc[a], h, Stage::On(branches));
+            stage_rates(chain, ws, ty, ts, j, cart_acc[a], dt, Stage::On(branches));
         }
     }
     rk4_finish(y, s, dt);
@@ -109,7 +115,13 @@ fn rk4_stages<T: Lane>(
 /// `y += dt (k₁ + 2k₂ + 2k₃ + k₄)/6` with the state's compensation, after the stages.
 #[inline]
 fn rk4_finish<T: Lane>(y: &mut [T], s: &mut Rk4Scratch<T>, dt: T) {
-    let (k, comp) = (&s.k, &mut s.comp);
+    finish_in(y, &s.k, &mut s.comp, dt);
+}
+
+/// `y += dt (k₁ + 2k₂ + 2k₃ + k₄)/6` with compensation `comp` ([`compensated_add`]), from the
+/// stage derivatives `k`.
+#[inline]
+pub(crate) fn finish_in<T: Lane>(y: &mut [T], k: &[Vec<T>; 4], comp: &mut [T], dt: T) {
     for i in 0..y.len() {
         compensated_add(&mut y[i], &mut comp[i], rk4_increment(k, i, dt));
     }
@@ -121,6 +133,24 @@ fn rk4_increment<T: Lane>(k: &[Vec<T>; 4], i: usize, dt: T) -> T {
     dt * T::splat(1.0 / 6.0) * (k[0][i] + T::splat(2.0) * (k[1][i] + k[2][i]) + k[3][i])
 }
 
+/// The candidate `y₄ = y + (Δ − c)` of the stages `k` (`Δ` the RK4 increment for a step of
+/// `h`, `c` the compensation), bit for bit the state [`finish_in`] leaves, into `end`.
+#[inline]
+pub(crate) fn candidate_in<T: Lane>(y: &[T], k: &[Vec<T>; 4], comp: &[T], h: T, end: &mut [T]) {
+    for (i, e) in end.iter_mut().enumerate() {
+        *e = y[i] + (rk4_increment(k, i, h) - comp[i]);
+    }
+}
+
+/// The embedded estimate `h (k₄ − k₅)/6` into `out`.
+#[inline]
+pub(crate) fn estimate_in<T: Lane>(k4: &[T], k5: &[T], h: T, out: &mut [T]) {
+    let sixth = h * T::splat(1.0 / 6.0);
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = sixth * (k4[i] - k5[i]);
+    }
+}
+
 /// How a stage evaluates the bumpers: by a law (the exact one, or frozen branches), or on the
 /// branches of the main trajectory's stage (λ1's twin).
 #[derive(Clone, Copy)]
@@ -129,8 +159,8 @@ enum Stage<T> {
     On(Branches<T>),
 }
 
-/// Stage `j` of RK4: `k_j` at `y + h k_{j−1}` (at `y` for the first), by the stage's law or
-/// on the given branches; the bumpers' load there.
+/// Stage `j` of a step of `h`: `k_j` at `y + h c_j k_{j−1}` (at `y` for the first), by the
+/// stage's law or on the given branches; the bumpers' load there.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn stage_rates<T: Lane>(
@@ -148,7 +178,7 @@ fn stage_rates<T: Lane>(
     let at: &[T] = if j == 0 {
         y
     } else {
-        stage(tmp, y, &before[j - 1], h);
+        stage(tmp, y, &before[j - 1], stage_step(h, j));
         tmp
     };
     match how {
@@ -157,8 +187,9 @@ fn stage_rates<T: Lane>(
     }
 }
 
+/// A stage's state `y + h k` (`h` the stage's offset, [`stage_step`]) into `out`.
 #[inline]
-fn stage<T: Lane>(out: &mut [T], y: &[T], k: &[T], h: T) {
+pub(crate) fn stage<T: Lane>(out: &mut [T], y: &[T], k: &[T], h: T) {
     for ((o, &yi), &ki) in out.iter_mut().zip(y).zip(k) {
         *o = yi + h * ki;
     }
@@ -328,10 +359,10 @@ impl<T: Lane> Rk4Pair<T> {
     ) -> [Branches<T>; 4] {
         let handed = on.is_none() && self.k1_ready;
         let mut branches = [self.k1_branches; 4];
-        for (j, &(a, frac)) in STAGES.iter().enumerate().skip(usize::from(handed)) {
+        for (j, &(a, _)) in STAGES.iter().enumerate().skip(usize::from(handed)) {
             let how = on.map_or(Stage::Law(ContactLaw::Exact), |b| Stage::On(b[j]));
             let s = &mut self.scratch;
-            let load = stage_rates(chain, ws, y, s, j, cart_acc[a], h * T::splat(frac), how);
+            let load = stage_rates(chain, ws, y, s, j, cart_acc[a], h, how);
             branches[j] = load.map_or_else(Branches::free, |l| l.branches);
         }
         if on.is_none() && !handed {
@@ -352,16 +383,11 @@ impl<T: Lane> Rk4Pair<T> {
         out: &mut [T],
     ) {
         let s = &self.scratch;
-        for (i, e) in self.end.iter_mut().enumerate() {
-            *e = y[i] + (rk4_increment(&s.k, i, h) - s.comp[i]);
-        }
+        candidate_in(y, &s.k, &s.comp, h, &mut self.end);
         let load = chain.rates(ws, acc_end, &self.end, &mut self.k5, ContactLaw::Exact);
         self.k5_branches = load.map_or_else(Branches::free, |l| l.branches);
         self.k5_fresh = true;
-        let sixth = h * T::splat(1.0 / 6.0);
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = sixth * (s.k[3][i] - self.k5[i]);
-        }
+        estimate_in(&s.k[3], &self.k5, h, out);
     }
 
     /// Take the sub-step just computed in the lanes where `mask` is positive (the others,

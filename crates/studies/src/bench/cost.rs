@@ -40,7 +40,7 @@ pub struct StepOps {
 /// One RK4 step: four stages, each one sin/cos per segment and two divisions per segment
 /// (the backward sweep's 1/d and the forward sweep's division by d).
 pub const RK4_OPS: StepOps = StepOps {
-    arithmetic: [120, 456, 0, 32],
+    arithmetic: [119, 456, 0, 32],
     divisions: [0, 8, 0, 0],
     sin_cos: [0, 4, 0, 0],
 };

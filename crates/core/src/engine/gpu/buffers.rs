@@ -319,15 +319,15 @@ fn steps_within_loop_budget(
 /// Loop iterations of one integration step in the kernel, counted from the WGSL (an upper
 /// bound: loops the compiler unrolls cost nothing), without the health check. The derivative
 /// and the bumper flags are generated unrolled (`super::codegen`) and have no loop:
-/// - RK4: the step loop (1), `rk4_step`'s two sweeps (2N), four stage updates (N):
-///   `6 N + 1`;
+/// - RK4: the step loop (1), the first stage's state (N), four `keep_stage` (N each; the
+///   stage states and the finish are generated without a loop): `5 N + 1`;
 /// - IMEX: the step loop (1), `imex_step`'s copy (N), stage loop (3) and weighted sums
 ///   (5N + 4), four `imex_eval` (N each: the copy out) of which three add the joint couples
 ///   and an N × N product (N² + 3N), three `imex_implicit_stage` (2N² + (6 + i) N + i for
 ///   i = 1, 2, 3): `9 N² + 43 N + 14`.
 fn loops_per_step(method: Method, n: usize) -> usize {
     match method {
-        Method::Rk4 => 6 * n + 1,
+        Method::Rk4 => 5 * n + 1,
         Method::Imex => 9 * n * n + 43 * n + 14,
     }
 }
@@ -335,8 +335,8 @@ fn loops_per_step(method: Method, n: usize) -> usize {
 /// Loop iterations a sub-step of adaptive steps adds to an IMEX step (with adaptive steps the
 /// budget counts sub-steps tried, each a pass of the kernel's loop): `imex_error` (its sums
 /// 5N, the couples N, two N × N products N² + N each, the piezo's 4): `2 N² + 8 N + 4`. The
-/// same count bounds RK4(3)'s additions: `rk4_error` (two sweeps 2N), k₄ kept (2N), k₁ handed
-/// on and kept (2N), and once a dispatch `prime_k1` (2N).
+/// same count bounds RK4(3)'s additions: `rk4_error`'s max (N), k₁ handed on (N) and kept
+/// (N), and once a dispatch `prime_k1` (2N).
 fn adaptive_loops(n: usize, adaptive: bool) -> usize {
     if adaptive { 2 * n * n + 8 * n + 4 } else { 0 }
 }
