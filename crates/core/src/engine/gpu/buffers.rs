@@ -3,6 +3,7 @@
 
 use crate::engine::error::{EngineError, GpuFaultKind};
 use crate::engine::gpu::ReduceSettings;
+use crate::engine::gpu::codegen::RK4_UNROLLED_UP_TO;
 use crate::engine::gpu::context::GpuContext;
 use crate::engine::gpu::kernels::{KernelKey, WG};
 use crate::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams, levers_of};
@@ -319,14 +320,16 @@ fn steps_within_loop_budget(
 /// Loop iterations of one integration step in the kernel, counted from the WGSL (an upper
 /// bound: loops the compiler unrolls cost nothing), without the health check. The derivative
 /// and the bumper flags are generated unrolled (`super::codegen`) and have no loop:
-/// - RK4: the step loop (1), the first stage's state (N), four `keep_stage` (N each; the
-///   stage states and the finish are generated without a loop): `5 N + 1`;
+/// - RK4: the step loop (1), the first stage's state (N), four `keep_stage` (N each):
+///   `5 N + 1`; above [`RK4_UNROLLED_UP_TO`] segments the generated stage states and finish
+///   are loops too (4N more);
 /// - IMEX: the step loop (1), `imex_step`'s copy (N), stage loop (3) and weighted sums
 ///   (5N + 4), four `imex_eval` (N each: the copy out) of which three add the joint couples
 ///   and an N × N product (N² + 3N), three `imex_implicit_stage` (2N² + (6 + i) N + i for
 ///   i = 1, 2, 3): `9 N² + 43 N + 14`.
 fn loops_per_step(method: Method, n: usize) -> usize {
     match method {
+        Method::Rk4 if n > RK4_UNROLLED_UP_TO => 9 * n + 1,
         Method::Rk4 => 5 * n + 1,
         Method::Imex => 9 * n * n + 43 * n + 14,
     }
@@ -336,7 +339,8 @@ fn loops_per_step(method: Method, n: usize) -> usize {
 /// budget counts sub-steps tried, each a pass of the kernel's loop): `imex_error` (its sums
 /// 5N, the couples N, two N × N products N² + N each, the piezo's 4): `2 N² + 8 N + 4`. The
 /// same count bounds RK4(3)'s additions: `rk4_error`'s max (N), k₁ handed on (N) and kept
-/// (N), and once a dispatch `prime_k1` (2N).
+/// (N), the generated candidate and estimate above [`RK4_UNROLLED_UP_TO`] segments (2N), and
+/// once a dispatch `prime_k1` (2N).
 fn adaptive_loops(n: usize, adaptive: bool) -> usize {
     if adaptive { 2 * n * n + 8 * n + 4 } else { 0 }
 }

@@ -11,7 +11,8 @@
 //!    flags, and λ1's twin's saltation and norm for one [`ChainShape`], the functions the
 //!    thread kernel calls;
 //! 4. `rk4`: classical RK4's stage states, compensated finish, and adaptive steps' candidate
-//!    and estimate, from `crate::engine::rk4`.
+//!    and estimate, from `crate::engine::rk4`: unrolled up to `RK4_UNROLLED_UP_TO` segments,
+//!    a loop over the segments above.
 //!
 //! [`generated_wgsl`] is what `crate::engine::gpu::kernels` puts behind the header;
 //! [`GENERATED`] lists what is generated, and the top-level `shaders/` holds the kernels of
@@ -23,6 +24,7 @@ pub mod sym;
 mod wgsl;
 
 use crate::model::ChainShape;
+pub(crate) use rk4::UNROLLED_UP_TO as RK4_UNROLLED_UP_TO;
 pub use sym::{Sym, Tape, record};
 
 /// The first line of every generated WGSL text.

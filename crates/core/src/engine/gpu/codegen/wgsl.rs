@@ -91,18 +91,51 @@ pub(crate) fn emit(tape: &Tape, f: &Function) -> String {
         let _ = writeln!(out, "// {line}");
     }
     let _ = writeln!(out, "{} {{", f.signature);
-    let need = needed(tape, &f.stores);
-    for (i, node) in tape.nodes.iter().enumerate() {
-        if let (true, Some(e)) = (need[i], expression(tape, node)) {
-            let _ = writeln!(out, "    let v{i} = {e};");
-        }
-    }
-    for (target, value) in &f.stores {
-        let _ = writeln!(out, "    {target} = {};", operand(tape, *value));
-    }
+    body(&mut out, tape, &f.stores, "    ");
     out.push_str(f.tail);
     out.push_str("}\n");
     out
+}
+
+/// One part of a function written in parts: a tape and its stores, written once, or in a loop
+/// over the segments (`i`) where the tape was recorded on one segment's components.
+pub(crate) struct Part {
+    pub tape: Tape,
+    pub stores: Vec<(String, Sym)>,
+    pub per_segment: bool,
+}
+
+/// A function of `parts`, in order, with no tail.
+pub(crate) fn emit_parts(doc: &[&str], signature: &str, parts: &[Part]) -> String {
+    let mut out = String::new();
+    for line in doc {
+        let _ = writeln!(out, "// {line}");
+    }
+    let _ = writeln!(out, "{signature} {{");
+    for p in parts {
+        if p.per_segment {
+            out.push_str("    for (var i = 0u; i < N_SEG; i++) {\n");
+            body(&mut out, &p.tape, &p.stores, "        ");
+            out.push_str("    }\n");
+        } else {
+            body(&mut out, &p.tape, &p.stores, "    ");
+        }
+    }
+    out.push_str("}\n");
+    out
+}
+
+/// The `let`s the stores need, then the stores, each line indented by `indent`.
+fn body(out: &mut String, tape: &Tape, stores: &[(String, Sym)], indent: &str) {
+    let need = needed(tape, stores);
+    for (i, node) in tape.nodes.iter().enumerate() {
+        if let (true, Some(e)) = (need[i], expression(tape, node)) {
+            let _ = writeln!(out, "{indent}let v{i} = {e};");
+        }
+    }
+    for (target, value) in stores {
+        let _ = writeln!(out, "{indent}{target} = {};", operand(tape, *value));
+    }
 }
 
 #[cfg(test)]
