@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Old (db7da84 build, /tmp/pa_head) against new (/tmp/pa_new): kernel compile + run with the
 # Mesa shader cache off, then lavapipe throughput.
+# The last line of compile_and_maps.log (the build that writes the RK4 functions as a loop above
+# N = 24, 2790600) is the first command of the loop below, run by hand with that build as /tmp/pa_loop.
 set -e
 cd /work/main
 ax='map.axes=[{key="excitation.frequency_hz",values=[6.0,9.0]},{key="excitation.amplitude_m",values=[0.01,0.02]}]'
