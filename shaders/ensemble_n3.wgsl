@@ -1484,8 +1484,8 @@ fn rk4_estimate(h: f32) {
 // data structures shared with Rust, the bindings and the integrator's per-invocation state.
 //
 // The kernels are assembled from eight files (common, integrate, schedule, early, imex,
-// reduce_r, reduce_k, verdict; see src/engine/gpu/kernels.rs) behind the chain's functions,
-// generated from src/model/chain.rs (src/engine/gpu/codegen), and a header generated from the
+// reduce_r, reduce_k, verdict; see src/engine/gpu/kernels.rs) behind the chain's functions and
+// RK4's arithmetic, generated from src/model/chain.rs and src/engine/rk4.rs, and a header from the
 // Rust definitions: the status and regime codes, the health-check interval CHECK_EVERY, the array
 // bound MAX_SEG (the scene's N), the IMEX method's tableaux, the adaptive ladder's rules
 // (src/engine/ladder.rs) and the structs shared with Rust (`InstanceParams`, `Control`, and
