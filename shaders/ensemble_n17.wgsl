@@ -14,9 +14,13 @@ const REGIME_PERIODIC: i32 = 1i;
 const REGIME_REGULAR: i32 = 2i;
 const REGIME_CHAOTIC: i32 = 3i;
 const REGIME_Z: f32 = 2e0;
-const REGIME_FLAT: f32 = 1e-2;
+const REGIME_FLAT_PER_PERIOD: f32 = 1e-2;
 const REGIME_K_CHAOS: f32 = 5e-1;
 const K_FIRM_SAMPLES: u32 = 1000u;
+const CLASS_UNRESOLVED: u32 = 0u;
+const CLASS_GROWING: u32 = 1u;
+const CLASS_FLAT: u32 = 2u;
+const CLASS_SHRINKING: u32 = 3u;
 const LYAPUNOV_BLOCKS: u32 = 8u;
 const EARLY_LYAPUNOV_REL_SE: f32 = 1e-1;
 const TWIN_RUNNING: u32 = 1u;
@@ -28,25 +32,8 @@ const IMEX_C: array<f32, 4> = array<f32, 4>(0e0, 8.71733043016918e-1, 6e-1, 1e0)
 const IMEX_B: array<f32, 4> = array<f32, 4>(1.8764102434672383e-1, -5.95297473576955e-1, 9.717899277217721e-1, 4.35866521508459e-1);
 const IMEX_B_HAT: array<f32, 4> = array<f32, 4>(2.1474028622338914e-1, -4.851622638849391e-1, 8.687250025203875e-1, 4.016969751411624e-1);
 const MAX_LEVEL: u32 = 20u;
-const ADAPTIVE_GROW: f32 = 1e-1;
-// The adaptive ladder's rules (src/engine/ladder.rs, generated into this header).
-// |x| / (atol + rtol |y|): Tolerance::ratio.
-fn ladder_ratio(x: f32, y: f32, rtol: f32, atol: f32) -> f32 {
-    return abs(x) / (atol + rtol * abs(y));
-}
-// A try of scaled error e at level k is taken again one level finer: Rung::judge.
-fn ladder_rejects(e: f32, k: u32) -> bool {
-    return e > 1.0 && k < MAX_LEVEL;
-}
-// The level after an accepted sub-step of level k and error e that ends at position `pos`
-// (in units of the finest step): Rung::advance.
-fn ladder_next_level(k: u32, pos: u32, e: f32) -> u32 {
-    let span = (1u << MAX_LEVEL) >> k;
-    if k > 0u && pos % (span << 1u) == 0u && e <= ADAPTIVE_GROW {
-        return k - 1u;
-    }
-    return k;
-}
+const LADDER_UNIT: u32 = 1048576u;
+const LADDER_GROW: f32 = 1e-1;
 const IMEX_AE: array<f32, 16> = array<f32, 16>(0e0, 0e0, 0e0, 0e0, 8.71733043016918e-1, 0e0, 0e0, 0e0, 5.275890119763004e-1, 7.24109880236996e-2, 0e0, 0e0, 3.990960076760701e-1, -4.375576546135194e-1, 1.0384616469374492e0, 0e0);
 const IMEX_AI: array<f32, 16> = array<f32, 16>(0e0, 0e0, 0e0, 0e0, 4.35866521508459e-1, 4.35866521508459e-1, 0e0, 0e0, 2.576482460664272e-1, -9.351476757488625e-2, 4.35866521508459e-1, 0e0, 1.8764102434672383e-1, -5.95297473576955e-1, 9.717899277217721e-1, 4.35866521508459e-1);
 // Generated from `GpuInstanceParams` (src/engine/gpu/layout.rs).
@@ -167,6 +154,119 @@ struct Accum {
     stopped: u32, // The period of the orbit the instance stopped on (0: it ran to its end).
     level: u32, // Adaptive steps: the ladder level k of the next sub-step (h = dt / 2^k).
     sub_onsets: u32, // Adaptive steps: contact onsets within the base step so far.
+}
+// The names the shared rules use (src/rules.rs): Float, is_nan and is_finite from the bits.
+alias Float = f32;
+fn is_nan(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7fffffffu) > 0x7f800000u;
+}
+fn is_finite(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
+}
+// ladder_ratio (pendulum_atlas_core::engine::ladder), written once (src/rules.rs):
+// |x| / (atol + rtol |y|): one component's ratio in the error norm.
+fn ladder_ratio(x: Float, y: Float, rtol: Float, atol: Float) -> Float {
+    return abs(x) / (atol + rtol * abs(y));
+}
+// scaled_max (pendulum_atlas_core::engine::ladder), written once (src/rules.rs):
+// max(e, |x| / (atol + rtol |y|)): the error norm folded over one more component, a NaN
+// ratio passed over.
+fn scaled_max(e: Float, x: Float, y: Float, rtol: Float, atol: Float) -> Float {
+    let r = ladder_ratio(x, y, rtol, atol);
+    if is_nan(r) {
+        return e;
+    }
+    return max(e, r);
+}
+// ladder_rejects (pendulum_atlas_core::engine::ladder), written once (src/rules.rs):
+// A try of scaled error e at level k is taken again one level finer (at the finest level
+// every try is accepted).
+fn ladder_rejects(e: Float, k: u32) -> bool {
+    return e > 1.0 && k < MAX_LEVEL;
+}
+// ladder_next_level (pendulum_atlas_core::engine::ladder), written once (src/rules.rs):
+// The level after an accepted sub-step of level k and error e that ends at position
+// `pos` (in units of the finest step): one coarser where `pos` is aligned to the coarser
+// step and e <= LADDER_GROW.
+fn ladder_next_level(k: u32, pos: u32, e: Float) -> u32 {
+    let span = LADDER_UNIT >> k;
+    if k > 0 && pos % (span << 1) == 0 && e <= LADDER_GROW {
+        return k - 1;
+    }
+    return k;
+}
+// well_side (pendulum_atlas_core::analysis::periodicity), written once (src/rules.rs):
+// The side of the hysteresis band ±`half` (θc/2) a sample `alpha` is on: 1 above it, −1
+// below it, 0 inside it (and for a NaN).
+fn well_side(alpha: Float, half: Float) -> i32 {
+    if alpha > half {
+        return 1;
+    } else if alpha < -half {
+        return -1;
+    }
+    return 0;
+}
+// is_hop (pendulum_atlas_core::analysis::periodicity), written once (src/rules.rs):
+// Whether a sample on side `side` hopped: it entered the well other than `last`, the
+// well last visited (0: none yet, so the first well entered is not a hop).
+fn is_hop(last: i32, side: i32) -> bool {
+    return side != 0 && last != 0 && last != side;
+}
+// next_well (pendulum_atlas_core::analysis::periodicity), written once (src/rules.rs):
+// The well last visited after a sample on side `side`: that side, or `last` from inside
+// the band.
+fn next_well(last: i32, side: i32) -> i32 {
+    if side != 0 {
+        return side;
+    }
+    return last;
+}
+// lambda_class (pendulum_atlas_core::reduce::regime), written once (src/rules.rs):
+// The class of λ1 per period, Λ with standard error σ: growing, flat or shrinking where
+// the whole interval Λ ± zσ lies inside the class, else unresolved (so too for a Λ or σ
+// that is not finite).
+fn lambda_class(lambda: Float, sigma: Float) -> u32 {
+    if !(is_finite(lambda) && is_finite(sigma)) {
+        return CLASS_UNRESOLVED;
+    } else if lambda - REGIME_Z * sigma > REGIME_FLAT_PER_PERIOD {
+        return CLASS_GROWING;
+    } else if lambda + REGIME_Z * sigma < -REGIME_FLAT_PER_PERIOD {
+        return CLASS_SHRINKING;
+    } else if abs(lambda) + REGIME_Z * sigma <= REGIME_FLAT_PER_PERIOD {
+        return CLASS_FLAT;
+    }
+    return CLASS_UNRESOLVED;
+}
+// regime_code (pendulum_atlas_core::reduce::regime), written once (src/rules.rs):
+// The regime's code of a cell whose run ended ok, from λ1 per period (Λ, σ), whether a
+// period was found, and K from `k_samples` samples: the table of the module doc.
+fn regime_code(lambda: Float, sigma: Float, periodic: bool, k: Float, k_samples: u32) -> i32 {
+    let growth = lambda_class(lambda, sigma);
+    let firm = k_samples >= K_FIRM_SAMPLES && is_finite(k);
+    if growth == CLASS_SHRINKING && periodic {
+        return REGIME_PERIODIC;
+    } else if growth == CLASS_SHRINKING {
+        return REGIME_REGULAR;
+    } else if growth == CLASS_GROWING && !periodic && (k >= REGIME_K_CHAOS || !firm) {
+        return REGIME_CHAOTIC;
+    } else if growth == CLASS_FLAT && !periodic && (k < REGIME_K_CHAOS || !firm) {
+        return REGIME_REGULAR;
+    }
+    return REGIME_UNDECIDED;
+}
+// early_close (pendulum_atlas_core::engine::early_rule), written once (src/rules.rs):
+// Whether two values of a stroboscopic instant and of the one `p` periods before count as
+// the same: |a − b| ≤ tol · max(|a|, 1).
+fn early_close(a: Float, b: Float, tol: Float) -> bool {
+    return abs(a - b) <= tol * max(abs(a), 1.0);
+}
+// early_lyapunov_stops_at (pendulum_atlas_core::engine::early_rule), written once (src/rules.rs):
+// Whether λ1 (`per_s`, 1/s, standard error `se_per_s`) measured on a confirmed orbit of
+// forcing period `period_s` lets it stop: shrinking per period and within
+// EARLY_LYAPUNOV_REL_SE of itself.
+fn early_lyapunov_stops_at(per_s: Float, se_per_s: Float, period_s: Float) -> bool {
+    let growth = lambda_class(per_s * period_s, se_per_s * period_s);
+    return growth == CLASS_SHRINKING && se_per_s <= EARLY_LYAPUNOV_REL_SE * abs(per_s);
 }
 
 // Generated by pendulum-atlas from the Rust model (crates/core/src/engine/gpu/codegen); do not edit.
@@ -7394,11 +7494,11 @@ fn rk4_error(a_end: f32, h: f32) -> f32 {
     rk4_estimate(h);
     var e = 0.0;
     for (var i = 0u; i < N_SEG; i++) {
-        e = scaled_max(e, sth[i], th[i]);
-        e = scaled_max(e, som[i], om[i]);
+        e = scaled_max(e, sth[i], th[i], P.rtol, P.atol);
+        e = scaled_max(e, som[i], om[i], P.rtol, P.atol);
     }
     if HAS_PIEZO {
-        e = scaled_max(e, svolt, volt);
+        e = scaled_max(e, svolt, volt, P.rtol, P.atol);
     }
     return e;
 }
@@ -7470,7 +7570,7 @@ struct Ladder {
 // src/engine/adaptive.rs, one pass of its loop; IMEX or RK4 by METHOD_IMEX): a step whose scaled error exceeds 1 is taken
 // again at the next level; an accepted one advances the state, and the twin beside it on the
 // main stages' branches with its onset saltation; the level falls by one where the position
-// is aligned to the coarser step and the error is at most ADAPTIVE_GROW. True once the base
+// is aligned to the coarser step and the error is at most LADDER_GROW. True once the base
 // step is complete (its onsets in `l.onsets`, the position back at 0).
 //
 // One sub-step per call, not one base step, so that the invocations of a warp stay busy: an
@@ -7609,25 +7709,18 @@ fn twin_sample(j: u32, a: ptr<function, Accum>) {
 }
 
 // The accumulators of the current period after a step to angle `alpha` with bumper flags
-// `now` and `onsets` contacts begun within it: onsets, α range, hops (hop_step of
+// `now` and `onsets` contacts begun within it: onsets, α range, hops (the shared rules of
 // src/analysis/periodicity.rs, the wells as +1/−1 and 0 for none yet; the well last visited
 // is kept through the transient), power.
 fn accumulate(alpha: f32, now: u32, onsets: u32, a: ptr<function, Accum>) {
     (*a).p_impacts += onsets;
     (*a).p_amin = min((*a).p_amin, alpha);
     (*a).p_amax = max((*a).p_amax, alpha);
-    var well = 0i;
-    if alpha > P.half_clearance {
-        well = 1i;
-    } else if alpha < -P.half_clearance {
-        well = -1i;
+    let side = well_side(alpha, P.half_clearance);
+    if is_hop((*a).well, side) {
+        (*a).p_hops += 1u;
     }
-    if well != 0i {
-        if (*a).well != 0i && (*a).well != well {
-            (*a).p_hops += 1u;
-        }
-        (*a).well = well;
-    }
+    (*a).well = next_well((*a).well, side);
     if HAS_PIEZO {
         (*a).p_power += volt * volt * P.piezo_inv_r;
     }
@@ -7923,7 +8016,8 @@ fn schedule() {
     atomicStore(&sched[2], 1u);
 }
 // The early stop of an instance whose periodic orbit is confirmed: the rule, the rings and
-// the continuation of src/engine/early.rs (EarlyTracker) and the phases of the CPU hook
+// the continuation of src/engine/early.rs (EarlyTracker; its rules early_close and
+// early_lyapunov_stops_at are shared, src/engine/early_rule.rs) and the phases of the CPU hook
 // (src/engine/cpu/hook.rs: watch, measured, period_end), step for step. The rings live in
 // `early`, the phase in the accumulators.
 
@@ -7931,10 +8025,6 @@ const EARLY_WATCHING: u32 = 0u;
 const EARLY_MEASURING: u32 = 1u;
 const EARLY_CLOSING: u32 = 2u;
 const EARLY_OFF: u32 = 3u;
-
-fn early_close(x: f32, y: f32) -> bool {
-    return abs(x - y) <= ctl.e_tol * max(1.0, abs(x));
-}
 
 // Word `w` of the state ring slot of instant `abs`.
 fn early_state_word(abs: u32, c: u32) -> u32 {
@@ -7963,12 +8053,13 @@ fn early_keep(inst: u32, abs: u32, a: ptr<function, Accum>) -> u32 {
         }
         var same = true;
         for (var j = abs + 1u - w; j <= abs && same; j++) {
-            same = early_close(early_alpha(inst, j), early_alpha(inst, j - p));
+            same = early_close(early_alpha(inst, j), early_alpha(inst, j - p), ctl.e_tol);
         }
         for (var c = 0u; c < 2u * N_SEG + 1u && same; c++) {
             same = early_close(
                 early[at(inst, early_state_word(abs, c))],
                 early[at(inst, early_state_word(abs - p, c))],
+                ctl.e_tol,
             );
         }
         if same {
@@ -8012,14 +8103,8 @@ fn twin_restart(a: ptr<function, Accum>, abs: u32, window: u32) {
     }
 }
 
-// early_lyapunov_stops of src/engine/early.rs, λ1 and σ per period: shrinking, and σ within
-// EARLY_LYAPUNOV_REL_SE of |λ1|.
-fn early_lyapunov_stops(lambda: f32, sigma: f32) -> bool {
-    return lambda + REGIME_Z * sigma < -REGIME_FLAT && sigma <= EARLY_LYAPUNOV_REL_SE * abs(lambda);
-}
-
 // The hook's `measured`: once the twin's window on the confirmed orbit is complete, close when
-// λ1 shrinks within EARLY_LYAPUNOV_REL_SE of itself (early_lyapunov_stops); short of that
+// λ1 shrinks within EARLY_LYAPUNOV_REL_SE of itself (early_lyapunov_stops_at); short of that
 // precision double the window in place while it still ends before the map's (TwinTracker::
 // extend); else send the twin back to the map's window (TwinTracker::reset).
 fn early_measured(abs: u32, a: ptr<function, Accum>) {
@@ -8027,9 +8112,7 @@ fn early_measured(abs: u32, a: ptr<function, Accum>) {
         return;
     }
     let l = lyap_estimate(a, (*a).tw_window, P.period_s);
-    let lambda = l.x * P.period_s;
-    let sigma = l.y * P.period_s;
-    if l.z > 0.5 && early_lyapunov_stops(lambda, sigma) {
+    if l.z > 0.5 && early_lyapunov_stops_at(l.x, l.y, P.period_s) {
         (*a).e_phase = EARLY_CLOSING;
         return;
     }
@@ -8317,27 +8400,17 @@ fn imex_error(h: f32) -> f32 {
     var e = 0.0;
     for (var s = 0u; s < N_SEG; s++) {
         let x_om = mat_row_q(1u, s);
-        e = scaled_max(e, sth[s] + hg * x_om, th[s]);
-        e = scaled_max(e, x_om, om[s]);
+        e = scaled_max(e, sth[s] + hg * x_om, th[s], P.rtol, P.atol);
+        e = scaled_max(e, x_om, om[s], P.rtol, P.atol);
     }
     if HAS_PIEZO {
         var dv = 0.0;
         for (var j = 0u; j < 4u; j++) {
             dv += (IMEX_B[j] - IMEX_B_HAT[j]) * f_v[j];
         }
-        e = scaled_max(e, h * dv, volt);
+        e = scaled_max(e, h * dv, volt, P.rtol, P.atol);
     }
     return e;
-}
-
-// max(e, |err| / (atol + rtol |y|)), a NaN ratio passed over (read from the bits, as
-// `not_finite` does).
-fn scaled_max(e: f32, err: f32, y: f32) -> f32 {
-    let r = ladder_ratio(err, y, P.rtol, P.atol);
-    if (bitcast<u32>(r) & 0x7fffffffu) > 0x7f800000u {
-        return e;
-    }
-    return max(e, r);
 }
 // Reductions, part 1, on the uniform α series the integration recorded: its dominant line
 // (src/reduce `line_of`), then the phase-synchronisation index R of α against the cart
@@ -8702,7 +8775,7 @@ fn detect_period(inst: u32, n: u32) -> u32 {
 }
 // Reductions, part 3: λ1 and its standard error from the twin's block sums
 // (LyapunovSums::estimate of src/reduce/lyapunov.rs), then the cell's regime from λ1, the
-// period and K (regime_of of src/reduce/regime.rs). Runs after k_final, which leaves K and
+// period and K (regime_code of src/reduce/regime.rs, a shared rule). Runs after k_final, which leaves K and
 // the period in the accumulators. The thresholds and codes come from the generated header.
 
 // Growths in block b of a window of w: k with ⌊k·B/w⌋ = b, i.e. ⌈b·w/B⌉ ≤ k < ⌈(b+1)·w/B⌉.
@@ -8710,33 +8783,6 @@ fn block_count(b: u32, w: u32) -> u32 {
     let hi = ((b + 1u) * w + LYAPUNOV_BLOCKS - 1u) / LYAPUNOV_BLOCKS;
     let lo = (b * w + LYAPUNOV_BLOCKS - 1u) / LYAPUNOV_BLOCKS;
     return hi - lo;
-}
-
-// The regime of a cell whose run ended ok: λ1 per period `lambda` with standard error
-// `sigma` (`valid`: λ1 was formed), the period (0: none) and K from `k_samples` samples.
-fn regime_of(valid: bool, lambda: f32, sigma: f32, period: u32, k: f32, k_samples: u32) -> i32 {
-    if !valid {
-        return REGIME_UNDECIDED;
-    }
-    let periodic = period > 0u;
-    let firm = k_samples >= K_FIRM_SAMPLES;
-    let high_k = k >= REGIME_K_CHAOS;
-    let growing = lambda - REGIME_Z * sigma > REGIME_FLAT;
-    let shrinking = lambda + REGIME_Z * sigma < -REGIME_FLAT;
-    let flat = !growing && !shrinking && abs(lambda) + REGIME_Z * sigma <= REGIME_FLAT;
-    if shrinking && periodic {
-        return REGIME_PERIODIC;
-    }
-    if shrinking {
-        return REGIME_REGULAR;
-    }
-    if growing && !periodic && (high_k || !firm) {
-        return REGIME_CHAOTIC;
-    }
-    if flat && !periodic && (!high_k || !firm) {
-        return REGIME_REGULAR;
-    }
-    return REGIME_UNDECIDED;
 }
 
 // λ1 and its standard error (1/s) from the twin's block sums of a window of `w` growths with
@@ -8781,8 +8827,10 @@ fn verdict(@builtin(global_invocation_id) gid: vec3<u32>) {
         a.lyap = l.x;
         a.lyap_se = l.y;
     }
-    let lambda = l.x * t;
-    let sigma = l.y * t;
-    a.regime = regime_of(valid, lambda, sigma, a.period, a.k, params[inst].strobe_count);
+    // Not formed, λ1 is unresolved: undecided (the CPU's λ1 is NaN there).
+    a.regime = REGIME_UNDECIDED;
+    if valid {
+        a.regime = regime_code(l.x * t, l.y * t, a.period > 0u, a.k, params[inst].strobe_count);
+    }
     acc[inst] = a;
 }

@@ -1,5 +1,6 @@
 // The early stop of an instance whose periodic orbit is confirmed: the rule, the rings and
-// the continuation of src/engine/early.rs (EarlyTracker) and the phases of the CPU hook
+// the continuation of src/engine/early.rs (EarlyTracker; its rules early_close and
+// early_lyapunov_stops_at are shared, src/engine/early_rule.rs) and the phases of the CPU hook
 // (src/engine/cpu/hook.rs: watch, measured, period_end), step for step. The rings live in
 // `early`, the phase in the accumulators.
 
@@ -7,10 +8,6 @@ const EARLY_WATCHING: u32 = 0u;
 const EARLY_MEASURING: u32 = 1u;
 const EARLY_CLOSING: u32 = 2u;
 const EARLY_OFF: u32 = 3u;
-
-fn early_close(x: f32, y: f32) -> bool {
-    return abs(x - y) <= ctl.e_tol * max(1.0, abs(x));
-}
 
 // Word `w` of the state ring slot of instant `abs`.
 fn early_state_word(abs: u32, c: u32) -> u32 {
@@ -39,12 +36,13 @@ fn early_keep(inst: u32, abs: u32, a: ptr<function, Accum>) -> u32 {
         }
         var same = true;
         for (var j = abs + 1u - w; j <= abs && same; j++) {
-            same = early_close(early_alpha(inst, j), early_alpha(inst, j - p));
+            same = early_close(early_alpha(inst, j), early_alpha(inst, j - p), ctl.e_tol);
         }
         for (var c = 0u; c < 2u * N_SEG + 1u && same; c++) {
             same = early_close(
                 early[at(inst, early_state_word(abs, c))],
                 early[at(inst, early_state_word(abs - p, c))],
+                ctl.e_tol,
             );
         }
         if same {
@@ -88,14 +86,8 @@ fn twin_restart(a: ptr<function, Accum>, abs: u32, window: u32) {
     }
 }
 
-// early_lyapunov_stops of src/engine/early.rs, λ1 and σ per period: shrinking, and σ within
-// EARLY_LYAPUNOV_REL_SE of |λ1|.
-fn early_lyapunov_stops(lambda: f32, sigma: f32) -> bool {
-    return lambda + REGIME_Z * sigma < -REGIME_FLAT && sigma <= EARLY_LYAPUNOV_REL_SE * abs(lambda);
-}
-
 // The hook's `measured`: once the twin's window on the confirmed orbit is complete, close when
-// λ1 shrinks within EARLY_LYAPUNOV_REL_SE of itself (early_lyapunov_stops); short of that
+// λ1 shrinks within EARLY_LYAPUNOV_REL_SE of itself (early_lyapunov_stops_at); short of that
 // precision double the window in place while it still ends before the map's (TwinTracker::
 // extend); else send the twin back to the map's window (TwinTracker::reset).
 fn early_measured(abs: u32, a: ptr<function, Accum>) {
@@ -103,9 +95,7 @@ fn early_measured(abs: u32, a: ptr<function, Accum>) {
         return;
     }
     let l = lyap_estimate(a, (*a).tw_window, P.period_s);
-    let lambda = l.x * P.period_s;
-    let sigma = l.y * P.period_s;
-    if l.z > 0.5 && early_lyapunov_stops(lambda, sigma) {
+    if l.z > 0.5 && early_lyapunov_stops_at(l.x, l.y, P.period_s) {
         (*a).e_phase = EARLY_CLOSING;
         return;
     }

@@ -180,25 +180,15 @@ fn imex_error(h: f32) -> f32 {
     var e = 0.0;
     for (var s = 0u; s < N_SEG; s++) {
         let x_om = mat_row_q(1u, s);
-        e = scaled_max(e, sth[s] + hg * x_om, th[s]);
-        e = scaled_max(e, x_om, om[s]);
+        e = scaled_max(e, sth[s] + hg * x_om, th[s], P.rtol, P.atol);
+        e = scaled_max(e, x_om, om[s], P.rtol, P.atol);
     }
     if HAS_PIEZO {
         var dv = 0.0;
         for (var j = 0u; j < 4u; j++) {
             dv += (IMEX_B[j] - IMEX_B_HAT[j]) * f_v[j];
         }
-        e = scaled_max(e, h * dv, volt);
+        e = scaled_max(e, h * dv, volt, P.rtol, P.atol);
     }
     return e;
-}
-
-// max(e, |err| / (atol + rtol |y|)), a NaN ratio passed over (read from the bits, as
-// `not_finite` does).
-fn scaled_max(e: f32, err: f32, y: f32) -> f32 {
-    let r = ladder_ratio(err, y, P.rtol, P.atol);
-    if (bitcast<u32>(r) & 0x7fffffffu) > 0x7f800000u {
-        return e;
-    }
-    return max(e, r);
 }

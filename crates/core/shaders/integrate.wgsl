@@ -131,11 +131,11 @@ fn rk4_error(a_end: f32, h: f32) -> f32 {
     rk4_estimate(h);
     var e = 0.0;
     for (var i = 0u; i < N_SEG; i++) {
-        e = scaled_max(e, sth[i], th[i]);
-        e = scaled_max(e, som[i], om[i]);
+        e = scaled_max(e, sth[i], th[i], P.rtol, P.atol);
+        e = scaled_max(e, som[i], om[i], P.rtol, P.atol);
     }
     if HAS_PIEZO {
-        e = scaled_max(e, svolt, volt);
+        e = scaled_max(e, svolt, volt, P.rtol, P.atol);
     }
     return e;
 }
@@ -207,7 +207,7 @@ struct Ladder {
 // src/engine/adaptive.rs, one pass of its loop; IMEX or RK4 by METHOD_IMEX): a step whose scaled error exceeds 1 is taken
 // again at the next level; an accepted one advances the state, and the twin beside it on the
 // main stages' branches with its onset saltation; the level falls by one where the position
-// is aligned to the coarser step and the error is at most ADAPTIVE_GROW. True once the base
+// is aligned to the coarser step and the error is at most LADDER_GROW. True once the base
 // step is complete (its onsets in `l.onsets`, the position back at 0).
 //
 // One sub-step per call, not one base step, so that the invocations of a warp stay busy: an
@@ -346,25 +346,18 @@ fn twin_sample(j: u32, a: ptr<function, Accum>) {
 }
 
 // The accumulators of the current period after a step to angle `alpha` with bumper flags
-// `now` and `onsets` contacts begun within it: onsets, α range, hops (hop_step of
+// `now` and `onsets` contacts begun within it: onsets, α range, hops (the shared rules of
 // src/analysis/periodicity.rs, the wells as +1/−1 and 0 for none yet; the well last visited
 // is kept through the transient), power.
 fn accumulate(alpha: f32, now: u32, onsets: u32, a: ptr<function, Accum>) {
     (*a).p_impacts += onsets;
     (*a).p_amin = min((*a).p_amin, alpha);
     (*a).p_amax = max((*a).p_amax, alpha);
-    var well = 0i;
-    if alpha > P.half_clearance {
-        well = 1i;
-    } else if alpha < -P.half_clearance {
-        well = -1i;
+    let side = well_side(alpha, P.half_clearance);
+    if is_hop((*a).well, side) {
+        (*a).p_hops += 1u;
     }
-    if well != 0i {
-        if (*a).well != 0i && (*a).well != well {
-            (*a).p_hops += 1u;
-        }
-        (*a).well = well;
-    }
+    (*a).well = next_well((*a).well, side);
     if HAS_PIEZO {
         (*a).p_power += volt * volt * P.piezo_inv_r;
     }

@@ -1,6 +1,6 @@
 // Reductions, part 3: λ1 and its standard error from the twin's block sums
 // (LyapunovSums::estimate of src/reduce/lyapunov.rs), then the cell's regime from λ1, the
-// period and K (regime_of of src/reduce/regime.rs). Runs after k_final, which leaves K and
+// period and K (regime_code of src/reduce/regime.rs, a shared rule). Runs after k_final, which leaves K and
 // the period in the accumulators. The thresholds and codes come from the generated header.
 
 // Growths in block b of a window of w: k with ⌊k·B/w⌋ = b, i.e. ⌈b·w/B⌉ ≤ k < ⌈(b+1)·w/B⌉.
@@ -8,33 +8,6 @@ fn block_count(b: u32, w: u32) -> u32 {
     let hi = ((b + 1u) * w + LYAPUNOV_BLOCKS - 1u) / LYAPUNOV_BLOCKS;
     let lo = (b * w + LYAPUNOV_BLOCKS - 1u) / LYAPUNOV_BLOCKS;
     return hi - lo;
-}
-
-// The regime of a cell whose run ended ok: λ1 per period `lambda` with standard error
-// `sigma` (`valid`: λ1 was formed), the period (0: none) and K from `k_samples` samples.
-fn regime_of(valid: bool, lambda: f32, sigma: f32, period: u32, k: f32, k_samples: u32) -> i32 {
-    if !valid {
-        return REGIME_UNDECIDED;
-    }
-    let periodic = period > 0u;
-    let firm = k_samples >= K_FIRM_SAMPLES;
-    let high_k = k >= REGIME_K_CHAOS;
-    let growing = lambda - REGIME_Z * sigma > REGIME_FLAT;
-    let shrinking = lambda + REGIME_Z * sigma < -REGIME_FLAT;
-    let flat = !growing && !shrinking && abs(lambda) + REGIME_Z * sigma <= REGIME_FLAT;
-    if shrinking && periodic {
-        return REGIME_PERIODIC;
-    }
-    if shrinking {
-        return REGIME_REGULAR;
-    }
-    if growing && !periodic && (high_k || !firm) {
-        return REGIME_CHAOTIC;
-    }
-    if flat && !periodic && (!high_k || !firm) {
-        return REGIME_REGULAR;
-    }
-    return REGIME_UNDECIDED;
 }
 
 // λ1 and its standard error (1/s) from the twin's block sums of a window of `w` growths with
@@ -79,8 +52,10 @@ fn verdict(@builtin(global_invocation_id) gid: vec3<u32>) {
         a.lyap = l.x;
         a.lyap_se = l.y;
     }
-    let lambda = l.x * t;
-    let sigma = l.y * t;
-    a.regime = regime_of(valid, lambda, sigma, a.period, a.k, params[inst].strobe_count);
+    // Not formed, λ1 is unresolved: undecided (the CPU's λ1 is NaN there).
+    a.regime = REGIME_UNDECIDED;
+    if valid {
+        a.regime = regime_code(l.x * t, l.y * t, a.period > 0u, a.k, params[inst].strobe_count);
+    }
     acc[inst] = a;
 }

@@ -23,7 +23,9 @@
 //!    spectra, wavelets, periodicity) for simulated and measured signals alike
 //!    (`docs/analysis.md`).
 //!
-//! [`text`] holds the number and shape formatting every message uses.
+//! [`rules`] holds the scalar rules written once for Rust and the GPU kernels' WGSL (the
+//! adaptive ladder's, the hop count's, the verdict's, the early stop's), and [`text`] the
+//! number and shape formatting every message uses.
 #![warn(missing_docs)]
 
 pub mod analysis;
@@ -31,5 +33,6 @@ pub mod config;
 pub mod engine;
 pub mod model;
 pub mod reduce;
+pub mod rules;
 pub mod schema;
 pub mod text;

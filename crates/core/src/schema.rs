@@ -184,7 +184,7 @@ impl Regime {
     ];
 
     /// The code of `regime.npy` (and of the GPU kernel).
-    pub fn code(self) -> i8 {
+    pub const fn code(self) -> i8 {
         match self {
             Regime::Failed => -1,
             Regime::Undecided => 0,

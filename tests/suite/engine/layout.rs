@@ -2,7 +2,9 @@
 //! both languages, the assembled shader validates, its generated header carries the Rust
 //! definitions; and, with an adapter, one device compiles each kernel set once.
 
-use pendulum_atlas_core::engine::gpu::codegen::{GENERATED, GENERATED_LINE, generated_wgsl};
+use pendulum_atlas_core::engine::gpu::codegen::{
+    GENERATED, GENERATED_LINE, generated_wgsl, shared_rules,
+};
 use pendulum_atlas_core::engine::gpu::gpu_struct::{GpuStruct, Member};
 use pendulum_atlas_core::engine::gpu::kernels::{
     SHADER_STAGES, shader_header, shader_source, written_kernels,
@@ -192,7 +194,7 @@ fn the_shader_takes_regime_codes_thresholds_and_twin_flags_from_rust() {
     }
     for (name, v) in [
         ("REGIME_Z", REGIME_Z),
-        ("REGIME_FLAT", REGIME_FLAT_PER_PERIOD),
+        ("REGIME_FLAT_PER_PERIOD", REGIME_FLAT_PER_PERIOD),
         ("REGIME_K_CHAOS", REGIME_K_CHAOS),
     ] {
         assert_eq!(
@@ -323,5 +325,36 @@ fn the_generated_functions_are_listed_and_written_nowhere_else() {
                 "{file} defines {name}"
             );
         }
+    }
+}
+
+/// The rules written once for Rust and WGSL (`pendulum_atlas_core::rules`) are in every
+/// kernel's header, each once, under the module that defines it; no hand-written stage file
+/// defines one, and the stage files call each of them.
+#[test]
+fn the_shared_rules_are_in_the_header_and_written_nowhere_else() {
+    let header = shader_header(3);
+    let stages: String = SHADER_STAGES.iter().map(|(_, t)| *t).collect();
+    let rules: Vec<_> = shared_rules().collect();
+    assert!(rules.len() >= 10, "{}", rules.len());
+    for rule in &rules {
+        let def = format!("fn {}(", rule.name);
+        assert_eq!(
+            header.matches(&def).count(),
+            1,
+            "{} in the header",
+            rule.name
+        );
+        assert!(header.contains(&rule.wgsl()), "{}", rule.name);
+        assert!(rule.module.starts_with("pendulum_atlas_core::"), "{rule:?}");
+        for (file, text) in SHADER_STAGES {
+            assert!(!text.contains(&def), "{file} defines {}", rule.name);
+        }
+        let called = format!("{}(", rule.name);
+        assert!(
+            stages.contains(&called) || header.matches(&called).count() > 1,
+            "{} is called by no kernel",
+            rule.name
+        );
     }
 }

@@ -17,7 +17,7 @@
 
 mod checks;
 mod error;
-mod periodicity;
+pub(crate) mod periodicity;
 mod phase;
 mod report;
 mod sampling;
@@ -27,6 +27,7 @@ mod zero_one;
 
 pub use checks::FLAT_SIGNAL_REL_RANGE;
 pub use error::AnalysisError;
+pub(crate) use periodicity::RULES as HOP_RULES;
 pub use periodicity::{Well, detect_period, hop_step, hops, range, rms, well_of};
 pub use phase::{
     PHASE_MIN_SAMPLES, PhaseConvention, PhaseHistogram, PhaseSyncResult, analytic_signal,

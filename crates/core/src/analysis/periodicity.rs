@@ -5,6 +5,7 @@ use serde::Serialize;
 
 use super::checks::{ensure_finite, ensure_min_len};
 use super::error::AnalysisError;
+use crate::rules::{Float, shared_rules};
 
 /// Which side of the upright position the holder leans to, for hop counting.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -15,26 +16,66 @@ pub enum Well {
     Negative,
 }
 
+impl Well {
+    /// The well of a side code of [`well_side`] (`None` for 0).
+    fn of_side(side: i32) -> Option<Well> {
+        match side {
+            1 => Some(Well::Positive),
+            -1 => Some(Well::Negative),
+            _ => None,
+        }
+    }
+
+    /// The side code of a well (0 for none yet).
+    fn side(well: Option<Well>) -> i32 {
+        match well {
+            Some(Well::Positive) => 1,
+            Some(Well::Negative) => -1,
+            None => 0,
+        }
+    }
+}
+
+shared_rules! {
+    /// The side of the hysteresis band ±`half` (θc/2) a sample `alpha` is on: 1 above it, −1
+    /// below it, 0 inside it (and for a NaN).
+    pub(crate) fn well_side(alpha: Float, half: Float) -> i32 {
+        if alpha > half {
+            return 1;
+        } else if alpha < -half {
+            return -1;
+        }
+        return 0;
+    }
+
+    /// Whether a sample on side `side` hopped: it entered the well other than `last`, the
+    /// well last visited (0: none yet, so the first well entered is not a hop).
+    pub(crate) fn is_hop(last: i32, side: i32) -> bool {
+        return side != 0 && last != 0 && last != side;
+    }
+
+    /// The well last visited after a sample on side `side`: that side, or `last` from inside
+    /// the band.
+    pub(crate) fn next_well(last: i32, side: i32) -> i32 {
+        if side != 0 {
+            return side;
+        }
+        return last;
+    }
+}
+
 /// The well a sample `alpha` (rad) is in, with the hysteresis band `±half` (θc/2): `None`
 /// inside the band (and for a NaN), where the current well is kept.
 pub fn well_of(alpha: f64, half: f64) -> Option<Well> {
-    if alpha > half {
-        Some(Well::Positive)
-    } else if alpha < -half {
-        Some(Well::Negative)
-    } else {
-        None
-    }
+    Well::of_side(well_side(alpha, half))
 }
 
 /// One sample of the hop count: the well after `alpha` from `current`, and whether the sample
 /// hopped (entered the other well; the first well entered is not a hop). The one rule of
 /// [`hops`] and of the engines' running count.
 pub fn hop_step(current: Option<Well>, alpha: f64, half: f64) -> (Option<Well>, bool) {
-    match well_of(alpha, half) {
-        None => (current, false),
-        Some(w) => (Some(w), current.is_some_and(|c| c != w)),
-    }
+    let (last, side) = (Well::side(current), well_side(alpha, half));
+    (Well::of_side(next_well(last, side)), is_hop(last, side))
 }
 
 /// Smallest period `p ∈ 1…p_max` of the stroboscopic samples, or 0 when none fits (aperiodic,

@@ -39,6 +39,7 @@
 //! impacts, power and the α range are then those of the full run up to the tolerance `tol` of
 //! the confirmation; `steps` counts the steps integrated.
 
+use crate::engine::early_rule::early_close;
 pub use crate::engine::early_rule::{
     EARLY_LYAPUNOV_REL_SE, EARLY_TOL_F32, EARLY_TOL_F64, EarlyStop, early_lyapunov_stops,
     early_twin_window,
@@ -134,7 +135,7 @@ impl<T: Real> EarlyTracker<T> {
         self.last_abs = abs;
         let e = self.rule;
         let tol = e.tol_in::<T>();
-        let close = |a: f64, b: f64| (a - b).abs() <= tol * a.abs().max(1.0);
+        let close = |a: f64, b: f64| early_close(a, b, tol);
         let w = u64::from(e.window);
         (1..=u64::from(e.p_max))
             .find(|&p| {

@@ -5,7 +5,8 @@
 use crate::model::Real;
 use crate::reduce::LYAPUNOV_BLOCKS;
 use crate::reduce::Lyapunov;
-use crate::reduce::regime::shrinking;
+use crate::reduce::regime::{CLASS_SHRINKING, lambda_class};
+use crate::rules::{Float, abs, max, shared_rules};
 use serde::Serialize;
 
 /// Early termination of instances whose periodic orbit is confirmed (see the module doc).
@@ -59,8 +60,24 @@ pub fn early_twin_window(p: u32) -> u32 {
 /// a stopped cell's λ1 is then known about as well as the full run's.
 pub const EARLY_LYAPUNOV_REL_SE: f64 = 0.1;
 
+shared_rules! {
+    /// Whether two values of a stroboscopic instant and of the one `p` periods before count as
+    /// the same: |a − b| ≤ tol · max(|a|, 1).
+    pub(crate) fn early_close(a: Float, b: Float, tol: Float) -> bool {
+        return abs(a - b) <= tol * max(abs(a), 1.0);
+    }
+
+    /// Whether λ1 (`per_s`, 1/s, standard error `se_per_s`) measured on a confirmed orbit of
+    /// forcing period `period_s` lets it stop: shrinking per period and within
+    /// EARLY_LYAPUNOV_REL_SE of itself.
+    pub(crate) fn early_lyapunov_stops_at(per_s: Float, se_per_s: Float, period_s: Float) -> bool {
+        let growth = lambda_class(per_s * period_s, se_per_s * period_s);
+        return growth == CLASS_SHRINKING && se_per_s <= EARLY_LYAPUNOV_REL_SE * abs(per_s);
+    }
+}
+
 /// Whether λ1 measured on a confirmed orbit (forcing period `period_s`) lets it stop: shrinking
-/// and within [`EARLY_LYAPUNOV_REL_SE`] of itself.
+/// and within [`EARLY_LYAPUNOV_REL_SE`] of itself (the shared rule `early_lyapunov_stops_at`).
 pub fn early_lyapunov_stops(l: &Lyapunov, period_s: f64) -> bool {
-    shrinking(l.per_s, l.se_per_s, period_s) && l.se_per_s <= EARLY_LYAPUNOV_REL_SE * l.per_s.abs()
+    early_lyapunov_stops_at(l.per_s, l.se_per_s, period_s)
 }

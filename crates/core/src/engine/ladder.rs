@@ -2,30 +2,35 @@
 //! the ladder of steps aligned to the base step `H`, its error norm, and its accept, reject
 //! and grow rules. Every engine takes its sub-steps by these: the scalar loop
 //! ([`crate::engine::adaptive::Adaptive`]), each SIMD lane (`engine/cpu/lane_ladder.rs`), and
-//! the GPU kernel, whose WGSL twins of these functions ([`WGSL`]) are generated into the
-//! kernels' header and held against this file by a table-driven test.
+//! the GPU kernel. The rules are written once ([`crate::rules`]): `ladder_ratio`,
+//! `scaled_max`, `ladder_rejects` and `ladder_next_level` are Rust functions here and the same
+//! text in the kernels' header, and a table-driven test runs both on the same cases.
 //!
 //! ```text
 //! levels:   h_k = H / 2^k,  k = 0 … MAX_LEVEL
 //! error:    e = max_s |x_s| / (atol + rtol·|y_s|),  x the pair's error estimate, y the state
 //!           before the step (a NaN ratio is passed over, as f64::max does)
 //! accept:   e ≤ 1 (or k = MAX_LEVEL, counted as forced); then, where the position within H
-//!           is a multiple of h_{k−1} and e ≤ GROW, k ← k − 1 for the next step
+//!           is a multiple of h_{k−1} and e ≤ LADDER_GROW, k ← k − 1 for the next step
 //! reject:   k ← k + 1, the same step again from the same state
 //! ```
 //!
 //! [`Rungs`] is what a pair gives the ladder: its stages, its estimate, its finish.
 
 use crate::model::{Branches, Chain, Lane, Real, Workspace};
+use crate::rules::{Float, abs, is_nan, max, shared_rules};
 
 /// The finest level: `H / 2^20`, a microsecond of a one-second base step.
 pub(crate) const MAX_LEVEL: u32 = 20;
 
 /// The error below which the next step may double (its error then about 8× as large).
-pub(crate) const GROW: f64 = 0.1;
+pub(crate) const LADDER_GROW: f64 = 0.1;
 
 /// A base step in units of the finest step: positions within it are counted in these.
 pub(crate) const UNIT: u64 = 1 << MAX_LEVEL;
+
+/// [`UNIT`] as the rules (and the kernels) count it.
+pub(crate) const LADDER_UNIT: u32 = 1 << MAX_LEVEL;
 
 /// The tolerances of the error norm.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -40,15 +45,15 @@ impl Tolerance {
     /// The scaled error `e = max_s |x_s| / (atol + rtol·|y_s|)` of lane `lane` of the estimate
     /// `err` for a step from `y`, in f64 from the lane's values (lane 0 of a scalar).
     pub(crate) fn scaled_error<V: Lane>(&self, err: &[V], y: &[V], lane: usize) -> f64 {
-        err.iter()
-            .zip(y)
-            .map(|(x, y)| self.ratio(x.lane(lane).wide(), y.lane(lane).wide()))
-            .fold(0.0, f64::max)
+        err.iter().zip(y).fold(0.0, |e, (x, y)| {
+            let (x, y) = (x.lane(lane).wide(), y.lane(lane).wide());
+            scaled_max(e, x, y, self.rtol, self.atol)
+        })
     }
 
     /// One component's ratio `|x| / (atol + rtol·|y|)`.
     pub fn ratio(&self, x: f64, y: f64) -> f64 {
-        x.abs() / (self.atol + self.rtol * y.abs())
+        ladder_ratio(x, y, self.rtol, self.atol)
     }
 }
 
@@ -82,7 +87,7 @@ impl Rung {
     /// Judge a try of scaled error `e`: accepted (true), or rejected and the level refined
     /// for the same step again. At the finest level every try is accepted (forced if e > 1).
     pub fn judge(&mut self, e: f64) -> bool {
-        if e > 1.0 && self.level < MAX_LEVEL {
+        if ladder_rejects(e, self.level) {
             self.level += 1;
             return false;
         }
@@ -91,13 +96,11 @@ impl Rung {
 
     /// Move past an accepted sub-step of scaled error `e`: the position advances, and the
     /// level coarsens by one where the new position is aligned to the coarser step and
-    /// `e ≤ GROW`. True when the base step is complete (the position back at 0).
+    /// `e ≤ LADDER_GROW`. True when the base step is complete (the position back at 0).
     pub(crate) fn advance(&mut self, e: f64) -> bool {
-        let (k, span) = (self.level, self.span());
-        self.pos += span;
-        if k > 0 && self.pos.is_multiple_of(span << 1) && e <= GROW {
-            self.level = k - 1;
-        }
+        self.pos += self.span();
+        // pos ≤ UNIT = 2^20.
+        self.level = ladder_next_level(self.level, self.pos as u32, e);
         if self.pos < UNIT {
             return false;
         }
@@ -106,28 +109,39 @@ impl Rung {
     }
 }
 
-/// The ladder's rules in WGSL, for the kernels' generated header: the same functions as
-/// [`Tolerance::ratio`], `Rung::judge` and `Rung::advance` (`unit` is `UNIT`).
-pub const WGSL: &str = "\
-// The adaptive ladder's rules (src/engine/ladder.rs, generated into this header).
-// |x| / (atol + rtol |y|): Tolerance::ratio.
-fn ladder_ratio(x: f32, y: f32, rtol: f32, atol: f32) -> f32 {
-    return abs(x) / (atol + rtol * abs(y));
-}
-// A try of scaled error e at level k is taken again one level finer: Rung::judge.
-fn ladder_rejects(e: f32, k: u32) -> bool {
-    return e > 1.0 && k < MAX_LEVEL;
-}
-// The level after an accepted sub-step of level k and error e that ends at position `pos`
-// (in units of the finest step): Rung::advance.
-fn ladder_next_level(k: u32, pos: u32, e: f32) -> u32 {
-    let span = (1u << MAX_LEVEL) >> k;
-    if k > 0u && pos % (span << 1u) == 0u && e <= ADAPTIVE_GROW {
-        return k - 1u;
+shared_rules! {
+    /// |x| / (atol + rtol |y|): one component's ratio in the error norm.
+    pub(crate) fn ladder_ratio(x: Float, y: Float, rtol: Float, atol: Float) -> Float {
+        return abs(x) / (atol + rtol * abs(y));
     }
-    return k;
+
+    /// max(e, |x| / (atol + rtol |y|)): the error norm folded over one more component, a NaN
+    /// ratio passed over.
+    pub(crate) fn scaled_max(e: Float, x: Float, y: Float, rtol: Float, atol: Float) -> Float {
+        let r = ladder_ratio(x, y, rtol, atol);
+        if is_nan(r) {
+            return e;
+        }
+        return max(e, r);
+    }
+
+    /// A try of scaled error e at level k is taken again one level finer (at the finest level
+    /// every try is accepted).
+    pub(crate) fn ladder_rejects(e: Float, k: u32) -> bool {
+        return e > 1.0 && k < MAX_LEVEL;
+    }
+
+    /// The level after an accepted sub-step of level k and error e that ends at position
+    /// `pos` (in units of the finest step): one coarser where `pos` is aligned to the coarser
+    /// step and e <= LADDER_GROW.
+    pub(crate) fn ladder_next_level(k: u32, pos: u32, e: Float) -> u32 {
+        let span = LADDER_UNIT >> k;
+        if k > 0 && pos % (span << 1) == 0 && e <= LADDER_GROW {
+            return k - 1;
+        }
+        return k;
+    }
 }
-";
 
 /// A pair the ladder steps with: a sub-step of level `k` (`h = H / 2^k`) tried from `y`, its
 /// error estimate, and the sub-step taken.

@@ -34,6 +34,7 @@
 //! repeats its growth exactly). Undecided and failed cells have none (NaN).
 
 use crate::analysis::ZERO_ONE_COMFORTABLE_SAMPLES;
+use crate::rules::{Float, abs, is_finite, shared_rules};
 use serde::Serialize;
 
 /// z of the class intervals `Λ ± zσ`.
@@ -46,6 +47,60 @@ pub const REGIME_FLAT_PER_PERIOD: f64 = 0.01;
 pub const REGIME_K_CHAOS: f64 = 0.5;
 
 pub use crate::schema::Regime;
+
+/// The fewest stroboscopic samples a firm K comes from ([`ZERO_ONE_COMFORTABLE_SAMPLES`]), as
+/// the rules count.
+pub(crate) const K_FIRM_SAMPLES: u32 = ZERO_ONE_COMFORTABLE_SAMPLES as u32;
+
+/// The codes of the classes of λ1 ([`lambda_class`]).
+pub(crate) const CLASS_UNRESOLVED: u32 = 0;
+/// Growing: `Λ − zσ > ε`.
+pub(crate) const CLASS_GROWING: u32 = 1;
+/// Flat: `|Λ| + zσ ≤ ε`.
+pub(crate) const CLASS_FLAT: u32 = 2;
+/// Shrinking: `Λ + zσ < −ε`.
+pub(crate) const CLASS_SHRINKING: u32 = 3;
+
+/// The regimes' codes, as the rules return them ([`Regime::code`]).
+const REGIME_UNDECIDED: i32 = Regime::Undecided.code() as i32;
+const REGIME_PERIODIC: i32 = Regime::Periodic.code() as i32;
+const REGIME_REGULAR: i32 = Regime::Regular.code() as i32;
+const REGIME_CHAOTIC: i32 = Regime::Chaotic.code() as i32;
+
+shared_rules! {
+    /// The class of λ1 per period, Λ with standard error σ: growing, flat or shrinking where
+    /// the whole interval Λ ± zσ lies inside the class, else unresolved (so too for a Λ or σ
+    /// that is not finite).
+    pub(crate) fn lambda_class(lambda: Float, sigma: Float) -> u32 {
+        if !(is_finite(lambda) && is_finite(sigma)) {
+            return CLASS_UNRESOLVED;
+        } else if lambda - REGIME_Z * sigma > REGIME_FLAT_PER_PERIOD {
+            return CLASS_GROWING;
+        } else if lambda + REGIME_Z * sigma < -REGIME_FLAT_PER_PERIOD {
+            return CLASS_SHRINKING;
+        } else if abs(lambda) + REGIME_Z * sigma <= REGIME_FLAT_PER_PERIOD {
+            return CLASS_FLAT;
+        }
+        return CLASS_UNRESOLVED;
+    }
+
+    /// The regime's code of a cell whose run ended ok, from λ1 per period (Λ, σ), whether a
+    /// period was found, and K from `k_samples` samples: the table of the module doc.
+    pub(crate) fn regime_code(lambda: Float, sigma: Float, periodic: bool, k: Float, k_samples: u32) -> i32 {
+        let growth = lambda_class(lambda, sigma);
+        let firm = k_samples >= K_FIRM_SAMPLES && is_finite(k);
+        if growth == CLASS_SHRINKING && periodic {
+            return REGIME_PERIODIC;
+        } else if growth == CLASS_SHRINKING {
+            return REGIME_REGULAR;
+        } else if growth == CLASS_GROWING && !periodic && (k >= REGIME_K_CHAOS || !firm) {
+            return REGIME_CHAOTIC;
+        } else if growth == CLASS_FLAT && !periodic && (k < REGIME_K_CHAOS || !firm) {
+            return REGIME_REGULAR;
+        }
+        return REGIME_UNDECIDED;
+    }
+}
 
 /// What the verdict is formed from.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -85,17 +140,11 @@ enum Class {
 }
 
 fn class(lambda: f64, sigma: f64) -> Class {
-    let (eps, z) = (REGIME_FLAT_PER_PERIOD, REGIME_Z);
-    if !(lambda.is_finite() && sigma.is_finite()) {
-        Class::Unresolved
-    } else if lambda - z * sigma > eps {
-        Class::Growing
-    } else if lambda + z * sigma < -eps {
-        Class::Shrinking
-    } else if lambda.abs() + z * sigma <= eps {
-        Class::Flat
-    } else {
-        Class::Unresolved
+    match lambda_class(lambda, sigma) {
+        CLASS_GROWING => Class::Growing,
+        CLASS_FLAT => Class::Flat,
+        CLASS_SHRINKING => Class::Shrinking,
+        _ => Class::Unresolved,
     }
 }
 
@@ -119,19 +168,14 @@ pub fn regime_of(e: &Evidence) -> Regime {
     if !e.ok {
         return Regime::Failed;
     }
-    let periodic = e.period > 0.0;
-    let firm = e.k_samples >= ZERO_ONE_COMFORTABLE_SAMPLES as u32 && e.k.is_finite();
-    let (high_k, low_k) = (e.k >= REGIME_K_CHAOS, e.k < REGIME_K_CHAOS);
-    match class(
+    let code = regime_code(
         e.lyapunov_per_s * e.period_s,
         e.lyapunov_se_per_s * e.period_s,
-    ) {
-        Class::Shrinking if periodic => Regime::Periodic,
-        Class::Shrinking => Regime::Regular,
-        Class::Growing if !periodic && (high_k || !firm) => Regime::Chaotic,
-        Class::Flat if !periodic && (low_k || !firm) => Regime::Regular,
-        _ => Regime::Undecided,
-    }
+        e.period > 0.0,
+        e.k,
+        e.k_samples,
+    );
+    Regime::from_code(i64::from(code)).expect("regime_code returns a regime's code")
 }
 
 /// The confidence of `regime` for a cell with evidence `e`: Φ(m/σ), `m` the margin of Λ inside

@@ -16,12 +16,15 @@ use crate::engine::gpu::layout::{
     GpuControl, GpuInstanceParams, SCHED_LIVE, TWIN_BROKEN, TWIN_RUNNING,
 };
 use crate::engine::imex::{AE, AI, B, B_HAT, C, GAMMA};
-use crate::engine::ladder::{self, GROW, MAX_LEVEL};
+use crate::engine::ladder::{LADDER_GROW, LADDER_UNIT, MAX_LEVEL};
 use crate::engine::method::Method;
 use crate::model::{CHECK_EVERY, ChainShape, ContactDamping, Status};
 use crate::reduce::Regime;
 use crate::reduce::lyapunov::LYAPUNOV_BLOCKS;
-use crate::reduce::regime::{REGIME_FLAT_PER_PERIOD, REGIME_K_CHAOS, REGIME_Z};
+use crate::reduce::regime::{
+    CLASS_FLAT, CLASS_GROWING, CLASS_SHRINKING, CLASS_UNRESOLVED, K_FIRM_SAMPLES,
+    REGIME_FLAT_PER_PERIOD, REGIME_K_CHAOS, REGIME_Z,
+};
 use std::fmt::Write;
 
 /// The stage files of the ensemble kernels, in assembly order: common definitions,
@@ -90,13 +93,20 @@ pub fn shader_header(segments: usize) -> String {
         let _ = writeln!(h, "const {}: i32 = {}i;", r.wgsl_name(), r.code());
     }
     let _ = writeln!(h, "const REGIME_Z: f32 = {REGIME_Z:e};");
-    let _ = writeln!(h, "const REGIME_FLAT: f32 = {REGIME_FLAT_PER_PERIOD:e};");
-    let _ = writeln!(h, "const REGIME_K_CHAOS: f32 = {REGIME_K_CHAOS:e};");
     let _ = writeln!(
         h,
-        "const K_FIRM_SAMPLES: u32 = {}u;",
-        crate::analysis::ZERO_ONE_COMFORTABLE_SAMPLES
+        "const REGIME_FLAT_PER_PERIOD: f32 = {REGIME_FLAT_PER_PERIOD:e};"
     );
+    let _ = writeln!(h, "const REGIME_K_CHAOS: f32 = {REGIME_K_CHAOS:e};");
+    let _ = writeln!(h, "const K_FIRM_SAMPLES: u32 = {K_FIRM_SAMPLES}u;");
+    for (name, code) in [
+        ("CLASS_UNRESOLVED", CLASS_UNRESOLVED),
+        ("CLASS_GROWING", CLASS_GROWING),
+        ("CLASS_FLAT", CLASS_FLAT),
+        ("CLASS_SHRINKING", CLASS_SHRINKING),
+    ] {
+        let _ = writeln!(h, "const {name}: u32 = {code}u;");
+    }
     let _ = writeln!(h, "const LYAPUNOV_BLOCKS: u32 = {LYAPUNOV_BLOCKS}u;");
     let _ = writeln!(
         h,
@@ -112,13 +122,14 @@ pub fn shader_header(segments: usize) -> String {
     h.push_str(&wgsl_array("IMEX_B", &B));
     h.push_str(&wgsl_array("IMEX_B_HAT", &B_HAT));
     let _ = writeln!(h, "const MAX_LEVEL: u32 = {MAX_LEVEL}u;");
-    let _ = writeln!(h, "const ADAPTIVE_GROW: f32 = {GROW:e};");
-    h.push_str(ladder::WGSL);
+    let _ = writeln!(h, "const LADDER_UNIT: u32 = {LADDER_UNIT}u;");
+    let _ = writeln!(h, "const LADDER_GROW: f32 = {LADDER_GROW:e};");
     h.push_str(&wgsl_array("IMEX_AE", AE.as_flattened()));
     h.push_str(&wgsl_array("IMEX_AI", AI.as_flattened()));
     h.push_str(&GpuInstanceParams::wgsl());
     h.push_str(&GpuControl::wgsl());
     h.push_str(&crate::engine::gpu::layout::accum_wgsl());
+    h.push_str(&codegen::shared_rules_wgsl());
     h.push('\n');
     h
 }

@@ -21,9 +21,9 @@ mod context;
 pub mod fault;
 pub mod gpu_struct;
 pub mod kernels;
-#[cfg(test)]
-mod ladder_check;
 pub mod layout;
+#[cfg(test)]
+mod rules_check;
 pub mod slices;
 
 pub use context::{AdapterChoice, AdapterListing, DeviceCounts, GpuContext, list_adapters};

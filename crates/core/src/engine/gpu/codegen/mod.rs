@@ -24,6 +24,7 @@ pub mod sym;
 mod wgsl;
 
 use crate::model::ChainShape;
+use crate::rules::Rule;
 pub(crate) use rk4::UNROLLED_UP_TO as RK4_UNROLLED_UP_TO;
 pub use sym::{Sym, Tape, record};
 
@@ -78,6 +79,33 @@ pub const GENERATED: [(&str, &str); 12] = [
         "estimate_in (crates/core/src/engine/rk4.rs)",
     ),
 ];
+
+/// The rules written once for Rust and WGSL ([`crate::rules`]), by the module that defines
+/// them: the adaptive ladder's, the hop count's, the verdict's and the early stop's.
+pub fn shared_rules() -> impl Iterator<Item = &'static Rule> {
+    [
+        crate::engine::ladder::RULES,
+        crate::analysis::HOP_RULES,
+        crate::reduce::regime::RULES,
+        crate::engine::early_rule::RULES,
+    ]
+    .into_iter()
+    .flatten()
+}
+
+/// The shared rules as WGSL, behind the names they use that WGSL lacks, for the kernels'
+/// header.
+pub fn shared_rules_wgsl() -> String {
+    let mut out = String::from(crate::rules::WGSL_PRELUDE);
+    for rule in shared_rules() {
+        out.push_str(&format!(
+            "// {} ({}), written once (src/rules.rs):\n",
+            rule.name, rule.module
+        ));
+        out.push_str(&rule.wgsl());
+    }
+    out
+}
 
 /// The generated part of the kernels of chains of `shape`.
 pub fn generated_wgsl(shape: ChainShape) -> String {
