@@ -21,10 +21,12 @@
 //!   names: [`abs`], [`max`], [`min`], [`is_nan`], [`is_finite`].
 //!
 //! No methods, casts, loops, structs or references, and no name WGSL reserves (`class`,
-//! `type`, …): anything else fails to compile as WGSL,
-//! and the kernels are compiled (and validated by naga) in every test run. A rule that relies on
-//! a NaN says so with [`is_nan`] or [`is_finite`], which read the bits in WGSL; `max` and `min`
-//! of a NaN are not defined there.
+//! `type`, …): anything else fails to compile as WGSL, and the kernels are compiled (and
+//! validated by naga) in every test run. A rule that relies on a NaN says so with [`is_nan`]
+//! or [`is_finite`], which read the bits in WGSL; `max` and `min` of a NaN are not defined
+//! there. Adding a rule: write it in a `shared_rules!` block of the module it belongs to, call
+//! it from the Rust there and from the stage file, and, where it is a new module's first, add
+//! that module's `RULES` to `codegen::shared_rules`.
 
 /// The floating type of a rule: `f64` in Rust, `f32` in the kernels.
 pub type Float = f64;
