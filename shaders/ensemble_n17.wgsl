@@ -155,7 +155,9 @@ struct Accum {
     level: u32, // Adaptive steps: the ladder level k of the next sub-step (h = dt / 2^k).
     sub_onsets: u32, // Adaptive steps: contact onsets within the base step so far.
 }
-// The names the shared rules use (src/rules.rs): Float, is_nan and is_finite from the bits.
+// The names the shared rules (src/rules.rs) and the stage files use: Float, and is_nan and
+// is_finite read from the bits (WGSL lets an implementation assume that no float is NaN, so a
+// comparison such as `x != x` or `!(x > 0.0)` cannot be trusted to catch one).
 alias Float = f32;
 fn is_nan(x: f32) -> bool {
     return (bitcast<u32>(x) & 0x7fffffffu) > 0x7f800000u;
@@ -7264,12 +7266,6 @@ fn cos_turn(x: f32) -> f32 {
     return cos(TAU * (x - round(x)));
 }
 
-// NaN or ±inf, read from the bits: WGSL lets an implementation assume that no float is NaN,
-// so a comparison (`!(x > 0.0)`) cannot be trusted to catch one.
-fn not_finite(x: f32) -> bool {
-    return (bitcast<u32>(x) & 0x7f800000u) == 0x7f800000u;
-}
-
 // ---- data ------------------------------------------------------------------------------
 // `InstanceParams`, `Control` and `Accum` are generated into the header from their Rust
 // definitions (`GpuInstanceParams`, `GpuControl`, `GpuAccum` in src/engine/gpu/layout.rs).
@@ -7510,11 +7506,11 @@ fn rk4_error(a_end: f32, h: f32) -> f32 {
 // bend within the guard, so they stay near [-π, π]; a state that leaves it is stopped here.
 fn health(ph: u32) -> u32 {
     for (var i = 0u; i < N_SEG; i++) {
-        if not_finite(th[i]) || not_finite(om[i]) {
+        if !is_finite(th[i]) || !is_finite(om[i]) {
             return STATUS_NONFINITE;
         }
     }
-    if HAS_PIEZO && not_finite(volt) {
+    if HAS_PIEZO && !is_finite(volt) {
         return STATUS_NONFINITE;
     }
     if abs(th[0]) > P.guard_holder {
@@ -7527,7 +7523,7 @@ fn health(ph: u32) -> u32 {
     }
     let cart_v = P.vel_amp * cos_turn(f32(ph) / f32(P.spp) + P.phase0);
     let e = energy(cart_v);
-    if not_finite(e) || abs(e) > P.guard_energy {
+    if !is_finite(e) || abs(e) > P.guard_energy {
         return STATUS_DIVERGED;
     }
     return STATUS_OK;
@@ -7687,7 +7683,7 @@ fn twin_sample(j: u32, a: ptr<function, Accum>) {
         return;
     }
     let d = sqrt(twin_norm2());
-    if not_finite(d) || d <= 0.0 {
+    if !is_finite(d) || d <= 0.0 {
         (*a).twin_flags = TWIN_BROKEN;
         return;
     }
@@ -8533,7 +8529,7 @@ fn line(@builtin(global_invocation_id) gid: vec3<u32>) {
             c = a;
         }
     }
-    if not_finite(c) || c <= 0.0 {
+    if !is_finite(c) || c <= 0.0 {
         acc[inst].line = nan;
         return;
     }
@@ -8641,7 +8637,7 @@ fn k_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
     var k_c = 0.0;
     // A constant series is the most regular motion there is: K_c = 0.
     let spread = hi - lo;
-    if not_finite(spread) || spread > 1e-12 * max(abs(lo), abs(hi)) {
+    if !is_finite(spread) || spread > 1e-12 * max(abs(lo), abs(hi)) {
         let turns = cturns[ctl.c_index];
         var sp = 0.0;
         var sq = 0.0;
@@ -8762,7 +8758,7 @@ fn detect_period(inst: u32, n: u32) -> u32 {
         var fits = true;
         for (var k = n - m; k < n; k++) {
             let diff = abs(strobe[at(inst, k)] - strobe[at(inst, k - p)]);
-            if not_finite(diff) || diff > bound {
+            if !is_finite(diff) || diff > bound {
                 fits = false;
                 break;
             }

@@ -40,12 +40,6 @@ fn cos_turn(x: f32) -> f32 {
     return cos(TAU * (x - round(x)));
 }
 
-// NaN or ±inf, read from the bits: WGSL lets an implementation assume that no float is NaN,
-// so a comparison (`!(x > 0.0)`) cannot be trusted to catch one.
-fn not_finite(x: f32) -> bool {
-    return (bitcast<u32>(x) & 0x7f800000u) == 0x7f800000u;
-}
-
 // ---- data ------------------------------------------------------------------------------
 // `InstanceParams`, `Control` and `Accum` are generated into the header from their Rust
 // definitions (`GpuInstanceParams`, `GpuControl`, `GpuAccum` in src/engine/gpu/layout.rs).

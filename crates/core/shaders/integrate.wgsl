@@ -147,11 +147,11 @@ fn rk4_error(a_end: f32, h: f32) -> f32 {
 // bend within the guard, so they stay near [-π, π]; a state that leaves it is stopped here.
 fn health(ph: u32) -> u32 {
     for (var i = 0u; i < N_SEG; i++) {
-        if not_finite(th[i]) || not_finite(om[i]) {
+        if !is_finite(th[i]) || !is_finite(om[i]) {
             return STATUS_NONFINITE;
         }
     }
-    if HAS_PIEZO && not_finite(volt) {
+    if HAS_PIEZO && !is_finite(volt) {
         return STATUS_NONFINITE;
     }
     if abs(th[0]) > P.guard_holder {
@@ -164,7 +164,7 @@ fn health(ph: u32) -> u32 {
     }
     let cart_v = P.vel_amp * cos_turn(f32(ph) / f32(P.spp) + P.phase0);
     let e = energy(cart_v);
-    if not_finite(e) || abs(e) > P.guard_energy {
+    if !is_finite(e) || abs(e) > P.guard_energy {
         return STATUS_DIVERGED;
     }
     return STATUS_OK;
@@ -324,7 +324,7 @@ fn twin_sample(j: u32, a: ptr<function, Accum>) {
         return;
     }
     let d = sqrt(twin_norm2());
-    if not_finite(d) || d <= 0.0 {
+    if !is_finite(d) || d <= 0.0 {
         (*a).twin_flags = TWIN_BROKEN;
         return;
     }

@@ -32,7 +32,7 @@ fn k_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
     var k_c = 0.0;
     // A constant series is the most regular motion there is: K_c = 0.
     let spread = hi - lo;
-    if not_finite(spread) || spread > 1e-12 * max(abs(lo), abs(hi)) {
+    if !is_finite(spread) || spread > 1e-12 * max(abs(lo), abs(hi)) {
         let turns = cturns[ctl.c_index];
         var sp = 0.0;
         var sq = 0.0;
@@ -153,7 +153,7 @@ fn detect_period(inst: u32, n: u32) -> u32 {
         var fits = true;
         for (var k = n - m; k < n; k++) {
             let diff = abs(strobe[at(inst, k)] - strobe[at(inst, k - p)]);
-            if not_finite(diff) || diff > bound {
+            if !is_finite(diff) || diff > bound {
                 fits = false;
                 break;
             }

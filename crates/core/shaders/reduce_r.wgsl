@@ -119,7 +119,7 @@ fn line(@builtin(global_invocation_id) gid: vec3<u32>) {
             c = a;
         }
     }
-    if not_finite(c) || c <= 0.0 {
+    if !is_finite(c) || c <= 0.0 {
         acc[inst].line = nan;
         return;
     }

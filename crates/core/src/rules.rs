@@ -95,7 +95,9 @@ impl Extremum for i32 {
 /// The WGSL names of the functions above that WGSL lacks, and the type alias, for the
 /// kernels' header.
 pub const WGSL_PRELUDE: &str = "\
-// The names the shared rules use (src/rules.rs): Float, is_nan and is_finite from the bits.
+// The names the shared rules (src/rules.rs) and the stage files use: Float, and is_nan and
+// is_finite read from the bits (WGSL lets an implementation assume that no float is NaN, so a
+// comparison such as `x != x` or `!(x > 0.0)` cannot be trusted to catch one).
 alias Float = f32;
 fn is_nan(x: f32) -> bool {
     return (bitcast<u32>(x) & 0x7fffffffu) > 0x7f800000u;

@@ -99,7 +99,8 @@ impl Rung {
     /// `e ≤ LADDER_GROW`. True when the base step is complete (the position back at 0).
     pub(crate) fn advance(&mut self, e: f64) -> bool {
         self.pos += self.span();
-        // pos ≤ UNIT = 2^20.
+        // The sub-steps of a base step add up to UNIT = 2^20, so the cast is exact.
+        debug_assert!(self.pos <= UNIT, "position {} past the base step", self.pos);
         self.level = ladder_next_level(self.level, self.pos as u32, e);
         if self.pos < UNIT {
             return false;
