@@ -1582,6 +1582,175 @@ fn rk4_estimate(h: f32) {
     som[2] = v28;
     svolt = v30;
 }
+
+// finish_in (src/engine/imex.rs): the state advanced by the stages kept, y += h Σ b_j f_j with compensation.
+fn imex_finish(h: f32) {
+    let v45 = 0.18764102f * f_th[0][0];
+    let v47 = (-0.59529746f) * f_th[1][0];
+    let v48 = v45 + v47;
+    let v50 = 0.97178996f * f_th[2][0];
+    let v51 = v48 + v50;
+    let v53 = 0.43586653f * f_th[3][0];
+    let v54 = v51 + v53;
+    let v55 = h * v54;
+    let v56 = v55 - th_c[0];
+    let v57 = th[0] + v56;
+    let v58 = v57 - th[0];
+    let v59 = v58 - v56;
+    let v60 = 0.18764102f * f_th[0][1];
+    let v61 = (-0.59529746f) * f_th[1][1];
+    let v62 = v60 + v61;
+    let v63 = 0.97178996f * f_th[2][1];
+    let v64 = v62 + v63;
+    let v65 = 0.43586653f * f_th[3][1];
+    let v66 = v64 + v65;
+    let v67 = h * v66;
+    let v68 = v67 - th_c[1];
+    let v69 = th[1] + v68;
+    let v70 = v69 - th[1];
+    let v71 = v70 - v68;
+    let v72 = 0.18764102f * f_th[0][2];
+    let v73 = (-0.59529746f) * f_th[1][2];
+    let v74 = v72 + v73;
+    let v75 = 0.97178996f * f_th[2][2];
+    let v76 = v74 + v75;
+    let v77 = 0.43586653f * f_th[3][2];
+    let v78 = v76 + v77;
+    let v79 = h * v78;
+    let v80 = v79 - th_c[2];
+    let v81 = th[2] + v80;
+    let v82 = v81 - th[2];
+    let v83 = v82 - v80;
+    let v84 = 0.18764102f * f_om[0][0];
+    let v85 = (-0.59529746f) * f_om[1][0];
+    let v86 = v84 + v85;
+    let v87 = 0.97178996f * f_om[2][0];
+    let v88 = v86 + v87;
+    let v89 = 0.43586653f * f_om[3][0];
+    let v90 = v88 + v89;
+    let v91 = h * v90;
+    let v92 = v91 - om_c[0];
+    let v93 = om[0] + v92;
+    let v94 = v93 - om[0];
+    let v95 = v94 - v92;
+    let v96 = 0.18764102f * f_om[0][1];
+    let v97 = (-0.59529746f) * f_om[1][1];
+    let v98 = v96 + v97;
+    let v99 = 0.97178996f * f_om[2][1];
+    let v100 = v98 + v99;
+    let v101 = 0.43586653f * f_om[3][1];
+    let v102 = v100 + v101;
+    let v103 = h * v102;
+    let v104 = v103 - om_c[1];
+    let v105 = om[1] + v104;
+    let v106 = v105 - om[1];
+    let v107 = v106 - v104;
+    let v108 = 0.18764102f * f_om[0][2];
+    let v109 = (-0.59529746f) * f_om[1][2];
+    let v110 = v108 + v109;
+    let v111 = 0.97178996f * f_om[2][2];
+    let v112 = v110 + v111;
+    let v113 = 0.43586653f * f_om[3][2];
+    let v114 = v112 + v113;
+    let v115 = h * v114;
+    let v116 = v115 - om_c[2];
+    let v117 = om[2] + v116;
+    let v118 = v117 - om[2];
+    let v119 = v118 - v116;
+    let v120 = 0.18764102f * f_v[0];
+    let v121 = (-0.59529746f) * f_v[1];
+    let v122 = v120 + v121;
+    let v123 = 0.97178996f * f_v[2];
+    let v124 = v122 + v123;
+    let v125 = 0.43586653f * f_v[3];
+    let v126 = v124 + v125;
+    let v127 = h * v126;
+    let v128 = v127 - volt_c;
+    let v129 = volt + v128;
+    let v130 = v129 - volt;
+    let v131 = v130 - v128;
+    th[0] = v57;
+    th[1] = v69;
+    th[2] = v81;
+    om[0] = v93;
+    om[1] = v105;
+    om[2] = v117;
+    volt = v129;
+    th_c[0] = v59;
+    th_c[1] = v71;
+    th_c[2] = v83;
+    om_c[0] = v95;
+    om_c[1] = v107;
+    om_c[2] = v119;
+    volt_c = v131;
+}
+
+// embedded_error_in (src/engine/imex.rs): h Σ (b_j − b̂_j) f_j into (sth, rv, svolt).
+fn imex_embedded_error(h: f32) {
+    let v38 = (-0.027099261f) * f_th[0][0];
+    let v40 = (-0.11013521f) * f_th[1][0];
+    let v41 = v38 + v40;
+    let v43 = 0.103064924f * f_th[2][0];
+    let v44 = v41 + v43;
+    let v46 = 0.034169547f * f_th[3][0];
+    let v47 = v44 + v46;
+    let v48 = h * v47;
+    let v49 = (-0.027099261f) * f_th[0][1];
+    let v50 = (-0.11013521f) * f_th[1][1];
+    let v51 = v49 + v50;
+    let v52 = 0.103064924f * f_th[2][1];
+    let v53 = v51 + v52;
+    let v54 = 0.034169547f * f_th[3][1];
+    let v55 = v53 + v54;
+    let v56 = h * v55;
+    let v57 = (-0.027099261f) * f_th[0][2];
+    let v58 = (-0.11013521f) * f_th[1][2];
+    let v59 = v57 + v58;
+    let v60 = 0.103064924f * f_th[2][2];
+    let v61 = v59 + v60;
+    let v62 = 0.034169547f * f_th[3][2];
+    let v63 = v61 + v62;
+    let v64 = h * v63;
+    let v65 = (-0.027099261f) * f_om[0][0];
+    let v66 = (-0.11013521f) * f_om[1][0];
+    let v67 = v65 + v66;
+    let v68 = 0.103064924f * f_om[2][0];
+    let v69 = v67 + v68;
+    let v70 = 0.034169547f * f_om[3][0];
+    let v71 = v69 + v70;
+    let v72 = h * v71;
+    let v73 = (-0.027099261f) * f_om[0][1];
+    let v74 = (-0.11013521f) * f_om[1][1];
+    let v75 = v73 + v74;
+    let v76 = 0.103064924f * f_om[2][1];
+    let v77 = v75 + v76;
+    let v78 = 0.034169547f * f_om[3][1];
+    let v79 = v77 + v78;
+    let v80 = h * v79;
+    let v81 = (-0.027099261f) * f_om[0][2];
+    let v82 = (-0.11013521f) * f_om[1][2];
+    let v83 = v81 + v82;
+    let v84 = 0.103064924f * f_om[2][2];
+    let v85 = v83 + v84;
+    let v86 = 0.034169547f * f_om[3][2];
+    let v87 = v85 + v86;
+    let v88 = h * v87;
+    let v89 = (-0.027099261f) * f_v[0];
+    let v90 = (-0.11013521f) * f_v[1];
+    let v91 = v89 + v90;
+    let v92 = 0.103064924f * f_v[2];
+    let v93 = v91 + v92;
+    let v94 = 0.034169547f * f_v[3];
+    let v95 = v93 + v94;
+    let v96 = h * v95;
+    sth[0] = v48;
+    sth[1] = v56;
+    sth[2] = v64;
+    rv[0] = v72;
+    rv[1] = v80;
+    rv[2] = v88;
+    svolt = v96;
+}
 // Common definitions of the ensemble kernels of pendulum-atlas: specialisation constants, the
 // data structures shared with Rust, the bindings and the integrator's per-invocation state.
 //
@@ -2675,7 +2844,8 @@ fn imex_implicit_stage(i: u32, h: f32) {
     }
 }
 
-// One IMEX step from phase `ph` within the forcing period.
+// One IMEX step from phase `ph` within the forcing period (imex_finish, y += h Σ b_j f_j
+// compensated, is generated from src/engine/imex.rs).
 fn imex_step(ph: u32, h: f32) {
     imex_stages(ph, 0.0, 1.0, h);
     imex_finish(h);
@@ -2701,51 +2871,15 @@ fn imex_stages(ph: u32, start: f32, width: f32, h: f32) {
     imex_eval(3u, cart_acc(ph, start + IMEX_C[3] * width));
 }
 
-// The state advanced by the stages just computed: y += h Σ b_j f_j (compensated).
-fn imex_finish(h: f32) {
-    for (var s = 0u; s < N_SEG; s++) {
-        var dth = 0.0;
-        var dom = 0.0;
-        for (var j = 0u; j < 4u; j++) {
-            dth += IMEX_B[j] * f_th[j][s];
-            dom += IMEX_B[j] * f_om[j][s];
-        }
-        let t = comp_add(th[s], th_c[s], h * dth);
-        th[s] = t.x;
-        th_c[s] = t.y;
-        let o = comp_add(om[s], om_c[s], h * dom);
-        om[s] = o.x;
-        om_c[s] = o.y;
-    }
-    if HAS_PIEZO {
-        var dv = 0.0;
-        for (var j = 0u; j < 4u; j++) {
-            dv += IMEX_B[j] * f_v[j];
-        }
-        let v = comp_add(volt, volt_c, h * dv);
-        volt = v.x;
-        volt_c = v.y;
-    }
-}
-
 // The scaled error of the stages just computed (AdaptiveImex::error of src/engine/adaptive.rs):
-// the embedded error e = h Σ (b_j − b̂_j) f_j filtered through the implicit solve,
+// the embedded error e = h Σ (b_j − b̂_j) f_j (the generated imex_embedded_error, into sth,
+// rv and svolt) filtered through the implicit solve,
 // x = (I − hγL)⁻¹ e (Imex::filtered_error: S x_ω = M0 e_ω − hγ K e_θ, x_θ = e_θ + hγ x_ω; the
 // voltage unfiltered), then max over the state of |x| / (atol + rtol |y|), y the state before
 // the step. A NaN component is passed over, as f64::max does on the CPU. The stage state
 // (sth, som) serves as scratch: the stages are done with it.
 fn imex_error(h: f32) -> f32 {
-    for (var s = 0u; s < N_SEG; s++) {
-        var dth = 0.0;
-        var dom = 0.0;
-        for (var j = 0u; j < 4u; j++) {
-            let w = IMEX_B[j] - IMEX_B_HAT[j];
-            dth += w * f_th[j][s];
-            dom += w * f_om[j][s];
-        }
-        sth[s] = h * dth;
-        rv[s] = h * dom;
-    }
+    imex_embedded_error(h);
     let hg = h * IMEX_GAMMA;
     imex_couples(0.0);
     for (var s = 0u; s < N_SEG; s++) {
@@ -2758,11 +2892,7 @@ fn imex_error(h: f32) -> f32 {
         e = scaled_max(e, x_om, om[s], P.rtol, P.atol);
     }
     if HAS_PIEZO {
-        var dv = 0.0;
-        for (var j = 0u; j < 4u; j++) {
-            dv += (IMEX_B[j] - IMEX_B_HAT[j]) * f_v[j];
-        }
-        e = scaled_max(e, h * dv, volt, P.rtol, P.atol);
+        e = scaled_max(e, svolt, volt, P.rtol, P.atol);
     }
     return e;
 }

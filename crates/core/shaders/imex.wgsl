@@ -101,7 +101,8 @@ fn imex_implicit_stage(i: u32, h: f32) {
     }
 }
 
-// One IMEX step from phase `ph` within the forcing period.
+// One IMEX step from phase `ph` within the forcing period (imex_finish, y += h Σ b_j f_j
+// compensated, is generated from src/engine/imex.rs).
 fn imex_step(ph: u32, h: f32) {
     imex_stages(ph, 0.0, 1.0, h);
     imex_finish(h);
@@ -127,51 +128,15 @@ fn imex_stages(ph: u32, start: f32, width: f32, h: f32) {
     imex_eval(3u, cart_acc(ph, start + IMEX_C[3] * width));
 }
 
-// The state advanced by the stages just computed: y += h Σ b_j f_j (compensated).
-fn imex_finish(h: f32) {
-    for (var s = 0u; s < N_SEG; s++) {
-        var dth = 0.0;
-        var dom = 0.0;
-        for (var j = 0u; j < 4u; j++) {
-            dth += IMEX_B[j] * f_th[j][s];
-            dom += IMEX_B[j] * f_om[j][s];
-        }
-        let t = comp_add(th[s], th_c[s], h * dth);
-        th[s] = t.x;
-        th_c[s] = t.y;
-        let o = comp_add(om[s], om_c[s], h * dom);
-        om[s] = o.x;
-        om_c[s] = o.y;
-    }
-    if HAS_PIEZO {
-        var dv = 0.0;
-        for (var j = 0u; j < 4u; j++) {
-            dv += IMEX_B[j] * f_v[j];
-        }
-        let v = comp_add(volt, volt_c, h * dv);
-        volt = v.x;
-        volt_c = v.y;
-    }
-}
-
 // The scaled error of the stages just computed (AdaptiveImex::error of src/engine/adaptive.rs):
-// the embedded error e = h Σ (b_j − b̂_j) f_j filtered through the implicit solve,
+// the embedded error e = h Σ (b_j − b̂_j) f_j (the generated imex_embedded_error, into sth,
+// rv and svolt) filtered through the implicit solve,
 // x = (I − hγL)⁻¹ e (Imex::filtered_error: S x_ω = M0 e_ω − hγ K e_θ, x_θ = e_θ + hγ x_ω; the
 // voltage unfiltered), then max over the state of |x| / (atol + rtol |y|), y the state before
 // the step. A NaN component is passed over, as f64::max does on the CPU. The stage state
 // (sth, som) serves as scratch: the stages are done with it.
 fn imex_error(h: f32) -> f32 {
-    for (var s = 0u; s < N_SEG; s++) {
-        var dth = 0.0;
-        var dom = 0.0;
-        for (var j = 0u; j < 4u; j++) {
-            let w = IMEX_B[j] - IMEX_B_HAT[j];
-            dth += w * f_th[j][s];
-            dom += w * f_om[j][s];
-        }
-        sth[s] = h * dth;
-        rv[s] = h * dom;
-    }
+    imex_embedded_error(h);
     let hg = h * IMEX_GAMMA;
     imex_couples(0.0);
     for (var s = 0u; s < N_SEG; s++) {
@@ -184,11 +149,7 @@ fn imex_error(h: f32) -> f32 {
         e = scaled_max(e, x_om, om[s], P.rtol, P.atol);
     }
     if HAS_PIEZO {
-        var dv = 0.0;
-        for (var j = 0u; j < 4u; j++) {
-            dv += (IMEX_B[j] - IMEX_B_HAT[j]) * f_v[j];
-        }
-        e = scaled_max(e, h * dv, volt, P.rtol, P.atol);
+        e = scaled_max(e, svolt, volt, P.rtol, P.atol);
     }
     return e;
 }

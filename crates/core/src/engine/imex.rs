@@ -387,16 +387,6 @@ impl<T: Lane> Imex<T> {
         }
     }
 
-    /// Component `s` of the difference between the step's solution and the embedded
-    /// second-order one, `h Σ (b_i − b̂_i) f_i`, after [`Imex::stages`].
-    pub(crate) fn error_of(&self, s: usize) -> T {
-        let mut e = T::splat(0.0);
-        for (f, (&b, &bh)) in self.f.iter().zip(B.iter().zip(&B_HAT)) {
-            e += T::splat(b - bh) * f[s];
-        }
-        self.h * e
-    }
-
     /// The embedded error filtered through the implicit solve, `(I − hγL)⁻¹ e` with
     /// `e = h Σ (b_i − b̂_i) f_i` (Shampine's filter; Hairer & Wanner, *Solving ODEs II*, IV.8),
     /// into `out` (the state's length), after [`Imex::stages`]: a stiff joint mode that the
@@ -404,9 +394,7 @@ impl<T: Lane> Imex<T> {
     /// theirs. The same solve as a stage's: `S x_ω = M0 e_ω − hγ K e_θ`, `x_θ = e_θ + hγ x_ω`;
     /// the voltage is left as it is.
     pub(crate) fn filtered_error(&mut self, out: &mut [T]) {
-        for (s, o) in out.iter_mut().enumerate() {
-            *o = self.error_of(s);
-        }
+        embedded_error_in(&self.f, self.h, out);
         self.solve(out);
     }
 
@@ -473,9 +461,29 @@ impl<T: Lane> Imex<T> {
     /// `y += h Σ b_i f_i` with the state's compensation.
     #[inline]
     pub(crate) fn finish(&mut self, y: &mut [T]) {
-        for (s, (ys, cs)) in y.iter_mut().zip(&mut self.comp).enumerate() {
-            compensated_add(ys, cs, increment(&self.f, self.h, s));
+        finish_in(y, &self.f, &mut self.comp, self.h);
+    }
+}
+
+/// `y += h Σ b_i f_i` from the stage derivatives `f`, with the summation compensation `comp`
+/// (what [`Imex::finish`] does; the GPU kernel's `imex_finish` is generated from it).
+#[inline]
+pub(crate) fn finish_in<T: Lane>(y: &mut [T], f: &[Vec<T>; 4], comp: &mut [T], h: T) {
+    for (s, (ys, cs)) in y.iter_mut().zip(comp.iter_mut()).enumerate() {
+        compensated_add(ys, cs, increment(f, h, s));
+    }
+}
+
+/// The difference between the step's solution and the embedded second-order one,
+/// `h Σ (b_i − b̂_i) f_i`, into `out` (the kernel's `imex_embedded_error` is generated from it).
+#[inline]
+pub(crate) fn embedded_error_in<T: Lane>(f: &[Vec<T>; 4], h: T, out: &mut [T]) {
+    for (s, o) in out.iter_mut().enumerate() {
+        let mut e = T::splat(0.0);
+        for (fi, (&b, &bh)) in f.iter().zip(B.iter().zip(&B_HAT)) {
+            e += T::splat(b - bh) * fi[s];
         }
+        *o = h * e;
     }
 }
 

@@ -11,7 +11,8 @@ use super::sym::{Sym, input, record};
 use super::wgsl::{Part, emit_parts};
 use crate::engine::rk4::{candidate_in, estimate_in, finish_in, stage, stage_step};
 
-/// Chains of up to this many segments get RK4's functions unrolled; longer ones a loop over
+/// Chains of up to this many segments get RK4's functions (and the IMEX method's element-wise
+/// ones, `super::imex`) unrolled; longer ones a loop over
 /// the segments, whose body is the same functions recorded on one segment's θ and θ̇ (they
 /// are element-wise), with the voltage after it. Unrolled at N = 64, lavapipe's first compile
 /// of the RK4 kernel took 85.4 s against 56.3 s for the hand-written loops it replaced
@@ -20,22 +21,22 @@ pub(crate) const UNROLLED_UP_TO: usize = 24;
 
 /// A component of the state as one part of a function reads it: θ or θ̇ of the segment
 /// `index` (a number, or the loop's `i`), or the voltage.
-enum Comp {
+pub(super) enum Comp {
     Th(String),
     Om(String),
     Volt,
 }
 
 /// The kernel's names of a vector `[θ; θ̇; v]`: two arrays and a scalar.
-type Names = [String; 3];
+pub(super) type Names = [String; 3];
 
-fn names(th: &str, om: &str, v: &str) -> Names {
+pub(super) fn names(th: &str, om: &str, v: &str) -> Names {
     [th.to_string(), om.to_string(), v.to_string()]
 }
 
 impl Comp {
     /// The component's expression in the vector `n`.
-    fn expr(&self, n: &Names) -> String {
+    pub(super) fn expr(&self, n: &Names) -> String {
         match self {
             Comp::Th(i) => format!("{}[{i}]", n[0]),
             Comp::Om(i) => format!("{}[{i}]", n[1]),
@@ -47,7 +48,7 @@ impl Comp {
 /// The parts a function for chains of `n` segments is written in: all 2N + 1 components in
 /// one straight-line part, or (above [`UNROLLED_UP_TO`]) a loop's part on (θ_i, θ̇_i) and
 /// the voltage's part after it.
-fn layout(n: usize) -> Vec<(bool, Vec<Comp>)> {
+pub(super) fn layout(n: usize) -> Vec<(bool, Vec<Comp>)> {
     if n > UNROLLED_UP_TO {
         let each = vec![Comp::Th("i".into()), Comp::Om("i".into())];
         return vec![(true, each), (false, vec![Comp::Volt])];
@@ -59,12 +60,12 @@ fn layout(n: usize) -> Vec<(bool, Vec<Comp>)> {
 }
 
 /// The components `comps` of the vector `n` as kernel inputs (inside a recording).
-fn vector(comps: &[Comp], n: &Names) -> Vec<Sym> {
+pub(super) fn vector(comps: &[Comp], n: &Names) -> Vec<Sym> {
     comps.iter().map(|c| input(c.expr(n))).collect()
 }
 
 /// `values` stored into the components `comps` of the vector `n`.
-fn stores(comps: &[Comp], n: &Names, values: &[Sym]) -> Vec<(String, Sym)> {
+pub(super) fn stores(comps: &[Comp], n: &Names, values: &[Sym]) -> Vec<(String, Sym)> {
     comps
         .iter()
         .map(|c| c.expr(n))
@@ -72,20 +73,20 @@ fn stores(comps: &[Comp], n: &Names, values: &[Sym]) -> Vec<(String, Sym)> {
         .collect()
 }
 
-fn state() -> Names {
+pub(super) fn state() -> Names {
     names("th", "om", "volt")
 }
 
-fn comp() -> Names {
+pub(super) fn comp() -> Names {
     names("th_c", "om_c", "volt_c")
 }
 
-fn stage_state_names() -> Names {
+pub(super) fn stage_state_names() -> Names {
     names("sth", "som", "svolt")
 }
 
 /// Stage `j`'s derivative as kept by `keep_stage`.
-fn kept(j: usize) -> Names {
+pub(super) fn kept(j: usize) -> Names {
     names(
         &format!("f_th[{j}]"),
         &format!("f_om[{j}]"),
@@ -94,13 +95,13 @@ fn kept(j: usize) -> Names {
 }
 
 /// The four stage derivatives' components `comps`.
-fn stages(comps: &[Comp]) -> [Vec<Sym>; 4] {
+pub(super) fn stages(comps: &[Comp]) -> [Vec<Sym>; 4] {
     [0, 1, 2, 3].map(|j| vector(comps, &kept(j)))
 }
 
 /// The function `signature` for chains of `n` segments: `f`, given the components of a part,
 /// recorded on each part of [`layout`], returns that part's stores.
-fn written(
+pub(super) fn written(
     n: usize,
     doc: &str,
     signature: &str,
@@ -193,7 +194,7 @@ pub(crate) fn rk4_wgsl(n: usize) -> String {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::engine::rk4::Rk4;
     use crate::engine::stepper::{CartClock, Stepper};
@@ -201,17 +202,17 @@ mod tests {
     use std::collections::HashMap;
 
     /// The kernel's values, each array element and scalar by its expression (`th[3]`, `h`).
-    type Memory = HashMap<String, f32>;
+    pub(crate) type Memory = HashMap<String, f32>;
 
     /// Put the vector `v` (`[θ; θ̇; v]` of `n` segments) under the names `names`.
-    fn put(mem: &mut Memory, n: usize, names: &Names, v: &[f32]) {
+    pub(crate) fn put(mem: &mut Memory, n: usize, names: &Names, v: &[f32]) {
         for (j, &x) in v.iter().enumerate() {
             mem.insert(at(n, names, j), x);
         }
     }
 
     /// The vector under `names`.
-    fn get(mem: &Memory, n: usize, names: &Names) -> Vec<f32> {
+    pub(crate) fn get(mem: &Memory, n: usize, names: &Names) -> Vec<f32> {
         (0..2 * n + 1).map(|j| mem[&at(n, names, j)]).collect()
     }
 
@@ -226,7 +227,7 @@ mod tests {
 
     /// What the function `f` writes, run as the kernel runs it for chains of `n` segments
     /// (each part of [`layout`], a loop's part once per segment) on the values `mem`.
-    fn run(n: usize, f: impl Fn(&[Comp]) -> Vec<(String, Sym)>, mem: &Memory) -> Memory {
+    pub(crate) fn run(n: usize, f: impl Fn(&[Comp]) -> Vec<(String, Sym)>, mem: &Memory) -> Memory {
         let mut out = Memory::new();
         for (per_segment, comps) in layout(n) {
             let (tape, stores) = record(|| f(&comps));
