@@ -161,6 +161,10 @@ pub enum EngineError {
         /// What to change.
         remedy: String,
     },
+    /// The integration kernel's loops could not be counted for the software adapter's loop
+    /// limit (a defect of the kernels, never of the input).
+    #[error("the integration kernel's loops could not be counted for lavapipe's loop limit: {0}")]
+    KernelLoops(String),
     /// A buffer larger than the adapter allows.
     #[error(
         "the ensemble needs a {bytes}-byte GPU buffer ({what}), more than the adapter allows ({limit} bytes): use fewer instances, a shorter run or fewer R samples"

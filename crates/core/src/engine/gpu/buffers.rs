@@ -3,10 +3,10 @@
 
 use crate::engine::error::{EngineError, GpuFaultKind};
 use crate::engine::gpu::ReduceSettings;
-use crate::engine::gpu::codegen::RK4_UNROLLED_UP_TO;
 use crate::engine::gpu::context::GpuContext;
-use crate::engine::gpu::kernels::{KernelKey, WG};
+use crate::engine::gpu::kernels::{KernelKey, WG, shader_source};
 use crate::engine::gpu::layout::{GpuAccum, GpuControl, GpuInstanceParams, levers_of};
+use crate::engine::gpu::loop_count::{LoopCountError, LoopCounter};
 use crate::engine::imex::ImexMatrices;
 use crate::engine::ladder::MAX_LEVEL;
 use crate::engine::method::Method;
@@ -252,97 +252,122 @@ pub(crate) fn software_step_budget(
             "use fewer c values, or the CPU engine",
         ));
     }
-    Ok(Some(steps_within_loop_budget(
-        (key.method, key.adaptive),
-        n_seg,
-        key.want_twin,
-        early_loops(plan, key),
-    )))
+    if let Some(e) = plan.early_stop.filter(|_| key.want_early) {
+        let e_loops = early_finish_loops(plan);
+        if e_loops > SOFTWARE_LOOP_BUDGET {
+            return Err(refuse(
+                format!(
+                    "the early stop's continuation (period max {}) of {} forcing periods",
+                    e.p_max,
+                    e_loops - s_n - r_n
+                ),
+                e_loops,
+                "shorten the run, set map.early_stop = false, or use the CPU engine",
+            ));
+        }
+    }
+    let loops = StepLoops::count(plan, key).map_err(|e| EngineError::KernelLoops(e.to_string()))?;
+    let one_step = loops.dispatch_of(1);
+    if one_step > SOFTWARE_LOOP_BUDGET as u64 {
+        let twin = if key.want_twin {
+            " with λ1's twin"
+        } else {
+            ""
+        };
+        return Err(refuse(
+            format!("one {} step at N = {n_seg}{twin}", key.method.name()),
+            one_step as usize,
+            "use the CPU engine, fewer segments, or RK4",
+        ));
+    }
+    Ok(Some(loops.steps_within(SOFTWARE_LOOP_BUDGET as u64)))
 }
 
-/// Loop iterations the early stop adds (`shaders/early.wgsl`): per step, its watch at each
-/// stroboscopic instant spread over the shortest period (`early_keep`: `N` stores, then per
-/// period tried the window and the state; `lyap_estimate`, `twin_restart` and `twin_extend`:
-/// 32); per
-/// dispatch, the continuation at most once (every later period, stroboscopic and R sample).
-fn early_loops(plan: &EnsemblePlan, key: &KernelKey) -> (f64, f64) {
-    let Some(e) = plan.early_stop.filter(|_| key.want_early) else {
-        return (0.0, 0.0);
-    };
-    let dim = 2 * plan.segments + 1;
-    let watch = (e.p_max as usize * (e.window as usize + dim + 1) + plan.segments + 32) as f64;
-    let spp_min = plan
-        .instances
-        .iter()
-        .map(|p| p.spp)
-        .min()
-        .unwrap_or(1)
-        .max(1);
+/// Loop iterations of the early stop's own pass (`early_finish` of `shaders/early.wgsl`): its
+/// continuation loops over every later forcing period, stroboscopic sample and R sample, run-time
+/// trip counts bounded by the plan.
+fn early_finish_loops(plan: &EnsemblePlan) -> usize {
     let periods = plan
         .instances
         .iter()
         .map(|p| p.total_periods)
         .max()
         .unwrap_or(0);
-    let fixed = f64::from(periods) + f64::from(plan.strobe_stride) + f64::from(plan.r_stride);
-    (watch / f64::from(spp_min), fixed)
+    periods as usize + plan.strobe_stride as usize + plan.r_stride as usize
 }
 
-/// Steps per dispatch whose loop iterations, health checks included (one every
-/// [`CHECK_EVERY`] steps, one at the end and one at a dispatch's start at most; `2 N`: the
-/// state's finiteness and the bends, the energy being generated without a loop), stay within
-/// [`SOFTWARE_LOOP_BUDGET`]. lavapipe counts every loop iteration of an invocation against
-/// one limit, and silently ends the loop when it is reached: an undercount here left
-/// instances short of their last step (caught by the GPU results' check). λ1's twin takes
-/// every step again with a swap in and out (`twin_step`: one step and `2 N`), and at most once
-/// per step a sample (`twin_sample`: `2 N`; its saltation is generated without a loop, and the
-/// `6 N` it once took is still counted, an upper bound);
-/// per dispatch it is loaded and stored (`2 N`). The early stop adds `early` (per step,
-/// per dispatch: [`early_loops`]).
-fn steps_within_loop_budget(
-    (method, adaptive): (Method, bool),
-    n: usize,
-    twin: bool,
-    early: (f64, f64),
-) -> u64 {
-    let one = (loops_per_step(method, n) + adaptive_loops(n, adaptive)) as f64;
-    let n = n as f64;
-    let (per_step, fixed) = if twin {
-        (2.0 * one + 10.0 * n + early.0, 2.0 * n + early.1)
-    } else {
-        (one + early.0, early.1)
-    };
-    let health = 2.0 * n;
-    let spare = SOFTWARE_LOOP_BUDGET as f64 - 2.0 * health - fixed;
-    ((spare / (per_step + health / CHECK_EVERY as f64)) as u64).max(1)
+/// The integration kernel's loop iterations, counted from its code ([`LoopCounter`]), in the
+/// parts the step loop of `integrate` (`shaders/integrate.wgsl`) runs at different rates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct StepLoops {
+    /// One pass of the step loop: the pass itself (1), a step (`step_state`, and the twin's
+    /// `twin_step` with λ1) or with adaptive steps a sub-step tried (`adaptive_substep`).
+    pass: u64,
+    /// One health check (`health`): every [`CHECK_EVERY`] steps, at a dispatch's start and end.
+    health: u64,
+    /// The events of one forcing period (`strobe_instant`, `period_end`): once per period.
+    period: u64,
+    /// A dispatch outside its step loop (`integrate`'s loads, stores and set-up).
+    dispatch: u64,
+    /// The fewest steps of a forcing period in the plan.
+    spp_min: u64,
 }
 
-/// Loop iterations of one integration step in the kernel, counted from the WGSL (an upper
-/// bound: loops the compiler unrolls cost nothing), without the health check. The derivative
-/// and the bumper flags are generated unrolled (`super::codegen`) and have no loop:
-/// - RK4: the step loop (1), the first stage's state (N), four `keep_stage` (N each):
-///   `5 N + 1`; above [`RK4_UNROLLED_UP_TO`] segments the generated stage states and finish
-///   are loops too (4N more);
-/// - IMEX: the step loop (1), `imex_step`'s copy (N), stage loop (3) and weighted sums
-///   (5N + 4), four `imex_eval` (N each: the copy out) of which three add the joint couples
-///   and an N × N product (N² + 3N), three `imex_implicit_stage` (2N² + (6 + i) N + i for
-///   i = 1, 2, 3): `9 N² + 43 N + 14`.
-fn loops_per_step(method: Method, n: usize) -> usize {
-    match method {
-        Method::Rk4 if n > RK4_UNROLLED_UP_TO => 9 * n + 1,
-        Method::Rk4 => 5 * n + 1,
-        Method::Imex => 9 * n * n + 43 * n + 14,
+impl StepLoops {
+    fn count(plan: &EnsemblePlan, key: &KernelKey) -> Result<StepLoops, LoopCountError> {
+        let early = plan.early_stop.filter(|_| key.want_early);
+        let spp_min = plan.instances.iter().map(|p| p.spp).min().unwrap_or(1);
+        Self::count_for(key, early.map(|e| (e.p_max, e.window)), spp_min)
     }
-}
 
-/// Loop iterations a sub-step of adaptive steps adds to an IMEX step (with adaptive steps the
-/// budget counts sub-steps tried, each a pass of the kernel's loop): `imex_error` (its sums
-/// 5N, the couples N, two N × N products N² + N each, the piezo's 4): `2 N² + 8 N + 4`. The
-/// same count bounds RK4(3)'s additions: `rk4_error`'s max (N), k₁ handed on (N) and kept
-/// (N), the generated candidate and estimate above [`RK4_UNROLLED_UP_TO`] segments (2N), and
-/// once a dispatch `prime_k1` (2N).
-fn adaptive_loops(n: usize, adaptive: bool) -> usize {
-    if adaptive { 2 * n * n + 8 * n + 4 } else { 0 }
+    /// The counts of the kernels of `key`, with the early stop's longest period and window,
+    /// and the fewest steps of a forcing period.
+    fn count_for(
+        key: &KernelKey,
+        early: Option<(u32, u32)>,
+        spp_min: u32,
+    ) -> Result<StepLoops, LoopCountError> {
+        let (p_max, window) = early.map_or((0, 0), |(p, w)| (i64::from(p), i64::from(w)));
+        let uniforms = [("ctl.e_p_max", p_max), ("ctl.e_window", window)];
+        let c = LoopCounter::new(&shader_source(key.chain), &key.constants(), &uniforms)?;
+        let step = if key.adaptive {
+            c.of("adaptive_substep", &[("twin_on", key.want_twin)])?
+        } else {
+            let twin = if key.want_twin {
+                c.of("twin_step", &[])?
+            } else {
+                0
+            };
+            c.of("step_state", &[])? + twin
+        };
+        Ok(StepLoops {
+            pass: 1 + step,
+            health: c.of("health", &[])?,
+            period: c.of("strobe_instant", &[])? + c.of("period_end", &[])?,
+            dispatch: c.outside_loops("integrate")?,
+            spp_min: u64::from(spp_min.max(1)),
+        })
+    }
+
+    /// Loop iterations of a dispatch of `steps` steps (an upper bound, as below).
+    fn dispatch_of(&self, steps: u64) -> u64 {
+        let events = (steps / self.spp_min + 1) * self.period;
+        let checks = (steps / CHECK_EVERY + 2) * self.health;
+        steps * self.pass + events + checks + self.dispatch
+    }
+
+    /// The steps per dispatch whose loop iterations stay within `budget`: a pass per step
+    /// (with adaptive steps a step takes one pass or more, and a dispatch counts passes); a
+    /// forcing period's events every `spp_min` steps and once more (S steps meet each event at
+    /// most S / spp_min + 1 times); a health check every [`CHECK_EVERY`] steps and two more;
+    /// and the dispatch's own.
+    fn steps_within(&self, budget: u64) -> u64 {
+        let per_step = self.pass as f64
+            + self.period as f64 / self.spp_min as f64
+            + self.health as f64 / CHECK_EVERY as f64;
+        let spare = budget.saturating_sub(2 * self.health + self.period + self.dispatch);
+        ((spare as f64 / per_step) as u64).max(1)
+    }
 }
 
 /// The buffers of a run and their bind group (which keeps the others alive).
@@ -660,4 +685,80 @@ fn c_turns(reduce: &ReduceSettings) -> Vec<u32> {
         .collect();
     turns.resize(turns.len().max(4), 0);
     turns
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::gpu::kernels::GpuKernel;
+    use crate::model::ChainShape;
+
+    pub(super) fn key(
+        n: usize,
+        method: Method,
+        adaptive: bool,
+        twin: bool,
+        early: bool,
+    ) -> KernelKey {
+        let scene = crate::config::load_scene(None, &[format!("beam.segments={n}")]).unwrap();
+        KernelKey {
+            chain: ChainShape::of(&scene.model_params().unwrap()),
+            want_strobe: true,
+            want_rseries: true,
+            want_r: true,
+            want_line: false,
+            want_k: true,
+            run_k_final: true,
+            paper_convention: false,
+            n_c: 100,
+            method,
+            want_twin: twin,
+            want_early: early,
+            adaptive,
+            kernel: GpuKernel::Thread,
+            runtime_checks: false,
+        }
+    }
+
+    /// Every specialisation's step functions have loops of known trip counts, so a change
+    /// that adds a loop bounded at run time to them fails here, not on lavapipe; and the steps
+    /// per dispatch keep a dispatch within the budget. With `--nocapture` it prints the counts
+    /// (`docs/model.md` §14).
+    #[test]
+    fn every_specialisation_counts_its_loops_from_the_kernel() {
+        for n in [1, 3, 9, 17, 64] {
+            for method in [Method::Rk4, Method::Imex] {
+                for flags in 0..8 {
+                    let (adaptive, twin, early) = (flags & 1 != 0, flags & 2 != 0, flags & 4 != 0);
+                    let k = key(n, method, adaptive, twin, early);
+                    let l = StepLoops::count_for(&k, early.then_some((8, 16)), 50).unwrap();
+                    assert!(
+                        l.pass > n as u64 && l.health >= n as u64,
+                        "{n} {method:?} {l:?}"
+                    );
+                    let budget = SOFTWARE_LOOP_BUDGET as u64;
+                    let steps = l.steps_within(budget);
+                    let fits = l.dispatch_of(steps) <= budget;
+                    assert!(fits || l.dispatch_of(1) > budget, "{n} {method:?} {l:?}");
+                    println!(
+                        "N = {n} {method:?} adaptive {adaptive} twin {twin} early {early}: \
+                         {l:?}, {steps} steps a dispatch, {} loops for one",
+                        l.dispatch_of(1)
+                    );
+                }
+            }
+        }
+    }
+
+    /// The counts the kernel's loops give at N = 3, fixed steps, no twin or early stop: a step
+    /// copies the state and keeps four stages (5 N, with the pass 5 N + 1); a health check
+    /// tests the state (N) and the bends (N − 1).
+    #[test]
+    fn an_rk4_step_counts_the_loops_its_wgsl_has() {
+        let l = StepLoops::count_for(&key(3, Method::Rk4, false, false, false), None, 50).unwrap();
+        assert_eq!((l.pass, l.health), (16, 5));
+        let twin = StepLoops::count_for(&key(3, Method::Rk4, false, true, false), None, 50);
+        // The twin's step adds its swaps in and out (2 N) to a second step.
+        assert_eq!(twin.unwrap().pass, 1 + 2 * 15 + 6);
+    }
 }

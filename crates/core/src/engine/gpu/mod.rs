@@ -22,6 +22,7 @@ pub mod fault;
 pub mod gpu_struct;
 pub mod kernels;
 pub mod layout;
+mod loop_count;
 #[cfg(test)]
 mod rules_check;
 pub mod slices;

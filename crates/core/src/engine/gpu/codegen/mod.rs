@@ -29,7 +29,6 @@ mod wgsl;
 
 use crate::model::ChainShape;
 use crate::rules::Rule;
-pub(crate) use rk4::UNROLLED_UP_TO as RK4_UNROLLED_UP_TO;
 pub use sym::{Sym, Tape, record};
 
 /// The first line of every generated WGSL text.
