@@ -114,6 +114,7 @@ struct Control {
     e_r_len: u32, // Length of that ring (1 when unused).
     pass_budget: u32, // Adaptive steps: sub-steps an invocation tries per dispatch, the dispatch's size (within
     live_from: u32, // The half of the `live` list the integration dispatch reads (0 or `n_inst`); the
+    one: f32, // 1, read at run time: the kernels' compensated sums multiply by it so that their
 }
 // Generated from `GpuAccum` (src/engine/gpu/layout.rs): the result schema's words (src/schema.rs), then the engine's own.
 struct Accum {
@@ -1424,76 +1425,83 @@ fn rk4_finish(h: f32) {
     let v50 = v44 * v49;
     let v51 = v50 - th_c[0];
     let v52 = th[0] + v51;
-    let v53 = v52 - th[0];
-    let v54 = v53 - v51;
-    let v55 = f_th[1][1] + f_th[2][1];
-    let v56 = 2.0f * v55;
-    let v57 = f_th[0][1] + v56;
-    let v58 = v57 + f_th[3][1];
-    let v59 = v44 * v58;
-    let v60 = v59 - th_c[1];
-    let v61 = th[1] + v60;
-    let v62 = v61 - th[1];
-    let v63 = v62 - v60;
-    let v64 = f_th[1][2] + f_th[2][2];
-    let v65 = 2.0f * v64;
-    let v66 = f_th[0][2] + v65;
-    let v67 = v66 + f_th[3][2];
-    let v68 = v44 * v67;
-    let v69 = v68 - th_c[2];
-    let v70 = th[2] + v69;
-    let v71 = v70 - th[2];
-    let v72 = v71 - v69;
-    let v73 = f_om[1][0] + f_om[2][0];
-    let v74 = 2.0f * v73;
-    let v75 = f_om[0][0] + v74;
-    let v76 = v75 + f_om[3][0];
-    let v77 = v44 * v76;
-    let v78 = v77 - om_c[0];
-    let v79 = om[0] + v78;
-    let v80 = v79 - om[0];
-    let v81 = v80 - v78;
-    let v82 = f_om[1][1] + f_om[2][1];
-    let v83 = 2.0f * v82;
-    let v84 = f_om[0][1] + v83;
-    let v85 = v84 + f_om[3][1];
-    let v86 = v44 * v85;
-    let v87 = v86 - om_c[1];
-    let v88 = om[1] + v87;
-    let v89 = v88 - om[1];
-    let v90 = v89 - v87;
-    let v91 = f_om[1][2] + f_om[2][2];
-    let v92 = 2.0f * v91;
-    let v93 = f_om[0][2] + v92;
-    let v94 = v93 + f_om[3][2];
-    let v95 = v44 * v94;
-    let v96 = v95 - om_c[2];
-    let v97 = om[2] + v96;
-    let v98 = v97 - om[2];
-    let v99 = v98 - v96;
-    let v100 = f_v[1] + f_v[2];
-    let v101 = 2.0f * v100;
-    let v102 = f_v[0] + v101;
-    let v103 = v102 + f_v[3];
-    let v104 = v44 * v103;
-    let v105 = v104 - volt_c;
-    let v106 = volt + v105;
-    let v107 = v106 - volt;
-    let v108 = v107 - v105;
+    let v54 = v52 * ctl.one;
+    let v55 = v54 - th[0];
+    let v56 = v55 - v51;
+    let v57 = f_th[1][1] + f_th[2][1];
+    let v58 = 2.0f * v57;
+    let v59 = f_th[0][1] + v58;
+    let v60 = v59 + f_th[3][1];
+    let v61 = v44 * v60;
+    let v62 = v61 - th_c[1];
+    let v63 = th[1] + v62;
+    let v64 = v63 * ctl.one;
+    let v65 = v64 - th[1];
+    let v66 = v65 - v62;
+    let v67 = f_th[1][2] + f_th[2][2];
+    let v68 = 2.0f * v67;
+    let v69 = f_th[0][2] + v68;
+    let v70 = v69 + f_th[3][2];
+    let v71 = v44 * v70;
+    let v72 = v71 - th_c[2];
+    let v73 = th[2] + v72;
+    let v74 = v73 * ctl.one;
+    let v75 = v74 - th[2];
+    let v76 = v75 - v72;
+    let v77 = f_om[1][0] + f_om[2][0];
+    let v78 = 2.0f * v77;
+    let v79 = f_om[0][0] + v78;
+    let v80 = v79 + f_om[3][0];
+    let v81 = v44 * v80;
+    let v82 = v81 - om_c[0];
+    let v83 = om[0] + v82;
+    let v84 = v83 * ctl.one;
+    let v85 = v84 - om[0];
+    let v86 = v85 - v82;
+    let v87 = f_om[1][1] + f_om[2][1];
+    let v88 = 2.0f * v87;
+    let v89 = f_om[0][1] + v88;
+    let v90 = v89 + f_om[3][1];
+    let v91 = v44 * v90;
+    let v92 = v91 - om_c[1];
+    let v93 = om[1] + v92;
+    let v94 = v93 * ctl.one;
+    let v95 = v94 - om[1];
+    let v96 = v95 - v92;
+    let v97 = f_om[1][2] + f_om[2][2];
+    let v98 = 2.0f * v97;
+    let v99 = f_om[0][2] + v98;
+    let v100 = v99 + f_om[3][2];
+    let v101 = v44 * v100;
+    let v102 = v101 - om_c[2];
+    let v103 = om[2] + v102;
+    let v104 = v103 * ctl.one;
+    let v105 = v104 - om[2];
+    let v106 = v105 - v102;
+    let v107 = f_v[1] + f_v[2];
+    let v108 = 2.0f * v107;
+    let v109 = f_v[0] + v108;
+    let v110 = v109 + f_v[3];
+    let v111 = v44 * v110;
+    let v112 = v111 - volt_c;
+    let v113 = volt + v112;
+    let v114 = v113 * ctl.one;
+    let v115 = v114 - volt;
+    let v116 = v115 - v112;
     th[0] = v52;
-    th[1] = v61;
-    th[2] = v70;
-    om[0] = v79;
-    om[1] = v88;
-    om[2] = v97;
-    volt = v106;
-    th_c[0] = v54;
-    th_c[1] = v63;
-    th_c[2] = v72;
-    om_c[0] = v81;
-    om_c[1] = v90;
-    om_c[2] = v99;
-    volt_c = v108;
+    th[1] = v63;
+    th[2] = v73;
+    om[0] = v83;
+    om[1] = v93;
+    om[2] = v103;
+    volt = v113;
+    th_c[0] = v56;
+    th_c[1] = v66;
+    th_c[2] = v76;
+    om_c[0] = v86;
+    om_c[1] = v96;
+    om_c[2] = v106;
+    volt_c = v116;
 }
 
 // candidate_in (src/engine/rk4.rs): the state rk4_finish would leave, y + (Δ − c), into (sth, som, svolt).
@@ -1595,94 +1603,101 @@ fn imex_finish(h: f32) {
     let v55 = h * v54;
     let v56 = v55 - th_c[0];
     let v57 = th[0] + v56;
-    let v58 = v57 - th[0];
-    let v59 = v58 - v56;
-    let v60 = 0.18764102f * f_th[0][1];
-    let v61 = (-0.59529746f) * f_th[1][1];
-    let v62 = v60 + v61;
-    let v63 = 0.97178996f * f_th[2][1];
+    let v59 = v57 * ctl.one;
+    let v60 = v59 - th[0];
+    let v61 = v60 - v56;
+    let v62 = 0.18764102f * f_th[0][1];
+    let v63 = (-0.59529746f) * f_th[1][1];
     let v64 = v62 + v63;
-    let v65 = 0.43586653f * f_th[3][1];
+    let v65 = 0.97178996f * f_th[2][1];
     let v66 = v64 + v65;
-    let v67 = h * v66;
-    let v68 = v67 - th_c[1];
-    let v69 = th[1] + v68;
-    let v70 = v69 - th[1];
-    let v71 = v70 - v68;
-    let v72 = 0.18764102f * f_th[0][2];
-    let v73 = (-0.59529746f) * f_th[1][2];
-    let v74 = v72 + v73;
-    let v75 = 0.97178996f * f_th[2][2];
-    let v76 = v74 + v75;
-    let v77 = 0.43586653f * f_th[3][2];
-    let v78 = v76 + v77;
-    let v79 = h * v78;
-    let v80 = v79 - th_c[2];
-    let v81 = th[2] + v80;
-    let v82 = v81 - th[2];
-    let v83 = v82 - v80;
-    let v84 = 0.18764102f * f_om[0][0];
-    let v85 = (-0.59529746f) * f_om[1][0];
-    let v86 = v84 + v85;
-    let v87 = 0.97178996f * f_om[2][0];
-    let v88 = v86 + v87;
-    let v89 = 0.43586653f * f_om[3][0];
+    let v67 = 0.43586653f * f_th[3][1];
+    let v68 = v66 + v67;
+    let v69 = h * v68;
+    let v70 = v69 - th_c[1];
+    let v71 = th[1] + v70;
+    let v72 = v71 * ctl.one;
+    let v73 = v72 - th[1];
+    let v74 = v73 - v70;
+    let v75 = 0.18764102f * f_th[0][2];
+    let v76 = (-0.59529746f) * f_th[1][2];
+    let v77 = v75 + v76;
+    let v78 = 0.97178996f * f_th[2][2];
+    let v79 = v77 + v78;
+    let v80 = 0.43586653f * f_th[3][2];
+    let v81 = v79 + v80;
+    let v82 = h * v81;
+    let v83 = v82 - th_c[2];
+    let v84 = th[2] + v83;
+    let v85 = v84 * ctl.one;
+    let v86 = v85 - th[2];
+    let v87 = v86 - v83;
+    let v88 = 0.18764102f * f_om[0][0];
+    let v89 = (-0.59529746f) * f_om[1][0];
     let v90 = v88 + v89;
-    let v91 = h * v90;
-    let v92 = v91 - om_c[0];
-    let v93 = om[0] + v92;
-    let v94 = v93 - om[0];
-    let v95 = v94 - v92;
-    let v96 = 0.18764102f * f_om[0][1];
-    let v97 = (-0.59529746f) * f_om[1][1];
-    let v98 = v96 + v97;
-    let v99 = 0.97178996f * f_om[2][1];
-    let v100 = v98 + v99;
-    let v101 = 0.43586653f * f_om[3][1];
-    let v102 = v100 + v101;
-    let v103 = h * v102;
-    let v104 = v103 - om_c[1];
-    let v105 = om[1] + v104;
-    let v106 = v105 - om[1];
-    let v107 = v106 - v104;
-    let v108 = 0.18764102f * f_om[0][2];
-    let v109 = (-0.59529746f) * f_om[1][2];
-    let v110 = v108 + v109;
-    let v111 = 0.97178996f * f_om[2][2];
-    let v112 = v110 + v111;
-    let v113 = 0.43586653f * f_om[3][2];
-    let v114 = v112 + v113;
-    let v115 = h * v114;
-    let v116 = v115 - om_c[2];
-    let v117 = om[2] + v116;
-    let v118 = v117 - om[2];
-    let v119 = v118 - v116;
-    let v120 = 0.18764102f * f_v[0];
-    let v121 = (-0.59529746f) * f_v[1];
-    let v122 = v120 + v121;
-    let v123 = 0.97178996f * f_v[2];
-    let v124 = v122 + v123;
-    let v125 = 0.43586653f * f_v[3];
-    let v126 = v124 + v125;
-    let v127 = h * v126;
-    let v128 = v127 - volt_c;
-    let v129 = volt + v128;
-    let v130 = v129 - volt;
-    let v131 = v130 - v128;
+    let v91 = 0.97178996f * f_om[2][0];
+    let v92 = v90 + v91;
+    let v93 = 0.43586653f * f_om[3][0];
+    let v94 = v92 + v93;
+    let v95 = h * v94;
+    let v96 = v95 - om_c[0];
+    let v97 = om[0] + v96;
+    let v98 = v97 * ctl.one;
+    let v99 = v98 - om[0];
+    let v100 = v99 - v96;
+    let v101 = 0.18764102f * f_om[0][1];
+    let v102 = (-0.59529746f) * f_om[1][1];
+    let v103 = v101 + v102;
+    let v104 = 0.97178996f * f_om[2][1];
+    let v105 = v103 + v104;
+    let v106 = 0.43586653f * f_om[3][1];
+    let v107 = v105 + v106;
+    let v108 = h * v107;
+    let v109 = v108 - om_c[1];
+    let v110 = om[1] + v109;
+    let v111 = v110 * ctl.one;
+    let v112 = v111 - om[1];
+    let v113 = v112 - v109;
+    let v114 = 0.18764102f * f_om[0][2];
+    let v115 = (-0.59529746f) * f_om[1][2];
+    let v116 = v114 + v115;
+    let v117 = 0.97178996f * f_om[2][2];
+    let v118 = v116 + v117;
+    let v119 = 0.43586653f * f_om[3][2];
+    let v120 = v118 + v119;
+    let v121 = h * v120;
+    let v122 = v121 - om_c[2];
+    let v123 = om[2] + v122;
+    let v124 = v123 * ctl.one;
+    let v125 = v124 - om[2];
+    let v126 = v125 - v122;
+    let v127 = 0.18764102f * f_v[0];
+    let v128 = (-0.59529746f) * f_v[1];
+    let v129 = v127 + v128;
+    let v130 = 0.97178996f * f_v[2];
+    let v131 = v129 + v130;
+    let v132 = 0.43586653f * f_v[3];
+    let v133 = v131 + v132;
+    let v134 = h * v133;
+    let v135 = v134 - volt_c;
+    let v136 = volt + v135;
+    let v137 = v136 * ctl.one;
+    let v138 = v137 - volt;
+    let v139 = v138 - v135;
     th[0] = v57;
-    th[1] = v69;
-    th[2] = v81;
-    om[0] = v93;
-    om[1] = v105;
-    om[2] = v117;
-    volt = v129;
-    th_c[0] = v59;
-    th_c[1] = v71;
-    th_c[2] = v83;
-    om_c[0] = v95;
-    om_c[1] = v107;
-    om_c[2] = v119;
-    volt_c = v131;
+    th[1] = v71;
+    th[2] = v84;
+    om[0] = v97;
+    om[1] = v110;
+    om[2] = v123;
+    volt = v136;
+    th_c[0] = v61;
+    th_c[1] = v74;
+    th_c[2] = v87;
+    om_c[0] = v100;
+    om_c[1] = v113;
+    om_c[2] = v126;
+    volt_c = v139;
 }
 
 // embedded_error_in (src/engine/imex.rs): h Σ (b_j − b̂_j) f_j into (sth, rv, svolt).
@@ -1799,7 +1814,9 @@ fn cos_turn(x: f32) -> f32 {
 
 @group(0) @binding(0) var<storage, read> params: array<InstanceParams>;
 // State, structure of arrays: component j of instance i at [j * n_inst + i], j < 2N + 1.
-// With λ1, the twin's state follows: its component j at [(2N + 1 + j) * n_inst + i].
+// With λ1, the twin's state follows: its component j at [(2N + 1 + j) * n_inst + i]. Then the
+// summation compensation of each of those words w, at [(W + w) * n_inst + i], W the words
+// before it (2N + 1, or 2(2N + 1) with the twin).
 @group(0) @binding(1) var<storage, read_write> state: array<f32>;
 @group(0) @binding(2) var<storage, read_write> acc: array<Accum>;
 // The IMEX method's matrices (M0⁻¹, S⁻¹, M0; N × N each, row-major) per structure and step.
@@ -1877,13 +1894,6 @@ var<private> tw_volt_c: f32;
 var<private> twin_mode: bool;
 var<private> stage_n: u32;
 var<private> branch_bits: u32;
-
-// y + inc with compensation c: (new y, new c).
-fn comp_add(y: f32, c: f32, inc: f32) -> vec2<f32> {
-    let corrected = inc - c;
-    let sum = y + corrected;
-    return vec2<f32>(sum, (sum - y) - corrected);
-}
 // Integration kernel: one invocation advances one instance in f32 by classical RK4 or by the
 // IMEX method (shaders/imex.wgsl), with the O(N) articulated-body solve of src/model/chain.rs,
 // the step loop of src/engine/stepper.rs and the bookkeeping of src/engine/cpu.rs
@@ -2201,8 +2211,11 @@ fn twin_sample(j: u32, a: ptr<function, Accum>) {
         for (var i = 0u; i < N_SEG; i++) {
             tw_th[i] = th[i] + P.twin_start_th;
             tw_om[i] = om[i] + P.twin_start_om;
+            tw_th_c[i] = 0.0;
+            tw_om_c[i] = 0.0;
         }
         tw_volt = volt + P.twin_start_v;
+        tw_volt_c = 0.0;
         (*a).twin_flags = TWIN_RUNNING;
         return;
     }
@@ -2338,24 +2351,28 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
         done[inst] = 1u;
         return;
     }
+    // The state, then the twin's, then the compensation of each word at word `cw` on: the
+    // compensated sums go on across dispatches as within one, so a dispatch's size never
+    // changes a result.
+    let tw = 2u * N_SEG + 1u;
+    let cw = select(1u, 2u, WANT_TWIN) * tw;
     for (var i = 0u; i < N_SEG; i++) {
         th[i] = state[i * n_inst + inst];
         om[i] = state[(N_SEG + i) * n_inst + inst];
-        th_c[i] = 0.0;
-        om_c[i] = 0.0;
+        th_c[i] = state[(cw + i) * n_inst + inst];
+        om_c[i] = state[(cw + N_SEG + i) * n_inst + inst];
     }
     volt = state[2u * N_SEG * n_inst + inst];
-    volt_c = 0.0;
-    let tw = 2u * N_SEG + 1u;
+    volt_c = state[(cw + 2u * N_SEG) * n_inst + inst];
     if WANT_TWIN {
         for (var i = 0u; i < N_SEG; i++) {
             tw_th[i] = state[(tw + i) * n_inst + inst];
             tw_om[i] = state[(tw + N_SEG + i) * n_inst + inst];
-            tw_th_c[i] = 0.0;
-            tw_om_c[i] = 0.0;
+            tw_th_c[i] = state[(cw + tw + i) * n_inst + inst];
+            tw_om_c[i] = state[(cw + tw + N_SEG + i) * n_inst + inst];
         }
         tw_volt = state[(tw + 2u * N_SEG) * n_inst + inst];
-        tw_volt_c = 0.0;
+        tw_volt_c = state[(cw + tw + 2u * N_SEG) * n_inst + inst];
     }
     let end = min(total, a.step + min(ctl.steps_per_dispatch, total - a.step));
     let dt = P.dt;
@@ -2467,14 +2484,20 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var i = 0u; i < N_SEG; i++) {
         state[i * n_inst + inst] = th[i];
         state[(N_SEG + i) * n_inst + inst] = om[i];
+        state[(cw + i) * n_inst + inst] = th_c[i];
+        state[(cw + N_SEG + i) * n_inst + inst] = om_c[i];
     }
     state[2u * N_SEG * n_inst + inst] = volt;
+    state[(cw + 2u * N_SEG) * n_inst + inst] = volt_c;
     if WANT_TWIN && (a.twin_flags & TWIN_RUNNING) != 0u && a.status == STATUS_OK {
         for (var i = 0u; i < N_SEG; i++) {
             state[(tw + i) * n_inst + inst] = tw_th[i];
             state[(tw + N_SEG + i) * n_inst + inst] = tw_om[i];
+            state[(cw + tw + i) * n_inst + inst] = tw_th_c[i];
+            state[(cw + tw + N_SEG + i) * n_inst + inst] = tw_om_c[i];
         }
         state[(tw + 2u * N_SEG) * n_inst + inst] = tw_volt;
+        state[(cw + tw + 2u * N_SEG) * n_inst + inst] = tw_volt_c;
     }
     if finished(a, total) {
         done[inst] = 1u;
@@ -2680,7 +2703,7 @@ fn add_period(a: ptr<function, Accum>, hops: u32, impacts: u32, power: f32, amin
     (*a).impacts += impacts;
     let y = power - (*a).power_comp;
     let t = (*a).power_sum + y;
-    (*a).power_comp = (t - (*a).power_sum) - y;
+    (*a).power_comp = (t * ctl.one - (*a).power_sum) - y;
     (*a).power_sum = t;
     (*a).alpha_min = min((*a).alpha_min, amin);
     (*a).alpha_max = max((*a).alpha_max, amax);

@@ -46,7 +46,9 @@ fn cos_turn(x: f32) -> f32 {
 
 @group(0) @binding(0) var<storage, read> params: array<InstanceParams>;
 // State, structure of arrays: component j of instance i at [j * n_inst + i], j < 2N + 1.
-// With λ1, the twin's state follows: its component j at [(2N + 1 + j) * n_inst + i].
+// With λ1, the twin's state follows: its component j at [(2N + 1 + j) * n_inst + i]. Then the
+// summation compensation of each of those words w, at [(W + w) * n_inst + i], W the words
+// before it (2N + 1, or 2(2N + 1) with the twin).
 @group(0) @binding(1) var<storage, read_write> state: array<f32>;
 @group(0) @binding(2) var<storage, read_write> acc: array<Accum>;
 // The IMEX method's matrices (M0⁻¹, S⁻¹, M0; N × N each, row-major) per structure and step.
@@ -124,10 +126,3 @@ var<private> tw_volt_c: f32;
 var<private> twin_mode: bool;
 var<private> stage_n: u32;
 var<private> branch_bits: u32;
-
-// y + inc with compensation c: (new y, new c).
-fn comp_add(y: f32, c: f32, inc: f32) -> vec2<f32> {
-    let corrected = inc - c;
-    let sum = y + corrected;
-    return vec2<f32>(sum, (sum - y) - corrected);
-}

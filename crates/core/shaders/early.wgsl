@@ -140,7 +140,7 @@ fn add_period(a: ptr<function, Accum>, hops: u32, impacts: u32, power: f32, amin
     (*a).impacts += impacts;
     let y = power - (*a).power_comp;
     let t = (*a).power_sum + y;
-    (*a).power_comp = (t - (*a).power_sum) - y;
+    (*a).power_comp = (t * ctl.one - (*a).power_sum) - y;
     (*a).power_sum = t;
     (*a).alpha_min = min((*a).alpha_min, amin);
     (*a).alpha_max = max((*a).alpha_max, amax);

@@ -315,8 +315,11 @@ fn twin_sample(j: u32, a: ptr<function, Accum>) {
         for (var i = 0u; i < N_SEG; i++) {
             tw_th[i] = th[i] + P.twin_start_th;
             tw_om[i] = om[i] + P.twin_start_om;
+            tw_th_c[i] = 0.0;
+            tw_om_c[i] = 0.0;
         }
         tw_volt = volt + P.twin_start_v;
+        tw_volt_c = 0.0;
         (*a).twin_flags = TWIN_RUNNING;
         return;
     }
@@ -452,24 +455,28 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
         done[inst] = 1u;
         return;
     }
+    // The state, then the twin's, then the compensation of each word at word `cw` on: the
+    // compensated sums go on across dispatches as within one, so a dispatch's size never
+    // changes a result.
+    let tw = 2u * N_SEG + 1u;
+    let cw = select(1u, 2u, WANT_TWIN) * tw;
     for (var i = 0u; i < N_SEG; i++) {
         th[i] = state[i * n_inst + inst];
         om[i] = state[(N_SEG + i) * n_inst + inst];
-        th_c[i] = 0.0;
-        om_c[i] = 0.0;
+        th_c[i] = state[(cw + i) * n_inst + inst];
+        om_c[i] = state[(cw + N_SEG + i) * n_inst + inst];
     }
     volt = state[2u * N_SEG * n_inst + inst];
-    volt_c = 0.0;
-    let tw = 2u * N_SEG + 1u;
+    volt_c = state[(cw + 2u * N_SEG) * n_inst + inst];
     if WANT_TWIN {
         for (var i = 0u; i < N_SEG; i++) {
             tw_th[i] = state[(tw + i) * n_inst + inst];
             tw_om[i] = state[(tw + N_SEG + i) * n_inst + inst];
-            tw_th_c[i] = 0.0;
-            tw_om_c[i] = 0.0;
+            tw_th_c[i] = state[(cw + tw + i) * n_inst + inst];
+            tw_om_c[i] = state[(cw + tw + N_SEG + i) * n_inst + inst];
         }
         tw_volt = state[(tw + 2u * N_SEG) * n_inst + inst];
-        tw_volt_c = 0.0;
+        tw_volt_c = state[(cw + tw + 2u * N_SEG) * n_inst + inst];
     }
     let end = min(total, a.step + min(ctl.steps_per_dispatch, total - a.step));
     let dt = P.dt;
@@ -581,14 +588,20 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var i = 0u; i < N_SEG; i++) {
         state[i * n_inst + inst] = th[i];
         state[(N_SEG + i) * n_inst + inst] = om[i];
+        state[(cw + i) * n_inst + inst] = th_c[i];
+        state[(cw + N_SEG + i) * n_inst + inst] = om_c[i];
     }
     state[2u * N_SEG * n_inst + inst] = volt;
+    state[(cw + 2u * N_SEG) * n_inst + inst] = volt_c;
     if WANT_TWIN && (a.twin_flags & TWIN_RUNNING) != 0u && a.status == STATUS_OK {
         for (var i = 0u; i < N_SEG; i++) {
             state[(tw + i) * n_inst + inst] = tw_th[i];
             state[(tw + N_SEG + i) * n_inst + inst] = tw_om[i];
+            state[(cw + tw + i) * n_inst + inst] = tw_th_c[i];
+            state[(cw + tw + N_SEG + i) * n_inst + inst] = tw_om_c[i];
         }
         state[(tw + 2u * N_SEG) * n_inst + inst] = tw_volt;
+        state[(cw + tw + 2u * N_SEG) * n_inst + inst] = tw_volt_c;
     }
     if finished(a, total) {
         done[inst] = 1u;

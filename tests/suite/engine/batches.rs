@@ -174,6 +174,96 @@ fn a_strobe_tail_is_the_end_of_the_whole_series_and_costs_fewer_bytes() {
     );
 }
 
+/// A run's results do not depend on how its steps are split into dispatches: the state's
+/// summation compensation is carried from one dispatch to the next (`shaders/integrate.wgsl`),
+/// so dispatches of at most 50 and 137 steps give the results of dispatches sized by wall time,
+/// bit for bit, with λ1's twin, on fixed RK4 and IMEX steps and adaptive RK4 steps (where a
+/// dispatch counts passes and may end within a base step). (Before, the compensation restarted at
+/// zero with each dispatch; on hardware, where dispatches are sized by wall time, a map run twice
+/// could differ.)
+#[test]
+fn results_do_not_depend_on_the_dispatch_size() {
+    if gpu().is_none() {
+        return;
+    }
+    let bits = |r: &pendulum_atlas_core::reduce::InstanceResult| {
+        [
+            r.k,
+            r.r,
+            r.period,
+            r.hops,
+            r.alpha_min_rad,
+            r.alpha_max_rad,
+            r.lyapunov_per_s,
+        ]
+        .map(f64::to_bits)
+    };
+    for (method, step) in [("rk4", "fixed"), ("imex", "fixed"), ("rk4", "adaptive")] {
+        let scenes: Vec<Scene> = (0..6)
+            .map(|i| {
+                let sets = vec![
+                    "beam.segments=3".to_string(),
+                    format!("integration.method=\"{method}\""),
+                    format!("integration.step=\"{step}\""),
+                    format!("excitation.frequency_hz={}", 6.0 + i as f64),
+                    "integration.duration_s=18.0".to_string(),
+                    "integration.transient_s=1.0".to_string(),
+                ];
+                Scene::from_toml(PAPER_SCENE_TOML, "<paper>", &sets).unwrap()
+            })
+            .collect();
+        let opts = EnsembleOptions {
+            metrics: vec![
+                Metric::K,
+                Metric::R,
+                Metric::Period,
+                Metric::Hops,
+                Metric::Lyapunov,
+            ],
+            keep_strobe: false,
+            samples_per_period: 16,
+            strobe_phase: 0.0,
+            r_max_samples: 256,
+            early_stop: None,
+            lyapunov: Default::default(),
+            gpu_kernel: Default::default(),
+        };
+        let plan = EnsemblePlan::from_scenes(&scenes, &opts).unwrap();
+        let run = |steps: Option<u64>| {
+            let mut engine = Engine::open(Backend::Gpu, None).unwrap();
+            engine.set_gpu_dispatch_steps(steps);
+            let r = engine
+                .run(
+                    &plan,
+                    &ReduceOptions::default(),
+                    Readback::default(),
+                    &|_, _, _| std::ops::ControlFlow::Continue(()),
+                )
+                .unwrap();
+            (r.dispatches, r.results)
+        };
+        let (n_whole, whole) = run(None);
+        assert!(
+            whole.iter().any(|r| r.lyapunov_per_s.is_finite()),
+            "{method}"
+        );
+        for steps in [50, 137] {
+            let (n, split) = run(Some(steps));
+            assert!(
+                n > n_whole,
+                "{method}: {n} dispatches of {steps} steps, {n_whole} whole"
+            );
+            for (i, (a, b)) in whole.iter().zip(&split).enumerate() {
+                assert_eq!(
+                    bits(a),
+                    bits(b),
+                    "{method}, {steps} steps a dispatch, instance {i}"
+                );
+            }
+        }
+    }
+}
+
 /// The reductions run in slices (dispatches over part of the instances, `slices.rs`): with
 /// slices of three instances, and with the first pass timed over four and the slices sized
 /// from it, every metric equals that of unsliced dispatches, bit for bit.

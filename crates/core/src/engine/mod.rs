@@ -362,6 +362,14 @@ impl Engine {
         }
     }
 
+    /// On the GPU engine, at most `steps` steps per integration dispatch (`None`: sized by
+    /// wall time and the adapter's limits). For tests: results do not depend on it.
+    pub fn set_gpu_dispatch_steps(&mut self, steps: Option<u64>) {
+        if let EngineImpl::Gpu(g) = &mut self.inner {
+            g.set_dispatch_steps(steps);
+        }
+    }
+
     /// On the GPU engine, build the kernels with wgpu's runtime checks (`on`) or without them
     /// (the default; `GpuContext::set_runtime_checks`). For tests and benches.
     pub fn set_gpu_runtime_checks(&mut self, on: bool) {

@@ -68,7 +68,7 @@ pub(crate) trait Stepper<T: Real> {
 pub(crate) fn compensated_add<T: Lane>(y: &mut T, comp: &mut T, inc: T) {
     let corrected = inc - *comp;
     let sum = *y + corrected;
-    *comp = (sum - *y) - corrected;
+    *comp = (sum.opaque() - *y) - corrected;
     *y = sum;
 }
 

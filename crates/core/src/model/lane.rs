@@ -55,6 +55,14 @@ pub trait Lane:
     fn v_max(self, y: Self) -> Self;
     /// Lane-wise `if cond > 0 { a } else { b }`.
     fn if_positive(cond: Self, a: Self, b: Self) -> Self;
+    /// This value, where a compiler may not see through it. A compensated sum's
+    /// `(s − y) − c` with `s = y + c` is 0 to a compiler that reassociates floats, as GPU
+    /// shader compilers may (lavapipe does): the kernels write `s` there as `s · ctl.one`, a 1
+    /// known only at run time. Native code keeps IEEE order, so the value is itself.
+    #[inline(always)]
+    fn opaque(self) -> Self {
+        self
+    }
 }
 
 macro_rules! scalar_lane {

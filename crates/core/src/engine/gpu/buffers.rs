@@ -111,8 +111,9 @@ struct Footprint {
 
 impl Footprint {
     fn of(plan: &EnsemblePlan, key: &KernelKey) -> Footprint {
-        // λ1's twin keeps a second state beside the main one.
-        let state_len = (2 * plan.segments + 1) * if key.want_twin { 2 } else { 1 };
+        // λ1's twin keeps a second state beside the main one, and each word its compensation
+        // (`shaders/integrate.wgsl`, carried from one dispatch to the next).
+        let state_len = 2 * (2 * plan.segments + 1) * if key.want_twin { 2 } else { 1 };
         let strobe_stride = plan.strobe_stride.max(1);
         let n_cut_max = (plan.strobe_stride + 5) / 10;
         let rwork_stride = (if key.want_rseries {

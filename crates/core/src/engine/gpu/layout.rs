@@ -397,6 +397,9 @@ gpu_struct! {
         /// The half of the `live` list the integration dispatch reads (0 or `n_inst`); the
         /// device's compaction writes the other (`shaders/schedule.wgsl`).
         pub live_from: u32,
+        /// 1, read at run time: the kernels' compensated sums multiply by it so that their
+        /// shader compiler cannot fold `(s − y) − c` to 0 ([`crate::model::Lane::opaque`]).
+        pub one: f32,
     }
 }
 

@@ -159,6 +159,9 @@ pub(crate) struct GpuLimits {
     /// How the reductions are sliced (`None`: above a size, by a timed probe to
     /// `DISPATCH_TARGET`, `slices.rs`).
     pub reduce_slice: Option<Slicing>,
+    /// At most this many steps (adaptive: passes) per integration dispatch (`None`: sized by
+    /// wall time, and on a software adapter by its loop budget).
+    pub dispatch_steps: Option<u64>,
 }
 
 impl GpuEngine {
@@ -185,6 +188,12 @@ impl GpuEngine {
     /// results do not depend on it.
     pub(crate) fn set_reduce_slice(&mut self, slicing: Option<Slicing>) {
         self.limits.reduce_slice = slicing;
+    }
+
+    /// At most `steps` steps per integration dispatch (`None`: the default). For tests: the
+    /// results do not depend on it.
+    pub(crate) fn set_dispatch_steps(&mut self, steps: Option<u64>) {
+        self.limits.dispatch_steps = steps.map(|s| s.max(1));
     }
 
     /// The device and its compiled kernels.
@@ -268,6 +277,7 @@ pub(crate) fn run_gpu(
         twin_d0: twin_d0.unwrap_or(0.0),
         readback,
         reduce_slice: limits.reduce_slice,
+        dispatch_steps: limits.dispatch_steps,
     };
     if n <= cap {
         return run_batch(ctx, plan, &batch, progress);
@@ -298,6 +308,8 @@ struct Batch<'a> {
     readback: Readback,
     /// How the reductions are sliced ([`GpuLimits::reduce_slice`]).
     reduce_slice: Option<Slicing>,
+    /// The most steps a dispatch takes where a test sets it ([`GpuLimits::dispatch_steps`]).
+    dispatch_steps: Option<u64>,
 }
 
 /// One run of `plan`, which fits the adapter.
@@ -343,7 +355,13 @@ fn run_sized(
     let sizes = *sizes;
     let t_all = Instant::now();
     let counts_before = ctx.counts();
-    let budget = software_step_budget(ctx, plan, key, reduce)?;
+    let budget = match (
+        software_step_budget(ctx, plan, key, reduce)?,
+        batch.dispatch_steps,
+    ) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    };
     let mut timings = GpuTimings {
         device_bytes: sizes.device_bytes(),
         ..GpuTimings::default()
@@ -364,6 +382,7 @@ fn run_sized(
         slice_first: 0,
         slice_end: sizes.n_inst as u32,
         n_active: sizes.n_inst as u32,
+        one: 1.0,
         ..GpuControl::zeroed()
     }
     .with_early(plan);

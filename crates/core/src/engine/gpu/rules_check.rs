@@ -1,7 +1,8 @@
 //! The shared rules (written once, [`crate::rules`]) as the kernels run them, in `f32` on the
 //! adapter (lavapipe in CI), against the CPU engine's calls in `f64`, case by case on tables
 //! run through small kernels: the ladder's ([`Rung::judge`], [`Rung::advance`],
-//! [`Tolerance::ratio`]), and the hop count's, the verdict's and the early stop's.
+//! [`Tolerance::ratio`]), and the hop count's, the verdict's and the early stop's. Beside them,
+//! the kernels' compensated sum, which a shader compiler may fold to nothing.
 
 use super::AdapterChoice;
 use super::kernels::shader_header;
@@ -364,5 +365,53 @@ fn the_kernels_hop_verdict_and_early_stop_rules_are_the_rust_ones_case_by_case()
     ] {
         let seen: std::collections::BTreeSet<i32> = outs.iter().map(field).collect();
         assert!(seen.len() >= 2, "{seen:?}");
+    }
+}
+
+/// A compensated sum `s = y + c`, `(s − y) − c` (the rounding error) as the kernels write it,
+/// `s` multiplied by a 1 read at run time ([`crate::model::Lane::opaque`]), and as written
+/// plainly: lavapipe folds the plain one to 0.
+const COMPENSATED: &str = "
+@group(0) @binding(0) var<storage, read> cases: array<vec2<f32>>;
+@group(0) @binding(1) var<storage, read_write> outs: array<vec2<f32>>;
+@compute @workgroup_size(64)
+fn compensated(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if i >= arrayLength(&cases) {
+        return;
+    }
+    let y = cases[i].x;
+    let c = cases[i].y;
+    let one = cases[0].x;
+    let s = y + c;
+    outs[i] = vec2<f32>((s * one - y) - c, (s - y) - c);
+}
+";
+
+/// The kernels' compensated sums keep their compensation on the adapter: the rounding error
+/// of `y + c` in f32, bit for bit as the CPU engine's `compensated_add` has it. (Without the
+/// run-time 1 lavapipe compiled `(s − y) − c` to 0, so the GPU engine's sums went
+/// uncompensated; the plain form's result is printed, not held, as an adapter may keep it.)
+#[test]
+fn the_kernels_compensated_sums_keep_their_rounding_error() {
+    let Some(ctx) = adapter() else { return };
+    let cases: Vec<[f32; 2]> = vec![
+        [1.0, 1e-8],
+        [1.0, 3e-8],
+        [0.1, 1e-9],
+        [1.0, 0.1],
+        [-2.5, 7e-7],
+        [40.0, -3e-6],
+    ];
+    let outs: Vec<[f32; 2]> = run_table(&ctx, COMPENSATED, "compensated", &cases);
+    for (&[y, c], &[kept, plain]) in cases.iter().zip(&outs) {
+        let (mut sum, mut comp) = (y, 0.0f32);
+        crate::engine::stepper::compensated_add(&mut sum, &mut comp, c);
+        assert_eq!(
+            kept.to_bits(),
+            comp.to_bits(),
+            "y {y} + {c}: adapter {kept}, CPU {comp}"
+        );
+        println!("y {y} + {c}: compensation {kept} (written plainly: {plain})");
     }
 }

@@ -238,7 +238,11 @@ pub(super) mod tests {
             for seg in segments {
                 let sub =
                     |e: &str| seg.map_or(e.to_string(), |i| e.replace("[i]", &format!("[{i}]")));
-                let v = tape.eval(|e| *mem.get(&sub(e)).unwrap_or_else(|| panic!("no input {e}")));
+                // (`ctl.one` is the run-time 1 of `Lane::opaque`.)
+                let v = tape.eval(|e| match e {
+                    "ctl.one" => 1.0,
+                    _ => *mem.get(&sub(e)).unwrap_or_else(|| panic!("no input {e}")),
+                });
                 for (target, value) in &stores {
                     out.insert(sub(target), v[value.index()]);
                 }

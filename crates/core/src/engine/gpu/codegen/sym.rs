@@ -232,6 +232,10 @@ impl Lane for Sym {
     fn if_positive(cond: Self, a: Self, b: Self) -> Self {
         with_tape(|t| t.push(Node::IfPositive(cond, a, b)))
     }
+    /// `self · ctl.one` (`ctl.one` = 1, read at run time: [`Lane::opaque`]).
+    fn opaque(self) -> Self {
+        binary(Bin::Mul, self, input("ctl.one"))
+    }
 }
 
 #[cfg(test)]
