@@ -38,6 +38,23 @@ fn plan_with(metrics: &[Metric]) -> EnsemblePlan {
     EnsemblePlan::from_scenes(&scenes, &opts).unwrap()
 }
 
+/// The bits of a result's every float, to compare two runs bit for bit.
+fn result_bits(r: &pendulum_atlas_core::reduce::InstanceResult) -> [u64; 10] {
+    [
+        r.k,
+        r.r,
+        r.period,
+        r.hops,
+        r.alpha_min_rad,
+        r.alpha_max_rad,
+        r.line,
+        r.lyapunov_per_s,
+        r.lyapunov_se_per_s,
+        r.regime_confidence,
+    ]
+    .map(f64::to_bits)
+}
+
 #[test]
 fn a_plan_run_in_batches_equals_one_run_bit_for_bit() {
     if gpu().is_none() {
@@ -186,18 +203,6 @@ fn results_do_not_depend_on_the_dispatch_size() {
     if gpu().is_none() {
         return;
     }
-    let bits = |r: &pendulum_atlas_core::reduce::InstanceResult| {
-        [
-            r.k,
-            r.r,
-            r.period,
-            r.hops,
-            r.alpha_min_rad,
-            r.alpha_max_rad,
-            r.lyapunov_per_s,
-        ]
-        .map(f64::to_bits)
-    };
     for (method, step) in [("rk4", "fixed"), ("imex", "fixed"), ("rk4", "adaptive")] {
         let scenes: Vec<Scene> = (0..6)
             .map(|i| {
@@ -255,8 +260,8 @@ fn results_do_not_depend_on_the_dispatch_size() {
             );
             for (i, (a, b)) in whole.iter().zip(&split).enumerate() {
                 assert_eq!(
-                    bits(a),
-                    bits(b),
+                    result_bits(a),
+                    result_bits(b),
                     "{method}, {steps} steps a dispatch, instance {i}"
                 );
             }
@@ -287,21 +292,6 @@ fn reductions_in_slices_equal_unsliced_reductions_bit_for_bit() {
             .unwrap()
             .results
     };
-    let bits = |r: &pendulum_atlas_core::reduce::InstanceResult| {
-        [
-            r.k,
-            r.r,
-            r.period,
-            r.hops,
-            r.alpha_min_rad,
-            r.alpha_max_rad,
-            r.line,
-            r.lyapunov_per_s,
-            r.lyapunov_se_per_s,
-            r.regime_confidence,
-        ]
-        .map(f64::to_bits)
-    };
     let whole = run(None);
     assert!(
         whole
@@ -312,8 +302,8 @@ fn reductions_in_slices_equal_unsliced_reductions_bit_for_bit() {
         let sliced = run(Some(slicing));
         for (i, (a, b)) in whole.iter().zip(&sliced).enumerate() {
             assert_eq!(
-                bits(a),
-                bits(b),
+                result_bits(a),
+                result_bits(b),
                 "{slicing:?}, instance {i}: results differ"
             );
             assert_eq!(a.regime, b.regime, "{slicing:?}, instance {i}");
