@@ -14,15 +14,26 @@ fn plan() -> EnsemblePlan {
 
 /// [`plan`] with `metrics`.
 fn plan_with(metrics: &[Metric]) -> EnsemblePlan {
-    let scenes: Vec<Scene> = (0..11)
-        .map(|i| {
-            let sets = vec![
+    paper_plan(metrics, (0..11).map(|i| 6.0 + 0.5 * i as f64), &[])
+}
+
+/// The paper's scene at N = 3 over 18 s (1 s transient) at each of `frequencies` (Hz), with
+/// the settings `sets`, asking for `metrics`.
+fn paper_plan(
+    metrics: &[Metric],
+    frequencies: impl Iterator<Item = f64>,
+    sets: &[String],
+) -> EnsemblePlan {
+    let scenes: Vec<Scene> = frequencies
+        .map(|f| {
+            let mut all = vec![
                 "beam.segments=3".to_string(),
-                format!("excitation.frequency_hz={}", 6.0 + 0.5 * i as f64),
+                format!("excitation.frequency_hz={f}"),
                 "integration.duration_s=18.0".to_string(),
                 "integration.transient_s=1.0".to_string(),
             ];
-            Scene::from_toml(PAPER_SCENE_TOML, "<paper>", &sets).unwrap()
+            all.extend_from_slice(sets);
+            Scene::from_toml(PAPER_SCENE_TOML, "<paper>", &all).unwrap()
         })
         .collect();
     let opts = EnsembleOptions {
@@ -204,36 +215,18 @@ fn results_do_not_depend_on_the_dispatch_size() {
         return;
     }
     for (method, step) in [("rk4", "fixed"), ("imex", "fixed"), ("rk4", "adaptive")] {
-        let scenes: Vec<Scene> = (0..6)
-            .map(|i| {
-                let sets = vec![
-                    "beam.segments=3".to_string(),
-                    format!("integration.method=\"{method}\""),
-                    format!("integration.step=\"{step}\""),
-                    format!("excitation.frequency_hz={}", 6.0 + i as f64),
-                    "integration.duration_s=18.0".to_string(),
-                    "integration.transient_s=1.0".to_string(),
-                ];
-                Scene::from_toml(PAPER_SCENE_TOML, "<paper>", &sets).unwrap()
-            })
-            .collect();
-        let opts = EnsembleOptions {
-            metrics: vec![
-                Metric::K,
-                Metric::R,
-                Metric::Period,
-                Metric::Hops,
-                Metric::Lyapunov,
-            ],
-            keep_strobe: false,
-            samples_per_period: 16,
-            strobe_phase: 0.0,
-            r_max_samples: 256,
-            early_stop: None,
-            lyapunov: Default::default(),
-            gpu_kernel: Default::default(),
-        };
-        let plan = EnsemblePlan::from_scenes(&scenes, &opts).unwrap();
+        let metrics = [
+            Metric::K,
+            Metric::R,
+            Metric::Period,
+            Metric::Hops,
+            Metric::Lyapunov,
+        ];
+        let sets = [
+            format!("integration.method=\"{method}\""),
+            format!("integration.step=\"{step}\""),
+        ];
+        let plan = paper_plan(&metrics, (0..6).map(|i| 6.0 + i as f64), &sets);
         let run = |steps: Option<u64>| {
             let mut engine = Engine::open(Backend::Gpu, None).unwrap();
             engine.set_gpu_dispatch_steps(steps);
