@@ -1,8 +1,7 @@
-// The early stop of an instance whose periodic orbit is confirmed: the rule, the rings and
-// the continuation of src/engine/early.rs (EarlyTracker; its rules early_close and
-// early_lyapunov_stops_at are shared, src/engine/early_rule.rs) and the phases of the CPU hook
-// (src/engine/cpu/hook.rs: watch, measured, period_end), step for step. The rings live in
-// `early`, the phase in the accumulators.
+// The early stop of an instance whose periodic orbit is confirmed: the rings and the
+// continuation of src/engine/early.rs (EarlyTracker; its rules are shared, written in
+// src/engine/early_rule.rs) and the phases of the CPU hook (src/engine/cpu/hook.rs: watch,
+// measured, period_end), step for step. The rings live in `early`, the phase in `acc`.
 
 const EARLY_WATCHING: u32 = 0u;
 const EARLY_MEASURING: u32 = 1u;
@@ -64,7 +63,7 @@ fn early_watch(inst: u32, abs: u32, a: ptr<function, Accum>) {
         (*a).e_phase = EARLY_CLOSING;
         return;
     }
-    let window = LYAPUNOV_BLOCKS * max(p, 2u);
+    let window = early_twin_window(p);
     let until = abs + P.twin_align + window;
     if until >= (*a).tw_start {
         (*a).e_phase = EARLY_OFF;
@@ -81,7 +80,7 @@ fn twin_restart(a: ptr<function, Accum>, abs: u32, window: u32) {
     (*a).tw_window = window;
     (*a).twin_flags = 0u;
     (*a).lyap_n = 0u;
-    for (var b = 0u; b < LYAPUNOV_BLOCKS; b++) {
+    for (var b = 0u; b < LYAPUNOV_BLOCK_COUNT; b++) {
         (*a).lyap_sums[b] = 0.0;
     }
 }
@@ -113,11 +112,11 @@ fn early_measured(abs: u32, a: ptr<function, Accum>) {
 // Double the twin's window `w` in place, its block sums merged in pairs
 // (LyapunovSums::merge_pairs); it goes on from its last renormalisation.
 fn twin_extend(a: ptr<function, Accum>, w: u32) {
-    let half = LYAPUNOV_BLOCKS / 2u;
+    let half = LYAPUNOV_BLOCK_COUNT / 2u;
     for (var b = 0u; b < half; b++) {
         (*a).lyap_sums[b] = (*a).lyap_sums[2u * b] + (*a).lyap_sums[2u * b + 1u];
     }
-    for (var b = half; b < LYAPUNOV_BLOCKS; b++) {
+    for (var b = half; b < LYAPUNOV_BLOCK_COUNT; b++) {
         (*a).lyap_sums[b] = 0.0;
     }
     (*a).tw_window = 2u * w;
@@ -150,7 +149,7 @@ fn add_period(a: ptr<function, Accum>, hops: u32, impacts: u32, power: f32, amin
 fn early_continue(inst: u32, stop: u32, a: ptr<function, Accum>) {
     let p = (*a).e_p;
     for (var q = max(stop, P.transient_periods); q < P.total_periods; q++) {
-        let src = stop - p + (q - stop) % p;
+        let src = cycle_copy(q, stop - 1u, p);
         let base = ctl.e_period_off + (src % ctl.e_p_max) * 5u;
         add_period(
             a,
@@ -166,7 +165,7 @@ fn early_continue(inst: u32, stop: u32, a: ptr<function, Accum>) {
         for (var j = 0u; j < P.strobe_count; j++) {
             let abs = P.transient_periods + j;
             if abs * P.spp + P.strobe_offset > stop_step {
-                let src = abs - ((abs - (*a).e_last + p - 1u) / p) * p;
+                let src = cycle_copy(abs, (*a).e_last, p);
                 strobe[at(inst, j)] = early_alpha(inst, src);
             }
         }
@@ -176,7 +175,7 @@ fn early_continue(inst: u32, stop: u32, a: ptr<function, Accum>) {
         for (var j = 0u; j < P.r_count; j++) {
             let s = P.r_start + j * P.r_every;
             if s > stop_step {
-                let src = s - ((s - stop_step + cycle - 1u) / cycle) * cycle;
+                let src = cycle_copy(s, stop_step, cycle);
                 let v = early[at(inst, ctl.e_r_off + (src / P.r_every) % ctl.e_r_len)];
                 rwork[at(inst, j)] = vec2<f32>(v, 0.0);
             }

@@ -141,33 +141,21 @@ fn rk4_error(a_end: f32, h: f32) -> f32 {
 }
 
 
-// Guard::check of src/model/health.rs: non-finite state, holder escaped over a bumper, folded
-// chain, or runaway energy.
-// The chain's angles reach sin and cos unreduced: a healthy state keeps |θ_0| ≤ π/2 and every
-// bend within the guard, so they stay near [-π, π]; a state that leaves it is stopped here.
+// Guard::check of src/model/health.rs: what it measures (every value finite, |θ0|, the
+// largest bend, the stored energy) judged by the shared guard_status. The chain's angles reach
+// sin and cos unreduced: a healthy state keeps |θ_0| ≤ π/2 and every bend within the guard,
+// so they stay near [-π, π]; a state that leaves it is stopped here.
 fn health(ph: u32) -> u32 {
+    var finite = !HAS_PIEZO || is_finite(volt);
+    var bend = 0.0;
     for (var i = 0u; i < N_SEG; i++) {
-        if !is_finite(th[i]) || !is_finite(om[i]) {
-            return STATUS_NONFINITE;
+        finite = finite && is_finite(th[i]) && is_finite(om[i]);
+        if i > 0u {
+            bend = max(bend, abs(th[i] - th[i - 1u]));
         }
     }
-    if HAS_PIEZO && !is_finite(volt) {
-        return STATUS_NONFINITE;
-    }
-    if abs(th[0]) > P.guard_holder {
-        return STATUS_ESCAPED;
-    }
-    for (var i = 1u; i < N_SEG; i++) {
-        if abs(th[i] - th[i - 1u]) > P.guard_bend {
-            return STATUS_DIVERGED;
-        }
-    }
-    let cart_v = P.vel_amp * cos_turn(f32(ph) / f32(P.spp) + P.phase0);
-    let e = energy(cart_v);
-    if !is_finite(e) || abs(e) > P.guard_energy {
-        return STATUS_DIVERGED;
-    }
-    return STATUS_OK;
+    let e = energy(P.vel_amp * cos_turn(f32(ph) / f32(P.spp) + P.phase0));
+    return guard_status(finite, abs(th[0]), bend, e, P.guard_holder, P.guard_bend, P.guard_energy);
 }
 
 // One step of whichever state is in (th, om, volt): the main one (recording its stages'
@@ -333,8 +321,7 @@ fn twin_sample(j: u32, a: ptr<function, Accum>) {
     }
     let r = j - start;
     if r > P.twin_align {
-        let b = min((r - P.twin_align - 1u) * LYAPUNOV_BLOCKS / window, LYAPUNOV_BLOCKS - 1u);
-        (*a).lyap_sums[b] += log(d / P.twin_d0);
+        (*a).lyap_sums[lyapunov_block(r - P.twin_align - 1u, window)] += log(d / P.twin_d0);
         (*a).lyap_n += 1u;
     }
     let scale = P.twin_d0 / d;

@@ -5,8 +5,8 @@
 
 // Growths in block b of a window of w: k with ⌊k·B/w⌋ = b, i.e. ⌈b·w/B⌉ ≤ k < ⌈(b+1)·w/B⌉.
 fn block_count(b: u32, w: u32) -> u32 {
-    let hi = ((b + 1u) * w + LYAPUNOV_BLOCKS - 1u) / LYAPUNOV_BLOCKS;
-    let lo = (b * w + LYAPUNOV_BLOCKS - 1u) / LYAPUNOV_BLOCKS;
+    let hi = ((b + 1u) * w + LYAPUNOV_BLOCK_COUNT - 1u) / LYAPUNOV_BLOCK_COUNT;
+    let lo = (b * w + LYAPUNOV_BLOCK_COUNT - 1u) / LYAPUNOV_BLOCK_COUNT;
     return hi - lo;
 }
 
@@ -14,22 +14,22 @@ fn block_count(b: u32, w: u32) -> u32 {
 // forcing period `t` (LyapunovSums::estimate): (λ1, SE, 1) once all `w` growths are in and
 // the twin never broke, else (0, 0, 0).
 fn lyap_estimate(a: ptr<function, Accum>, w: u32, t: f32) -> vec3<f32> {
-    if ((*a).twin_flags & TWIN_BROKEN) != 0u || (*a).lyap_n != w || w < LYAPUNOV_BLOCKS {
+    if ((*a).twin_flags & TWIN_BROKEN) != 0u || (*a).lyap_n != w || w < LYAPUNOV_BLOCK_COUNT {
         return vec3<f32>(0.0, 0.0, 0.0);
     }
     var total = 0.0;
     var mean = 0.0;
-    for (var b = 0u; b < LYAPUNOV_BLOCKS; b++) {
+    for (var b = 0u; b < LYAPUNOV_BLOCK_COUNT; b++) {
         total += (*a).lyap_sums[b];
         mean += (*a).lyap_sums[b] / (f32(block_count(b, w)) * t);
     }
-    mean /= f32(LYAPUNOV_BLOCKS);
+    mean /= f32(LYAPUNOV_BLOCK_COUNT);
     var ss = 0.0;
-    for (var b = 0u; b < LYAPUNOV_BLOCKS; b++) {
+    for (var b = 0u; b < LYAPUNOV_BLOCK_COUNT; b++) {
         let dev = (*a).lyap_sums[b] / (f32(block_count(b, w)) * t) - mean;
         ss += dev * dev;
     }
-    let se = sqrt(ss / f32(LYAPUNOV_BLOCKS * (LYAPUNOV_BLOCKS - 1u)));
+    let se = sqrt(ss / f32(LYAPUNOV_BLOCK_COUNT * (LYAPUNOV_BLOCK_COUNT - 1u)));
     return vec3<f32>(total / (f32(w) * t), se, 1.0);
 }
 

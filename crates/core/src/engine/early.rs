@@ -39,15 +39,25 @@
 //! impacts, power and the α range are then those of the full run up to the tolerance `tol` of
 //! the confirmation; `steps` counts the steps integrated.
 
-use crate::engine::early_rule::early_close;
 pub use crate::engine::early_rule::{
     EARLY_LYAPUNOV_REL_SE, EARLY_TOL_F32, EARLY_TOL_F64, EarlyStop, early_lyapunov_stops,
     early_twin_window,
 };
+use crate::engine::early_rule::{cycle_copy, early_close};
 use crate::engine::plan::InstancePlan;
 use crate::engine::state_view::StateView;
 use crate::model::Real;
 use crate::reduce::Tally;
+
+/// The shared rule [`cycle_copy`] on a run's step and period counts, which a plan keeps within
+/// `u32` (`EngineError::TooManySteps`).
+fn copy_of(s: u64, last: u64, cycle: u64) -> u64 {
+    let narrow = |x: u64| {
+        debug_assert!(x <= u64::from(u32::MAX), "{x} past a plan's step count");
+        x as u32
+    };
+    u64::from(cycle_copy(narrow(s), narrow(last), narrow(cycle)))
+}
 
 /// The accumulators of one forcing period.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -191,7 +201,7 @@ impl<T: Real> EarlyTracker<T> {
         );
         let np = self.periods.len() as u64;
         for q in big_p.max(tp)..total {
-            let src = big_p - p + (q - big_p) % p;
+            let src = copy_of(q, big_p - 1, p);
             self.periods[(src % np) as usize].add_to(tally);
         }
         let (spp, offset) = (u64::from(plan.spp), u64::from(plan.strobe_offset));
@@ -200,7 +210,7 @@ impl<T: Real> EarlyTracker<T> {
         for (j, slot) in strobe.iter_mut().enumerate() {
             let a = tp + j as u64;
             if a * spp + offset > stop_step {
-                let src = a - (a - self.last_abs).div_ceil(p) * p;
+                let src = copy_of(a, self.last_abs, p);
                 *slot = self.alphas[(src % na) as usize];
             }
         }
@@ -212,7 +222,7 @@ impl<T: Real> EarlyTracker<T> {
         for (j, slot) in r_alpha.iter_mut().enumerate() {
             let s = r_start + j as u64 * r_every;
             if s > stop_step {
-                let src = s - (s - stop_step).div_ceil(cycle) * cycle;
+                let src = copy_of(s, stop_step, cycle);
                 *slot = self.r_ring[((src / r_every) % nr) as usize];
             }
         }

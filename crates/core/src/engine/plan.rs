@@ -23,8 +23,8 @@ use crate::engine::{Precision, Progress, ProgressUnit, no_progress};
 use crate::model::linear::LinearError;
 use crate::model::{CartState, ChainShape, ExcitationKind, Guard, ModelParams};
 use crate::reduce::TwinPlan;
-use crate::reduce::lyapunov::LYAPUNOV_MIN_WINDOW;
 use crate::reduce::lyapunov::TwinNorm;
+use crate::reduce::lyapunov::{LYAPUNOV_MAX_WINDOW, LYAPUNOV_MIN_WINDOW};
 use crate::schema::Source;
 use crate::text::num;
 use rayon::prelude::*;
@@ -797,6 +797,12 @@ fn twin_plan(
     };
     if window < LYAPUNOV_MIN_WINDOW || window > room {
         return Err(window_refusal(s, window, room, strobe_count, f));
+    }
+    if window > LYAPUNOV_MAX_WINDOW {
+        return Err(format!(
+            "lambda1 averages at most {LYAPUNOV_MAX_WINDOW} renormalisations (forcing periods), and its window has {window}: set map.lyapunov_window_s to at most {:.0} s",
+            f64::from(LYAPUNOV_MAX_WINDOW) / f
+        ));
     }
     Ok(TwinPlan {
         start_sample: strobe_count - 1 - align - window,

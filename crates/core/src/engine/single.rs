@@ -13,7 +13,7 @@ use crate::engine::stepper::{CartClock, StepHook, Stepper, run_steps};
 use crate::engine::twin::TwinTracker;
 use crate::model::linear::LinearError;
 use crate::model::{CartMotion, CartState, Chain, Guard, ModelParams, Real, Status, Workspace};
-use crate::reduce::lyapunov::{LYAPUNOV_MIN_WINDOW, TwinNorm};
+use crate::reduce::lyapunov::{LYAPUNOV_MAX_WINDOW, LYAPUNOV_MIN_WINDOW, TwinNorm};
 use crate::reduce::{Lyapunov, TwinPlan};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -191,6 +191,11 @@ impl SingleTwin {
             return Err(format!(
                 "lambda1 needs {} renormalisations (forcing periods) after the transient and {align} to align; this run has {instants}: lengthen integration.duration_s",
                 LYAPUNOV_MIN_WINDOW + align + 1
+            ));
+        }
+        if window > u64::from(LYAPUNOV_MAX_WINDOW) {
+            return Err(format!(
+                "lambda1 averages at most {LYAPUNOV_MAX_WINDOW} renormalisations (forcing periods); this run has {instants}: shorten integration.duration_s"
             ));
         }
         let params = scene.model_params().map_err(|e| e.to_string())?;

@@ -8,6 +8,7 @@
 use crate::model::chain::Chain;
 use crate::model::lane::Real;
 use crate::model::params::ModelParams;
+use crate::rules::{Float, abs, is_finite, shared_rules};
 use serde::Serialize;
 
 /// Steps between health checks (energy bound, folded chain, non-finite state).
@@ -60,7 +61,7 @@ impl Status {
     }
 
     /// The numeric code of `status.npy` and of the GPU kernels.
-    pub fn code(self) -> u8 {
+    pub const fn code(self) -> u8 {
         match self {
             Status::Ok => 0,
             Status::Diverged => 1,
@@ -134,23 +135,77 @@ impl Guard {
         }
     }
 
-    /// The status of state `y = [θ; θ̇; v]` with the cart at velocity `cart_v` (m/s): non-finite
-    /// values first, then a holder past the bumpers, then a folded chain or runaway energy.
+    /// The status of state `y = [θ; θ̇; v]` with the cart at velocity `cart_v` (m/s), by the
+    /// shared rule [`guard_status`]: non-finite values first, then a holder past the bumpers,
+    /// then a folded chain or runaway energy.
     pub fn check<T: Real>(&self, chain: &Chain<T>, y: &[T], cart_v: f64) -> Status {
-        if y.iter().any(|v| !v.is_finite()) {
-            return Status::NonFinite;
-        }
+        let finite = y.iter().all(|v| v.is_finite());
         let n = chain.segments();
-        if y[0].abs().wide() > self.max_holder_angle_rad {
-            return Status::Escaped;
-        }
-        if (1..n).any(|i| (y[i] - y[i - 1]).abs().wide() > self.max_joint_bend_rad) {
-            return Status::Diverged;
-        }
+        let bend = (1..n).fold(0.0, |b: f64, i| b.max((y[i] - y[i - 1]).abs().wide()));
         let e = chain.energy(y, cart_v).total_j();
-        if !e.is_finite() || e.abs() > self.max_energy_j {
-            return Status::Diverged;
+        let code = guard_status(
+            finite,
+            y[0].abs().wide(),
+            bend,
+            e,
+            self.max_holder_angle_rad,
+            self.max_joint_bend_rad,
+            self.max_energy_j,
+        );
+        Status::from_code(code).expect("guard_status returns a status code")
+    }
+}
+
+/// [`Status`]'s codes as the shared rules name them (the kernels' header defines the same
+/// names from [`Status::wgsl_name`] and [`Status::code`]).
+const STATUS_OK: u32 = Status::Ok.code() as u32;
+const STATUS_DIVERGED: u32 = Status::Diverged.code() as u32;
+const STATUS_NONFINITE: u32 = Status::NonFinite.code() as u32;
+const STATUS_ESCAPED: u32 = Status::Escaped.code() as u32;
+
+shared_rules! {
+    /// The status code of a state from what Guard::check measures: whether every value is
+    /// finite, |θ0|, the largest bend |θi − θi−1| and the stored energy, against the guard's
+    /// bounds. Non-finite first, then a holder past the bumpers (escaped), then a folded chain
+    /// or an energy not finite or past its bound (diverged).
+    pub(crate) fn guard_status(
+        finite: bool,
+        holder: Float,
+        bend: Float,
+        energy: Float,
+        max_holder: Float,
+        max_bend: Float,
+        max_energy: Float,
+    ) -> u32 {
+        if !finite {
+            return STATUS_NONFINITE;
         }
-        Status::Ok
+        if holder > max_holder {
+            return STATUS_ESCAPED;
+        }
+        if bend > max_bend || !is_finite(energy) || abs(energy) > max_energy {
+            return STATUS_DIVERGED;
+        }
+        return STATUS_OK;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The rule's order: non-finite before escaped before diverged, and each bound strict.
+    #[test]
+    fn the_guard_rule_takes_its_statuses_in_order() {
+        let status = |finite, holder, bend, energy| {
+            Status::from_code(guard_status(finite, holder, bend, energy, 1.5, 1.5, 10.0))
+        };
+        let s = |x| Some(x);
+        assert_eq!(status(false, 9.0, 9.0, f64::NAN), s(Status::NonFinite));
+        assert_eq!(status(true, 1.6, 9.0, f64::NAN), s(Status::Escaped));
+        assert_eq!(status(true, 1.5, 1.6, 0.0), s(Status::Diverged));
+        assert_eq!(status(true, 1.5, 1.5, f64::INFINITY), s(Status::Diverged));
+        assert_eq!(status(true, 1.5, 1.5, -10.5), s(Status::Diverged));
+        assert_eq!(status(true, 1.5, 1.5, -10.0), s(Status::Ok));
     }
 }

@@ -24,6 +24,9 @@ pub use chain::{
 };
 pub use excitation::{CartMotion, CartState, ExcitationKind, HarmonicAmplitudes};
 pub use health::{CHECK_EVERY, Guard, Status, health_due};
+pub(crate) use health::RULES as HEALTH_RULES;
+#[cfg(test)]
+pub(crate) use health::guard_status;
 pub use lane::{F32x8, F64x4, Lane, Real};
 pub use linear::{Modes, modes};
 pub use params::{

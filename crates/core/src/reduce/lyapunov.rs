@@ -62,10 +62,17 @@
 //! twin, and λ1 against changes of `d0` over decades.
 
 use crate::model::{Lane, ModelParams};
+use crate::rules::{max, min, shared_rules};
 use serde::Serialize;
 
 /// Blocks of consecutive growths over which the standard error of λ1 is formed.
 pub const LYAPUNOV_BLOCKS: usize = 8;
+
+/// [`LYAPUNOV_BLOCKS`] as the rules (and the kernels) count it.
+pub(crate) const LYAPUNOV_BLOCK_COUNT: u32 = LYAPUNOV_BLOCKS as u32;
+
+/// The most renormalisations λ1 is averaged over: [`lyapunov_block`] forms `k · B` in `u32`.
+pub(crate) const LYAPUNOV_MAX_WINDOW: u32 = u32::MAX / LYAPUNOV_BLOCK_COUNT;
 
 /// The fewest renormalisations λ1 is averaged over: two per block.
 pub(crate) const LYAPUNOV_MIN_WINDOW: u32 = 2 * LYAPUNOV_BLOCKS as u32;
@@ -313,10 +320,15 @@ pub struct LyapunovSums {
     pub broken: bool,
 }
 
-/// The block of growth `k` of a window of `window` growths.
-#[inline]
-pub(crate) fn block_of(k: u32, window: u32) -> usize {
-    (u64::from(k) * LYAPUNOV_BLOCKS as u64 / u64::from(window.max(1))) as usize
+shared_rules! {
+    /// The block of growth k of a window of `window` growths: floor(k B / window), B =
+    /// LYAPUNOV_BLOCK_COUNT, the last block for k past the window. Exact while window <=
+    /// LYAPUNOV_MAX_WINDOW (k B is formed for k <= window, so it fits a u32), which the plans
+    /// hold.
+    pub(crate) fn lyapunov_block(k: u32, window: u32) -> u32 {
+        let w = max(window, 1);
+        return min(min(k, w) * LYAPUNOV_BLOCK_COUNT / w, LYAPUNOV_BLOCK_COUNT - 1);
+    }
 }
 
 impl LyapunovSums {
@@ -326,7 +338,7 @@ impl LyapunovSums {
             self.broken = true;
             return;
         }
-        let b = block_of(k, window).min(LYAPUNOV_BLOCKS - 1);
+        let b = lyapunov_block(k, window) as usize;
         self.sums[b] += g;
         self.counts[b] += 1;
     }
@@ -386,7 +398,7 @@ mod tests {
     fn blocks_split_a_window_evenly_and_the_estimate_is_the_mean_growth_rate() {
         let window = 20;
         let sizes = (0..window).fold([0u32; LYAPUNOV_BLOCKS], |mut c, k| {
-            c[block_of(k, window)] += 1;
+            c[lyapunov_block(k, window) as usize] += 1;
             c
         });
         assert!(sizes.iter().all(|&s| s == 2 || s == 3), "{sizes:?}");
@@ -402,6 +414,21 @@ mod tests {
         assert!(short.estimate(window, 0.25).is_none());
         sums.add(0, window, f64::NEG_INFINITY);
         assert!(sums.estimate(window, 0.25).is_none());
+    }
+
+    /// The shared rule is the block the CPU engine formed in u64 before it (floor(k B / W),
+    /// the last block past the window), up to the longest window a plan allows.
+    #[test]
+    fn the_block_rule_is_the_u64_floor_up_to_the_longest_window() {
+        let wide = |k: u32, w: u32| {
+            (u64::from(k) * LYAPUNOV_BLOCKS as u64 / u64::from(w.max(1))).min(7) as u32
+        };
+        let big = LYAPUNOV_MAX_WINDOW;
+        for w in [0, 1, 2, 16, 17, 33, 1000, big - 1, big] {
+            for k in [0, 1, 2, 15, 16, 999, 1000, big / 2, big - 1, big, u32::MAX] {
+                assert_eq!(lyapunov_block(k, w), wide(k, w), "k {k}, window {w}");
+            }
+        }
     }
 
     #[test]

@@ -753,11 +753,11 @@ mod tests {
 
     /// The counts the kernel's loops give at N = 3, fixed steps, no twin or early stop: a step
     /// copies the state and keeps four stages (5 N, with the pass 5 N + 1); a health check
-    /// tests the state (N) and the bends (N − 1).
+    /// tests the state and the bends in one loop (N).
     #[test]
     fn an_rk4_step_counts_the_loops_its_wgsl_has() {
         let l = StepLoops::count_for(&key(3, Method::Rk4, false, false, false), None, 50).unwrap();
-        assert_eq!((l.pass, l.health), (16, 5));
+        assert_eq!((l.pass, l.health), (16, 3));
         let twin = StepLoops::count_for(&key(3, Method::Rk4, false, true, false), None, 50);
         // The twin's step adds its swaps in and out (2 N) to a second step.
         assert_eq!(twin.unwrap().pass, 1 + 2 * 15 + 6);

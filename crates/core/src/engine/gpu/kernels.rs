@@ -20,7 +20,7 @@ use crate::engine::ladder::{LADDER_GROW, LADDER_UNIT, MAX_LEVEL};
 use crate::engine::method::Method;
 use crate::model::{CHECK_EVERY, ChainShape, ContactDamping, Status};
 use crate::reduce::Regime;
-use crate::reduce::lyapunov::LYAPUNOV_BLOCKS;
+use crate::reduce::lyapunov::LYAPUNOV_BLOCK_COUNT;
 use crate::reduce::regime::{
     CLASS_FLAT, CLASS_GROWING, CLASS_SHRINKING, CLASS_UNRESOLVED, K_FIRM_SAMPLES,
     REGIME_FLAT_PER_PERIOD, REGIME_K_CHAOS, REGIME_Z,
@@ -107,7 +107,10 @@ pub fn shader_header(segments: usize) -> String {
     ] {
         let _ = writeln!(h, "const {name}: u32 = {code}u;");
     }
-    let _ = writeln!(h, "const LYAPUNOV_BLOCKS: u32 = {LYAPUNOV_BLOCKS}u;");
+    let _ = writeln!(
+        h,
+        "const LYAPUNOV_BLOCK_COUNT: u32 = {LYAPUNOV_BLOCK_COUNT}u;"
+    );
     let _ = writeln!(
         h,
         "const EARLY_LYAPUNOV_REL_SE: f32 = {:e};",

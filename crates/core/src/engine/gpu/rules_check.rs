@@ -1,15 +1,20 @@
 //! The shared rules (written once, [`crate::rules`]) as the kernels run them, in `f32` on the
 //! adapter (lavapipe in CI), against the CPU engine's calls in `f64`, case by case on tables
 //! run through small kernels: the ladder's ([`Rung::judge`], [`Rung::advance`],
-//! [`Tolerance::ratio`]), and the hop count's, the verdict's and the early stop's. Beside them,
+//! [`Tolerance::ratio`]), the hop count's, the verdict's and the early stop's, and λ1's block,
+//! the early stop's continuation and the health check's. Beside them,
 //! the kernels' compensated sum, which a shader compiler may fold to nothing.
 
 use super::AdapterChoice;
 use super::kernels::shader_header;
 use super::{GpuContext, REQUIRE_GPU_ENV, read_buffer};
 use crate::analysis::periodicity::{is_hop, next_well, well_side};
-use crate::engine::early_rule::{early_close, early_lyapunov_stops_at};
+use crate::engine::early_rule::{
+    cycle_copy, early_close, early_lyapunov_stops_at, early_twin_window,
+};
 use crate::engine::ladder::{LADDER_GROW, MAX_LEVEL, Rung, Tolerance, UNIT};
+use crate::model::guard_status;
+use crate::reduce::lyapunov::{LYAPUNOV_MAX_WINDOW, lyapunov_block};
 use crate::reduce::regime::{K_FIRM_SAMPLES, lambda_class, regime_code};
 use bytemuck::{Pod, Zeroable};
 
@@ -366,6 +371,156 @@ fn the_kernels_hop_verdict_and_early_stop_rules_are_the_rust_ones_case_by_case()
         let seen: std::collections::BTreeSet<i32> = outs.iter().map(field).collect();
         assert!(seen.len() >= 2, "{seen:?}");
     }
+}
+
+/// One case of the bookkeeping rules: λ1's block, the early stop's twin window and its
+/// continuation's source instant, and the health check's status.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct BookCase {
+    k: u32,
+    window: u32,
+    p: u32,
+    s: u32,
+    last: u32,
+    cycle: u32,
+    finite: u32,
+    holder: f32,
+    bend: f32,
+    energy: f32,
+    max_holder: f32,
+    max_bend: f32,
+    max_energy: f32,
+}
+
+/// What the kernel made of a case.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+struct BookOut {
+    block: u32,
+    window: u32,
+    copy: u32,
+    status: u32,
+}
+
+const BOOK_KERNEL: &str = "
+struct BookCase { k: u32, window: u32, p: u32, s: u32, last: u32, cycle: u32, finite: u32,
+    holder: f32, bend: f32, energy: f32, max_holder: f32, max_bend: f32, max_energy: f32 }
+struct BookOut { block: u32, window: u32, copy: u32, status: u32 }
+@group(0) @binding(0) var<storage, read> cases: array<BookCase>;
+@group(0) @binding(1) var<storage, read_write> outs: array<BookOut>;
+@compute @workgroup_size(64)
+fn book_table(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if i >= arrayLength(&cases) {
+        return;
+    }
+    let c = cases[i];
+    outs[i] = BookOut(
+        lyapunov_block(c.k, c.window),
+        early_twin_window(c.p),
+        cycle_copy(c.s, c.last, c.cycle),
+        guard_status(c.finite != 0u, c.holder, c.bend, c.energy, c.max_holder, c.max_bend,
+            c.max_energy),
+    );
+}
+";
+
+/// Growths before, at and past a block's edge and the window's, windows from the shortest to
+/// the longest a plan allows; every order of the guard's checks, bounds crossed and not, an
+/// energy NaN, infinite, negative; beside them, by the row's index, periods and instants
+/// before, at and after the cycle's end, up to `u32::MAX`.
+fn book_cases() -> Vec<BookCase> {
+    let max_w = LYAPUNOV_MAX_WINDOW;
+    let copies = [
+        (5u32, 9u32, 2u32),
+        (10, 9, 2),
+        (11, 9, 2),
+        (17, 9, 4),
+        (1000, 640, 64),
+        (u32::MAX, u32::MAX - 10, 100),
+        (u32::MAX - 3, 12, 7),
+    ];
+    let mut out = Vec::new();
+    for (k, window) in [
+        (0u32, 16u32),
+        (1, 16),
+        (5, 16),
+        (9, 17),
+        (2, 17),
+        (15, 16),
+        (16, 16),
+        (40, 16),
+        (999, 1000),
+        (max_w / 2, max_w),
+        (max_w - 1, max_w),
+        (3, 1),
+        (5, 0),
+    ] {
+        for finite in [0u32, 1] {
+            for holder in [0.2f32, 1.5707964, 1.6] {
+                for bend in [0.0f32, 1.4, 1.5, 1.51] {
+                    for energy in [0.5f32, -99.0, 101.0, f32::NAN, f32::INFINITY] {
+                        let i = out.len();
+                        let (s, last, cycle) = copies[i % copies.len()];
+                        out.push(BookCase {
+                            k,
+                            window,
+                            p: [0u32, 1, 2, 3, 8][i % 5],
+                            s,
+                            last,
+                            cycle,
+                            finite,
+                            holder,
+                            bend,
+                            energy,
+                            max_holder: 1.5707964,
+                            max_bend: 1.5,
+                            max_energy: 100.0,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The bookkeeping rules the kernels share with the CPU engine (λ1's block, the early stop's
+/// twin window and continuation, the health check's order) give on the adapter what they give
+/// in Rust, case by case.
+#[test]
+fn the_kernels_bookkeeping_and_health_rules_are_the_rust_ones_case_by_case() {
+    let Some(ctx) = adapter() else { return };
+    let cases = book_cases();
+    let outs: Vec<BookOut> = run_table(&ctx, BOOK_KERNEL, "book_table", &cases);
+    assert_eq!(outs.len(), cases.len());
+    let w = f64::from;
+    let mut statuses = std::collections::BTreeSet::new();
+    for (c, out) in cases.iter().zip(&outs) {
+        let want = BookOut {
+            block: lyapunov_block(c.k, c.window),
+            window: early_twin_window(c.p),
+            copy: cycle_copy(c.s, c.last, c.cycle),
+            status: guard_status(
+                c.finite != 0,
+                w(c.holder),
+                w(c.bend),
+                w(c.energy),
+                w(c.max_holder),
+                w(c.max_bend),
+                w(c.max_energy),
+            ),
+        };
+        assert_eq!(*out, want, "{c:?}");
+        statuses.insert(want.status);
+    }
+    assert_eq!(statuses.len(), 4, "{statuses:?}");
+    let blocks: std::collections::BTreeSet<u32> = outs.iter().map(|o| o.block).collect();
+    assert!(
+        blocks.contains(&0) && blocks.contains(&7) && blocks.len() >= 4,
+        "{blocks:?}"
+    );
 }
 
 /// A compensated sum `s = y + c`, `(s − y) − c` (the rounding error) as the kernels write it,

@@ -96,6 +96,8 @@ pub fn shared_rules() -> impl Iterator<Item = &'static Rule> {
         crate::analysis::HOP_RULES,
         crate::reduce::regime::RULES,
         crate::engine::early_rule::RULES,
+        crate::reduce::lyapunov::RULES,
+        crate::model::HEALTH_RULES,
     ]
     .into_iter()
     .flatten()
