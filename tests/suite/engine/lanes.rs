@@ -6,7 +6,9 @@ use pendulum_atlas_core::config::{MapSpec, map_from_toml};
 use pendulum_atlas_core::engine::{
     CpuLoop, Engine, EngineRun, EnsemblePlan, Precision, Readback, no_progress,
 };
-use pendulum_atlas_core::model::{Chain, ContactLaw, F32x8, F64x4, Lane, ModelParams, Real};
+use pendulum_atlas_core::model::{
+    Chain, ContactLaw, F32x8, F32x16, F64x4, F64x8, Lane, ModelParams, Real,
+};
 use pendulum_atlas_core::reduce::ReduceOptions;
 
 /// A map of `count` frequencies × 3 amplitudes at N segments (the frequencies give the
@@ -104,6 +106,69 @@ fn a_lane_computes_the_scalar_chain_rates_within_rounding() {
             g32 < 1e-3,
             "N = {n}: f32 lanes differ from the scalar by {g32:e}"
         );
+    }
+}
+
+/// The chain's rates and `sin`/`cos` of the first angle, as bits, of lanes `first .. first +
+/// V::LANES` of sixteen (lane `k`: instance `params[k]` at a state of its own).
+fn lane_bits<V: Lane>(n: usize, params: &[ModelParams], first: usize) -> Vec<Vec<u64>>
+where
+    V::Scalar: Real,
+{
+    let vector: Chain<V> = Chain::from_lanes(&params[first..first + V::LANES]);
+    // Every lane's angles from 0.30 + 0.02 k rad (near or past the bumper), its rates apart.
+    let y: Vec<V> = (0..2 * n + 1)
+        .map(|j| {
+            V::gather(|i| {
+                let k = (first + i) as f64;
+                match j {
+                    j if j < n => 0.30 + 0.02 * k + 0.01 * j as f64,
+                    j if j < 2 * n => 0.3 * (k - 1.5) - 0.1 * (j - n) as f64,
+                    _ => 0.0,
+                }
+            })
+        })
+        .collect();
+    let mut dy = y.clone();
+    vector.rates(
+        &mut vector.workspace(),
+        V::splat(-3.0),
+        &y,
+        &mut dy,
+        ContactLaw::Exact,
+    );
+    let (s, c) = y[0].v_sin_cos();
+    (0..V::LANES)
+        .map(|i| {
+            let values = dy.iter().chain([&s, &c]).map(|v| v.lane(i).wide());
+            values.map(f64::to_bits).collect()
+        })
+        .collect()
+}
+
+/// The lanes of sixteen instances computed `V::LANES` at a time.
+fn all_lanes<V: Lane>(n: usize, params: &[ModelParams]) -> Vec<Vec<u64>>
+where
+    V::Scalar: Real,
+{
+    (0..16)
+        .step_by(V::LANES)
+        .flat_map(|first| lane_bits::<V>(n, params, first))
+        .collect()
+}
+
+/// The wider vectors the engine takes where AVX-512 is compiled in (`F64Lanes`, `F32Lanes`)
+/// compute, lane for lane, what the narrower ones compute, bit for bit: the chain's rates and
+/// the vector `sin`/`cos`. So a map's numbers do not depend on the vector width.
+#[test]
+fn a_wider_vector_computes_what_a_narrower_one_does_bit_for_bit() {
+    for n in [3, 9, 17] {
+        let params = lane_params(&spec(n, 5, "rk4", ""), 16);
+        let f64x8 = all_lanes::<F64x8>(n, &params);
+        assert_eq!(f64x8, all_lanes::<F64x4>(n, &params), "N = {n}, f64");
+        let f32x16 = all_lanes::<F32x16>(n, &params);
+        assert_eq!(f32x16, all_lanes::<F32x8>(n, &params), "N = {n}, f32");
+        assert_eq!(f32x16.len(), 16);
     }
 }
 

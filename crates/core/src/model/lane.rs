@@ -1,7 +1,9 @@
 //! Lanes: the number type the chain solve and the fixed-step integrators are written over, so
 //! that one source serves a single instance (`f64`, `f32`) and a vector of instances
 //! integrated side by side ([`F64x4`]: 4 instances in `f64`, [`F32x8`]: 8 in `f32`, one AVX
-//! register each; the `wide` crate maps them onto SSE2 pairs where AVX is not compiled in).
+//! register each; the `wide` crate maps them onto SSE2 pairs where AVX is not compiled in;
+//! [`F64x8`] and [`F32x16`], one AVX-512 register each, which the CPU engine takes where the
+//! build targets AVX-512: [`F64Lanes`], [`F32Lanes`]).
 //!
 //! Every operation is lane-wise and the same IEEE operation as the scalar code, in the same
 //! order, so a lane of a vector computes what the scalar engine computes, except for `sin` and
@@ -14,12 +16,36 @@
 
 use std::fmt::Debug;
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
-use wide::CmpGt;
 
 /// 4 `f64` lanes.
 pub type F64x4 = wide::f64x4;
 /// 8 `f32` lanes.
 pub type F32x8 = wide::f32x8;
+/// 16 `f32` lanes (one AVX-512 register where AVX-512 is compiled in).
+pub type F32x16 = wide::f32x16;
+/// 8 `f64` lanes (one AVX-512 register where AVX-512 is compiled in).
+pub type F64x8 = wide::f64x8;
+
+/// The CPU engine's vectors where the build targets AVX-512: one 512-bit register each.
+#[cfg(target_feature = "avx512f")]
+mod widest {
+    /// The CPU engine's `f64` vector.
+    pub type F64Lanes = super::F64x8;
+    /// The CPU engine's `f32` vector.
+    pub type F32Lanes = super::F32x16;
+}
+
+/// The CPU engine's vectors elsewhere: one AVX register each (two SSE2 registers without AVX;
+/// a 512-bit type would cost two of these per operation without AVX-512).
+#[cfg(not(target_feature = "avx512f"))]
+mod widest {
+    /// The CPU engine's `f64` vector.
+    pub type F64Lanes = super::F64x4;
+    /// The CPU engine's `f32` vector.
+    pub type F32Lanes = super::F32x8;
+}
+
+pub use widest::{F32Lanes, F64Lanes};
 
 /// A number, or a vector of numbers of independent instances, that the chain solve runs on.
 pub trait Lane:
@@ -120,7 +146,7 @@ macro_rules! vector_lane {
             }
             #[inline(always)]
             fn lane(self, i: usize) -> $t {
-                self.as_array_ref()[i]
+                self.as_array()[i]
             }
             #[inline]
             fn with_lane(self, i: usize, v: $t) -> Self {
@@ -139,7 +165,7 @@ macro_rules! vector_lane {
             }
             #[inline(always)]
             fn if_positive(cond: Self, a: Self, b: Self) -> Self {
-                cond.cmp_gt(<$v>::splat(0.0)).blend(a, b)
+                cond.simd_gt(<$v>::splat(0.0)).select(a, b)
             }
         }
     };
@@ -147,6 +173,8 @@ macro_rules! vector_lane {
 
 vector_lane!(F64x4, f64, 4);
 vector_lane!(F32x8, f32, 8);
+vector_lane!(F32x16, f32, 16);
+vector_lane!(F64x8, f64, 8);
 
 /// A floating-point scalar usable by the chain solve and the RK4 engine.
 pub trait Real:

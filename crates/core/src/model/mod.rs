@@ -23,11 +23,11 @@ pub use chain::{
     Energy, Workspace, bumper_force, bumper_mode, exact_bumper_force,
 };
 pub use excitation::{CartMotion, CartState, ExcitationKind, HarmonicAmplitudes};
-pub use health::{CHECK_EVERY, Guard, Status, health_due};
 pub(crate) use health::RULES as HEALTH_RULES;
 #[cfg(test)]
 pub(crate) use health::guard_status;
-pub use lane::{F32x8, F64x4, Lane, Real};
+pub use health::{CHECK_EVERY, Guard, Status, health_due};
+pub use lane::{F32Lanes, F32x8, F32x16, F64Lanes, F64x4, F64x8, Lane, Real};
 pub use linear::{Modes, modes};
 pub use params::{
     BumperDesign, ChainDesign, ContactDamping, ContactParams, ModelParams, PiezoParams, Tube,

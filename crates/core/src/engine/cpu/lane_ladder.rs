@@ -22,9 +22,9 @@ use crate::engine::twin::onsets_of;
 use crate::model::{Branches, Chain, Lane, ModelParams, Real, Workspace};
 use std::sync::Arc;
 
-/// The most lanes of a vector (`F32x8`): per-lane bookkeeping lives in arrays of this length,
-/// not in vectors allocated at every step.
-pub(super) const MAX_LANES: usize = 8;
+/// The most lanes of a vector (`F32x16`): per-lane bookkeeping lives in arrays of this
+/// length, not in vectors allocated at every step.
+pub(super) const MAX_LANES: usize = 16;
 
 /// One value per lane (the first `V::LANES` used).
 pub(super) type PerLane<T> = [T; MAX_LANES];

@@ -23,7 +23,7 @@ use crate::engine::stepper::{StepHook, run_steps};
 use crate::engine::{
     EngineError, EngineRun, EngineTimings, Precision, Progress, ProgressUnit, Readback,
 };
-use crate::model::{Chain, F32x8, F64x4, Lane, Real, Workspace};
+use crate::model::{Chain, F32Lanes, F64Lanes, Lane, Real, Workspace};
 use crate::reduce::{ReduceOptions, Series, Span, reduce_series};
 use hook::{EnsembleHook, PhaseClock};
 use rayon::prelude::*;
@@ -155,8 +155,8 @@ impl CpuLoop {
     pub fn lanes(self, precision: Precision) -> usize {
         match (self, precision) {
             (CpuLoop::Scalar, _) => 1,
-            (CpuLoop::Simd, Precision::F64) => F64x4::LANES,
-            (CpuLoop::Simd, Precision::F32) => F32x8::LANES,
+            (CpuLoop::Simd, Precision::F64) => F64Lanes::LANES,
+            (CpuLoop::Simd, Precision::F32) => F32Lanes::LANES,
         }
     }
 }
@@ -185,8 +185,12 @@ impl CpuEngine {
         let raw = match (self.simd, self.precision) {
             (CpuLoop::Scalar, Precision::F64) => integrate_all::<f64>(plan, d0, progress),
             (CpuLoop::Scalar, Precision::F32) => integrate_all::<f32>(plan, d0, progress),
-            (CpuLoop::Simd, Precision::F64) => lanes::integrate_lanes::<F64x4>(plan, d0, progress),
-            (CpuLoop::Simd, Precision::F32) => lanes::integrate_lanes::<F32x8>(plan, d0, progress),
+            (CpuLoop::Simd, Precision::F64) => {
+                lanes::integrate_lanes::<F64Lanes>(plan, d0, progress)
+            }
+            (CpuLoop::Simd, Precision::F32) => {
+                lanes::integrate_lanes::<F32Lanes>(plan, d0, progress)
+            }
         }?;
         let integrate_s = t0.elapsed().as_secs_f64();
         let t0 = Instant::now();
