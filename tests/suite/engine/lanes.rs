@@ -59,6 +59,19 @@ fn lane_params(spec: &MapSpec, lanes: usize) -> Vec<ModelParams> {
         .collect()
 }
 
+/// The chain's rates at `y` with the cart at −3 m/s², by the exact bumper law.
+fn rates_at<V: Lane>(chain: &Chain<V>, y: &[V]) -> Vec<V> {
+    let mut dy = y.to_vec();
+    chain.rates(
+        &mut chain.workspace(),
+        V::splat(-3.0),
+        y,
+        &mut dy,
+        ContactLaw::Exact,
+    );
+    dy
+}
+
 /// The largest |lane − scalar| of the chain's rates over the lanes, relative to the rate.
 fn rates_gap<V: Lane>(n: usize) -> f64
 where
@@ -68,14 +81,7 @@ where
     let vector: Chain<V> = Chain::from_lanes(&params);
     // Angles from 0.30 to 0.44 rad: every lane near or past the 20° bumper.
     let y: Vec<V> = state(n, |i| 0.30 + 0.02 * i as f64);
-    let mut dy = y.clone();
-    vector.rates(
-        &mut vector.workspace(),
-        V::splat(-3.0),
-        &y,
-        &mut dy,
-        ContactLaw::Exact,
-    );
+    let dy = rates_at(&vector, &y);
     let mut worst = 0.0f64;
     for (i, p) in params.iter().enumerate() {
         let chain: Chain<V::Scalar> = Chain::new(p);
@@ -129,14 +135,7 @@ where
             })
         })
         .collect();
-    let mut dy = y.clone();
-    vector.rates(
-        &mut vector.workspace(),
-        V::splat(-3.0),
-        &y,
-        &mut dy,
-        ContactLaw::Exact,
-    );
+    let dy = rates_at(&vector, &y);
     let (s, c) = y[0].v_sin_cos();
     (0..V::LANES)
         .map(|i| {

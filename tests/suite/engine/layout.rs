@@ -207,7 +207,10 @@ fn the_shader_takes_regime_codes_thresholds_and_twin_flags_from_rust() {
         wgsl_const(&m, "K_FIRM_SAMPLES") as usize,
         pendulum_atlas_core::analysis::ZERO_ONE_COMFORTABLE_SAMPLES
     );
-    assert_eq!(wgsl_const(&m, "LYAPUNOV_BLOCK_COUNT") as usize, LYAPUNOV_BLOCKS);
+    assert_eq!(
+        wgsl_const(&m, "LYAPUNOV_BLOCK_COUNT") as usize,
+        LYAPUNOV_BLOCKS
+    );
     assert_eq!(wgsl_const(&m, "TWIN_RUNNING"), TWIN_RUNNING);
     assert_eq!(wgsl_const(&m, "TWIN_BROKEN"), TWIN_BROKEN);
     for (name, text) in SHADER_STAGES {
