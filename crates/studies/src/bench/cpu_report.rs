@@ -89,7 +89,7 @@ polynomial), a division 1.\n\n| N | add/sub/mul/neg/max | div | sin/cos | flop p
     };
     let _ = writeln!(
         md,
-        "\nCeiling: cores × clock × AVX2's FMA peak ({} flop per cycle and core in f32: 2 FMA units × 8 lanes × 2; {} in f64) = {} in f32, {} in f64. \
+        "\nCeiling: cores × clock × the FMA peak at the engine's vector width ({} flop per cycle and core in f32: 2 FMA units × the f32 lanes × 2; {} in f64) = {} in f32, {} in f64. \
 Our arithmetic issues separate multiplies and adds (Rust never fuses them unasked, and the scalar loop \
 must stay the reference), so half the FMA peak is the ceiling this code can reach.\n",
         c.f32_flop_per_cycle,

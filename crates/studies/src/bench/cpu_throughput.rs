@@ -3,8 +3,9 @@
 //! Stages of [`run_cpu_throughput`]:
 //! 1. [`super::cost`]: the flop count of one RK4 step at N = 3, 9, 17, from the table the lab
 //!    counted by running the engine's step on a counting number type;
-//! 2. the ceiling: cores × clock × the AVX2 FMA peak (2 FMA units × 8 `f32` lanes × 2 flop =
-//!    32 flop per cycle and core in `f32`, 16 in `f64`);
+//! 2. the ceiling: cores × clock × the FMA peak at the engine's vector width (2 FMA units ×
+//!    8 `f32` lanes × 2 flop = 32 flop per cycle and core in `f32`, 16 in `f64`, with AVX2;
+//!    twice that where the build targets AVX-512);
 //! 3. the throughput grid: a slice of the default map at each N (RK4, `instances` spread over
 //!    its forcing plane, about `steps` steps each), scalar and SIMD loop, `f32` and `f64`, one
 //!    thread and all; median of the integration time over `repeats` runs;
@@ -19,6 +20,7 @@ use pendulum_atlas_core::engine::method::Method;
 use pendulum_atlas_core::engine::{
     CpuLoop, Engine, EngineError, EnsemblePlan, Precision, Readback, no_progress,
 };
+use pendulum_atlas_core::model::{F32Lanes, F64Lanes, Lane};
 use pendulum_atlas_core::reduce::ReduceOptions;
 use pendulum_atlas_map::map::run_map;
 use serde::{Deserialize, Serialize};
@@ -42,9 +44,9 @@ pub struct Ceiling {
     pub cores: usize,
     /// Clock (GHz) as the kernel reports it (`/proc/cpuinfo`), `None` where unknown.
     pub ghz: Option<f64>,
-    /// flop per cycle and core in f32 (AVX2: 2 FMA units × 8 lanes × 2).
+    /// flop per cycle and core in f32 (2 FMA units × the engine's lanes × 2: 32 with AVX2).
     pub f32_flop_per_cycle: f64,
-    /// flop per cycle and core in f64 (4 lanes).
+    /// flop per cycle and core in f64 (half the f32 lanes).
     pub f64_flop_per_cycle: f64,
 }
 
@@ -347,13 +349,16 @@ fn default_map_rows(
     Ok(rows)
 }
 
-/// The machine's ceiling on `cores` threads.
+/// The machine's ceiling on `cores` threads, at the vector width the CPU engine was built
+/// with (two FMA units, each a fused multiply-add per lane and cycle: AVX2's 32 flop per cycle
+/// in f32 with 8 lanes, AVX-512's 64 with 16).
 fn ceiling(cores: usize) -> Ceiling {
+    let fma = |lanes: usize| (2 * lanes * 2) as f64;
     Ceiling {
         cores,
         ghz: cpu_ghz(),
-        f32_flop_per_cycle: 32.0,
-        f64_flop_per_cycle: 16.0,
+        f32_flop_per_cycle: fma(F32Lanes::LANES),
+        f64_flop_per_cycle: fma(F64Lanes::LANES),
     }
 }
 
@@ -399,4 +404,19 @@ pub(crate) fn read_peer_files<T: serde::de::DeserializeOwned>(
             })
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The ceiling follows the vector width the engine was built with: two FMA units, two flop
+    /// per lane and cycle (32 f32 flop with AVX2's 8 lanes, 64 with AVX-512's 16), f64 half.
+    #[test]
+    fn the_ceiling_is_the_fma_peak_of_the_engines_lanes() {
+        let c = ceiling(2);
+        assert_eq!(c.f32_flop_per_cycle, 4.0 * F32Lanes::LANES as f64);
+        assert_eq!(c.f64_flop_per_cycle, c.f32_flop_per_cycle / 2.0);
+        assert!([32.0, 64.0].contains(&c.f32_flop_per_cycle), "{c:?}");
+    }
 }
