@@ -136,7 +136,7 @@ impl Guard {
     }
 
     /// The status of state `y = [θ; θ̇; v]` with the cart at velocity `cart_v` (m/s), by the
-    /// shared rule [`guard_status`]: non-finite values first, then a holder past the bumpers,
+    /// shared rule `guard_status`: non-finite values first, then a holder past the bumpers,
     /// then a folded chain or runaway energy.
     pub fn check<T: Real>(&self, chain: &Chain<T>, y: &[T], cart_v: f64) -> Status {
         let finite = y.iter().all(|v| v.is_finite());
