@@ -1,7 +1,7 @@
 //! A plan larger than one GPU run may hold is split into consecutive batches: the results, the
 //! read-back series and the statuses equal those of a single run bit for bit, in plan order.
 
-use super::gpu;
+use super::{EVERY_METHOD_AND_STEP, gpu};
 use pendulum_atlas_core::config::{Metric, PAPER_SCENE_TOML, Scene};
 use pendulum_atlas_core::engine::{Backend, Engine, EnsembleOptions, EnsemblePlan, Readback};
 use pendulum_atlas_core::reduce::ReduceOptions;
@@ -214,12 +214,7 @@ fn results_do_not_depend_on_the_dispatch_size() {
     if gpu().is_none() {
         return;
     }
-    for (method, step) in [
-        ("rk4", "fixed"),
-        ("imex", "fixed"),
-        ("rk4", "adaptive"),
-        ("imex", "adaptive"),
-    ] {
+    for (method, step) in EVERY_METHOD_AND_STEP {
         let metrics = [
             Metric::K,
             Metric::R,

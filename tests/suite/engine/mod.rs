@@ -119,6 +119,15 @@ impl Under {
     }
 }
 
+/// Each integration method with each step control, as `integration.method` and
+/// `integration.step` name them.
+pub const EVERY_METHOD_AND_STEP: [(&str, &str); 4] = [
+    ("rk4", "fixed"),
+    ("imex", "fixed"),
+    ("rk4", "adaptive"),
+    ("imex", "adaptive"),
+];
+
 /// The shared GPU engine, or `None` (skip) when there is no adapter and none is required.
 pub fn gpu() -> Option<&'static Engine> {
     static GPU: OnceLock<Option<Engine>> = OnceLock::new();

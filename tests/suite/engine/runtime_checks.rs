@@ -1,7 +1,7 @@
 //! The GPU kernels are built without wgpu's runtime checks; built with them, they give the
 //! same bits.
 
-use super::{gpu, gpu_checked};
+use super::{EVERY_METHOD_AND_STEP, gpu, gpu_checked};
 use pendulum_atlas_core::config::map_from_toml;
 use pendulum_atlas_core::engine::{EnsemblePlan, Readback, no_progress};
 use pendulum_atlas_core::reduce::{InstanceResult, ReduceOptions};
@@ -32,12 +32,7 @@ fn the_kernels_give_the_same_bits_with_and_without_runtime_checks() {
     let (Some(trusted), Some(checked)) = (gpu(), gpu_checked()) else {
         return;
     };
-    for (method, step) in [
-        ("rk4", "fixed"),
-        ("imex", "fixed"),
-        ("rk4", "adaptive"),
-        ("imex", "adaptive"),
-    ] {
+    for (method, step) in EVERY_METHOD_AND_STEP {
         let text = format!(
             "[beam]\nsegments = 3\n[integration]\nduration_s = 20.0\ntransient_s = 2.0\n\
 method = \"{method}\"\nstep = \"{step}\"\n[map]\nsettle = false\nlyapunov_window_s = 6.0\n\
