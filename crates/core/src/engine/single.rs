@@ -377,3 +377,29 @@ pub fn integrate_batch<T: Real, O: Observer<T> + Send>(
         .map(|(inst, obs)| integrate(inst, plan, obs))
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// λ1's window is refused past the longest a block index counts in u32, with the reason;
+    /// a window at it is accepted.
+    #[test]
+    fn a_single_runs_twin_is_refused_past_the_longest_window() {
+        let scene = crate::config::load_scene(None, &[]).expect("the default scene");
+        let mut plan = StepPlan::for_scene(&scene).expect("a plan");
+        let f = scene.excitation.reference_frequency_hz();
+        let every = ((1.0 / (f * plan.dt_s)).round() as u64).max(1);
+        let first = (scene.integration.transient_s / plan.dt_s).ceil().max(1.0) as u64;
+        let align = 4;
+        let with_window = |plan: &mut StepPlan, window: u64| {
+            plan.steps = first + every * (window + u64::from(align));
+            SingleTwin::for_run(&scene, plan, 1e-8, align)
+        };
+        let max = u64::from(LYAPUNOV_MAX_WINDOW);
+        let ok = with_window(&mut plan, max).expect("the longest window");
+        assert_eq!(ok.plan.window, LYAPUNOV_MAX_WINDOW);
+        let err = with_window(&mut plan, max + 1).err().expect("refused");
+        assert!(err.contains("at most 536870911"), "{err}");
+    }
+}
