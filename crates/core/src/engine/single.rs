@@ -399,7 +399,7 @@ mod tests {
         let max = u64::from(LYAPUNOV_MAX_WINDOW);
         let ok = with_window(&mut plan, max).expect("the longest window");
         assert_eq!(ok.plan.window, LYAPUNOV_MAX_WINDOW);
-        let err = with_window(&mut plan, max + 1).err().expect("refused");
+        let err = with_window(&mut plan, max + 1).expect_err("refused");
         assert!(err.contains("at most 536870911"), "{err}");
     }
 }
